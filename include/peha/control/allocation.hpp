@@ -1,0 +1,81 @@
+#pragma once
+/// \file
+/// Torque allocation of one PEHA joint: the macro-mini split (SPEC §2.4).
+///
+/// - Macro (PAMs): the low-pass filtered desired torque (first order, `pam_cutoff_Hz`). A torque
+///   >= 0 goes to the agonist, < 0 to the antagonist; the other muscle keeps the pretension. Each
+///   pulley force is converted to a muscle force through the Bowden model, clamped to
+///   [pretension_N, max_force_N], and to a pressure through the inverse Tendon-spring model,
+///   clamped to [0, supply].
+/// - Force trim (optional, `force_trim_gain_Pa_per_N_s` > 0): a slow integral of each muscle's
+///   force error (commanded muscle-side force minus its load cell) is added to the model's pressure,
+///   bounded by `force_trim_max_Pa`, frozen while the pressure is saturated (anti-windup). It
+///   removes the steady error of the parametric model (e.g. the PAM's pressure threshold, which
+///   the 5-parameter model cannot represent) using force sensing only: there is still no position
+///   feedback. 0 gives the paper's pure feed-forward p* = g^-1(F*).
+/// - Mini (motor): the desired torque minus the PAM torque *measured* by the load cells (through
+///   the Bowden model), saturated at the motor rating. It supplies the high-frequency part and what
+///   the PAM and cable models get wrong.
+///
+/// Model/Data split: `JointModel` and `AllocationParams` are constant; `AllocationData` holds the
+/// filter state. `allocate` is noexcept and allocation-free.
+
+#include "peha/models/joint.hpp"
+
+#include <cstdint>
+
+namespace peha::control {
+
+struct AllocationParams {
+  double pam_cutoff_Hz = 5.0;       ///< cut-off of the PAM share's first-order low-pass, Hz
+  double pretension_N = 20.0;       ///< minimum muscle force on both wires (never slack), N
+  double supply_pressure_Pa = 0.8e6;///< pressure ceiling, Pa
+  bool use_motor = true;            ///< false: PAM-only joint (the motor command is 0)
+  double force_trim_gain_Pa_per_N_s = 0.0;  ///< integral gain of the force trim, Pa per N*s
+  double force_trim_max_Pa = 0.1e6;         ///< bound of the trim's pressure correction, Pa
+};
+
+/// Flags raised when a limit shaped the command (bitwise or of AllocationFlag).
+enum AllocationFlag : std::uint32_t {
+  kForceClampedHigh = 1u << 0,   ///< a muscle force was cut to its ceiling
+  kPressureSaturated = 1u << 1,  ///< the inverse model asked for more than the supply
+  kMotorSaturated = 1u << 2,     ///< the motor share was cut to its rating
+  kNonFiniteInput = 1u << 3,     ///< an input was NaN/inf; the command holds safe values
+};
+
+struct AllocationInput {
+  double torque_desired_Nm = 0;
+  double angle_rad = 0;
+  double velocity_radps = 0;
+  double agonist_loadcell_N = 0;
+  double antagonist_loadcell_N = 0;
+  double dt_s = 1e-3;
+};
+
+struct AllocationOutput {
+  double torque_pam_Nm = 0;          ///< PAM share after the low-pass (desired)
+  double torque_pam_measured_Nm = 0; ///< PAM torque from the load cells through the Bowden model
+  double torque_motor_Nm = 0;        ///< motor command at the joint
+  double agonist_force_N = 0;        ///< commanded muscle-side force of the agonist
+  double antagonist_force_N = 0;     ///< commanded muscle-side force of the antagonist
+  double agonist_pressure_Pa = 0;
+  double antagonist_pressure_Pa = 0;
+  double agonist_contraction = 0;    ///< rigid-wire contraction used for the inverse model
+  double antagonist_contraction = 0;
+  double agonist_trim_Pa = 0;        ///< force-trim part of the agonist pressure
+  double antagonist_trim_Pa = 0;
+  std::uint32_t flags = 0;
+};
+
+/// Filter state.
+struct AllocationData {
+  double torque_pam_filtered_Nm = 0;
+  double force_trim_Pa[2] = {0, 0};  ///< integral pressure corrections, agonist and antagonist
+  bool initialized = false;
+};
+
+/// One allocation step. Never throws, never allocates; every output is finite and within limits.
+void allocate(const models::JointModel& joint, const AllocationParams& params, AllocationData& data,
+              const AllocationInput& in, AllocationOutput& out) noexcept;
+
+}  // namespace peha::control

@@ -1,0 +1,70 @@
+#pragma once
+/// \file
+/// Gravity compensation of the one-DOF PEHA rig (experiment E1, paper Fig. 9): feed-forward only,
+/// no position feedback. The desired torque is the controller's own (nominal) gravity model of the
+/// link and payload; the allocation turns it into two pressures and a motor torque.
+///
+///     tau_g(theta) = g * (m_link * l_com + m_payload * l_payload) * cos(theta)
+///
+/// theta = 0 is the link horizontal, positive up (the agonist lifts).
+
+#include "peha/control/allocation.hpp"
+#include "peha/io/backend.hpp"
+#include "peha/models/joint.hpp"
+
+namespace peha::control {
+
+/// The controller's nominal gravity model of the rig.
+struct OneDofGravityModel {
+  double link_mass_kg = 0.6;
+  double link_com_m = 0.2;        ///< distance joint axis -> link centre of mass, m
+  double payload_mass_kg = 2.5;
+  double payload_lever_m = 0.4;   ///< distance joint axis -> payload centre, m
+  double gravity_mps2 = 9.81;
+};
+
+/// Torque that holds the rig still at `angle_rad`, Nm.
+double gravity_torque_Nm(const OneDofGravityModel& g, double angle_rad) noexcept;
+
+/// First-order low-passed finite difference of the encoder angle.
+struct VelocityEstimator {
+  double cutoff_Hz = 20.0;
+  double previous_angle_rad = 0.0;
+  double velocity_radps = 0.0;
+  bool initialized = false;
+  /// Feeds a new angle sample `dt_s` after the previous one; returns the estimate in rad/s.
+  double update(double angle_rad, double dt_s) noexcept;
+};
+
+struct OneDofControllerModel {
+  models::JointModel joint;
+  OneDofGravityModel gravity;
+  AllocationParams allocation;
+  double velocity_cutoff_Hz = 20.0;
+};
+
+/// What one step computed (for logs and plots).
+struct OneDofDiagnostics {
+  double velocity_radps = 0;
+  double torque_desired_Nm = 0;
+  AllocationOutput allocation;
+};
+
+class OneDofGravityController {
+ public:
+  explicit OneDofGravityController(OneDofControllerModel model);
+  /// One control step: sensors in, command out. noexcept, allocation-free.
+  void update(const io::SensorState& state, io::Command& command) noexcept;
+  const OneDofDiagnostics& diagnostics() const { return diag_; }
+  const OneDofControllerModel& model() const { return model_; }
+
+ private:
+  const OneDofControllerModel model_;
+  AllocationData allocation_data_;
+  VelocityEstimator velocity_;
+  OneDofDiagnostics diag_;
+  double last_time_s_ = 0.0;
+  bool started_ = false;
+};
+
+}  // namespace peha::control

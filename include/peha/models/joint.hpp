@@ -1,0 +1,52 @@
+#pragma once
+/// \file
+/// One PEHA joint as the controller models it: an antagonistic PAM pair pulling a pulley through
+/// Bowden cables, plus an optional geared motor (SPEC §1, paper eq. 1).
+///
+/// Sign conventions: joint angle and torque are positive in the agonist's direction (the agonist
+/// lifts against gravity). When the angle grows the agonist shortens (its contraction grows) and its
+/// wire moves toward it (positive wire velocity for the agonist, negative for the antagonist).
+
+#include "peha/models/bowden.hpp"
+#include "peha/models/tendon_spring.hpp"
+
+#include <string>
+
+namespace peha::models {
+
+/// Safety ceiling of any PAM force: the 1.7 mm inner wire broke at 2250 N (SPEC §1), 11 % margin.
+inline constexpr double kMaxPamForce_N = 2000.0;
+
+/// One muscle of the pair, with its cable.
+struct MuscleModel {
+  std::string name;                     ///< e.g. "agonist"
+  TendonSpringParams pam;               ///< force model (pressures in Pa)
+  BowdenParams bowden;                  ///< cable friction model
+  double rest_length_m = 0.4;           ///< muscle nominal length L0, m
+  double contraction_at_zero_angle = 0; ///< rigid-wire contraction eps at joint angle 0
+  double max_force_N = kMaxPamForce_N;  ///< this muscle's own ceiling (<= kMaxPamForce_N), N
+};
+
+/// Immutable model of a PEHA joint.
+struct JointModel {
+  std::string name;
+  double pulley_radius_m = 0.05;  ///< r0, m
+  MuscleModel agonist;            ///< muscle 1, pulls toward positive angles
+  MuscleModel antagonist;         ///< muscle 2, pulls toward negative angles
+  bool has_motor = true;
+  double motor_max_torque_Nm = 2.5;  ///< motor rating at the joint (after the 35:1 gear), Nm
+};
+
+/// Rigid-wire contraction of the agonist (+1) or antagonist (-1) at `angle_rad`.
+/// eps = eps(0) + side * r0 * angle / L0.
+double rigid_contraction(const MuscleModel& m, double pulley_radius_m, int side,
+                         double angle_rad) noexcept;
+
+/// Wire velocity (m/s, > 0 toward the muscle) of the agonist (+1) or antagonist (-1).
+double wire_velocity_mps(double pulley_radius_m, int side, double joint_velocity_radps) noexcept;
+
+/// Paper eq. (1): tau = (f1 - f2) * r0 + tau_motor, forces at the pulley in N, torque in Nm.
+double joint_torque_Nm(double pulley_radius_m, double agonist_force_N, double antagonist_force_N,
+                       double motor_torque_Nm) noexcept;
+
+}  // namespace peha::models

@@ -1,0 +1,34 @@
+#pragma once
+/// \file
+/// A per-cycle CSV log held in memory during a run: rows are reserved up front, so appending in the
+/// control loop does not allocate; `write` puts it on disk afterwards (time first, units in names).
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace peha::runtime {
+
+class CsvLog {
+ public:
+  /// `columns`: names with units, e.g. "t_s", "angle_rad". Reserves `expected_rows` rows.
+  CsvLog(std::vector<std::string> columns, std::size_t expected_rows);
+  std::size_t column_count() const { return columns_.size(); }
+  /// Starts a row; call `set` for its values. Returns false (and drops the row) once full.
+  bool begin_row() noexcept;
+  void set(std::size_t column, double value) noexcept { values_[row_offset_ + column] = value; }
+  std::size_t rows() const { return rows_; }
+  double at(std::size_t row, std::size_t column) const { return values_[row * columns_.size() + column]; }
+  std::size_t column(const std::string& name) const;  ///< index by name; throws if absent
+  /// Writes the header (preceded by `# ` comment lines) and all rows. Throws on I/O failure.
+  void write(const std::filesystem::path& path, const std::vector<std::string>& comments) const;
+
+ private:
+  std::vector<std::string> columns_;
+  std::vector<double> values_;
+  std::size_t capacity_rows_;
+  std::size_t rows_ = 0;
+  std::size_t row_offset_ = 0;
+};
+
+}  // namespace peha::runtime

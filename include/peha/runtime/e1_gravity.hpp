@@ -1,0 +1,69 @@
+#pragma once
+/// \file
+/// Experiment E1 (SPEC §7, paper Fig. 9): gravity compensation of the one-DOF PEHA rig with each
+/// payload of the scenario. The operator holds the link while compensation starts, then pushes it up
+/// and down with a finger and lets go; with feed-forward compensation only (no position feedback) it
+/// should stay where it was left. The scenario is entirely configuration (configs/e1_one_dof.yaml).
+
+#include "peha/config/reader.hpp"
+#include "peha/control/one_dof_gravity.hpp"
+#include "peha/runtime/csv_log.hpp"
+#include "peha/safety/limits.hpp"
+#include "peha/sim/one_dof_rig.hpp"
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace peha::runtime {
+
+struct E1Case {
+  std::string name;     ///< used in file names, e.g. "payload_2.5kg"
+  double payload_kg = 0;
+};
+
+struct E1Scenario {
+  std::string description;
+  std::uint64_t seed = 1;
+  double period_s = 1e-3;
+  double duration_s = 20;
+  double drift_window_s = 5;
+  control::OneDofControllerModel controller;  ///< payload filled in per case
+  safety::LimitsModel limits;
+  sim::OneDofRigParams plant;                 ///< payload filled in per case
+  std::vector<E1Case> cases;
+};
+
+/// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.
+E1Scenario read_e1(const config::Document& doc);
+
+struct E1Release {
+  std::string push;           ///< the push that ended
+  double time_s = 0;          ///< when the finger let go
+  double angle_deg = 0;       ///< joint angle at release
+  double drift_deg = 0;       ///< angle drift_window_s after release minus angle at release
+  double max_excursion_deg = 0;  ///< largest |angle - angle at release| in the window
+};
+
+struct E1Result {
+  std::string case_name;
+  double payload_kg = 0;
+  std::vector<E1Release> releases;
+  double peak_finger_force_N = 0;       ///< over the pushes that move the link (not the holds)
+  double peak_muscle_force_N[2] = {0, 0};   ///< plant truth, agonist and antagonist
+  double min_wire_tension_N = 0;        ///< lowest tension on either wire anywhere (plant truth)
+  double max_pressure_MPa = 0;          ///< highest chamber pressure (plant truth)
+  double peak_motor_torque_Nm = 0;
+  double realtime_factor = 0;           ///< simulated time / wall time
+  double simulated_s = 0;
+  std::uint64_t limit_counts[5] = {0, 0, 0, 0, 0};  ///< by safety::LimitFlag bit
+};
+
+/// Column names of the per-cycle log.
+const std::vector<std::string>& e1_log_columns();
+
+/// Runs one case. `log` (optional) receives one row per control cycle.
+E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log);
+
+}  // namespace peha::runtime

@@ -1,0 +1,225 @@
+#include "peha/config/reader.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace peha::config {
+namespace {
+
+std::string describe(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Null:
+      return "null";
+    case YAML::NodeType::Scalar:
+      return fmt::format("'{}'", node.Scalar());
+    case YAML::NodeType::Sequence:
+      return fmt::format("a list of {}", node.size());
+    case YAML::NodeType::Map:
+      return "a mapping";
+    default:
+      return "nothing";
+  }
+}
+
+std::string position(const std::string& file, const YAML::Mark& mark) {
+  if (mark.is_null()) return file;
+  return fmt::format("{}:{}:{}", file, mark.line + 1, mark.column + 1);
+}
+
+}  // namespace
+
+Document Document::load_file(const std::filesystem::path& path) {
+  std::ifstream in(path);
+  if (!in) throw Error(fmt::format("{}: cannot open config file", path.string()));
+  std::stringstream text;
+  text << in.rdbuf();
+  Document doc = load_string(text.str(), path.string());
+  doc.directory_ = path.parent_path();
+  return doc;
+}
+
+Document Document::load_string(const std::string& text, const std::string& name) {
+  Document doc;
+  doc.name_ = std::make_shared<const std::string>(name);
+  doc.directory_ = ".";
+  try {
+    doc.node_ = YAML::Load(text);
+  } catch (const YAML::ParserException& e) {
+    throw Error(fmt::format("{}: not valid YAML: {}", position(name, e.mark), e.msg));
+  }
+  if (!doc.node_.IsMap()) {
+    throw Error(fmt::format("{}: expected a mapping at the top level, found {}", name,
+                            describe(doc.node_)));
+  }
+  return doc;
+}
+
+Map Document::root() const { return Map(node_, name_, "", directory_); }
+
+Map::Map(YAML::Node node, std::shared_ptr<const std::string> file, std::string path,
+         std::filesystem::path directory)
+    : node_(std::move(node)),
+      file_(std::move(file)),
+      path_(std::move(path)),
+      directory_(std::move(directory)) {}
+
+bool Map::has(std::string_view key) const { return static_cast<bool>(node_[std::string(key)]); }
+
+std::string Map::key_path(std::string_view key) const {
+  if (key.empty()) return path_.empty() ? "<root>" : path_;
+  return path_.empty() ? std::string(key) : fmt::format("{}.{}", path_, key);
+}
+
+void Map::fail_at(const YAML::Node& node, std::string_view key, const std::string& reason) const {
+  throw Error(fmt::format("{}: {}: {}", position(*file_, node.Mark()), key_path(key), reason));
+}
+
+void Map::fail(std::string_view key, const std::string& reason) const {
+  const YAML::Node value = key.empty() ? node_ : node_[std::string(key)];
+  fail_at(value ? value : node_, key, reason);
+}
+
+YAML::Node Map::required(std::string_view key) {
+  used_.emplace(key);
+  YAML::Node value = node_[std::string(key)];
+  if (!value) fail_at(node_, key, "missing required key");
+  return value;
+}
+
+double Map::to_number(const YAML::Node& value, std::string_view key, Range range) const {
+  const std::string expected = fmt::format("expected a number in [{}, {}]", range.min, range.max);
+  if (!value.IsScalar()) fail_at(value, key, fmt::format("{}, found {}", expected, describe(value)));
+  double x = 0.0;
+  try {
+    std::size_t used = 0;
+    const std::string& s = value.Scalar();
+    x = std::stod(s, &used);
+    if (used != s.size()) throw std::invalid_argument(s);
+  } catch (const std::exception&) {
+    fail_at(value, key, fmt::format("{}, found {}", expected, describe(value)));
+  }
+  if (!std::isfinite(x) || x < range.min || x > range.max) {
+    fail_at(value, key, fmt::format("{}, found {}", expected, value.Scalar()));
+  }
+  return x;
+}
+
+double Map::number(std::string_view key, Range range) {
+  return to_number(required(key), key, range);
+}
+
+double Map::number_or(std::string_view key, double fallback, Range range) {
+  return has(key) ? number(key, range) : (used_.emplace(key), fallback);
+}
+
+long Map::integer(std::string_view key, long min, long max) {
+  const YAML::Node value = required(key);
+  const double x = to_number(value, key, {static_cast<double>(min), static_cast<double>(max)});
+  if (std::floor(x) != x) {
+    fail_at(value, key, fmt::format("expected an integer in [{}, {}], found {}", min, max,
+                                    value.Scalar()));
+  }
+  return static_cast<long>(x);
+}
+
+long Map::integer_or(std::string_view key, long fallback, long min, long max) {
+  return has(key) ? integer(key, min, max) : (used_.emplace(key), fallback);
+}
+
+bool Map::boolean(std::string_view key) {
+  const YAML::Node value = required(key);
+  if (value.IsScalar()) {
+    const std::string& s = value.Scalar();
+    if (s == "true") return true;
+    if (s == "false") return false;
+  }
+  fail_at(value, key, fmt::format("expected true or false, found {}", describe(value)));
+}
+
+bool Map::boolean_or(std::string_view key, bool fallback) {
+  return has(key) ? boolean(key) : (used_.emplace(key), fallback);
+}
+
+std::string Map::string(std::string_view key) {
+  const YAML::Node value = required(key);
+  if (!value.IsScalar() || value.Scalar().empty()) {
+    fail_at(value, key, fmt::format("expected a non-empty string, found {}", describe(value)));
+  }
+  return value.Scalar();
+}
+
+std::string Map::string_or(std::string_view key, const std::string& fallback) {
+  return has(key) ? string(key) : (used_.emplace(key), fallback);
+}
+
+std::string Map::choice(std::string_view key, const std::vector<std::string>& options) {
+  const YAML::Node value = required(key);
+  const std::string s = value.IsScalar() ? value.Scalar() : std::string();
+  for (const auto& option : options) {
+    if (s == option) return s;
+  }
+  fail_at(value, key,
+          fmt::format("expected one of {{{}}}, found {}", fmt::join(options, ", "), describe(value)));
+}
+
+std::string Map::choice_or(std::string_view key, const std::string& fallback,
+                           const std::vector<std::string>& options) {
+  return has(key) ? choice(key, options) : (used_.emplace(key), fallback);
+}
+
+std::vector<double> Map::numbers(std::string_view key, Range range, std::size_t min_count,
+                                 std::size_t max_count) {
+  const YAML::Node value = required(key);
+  if (!value.IsSequence() || value.size() < min_count || value.size() > max_count) {
+    fail_at(value, key,
+            fmt::format("expected a list of {} to {} numbers, found {}", min_count, max_count,
+                        describe(value)));
+  }
+  std::vector<double> out;
+  out.reserve(value.size());
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    out.push_back(to_number(value[i], fmt::format("{}[{}]", key, i), range));
+  }
+  return out;
+}
+
+std::filesystem::path Map::path_value(std::string_view key) {
+  std::filesystem::path p = string(key);
+  return p.is_absolute() ? p : directory_ / p;
+}
+
+Map Map::map(std::string_view key) {
+  const YAML::Node value = required(key);
+  if (!value.IsMap()) fail_at(value, key, fmt::format("expected a mapping, found {}", describe(value)));
+  return Map(value, file_, key_path(key), directory_);
+}
+
+std::vector<Map> Map::maps(std::string_view key, std::size_t min_count, std::size_t max_count) {
+  const YAML::Node value = required(key);
+  if (!value.IsSequence() || value.size() < min_count || value.size() > max_count) {
+    fail_at(value, key,
+            fmt::format("expected a list of {} to {} mappings, found {}", min_count, max_count,
+                        describe(value)));
+  }
+  std::vector<Map> out;
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const std::string item_key = fmt::format("{}[{}]", key, i);
+    if (!value[i].IsMap()) {
+      fail_at(value[i], item_key, fmt::format("expected a mapping, found {}", describe(value[i])));
+    }
+    out.emplace_back(value[i], file_, key_path(item_key), directory_);
+  }
+  return out;
+}
+
+void Map::finish() const {
+  for (const auto& item : node_) {
+    const std::string key = item.first.Scalar();
+    if (!used_.contains(key)) fail_at(item.first, key, "unknown key");
+  }
+}
+
+}  // namespace peha::config

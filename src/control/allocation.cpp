@@ -1,0 +1,107 @@
+#include "peha/control/allocation.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace peha::control {
+namespace {
+
+struct MuscleCommand {
+  double force_N;
+  double pressure_Pa;
+  double contraction;
+  bool clamped;
+  bool saturated;
+};
+
+MuscleCommand command_muscle(const models::MuscleModel& m, double r0, int side, double joint_force_N,
+                             const AllocationParams& params, const AllocationInput& in, double loadcell_N,
+                             bool sensors_valid, double& trim_Pa) {
+  const double v = models::wire_velocity_mps(r0, side, in.velocity_radps);
+  const double wanted = models::muscle_force_for_joint_N(m.bowden, joint_force_N, v);
+  const double ceiling = std::min(m.max_force_N, models::kMaxPamForce_N);
+  const double force = std::clamp(wanted, std::min(params.pretension_N, ceiling), ceiling);
+  const double eps = models::rigid_contraction(m, r0, side, in.angle_rad);
+  const auto inv = models::inverse_pressure(m.pam, force, eps);
+  if (params.force_trim_gain_Pa_per_N_s > 0.0 && sensors_valid) {
+    const double step = params.force_trim_gain_Pa_per_N_s * (force - loadcell_N) * in.dt_s;
+    const double raw = inv.pressure_Pa + trim_Pa;
+    // Anti-windup: do not integrate further into a saturated pressure.
+    if (!((raw >= params.supply_pressure_Pa && step > 0.0) || (raw <= 0.0 && step < 0.0))) {
+      trim_Pa = std::clamp(trim_Pa + step, -params.force_trim_max_Pa, params.force_trim_max_Pa);
+    }
+  }
+  const double pressure = std::clamp(inv.pressure_Pa + trim_Pa, 0.0, params.supply_pressure_Pa);
+  return {force, pressure, eps, wanted > ceiling,
+          inv.status == models::InverseStatus::kSaturated ||
+              inv.status == models::InverseStatus::kUnreachable ||
+              inv.pressure_Pa > params.supply_pressure_Pa};
+}
+
+bool finite(const AllocationInput& in) {
+  return std::isfinite(in.torque_desired_Nm) && std::isfinite(in.angle_rad) &&
+         std::isfinite(in.velocity_radps) && std::isfinite(in.agonist_loadcell_N) &&
+         std::isfinite(in.antagonist_loadcell_N) && std::isfinite(in.dt_s) && in.dt_s > 0.0;
+}
+
+}  // namespace
+
+void allocate(const models::JointModel& joint, const AllocationParams& params, AllocationData& data,
+              const AllocationInput& raw, AllocationOutput& out) noexcept {
+  out.flags = 0;
+  AllocationInput in = raw;
+  if (!finite(in)) {
+    // Keep the last PAM share (no jump), estimate nothing from bad sensors, motor off.
+    out.flags |= kNonFiniteInput;
+    in.torque_desired_Nm = data.torque_pam_filtered_Nm;
+    in.velocity_radps = 0.0;
+    in.agonist_loadcell_N = in.antagonist_loadcell_N = 0.0;
+    if (!std::isfinite(in.angle_rad)) in.angle_rad = 0.0;
+    if (!(std::isfinite(in.dt_s) && in.dt_s > 0.0)) in.dt_s = 1e-3;
+  }
+  const double r0 = joint.pulley_radius_m;
+
+  // Macro: first-order low-pass of the desired torque (exact discretisation).
+  if (!data.initialized) {
+    data.torque_pam_filtered_Nm = in.torque_desired_Nm;
+    data.initialized = true;
+  }
+  const double blend = 1.0 - std::exp(-2.0 * std::numbers::pi * params.pam_cutoff_Hz * in.dt_s);
+  data.torque_pam_filtered_Nm += blend * (in.torque_desired_Nm - data.torque_pam_filtered_Nm);
+  out.torque_pam_Nm = data.torque_pam_filtered_Nm;
+
+  // Pulley forces: the pretension on both wires, plus the torque on the side that can make it.
+  const double pull_N = std::abs(out.torque_pam_Nm) / r0;
+  const double f1 = params.pretension_N + (out.torque_pam_Nm >= 0.0 ? pull_N : 0.0);
+  const double f2 = params.pretension_N + (out.torque_pam_Nm < 0.0 ? pull_N : 0.0);
+  const bool valid = !(out.flags & kNonFiniteInput);
+  const MuscleCommand c1 = command_muscle(joint.agonist, r0, +1, f1, params, in, in.agonist_loadcell_N, valid,
+                                          data.force_trim_Pa[0]);
+  const MuscleCommand c2 = command_muscle(joint.antagonist, r0, -1, f2, params, in, in.antagonist_loadcell_N, valid,
+                                          data.force_trim_Pa[1]);
+  out.agonist_trim_Pa = data.force_trim_Pa[0];
+  out.antagonist_trim_Pa = data.force_trim_Pa[1];
+  out.agonist_force_N = c1.force_N;
+  out.antagonist_force_N = c2.force_N;
+  out.agonist_pressure_Pa = c1.pressure_Pa;
+  out.antagonist_pressure_Pa = c2.pressure_Pa;
+  out.agonist_contraction = c1.contraction;
+  out.antagonist_contraction = c2.contraction;
+  if (c1.clamped || c2.clamped) out.flags |= kForceClampedHigh;
+  if (c1.saturated || c2.saturated) out.flags |= kPressureSaturated;
+
+  // Mini: the motor closes the gap between the desired and the measured PAM torque.
+  const double v = r0 * in.velocity_radps;
+  const double f1_joint = models::joint_force_from_loadcell_N(joint.agonist.bowden, in.agonist_loadcell_N, v);
+  const double f2_joint = models::joint_force_from_loadcell_N(joint.antagonist.bowden, in.antagonist_loadcell_N, -v);
+  out.torque_pam_measured_Nm = models::joint_torque_Nm(r0, f1_joint, f2_joint, 0.0);
+  out.torque_motor_Nm = 0.0;
+  if (params.use_motor && joint.has_motor && !(out.flags & kNonFiniteInput)) {
+    const double wanted = in.torque_desired_Nm - out.torque_pam_measured_Nm;
+    out.torque_motor_Nm = std::clamp(wanted, -joint.motor_max_torque_Nm, joint.motor_max_torque_Nm);
+    if (out.torque_motor_Nm != wanted) out.flags |= kMotorSaturated;
+  }
+}
+
+}  // namespace peha::control

@@ -1,0 +1,58 @@
+#include "peha/control/one_dof_gravity.hpp"
+
+#include <cmath>
+#include <numbers>
+
+namespace peha::control {
+
+double gravity_torque_Nm(const OneDofGravityModel& g, double angle_rad) noexcept {
+  const double moment_kgm = g.link_mass_kg * g.link_com_m + g.payload_mass_kg * g.payload_lever_m;
+  return g.gravity_mps2 * moment_kgm * std::cos(angle_rad);
+}
+
+double VelocityEstimator::update(double angle_rad, double dt_s) noexcept {
+  if (!std::isfinite(angle_rad) || !(dt_s > 0.0)) return velocity_radps;
+  if (!initialized) {
+    previous_angle_rad = angle_rad;
+    velocity_radps = 0.0;
+    initialized = true;
+    return velocity_radps;
+  }
+  const double raw = (angle_rad - previous_angle_rad) / dt_s;
+  previous_angle_rad = angle_rad;
+  const double blend = 1.0 - std::exp(-2.0 * std::numbers::pi * cutoff_Hz * dt_s);
+  velocity_radps += blend * (raw - velocity_radps);
+  return velocity_radps;
+}
+
+OneDofGravityController::OneDofGravityController(OneDofControllerModel model)
+    : model_(std::move(model)) {
+  velocity_.cutoff_Hz = model_.velocity_cutoff_Hz;
+}
+
+void OneDofGravityController::update(const io::SensorState& state, io::Command& command) noexcept {
+  const io::JointSensors& s = state.joints[0];
+  const double dt_s = started_ ? state.time_s - last_time_s_ : 0.0;
+  last_time_s_ = state.time_s;
+  const bool first = !started_;
+  started_ = true;
+
+  diag_.velocity_radps = velocity_.update(s.angle_rad, dt_s);
+  diag_.torque_desired_Nm = gravity_torque_Nm(model_.gravity, s.angle_rad);
+
+  AllocationInput in;
+  in.torque_desired_Nm = diag_.torque_desired_Nm;
+  in.angle_rad = s.angle_rad;
+  in.velocity_radps = diag_.velocity_radps;
+  in.agonist_loadcell_N = s.agonist_force_N;
+  in.antagonist_loadcell_N = s.antagonist_force_N;
+  in.dt_s = first || !(dt_s > 0.0) ? 1e-3 : dt_s;
+  allocate(model_.joint, model_.allocation, allocation_data_, in, diag_.allocation);
+
+  command.joint_count = 1;
+  command.joints[0].agonist_pressure_Pa = diag_.allocation.agonist_pressure_Pa;
+  command.joints[0].antagonist_pressure_Pa = diag_.allocation.antagonist_pressure_Pa;
+  command.joints[0].motor_torque_Nm = diag_.allocation.torque_motor_Nm;
+}
+
+}  // namespace peha::control

@@ -1,0 +1,17 @@
+#include "peha/models/joint.hpp"
+
+namespace peha::models {
+
+double rigid_contraction(const MuscleModel& m, double r0, int side, double angle_rad) noexcept {
+  return m.contraction_at_zero_angle + side * r0 * angle_rad / m.rest_length_m;
+}
+
+double wire_velocity_mps(double r0, int side, double joint_velocity_radps) noexcept {
+  return side * r0 * joint_velocity_radps;
+}
+
+double joint_torque_Nm(double r0, double f1, double f2, double motor_torque_Nm) noexcept {
+  return (f1 - f2) * r0 + motor_torque_Nm;
+}
+
+}  // namespace peha::models

@@ -1,0 +1,206 @@
+#include "peha/runtime/e1_gravity.hpp"
+
+#include "peha/models/model_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+namespace peha::runtime {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+sim::FingerParams read_finger(config::Map map, double duration_s) {
+  sim::FingerParams f;
+  f.stiffness_N_per_m = map.number("stiffness_N_per_m", {1.0, 1e5});
+  f.damping_Ns_per_m = map.number("damping_Ns_per_m", {0.0, 1e4});
+  f.max_force_N = map.number("max_force_N", {0.0, 500.0});
+  f.lever_m = map.number("lever_m", {0.01, 2.0});
+  double previous_end = 0.0;
+  for (config::Map push : map.maps("pushes", 1, 64)) {
+    sim::FingerPush p;
+    p.name = push.string("name");
+    p.start_s = push.number("start_s", {0.0, duration_s});
+    if (p.start_s < previous_end) push.fail("start_s", fmt::format("pushes must not overlap: the previous one ends at {} s", previous_end));
+    p.duration_s = push.number("duration_s", {0.01, duration_s});
+    p.hold = push.boolean_or("hold", false);
+    if (p.hold) {
+      p.move_s = p.duration_s;
+    } else {
+      p.move_s = push.number("move_s", {0.01, p.duration_s});
+      p.target_angle_rad = push.number("target_angle_deg", {-90.0, 90.0}) * kDeg;
+    }
+    push.finish();
+    previous_end = p.start_s + p.duration_s;
+    f.pushes.push_back(p);
+  }
+  map.finish();
+  return f;
+}
+
+}  // namespace
+
+E1Scenario read_e1(const config::Document& doc) {
+  config::Map root = doc.root();
+  E1Scenario s;
+  root.choice("experiment", {"gravity_compensation_1dof"});
+  s.description = root.string("description");
+  s.seed = static_cast<std::uint64_t>(root.integer("seed", 0, 1L << 40));
+
+  config::Map run = root.map("run");
+  s.period_s = run.number("control_period_s", {1e-4, 0.1});
+  s.duration_s = run.number("duration_s", {0.1, 3600.0});
+  s.drift_window_s = run.number("drift_window_s", {0.1, 60.0});
+  const double initial_angle = run.number("initial_angle_deg", {-90.0, 90.0}) * kDeg;
+  run.finish();
+
+  config::Map limits = root.map("limits");
+  const double supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
+
+  config::Map ctl = root.map("controller");
+  s.controller.joint = models::read_joint_model(ctl, "joint", supply_Pa);
+  config::Map gravity = ctl.map("gravity");
+  s.controller.gravity.link_mass_kg = gravity.number("link_mass_kg", {0.0, 50.0});
+  s.controller.gravity.link_com_m = gravity.number("link_com_m", {0.0, 2.0});
+  s.controller.gravity.payload_lever_m = gravity.number("payload_lever_m", {0.0, 2.0});
+  s.controller.gravity.gravity_mps2 = gravity.number("gravity_mps2", {0.0, 20.0});
+  gravity.finish();
+  s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
+  config::Map alloc = ctl.map("allocation");
+  s.controller.allocation.pam_cutoff_Hz = alloc.number("pam_cutoff_Hz", {0.01, 500.0});
+  s.controller.allocation.pretension_N = alloc.number("pretension_N", {1.0, 500.0});
+  s.controller.allocation.use_motor = alloc.boolean("use_motor");
+  s.controller.allocation.force_trim_gain_Pa_per_N_s = alloc.number("force_trim_gain_MPa_per_N_s", {0.0, 10.0}) * 1e6;
+  s.controller.allocation.force_trim_max_Pa = alloc.number("force_trim_max_MPa", {0.0, 0.8}) * 1e6;
+  s.controller.allocation.supply_pressure_Pa = supply_Pa;
+  alloc.finish();
+  ctl.finish();
+
+  safety::JointLimits& jl = s.limits.joints[0];
+  s.limits.joint_count = 1;
+  s.limits.period_s = s.period_s;
+  jl.model = s.controller.joint;
+  jl.supply_pressure_Pa = supply_Pa;
+  jl.pretension_N = s.controller.allocation.pretension_N;
+  jl.pressure_rate_Pa_per_s = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
+  jl.motor_rate_Nm_per_s = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
+  jl.min_angle_rad = limits.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
+  jl.max_angle_rad = limits.number("max_angle_deg", {jl.min_angle_rad / kDeg, 180.0}) * kDeg;
+  limits.finish();
+
+  config::Map plant = root.map("plant");
+  s.plant = sim::read_one_dof_rig(plant, s.period_s, supply_Pa);
+  s.plant.initial_angle_rad = initial_angle;
+  s.plant.seed = s.seed;
+  s.plant.finger = read_finger(root.map("finger"), s.duration_s);
+
+  for (config::Map c : root.maps("cases", 1, 16)) {
+    E1Case e;
+    e.name = c.string("name");
+    e.payload_kg = c.number("payload_kg", {0.0, 20.0});
+    c.finish();
+    s.cases.push_back(e);
+  }
+  root.finish();
+  return s;
+}
+
+const std::vector<std::string>& e1_log_columns() {
+  static const std::vector<std::string> columns = {
+      "t_s", "angle_rad", "velocity_radps", "finger_force_N", "finger_active",
+      "tau_desired_Nm", "tau_pam_cmd_Nm", "tau_pam_measured_Nm", "tau_motor_cmd_Nm",
+      "f_agonist_cmd_N", "f_antagonist_cmd_N", "f_agonist_loadcell_N", "f_antagonist_loadcell_N",
+      "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "p_agonist_meas_MPa", "p_antagonist_meas_MPa",
+      "plant_angle_rad", "plant_tension_agonist_N", "plant_tension_antagonist_N",
+      "plant_force_agonist_N", "plant_force_antagonist_N", "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags"};
+  return columns;
+}
+
+E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
+  control::OneDofControllerModel ctl_model = scenario.controller;
+  ctl_model.gravity.payload_mass_kg = c.payload_kg;
+  control::OneDofGravityController controller(ctl_model);
+  sim::OneDofRigParams plant_params = scenario.plant;
+  plant_params.payload_kg = c.payload_kg;
+  sim::OneDofRigBackend plant(plant_params);
+  safety::LimitsData limits_data;
+
+  E1Result r;
+  r.case_name = c.name;
+  r.payload_kg = c.payload_kg;
+  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
+
+  const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
+  std::vector<double> angle_truth(steps + 1);
+  std::vector<char> finger_on(steps + 1);
+  std::vector<double> finger_force(steps + 1);
+  io::SensorState state;
+  io::Command command;
+  const auto wall_start = std::chrono::steady_clock::now();
+  for (std::size_t k = 0; k <= steps; ++k) {
+    plant.read(state);
+    controller.update(state, command);
+    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
+    const sim::OneDofRigTruth& t = plant.truth();
+    angle_truth[k] = t.angle_rad;
+    finger_on[k] = t.finger_active;
+    finger_force[k] = t.finger_force_N;
+    r.peak_muscle_force_N[0] = std::max(r.peak_muscle_force_N[0], t.muscle_force_N[0]);
+    r.peak_muscle_force_N[1] = std::max(r.peak_muscle_force_N[1], t.muscle_force_N[1]);
+    r.min_wire_tension_N = std::min({r.min_wire_tension_N, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]});
+    r.max_pressure_MPa = std::max({r.max_pressure_MPa, t.pressure_Pa[0] * 1e-6, t.pressure_Pa[1] * 1e-6});
+    r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(t.motor_torque_Nm));
+
+    if (log && log->begin_row()) {
+      const auto& d = controller.diagnostics();
+      const auto& s = state.joints[0];
+      const auto& cmd = command.joints[0];
+      const double values[] = {
+          state.time_s, s.angle_rad, d.velocity_radps, t.finger_force_N, t.finger_active ? 1.0 : 0.0,
+          d.torque_desired_Nm, d.allocation.torque_pam_Nm, d.allocation.torque_pam_measured_Nm, cmd.motor_torque_Nm,
+          d.allocation.agonist_force_N, d.allocation.antagonist_force_N, s.agonist_force_N, s.antagonist_force_N,
+          cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
+          s.antagonist_pressure_Pa * 1e-6, t.angle_rad, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1],
+          t.muscle_force_N[0], t.muscle_force_N[1], t.cable_friction_Nm, t.constraint_torque_Nm, static_cast<double>(flags)};
+      for (std::size_t i = 0; i < std::size(values); ++i) log->set(i, values[i]);
+    }
+    if (k < steps) plant.write(command);
+  }
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  r.simulated_s = steps * scenario.period_s;
+  r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
+  std::copy(std::begin(limits_data.counts), std::end(limits_data.counts), std::begin(r.limit_counts));
+
+  // Releases: the instants the finger lets go; drift over the window that follows.
+  const auto window = static_cast<std::size_t>(std::llround(scenario.drift_window_s / scenario.period_s));
+  const auto& pushes = scenario.plant.finger.pushes;
+  for (const auto& push : pushes) {
+    const auto k0 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
+    if (k0 > steps) continue;
+    E1Release rel;
+    rel.push = push.name;
+    rel.time_s = k0 * scenario.period_s;
+    rel.angle_deg = angle_truth[k0] / kDeg;
+    const std::size_t k1 = std::min(k0 + window, steps);
+    for (std::size_t k = k0; k <= k1 && !(k > k0 && finger_on[k]); ++k) {
+      rel.max_excursion_deg = std::max(rel.max_excursion_deg, std::abs(angle_truth[k] - angle_truth[k0]) / kDeg);
+      rel.drift_deg = (angle_truth[k] - angle_truth[k0]) / kDeg;
+    }
+    r.releases.push_back(rel);
+  }
+  for (const auto& push : pushes) {
+    if (push.hold) continue;
+    const auto k0 = static_cast<std::size_t>(std::llround(push.start_s / scenario.period_s));
+    const auto k1 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
+    for (std::size_t k = k0; k <= std::min(k1, steps); ++k) {
+      r.peak_finger_force_N = std::max(r.peak_finger_force_N, std::abs(finger_force[k]));
+    }
+  }
+  return r;
+}
+
+}  // namespace peha::runtime

@@ -1,0 +1,95 @@
+#include "peha/safety/limits.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+
+namespace peha::safety {
+namespace {
+
+/// The pressure band a muscle may be commanded at contraction `eps`, by the controller's model.
+struct Band {
+  double floor_Pa;
+  double ceiling_Pa;
+};
+
+Band pressure_band(const models::MuscleModel& m, const JointLimits& lim, double eps) {
+  const double force_ceiling = std::min(m.max_force_N, models::kMaxPamForce_N);
+  // The ceiling is the pressure at which the model makes exactly the force ceiling. When the model
+  // cannot reach it at all (kUnreachable/kSaturated), the supply is the ceiling.
+  const auto top = models::inverse_pressure(m.pam, force_ceiling, eps);
+  double ceiling = lim.supply_pressure_Pa;
+  if (top.status == models::InverseStatus::kOk) ceiling = std::min(ceiling, top.pressure_Pa);
+  const auto bottom = models::inverse_pressure(m.pam, lim.pretension_N, eps);
+  const double floor = std::min(bottom.pressure_Pa, ceiling);  // the force ceiling wins
+  return {floor, ceiling};
+}
+
+double step_toward(double previous, double wanted, double max_step, bool& limited) {
+  const double next = std::clamp(wanted, previous - max_step, previous + max_step);
+  limited = limited || next != wanted;
+  return next;
+}
+
+}  // namespace
+
+std::uint32_t apply_limits(const LimitsModel& model, LimitsData& data, const io::SensorState& state,
+                           io::Command& command) noexcept {
+  std::uint32_t all = 0;
+  command.joint_count = model.joint_count;
+  for (int j = 0; j < model.joint_count; ++j) {
+    const JointLimits& lim = model.joints[j];
+    const io::JointSensors& s = state.joints[j];
+    io::JointCommand& c = command.joints[j];
+    const io::JointCommand prev = data.has_previous ? data.previous.joints[j] : io::JointCommand{};
+    std::uint32_t flags = 0;
+
+    if (!std::isfinite(c.agonist_pressure_Pa)) c.agonist_pressure_Pa = prev.agonist_pressure_Pa, flags |= kNonFinite;
+    if (!std::isfinite(c.antagonist_pressure_Pa)) c.antagonist_pressure_Pa = prev.antagonist_pressure_Pa, flags |= kNonFinite;
+    if (!std::isfinite(c.motor_torque_Nm)) c.motor_torque_Nm = 0.0, flags |= kNonFinite;
+
+    const double angle = std::isfinite(s.angle_rad) ? s.angle_rad : 0.0;
+    if (angle > lim.max_angle_rad) {
+      if (c.agonist_pressure_Pa > prev.agonist_pressure_Pa) c.agonist_pressure_Pa = prev.agonist_pressure_Pa;
+      c.motor_torque_Nm = std::min(c.motor_torque_Nm, 0.0);
+      flags |= kJointRange;
+    } else if (angle < lim.min_angle_rad) {
+      if (c.antagonist_pressure_Pa > prev.antagonist_pressure_Pa) c.antagonist_pressure_Pa = prev.antagonist_pressure_Pa;
+      c.motor_torque_Nm = std::max(c.motor_torque_Nm, 0.0);
+      flags |= kJointRange;
+    }
+
+    const double r0 = lim.model.pulley_radius_m;
+    const Band b1 = pressure_band(lim.model.agonist, lim, models::rigid_contraction(lim.model.agonist, r0, +1, angle));
+    const Band b2 = pressure_band(lim.model.antagonist, lim, models::rigid_contraction(lim.model.antagonist, r0, -1, angle));
+    const double p1 = std::clamp(c.agonist_pressure_Pa, b1.floor_Pa, b1.ceiling_Pa);
+    const double p2 = std::clamp(c.antagonist_pressure_Pa, b2.floor_Pa, b2.ceiling_Pa);
+    if (p1 != c.agonist_pressure_Pa || p2 != c.antagonist_pressure_Pa) flags |= kPressureLimited;
+    c.agonist_pressure_Pa = p1;
+    c.antagonist_pressure_Pa = p2;
+
+    if (data.has_previous) {
+      bool limited = false;
+      const double dp = lim.pressure_rate_Pa_per_s * model.period_s;
+      // A falling ceiling (the model's force cap) must win over the rate limit.
+      c.agonist_pressure_Pa = std::min(step_toward(prev.agonist_pressure_Pa, c.agonist_pressure_Pa, dp, limited), b1.ceiling_Pa);
+      c.antagonist_pressure_Pa = std::min(step_toward(prev.antagonist_pressure_Pa, c.antagonist_pressure_Pa, dp, limited), b2.ceiling_Pa);
+      c.motor_torque_Nm = step_toward(prev.motor_torque_Nm, c.motor_torque_Nm, lim.motor_rate_Nm_per_s * model.period_s, limited);
+      if (limited) flags |= kRateLimited;
+    }
+
+    const double motor_max = lim.model.has_motor ? lim.model.motor_max_torque_Nm : 0.0;
+    const double tau = std::clamp(c.motor_torque_Nm, -motor_max, motor_max);
+    if (tau != c.motor_torque_Nm) flags |= kMotorLimited;
+    c.motor_torque_Nm = tau;
+
+    data.flags[j] = flags;
+    for (std::uint32_t f = flags; f != 0; f &= f - 1) ++data.counts[std::countr_zero(f)];
+    all |= flags;
+  }
+  data.previous = command;
+  data.has_previous = true;
+  return all;
+}
+
+}  // namespace peha::safety

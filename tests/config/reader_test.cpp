@@ -1,0 +1,115 @@
+#include "peha/config/reader.hpp"
+
+#include "peha/runtime/e1_gravity.hpp"
+
+#include <gtest/gtest.h>
+#include <gmock/gmock.h>
+
+#include <algorithm>
+#include <fstream>
+#include <sstream>
+
+namespace peha::config {
+namespace {
+
+using ::testing::HasSubstr;
+
+std::string e1_text() {
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+/// Replaces the first occurrence of `from` in the E1 config by `to` and parses it as if it were
+/// configs/e1_one_dof.yaml (so relative paths resolve). Returns the error message ("" if none).
+std::string e1_error_after(const std::string& from, const std::string& to) {
+  std::string text = e1_text();
+  const auto pos = text.find(from);
+  EXPECT_NE(pos, std::string::npos) << from;
+  if (pos != std::string::npos) text.replace(pos, from.size(), to);
+  const std::string path = PEHA_SOURCE_DIR "/configs/mutated.yaml";
+  { std::ofstream(path) << text; }
+  std::string message;
+  try {
+    runtime::read_e1(Document::load_file(path));
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  std::remove(path.c_str());
+  return message;
+}
+
+TEST(Config, ShippedE1ConfigLoads) { EXPECT_EQ(e1_error_after("seed: 1", "seed: 1"), ""); }
+
+TEST(Config, RejectsUnknownKeyWithFileLineAndPath) {
+  const std::string e = e1_error_after("    use_motor: true", "    use_motor: true\n    use_motr: false");
+  EXPECT_THAT(e, HasSubstr("mutated.yaml:"));
+  EXPECT_THAT(e, HasSubstr("controller.allocation.use_motr: unknown key"));
+}
+
+TEST(Config, RejectsMissingKey) {
+  const std::string e = e1_error_after("  velocity_cutoff_Hz: 20.0\n", "");
+  EXPECT_THAT(e, HasSubstr("controller.velocity_cutoff_Hz: missing required key"));
+}
+
+TEST(Config, RejectsWrongType) {
+  EXPECT_THAT(e1_error_after("duration_s: 24.0", "duration_s: long"),
+              HasSubstr("run.duration_s: expected a number in [0.1, 3600], found 'long'"));
+  EXPECT_THAT(e1_error_after("use_motor: true", "use_motor: 1"),
+              HasSubstr("controller.allocation.use_motor: expected true or false, found '1'"));
+  EXPECT_THAT(e1_error_after("  pushes:\n", "  pushes: 3\n  unused:\n"), HasSubstr("finger.pushes: expected a list"));
+}
+
+// The 2000 N safety ceiling cannot be configured away.
+TEST(Config, RejectsMuscleCeilingAboveWireLimit) {
+  const std::string e = e1_error_after("max_force_N: 2000.0", "max_force_N: 2500.0");
+  EXPECT_THAT(e, HasSubstr("controller.agonist.max_force_N: expected a number in [1, 2000], found 2500"));
+  const std::string text = e1_text();
+  const auto line = 1 + std::count(text.begin(), text.begin() + text.find("max_force_N: 2000.0"), '\n');
+  EXPECT_THAT(e, HasSubstr(":" + std::to_string(line) + ":"));  // the line of the offending value
+}
+
+TEST(Config, RejectsOutOfRangeSupplyAndNegativeLag) {
+  EXPECT_THAT(e1_error_after("supply_pressure_MPa: 0.8", "supply_pressure_MPa: 8"),
+              HasSubstr("limits.supply_pressure_MPa: expected a number in [0.1, 1]"));
+  EXPECT_THAT(e1_error_after("lag_s: 0.03", "lag_s: -0.03"), HasSubstr("plant.agonist.valve.lag_s"));
+}
+
+TEST(Config, RejectsTimestepThatDoesNotDivideThePeriod) {
+  EXPECT_THAT(e1_error_after("timestep_s: 0.0005", "timestep_s: 0.0003"),
+              HasSubstr("plant.timestep_s: must divide the control period"));
+}
+
+TEST(Config, RejectsOverlappingPushesAndUnknownExperiment) {
+  EXPECT_THAT(e1_error_after("start_s: 6.0", "start_s: 1.0"), HasSubstr("pushes must not overlap"));
+  EXPECT_THAT(e1_error_after("experiment: gravity_compensation_1dof", "experiment: e9"),
+              HasSubstr("experiment: expected one of {gravity_compensation_1dof}, found 'e9'"));
+}
+
+TEST(Config, RejectsMissingModelFileAndBrokenYaml) {
+  std::string message;
+  try {
+    Document::load_string("a: [1, 2", "broken.yaml");
+  } catch (const Error& e) {
+    message = e.what();
+  }
+  EXPECT_THAT(message, HasSubstr("broken.yaml:"));
+  EXPECT_THAT(message, HasSubstr("not valid YAML"));
+  EXPECT_THROW(Document::load_file("/nonexistent/peha.yaml"), Error);
+}
+
+TEST(Config, StrictReaderAcceptsOnlyWhatItReads) {
+  Document doc = Document::load_string("gain: 2.5\nname: x\nlist: [1, 2, 3]\n", "t.yaml");
+  Map root = doc.root();
+  EXPECT_EQ(root.number("gain", {0, 10}), 2.5);
+  EXPECT_EQ(root.numbers("list", {0, 5}, 1, 3).size(), 3u);
+  EXPECT_THROW(root.finish(), Error);  // "name" was never read
+  EXPECT_EQ(root.string("name"), "x");
+  EXPECT_NO_THROW(root.finish());
+  EXPECT_THROW(root.number("gain", {3, 10}), Error);
+  EXPECT_THROW(root.integer("gain", 0, 10), Error);
+}
+
+}  // namespace
+}  // namespace peha::config

@@ -1,0 +1,115 @@
+#include "peha/control/allocation.hpp"
+
+#include "../support/nominal_models.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace peha::control {
+namespace {
+
+// Property test: 10^5 random requests, including absurd torques, angles, velocities, NaN and inf.
+// Whatever comes in, every command is finite and within its limits: 0 <= force <= the muscle's
+// ceiling (<= 2000 N), force >= pretension, 0 <= pressure <= supply, |motor| <= rating.
+TEST(Allocation, LimitsNeverExceededUnderRandomRequests) {
+  const models::JointModel joint = peha::testing::rig_joint();
+  AllocationParams params;
+  params.pretension_N = 60.0;
+  std::mt19937_64 rng(2024);
+  std::uniform_real_distribution<double> torque(-500.0, 500.0), angle(-3.0, 3.0), vel(-20.0, 20.0),
+      force(-100.0, 5000.0), unit(0.0, 1.0);
+  const double specials[] = {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                             -std::numeric_limits<double>::infinity(), 1e300, -1e300};
+  AllocationData data;
+  AllocationOutput out;
+  int nonfinite_cases = 0;
+  for (int i = 0; i < 100000; ++i) {
+    AllocationInput in;
+    in.torque_desired_Nm = torque(rng);
+    in.angle_rad = angle(rng);
+    in.velocity_radps = vel(rng);
+    in.agonist_loadcell_N = force(rng);
+    in.antagonist_loadcell_N = force(rng);
+    in.dt_s = 1e-3;
+    if (unit(rng) < 0.02) {  // 2 % of the requests carry a special value somewhere
+      double* fields[] = {&in.torque_desired_Nm, &in.angle_rad, &in.velocity_radps, &in.agonist_loadcell_N,
+                          &in.antagonist_loadcell_N, &in.dt_s};
+      *fields[rng() % 6] = specials[rng() % 5];
+      ++nonfinite_cases;
+    }
+    allocate(joint, params, data, in, out);
+    for (double p : {out.agonist_pressure_Pa, out.antagonist_pressure_Pa}) {
+      ASSERT_TRUE(std::isfinite(p)) << "request " << i;
+      ASSERT_GE(p, 0.0);
+      ASSERT_LE(p, params.supply_pressure_Pa);
+    }
+    ASSERT_LE(out.agonist_force_N, joint.agonist.max_force_N);
+    ASSERT_LE(out.antagonist_force_N, joint.antagonist.max_force_N);
+    ASSERT_LE(out.agonist_force_N, models::kMaxPamForce_N);
+    ASSERT_GE(out.agonist_force_N, params.pretension_N);
+    ASSERT_GE(out.antagonist_force_N, params.pretension_N);
+    ASSERT_TRUE(std::isfinite(out.torque_motor_Nm));
+    ASSERT_LE(std::abs(out.torque_motor_Nm), joint.motor_max_torque_Nm);
+    ASSERT_TRUE(std::isfinite(out.torque_pam_Nm));
+  }
+  EXPECT_GT(nonfinite_cases, 1000);
+}
+
+// A steady positive torque goes to the agonist: (f1 - f2) r0 = tau at the pulley, at rest.
+TEST(Allocation, SteadyTorqueSplitsIntoAgonistPullAndAntagonistPretension) {
+  const models::JointModel joint = peha::testing::rig_joint();
+  AllocationParams params;
+  params.pretension_N = 40.0;
+  AllocationData data;
+  AllocationOutput out;
+  AllocationInput in;
+  in.torque_desired_Nm = 15.0;
+  in.agonist_loadcell_N = 40.0 + 15.0 / joint.pulley_radius_m;
+  in.antagonist_loadcell_N = 40.0;
+  for (int i = 0; i < 3000; ++i) allocate(joint, params, data, in, out);
+  EXPECT_NEAR(out.torque_pam_Nm, 15.0, 1e-9);
+  EXPECT_NEAR(out.agonist_force_N, 40.0 + 15.0 / 0.05, 1e-9);  // 340 N at v = 0 (no Bowden factor)
+  EXPECT_NEAR(out.antagonist_force_N, 40.0, 1e-12);
+  EXPECT_NEAR(out.torque_pam_measured_Nm, 15.0, 1e-9);
+  EXPECT_NEAR(out.torque_motor_Nm, 0.0, 1e-9);  // nothing left for the motor
+  // The pressure is the inverse model's at the rigid-wire contraction.
+  const double eps = joint.agonist.contraction_at_zero_angle;
+  EXPECT_NEAR(out.agonist_pressure_Pa, models::inverse_pressure(joint.agonist.pam, 340.0, eps).pressure_Pa, 1e-6);
+}
+
+// A torque step reaches the PAMs through the low-pass; the motor takes the gap meanwhile.
+TEST(Allocation, MotorCoversTheFastPartOfATorqueStep) {
+  const models::JointModel joint = peha::testing::rig_joint();
+  AllocationParams params;  // 5 Hz PAM cut-off
+  AllocationData data;
+  AllocationOutput out;
+  AllocationInput in;
+  in.agonist_loadcell_N = in.antagonist_loadcell_N = params.pretension_N;
+  allocate(joint, params, data, in, out);
+  in.torque_desired_Nm = 2.0;  // step of 2 Nm, within the motor's 2.5 Nm
+  allocate(joint, params, data, in, out);
+  EXPECT_LT(out.torque_pam_Nm, 0.07 * 2.0);  // one 1 ms step of a 5 Hz low-pass: 3.1 %
+  EXPECT_NEAR(out.torque_motor_Nm, 2.0, 1e-9);  // load cells still show no PAM torque
+  for (int i = 0; i < 1000; ++i) allocate(joint, params, data, in, out);  // 1 s = 31 time constants
+  EXPECT_NEAR(out.torque_pam_Nm, 2.0, 1e-9);
+}
+
+// Negative torque goes to the antagonist and is capped by the DMSP-10's 630 N.
+TEST(Allocation, NegativeTorqueLoadsTheAntagonistUpToItsCeiling) {
+  const models::JointModel joint = peha::testing::rig_joint();
+  AllocationParams params;
+  AllocationData data;
+  AllocationOutput out;
+  AllocationInput in;
+  in.torque_desired_Nm = -100.0;  // would need 2000 N at r0 = 0.05
+  for (int i = 0; i < 2000; ++i) allocate(joint, params, data, in, out);
+  EXPECT_EQ(out.antagonist_force_N, 630.0);
+  EXPECT_EQ(out.agonist_force_N, params.pretension_N);
+  EXPECT_TRUE(out.flags & kForceClampedHigh);
+}
+
+}  // namespace
+}  // namespace peha::control

@@ -1,0 +1,54 @@
+// The control step allocates nothing (STYLE.md principle 3): the controller's update and the
+// limits layer run 10^4 cycles on the simulated rig without a single heap allocation.
+#include "peha/control/one_dof_gravity.hpp"
+#include "peha/runtime/e1_gravity.hpp"
+#include "peha/safety/limits.hpp"
+
+#include "../support/alloc_counter.hpp"
+
+#include <gtest/gtest.h>
+
+namespace peha {
+namespace {
+
+TEST(ControlStep, AllocatesNothing) {
+  const runtime::E1Scenario scenario =
+      runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  sim::OneDofRigParams plant_params = scenario.plant;
+  sim::OneDofRigBackend plant(plant_params);
+  control::OneDofGravityController controller(scenario.controller);
+  safety::LimitsData limits;
+  io::SensorState state;
+  io::Command command;
+  std::size_t control_allocations = 0;
+  for (int k = 0; k < 10000; ++k) {
+    plant.read(state);
+    control_allocations += testing::allocations_during([&] {
+      controller.update(state, command);
+      safety::apply_limits(scenario.limits, limits, state, command);
+    });
+    plant.write(command);
+  }
+  EXPECT_EQ(control_allocations, 0u);
+}
+
+// The simulated plant steps without allocating too (MuJoCo works in its preallocated arena).
+TEST(SimulatedRig, StepsWithoutAllocating) {
+  const runtime::E1Scenario scenario =
+      runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  sim::OneDofRigBackend plant(scenario.plant);
+  io::SensorState state;
+  io::Command command;
+  command.joint_count = 1;
+  command.joints[0] = {0.2e6, 0.3e6, 0.5};
+  const std::size_t n = testing::allocations_during([&] {
+    for (int k = 0; k < 5000; ++k) {
+      plant.read(state);
+      plant.write(command);
+    }
+  });
+  EXPECT_EQ(n, 0u);
+}
+
+}  // namespace
+}  // namespace peha

@@ -1,0 +1,107 @@
+#include "peha/safety/limits.hpp"
+
+#include "../support/nominal_models.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+namespace peha::safety {
+namespace {
+
+LimitsModel rig_limits() {
+  LimitsModel m;
+  m.joint_count = 1;
+  m.period_s = 1e-3;
+  m.joints[0].model = peha::testing::rig_joint();
+  m.joints[0].pretension_N = 40.0;
+  m.joints[0].min_angle_rad = -0.8;
+  m.joints[0].max_angle_rad = 0.8;
+  return m;
+}
+
+io::SensorState at_angle(double angle) {
+  io::SensorState s;
+  s.joint_count = 1;
+  s.joints[0].angle_rad = angle;
+  return s;
+}
+
+// No command leaving the limits layer makes the controller's model exceed a muscle's ceiling, go
+// below the pretension, exceed the supply, the motor rating, or the pressure rate - for random and
+// non-finite commands at random angles.
+TEST(Limits, EveryCommandLeavesWithinAllLimits) {
+  const LimitsModel model = rig_limits();
+  LimitsData data;
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> p(-2e6, 3e6), tau(-50.0, 50.0), angle(-0.7, 0.7);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  io::Command prev{};
+  for (int i = 0; i < 100000; ++i) {
+    const io::SensorState s = at_angle(angle(rng));
+    io::Command c;
+    c.joint_count = 1;
+    c.joints[0] = {p(rng), p(rng), tau(rng)};
+    if (i % 97 == 0) c.joints[0].agonist_pressure_Pa = nan;
+    if (i % 89 == 0) c.joints[0].motor_torque_Nm = std::numeric_limits<double>::infinity();
+    apply_limits(model, data, s, c);
+    const io::JointCommand& j = c.joints[0];
+    const auto& jm = model.joints[0].model;
+    const double r0 = jm.pulley_radius_m;
+    const double eps1 = models::rigid_contraction(jm.agonist, r0, +1, s.joints[0].angle_rad);
+    const double eps2 = models::rigid_contraction(jm.antagonist, r0, -1, s.joints[0].angle_rad);
+    ASSERT_TRUE(std::isfinite(j.agonist_pressure_Pa) && std::isfinite(j.antagonist_pressure_Pa) &&
+                std::isfinite(j.motor_torque_Nm));
+    ASSERT_LE(j.agonist_pressure_Pa, model.joints[0].supply_pressure_Pa);
+    ASSERT_LE(models::forward_force_N(jm.agonist.pam, j.agonist_pressure_Pa, eps1), 2000.0 + 1e-6);
+    ASSERT_LE(models::forward_force_N(jm.antagonist.pam, j.antagonist_pressure_Pa, eps2), 630.0 + 1e-6);
+    ASSERT_LE(std::abs(j.motor_torque_Nm), jm.motor_max_torque_Nm);
+    if (i > 0) {
+      ASSERT_LE(std::abs(j.motor_torque_Nm - prev.joints[0].motor_torque_Nm), 500.0 * 1e-3 + 1e-12);
+    }
+    prev = c;
+  }
+}
+
+// From rest, a settled command keeps the wires at the pretension or above by the model.
+TEST(Limits, PressureFloorKeepsPretension) {
+  const LimitsModel model = rig_limits();
+  LimitsData data;
+  const io::SensorState s = at_angle(0.2);
+  io::Command c;
+  for (int i = 0; i < 2000; ++i) {  // let the rate limit settle
+    c.joint_count = 1;
+    c.joints[0] = {0.0, 0.0, 0.0};  // asks for slack wires
+    apply_limits(model, data, s, c);
+  }
+  const auto& jm = model.joints[0].model;
+  const double eps1 = models::rigid_contraction(jm.agonist, jm.pulley_radius_m, +1, 0.2);
+  EXPECT_NEAR(models::forward_force_N(jm.agonist.pam, c.joints[0].agonist_pressure_Pa, eps1), 40.0, 1e-6);
+  EXPECT_TRUE(data.flags[0] & kPressureLimited);
+}
+
+// Past the upper range limit the agonist may not gain pressure and the motor may not push up.
+TEST(Limits, BeyondRangeNothingPushesFurtherOut) {
+  const LimitsModel model = rig_limits();
+  LimitsData data;
+  io::Command c;
+  c.joint_count = 1;
+  c.joints[0] = {0.2e6, 0.2e6, 0.0};
+  for (int i = 0; i < 500; ++i) {
+    io::Command step = c;
+    apply_limits(model, data, at_angle(0.0), step);
+  }
+  const double before = data.previous.joints[0].agonist_pressure_Pa;
+  io::Command push{};
+  push.joint_count = 1;
+  push.joints[0] = {0.6e6, 0.2e6, 2.0};
+  apply_limits(model, data, at_angle(0.9), push);
+  EXPECT_LE(push.joints[0].agonist_pressure_Pa, before);
+  EXPECT_LE(push.joints[0].motor_torque_Nm, 0.0);
+  EXPECT_TRUE(data.flags[0] & kJointRange);
+}
+
+}  // namespace
+}  // namespace peha::safety
