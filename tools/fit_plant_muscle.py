@@ -262,8 +262,9 @@ def plot(path, panels):
             nonpos = sel & (F <= 0)
             ax.plot(u[pos], F[pos], "o", ms=4.5, color=color)
             ax.plot(u[nonpos], np.zeros(nonpos.sum()), "o", ms=6, mfc="none", mec=color)
-            res = static_force(theta, knee, P[sel], u[sel]) - np.maximum(F[sel], 0.0)
-            rax.plot(u[sel], res, "o", ms=3.5, color=color, mfc=color if p > 0 else "none")
+            for subset, face in ((pos, color), (nonpos, "none")):
+                res = static_force(theta, knee, P[subset], u[subset]) - np.maximum(F[subset], 0.0)
+                rax.plot(u[subset], res, "o", ms=3.5, color=color, mfc=face)
         if pressures.max() < SUPPLY_PA:
             ax.plot(u_curve, static_force(theta, knee, np.full_like(u_curve, SUPPLY_PA), u_curve),
                     color="0.4", lw=1.0, ls="--", label=f"{SUPPLY_PA / 1e3:.0f} kPa (extrapolated)")

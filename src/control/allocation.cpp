@@ -17,22 +17,25 @@ struct MuscleCommand {
 
 MuscleCommand command_muscle(const models::MuscleModel& m, double r0, int side, double joint_force_N,
                              const AllocationParams& params, const AllocationInput& in, double loadcell_N,
-                             bool sensors_valid, double& trim_Pa) {
+                             double measured_pressure_Pa, bool first, bool sensors_valid, double& trim_N) {
   const double v = models::wire_velocity_mps(r0, side, in.velocity_radps);
   const double wanted = models::muscle_force_for_joint_N(m.bowden, joint_force_N, v);
   const double ceiling = std::min(m.max_force_N, models::kMaxPamForce_N);
   const double force = std::clamp(wanted, std::min(params.pretension_N, ceiling), ceiling);
   const double eps = models::rigid_contraction(m, r0, side, in.angle_rad);
-  const auto inv = models::inverse_pressure(m.pam, force, eps);
-  if (params.force_trim_gain_Pa_per_N_s > 0.0 && sensors_valid) {
-    const double step = params.force_trim_gain_Pa_per_N_s * (force - loadcell_N) * in.dt_s;
-    const double raw = inv.pressure_Pa + trim_Pa;
+  if (params.force_trim_rate_1ps > 0.0 && sensors_valid && first && std::isfinite(measured_pressure_Pa)) {
+    const double held_N = models::forward_force_N(m.pam, measured_pressure_Pa, eps);  // what the model says P makes
+    trim_N = std::clamp(held_N - force, -params.force_trim_max_N, params.force_trim_max_N);
+  } else if (params.force_trim_rate_1ps > 0.0 && sensors_valid) {
+    const double step = params.force_trim_rate_1ps * (force - loadcell_N) * in.dt_s;
+    const auto now = models::inverse_pressure(m.pam, force + trim_N, eps);
     // Anti-windup: do not integrate further into a saturated pressure.
-    if (!((raw >= params.supply_pressure_Pa && step > 0.0) || (raw <= 0.0 && step < 0.0))) {
-      trim_Pa = std::clamp(trim_Pa + step, -params.force_trim_max_Pa, params.force_trim_max_Pa);
-    }
+    const bool at_top = now.pressure_Pa >= params.supply_pressure_Pa && step > 0.0;
+    const bool at_bottom = now.pressure_Pa <= 0.0 && step < 0.0;
+    if (!at_top && !at_bottom) trim_N = std::clamp(trim_N + step, -params.force_trim_max_N, params.force_trim_max_N);
   }
-  const double pressure = std::clamp(inv.pressure_Pa + trim_Pa, 0.0, params.supply_pressure_Pa);
+  const auto inv = models::inverse_pressure(m.pam, force + trim_N, eps);
+  const double pressure = std::clamp(inv.pressure_Pa, 0.0, params.supply_pressure_Pa);
   return {force, pressure, eps, wanted > ceiling,
           inv.status == models::InverseStatus::kSaturated ||
               inv.status == models::InverseStatus::kUnreachable ||
@@ -63,7 +66,8 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   const double r0 = joint.pulley_radius_m;
 
   // Macro: first-order low-pass of the desired torque (exact discretisation).
-  if (!data.initialized) {
+  const bool first = !data.initialized;
+  if (first) {
     data.torque_pam_filtered_Nm = in.torque_desired_Nm;
     data.initialized = true;
   }
@@ -76,12 +80,12 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   const double f1 = params.pretension_N + (out.torque_pam_Nm >= 0.0 ? pull_N : 0.0);
   const double f2 = params.pretension_N + (out.torque_pam_Nm < 0.0 ? pull_N : 0.0);
   const bool valid = !(out.flags & kNonFiniteInput);
-  const MuscleCommand c1 = command_muscle(joint.agonist, r0, +1, f1, params, in, in.agonist_loadcell_N, valid,
-                                          data.force_trim_Pa[0]);
-  const MuscleCommand c2 = command_muscle(joint.antagonist, r0, -1, f2, params, in, in.antagonist_loadcell_N, valid,
-                                          data.force_trim_Pa[1]);
-  out.agonist_trim_Pa = data.force_trim_Pa[0];
-  out.antagonist_trim_Pa = data.force_trim_Pa[1];
+  const MuscleCommand c1 = command_muscle(joint.agonist, r0, +1, f1, params, in, in.agonist_loadcell_N, in.agonist_pressure_Pa, first, valid,
+                                          data.force_trim_N[0]);
+  const MuscleCommand c2 = command_muscle(joint.antagonist, r0, -1, f2, params, in, in.antagonist_loadcell_N, in.antagonist_pressure_Pa, first, valid,
+                                          data.force_trim_N[1]);
+  out.agonist_trim_N = data.force_trim_N[0];
+  out.antagonist_trim_N = data.force_trim_N[1];
   out.agonist_force_N = c1.force_N;
   out.antagonist_force_N = c2.force_N;
   out.agonist_pressure_Pa = c1.pressure_Pa;

@@ -74,8 +74,8 @@ E1Scenario read_e1(const config::Document& doc) {
   s.controller.allocation.pam_cutoff_Hz = alloc.number("pam_cutoff_Hz", {0.01, 500.0});
   s.controller.allocation.pretension_N = alloc.number("pretension_N", {1.0, 500.0});
   s.controller.allocation.use_motor = alloc.boolean("use_motor");
-  s.controller.allocation.force_trim_gain_Pa_per_N_s = alloc.number("force_trim_gain_MPa_per_N_s", {0.0, 10.0}) * 1e6;
-  s.controller.allocation.force_trim_max_Pa = alloc.number("force_trim_max_MPa", {0.0, 0.8}) * 1e6;
+  s.controller.allocation.force_trim_rate_1ps = alloc.number("force_trim_rate_1ps", {0.0, 100.0});
+  s.controller.allocation.force_trim_max_N = alloc.number("force_trim_max_N", {0.0, 2000.0});
   s.controller.allocation.supply_pressure_Pa = supply_Pa;
   alloc.finish();
   ctl.finish();

@@ -7,12 +7,15 @@
 ///   pulley force is converted to a muscle force through the Bowden model, clamped to
 ///   [pretension_N, max_force_N], and to a pressure through the inverse Tendon-spring model,
 ///   clamped to [0, supply].
-/// - Force trim (optional, `force_trim_gain_Pa_per_N_s` > 0): a slow integral of each muscle's
-///   force error (commanded muscle-side force minus its load cell) is added to the model's pressure,
-///   bounded by `force_trim_max_Pa`, frozen while the pressure is saturated (anti-windup). It
-///   removes the steady error of the parametric model (e.g. the PAM's pressure threshold, which
-///   the 5-parameter model cannot represent) using force sensing only: there is still no position
-///   feedback. 0 gives the paper's pure feed-forward p* = g^-1(F*).
+/// - Force trim (optional, `force_trim_rate_1ps` > 0): a slow integral of each muscle's force error
+///   (commanded muscle-side force minus its load cell) is added to the force handed to the inverse
+///   model, bounded by `force_trim_max_N` and frozen while the pressure is saturated (anti-windup).
+///   Working in force, it passes through the model's own gain, so both muscles get about the same
+///   bandwidth (rate / 2 pi). It removes the steady error of the parametric model (e.g. the PAM's
+///   pressure threshold, which the 5-parameter model cannot represent) with force sensing only:
+///   there is still no position feedback. 0 gives the paper's pure feed-forward p* = g^-1(F*).
+///   Bumpless start: on the first step the trim is initialised so that the command equals the
+///   measured pressure, so switching the controller on does not step the valves.
 /// - Mini (motor): the desired torque minus the PAM torque *measured* by the load cells (through
 ///   the Bowden model), saturated at the motor rating. It supplies the high-frequency part and what
 ///   the PAM and cable models get wrong.
@@ -31,8 +34,8 @@ struct AllocationParams {
   double pretension_N = 20.0;       ///< minimum muscle force on both wires (never slack), N
   double supply_pressure_Pa = 0.8e6;///< pressure ceiling, Pa
   bool use_motor = true;            ///< false: PAM-only joint (the motor command is 0)
-  double force_trim_gain_Pa_per_N_s = 0.0;  ///< integral gain of the force trim, Pa per N*s
-  double force_trim_max_Pa = 0.1e6;         ///< bound of the trim's pressure correction, Pa
+  double force_trim_rate_1ps = 0.0;  ///< integral gain of the force trim, 1/s (0 = off)
+  double force_trim_max_N = 200.0;   ///< bound of the trim's force correction, N
 };
 
 /// Flags raised when a limit shaped the command (bitwise or of AllocationFlag).
@@ -49,6 +52,8 @@ struct AllocationInput {
   double velocity_radps = 0;
   double agonist_loadcell_N = 0;
   double antagonist_loadcell_N = 0;
+  double agonist_pressure_Pa = 0;     ///< measured; used for the bumpless start only
+  double antagonist_pressure_Pa = 0;  ///< measured; used for the bumpless start only
   double dt_s = 1e-3;
 };
 
@@ -62,15 +67,15 @@ struct AllocationOutput {
   double antagonist_pressure_Pa = 0;
   double agonist_contraction = 0;    ///< rigid-wire contraction used for the inverse model
   double antagonist_contraction = 0;
-  double agonist_trim_Pa = 0;        ///< force-trim part of the agonist pressure
-  double antagonist_trim_Pa = 0;
+  double agonist_trim_N = 0;         ///< force trim added to the agonist's model request
+  double antagonist_trim_N = 0;
   std::uint32_t flags = 0;
 };
 
 /// Filter state.
 struct AllocationData {
   double torque_pam_filtered_Nm = 0;
-  double force_trim_Pa[2] = {0, 0};  ///< integral pressure corrections, agonist and antagonist
+  double force_trim_N[2] = {0, 0};  ///< integral force corrections, agonist and antagonist
   bool initialized = false;
 };
 
