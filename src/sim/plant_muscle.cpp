@@ -87,7 +87,8 @@ PlantMuscleParams read_plant_muscle(config::Map& map) {
   p.hysteresis_fraction = map.number("hysteresis_fraction", {0.0, 0.5});
   p.hysteresis_rate_scale_1ps = map.number("hysteresis_rate_scale_1ps", {1e-4, 100.0});
   // dq/dP = 1 + 2*beta*P/1MPa must stay > 0 up to the clamp, else F would fall with rising P.
-  const double slope_at_max = 1.0 + 2.0 * p.pressure_curvature_per_MPa * p.max_pressure_Pa / kPressureUnit_Pa;
+  const double slope_at_max =
+      1.0 + 2.0 * p.pressure_curvature_per_MPa * p.max_pressure_Pa / kPressureUnit_Pa;
   if (!(slope_at_max > 0.0)) {
     map.fail("pressure_curvature_per_MPa",
              fmt::format("force would decrease with pressure below max_pressure_Pa = {} "

@@ -10,6 +10,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace peha::sim {
@@ -103,14 +104,16 @@ TEST(PlantMuscle, LoadsGeneratedConfigs) {
 }
 
 TEST(PlantMuscle, FitsFestoDmsp40MapWithinStatedError) {
-  const auto map = read_map(kPamData + "festo_datasheet_DMSP-40_digitized.csv", "pressure_kPa", 1e3);
+  const auto map =
+      read_map(kPamData + "festo_datasheet_DMSP-40_digitized.csv", "pressure_kPa", 1e3);
   const FitError e = fit_error(load_plant_muscle(kDmsp40Yaml), map);
   EXPECT_LT(e.rms_N, kDmsp40RmsBound_N);
   EXPECT_LT(e.max_N, kDmsp40MaxBound_N);
 }
 
 TEST(PlantMuscle, FitsFestoDmsp10MapWithinStatedError) {
-  const auto map = read_map(kPamData + "festo_datasheet_DMSP-10_digitized.csv", "pressure_kPa", 1e3);
+  const auto map =
+      read_map(kPamData + "festo_datasheet_DMSP-10_digitized.csv", "pressure_kPa", 1e3);
   const FitError e = fit_error(load_plant_muscle(kDmsp10Yaml), map);
   EXPECT_LT(e.rms_N, kDmsp10RmsBound_N);
   EXPECT_LT(e.max_N, kDmsp10MaxBound_N);
@@ -178,7 +181,8 @@ TEST(PlantMuscle, ContinuouslyDifferentiableAcrossTheElasticKnee) {
 
 TEST(PlantMuscle, ForceIsFiniteAndNonNegativeForAnyInput) {
   const double inf = std::numeric_limits<double>::infinity();
-  const std::vector<double> pressures = {-inf, -1e12, -1e5, 0.0, 1e3, 2e5, 8e5, 1e6, 5e6, 1e300, inf};
+  const std::vector<double> pressures = {-inf, -1e12, -1e5, 0.0,   1e3, 2e5,
+                                         8e5,  1e6,   5e6,  1e300, inf};
   const std::vector<double> rates = {-inf, -1e9, -1.0, 0.0, 0.01, 1.0, 1e9, inf};
   for (const PlantMuscleParams& p : both_laws()) {
     for (double P : pressures) {
@@ -279,8 +283,9 @@ TEST(PlantMuscle, RejectsConfigWithOutOfRangeValue) {
 
 TEST(PlantMuscle, RejectsPressureCurvatureThatWouldMakeForceFallWithPressure) {
   std::string text = read_text(kDmsp40Yaml);
-  for (const auto& [key, value] : {std::pair<std::string, std::string>{"pressure_curvature_per_MPa:", " -0.4"},
-                                   {"max_pressure_Pa:", " 2.0e6"}}) {
+  using KeyValue = std::pair<std::string, std::string>;
+  for (const auto& [key, value] :
+       {KeyValue{"pressure_curvature_per_MPa:", " -0.4"}, KeyValue{"max_pressure_Pa:", " 2.0e6"}}) {
     const std::size_t at = text.find(key);
     ASSERT_NE(at, std::string::npos);
     text.replace(at, text.find('\n', at) - at, key + value);

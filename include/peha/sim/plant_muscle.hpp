@@ -8,26 +8,26 @@
 ///     F_static(P, u) = delta * softplus(z / delta)                    (never negative, C-infinity)
 ///     z(P, u)        = g(u) * q(P) + f_el(u)                          (force before "cannot push")
 ///     q(P)           = P * (1 + beta * P / 1 MPa)                     (nonlinearity in pressure)
-///     g(u)           = g0 * (1 + kappa) * s / (1 + kappa * s)         (gain, N/Pa, saturating in s)
+///     g(u)           = g0 * (1 + kappa) * s / (1 + kappa * s)         (gain, N/Pa, saturating)
 ///     s(u)           = (1 - c) * d + c * d^2                          (linear..quadratic in d)
 ///     d(u)           = w * softplus((u_m - u) / w) / u_m              (~ 1 - u/u_m, -> 0 past u_m)
-///     f_el(u)        = k_e * (E(u) - 1) - k_l * u                     (rubber: passive when stretched)
+///     f_el(u)        = k_e * (E(u) - 1) - k_l * u                     (rubber, N)
 ///     E(u)           = exp(-u / u_e) for u >= u_k, else continued linearly (C1) below the knee u_k
 ///     F(P, u, du/dt) = F_static * (1 - h * tanh((du/dt) / r_h))       (hysteresis)
 ///
 /// f_el < 0 for u > 0 is the pressure threshold: the muscle makes no force until g*q exceeds the
-/// rubber's resistance to contraction. f_el > 0 for u < 0 is the large passive force when the muscle
-/// is stretched, also at P = 0. The end effect (force -> 0 at the maximum contraction) comes from the
-/// gain falling towards 0 at u_m while the rubber keeps resisting: the force ends where
+/// rubber's resistance to contraction. f_el > 0 for u < 0 is the large passive force when the
+/// muscle is stretched, also at P = 0. The end effect (force -> 0 at the maximum contraction) comes
+/// from the gain falling towards 0 at u_m while the rubber keeps resisting: the force ends where
 /// g*q = -f_el, at a contraction that grows with pressure (about 0.29..0.35 for DMSP-40 at
 /// 0.3..0.8 MPa, 0.13..0.25 for DMSP-10).
 ///
 /// Units: pressures are gauge pressures in Pa, forces in N, contraction u = (L0 - L) / L0
 /// (dimensionless, negative = stretched), contraction rate in 1/s (> 0 while the muscle shortens).
 ///
-/// Input handling (all functions are total and noexcept, no allocation): the pressure is clamped to
-/// [0, max_pressure_Pa] and the contraction to [kMinContraction, kMaxContraction]; a NaN pressure or
-/// contraction gives F = 0 and dF/du = 0; a NaN rate counts as 0. For parameters accepted by
+/// Input handling (all functions are total and noexcept, no allocation): the pressure is clamped
+/// to [0, max_pressure_Pa] and the contraction to [kMinContraction, kMaxContraction]; a NaN
+/// pressure or contraction gives F = 0 and dF/du = 0; a NaN rate counts as 0. For parameters accepted by
 /// `read_plant_muscle` every result is finite and F >= 0.
 
 #include "peha/config/reader.hpp"
@@ -61,7 +61,7 @@ struct PlantMuscleParams {
   /// beta: relative change of force per pressure per MPa: q(P) = P * (1 + beta * P / 1 MPa).
   /// Must keep dq/dP > 0 on [0, max_pressure_Pa] (checked by the reader).
   double pressure_curvature_per_MPa = -0.025;
-  /// k_e: scale of the exponential rubber force, N (f_el saturates at -k_e - k_l*u when contracted).
+  /// k_e: scale of the exponential rubber force, N (f_el -> -k_e - k_l*u when contracted).
   double elastic_force_N = 464.0;
   /// u_e: contraction scale of the exponential rubber force (smaller = stiffer passive end).
   double elastic_contraction_scale = 0.0296;

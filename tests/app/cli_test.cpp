@@ -1,0 +1,78 @@
+// The peha command line as a user meets it: help texts, exit codes, the run directory.
+#include <gtest/gtest.h>
+#include <gmock/gmock.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <sys/wait.h>
+
+namespace {
+
+using ::testing::HasSubstr;
+
+struct Result {
+  int code;
+  std::string output;
+};
+
+Result run(const std::string& args) {
+  const std::string cmd = std::string(PEHA_BINARY) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buf;
+  while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
+  const int status = pclose(pipe);
+  return {WEXITSTATUS(status), out};
+}
+
+TEST(Cli, HelpListsEverySubcommand) {
+  const Result r = run("--help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* word : {"run", "check-config", "version", "pneumatic"}) EXPECT_THAT(r.output, HasSubstr(word));
+}
+
+TEST(Cli, RunHelpDocumentsEveryOptionAndOutput) {
+  const Result r = run("run --help");
+  EXPECT_EQ(r.code, 0);
+  for (const char* word : {"--config", "--out", "--name", "--case", "--seed", "--no-plot", "plot.png", "Exit code"}) {
+    EXPECT_THAT(r.output, HasSubstr(word));
+  }
+  EXPECT_THAT(run("check-config --help").output, HasSubstr("file:line:column"));
+}
+
+TEST(Cli, BadConfigExitsWithTwoAndNamesTheKey) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_test";
+  std::filesystem::create_directories(dir);
+  { std::ofstream(dir / "bad.yaml") << "experiment: gravity_compensation_1dof\ndescription: x\nseed: -4\n"; }
+  const Result r = run("check-config --config " + (dir / "bad.yaml").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.output, HasSubstr("bad.yaml:3:7: seed: expected a number in [0, "));
+  EXPECT_NE(run("run --config /nonexistent.yaml").code, 0);
+}
+
+TEST(Cli, RunWritesLogConfigAndSummary) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_run";
+  std::filesystem::remove_all(out);
+  const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml --no-plot --case payload_2.5kg"
+                       " --out " + out.string() + " --name t");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("drift/deg"));
+  EXPECT_THAT(r.output, HasSubstr("safety: peak PAM force"));
+  const std::filesystem::path dir = out / "t";
+  EXPECT_TRUE(std::filesystem::exists(dir / "config.yaml"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "summary.csv"));
+  std::ifstream log(dir / "e1_payload_2.5kg.csv");
+  std::string line;
+  while (std::getline(log, line) && line.rfind('#', 0) == 0) {
+  }
+  EXPECT_EQ(line.rfind("t_s,angle_rad,", 0), 0u) << line;  // time first, units in the names
+  std::size_t rows = 0;
+  while (std::getline(log, line)) ++rows;
+  EXPECT_EQ(rows, 24001u);  // 24 s at 1 kHz, both ends
+  std::filesystem::remove_all(out);
+}
+
+}  // namespace
