@@ -296,8 +296,7 @@ def plot_column(axes, log, title, draw_limit, ff_ylim):
         fault_intervals = active_intervals(t, (np.nan_to_num(cols["fault"]) != 0) * 1.0)
         for a, b in fault_intervals:
             ax_ang.axvspan(a, b, color="red", alpha=0.15, lw=0, zorder=0)
-    else:
-        missing.append("fault")
+    # 'fault' is optional: only runs with a safety supervisor log it, so its absence is not a warning.
 
     # --- row 1: angle + finger force ---
     n = _plot_traces(ax_ang, cols, t, ANGLE_TRACES, missing, scale=180.0 / math.pi)

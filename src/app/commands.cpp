@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -99,6 +100,7 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   fmt::print("\nwritten: {}/summary.csv, config.yaml, e1_<case>.csv\n", dir.string());
 
   if (options.plot) {
+    std::fflush(stdout);  // the plotter writes to the same terminal
     const std::string cmd = fmt::format("'{}' '{}' '{}' --title '{}'", find_python(), plot_tool().string(),
                                         dir.string(), "E1 gravity compensation, one-DOF PEHA rig");
     if (std::system(cmd.c_str()) != 0) {

@@ -131,25 +131,29 @@ void OneDofRigBackend::solve_muscle(Muscle& mu, double angle, double dt_s) noexc
   const double eps = p.contraction_at_zero_angle + mu.side * r0 * angle / p.rest_length_m;
   const double base = eps + (p.cable.initial_slack_m + mu.creep_m) / p.rest_length_m;
   const double per_N = 1.0 / (p.cable.wire_stiffness_N_per_m * p.rest_length_m);
-  // Equilibrium of a massless muscle on an elastic wire: T = F(P, base + T*per_N). The residual
-  // phi(T) = F(...) - T decreases strictly in T, so the root is unique and bracketed by
-  // [0, F(P, base)]. Newton steps, falling back to bisection when a step leaves the bracket.
-  const double rate = mu.contraction_rate_1ps;
-  auto phi = [&](double T) { return force_N(p.law, pressure, base + T * per_N, rate) - T; };
+  // Equilibrium of a massless muscle on an elastic wire: T = F(P, u(T), du/dt(T)) with
+  // u(T) = base + T*per_N. The contraction rate is taken implicitly, (u(T) - u_previous)/dt: with an
+  // explicit rate the hysteresis term chatters, because a stiff wire turns a small change of force
+  // into a large change of rate. phi(T) = F - T decreases strictly in T (the static force falls with
+  // u and the hysteresis factor falls with the rate), so the root is unique and bracketed by
+  // [0, F at T = 0]. Newton steps with a difference quotient, bisection when a step leaves the bracket.
+  const double u_previous = mu.contraction;
+  auto phi = [&](double T) {
+    const double u = base + T * per_N;
+    return force_N(p.law, pressure, u, (u - u_previous) / dt_s) - T;
+  };
   double lo = 0.0;
-  double hi = force_N(p.law, pressure, base, rate);
+  double hi = phi(0.0);
   double T = 0.0;
   if (hi > 0.0) {
     T = std::clamp(mu.tension_N, lo, hi);
-    for (int it = 0; it < 60; ++it) {
+    for (int it = 0; it < 80; ++it) {
       const double r = phi(T);
       if (r > 0.0) lo = T; else hi = T;
       if (std::abs(r) < 1e-7 || hi - lo < 1e-9) break;
-      const double F = force_N(p.law, pressure, base + T * per_N, rate);
-      const double Fs = static_force_N(p.law, pressure, base + T * per_N);
-      const double scale = Fs > 0.0 ? F / Fs : 1.0;  // the hysteresis factor, constant in T
-      const double dphi = scale * static_force_dcontraction_N(p.law, pressure, base + T * per_N) * per_N - 1.0;
-      double next = T - r / dphi;
+      const double h = 1e-6 * (1.0 + T);
+      const double slope = (phi(T + h) - r) / h;
+      double next = slope < 0.0 ? T - r / slope : 0.5 * (lo + hi);
       if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
       T = next;
     }

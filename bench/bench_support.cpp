@@ -1,0 +1,84 @@
+#include "bench_support.hpp"
+
+#include "peha/config/reader.hpp"
+#include "peha/control/one_dof_gravity.hpp"
+#include "peha/safety/limits.hpp"
+#include "peha/sim/one_dof_rig.hpp"
+
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+
+namespace peha::bench {
+
+const runtime::E1Scenario& e1_scenario() {
+  static const runtime::E1Scenario s =
+      runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  return s;
+}
+
+const runtime::E1Case& e1_heavy_case() {
+  for (const runtime::E1Case& c : e1_scenario().cases) {
+    if (std::abs(c.payload_kg - 5.0) < 1e-9) return c;
+  }
+  throw std::runtime_error("configs/e1_one_dof.yaml has no 5.0 kg case");
+}
+
+control::OneDofControllerModel heavy_controller_model() {
+  control::OneDofControllerModel m = e1_scenario().controller;
+  m.gravity.payload_mass_kg = e1_heavy_case().payload_kg;
+  return m;
+}
+
+sim::OneDofRigParams heavy_plant_params() {
+  sim::OneDofRigParams p = e1_scenario().plant;
+  p.payload_kg = e1_heavy_case().payload_kg;
+  return p;
+}
+
+namespace {
+
+E1Recording record() {
+  const runtime::E1Scenario& s = e1_scenario();
+  control::OneDofGravityController controller(heavy_controller_model());
+  sim::OneDofRigBackend plant(heavy_plant_params());
+  safety::LimitsData limits_data;
+
+  const auto steps = static_cast<std::size_t>(std::llround(s.duration_s / s.period_s));
+  E1Recording r;
+  r.states.reserve(steps + 1);
+  r.commands.reserve(steps + 1);
+  r.allocation.reserve(steps + 1);
+  io::SensorState state;
+  io::Command command;
+  for (std::size_t k = 0; k <= steps; ++k) {
+    plant.read(state);
+    controller.update(state, command);
+    safety::apply_limits(s.limits, limits_data, state, command);
+    const control::OneDofDiagnostics& d = controller.diagnostics();
+    const io::JointSensors& j = state.joints[0];
+    control::AllocationInput in;
+    in.torque_desired_Nm = d.torque_desired_Nm;
+    in.angle_rad = j.angle_rad;
+    in.velocity_radps = d.velocity_radps;
+    in.agonist_loadcell_N = j.agonist_force_N;
+    in.antagonist_loadcell_N = j.antagonist_force_N;
+    in.agonist_pressure_Pa = j.agonist_pressure_Pa;
+    in.antagonist_pressure_Pa = j.antagonist_pressure_Pa;
+    in.dt_s = s.period_s;
+    r.states.push_back(state);
+    r.commands.push_back(command);
+    r.allocation.push_back(in);
+    if (k < steps) plant.write(command);
+  }
+  return r;
+}
+
+}  // namespace
+
+const E1Recording& e1_recording() {
+  static const E1Recording r = record();
+  return r;
+}
+
+}  // namespace peha::bench

@@ -1,0 +1,34 @@
+#pragma once
+/// \file
+/// Shared inputs of the benchmark suite: the shipped E1 scenario and a closed-loop recording of its
+/// 5.0 kg case on the simulated rig, so the control-side benchmarks run on realistic states and the
+/// plant-side benchmarks on realistic commands. Built once, lazily, outside any timed region.
+
+#include "peha/control/allocation.hpp"
+#include "peha/io/backend.hpp"
+#include "peha/runtime/e1_gravity.hpp"
+
+#include <vector>
+
+namespace peha::bench {
+
+/// The shipped scenario, configs/e1_one_dof.yaml.
+const runtime::E1Scenario& e1_scenario();
+
+/// The scenario's 5.0 kg case (the heavier one).
+const runtime::E1Case& e1_heavy_case();
+
+/// One full closed-loop run of the heavy case (read -> update -> apply_limits -> write), exactly as
+/// runtime::run_e1_case does it: duration_s / period_s + 1 samples.
+struct E1Recording {
+  std::vector<io::SensorState> states;                ///< what the controller read, per cycle
+  std::vector<io::Command> commands;                  ///< what reached the plant (after the limits)
+  std::vector<control::AllocationInput> allocation;   ///< what the controller handed to allocate()
+};
+const E1Recording& e1_recording();
+
+/// Controller model / plant parameters of the heavy case (payload filled in as run_e1_case does).
+control::OneDofControllerModel heavy_controller_model();
+sim::OneDofRigParams heavy_plant_params();
+
+}  // namespace peha::bench

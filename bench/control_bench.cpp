@@ -1,0 +1,121 @@
+/// Host-side control benchmarks: the Tendon-spring model, one allocation step and the full control
+/// step (controller + limits layer). "us_per_step" is in microseconds (the console appends "s" to
+/// every inverted rate); the control period is 1000 us.
+
+#include "bench_support.hpp"
+
+#include "peha/control/allocation.hpp"
+#include "peha/control/one_dof_gravity.hpp"
+#include "peha/models/tendon_spring.hpp"
+#include "peha/safety/limits.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <array>
+#include <cstddef>
+#include <optional>
+#include <random>
+
+namespace peha::bench {
+namespace {
+
+constexpr std::size_t kInputs = 1024;  // power of two: the index wraps with a mask
+static_assert((kInputs & (kInputs - 1)) == 0);
+
+// Per-step time as a counter: seconds / (iterations * 1e-6) = microseconds per iteration (CPU time,
+// like the Time/CPU columns of these single-threaded micro-benchmarks).
+benchmark::Counter us_per_iteration(benchmark::State& state) {
+  return benchmark::Counter(static_cast<double>(state.iterations()) * 1e-6,
+                            benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+
+struct ModelInput {
+  double value;  // force in N (inverse) or pressure in Pa (forward)
+  double eps;    // rigid-wire contraction
+};
+
+// Agonist (DMSP-40) inputs over the rig's working range: +-45 deg around a contraction of 0.10.
+std::array<ModelInput, kInputs> model_inputs(double lo, double hi, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> value(lo, hi);
+  std::uniform_real_distribution<double> eps(0.03, 0.17);
+  std::array<ModelInput, kInputs> in{};
+  for (ModelInput& i : in) i = {value(rng), eps(rng)};
+  return in;
+}
+
+void BM_TendonSpringInverse(benchmark::State& state) {
+  const models::TendonSpringParams p = e1_scenario().controller.joint.agonist.pam;
+  const auto in = model_inputs(20.0, 1500.0, 1);  // force in N
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const ModelInput& i = in[k++ & (kInputs - 1)];
+    models::InverseResult r = models::inverse_pressure(p, i.value, i.eps);
+    benchmark::DoNotOptimize(r);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_TendonSpringInverse);
+
+void BM_TendonSpringForward(benchmark::State& state) {
+  const models::TendonSpringParams p = e1_scenario().controller.joint.agonist.pam;
+  const auto in = model_inputs(0.0, p.max_pressure_Pa, 2);  // pressure in Pa
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const ModelInput& i = in[k++ & (kInputs - 1)];
+    double f = models::forward_force_N(p, i.value, i.eps);
+    benchmark::DoNotOptimize(f);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_TendonSpringForward);
+
+// One allocation step on the inputs the controller really produced in the recorded E1 run.
+void BM_Allocate(benchmark::State& state) {
+  const control::OneDofControllerModel m = heavy_controller_model();
+  const std::vector<control::AllocationInput>& in = e1_recording().allocation;
+  control::AllocationData data;
+  control::AllocationOutput out;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    control::allocate(m.joint, m.allocation, data, in[k], out);
+    benchmark::DoNotOptimize(out);
+    if (++k == in.size()) k = 0;  // a small torque step at the wrap; harmless for the timing
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["us_per_step"] = us_per_iteration(state);
+}
+BENCHMARK(BM_Allocate);
+
+// The full host control step: OneDofGravityController::update + safety::apply_limits, on the sensor
+// states recorded from the closed-loop simulated rig (5.0 kg E1 case, 24 s). At the end of the
+// recording the controller and limits restart (untimed), so time stamps stay monotonic.
+void BM_ControlStep(benchmark::State& state) {
+  const runtime::E1Scenario& s = e1_scenario();
+  const control::OneDofControllerModel m = heavy_controller_model();
+  const std::vector<io::SensorState>& states = e1_recording().states;
+  std::optional<control::OneDofGravityController> controller(std::in_place, m);
+  safety::LimitsData limits;
+  io::Command command;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    const io::SensorState& x = states[k];
+    controller->update(x, command);
+    std::uint32_t flags = safety::apply_limits(s.limits, limits, x, command);
+    benchmark::DoNotOptimize(flags);
+    benchmark::DoNotOptimize(command);
+    if (++k == states.size()) {
+      state.PauseTiming();
+      k = 0;
+      controller.emplace(m);
+      limits = safety::LimitsData{};
+      state.ResumeTiming();
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["us_per_step"] = us_per_iteration(state);
+}
+BENCHMARK(BM_ControlStep);
+
+}  // namespace
+}  // namespace peha::bench
