@@ -55,20 +55,9 @@ E1Recording record() {
     plant.read(state);
     controller.update(state, command);
     safety::apply_limits(s.limits, limits_data, state, command);
-    const control::OneDofDiagnostics& d = controller.diagnostics();
-    const io::JointSensors& j = state.joints[0];
-    control::AllocationInput in;
-    in.torque_desired_Nm = d.torque_desired_Nm;
-    in.angle_rad = j.angle_rad;
-    in.velocity_radps = d.velocity_radps;
-    in.agonist_loadcell_N = j.agonist_force_N;
-    in.antagonist_loadcell_N = j.antagonist_force_N;
-    in.agonist_pressure_Pa = j.agonist_pressure_Pa;
-    in.antagonist_pressure_Pa = j.antagonist_pressure_Pa;
-    in.dt_s = s.period_s;
     r.states.push_back(state);
     r.commands.push_back(command);
-    r.allocation.push_back(in);
+    r.allocation.push_back(controller.diagnostics().allocation_input);
     if (k < steps) plant.write(command);
   }
   return r;

@@ -40,7 +40,7 @@ void OneDofGravityController::update(const io::SensorState& state, io::Command& 
   diag_.velocity_radps = velocity_.update(s.angle_rad, dt_s);
   diag_.torque_desired_Nm = gravity_torque_Nm(model_.gravity, s.angle_rad);
 
-  AllocationInput in;
+  AllocationInput& in = diag_.allocation_input;
   in.torque_desired_Nm = diag_.torque_desired_Nm;
   in.angle_rad = s.angle_rad;
   in.velocity_radps = diag_.velocity_radps;

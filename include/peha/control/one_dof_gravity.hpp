@@ -47,6 +47,7 @@ struct OneDofControllerModel {
 struct OneDofDiagnostics {
   double velocity_radps = 0;
   double torque_desired_Nm = 0;
+  AllocationInput allocation_input;  ///< what the allocation was given this step
   AllocationOutput allocation;
 };
 
