@@ -1,6 +1,7 @@
 #include "peha/app/commands.hpp"
 
 #include "peha/runtime/e1_gravity.hpp"
+#include "peha/sim/mujoco_model.hpp"
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
@@ -33,14 +34,15 @@ void write_summary(const std::filesystem::path& path, const std::vector<runtime:
   std::ofstream out(path);
   out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_excursion_deg,"
          "peak_finger_force_N,peak_agonist_force_N,peak_antagonist_force_N,min_wire_tension_N,"
-         "max_pressure_MPa,peak_motor_torque_Nm,realtime_factor\n";
+         "max_pressure_MPa,peak_motor_torque_Nm,min_angle_deg,max_angle_deg,within_limits,realtime_factor\n";
   for (const auto& r : results) {
     for (const auto& rel : r.releases) {
-      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.2f},{:.1f},{:.1f},{:.2f},{:.4f},{:.3f},{:.2f}\n",
+      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.2f},{:.1f},{:.1f},{:.2f},{:.4f},{:.3f},{:.2f},{:.2f},{},{:.2f}\n",
                          r.case_name, r.payload_kg, rel.push, rel.time_s, rel.angle_deg, rel.drift_deg,
                          rel.max_excursion_deg, r.peak_finger_force_N, r.peak_muscle_force_N[0],
                          r.peak_muscle_force_N[1], r.min_wire_tension_N, r.max_pressure_MPa,
-                         r.peak_motor_torque_Nm, r.realtime_factor);
+                         r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg, r.within_limits ? 1 : 0,
+                         r.realtime_factor);
     }
   }
 }
@@ -60,7 +62,15 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = options.out_root / run_name;
   std::filesystem::create_directories(dir);
-  std::filesystem::copy_file(options.config, dir / "config.yaml", std::filesystem::copy_options::overwrite_existing);
+  {
+    // The exact file the run used, with where it came from: its relative paths resolve there.
+    std::ifstream in(options.config);
+    std::ofstream out(dir / "config.yaml");
+    out << fmt::format("# peha run copy of {}\n# relative paths resolve against {}\n# seed used: {}\n",
+                       std::filesystem::absolute(options.config).string(),
+                       std::filesystem::absolute(options.config).parent_path().string(), scenario.seed)
+        << in.rdbuf();
+  }
 
   fmt::print("peha run: {}\n  {}\n  {} case(s), {:.1f} s simulated each, seed {}, output {}\n", doc.name(),
              scenario.description, cases.size(), scenario.duration_s, scenario.seed, dir.string());
@@ -90,12 +100,15 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
                  r.case_name, rel.push, rel.angle_deg, rel.drift_deg, rel.max_excursion_deg, r.peak_finger_force_N,
                  r.peak_muscle_force_N[0], r.peak_muscle_force_N[1], r.min_wire_tension_N, r.realtime_factor);
     }
-    const bool ok = r.peak_muscle_force_N[0] <= 2000.0 && r.peak_muscle_force_N[1] <= 2000.0 && r.min_wire_tension_N > 0.0;
-    safe = safe && ok;
+    safe = safe && r.within_limits;
     fmt::print("{:<15} safety: peak PAM force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), max pressure "
-               "{:.3f} MPa, peak motor {:.2f} Nm: {}\n",
+               "{:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",
                "", std::max(r.peak_muscle_force_N[0], r.peak_muscle_force_N[1]), r.min_wire_tension_N,
-               r.max_pressure_MPa, r.peak_motor_torque_Nm, ok ? "OK" : "VIOLATED");
+               r.max_pressure_MPa, r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg,
+               r.within_limits ? "OK" : "VIOLATED");
+    fmt::print("{:<15} limits layer shaped the command in: pressure band {} cycles, rate {}, joint range {}, "
+               "motor rating {}, non-finite {}\n",
+               "", r.limit_counts[2], r.limit_counts[3], r.limit_counts[1], r.limit_counts[4], r.limit_counts[0]);
   }
   fmt::print("\nwritten: {}/summary.csv, config.yaml, e1_<case>.csv\n", dir.string());
 
@@ -133,6 +146,7 @@ int check_config(const std::filesystem::path& config) {
   try {
     const config::Document doc = config::Document::load_file(config);
     const runtime::E1Scenario s = runtime::read_e1(doc);
+    sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
     fmt::print("{}: OK\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
                "plant model {}\n",
                config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s,

@@ -216,9 +216,12 @@ std::vector<Map> Map::maps(std::string_view key, std::size_t min_count, std::siz
 }
 
 void Map::finish() const {
+  std::set<std::string, std::less<>> seen;
   for (const auto& item : node_) {
     const std::string key = item.first.Scalar();
     if (!used_.contains(key)) fail_at(item.first, key, "unknown key");
+    // yaml-cpp keeps both entries of a repeated key and reads the first: say so instead.
+    if (!seen.insert(key).second) fail_at(item.first, key, "duplicate key");
   }
 }
 

@@ -174,6 +174,15 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
   r.simulated_s = steps * scenario.period_s;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   std::copy(std::begin(limits_data.counts), std::end(limits_data.counts), std::begin(r.limit_counts));
+  const auto [lowest, highest] = std::minmax_element(angle_truth.begin(), angle_truth.end());
+  r.min_angle_deg = *lowest / kDeg;
+  r.max_angle_deg = *highest / kDeg;
+  const safety::JointLimits& lim = scenario.limits.joints[0];
+  r.within_limits = r.peak_muscle_force_N[0] <= std::min(scenario.controller.joint.agonist.max_force_N, models::kMaxPamForce_N) &&
+                    r.peak_muscle_force_N[1] <= std::min(scenario.controller.joint.antagonist.max_force_N, models::kMaxPamForce_N) &&
+                    r.min_wire_tension_N > 0.0 && r.max_pressure_MPa * 1e6 <= lim.supply_pressure_Pa &&
+                    r.peak_motor_torque_Nm <= lim.model.motor_max_torque_Nm &&
+                    *lowest >= lim.min_angle_rad && *highest <= lim.max_angle_rad;
 
   // Releases: the instants the finger lets go; drift over the window that follows.
   const auto window = static_cast<std::size_t>(std::llround(scenario.drift_window_s / scenario.period_s));

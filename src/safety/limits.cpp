@@ -20,8 +20,10 @@ Band pressure_band(const models::MuscleModel& m, const JointLimits& lim, double 
   const auto top = models::inverse_pressure(m.pam, force_ceiling, eps);
   double ceiling = lim.supply_pressure_Pa;
   if (top.status == models::InverseStatus::kOk) ceiling = std::min(ceiling, top.pressure_Pa);
+  // The floor keeps the pretension; where the model says the muscle cannot make it (unreachable),
+  // forcing the supply would be the wrong guess, so there is no floor.
   const auto bottom = models::inverse_pressure(m.pam, lim.pretension_N, eps);
-  const double floor = std::min(bottom.pressure_Pa, ceiling);  // the force ceiling wins
+  const double floor = bottom.status == models::InverseStatus::kOk ? std::min(bottom.pressure_Pa, ceiling) : 0.0;
   return {floor, ceiling};
 }
 

@@ -111,8 +111,9 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
 
   for (Muscle& mu : muscles_) {
     mu.valve.reset(mu.p->initial_pressure_Pa);
+    // Twice: the first solve finds the contraction, the second starts from it at zero rate.
     solve_muscle(mu, params_.initial_angle_rad, params_.timestep_s);
-    mu.contraction_rate_1ps = 0.0;
+    solve_muscle(mu, params_.initial_angle_rad, params_.timestep_s);
     // At rest the friction is static: the lowest tension along the wire is T*exp(-mu_s*psi).
     truth_.pulley_tension_min_N[mu.side > 0 ? 0 : 1] =
         mu.tension_N * std::exp(-mu.p->cable.static_friction * mu.p->cable.wrap_angle_rad);
@@ -159,7 +160,6 @@ void OneDofRigBackend::solve_muscle(Muscle& mu, double angle, double dt_s) noexc
     }
   }
   const double u = base + T * per_N;
-  mu.contraction_rate_1ps = (u - mu.contraction) / dt_s;
   mu.contraction = u;
   mu.tension_N = T;
 }

@@ -51,6 +51,17 @@ TEST(Cli, BadConfigExitsWithTwoAndNamesTheKey) {
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.output, HasSubstr("bad.yaml:3:7: seed: expected a number in [0, "));
   EXPECT_NE(run("run --config /nonexistent.yaml").code, 0);
+  // A scenario whose MJCF file is missing fails the check, not the run.
+  const std::string source = std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml";
+  std::ifstream in(source);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("../models/one_dof_rig.xml"), 25, std::string(PEHA_SOURCE_DIR) + "/models/missing.xml");
+  text.replace(text.find("plant/dmsp40.yaml"), 17, std::string(PEHA_SOURCE_DIR) + "/configs/plant/dmsp40.yaml");
+  text.replace(text.find("plant/dmsp10.yaml"), 17, std::string(PEHA_SOURCE_DIR) + "/configs/plant/dmsp10.yaml");
+  { std::ofstream(dir / "no_model.yaml") << text; }
+  const Result missing = run("check-config --config " + (dir / "no_model.yaml").string());
+  EXPECT_EQ(missing.code, 2) << missing.output;
+  EXPECT_THAT(missing.output, HasSubstr("missing.xml: MJCF model file not found"));
 }
 
 TEST(Cli, RunWritesLogConfigAndSummary) {

@@ -99,6 +99,18 @@ TEST(Config, RejectsMissingModelFileAndBrokenYaml) {
   EXPECT_THROW(Document::load_file("/nonexistent/peha.yaml"), Error);
 }
 
+TEST(Config, RejectsDuplicateKey) {
+  Document doc = Document::load_string("gain: 2.5\ngain: 3.0\n", "dup.yaml");
+  Map root = doc.root();
+  root.number("gain", {0, 10});
+  try {
+    root.finish();
+    FAIL() << "a repeated key must be rejected";
+  } catch (const Error& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("dup.yaml:2:1: gain: duplicate key"));
+  }
+}
+
 TEST(Config, StrictReaderAcceptsOnlyWhatItReads) {
   Document doc = Document::load_string("gain: 2.5\nname: x\nlist: [1, 2, 3]\n", "t.yaml");
   Map root = doc.root();

@@ -55,6 +55,9 @@ struct E1Result {
   double min_wire_tension_N = 0;        ///< lowest tension on either wire anywhere (plant truth)
   double max_pressure_MPa = 0;          ///< highest chamber pressure (plant truth)
   double peak_motor_torque_Nm = 0;
+  double min_angle_deg = 0;             ///< lowest joint angle reached (plant truth)
+  double max_angle_deg = 0;             ///< highest joint angle reached (plant truth)
+  bool within_limits = false;           ///< forces, tension, pressure, motor and joint range all held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;
   std::uint64_t limit_counts[5] = {0, 0, 0, 0, 0};  ///< by safety::LimitFlag bit

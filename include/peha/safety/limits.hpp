@@ -4,12 +4,13 @@
 /// supervisor of a later issue extends it; it replaces nothing here.
 ///
 /// Per joint, in this order:
-/// 1. non-finite values are replaced by the previous command (flag kNonFinite);
+/// 1. a non-finite pressure is replaced by the previous command, a non-finite motor torque by 0
+///    (flag kNonFinite);
 /// 2. joint range: outside [min_angle, max_angle] the muscle that pushes further out may not gain
 ///    pressure and the motor may not push further out (flag kJointRange);
 /// 3. pressures: within [floor, ceiling], where the ceiling is min(supply, P that makes the muscle's
 ///    force ceiling by the controller's model) and the floor is the P that keeps the wire pretension
-///    (flag kPressureLimited when moved);
+///    by that model, or 0 where the model says the muscle cannot make it (flag kPressureLimited);
 /// 4. rate limits on pressures and motor torque (flag kRateLimited);
 /// 5. motor torque within its rating (flag kMotorLimited).
 /// noexcept and allocation-free.

@@ -58,8 +58,8 @@ struct MotorPlantParams {
 
 /// One push of the operator's finger: from the angle where the push starts the target angle moves
 /// to `target_angle_rad` with a minimum-jerk profile over `move_s`, is held until `duration_s`, then
-/// the finger lets go. A push whose target equals its start angle is a two-sided hold (the hand
-/// grips the link); otherwise the finger can only push toward the target.
+/// the finger lets go. A push with `hold` set is two-sided (the hand grips the link at the angle where
+/// the push starts); otherwise the finger can only push toward the target.
 struct FingerPush {
   std::string name;
   double start_s = 0;
@@ -131,7 +131,6 @@ class OneDofRigBackend final : public io::Backend {
     Valve valve;
     double tension_N = 0;
     double contraction = 0;
-    double contraction_rate_1ps = 0;
     double creep_m = 0;
   };
   void substep(const io::JointCommand& cmd) noexcept;
