@@ -20,7 +20,7 @@ MuscleCommand command_muscle(const models::MuscleModel& m, double r0, int side, 
                              double measured_pressure_Pa, bool first, bool sensors_valid, double& trim_N) {
   const double v = models::wire_velocity_mps(r0, side, in.velocity_radps);
   const double wanted = models::muscle_force_for_joint_N(m.bowden, joint_force_N, v);
-  const double ceiling = std::min(m.max_force_N, models::kMaxPamForce_N);
+  const double ceiling = models::force_ceiling_N(m);
   const double force = std::clamp(wanted, std::min(params.pretension_N, ceiling), ceiling);
   const double eps = models::rigid_contraction(m, r0, side, in.angle_rad);
   if (params.force_trim_rate_1ps > 0.0 && sensors_valid && first && std::isfinite(measured_pressure_Pa)) {

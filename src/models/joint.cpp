@@ -1,6 +1,10 @@
 #include "peha/models/joint.hpp"
 
+#include <algorithm>
+
 namespace peha::models {
+
+double force_ceiling_N(const MuscleModel& m) noexcept { return std::min(m.max_force_N, kMaxPamForce_N); }
 
 double rigid_contraction(const MuscleModel& m, double r0, int side, double angle_rad) noexcept {
   return m.contraction_at_zero_angle + side * r0 * angle_rad / m.rest_length_m;

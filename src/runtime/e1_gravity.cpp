@@ -178,8 +178,8 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
   r.min_angle_deg = *lowest / kDeg;
   r.max_angle_deg = *highest / kDeg;
   const safety::JointLimits& lim = scenario.limits.joints[0];
-  r.within_limits = r.peak_muscle_force_N[0] <= std::min(scenario.controller.joint.agonist.max_force_N, models::kMaxPamForce_N) &&
-                    r.peak_muscle_force_N[1] <= std::min(scenario.controller.joint.antagonist.max_force_N, models::kMaxPamForce_N) &&
+  r.within_limits = r.peak_muscle_force_N[0] <= models::force_ceiling_N(scenario.controller.joint.agonist) &&
+                    r.peak_muscle_force_N[1] <= models::force_ceiling_N(scenario.controller.joint.antagonist) &&
                     r.min_wire_tension_N > 0.0 && r.max_pressure_MPa * 1e6 <= lim.supply_pressure_Pa &&
                     r.peak_motor_torque_Nm <= lim.model.motor_max_torque_Nm &&
                     *lowest >= lim.min_angle_rad && *highest <= lim.max_angle_rad;

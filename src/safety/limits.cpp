@@ -14,7 +14,7 @@ struct Band {
 };
 
 Band pressure_band(const models::MuscleModel& m, const JointLimits& lim, double eps) {
-  const double force_ceiling = std::min(m.max_force_N, models::kMaxPamForce_N);
+  const double force_ceiling = models::force_ceiling_N(m);
   // The ceiling is the pressure at which the model makes exactly the force ceiling. When the model
   // cannot reach it at all (kUnreachable/kSaturated), the supply is the ceiling.
   const auto top = models::inverse_pressure(m.pam, force_ceiling, eps);

@@ -37,6 +37,9 @@ struct JointModel {
   double motor_max_torque_Nm = 2.5;  ///< motor rating at the joint (after the 35:1 gear), Nm
 };
 
+/// The force no command may ask of muscle `m`: its own ceiling, never above kMaxPamForce_N, N.
+double force_ceiling_N(const MuscleModel& m) noexcept;
+
 /// Rigid-wire contraction of the agonist (+1) or antagonist (-1) at `angle_rad`.
 /// eps = eps(0) + side * r0 * angle / L0.
 double rigid_contraction(const MuscleModel& m, double pulley_radius_m, int side,
