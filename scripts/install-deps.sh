@@ -10,6 +10,7 @@ packages=(
   libmujoco-dev          # rigid-body simulation of the plant
   libqhull-dev           # Debian's mujoco CMake config lists /usr/include/libqhull_r as an include dir
   libyaml-cpp-dev        # configuration files
+  libssl-dev             # SHA-256 of calibration data files (libcrypto)
   libcli11-dev           # command line
   libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev

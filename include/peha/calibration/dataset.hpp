@@ -1,0 +1,53 @@
+#pragma once
+/// \file
+/// Calibration data (SPEC §3): a CSV with a header row of named columns with units.
+/// Required: `pressure_MPa`, `contraction`, `force_N`; optional: `t_s`, `angle_rad`,
+/// `wire_velocity_mps`. Lines starting with `#` are comments. Anything else is an error that names
+/// the file, line and column. The reader also rejects data that cannot be a calibration: NaN/inf,
+/// unit mistakes (pressure in kPa or Pa under a `pressure_MPa` header, contraction in percent,
+/// negative pressures beyond noise), too few rows, no excitation. Nothing half-read is returned.
+
+#include <cstddef>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace peha::calibration {
+
+/// A data error, with file, line and column where they apply.
+class DataError : public std::runtime_error {
+ public:
+  explicit DataError(const std::string& message) : std::runtime_error(message) {}
+};
+
+/// One muscle's calibration data, SI inside. Optional columns are empty when absent.
+struct Dataset {
+  std::vector<double> pressure_Pa;       ///< gauge pressure, Pa
+  std::vector<double> contraction;       ///< rigid-wire contraction eps (from the joint angle), -
+  std::vector<double> force_N;           ///< load-cell force at the muscle, N
+  std::vector<double> t_s;               ///< time, s (empty if absent)
+  std::vector<double> angle_rad;         ///< joint angle, rad (empty if absent)
+  std::vector<double> wire_velocity_mps; ///< wire velocity, m/s (empty if absent)
+  std::string source;                    ///< file it came from
+  std::string sha256;                    ///< hex SHA-256 of the file's bytes
+  std::size_t size() const { return pressure_Pa.size(); }
+};
+
+/// Limits the reader enforces.
+struct DatasetRules {
+  std::size_t min_rows = 50;
+  double min_pressure_span_Pa = 0.05e6;  ///< max - min pressure must exceed this ("no excitation")
+  double min_force_span_N = 20.0;        ///< max - min force must exceed this
+};
+
+/// Reads and validates a calibration CSV; throws DataError naming file, line, column and reason.
+Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rules = {});
+
+/// Writes `data` as a calibration CSV (pressure in MPa) with `comments` as leading `#` lines.
+void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments);
+
+/// Hex SHA-256 of a file's bytes.
+std::string sha256_file(const std::filesystem::path& path);
+
+}  // namespace peha::calibration

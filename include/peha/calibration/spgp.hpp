@@ -1,0 +1,89 @@
+#pragma once
+/// \file
+/// Sparse Pseudo-input Gaussian Process (SPGP / FITC, Snelson & Ghahramani 2006; SPEC §2.2).
+///
+/// Covariance k(x, x') = c * exp(-1/2 * sum_d b_d (x_d - x'_d)^2) (+ sigma^2 on the diagonal of the
+/// data). FITC: C = Q_NN + diag(K_NN - Q_NN) + sigma^2 I, Q_NN = K_NM K_MM^-1 K_MN, jitter ~1e-6 on
+/// K_MM only. Hyperparameters (b_1..b_D, c, sigma^2) and the M pseudo-inputs are found by minimising
+/// the negative log marginal likelihood with its analytic gradient. Works for any input dimension.
+/// Inputs and outputs are standardised inside (the stored model carries the scaling).
+///
+/// Prediction: mean(x*) = k_*^T alpha, O(M) and allocation-free; variance O(M^2).
+
+#include <Eigen/Dense>
+
+#include <cstdint>
+#include <functional>
+
+namespace peha::calibration {
+
+struct SpgpOptions {
+  int num_pseudo = 50;        ///< M
+  int max_iterations = 300;   ///< of the NLML optimiser
+  std::uint64_t seed = 1;     ///< for the initial pseudo-inputs (a random subset of the data)
+  double jitter = 1e-6;       ///< added to K_MM's diagonal (standardised units)
+};
+
+/// Hyperparameters in standardised units, stored as logs so they stay positive.
+struct SpgpHyper {
+  Eigen::VectorXd log_b;   ///< ARD inverse squared length scales, one per input dimension
+  double log_c = 0;        ///< signal variance
+  double log_sigma2 = 0;   ///< noise variance
+};
+
+class Spgp {
+ public:
+  Spgp() = default;
+
+  /// Trains on X (N x D, one row per sample) and y (N). Throws std::invalid_argument on bad shapes,
+  /// non-finite data or M > N.
+  static Spgp fit(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const SpgpOptions& options,
+                  const std::function<void(int iteration, double nlml)>& progress = {});
+
+  /// Builds a predictor from stored parts (e.g. loaded from a calibration file).
+  static Spgp from_parts(const Eigen::VectorXd& input_mean, const Eigen::VectorXd& input_scale, double output_mean,
+                         double output_scale, const SpgpHyper& hyper, const Eigen::MatrixXd& pseudo_inputs,
+                         double jitter, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& variance_matrix);
+
+  /// Predictive mean at x (length D, original units). O(M), no allocation, noexcept.
+  double predict_mean(const double* x) const noexcept;
+  /// Predictive variance of the latent function at x (original units^2), O(M^2).
+  double predict_variance(const double* x) const;
+
+  int input_dim() const { return static_cast<int>(input_mean_.size()); }
+  int num_pseudo() const { return static_cast<int>(pseudo_.rows()); }
+  const SpgpHyper& hyper() const { return hyper_; }
+  const Eigen::MatrixXd& pseudo_inputs() const { return pseudo_; }   ///< standardised units, M x D
+  const Eigen::VectorXd& alpha() const { return alpha_; }
+  const Eigen::MatrixXd& variance_matrix() const { return var_; }    ///< K_MM^-1 - (K_MM + K_MN L^-1 K_NM)^-1
+  const Eigen::VectorXd& input_mean() const { return input_mean_; }
+  const Eigen::VectorXd& input_scale() const { return input_scale_; }
+  double output_mean() const { return output_mean_; }
+  double output_scale() const { return output_scale_; }
+  double jitter() const { return jitter_; }
+  double final_nlml() const { return final_nlml_; }
+  int iterations() const { return iterations_; }
+
+ private:
+  Eigen::VectorXd input_mean_, input_scale_;
+  double output_mean_ = 0, output_scale_ = 1;
+  SpgpHyper hyper_;
+  Eigen::MatrixXd pseudo_;
+  double jitter_ = 1e-6;
+  Eigen::VectorXd alpha_;
+  Eigen::MatrixXd var_;
+  double final_nlml_ = 0;
+  int iterations_ = 0;
+};
+
+/// FITC negative log marginal likelihood (standardised data) and its analytic gradient with
+/// respect to [vec(pseudo_inputs) (M*D, column-major), log_b (D), log_c, log_sigma2]. For tests
+/// and the optimiser. `gradient` may be null.
+double spgp_nlml(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Eigen::MatrixXd& pseudo,
+                 const SpgpHyper& hyper, double jitter, Eigen::VectorXd* gradient);
+
+/// The same NLML from the dense N x N matrix C = Q + diag(K - Q) + sigma^2 I (O(N^3); tests only).
+double spgp_nlml_dense(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Eigen::MatrixXd& pseudo,
+                       const SpgpHyper& hyper, double jitter);
+
+}  // namespace peha::calibration
