@@ -1,13 +1,17 @@
 #include "peha/app/commands.hpp"
 
+#include "peha/calibration/calibrate.hpp"
+#include "peha/calibration/dataset.hpp"
 #include "peha/runtime/e1_gravity.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <unistd.h>
 #include <cstdlib>
 #include <fstream>
 #include <iostream>
@@ -25,6 +29,31 @@ std::string find_python() {
   return std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
 }
 
+/// Progress of long work: a live bar on a terminal, a line per 10 % when the output is a log.
+class ProgressPrinter {
+ public:
+  explicit ProgressPrinter(std::string what) : what_(std::move(what)), tty_(isatty(fileno(stdout)) != 0) {}
+  void update(double done, double total, const std::string& detail = "") {
+    const int percent = total > 0 ? static_cast<int>(100.0 * done / total) : 100;
+    if (tty_) {
+      if (percent == last_) return;
+      const int filled = percent * 30 / 100;
+      fmt::print("\r  {:<14} [{:<30}] {:3d} % {}", what_, std::string(static_cast<std::size_t>(filled), '#'), percent, detail);
+      if (percent >= 100) fmt::print("\n");
+    } else {
+      if (percent / 10 == last_ / 10 && last_ >= 0) return;
+      fmt::print("  {:<14} {:3d} % {}\n", what_, percent / 10 * 10, detail);
+    }
+    last_ = percent;
+    std::fflush(stdout);
+  }
+
+ private:
+  std::string what_;
+  bool tty_;
+  int last_ = -1;
+};
+
 std::filesystem::path plot_tool() {
   const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_run.py";
   return tool;
@@ -34,15 +63,16 @@ void write_summary(const std::filesystem::path& path, const std::vector<runtime:
   std::ofstream out(path);
   out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_excursion_deg,"
          "peak_finger_force_N,peak_agonist_force_N,peak_antagonist_force_N,min_wire_tension_N,"
-         "max_pressure_MPa,peak_motor_torque_Nm,min_angle_deg,max_angle_deg,within_limits,realtime_factor\n";
+         "max_pressure_MPa,peak_motor_torque_Nm,min_angle_deg,max_angle_deg,within_limits,"
+         "force_tracking_rms_agonist_N,force_tracking_rms_antagonist_N,realtime_factor\n";
   for (const auto& r : results) {
     for (const auto& rel : r.releases) {
-      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.2f},{:.1f},{:.1f},{:.2f},{:.4f},{:.3f},{:.2f},{:.2f},{},{:.2f}\n",
+      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.2f},{:.1f},{:.1f},{:.2f},{:.4f},{:.3f},{:.2f},{:.2f},{},{:.2f},{:.2f},{:.2f}\n",
                          r.case_name, r.payload_kg, rel.push, rel.time_s, rel.angle_deg, rel.drift_deg,
                          rel.max_excursion_deg, r.peak_finger_force_N, r.peak_muscle_force_N[0],
                          r.peak_muscle_force_N[1], r.min_wire_tension_N, r.max_pressure_MPa,
                          r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg, r.within_limits ? 1 : 0,
-                         r.realtime_factor);
+                         r.force_tracking_rms_N[0], r.force_tracking_rms_N[1], r.realtime_factor);
     }
   }
 }
@@ -72,15 +102,66 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
         << in.rdbuf();
   }
 
-  fmt::print("peha run: {}\n  {}\n  {} case(s), {:.1f} s simulated each, seed {}, output {}\n", doc.name(),
-             scenario.description, cases.size(), scenario.duration_s, scenario.seed, dir.string());
+  if (options.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *options.force_trim_rate_1ps;
+
+  // Variants: the config's own model, or - with calibration files - the calibrated parametric model
+  // alone and with its SPGP residual, so the SPGP's effect is measured in the same run.
+  struct Variant {
+    std::string label;
+    runtime::E1Scenario scenario;
+  };
+  std::vector<Variant> variants;
+  const bool calibrated = !options.calibration[0].empty() || !options.calibration[1].empty();
+  if (!calibrated) {
+    variants.push_back({"", scenario});
+  } else {
+    runtime::E1Scenario parametric = scenario;
+    runtime::E1Scenario with_spgp = scenario;
+    bool any_spgp = false;
+    for (int i = 0; i < 2; ++i) {
+      if (options.calibration[i].empty()) continue;
+      const calibration::MuscleCalibration c =
+          calibration::read_calibration(options.calibration[i], scenario.controller.allocation.supply_pressure_Pa);
+      for (runtime::E1Scenario* s : {&parametric, &with_spgp}) {
+        models::MuscleModel& m = i == 0 ? s->controller.joint.agonist : s->controller.joint.antagonist;
+        m.pam = c.params;
+        m.residual = nullptr;
+        if (s == &with_spgp && c.spgp) {
+          m.residual = std::make_shared<calibration::SpgpResidual>(c.spgp);
+          any_spgp = true;
+        }
+        s->limits.joints[0].model = s->controller.joint;
+      }
+      fmt::print("  {} calibration: {} (held-out pressure RMS {:.1f} kPa parametric, {:.1f} kPa with SPGP)\n",
+                 i == 0 ? "agonist" : "antagonist", options.calibration[i].string(),
+                 c.stats.heldout_rms_parametric_Pa * 1e-3, c.stats.heldout_rms_spgp_Pa * 1e-3);
+    }
+    variants.push_back({"parametric", parametric});
+    if (any_spgp) variants.push_back({"spgp", with_spgp});
+  }
+
+  fmt::print("peha run: {}\n  {}\n  {} case(s) x {} model(s), {:.1f} s simulated each, seed {}, force trim {}, output {}\n",
+             doc.name(), scenario.description, cases.size(), variants.size(), scenario.duration_s, scenario.seed,
+             scenario.controller.allocation.force_trim_rate_1ps > 0
+                 ? fmt::format("{} /s", scenario.controller.allocation.force_trim_rate_1ps) : std::string("off"),
+             dir.string());
   std::vector<runtime::E1Result> results;
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
+  std::vector<std::pair<runtime::E1Case, const Variant*>> runs;
+  for (const auto& c : cases) {
+    for (const auto& v : variants) {
+      runtime::E1Case named = c;
+      if (!v.label.empty()) named.name += "_" + v.label;
+      runs.emplace_back(named, &v);
+    }
+  }
+  cases.clear();
+  for (const auto& r : runs) cases.push_back(r.first);
   for (std::size_t i = 0; i < cases.size(); ++i) {
     fmt::print("  [{}/{}] {} ... ", i + 1, cases.size(), cases[i].name);
     std::fflush(stdout);
     runtime::CsvLog log(runtime::e1_log_columns(), rows);
-    results.push_back(runtime::run_e1_case(scenario, cases[i], &log));
+    results.push_back(runtime::run_e1_case(runs[i].second->scenario, cases[i], &log));
     const auto& r = results.back();
     const std::filesystem::path log_path = dir / fmt::format("e1_{}.csv", cases[i].name);
     log.write(log_path, {fmt::format("case: {} ({} kg payload)", cases[i].name, cases[i].payload_kg),
@@ -91,22 +172,24 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   }
   write_summary(dir / "summary.csv", results);
 
-  fmt::print("\n{:<15} {:<12} {:>9} {:>10} {:>11} {:>11} {:>10} {:>10} {:>9} {:>6}\n", "case", "release",
-             "angle/deg", "drift/deg", "excurs/deg", "finger/N", "F_ago/N", "F_ant/N", "T_min/N", "RTF");
+  fmt::print("\n{:<26} {:<10} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>6}\n", "case", "release",
+             "angle/deg", "drift/deg", "excurs/deg", "finger/N", "F_ago/N", "F_ant/N", "T_min/N", "Ftrk_ago", "Ftrk_ant",
+             "RTF");
   bool safe = true;
   for (const auto& r : results) {
     for (const auto& rel : r.releases) {
-      fmt::print("{:<15} {:<12} {:>9.2f} {:>10.3f} {:>11.3f} {:>11.1f} {:>10.1f} {:>10.1f} {:>9.2f} {:>6.1f}\n",
+      fmt::print("{:<26} {:<10} {:>9.2f} {:>10.3f} {:>11.3f} {:>9.1f} {:>8.1f} {:>8.1f} {:>8.2f} {:>8.1f}N {:>8.1f}N {:>6.1f}\n",
                  r.case_name, rel.push, rel.angle_deg, rel.drift_deg, rel.max_excursion_deg, r.peak_finger_force_N,
-                 r.peak_muscle_force_N[0], r.peak_muscle_force_N[1], r.min_wire_tension_N, r.realtime_factor);
+                 r.peak_muscle_force_N[0], r.peak_muscle_force_N[1], r.min_wire_tension_N, r.force_tracking_rms_N[0],
+                 r.force_tracking_rms_N[1], r.realtime_factor);
     }
     safe = safe && r.within_limits;
-    fmt::print("{:<15} safety: peak PAM force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), max pressure "
+    fmt::print("{:<26} safety: peak PAM force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), max pressure "
                "{:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",
                "", std::max(r.peak_muscle_force_N[0], r.peak_muscle_force_N[1]), r.min_wire_tension_N,
                r.max_pressure_MPa, r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg,
                r.within_limits ? "OK" : "VIOLATED");
-    fmt::print("{:<15} limits layer shaped the command in: pressure band {} cycles, rate {}, joint range {}, "
+    fmt::print("{:<26} limits layer shaped the command in: pressure band {} cycles, rate {}, joint range {}, "
                "motor rating {}, non-finite {}\n",
                "", r.limit_counts[2], r.limit_counts[3], r.limit_counts[1], r.limit_counts[4], r.limit_counts[0]);
   }
@@ -135,6 +218,167 @@ int run(const RunOptions& options) {
     return run_e1(options, doc);
   } catch (const config::Error& e) {
     fmt::print(stderr, "config error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+}
+
+int record_calibration(const RecordOptions& options) {
+  try {
+    const config::Document doc = config::Document::load_file(options.config);
+    runtime::E1Scenario scenario = runtime::read_e1(doc);
+    const int index = options.muscle == "agonist" ? 0 : 1;
+    if (!scenario.excitation[index]) {
+      fmt::print(stderr, "config error: {}: no calibration.{} section (the excitation to run)\n", doc.name(),
+                 options.muscle);
+      return 2;
+    }
+    const calibration::ExcitationParams& e = *scenario.excitation[index];
+    sim::OneDofRigParams plant_params = scenario.plant;
+    plant_params.payload_kg = e.payload_kg;
+    plant_params.finger.pushes.clear();
+    if (options.seed) plant_params.seed = *options.seed;
+    sim::OneDofRigBackend plant(plant_params);
+    fmt::print("peha record-calibration: {} of the simulated rig ({}), {:.0f} s at {:.0f} Hz\n"
+               "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
+               options.muscle, doc.name(), e.duration_s, e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
+               e.max_pressure_Pa * 1e-6, e.period_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
+               e.payload_kg);
+    const calibration::Dataset data = calibration::record_excitation(
+        plant, scenario.controller.joint, index == 0 ? +1 : -1, e, scenario.limits,
+        [&, bar = std::make_shared<ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
+    if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
+    calibration::write_dataset(
+        options.out, data,
+        {fmt::format("peha record-calibration: muscle {} of the simulated one-DOF rig", options.muscle),
+         fmt::format("config: {}; seed {}", options.config.string(), plant_params.seed),
+         "contraction = rigid-wire contraction from the joint encoder with the controller's nominal geometry",
+         "force_N = load cell at the muscle; pressure_MPa = valve pressure sensor (gauge)"});
+    auto span = [](const std::vector<double>& v) {
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      return std::pair{*lo, *hi};
+    };
+    const auto [p0, p1] = span(data.pressure_Pa);
+    const auto [f0, f1] = span(data.force_N);
+    const auto [e0, e1] = span(data.contraction);
+    fmt::print("  {} rows -> {}\n  pressure {:.3f}..{:.3f} MPa, force {:.0f}..{:.0f} N, contraction {:.3f}..{:.3f}\n",
+               data.size(), options.out.string(), p0 * 1e-6, p1 * 1e-6, f0, f1, e0, e1);
+    return 0;
+  } catch (const config::Error& e) {
+    fmt::print(stderr, "config error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+}
+
+namespace {
+
+
+void write_report(const std::filesystem::path& dir, const calibration::Dataset& data,
+                  const calibration::CalibrationOutcome& outcome, const CalibrateCommandOptions& options) {
+  std::filesystem::create_directories(dir);
+  const calibration::MuscleCalibration& c = outcome.calibration;
+  const calibration::CalibrationStats& s = c.stats;
+  {
+    std::ofstream csv(dir / "predictions.csv");
+    csv << "# peha calibrate: per-row predictions of " << data.source << "\n";
+    csv << "row,t_s,heldout,contraction,force_N,pressure_MPa,pressure_parametric_MPa,pressure_spgp_MPa,spgp_std_MPa\n";
+    for (std::size_t i = 0; i < data.size(); ++i) {
+      csv << fmt::format("{},{:.6g},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", i,
+                         data.t_s.empty() ? static_cast<double>(i) : data.t_s[i], int(outcome.heldout[i]),
+                         data.contraction[i], data.force_N[i], data.pressure_Pa[i] * 1e-6,
+                         outcome.pressure_parametric_Pa[i] * 1e-6, outcome.pressure_spgp_Pa[i] * 1e-6,
+                         outcome.spgp_std_Pa[i] * 1e-6);
+    }
+  }
+  if (c.spgp) {
+    // The SPGP's predictive band over (contraction, force): a grid 10 % beyond the data's ranges.
+    std::ofstream grid(dir / "spgp_grid.csv");
+    grid << "contraction,force_N,mean_MPa,std_MPa\n";
+    const int n = 60;
+    const double e_pad = 0.1 * (c.contraction.max - c.contraction.min), f_pad = 0.1 * (c.force_N.max - c.force_N.min);
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        const double x[2] = {c.contraction.min - e_pad + (c.contraction.max - c.contraction.min + 2 * e_pad) * i / (n - 1),
+                             c.force_N.min - f_pad + (c.force_N.max - c.force_N.min + 2 * f_pad) * j / (n - 1)};
+        grid << fmt::format("{:.9g},{:.9g},{:.9g},{:.9g}\n", x[0], x[1], c.spgp->predict_mean(x) * 1e-6,
+                            std::sqrt(std::max(c.spgp->predict_variance(x), 0.0)) * 1e-6);
+      }
+    }
+    std::ofstream pseudo(dir / "pseudo_inputs.csv");
+    pseudo << "contraction,force_N\n";
+    const Eigen::MatrixXd& z = c.spgp->pseudo_inputs();
+    for (Eigen::Index m = 0; m < z.rows(); ++m) {
+      pseudo << fmt::format("{:.9g},{:.9g}\n", c.spgp->input_mean()[0] + c.spgp->input_scale()[0] * z(m, 0),
+                            c.spgp->input_mean()[1] + c.spgp->input_scale()[1] * z(m, 1));
+    }
+  }
+  std::ofstream txt(dir / "summary.txt");
+  const std::string summary = fmt::format(
+      "muscle {} from {} (sha256 {})\n"
+      "rows: {} train, {} held out (time-contiguous {})\n"
+      "Tendon-spring (LM on the pressure error, best of {} restarts, {} converged, {:.1f} s):\n"
+      "  a = {:.6g} N/MPa, b = {:.6g} N/MPa, c = {:.6g} N/MPa, k = {:.6g} N, eps0 = {:.6g}\n"
+      "SPGP residual: {}\n"
+      "pressure RMS error      train      held out\n"
+      "  parametric          {:7.2f} kPa  {:7.2f} kPa\n"
+      "  parametric + SPGP   {:7.2f} kPa  {:7.2f} kPa\n"
+      "input ranges seen: contraction {:.4f}..{:.4f}, force {:.1f}..{:.1f} N, pressure {:.3f}..{:.3f} MPa\n",
+      c.muscle, c.data_file, c.data_sha256, s.rows_train, s.rows_heldout, outcome.split,
+      s.restarts, s.restarts_converged, s.lm_seconds, c.params.a_N_per_Pa * 1e6, c.params.b_N_per_Pa * 1e6,
+      c.params.c_N_per_Pa * 1e6, c.params.k_N, c.params.eps0,
+      c.spgp ? fmt::format("M = {} pseudo-inputs, {} iterations, {:.1f} s, NLML {:.2f}", c.spgp->num_pseudo(),
+                           c.spgp->iterations(), s.spgp_seconds, c.spgp->final_nlml())
+             : std::string("off"),
+      s.train_rms_parametric_Pa * 1e-3, s.heldout_rms_parametric_Pa * 1e-3, s.train_rms_spgp_Pa * 1e-3,
+      s.heldout_rms_spgp_Pa * 1e-3, c.contraction.min, c.contraction.max, c.force_N.min, c.force_N.max,
+      c.pressure_Pa.min * 1e-6, c.pressure_Pa.max * 1e-6);
+  txt << summary;
+  fmt::print("\n{}", summary);
+  if (options.plot) {
+    std::fflush(stdout);
+    const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_calibration.py";
+    const std::string cmd = fmt::format("'{}' '{}' '{}'", find_python(), tool.string(), dir.string());
+    if (std::system(cmd.c_str()) != 0) fmt::print(stderr, "warning: plotting the calibration report failed\n");
+  }
+}
+
+}  // namespace
+
+int calibrate(const CalibrateCommandOptions& options) {
+  try {
+    const calibration::Dataset data = calibration::read_dataset(options.data);
+    calibration::CalibrateOptions o;
+    o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;
+    o.fit.restarts = options.restarts;
+    o.fit.threads = options.threads;
+    o.fit.seed = options.seed;
+    o.fit.max_pressure_Pa = options.supply_MPa * 1e6;
+    o.spgp.num_pseudo = options.pseudo_inputs;
+    o.spgp.max_iterations = options.spgp_iterations;
+    o.spgp.seed = options.seed;
+    o.use_spgp = options.use_spgp;
+    fmt::print("peha calibrate: {} ({} rows, sha256 {}...)\n", options.data.string(), data.size(), data.sha256.substr(0, 12));
+    ProgressPrinter lm("LM restarts"), gp("SPGP training");
+    calibration::CalibrateProgress progress;
+    progress.restarts = [&](int done, int total) { lm.update(done, total, fmt::format("{}/{}", done, total)); };
+    progress.spgp = [&](int iteration, double nlml) {
+      gp.update(iteration, options.spgp_iterations, fmt::format("NLML {:.1f}", nlml));
+    };
+    const calibration::CalibrationOutcome outcome = calibration::calibrate(data, o, progress);
+    if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
+    calibration::write_calibration(options.out, outcome.calibration);
+    std::filesystem::path report = options.report_dir;
+    if (report.empty()) report = std::filesystem::path(options.out).replace_extension().string() + "_report";
+    write_report(report, data, outcome, options);
+    fmt::print("written: {} and {}/\n", options.out.string(), report.string());
+    return 0;
+  } catch (const calibration::DataError& e) {
+    fmt::print(stderr, "data error: {}\n", e.what());
     return 2;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());

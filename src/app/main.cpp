@@ -28,6 +28,54 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--case", run.only_case, "Run only the case with this name (default: all cases)");
   CLI::Option* seed_opt = run_cmd->add_option("--seed", seed, "Override the scenario's random seed (sensor noise)");
   run_cmd->add_flag("!--no-plot", run.plot, "Do not render plot.png (no Python needed)");
+  run_cmd->add_option("--agonist-calibration", run.calibration[0],
+                      "Calibration YAML (from peha calibrate) for the agonist; with a calibration, every case\n"
+                      "runs twice: calibrated parametric model alone, and with its SPGP residual")
+      ->check(CLI::ExistingFile);
+  run_cmd->add_option("--antagonist-calibration", run.calibration[1], "Calibration YAML for the antagonist")
+      ->check(CLI::ExistingFile);
+  double trim = 0;
+  CLI::Option* trim_opt = run_cmd->add_option(
+      "--force-trim-rate", trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward)")
+      ->check(CLI::Range(0.0, 100.0));
+
+  peha::app::RecordOptions record;
+  std::uint64_t record_seed = 0;
+  CLI::App* record_cmd = app.add_subcommand(
+      "record-calibration",
+      "Drive the paper's triangle-wave pressure excitation on one muscle (the other held at a constant\n"
+      "pressure, the link moving with its payload) and log t_s, pressure_MPa, angle_rad, contraction,\n"
+      "force_N, wire_velocity_mps at 250 Hz to a calibration CSV. Runs on the simulated rig; the\n"
+      "excitation is the config's calibration.<muscle> section.");
+  record_cmd->add_option("-c,--config", record.config, "Rig scenario YAML with a calibration: section")
+      ->required()->check(CLI::ExistingFile);
+  record_cmd->add_option("-m,--muscle", record.muscle, "Which muscle to excite")
+      ->required()->check(CLI::IsMember({"agonist", "antagonist"}));
+  record_cmd->add_option("-o,--out", record.out, "Calibration CSV to write (folders are created)")->required();
+  CLI::Option* record_seed_opt = record_cmd->add_option("--seed", record_seed, "Override the sensor-noise seed");
+
+  peha::app::CalibrateCommandOptions cal;
+  CLI::App* cal_cmd = app.add_subcommand(
+      "calibrate",
+      "Fit a muscle model to a calibration CSV (columns pressure_MPa, contraction, force_N; optional\n"
+      "t_s, angle_rad, wire_velocity_mps): the 5 Tendon-spring parameters by Levenberg-Marquardt on the\n"
+      "pressure error (best of --restarts random initialisations, on --threads threads), then an SPGP\n"
+      "(FITC, ARD) on the residual. Two time-contiguous blocks of ten are held out and the held-out\n"
+      "pressure RMS error is reported for the parametric model alone and with the SPGP. Writes the\n"
+      "calibration YAML and a report folder (summary.txt, predictions.csv, report.png).\n"
+      "Exit code 0 = written, 2 = bad data (nothing written), 1 = other error.");
+  cal_cmd->add_option("data", cal.data, "Calibration CSV")->required()->check(CLI::ExistingFile);
+  cal_cmd->add_option("-o,--out", cal.out, "Calibration YAML to write")->required();
+  cal_cmd->add_option("--report-dir", cal.report_dir, "Report folder (default: <out>_report)");
+  cal_cmd->add_option("--muscle", cal.muscle, "Name stored in the file (default: the data file's stem)");
+  cal_cmd->add_option("--restarts", cal.restarts, "Random LM initialisations")->capture_default_str()->check(CLI::Range(1, 100000));
+  cal_cmd->add_option("--threads", cal.threads, "Threads running the restarts")->capture_default_str()->check(CLI::Range(1, 256));
+  cal_cmd->add_option("--pseudo-inputs", cal.pseudo_inputs, "SPGP pseudo-inputs M")->capture_default_str()->check(CLI::Range(1, 2000));
+  cal_cmd->add_option("--spgp-iterations", cal.spgp_iterations, "SPGP optimiser iterations")->capture_default_str()->check(CLI::Range(1, 100000));
+  cal_cmd->add_flag("!--no-spgp", cal.use_spgp, "Fit the parametric model only");
+  cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->capture_default_str();
+  cal_cmd->add_option("--supply-MPa", cal.supply_MPa, "Supply pressure (the inverse model's ceiling)")->capture_default_str()->check(CLI::Range(0.1, 1.0));
+  cal_cmd->add_flag("!--no-plot", cal.plot, "Do not render report.png");
 
   std::filesystem::path check_path;
   CLI::App* check_cmd = app.add_subcommand(
@@ -41,9 +89,15 @@ int main(int argc, char** argv) {
 
   if (*run_cmd) {
     if (*seed_opt) run.seed = seed;
+    if (*trim_opt) run.force_trim_rate_1ps = trim;
     return peha::app::run(run);
   }
   if (*check_cmd) return peha::app::check_config(check_path);
+  if (*cal_cmd) return peha::app::calibrate(cal);
+  if (*record_cmd) {
+    if (*record_seed_opt) record.seed = record_seed;
+    return peha::app::record_calibration(record);
+  }
   if (*version_cmd) {
     fmt::print("peha 0.1.0 (MuJoCo {})\n", mj_versionString());
     return 0;

@@ -186,6 +186,28 @@ std::vector<double> Map::numbers(std::string_view key, Range range, std::size_t 
   return out;
 }
 
+std::vector<std::vector<double>> Map::number_rows(std::string_view key, Range range, std::size_t min_rows,
+                                                  std::size_t max_rows, std::size_t cols) {
+  const YAML::Node value = required(key);
+  if (!value.IsSequence() || value.size() < min_rows || value.size() > max_rows) {
+    fail_at(value, key, fmt::format("expected a list of {} to {} rows, found {}", min_rows, max_rows, describe(value)));
+  }
+  std::vector<std::vector<double>> out;
+  out.reserve(value.size());
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const YAML::Node row = value[i];
+    const std::string row_key = fmt::format("{}[{}]", key, i);
+    if (!row.IsSequence() || row.size() != cols) {
+      fail_at(row, row_key, fmt::format("expected a list of {} numbers, found {}", cols, describe(row)));
+    }
+    std::vector<double> r;
+    r.reserve(cols);
+    for (std::size_t j = 0; j < cols; ++j) r.push_back(to_number(row[j], fmt::format("{}[{}]", row_key, j), range));
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
 std::filesystem::path Map::path_value(std::string_view key) {
   std::filesystem::path p = string(key);
   return p.is_absolute() ? p : directory_ / p;

@@ -35,7 +35,11 @@ MuscleCommand command_muscle(const models::MuscleModel& m, double r0, int side, 
     if (!at_top && !at_bottom) trim_N = std::clamp(trim_N + step, -params.force_trim_max_N, params.force_trim_max_N);
   }
   const auto inv = models::inverse_pressure(m.pam, force + trim_N, eps);
-  const double pressure = std::clamp(inv.pressure_Pa, 0.0, params.supply_pressure_Pa);
+  // The learned residual corrects the parametric inverse where it is defined (SPEC §2.2).
+  const double residual =
+      m.residual && inv.status == models::InverseStatus::kOk ? m.residual->pressure_Pa(eps, force + trim_N) : 0.0;
+  const double pressure = std::clamp(inv.pressure_Pa + (std::isfinite(residual) ? residual : 0.0), 0.0,
+                                     params.supply_pressure_Pa);
   return {force, pressure, eps, wanted > ceiling,
           inv.status == models::InverseStatus::kSaturated ||
               inv.status == models::InverseStatus::kUnreachable ||

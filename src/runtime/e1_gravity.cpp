@@ -105,6 +105,12 @@ E1Scenario read_e1(const config::Document& doc) {
     c.finish();
     s.cases.push_back(e);
   }
+  if (root.has("calibration")) {
+    config::Map cal = root.map("calibration");
+    s.excitation[0] = calibration::read_excitation(cal.map("agonist"));
+    s.excitation[1] = calibration::read_excitation(cal.map("antagonist"));
+    cal.finish();
+  }
   root.finish();
   return s;
 }
@@ -140,6 +146,8 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
   std::vector<double> finger_force(steps + 1);
   io::SensorState state;
   io::Command command;
+  double tracking_sum[2] = {0, 0};
+  std::size_t tracking_count = 0;
   const auto wall_start = std::chrono::steady_clock::now();
   for (std::size_t k = 0; k <= steps; ++k) {
     plant.read(state);
@@ -154,6 +162,14 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
     r.min_wire_tension_N = std::min({r.min_wire_tension_N, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]});
     r.max_pressure_MPa = std::max({r.max_pressure_MPa, t.pressure_Pa[0] * 1e-6, t.pressure_Pa[1] * 1e-6});
     r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(t.motor_torque_Nm));
+    if (state.time_s >= 1.0) {  // after the start-up transient
+      const auto& a = controller.diagnostics().allocation;
+      const double e1 = a.agonist_force_N - state.joints[0].agonist_force_N;
+      const double e2 = a.antagonist_force_N - state.joints[0].antagonist_force_N;
+      tracking_sum[0] += e1 * e1;
+      tracking_sum[1] += e2 * e2;
+      ++tracking_count;
+    }
 
     if (log && log->begin_row()) {
       const auto& d = controller.diagnostics();
@@ -172,6 +188,7 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = steps * scenario.period_s;
+  for (int i = 0; i < 2; ++i) r.force_tracking_rms_N[i] = tracking_count ? std::sqrt(tracking_sum[i] / tracking_count) : 0.0;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   std::copy(std::begin(limits_data.counts), std::end(limits_data.counts), std::begin(r.limit_counts));
   const auto [lowest, highest] = std::minmax_element(angle_truth.begin(), angle_truth.end());

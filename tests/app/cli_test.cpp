@@ -87,3 +87,25 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
 }
 
 }  // namespace
+
+namespace {
+
+// Bad data is rejected whole: exit code 2, a message naming the problem, and no calibration file.
+TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_calibrate";
+  std::filesystem::create_directories(dir);
+  std::filesystem::remove(dir / "out.yaml");
+  {
+    std::ofstream csv(dir / "kpa.csv");
+    csv << "pressure_MPa,contraction,force_N\n";
+    for (int i = 0; i < 100; ++i) csv << 100 + 3 * i << ",0.1," << 100 + 5 * i << "\n";  // kPa values
+  }
+  const Result r = run("calibrate " + (dir / "kpa.csv").string() + " --out " + (dir / "out.yaml").string());
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("looks like kPa"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
+  EXPECT_THAT(run("calibrate --help").output, HasSubstr("--restarts"));
+  EXPECT_THAT(run("record-calibration --help").output, HasSubstr("250 Hz"));
+}
+
+}  // namespace

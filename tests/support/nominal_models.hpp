@@ -30,8 +30,8 @@ inline models::JointModel rig_joint() {
   models::JointModel j;
   j.name = "joint";
   j.pulley_radius_m = 0.05;
-  j.agonist = {"agonist", dmsp40_nominal(), {0.05, 3.14159, 200.0}, 0.40, 0.10, 2000.0};
-  j.antagonist = {"antagonist", dmsp10_nominal(), {0.05, 3.14159, 200.0}, 0.50, 0.06, 630.0};
+  j.agonist = {"agonist", dmsp40_nominal(), {0.05, 3.14159, 200.0}, 0.40, 0.10, 2000.0, nullptr};
+  j.antagonist = {"antagonist", dmsp10_nominal(), {0.05, 3.14159, 200.0}, 0.50, 0.06, 630.0, nullptr};
   j.has_motor = true;
   j.motor_max_torque_Nm = 2.5;
   return j;

@@ -16,11 +16,43 @@ struct RunOptions {
   std::optional<std::uint64_t> seed;      ///< overrides the scenario's seed
   std::string only_case;                  ///< run only this case (empty: all)
   bool plot = true;                       ///< render plot.png with tools/plot_run.py
+  /// Calibration files for the agonist [0] and antagonist [1] (empty: the config's model). With
+  /// any, each case runs with the calibrated parametric model and with parametric + SPGP.
+  std::filesystem::path calibration[2];
+  std::optional<double> force_trim_rate_1ps;  ///< overrides the config's force trim (0 = off)
 };
 
 /// `peha run`: runs the scenario's experiment, writes out/<run>/ and prints a summary table.
 /// Returns the process exit code (0 when every case ran and every safety figure held).
 int run(const RunOptions& options);
+
+struct RecordOptions {
+  std::filesystem::path config;  ///< rig scenario YAML with a `calibration:` section
+  std::string muscle;            ///< "agonist" or "antagonist"
+  std::filesystem::path out;     ///< calibration CSV to write
+  std::optional<std::uint64_t> seed;
+};
+
+/// `peha record-calibration`: runs the triangle-wave excitation on the simulated rig, writes the CSV.
+int record_calibration(const RecordOptions& options);
+
+struct CalibrateCommandOptions {
+  std::filesystem::path data;        ///< calibration CSV
+  std::filesystem::path out;         ///< calibration YAML to write
+  std::filesystem::path report_dir;  ///< default: <out without extension>_report
+  std::string muscle;                ///< name stored in the file (default: the data file's stem)
+  int restarts = 300;
+  int threads = 2;
+  int pseudo_inputs = 50;
+  int spgp_iterations = 300;
+  bool use_spgp = true;
+  std::uint64_t seed = 1;
+  double supply_MPa = 0.8;
+  bool plot = true;
+};
+
+/// `peha calibrate`: fits the muscle model to a calibration CSV, writes the file and a report.
+int calibrate(const CalibrateCommandOptions& options);
 
 /// `peha check-config`: parses and validates a scenario, prints what it would run. Exit code.
 int check_config(const std::filesystem::path& config);

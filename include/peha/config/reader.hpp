@@ -86,6 +86,9 @@ class Map {
   /// Required list of numbers, each within `range`, with a length in [min_count, max_count].
   std::vector<double> numbers(std::string_view key, Range range, std::size_t min_count,
                               std::size_t max_count);
+  /// Required list of `cols`-long lists of numbers (a matrix, row by row), each within `range`.
+  std::vector<std::vector<double>> number_rows(std::string_view key, Range range, std::size_t min_rows,
+                                               std::size_t max_rows, std::size_t cols);
   /// Path value resolved relative to the file's directory.
   std::filesystem::path path_value(std::string_view key);
 

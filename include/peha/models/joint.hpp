@@ -10,12 +10,22 @@
 #include "peha/models/bowden.hpp"
 #include "peha/models/tendon_spring.hpp"
 
+#include <memory>
 #include <string>
 
 namespace peha::models {
 
 /// Safety ceiling of any PAM force: the 1.7 mm inner wire broke at 2250 N (SPEC §1), 11 % margin.
 inline constexpr double kMaxPamForce_N = 2000.0;
+
+/// A learned correction of the inverse model's pressure (SPEC §2.2: p* = g^-1(F*) + f(eps, F*)).
+/// Implementations must be noexcept, allocation-free and O(small) per call: they run in the loop.
+class PressureResidual {
+ public:
+  virtual ~PressureResidual() = default;
+  /// Pressure to add to the parametric inverse at rigid-wire contraction `eps` and force `force_N`, Pa.
+  virtual double pressure_Pa(double eps, double force_N) const noexcept = 0;
+};
 
 /// One muscle of the pair, with its cable.
 struct MuscleModel {
@@ -25,6 +35,8 @@ struct MuscleModel {
   double rest_length_m = 0.4;           ///< muscle nominal length L0, m
   double contraction_at_zero_angle = 0; ///< rigid-wire contraction eps at joint angle 0
   double max_force_N = kMaxPamForce_N;  ///< this muscle's own ceiling (<= kMaxPamForce_N), N
+  /// Optional calibrated residual (the SPGP); null = parametric model only.
+  std::shared_ptr<const PressureResidual> residual;
 };
 
 /// Immutable model of a PEHA joint.

@@ -5,6 +5,7 @@
 /// and down with a finger and lets go; with feed-forward compensation only (no position feedback) it
 /// should stay where it was left. The scenario is entirely configuration (configs/e1_one_dof.yaml).
 
+#include "peha/calibration/excitation.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/runtime/csv_log.hpp"
@@ -33,6 +34,9 @@ struct E1Scenario {
   safety::LimitsModel limits;
   sim::OneDofRigParams plant;                 ///< payload filled in per case
   std::vector<E1Case> cases;
+  /// Optional `calibration:` section: the excitation of each muscle for `peha record-calibration`
+  /// (index 0 agonist, 1 antagonist).
+  std::optional<calibration::ExcitationParams> excitation[2];
 };
 
 /// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.
@@ -55,6 +59,9 @@ struct E1Result {
   double min_wire_tension_N = 0;        ///< lowest tension on either wire anywhere (plant truth)
   double max_pressure_MPa = 0;          ///< highest chamber pressure (plant truth)
   double peak_motor_torque_Nm = 0;
+  /// RMS of (commanded muscle force - load cell) over the run after the first second, agonist and
+  /// antagonist: how well the muscle model turns force requests into forces.
+  double force_tracking_rms_N[2] = {0, 0};
   double min_angle_deg = 0;             ///< lowest joint angle reached (plant truth)
   double max_angle_deg = 0;             ///< highest joint angle reached (plant truth)
   bool within_limits = false;           ///< forces, tension, pressure, motor and joint range all held

@@ -1,0 +1,182 @@
+#include "peha/calibration/calibration_file.hpp"
+
+#include "peha/config/reader.hpp"
+
+#include <fmt/format.h>
+#include <yaml-cpp/yaml.h>
+
+#include <fstream>
+#include <limits>
+#include <stdexcept>
+
+namespace peha::calibration {
+namespace {
+
+constexpr double kBig = 1e12;  // numbers in a calibration file are finite; this bounds the range check
+
+void emit_vector(YAML::Emitter& out, const Eigen::VectorXd& v) {
+  out << YAML::Flow << YAML::BeginSeq;
+  for (Eigen::Index i = 0; i < v.size(); ++i) out << v[i];
+  out << YAML::EndSeq;
+}
+
+void emit_matrix(YAML::Emitter& out, const Eigen::MatrixXd& m) {
+  out << YAML::BeginSeq;
+  for (Eigen::Index r = 0; r < m.rows(); ++r) emit_vector(out, m.row(r).transpose());
+  out << YAML::EndSeq;
+}
+
+void emit_span(YAML::Emitter& out, const char* key, const Span& s) {
+  out << YAML::Key << key << YAML::Value << YAML::Flow << YAML::BeginSeq << s.min << s.max << YAML::EndSeq;
+}
+
+Eigen::VectorXd to_vector(const std::vector<double>& v) {
+  return Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+}
+
+Eigen::MatrixXd to_matrix(const std::vector<std::vector<double>>& rows, std::size_t cols) {
+  Eigen::MatrixXd m(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(cols));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    for (std::size_t c = 0; c < cols; ++c) m(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = rows[r][c];
+  }
+  return m;
+}
+
+Span read_span(config::Map& map, const char* key) {
+  const std::vector<double> v = map.numbers(key, {-kBig, kBig}, 2, 2);
+  if (v[0] > v[1]) map.fail(key, fmt::format("expected [min, max], found [{}, {}]", v[0], v[1]));
+  return {v[0], v[1]};
+}
+
+}  // namespace
+
+void write_calibration(const std::filesystem::path& path, const MuscleCalibration& c) {
+  YAML::Emitter out;
+  out.SetDoublePrecision(17);
+  out << YAML::BeginMap;
+  out << YAML::Key << "muscle" << YAML::Value << c.muscle;
+  out << YAML::Key << "data" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "file" << YAML::Value << c.data_file;
+  out << YAML::Key << "sha256" << YAML::Value << c.data_sha256;
+  out << YAML::EndMap;
+  out << YAML::Key << "tendon_spring" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "a_N_per_MPa" << YAML::Value << c.params.a_N_per_Pa * 1e6;
+  out << YAML::Key << "b_N_per_MPa" << YAML::Value << c.params.b_N_per_Pa * 1e6;
+  out << YAML::Key << "c_N_per_MPa" << YAML::Value << c.params.c_N_per_Pa * 1e6;
+  out << YAML::Key << "k_N" << YAML::Value << c.params.k_N;
+  out << YAML::Key << "eps0" << YAML::Value << c.params.eps0;
+  out << YAML::EndMap;
+  out << YAML::Key << "input_ranges" << YAML::Value << YAML::BeginMap;
+  emit_span(out, "contraction", c.contraction);
+  emit_span(out, "force_N", c.force_N);
+  emit_span(out, "pressure_Pa", c.pressure_Pa);
+  out << YAML::EndMap;
+  const CalibrationStats& s = c.stats;
+  out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
+  out << YAML::Key << "rows_train" << YAML::Value << s.rows_train;
+  out << YAML::Key << "rows_heldout" << YAML::Value << s.rows_heldout;
+  out << YAML::Key << "restarts" << YAML::Value << s.restarts;
+  out << YAML::Key << "restarts_converged" << YAML::Value << s.restarts_converged;
+  out << YAML::Key << "lm_seconds" << YAML::Value << s.lm_seconds;
+  out << YAML::Key << "spgp_seconds" << YAML::Value << s.spgp_seconds;
+  out << YAML::Key << "train_rms_parametric_Pa" << YAML::Value << s.train_rms_parametric_Pa;
+  out << YAML::Key << "train_rms_spgp_Pa" << YAML::Value << s.train_rms_spgp_Pa;
+  out << YAML::Key << "heldout_rms_parametric_Pa" << YAML::Value << s.heldout_rms_parametric_Pa;
+  out << YAML::Key << "heldout_rms_spgp_Pa" << YAML::Value << s.heldout_rms_spgp_Pa;
+  out << YAML::EndMap;
+  if (c.spgp) {
+    const Spgp& g = *c.spgp;
+    out << YAML::Key << "spgp" << YAML::Value << YAML::BeginMap;
+    out << YAML::Key << "input_mean" << YAML::Value;
+    emit_vector(out, g.input_mean());
+    out << YAML::Key << "input_scale" << YAML::Value;
+    emit_vector(out, g.input_scale());
+    out << YAML::Key << "output_mean" << YAML::Value << g.output_mean();
+    out << YAML::Key << "output_scale" << YAML::Value << g.output_scale();
+    out << YAML::Key << "log_b" << YAML::Value;
+    emit_vector(out, g.hyper().log_b);
+    out << YAML::Key << "log_c" << YAML::Value << g.hyper().log_c;
+    out << YAML::Key << "log_sigma2" << YAML::Value << g.hyper().log_sigma2;
+    out << YAML::Key << "jitter" << YAML::Value << g.jitter();
+    out << YAML::Key << "pseudo_inputs" << YAML::Value;
+    emit_matrix(out, g.pseudo_inputs());
+    out << YAML::Key << "alpha" << YAML::Value;
+    emit_vector(out, g.alpha());
+    out << YAML::Key << "variance_matrix" << YAML::Value;
+    emit_matrix(out, g.variance_matrix());
+    out << YAML::EndMap;
+  }
+  out << YAML::EndMap;
+  if (!out.good()) throw std::runtime_error(fmt::format("{}: cannot emit YAML: {}", path.string(), out.GetLastError()));
+  std::ofstream file(path);
+  file << "# peha muscle calibration (SPEC §3): Tendon-spring parameters + SPGP residual.\n"
+          "# Written by `peha calibrate`. SPGP: inputs (contraction, force_N), output pressure in Pa.\n"
+       << out.c_str() << '\n';
+  if (!file) throw std::runtime_error(fmt::format("{}: cannot write calibration file", path.string()));
+}
+
+MuscleCalibration read_calibration(const std::filesystem::path& path, double max_pressure_Pa) {
+  const config::Document doc = config::Document::load_file(path);
+  config::Map root = doc.root();
+  MuscleCalibration c;
+  c.muscle = root.string("muscle");
+  config::Map data = root.map("data");
+  c.data_file = data.string("file");
+  c.data_sha256 = data.string("sha256");
+  data.finish();
+  config::Map ts = root.map("tendon_spring");
+  c.params.a_N_per_Pa = ts.number("a_N_per_MPa", {-1e7, 1e7}) * 1e-6;
+  c.params.b_N_per_Pa = ts.number("b_N_per_MPa", {-1e7, 1e7}) * 1e-6;
+  c.params.c_N_per_Pa = ts.number("c_N_per_MPa", {-1e7, 1e7}) * 1e-6;
+  c.params.k_N = ts.number("k_N", {1.0, 1e12});
+  c.params.eps0 = ts.number("eps0", {-1.0, 1.0});
+  c.params.max_pressure_Pa = max_pressure_Pa;
+  ts.finish();
+  config::Map ranges = root.map("input_ranges");
+  c.contraction = read_span(ranges, "contraction");
+  c.force_N = read_span(ranges, "force_N");
+  c.pressure_Pa = read_span(ranges, "pressure_Pa");
+  ranges.finish();
+  config::Map fit = root.map("fit");
+  CalibrationStats& s = c.stats;
+  s.rows_train = static_cast<std::size_t>(fit.integer("rows_train", 0, 1L << 40));
+  s.rows_heldout = static_cast<std::size_t>(fit.integer("rows_heldout", 0, 1L << 40));
+  s.restarts = static_cast<int>(fit.integer("restarts", 0, 1000000));
+  s.restarts_converged = static_cast<int>(fit.integer("restarts_converged", 0, 1000000));
+  s.lm_seconds = fit.number("lm_seconds", {0, kBig});
+  s.spgp_seconds = fit.number("spgp_seconds", {0, kBig});
+  s.train_rms_parametric_Pa = fit.number("train_rms_parametric_Pa", {0, kBig});
+  s.train_rms_spgp_Pa = fit.number("train_rms_spgp_Pa", {0, kBig});
+  s.heldout_rms_parametric_Pa = fit.number("heldout_rms_parametric_Pa", {0, kBig});
+  s.heldout_rms_spgp_Pa = fit.number("heldout_rms_spgp_Pa", {0, kBig});
+  fit.finish();
+  if (root.has("spgp")) {
+    // Inputs are (contraction, force_N), the output pressure in Pa: fixed by the format.
+    constexpr std::size_t kDim = 2;
+    config::Map g = root.map("spgp");
+    const Eigen::VectorXd input_mean = to_vector(g.numbers("input_mean", {-kBig, kBig}, kDim, kDim));
+    const Eigen::VectorXd input_scale = to_vector(g.numbers("input_scale", {1e-300, kBig}, kDim, kDim));
+    const double output_mean = g.number("output_mean", {-kBig, kBig});
+    const double output_scale = g.number("output_scale", {1e-300, kBig});
+    SpgpHyper hyper;
+    hyper.log_b = to_vector(g.numbers("log_b", {-700, 700}, kDim, kDim));
+    hyper.log_c = g.number("log_c", {-700, 700});
+    hyper.log_sigma2 = g.number("log_sigma2", {-700, 700});
+    const double jitter = g.number("jitter", {0, 1});
+    const auto pseudo_rows = g.number_rows("pseudo_inputs", {-kBig, kBig}, 1, 100000, kDim);
+    const std::size_t m = pseudo_rows.size();
+    const Eigen::VectorXd alpha = to_vector(g.numbers("alpha", {-kBig, kBig}, m, m));
+    const Eigen::MatrixXd var = to_matrix(g.number_rows("variance_matrix", {-kBig, kBig}, m, m, m), m);
+    g.finish();
+    try {
+      c.spgp = std::make_shared<const Spgp>(Spgp::from_parts(input_mean, input_scale, output_mean, output_scale,
+                                                             hyper, to_matrix(pseudo_rows, kDim), jitter, alpha, var));
+    } catch (const std::invalid_argument& e) {
+      root.fail("spgp", e.what());
+    }
+  }
+  root.finish();
+  return c;
+}
+
+}  // namespace peha::calibration

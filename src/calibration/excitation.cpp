@@ -1,0 +1,95 @@
+#include "peha/calibration/excitation.hpp"
+
+#include "peha/control/one_dof_gravity.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace peha::calibration {
+
+ExcitationParams read_excitation(config::Map map) {
+  ExcitationParams e;
+  e.min_pressure_Pa = map.number("min_pressure_MPa", {0.0, 1.0}) * 1e6;
+  e.max_pressure_Pa = map.number("max_pressure_MPa", {e.min_pressure_Pa * 1e-6 + 0.01, 1.0}) * 1e6;
+  e.period_s = map.number("period_s", {0.5, 600.0});
+  e.duration_s = map.number("duration_s", {e.period_s, 3600.0});
+  e.other_pressure_Pa = map.number("other_pressure_MPa", {0.0, 1.0}) * 1e6;
+  e.other_pressure_at_min_Pa = map.number_or("other_pressure_at_min_MPa", e.other_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
+  e.sample_rate_Hz = map.number("sample_rate_Hz", {1.0, 10000.0});
+  e.payload_kg = map.number("payload_kg", {0.0, 20.0});
+  map.finish();
+  return e;
+}
+
+namespace {
+
+/// 0 at t = 0, 1 at half a period, 0 again at a full period.
+double triangle_unit(const ExcitationParams& e, double t_s) noexcept {
+  const double phase = std::fmod(std::max(t_s, 0.0), e.period_s) / e.period_s;
+  return phase < 0.5 ? 2.0 * phase : 2.0 - 2.0 * phase;
+}
+
+}  // namespace
+
+double triangle_pressure_Pa(const ExcitationParams& e, double t_s) noexcept {
+  return e.min_pressure_Pa + (e.max_pressure_Pa - e.min_pressure_Pa) * triangle_unit(e, t_s);
+}
+
+double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept {
+  return e.other_pressure_at_min_Pa + (e.other_pressure_Pa - e.other_pressure_at_min_Pa) * triangle_unit(e, t_s);
+}
+
+Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
+                          const ExcitationParams& excitation, const safety::LimitsModel& limits,
+                          const std::function<void(double)>& progress) {
+  const double period_s = backend.info().period_s;
+  const double ratio = 1.0 / (excitation.sample_rate_Hz * period_s);
+  const auto every = static_cast<long>(std::lround(ratio));
+  if (every < 1 || std::abs(ratio - static_cast<double>(every)) > 1e-9) {
+    throw std::invalid_argument("calibration sample rate must divide the control rate");
+  }
+  const models::MuscleModel& muscle = side > 0 ? joint.agonist : joint.antagonist;
+  const auto steps = static_cast<long>(std::llround(excitation.duration_s / period_s));
+
+  Dataset data;
+  const auto rows = static_cast<std::size_t>(steps / every + 1);
+  for (auto* v : {&data.t_s, &data.pressure_Pa, &data.angle_rad, &data.contraction, &data.force_N,
+                  &data.wire_velocity_mps}) {
+    v->reserve(rows);
+  }
+  safety::LimitsData limits_data;
+  control::VelocityEstimator velocity;
+  io::SensorState state;
+  io::Command command;
+  command.joint_count = 1;
+  const double t0 = [&] { backend.read(state); return state.time_s; }();
+  long next_report = 0;
+  for (long k = 0; k <= steps; ++k) {
+    backend.read(state);
+    const io::JointSensors& s = state.joints[0];
+    const double omega = velocity.update(s.angle_rad, k == 0 ? 0.0 : period_s);
+    if (k % every == 0) {
+      data.t_s.push_back(state.time_s - t0);
+      data.pressure_Pa.push_back(side > 0 ? s.agonist_pressure_Pa : s.antagonist_pressure_Pa);
+      data.angle_rad.push_back(s.angle_rad);
+      data.contraction.push_back(models::rigid_contraction(muscle, joint.pulley_radius_m, side, s.angle_rad));
+      data.force_N.push_back(side > 0 ? s.agonist_force_N : s.antagonist_force_N);
+      data.wire_velocity_mps.push_back(models::wire_velocity_mps(joint.pulley_radius_m, side, omega));
+    }
+    const double excited = triangle_pressure_Pa(excitation, k * period_s);
+    const double other = other_pressure_Pa(excitation, k * period_s);
+    command.joints[0].agonist_pressure_Pa = side > 0 ? excited : other;
+    command.joints[0].antagonist_pressure_Pa = side > 0 ? other : excited;
+    command.joints[0].motor_torque_Nm = 0.0;
+    safety::apply_limits(limits, limits_data, state, command);
+    if (k < steps) backend.write(command);
+    if (progress && k >= next_report) {
+      progress(static_cast<double>(k) / steps);
+      next_report += std::max(1L, steps / 10);
+    }
+  }
+  if (progress) progress(1.0);
+  return data;
+}
+
+}  // namespace peha::calibration

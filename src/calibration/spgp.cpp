@@ -1,0 +1,473 @@
+#include "peha/calibration/spgp.hpp"
+
+#include <ceres/first_order_function.h>
+#include <ceres/gradient_problem.h>
+#include <ceres/gradient_problem_solver.h>
+#include <ceres/iteration_callback.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <stdexcept>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+namespace peha::calibration {
+namespace {
+
+using Eigen::MatrixXd;
+using Eigen::VectorXd;
+
+/// Largest input dimension a model may have: predict_mean standardises x into a stack buffer of
+/// this size so that it never allocates. fit() and from_parts() reject anything wider.
+constexpr int kMaxInputDim = 16;
+
+/// Log-parameters are kept inside this box during the line search: exp(+-30) is already far
+/// outside any sensible standardised length scale or variance, and exp() must not overflow.
+constexpr double kMaxAbsLogHyper = 30.0;
+
+[[noreturn]] void reject(const std::string& what) { throw std::invalid_argument("Spgp: " + what); }
+
+std::string shape(Eigen::Index rows, Eigen::Index cols) {
+  return std::to_string(rows) + " x " + std::to_string(cols);
+}
+
+/// K(i, j) = c * exp(-1/2 * sum_d b_d (A(i, d) - B(j, d))^2), for all rows of A and B, into K
+/// (resized only if its shape changes; r2 is scratch of A.rows()).
+void ard_kernel(const MatrixXd& A, const MatrixXd& B, const VectorXd& b, double c, MatrixXd& K, Eigen::ArrayXd& r2) {
+  K.resize(A.rows(), B.rows());
+  r2.resize(A.rows());
+  for (Eigen::Index j = 0; j < B.rows(); ++j) {
+    r2.setZero();
+    for (Eigen::Index d = 0; d < A.cols(); ++d) r2 += b[d] * (A.col(d).array() - B(j, d)).square();
+    K.col(j) = c * (-0.5 * r2).exp();
+  }
+}
+
+MatrixXd ard_kernel(const MatrixXd& A, const MatrixXd& B, const VectorXd& b, double c) {
+  MatrixXd K;
+  Eigen::ArrayXd r2;
+  ard_kernel(A, B, b, c, K, r2);
+  return K;
+}
+
+void check_problem_shapes(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper) {
+  if (X.rows() != y.size()) reject("X has " + std::to_string(X.rows()) + " rows but y has " + std::to_string(y.size()));
+  if (pseudo.cols() != X.cols())
+    reject("pseudo-inputs are " + shape(pseudo.rows(), pseudo.cols()) + ", expected M x " + std::to_string(X.cols()));
+  if (hyper.log_b.size() != X.cols())
+    reject("log_b has " + std::to_string(hyper.log_b.size()) + " entries, expected " + std::to_string(X.cols()));
+  if (pseudo.rows() < 1) reject("no pseudo-inputs");
+}
+
+/// What one FITC evaluation may hand back besides the NLML (each optional).
+struct FitcRequest {
+  VectorXd* gradient = nullptr;         ///< [vec(pseudo), log_b, log_c, log_sigma2]
+  VectorXd* alpha = nullptr;            ///< A^-1 K_MN Lambda^-1 y: mean(x*) = k_*^T alpha
+  MatrixXd* variance_matrix = nullptr;  ///< K_MM^-1 - A^-1
+};
+
+/// Scratch of one FITC evaluation. The optimiser keeps one alive across evaluations so the N x M
+/// matrices (6 MB each at N = 15000, M = 50) are not reallocated and page-faulted every time.
+struct FitcWorkspace {
+  MatrixXd Kmm_kernel, Kmm, Knm, V, U, B, R, Z, G, E;
+  Eigen::ArrayXd r2;
+};
+
+/// The FITC NLML in O(N M^2), and whatever `request` asks for from the same factorisations.
+/// Returns +inf when K_MM, Lambda or B is not positive definite (numerically).
+///
+/// Notation (Snelson's spgp_lik, with L L^T = K_MM):
+///   V = L^-1 K_MN,  Lambda_n = c - |V_n|^2 + sigma^2,  U = V Lambda^-1/2,
+///   B = I + U U^T = L^-1 A L^-T with A = K_MM + K_MN Lambda^-1 K_NM,  L_B L_B^T = B,
+///   log|C| = log|B| + sum log Lambda_n,  y^T C^-1 y = y^T Lambda^-1 y - |L_B^-1 V Lambda^-1 y|^2.
+/// B's eigenvalues are >= 1, so its Cholesky is far better conditioned than A's.
+///
+/// Gradient: dNLML = 1/2 tr(W dC) with W = C^-1 - a a^T, a = C^-1 y. Since
+/// dC = dQ - diag(dQ) + diag(dK_NN) + d(sigma^2) I and dQ = dK_NM P + P^T dK_MN - P^T dK_MM P with
+/// P = K_MM^-1 K_MN, everything reduces to G = P (W - diag(W)) (M x N), the coefficient of dK_NM^T,
+/// and H = G P^T (M x M), whose -1/2 multiple is the coefficient of dK_MM. Using
+/// P C^-1 = A^-1 K_MN Lambda^-1:  G = L^-T Z,  Z = B^-1 V Lambda^-1 - (V a) a^T - V diag(w),
+/// w = diag(W) = diag(C^-1) - a^2 with diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n,
+/// H = L^-T (Z V^T) L^-1. Cost: about 7 N M^2 flops, mostly matrix products.
+double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
+                     double jitter, const FitcRequest& request, FitcWorkspace& ws) {
+  constexpr double kInf = std::numeric_limits<double>::infinity();
+  const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
+  const VectorXd b = hyper.log_b.array().exp().matrix();
+  const double c = std::exp(hyper.log_c);
+  const double sigma2 = std::exp(hyper.log_sigma2);
+
+  ard_kernel(pseudo, pseudo, b, c, ws.Kmm_kernel, ws.r2);  // without jitter: what the hypers move
+  ws.Kmm = ws.Kmm_kernel;
+  ws.Kmm.diagonal().array() += jitter;
+  ard_kernel(X, pseudo, b, c, ws.Knm, ws.r2);
+  const MatrixXd& Knm = ws.Knm;
+
+  const Eigen::LLT<MatrixXd> llt_mm(ws.Kmm);
+  if (llt_mm.info() != Eigen::Success) return kInf;
+  const auto L = llt_mm.matrixL();
+  const auto Lt = llt_mm.matrixU();
+  MatrixXd& V = ws.V;  // M x N
+  V = Knm.transpose();
+  L.solveInPlace(V);
+
+  const VectorXd lambda = (c + sigma2) - V.colwise().squaredNorm().transpose().array();
+  if (!(lambda.minCoeff() > 0.0)) return kInf;
+  const VectorXd inv_sqrt_lambda = lambda.cwiseSqrt().cwiseInverse();
+
+  MatrixXd& U = ws.U;
+  U.noalias() = V * inv_sqrt_lambda.asDiagonal();
+  MatrixXd& B = ws.B;
+  B.setIdentity(M, M);
+  B.selfadjointView<Eigen::Lower>().rankUpdate(U);
+  const Eigen::LLT<MatrixXd> llt_b(B);  // reads the lower triangle only
+  if (llt_b.info() != Eigen::Success) return kInf;
+
+  const VectorXd y_over_lambda = y.cwiseQuotient(lambda);
+  const VectorXd beta = llt_b.matrixL().solve(V * y_over_lambda);
+  const double quad = y.dot(y_over_lambda) - beta.squaredNorm();
+  const double log_det =
+      lambda.array().log().sum() + 2.0 * llt_b.matrixLLT().diagonal().array().log().sum();
+  const double nlml = 0.5 * (log_det + quad + static_cast<double>(N) * std::log(2.0 * std::numbers::pi));
+  if (!std::isfinite(nlml)) return kInf;
+
+  const VectorXd gamma = llt_b.matrixU().solve(beta);  // B^-1 V Lambda^-1 y
+  if (request.alpha != nullptr) *request.alpha = Lt.solve(gamma);
+  if (request.variance_matrix != nullptr) {
+    const MatrixXd L_inv = L.solve(MatrixXd::Identity(M, M));
+    const MatrixXd I_minus_B_inv = MatrixXd::Identity(M, M) - llt_b.solve(MatrixXd::Identity(M, M));
+    MatrixXd var = L_inv.transpose() * I_minus_B_inv * L_inv;
+    *request.variance_matrix = 0.5 * (var + var.transpose());  // symmetric up to round-off
+  }
+  if (request.gradient == nullptr) return nlml;
+
+  MatrixXd& R = ws.R;  // B^-1 U
+  R = U;
+  llt_b.solveInPlace(R);
+  const VectorXd a = (y - V.transpose() * gamma).cwiseQuotient(lambda);  // C^-1 y
+  const VectorXd Va = V * a;
+  VectorXd w(N);
+  MatrixXd& Z = ws.Z;
+  Z.resize(M, N);
+  for (Eigen::Index n = 0; n < N; ++n) {
+    const double c_inv_nn = (1.0 - U.col(n).dot(R.col(n))) / lambda[n];
+    w[n] = c_inv_nn - a[n] * a[n];
+    Z.col(n) = inv_sqrt_lambda[n] * R.col(n) - w[n] * V.col(n) - a[n] * Va;
+  }
+  MatrixXd& G = ws.G;
+  G = Z;
+  Lt.solveInPlace(G);
+  const MatrixXd S = Z * V.transpose();
+  const MatrixXd T = Lt.solve(S);                    // L^-T S
+  MatrixXd H = Lt.solve(T.transpose()).transpose();  // L^-T S L^-1
+  H = 0.5 * (H + H.transpose());
+
+  MatrixXd& E = ws.E;  // dNLML/dK_NM .* K_NM, N x M
+  E.noalias() = Knm.cwiseProduct(G.transpose());
+  const MatrixXd F = H.cwiseProduct(ws.Kmm_kernel);  // dK_MM's coefficient (x -2) .* K_MM
+
+  VectorXd& grad = *request.gradient;
+  grad.setZero(M * D + D + 2);
+  const double w_sum = w.sum();
+  for (Eigen::Index d = 0; d < D; ++d) {
+    double data_sq = 0.0, pseudo_sq = 0.0;
+    for (Eigen::Index m = 0; m < M; ++m) {
+      const double xb = pseudo(m, d);
+      double data_lin = 0.0;
+      for (Eigen::Index n = 0; n < N; ++n) {
+        const double diff = X(n, d) - xb;
+        const double t = E(n, m) * diff;
+        data_lin += t;
+        data_sq += t * diff;
+      }
+      double pseudo_lin = 0.0;
+      for (Eigen::Index k = 0; k < M; ++k) {
+        const double diff = xb - pseudo(k, d);
+        pseudo_lin += F(m, k) * diff;
+        pseudo_sq += F(m, k) * diff * diff;
+      }
+      grad[d * M + m] = b[d] * (data_lin + pseudo_lin);
+    }
+    grad[M * D + d] = -0.5 * b[d] * data_sq + 0.25 * b[d] * pseudo_sq;
+  }
+  grad[M * D + D] = E.sum() - 0.5 * F.sum() + 0.5 * c * w_sum;
+  grad[M * D + D + 1] = 0.5 * sigma2 * w_sum;
+  return nlml;
+}
+
+/// Parameter vector layout of the optimiser: [vec(pseudo) (M*D, column-major), log_b, log_c, log_sigma2].
+struct ParamLayout {
+  Eigen::Index M, D;
+  Eigen::Index size() const { return M * D + D + 2; }
+  MatrixXd pseudo(const double* p) const { return Eigen::Map<const MatrixXd>(p, M, D); }
+  SpgpHyper hyper(const double* p) const {
+    SpgpHyper h;
+    h.log_b = Eigen::Map<const VectorXd>(p + M * D, D);
+    h.log_c = p[M * D + D];
+    h.log_sigma2 = p[M * D + D + 1];
+    return h;
+  }
+  VectorXd pack(const MatrixXd& pseudo, const SpgpHyper& h) const {
+    VectorXd p(size());
+    p.head(M * D) = Eigen::Map<const VectorXd>(pseudo.data(), M * D);
+    p.segment(M * D, D) = h.log_b;
+    p[M * D + D] = h.log_c;
+    p[M * D + D + 1] = h.log_sigma2;
+    return p;
+  }
+};
+
+/// The FITC NLML as Ceres sees it. A failed evaluation (not positive definite, overflow) makes the
+/// line search step back instead of stopping the fit.
+class FitcObjective final : public ceres::FirstOrderFunction {
+ public:
+  FitcObjective(const MatrixXd& X, const VectorXd& y, ParamLayout layout, double jitter)
+      : X_(X), y_(y), layout_(layout), jitter_(jitter) {}
+
+  bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
+    const SpgpHyper h = layout_.hyper(parameters);
+    if (!(h.log_b.cwiseAbs().maxCoeff() < kMaxAbsLogHyper && std::abs(h.log_c) < kMaxAbsLogHyper &&
+          std::abs(h.log_sigma2) < kMaxAbsLogHyper))
+      return false;
+    VectorXd g;
+    *cost = fitc_evaluate(X_, y_, layout_.pseudo(parameters), h, jitter_,
+                          FitcRequest{gradient != nullptr ? &g : nullptr}, workspace_);
+    if (!std::isfinite(*cost)) return false;
+    if (gradient != nullptr) {
+      if (!g.allFinite()) return false;
+      Eigen::Map<VectorXd>(gradient, layout_.size()) = g;
+    }
+    return true;
+  }
+  int NumParameters() const override { return static_cast<int>(layout_.size()); }
+
+ private:
+  const MatrixXd& X_;
+  const VectorXd& y_;
+  ParamLayout layout_;
+  double jitter_;
+  mutable FitcWorkspace workspace_;  // scratch only; Ceres evaluates from one thread here
+};
+
+/// Forwards Ceres' per-iteration summary to the user's progress function.
+class ProgressCallback final : public ceres::IterationCallback {
+ public:
+  explicit ProgressCallback(const std::function<void(int, double)>& progress) : progress_(progress) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    progress_(summary.iteration, summary.cost);
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::function<void(int, double)>& progress_;
+};
+
+/// Sample mean and standard deviation; a constant column gets scale 1 so that standardising
+/// does not divide by zero (its length scale then simply stays uninformative).
+std::pair<double, double> mean_and_scale(const Eigen::Ref<const VectorXd>& v) {
+  const double mean = v.mean();
+  const double n = static_cast<double>(v.size());
+  const double var = v.size() > 1 ? (v.array() - mean).square().sum() / (n - 1.0) : 0.0;
+  const double scale = std::sqrt(var);
+  return {mean, scale > 0.0 && std::isfinite(scale) ? scale : 1.0};
+}
+
+/// Calls visit(m, k_m) with k_m = k(x, pseudo_m) in standardised units, for m = 0..M-1.
+/// No allocation: x is standardised into a stack buffer (D <= kMaxInputDim is a class invariant),
+/// and the kernel is evaluated in fixed-size chunks so that Eigen's SIMD exp can be used.
+template <typename Visit>
+void for_each_pseudo_kernel(const Spgp& model, const double* x, Visit&& visit) noexcept {
+  constexpr int kChunk = 8;
+  const int D = model.input_dim();
+  const int M = model.num_pseudo();
+  double xs[kMaxInputDim];
+  double b_half[kMaxInputDim];  // b_d / 2
+  for (int d = 0; d < D; ++d) {
+    xs[d] = (x[d] - model.input_mean()[d]) / model.input_scale()[d];
+    b_half[d] = 0.5 * std::exp(model.hyper().log_b[d]);
+  }
+  const double c = std::exp(model.hyper().log_c);
+  const MatrixXd& pseudo = model.pseudo_inputs();
+  Eigen::Array<double, kChunk, 1> exponent;
+  for (int m0 = 0; m0 < M; m0 += kChunk) {
+    const int len = std::min(kChunk, M - m0);
+    exponent.setZero();
+    for (int d = 0; d < D; ++d) {
+      const double* column = pseudo.col(d).data() + m0;
+      for (int i = 0; i < len; ++i) {
+        const double diff = xs[d] - column[i];
+        exponent[i] -= b_half[d] * diff * diff;
+      }
+    }
+    const Eigen::Array<double, kChunk, 1> k = c * exponent.exp();
+    for (int i = 0; i < len; ++i) visit(m0 + i, k[i]);
+  }
+}
+
+}  // namespace
+
+double spgp_nlml(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
+                 double jitter, VectorXd* gradient) {
+  check_problem_shapes(X, y, pseudo, hyper);
+  FitcWorkspace workspace;
+  const double nlml = fitc_evaluate(X, y, pseudo, hyper, jitter, FitcRequest{gradient}, workspace);
+  if (gradient != nullptr && !std::isfinite(nlml))
+    gradient->setConstant(pseudo.size() + X.cols() + 2, std::numeric_limits<double>::quiet_NaN());
+  return nlml;
+}
+
+double spgp_nlml_dense(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
+                       double jitter) {
+  check_problem_shapes(X, y, pseudo, hyper);
+  const VectorXd b = hyper.log_b.array().exp().matrix();
+  const double c = std::exp(hyper.log_c);
+  MatrixXd Kmm = ard_kernel(pseudo, pseudo, b, c);
+  Kmm.diagonal().array() += jitter;
+  const MatrixXd Kmn = ard_kernel(pseudo, X, b, c);
+  const MatrixXd Q = Kmn.transpose() * Kmm.llt().solve(Kmn);
+  MatrixXd C = Q;
+  // K_NN's diagonal is c: C = Q + diag(c - Q) + sigma^2 I.
+  C.diagonal().setConstant(c + std::exp(hyper.log_sigma2));
+  const Eigen::LLT<MatrixXd> llt(C);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
+  return 0.5 * (log_det + y.dot(llt.solve(y)) + static_cast<double>(X.rows()) * std::log(2.0 * std::numbers::pi));
+}
+
+Spgp Spgp::fit(const MatrixXd& X, const VectorXd& y, const SpgpOptions& options,
+               const std::function<void(int iteration, double nlml)>& progress) {
+  const Eigen::Index N = X.rows(), D = X.cols();
+  const Eigen::Index M = options.num_pseudo;
+  if (X.rows() != y.size()) reject("X has " + std::to_string(X.rows()) + " rows but y has " + std::to_string(y.size()));
+  if (N < 1 || D < 1) reject("X is " + shape(N, D) + ", expected at least 1 x 1");
+  if (D > kMaxInputDim) reject("input dimension " + std::to_string(D) + " exceeds " + std::to_string(kMaxInputDim));
+  if (M < 1 || M > N)
+    reject("num_pseudo = " + std::to_string(M) + ", expected 1 .. N = " + std::to_string(N));
+  if (options.max_iterations < 0) reject("max_iterations = " + std::to_string(options.max_iterations) + " < 0");
+  if (!(options.jitter > 0.0) || !std::isfinite(options.jitter)) reject("jitter must be finite and > 0");
+  if (!X.allFinite()) reject("X contains non-finite values");
+  if (!y.allFinite()) reject("y contains non-finite values");
+
+  Spgp model;
+  model.input_mean_.resize(D);
+  model.input_scale_.resize(D);
+  for (Eigen::Index d = 0; d < D; ++d)
+    std::tie(model.input_mean_[d], model.input_scale_[d]) = mean_and_scale(X.col(d));
+  std::tie(model.output_mean_, model.output_scale_) = mean_and_scale(y);
+  const MatrixXd Xs = (X.rowwise() - model.input_mean_.transpose()).array().rowwise() /
+                      model.input_scale_.transpose().array();
+  const VectorXd ys = (y.array() - model.output_mean_) / model.output_scale_;
+
+  // Initial pseudo-inputs: M distinct data points (partial Fisher-Yates; plain modulo so the
+  // sequence is the same on every standard library).
+  std::mt19937_64 rng(options.seed);
+  std::vector<Eigen::Index> order(static_cast<std::size_t>(N));
+  for (Eigen::Index i = 0; i < N; ++i) order[static_cast<std::size_t>(i)] = i;
+  MatrixXd pseudo(M, D);
+  for (Eigen::Index m = 0; m < M; ++m) {
+    const auto pick = static_cast<std::size_t>(m) + static_cast<std::size_t>(rng() % static_cast<std::uint64_t>(N - m));
+    std::swap(order[static_cast<std::size_t>(m)], order[pick]);
+    pseudo.row(m) = Xs.row(order[static_cast<std::size_t>(m)]);
+  }
+
+  // Initial hypers as in Snelson's demo: length scale = half the data range; signal variance =
+  // var(y) = 1 after standardising; noise = a tenth of it.
+  SpgpHyper hyper;
+  hyper.log_b.resize(D);
+  for (Eigen::Index d = 0; d < D; ++d) {
+    const double half_range = 0.5 * (Xs.col(d).maxCoeff() - Xs.col(d).minCoeff());
+    hyper.log_b[d] = half_range > 0.0 ? -2.0 * std::log(half_range) : 0.0;
+  }
+  hyper.log_c = std::log(std::max(ys.squaredNorm() / static_cast<double>(N), 1e-6));
+  hyper.log_sigma2 = hyper.log_c + std::log(0.1);
+
+  const ParamLayout layout{M, D};
+  VectorXd params = layout.pack(pseudo, hyper);
+  if (options.max_iterations > 0) {
+    ceres::GradientProblem problem(new FitcObjective(Xs, ys, layout, options.jitter));
+    ceres::GradientProblemSolver::Options solver_options;
+    solver_options.line_search_direction_type = ceres::LBFGS;
+    solver_options.max_num_iterations = options.max_iterations;
+    // Stop on max_iterations or a stalled objective, not on Ceres' looser default (1e-6 relative).
+    solver_options.function_tolerance = 1e-10;
+    solver_options.logging_type = ceres::SILENT;
+    ProgressCallback callback(progress);
+    if (progress) solver_options.callbacks.push_back(&callback);
+    ceres::GradientProblemSolver::Summary summary;
+    ceres::Solve(solver_options, problem, params.data(), &summary);
+    model.iterations_ = summary.iterations.empty() ? 0 : summary.iterations.back().iteration;
+  }
+
+  model.pseudo_ = layout.pseudo(params.data());
+  model.hyper_ = layout.hyper(params.data());
+  model.jitter_ = options.jitter;
+  FitcWorkspace workspace;
+  model.final_nlml_ = fitc_evaluate(Xs, ys, model.pseudo_, model.hyper_, model.jitter_,
+                                    FitcRequest{nullptr, &model.alpha_, &model.var_}, workspace);
+  // Ceres only accepts evaluated points, so this holds unless the initial point already failed.
+  if (!std::isfinite(model.final_nlml_))
+    throw std::runtime_error("Spgp::fit: the FITC covariance is not positive definite at the initial point");
+  return model;
+}
+
+Spgp Spgp::from_parts(const VectorXd& input_mean, const VectorXd& input_scale, double output_mean,
+                      double output_scale, const SpgpHyper& hyper, const MatrixXd& pseudo_inputs, double jitter,
+                      const VectorXd& alpha, const MatrixXd& variance_matrix) {
+  const Eigen::Index D = input_mean.size(), M = pseudo_inputs.rows();
+  if (D < 1 || D > kMaxInputDim)
+    reject("input_mean has " + std::to_string(D) + " entries, expected 1 .. " + std::to_string(kMaxInputDim));
+  if (input_scale.size() != D)
+    reject("input_scale has " + std::to_string(input_scale.size()) + " entries, expected " + std::to_string(D));
+  if (hyper.log_b.size() != D)
+    reject("log_b has " + std::to_string(hyper.log_b.size()) + " entries, expected " + std::to_string(D));
+  if (M < 1 || pseudo_inputs.cols() != D)
+    reject("pseudo_inputs is " + shape(M, pseudo_inputs.cols()) + ", expected M x " + std::to_string(D) + ", M >= 1");
+  if (alpha.size() != M) reject("alpha has " + std::to_string(alpha.size()) + " entries, expected " + std::to_string(M));
+  if (variance_matrix.rows() != M || variance_matrix.cols() != M)
+    reject("variance_matrix is " + shape(variance_matrix.rows(), variance_matrix.cols()) + ", expected " +
+           shape(M, M));
+  if (!input_mean.allFinite() || !std::isfinite(output_mean)) reject("non-finite mean");
+  if (!(input_scale.array() > 0.0).all() || !input_scale.allFinite() || !(output_scale > 0.0) ||
+      !std::isfinite(output_scale))
+    reject("scales must be finite and > 0");
+  if (!hyper.log_b.allFinite() || !std::isfinite(hyper.log_c) || !std::isfinite(hyper.log_sigma2))
+    reject("non-finite hyperparameter");
+  if (!pseudo_inputs.allFinite() || !alpha.allFinite() || !variance_matrix.allFinite())
+    reject("non-finite pseudo-inputs, alpha or variance_matrix");
+  if (!(jitter >= 0.0) || !std::isfinite(jitter)) reject("jitter must be finite and >= 0");
+
+  Spgp model;
+  model.input_mean_ = input_mean;
+  model.input_scale_ = input_scale;
+  model.output_mean_ = output_mean;
+  model.output_scale_ = output_scale;
+  model.hyper_ = hyper;
+  model.pseudo_ = pseudo_inputs;
+  model.jitter_ = jitter;
+  model.alpha_ = alpha;
+  model.var_ = variance_matrix;
+  return model;
+}
+
+double Spgp::predict_mean(const double* x) const noexcept {
+  double mean_std = 0.0;
+  for_each_pseudo_kernel(*this, x, [&](int m, double k) { mean_std += k * alpha_[m]; });
+  return output_mean_ + output_scale_ * mean_std;
+}
+
+double Spgp::predict_variance(const double* x) const {
+  if (num_pseudo() == 0) return 0.0;  // default-constructed: no model, no claim
+  VectorXd k(num_pseudo());
+  for_each_pseudo_kernel(*this, x, [&](int m, double km) { k[m] = km; });
+  const double var_std = std::exp(hyper_.log_c) - k.dot(var_ * k);
+  // The exact value is >= 0; round-off near the data can make it slightly negative.
+  return std::max(var_std, 0.0) * output_scale_ * output_scale_;
+}
+
+}  // namespace peha::calibration

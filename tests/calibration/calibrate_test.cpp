@@ -1,0 +1,155 @@
+#include "peha/calibration/calibrate.hpp"
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/calibration/excitation.hpp"
+#include "peha/config/reader.hpp"
+
+#include "../support/nominal_models.hpp"
+
+#include <gtest/gtest.h>
+#include <gmock/gmock.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+
+namespace peha::calibration {
+namespace {
+
+using ::testing::HasSubstr;
+
+/// 60 s at 250 Hz of a muscle whose true law has a pressure threshold the Tendon-spring model cannot
+/// represent: P = F / g(eps) + threshold(eps), threshold 40 kPa rising with contraction. A triangle
+/// in force and a slow sweep in contraction; 1 kPa sensor noise.
+Dataset synthetic_threshold_muscle() {
+  const models::TendonSpringParams truth = testing::dmsp40_nominal();
+  Dataset d;
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> noise(0.0, 1e3);
+  for (int i = 0; i <= 15000; ++i) {
+    const double t = i / 250.0;
+    const double eps = 0.05 + 0.1 * (0.5 + 0.5 * std::sin(2 * M_PI * t / 17.0));
+    const double phase = std::fmod(t, 12.0) / 12.0;
+    const double force = 150.0 + 900.0 * (phase < 0.5 ? 2 * phase : 2 - 2 * phase);
+    const double threshold_Pa = 40e3 + 200e3 * eps * eps;
+    const double P = models::inverse_pressure(truth, force, eps).pressure_Pa + threshold_Pa;
+    d.t_s.push_back(t);
+    d.contraction.push_back(eps);
+    d.force_N.push_back(force);
+    d.pressure_Pa.push_back(P + noise(rng));
+  }
+  d.source = "synthetic";
+  d.sha256 = "0";
+  return d;
+}
+
+CalibrateOptions fast_options() {
+  CalibrateOptions o;
+  o.muscle = "test";
+  o.fit.restarts = 12;
+  o.spgp.num_pseudo = 20;
+  o.spgp.max_iterations = 150;
+  return o;
+}
+
+// The SPGP learns what the parametric model cannot: on held-out time blocks the pressure error with
+// the SPGP is well below the parametric one (here the threshold leaves ~10 kPa to the parametric
+// model; the SPGP gets within a few times the 1 kPa noise).
+TEST(Calibrate, SpgpRemovesTheThresholdTheParametricModelMisses) {
+  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
+  const CalibrationStats& s = out.calibration.stats;
+  EXPECT_EQ(s.rows_heldout, 3000u);  // blocks 2 and 7 of 10
+  EXPECT_EQ(s.rows_train + s.rows_heldout, 15001u);
+  EXPECT_GT(s.heldout_rms_parametric_Pa, 3e3);
+  EXPECT_LT(s.heldout_rms_spgp_Pa, 0.5 * s.heldout_rms_parametric_Pa);
+  EXPECT_LT(s.heldout_rms_spgp_Pa, 4e3);
+  // Held-out rows are two time-contiguous runs.
+  int runs = 0;
+  for (std::size_t i = 0; i < out.heldout.size(); ++i) runs += out.heldout[i] && (i == 0 || !out.heldout[i - 1]);
+  EXPECT_EQ(runs, 2);
+}
+
+// A calibration file written and read back predicts exactly what the fitted model predicts.
+TEST(CalibrationFile, RoundTripPreservesPredictions) {
+  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
+  const auto path = std::filesystem::temp_directory_path() / "peha_calibration_roundtrip.yaml";
+  write_calibration(path, out.calibration);
+  const MuscleCalibration back = read_calibration(path, 0.8e6);
+  ASSERT_TRUE(back.spgp);
+  EXPECT_EQ(back.params.a_N_per_Pa, out.calibration.params.a_N_per_Pa);
+  EXPECT_EQ(back.params.k_N, out.calibration.params.k_N);
+  for (double eps : {0.06, 0.1, 0.14}) {
+    for (double F : {200.0, 600.0, 1000.0}) {
+      const double x[2] = {eps, F};
+      EXPECT_DOUBLE_EQ(back.spgp->predict_mean(x), out.calibration.spgp->predict_mean(x));
+      EXPECT_NEAR(back.spgp->predict_variance(x), out.calibration.spgp->predict_variance(x),
+                  1e-9 * std::abs(out.calibration.spgp->predict_variance(x)) + 1e-12);
+    }
+  }
+  EXPECT_EQ(back.stats.rows_heldout, out.calibration.stats.rows_heldout);
+  // The controller's residual is the SPGP's mean.
+  const SpgpResidual residual(back.spgp);
+  const double x[2] = {0.1, 500.0};
+  EXPECT_EQ(residual.pressure_Pa(0.1, 500.0), back.spgp->predict_mean(x));
+  std::filesystem::remove(path);
+}
+
+TEST(CalibrationFile, RejectsEditedFilesWithFileLineAndKey) {
+  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
+  const auto path = std::filesystem::temp_directory_path() / "peha_calibration_bad.yaml";
+  write_calibration(path, out.calibration);
+  std::ifstream in(path);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  const auto alpha = text.find("alpha:");
+  ASSERT_NE(alpha, std::string::npos);
+  text.insert(alpha, "unexpected: 1\n  ");  // an unknown key inside spgp
+  { std::ofstream(path) << text; }
+  try {
+    read_calibration(path, 0.8e6);
+    FAIL() << "an unknown key must be rejected";
+  } catch (const config::Error& e) {
+    EXPECT_THAT(std::string(e.what()), HasSubstr("spgp.unexpected: unknown key"));
+    EXPECT_THAT(std::string(e.what()), HasSubstr(path.filename().string() + ":"));
+  }
+  std::filesystem::remove(path);
+}
+
+TEST(Calibrate, RejectsABadSplit) {
+  CalibrateOptions o = fast_options();
+  o.heldout_blocks = {12};
+  EXPECT_THROW(calibrate(synthetic_threshold_muscle(), o), std::invalid_argument);
+}
+
+TEST(Excitation, TriangleAndAntiphaseReachTheirEnds) {
+  ExcitationParams e;
+  e.min_pressure_Pa = 0.1e6;
+  e.max_pressure_Pa = 0.5e6;
+  e.period_s = 10.0;
+  e.other_pressure_Pa = 0.1e6;
+  e.other_pressure_at_min_Pa = 0.3e6;
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 0.0), 0.1e6);
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 5.0), 0.5e6);
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 2.5), 0.3e6);
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 12.5), 0.3e6);
+  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 0.0), 0.3e6);  // antiphase
+  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 5.0), 0.1e6);
+}
+
+}  // namespace
+}  // namespace peha::calibration
+
+namespace peha::calibration {
+namespace {
+
+// The wire parameters stay physical even when the data cannot tell a stiff wire from a rigid one
+// (the threshold data above carry no wire stretch): k within [1e3, 1e8] N, |eps0| <= 0.05.
+TEST(Calibrate, FittedWireParametersStayWithinPhysicalBounds) {
+  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
+  EXPECT_GE(out.calibration.params.k_N, 1e3);
+  EXPECT_LE(out.calibration.params.k_N, 1e8 * (1 + 1e-9));
+  EXPECT_LE(std::abs(out.calibration.params.eps0), 0.05 + 1e-12);
+}
+
+}  // namespace
+}  // namespace peha::calibration
