@@ -2,13 +2,16 @@
 PRESET ?= release
 BUILD  := build/$(PRESET)
 CONFIG ?= configs/e1_one_dof.yaml
+CAL    := out/calibration
+PEHA    = ./$(BUILD)/peha
 
 .PHONY: all deps configure build run test bench clean help
 
 all: build
 
 help:
-	@echo "make run    install missing packages, build Release, run E1 on the simulated one-DOF rig"
+	@echo "make run    install missing packages, build Release, run E1 on the simulated one-DOF rig,"
+	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make bench  build and run the Google Benchmark suite"
 	@echo "make clean  remove build/ and out/"
@@ -24,14 +27,28 @@ configure: deps $(BUILD)/build.ninja
 build: configure
 	cmake --build --preset $(PRESET)
 
+# E1 with the nominal model (and force trim), then: record the calibration excitation of both
+# muscles, calibrate them (LM x 300 + SPGP), and run E1 on the paper's pure feed-forward with the
+# calibrated models, parametric alone vs parametric + SPGP.
 run: build
-	./$(BUILD)/peha run --config $(CONFIG)
+	$(PEHA) run --config $(CONFIG) --name e1_nominal
+	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out $(CAL)/agonist.csv
+	$(PEHA) record-calibration --config $(CONFIG) --muscle antagonist --out $(CAL)/antagonist.csv
+	$(PEHA) calibrate $(CAL)/agonist.csv --muscle agonist --out $(CAL)/agonist.yaml
+	$(PEHA) calibrate $(CAL)/antagonist.csv --muscle antagonist --out $(CAL)/antagonist.yaml
+	$(PEHA) run --config $(CONFIG) --name e1_calibrated --force-trim-rate 0 \
+	  --agonist-calibration $(CAL)/agonist.yaml --antagonist-calibration $(CAL)/antagonist.yaml
 
 test: build
 	ctest --preset $(PRESET)
 
+# Google Benchmark, then the same LM fit by scipy.optimize.least_squares(method="lm") on the same
+# 60 s of 250 Hz data in the same run (cost and time ratio).
 bench: build
 	./$(BUILD)/peha_bench --benchmark_counters_tabular=true
+	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out out/bench/agonist.csv
+	$(PEHA) calibrate out/bench/agonist.csv --muscle agonist --out out/bench/agonist_lm.yaml --no-spgp --no-holdout --no-plot
+	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --json out/bench/scipy_vs_peha.json
 
 clean:
 	rm -rf build out

@@ -351,7 +351,9 @@ void write_report(const std::filesystem::path& dir, const calibration::Dataset& 
 
 int calibrate(const CalibrateCommandOptions& options) {
   try {
-    const calibration::Dataset data = calibration::read_dataset(options.data);
+    calibration::DatasetRules rules;
+    rules.min_rows = options.min_rows;
+    const calibration::Dataset data = calibration::read_dataset(options.data, rules);
     calibration::CalibrateOptions o;
     o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;
     o.fit.restarts = options.restarts;
@@ -362,6 +364,7 @@ int calibrate(const CalibrateCommandOptions& options) {
     o.spgp.max_iterations = options.spgp_iterations;
     o.spgp.seed = options.seed;
     o.use_spgp = options.use_spgp;
+    if (!options.holdout) o.heldout_blocks.clear();
     fmt::print("peha calibrate: {} ({} rows, sha256 {}...)\n", options.data.string(), data.size(), data.sha256.substr(0, 12));
     ProgressPrinter lm("LM restarts"), gp("SPGP training");
     calibration::CalibrateProgress progress;

@@ -31,8 +31,10 @@ constexpr int kMaxInputDim = 16;
 /// outside any sensible standardised length scale or variance, and exp() must not overflow.
 constexpr double kMaxAbsLogHyper = 30.0;
 
+/// Bad user input: always std::invalid_argument, prefixed so the caller sees where it came from.
 [[noreturn]] void reject(const std::string& what) { throw std::invalid_argument("Spgp: " + what); }
 
+/// "rows x cols", for error messages.
 std::string shape(Eigen::Index rows, Eigen::Index cols) {
   return std::to_string(rows) + " x " + std::to_string(cols);
 }
@@ -49,6 +51,7 @@ void ard_kernel(const MatrixXd& A, const MatrixXd& B, const VectorXd& b, double 
   }
 }
 
+/// The same kernel matrix, freshly allocated (for the dense reference).
 MatrixXd ard_kernel(const MatrixXd& A, const MatrixXd& B, const VectorXd& b, double c) {
   MatrixXd K;
   Eigen::ArrayXd r2;
@@ -56,6 +59,7 @@ MatrixXd ard_kernel(const MatrixXd& A, const MatrixXd& B, const VectorXd& b, dou
   return K;
 }
 
+/// Shapes spgp_nlml and spgp_nlml_dense need: X N x D, y N, pseudo M x D (M >= 1), log_b D.
 void check_problem_shapes(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper) {
   if (X.rows() != y.size()) reject("X has " + std::to_string(X.rows()) + " rows but y has " + std::to_string(y.size()));
   if (pseudo.cols() != X.cols())
@@ -227,8 +231,8 @@ struct ParamLayout {
 /// line search step back instead of stopping the fit.
 class FitcObjective final : public ceres::FirstOrderFunction {
  public:
-  FitcObjective(const MatrixXd& X, const VectorXd& y, ParamLayout layout, double jitter)
-      : X_(X), y_(y), layout_(layout), jitter_(jitter) {}
+  FitcObjective(const MatrixXd& X, const VectorXd& y, ParamLayout layout, double jitter, bool prior)
+      : X_(X), y_(y), layout_(layout), jitter_(jitter), prior_(prior) {}
 
   bool Evaluate(const double* parameters, double* cost, double* gradient) const override {
     const SpgpHyper h = layout_.hyper(parameters);
@@ -243,6 +247,16 @@ class FitcObjective final : public ceres::FirstOrderFunction {
       if (!g.allFinite()) return false;
       Eigen::Map<VectorXd>(gradient, layout_.size()) = g;
     }
+    if (prior_) {
+      // Log-normal hyperpriors (see SpgpOptions::hyper_prior): -log p up to a constant.
+      constexpr double kLogCSd = 1.0, kLogSigma2Mean = -4.605170185988091 /* log 0.01 */, kLogSigma2Sd = 2.0;
+      const double zc = h.log_c / kLogCSd, zs = (h.log_sigma2 - kLogSigma2Mean) / kLogSigma2Sd;
+      *cost += 0.5 * (zc * zc + zs * zs);
+      if (gradient != nullptr) {
+        gradient[layout_.size() - 2] += zc / kLogCSd;
+        gradient[layout_.size() - 1] += zs / kLogSigma2Sd;
+      }
+    }
     return true;
   }
   int NumParameters() const override { return static_cast<int>(layout_.size()); }
@@ -252,6 +266,7 @@ class FitcObjective final : public ceres::FirstOrderFunction {
   const VectorXd& y_;
   ParamLayout layout_;
   double jitter_;
+  bool prior_;
   mutable FitcWorkspace workspace_;  // scratch only; Ceres evaluates from one thread here
 };
 
@@ -390,7 +405,7 @@ Spgp Spgp::fit(const MatrixXd& X, const VectorXd& y, const SpgpOptions& options,
   const ParamLayout layout{M, D};
   VectorXd params = layout.pack(pseudo, hyper);
   if (options.max_iterations > 0) {
-    ceres::GradientProblem problem(new FitcObjective(Xs, ys, layout, options.jitter));
+    ceres::GradientProblem problem(new FitcObjective(Xs, ys, layout, options.jitter, options.hyper_prior));
     ceres::GradientProblemSolver::Options solver_options;
     solver_options.line_search_direction_type = ceres::LBFGS;
     solver_options.max_num_iterations = options.max_iterations;

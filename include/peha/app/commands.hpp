@@ -46,6 +46,8 @@ struct CalibrateCommandOptions {
   int pseudo_inputs = 50;
   int spgp_iterations = 300;
   bool use_spgp = true;
+  bool holdout = true;               ///< false: fit every row (nothing held out)
+  std::size_t min_rows = 50;         ///< fewer rows is an error (static maps may have fewer)
   std::uint64_t seed = 1;
   double supply_MPa = 0.8;
   bool plot = true;
