@@ -36,8 +36,11 @@ run: build
 	$(PEHA) record-calibration --config $(CONFIG) --muscle antagonist --out $(CAL)/antagonist.csv
 	$(PEHA) calibrate $(CAL)/agonist.csv --muscle agonist --out $(CAL)/agonist.yaml
 	$(PEHA) calibrate $(CAL)/antagonist.csv --muscle antagonist --out $(CAL)/antagonist.yaml
+	@# Exit code 3 = some variant violated a safety figure: expected for the parametric-only
+	@# variant on pure feed-forward, and reported in the table; any other failure stops make.
 	$(PEHA) run --config $(CONFIG) --name e1_calibrated --force-trim-rate 0 \
-	  --agonist-calibration $(CAL)/agonist.yaml --antagonist-calibration $(CAL)/antagonist.yaml
+	  --agonist-calibration $(CAL)/agonist.yaml --antagonist-calibration $(CAL)/antagonist.yaml; \
+	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
 
 test: build
 	ctest --preset $(PRESET)
