@@ -17,6 +17,8 @@
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include "../tests/support/nominal_models.hpp"
+
 #include <numbers>
 #include <random>
 
@@ -24,12 +26,7 @@ namespace peha::bench {
 namespace {
 
 calibration::FitData excitation_data() {
-  models::TendonSpringParams truth;
-  truth.a_N_per_Pa = 54000e-6;
-  truth.b_N_per_Pa = -48000e-6;
-  truth.c_N_per_Pa = 10050e-6;
-  truth.k_N = 6e4;
-  truth.eps0 = 0.005;
+  const models::TendonSpringParams truth = peha::testing::synthetic_truth();
   constexpr int kSamples = 15000;  // 60 s at 250 Hz
   constexpr double kRate_Hz = 250.0;
   std::mt19937_64 rng(2014);

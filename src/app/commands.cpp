@@ -54,6 +54,24 @@ class ProgressPrinter {
   int last_ = -1;
 };
 
+/// Runs a command body and maps what it throws to the exit codes every command documents:
+/// 2 for bad input (config or data), 1 for anything else.
+template <typename Body>
+int with_exit_codes(Body&& body) {
+  try {
+    return body();
+  } catch (const config::Error& e) {
+    fmt::print(stderr, "config error: {}\n", e.what());
+    return 2;
+  } catch (const calibration::DataError& e) {
+    fmt::print(stderr, "data error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+}
+
 std::filesystem::path plot_tool() {
   const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_run.py";
   return tool;
@@ -213,20 +231,14 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
 }  // namespace
 
 int run(const RunOptions& options) {
-  try {
+  return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
     return run_e1(options, doc);
-  } catch (const config::Error& e) {
-    fmt::print(stderr, "config error: {}\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    fmt::print(stderr, "error: {}\n", e.what());
-    return 1;
-  }
+  });
 }
 
 int record_calibration(const RecordOptions& options) {
-  try {
+  return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
     runtime::E1Scenario scenario = runtime::read_e1(doc);
     const int index = options.muscle == "agonist" ? 0 : 1;
@@ -266,13 +278,7 @@ int record_calibration(const RecordOptions& options) {
     fmt::print("  {} rows -> {}\n  pressure {:.3f}..{:.3f} MPa, force {:.0f}..{:.0f} N, contraction {:.3f}..{:.3f}\n",
                data.size(), options.out.string(), p0 * 1e-6, p1 * 1e-6, f0, f1, e0, e1);
     return 0;
-  } catch (const config::Error& e) {
-    fmt::print(stderr, "config error: {}\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    fmt::print(stderr, "error: {}\n", e.what());
-    return 1;
-  }
+  });
 }
 
 namespace {
@@ -350,7 +356,7 @@ void write_report(const std::filesystem::path& dir, const calibration::Dataset& 
 }  // namespace
 
 int calibrate(const CalibrateCommandOptions& options) {
-  try {
+  return with_exit_codes([&] {
     calibration::DatasetRules rules;
     rules.min_rows = options.min_rows;
     const calibration::Dataset data = calibration::read_dataset(options.data, rules);
@@ -380,13 +386,7 @@ int calibrate(const CalibrateCommandOptions& options) {
     write_report(report, data, outcome, options);
     fmt::print("written: {} and {}/\n", options.out.string(), report.string());
     return 0;
-  } catch (const calibration::DataError& e) {
-    fmt::print(stderr, "data error: {}\n", e.what());
-    return 2;
-  } catch (const std::exception& e) {
-    fmt::print(stderr, "error: {}\n", e.what());
-    return 1;
-  }
+  });
 }
 
 int check_config(const std::filesystem::path& config) {

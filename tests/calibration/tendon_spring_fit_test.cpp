@@ -7,6 +7,8 @@
 
 #include <ceres/ceres.h>
 #include <ceres/gradient_checker.h>
+#include "../support/nominal_models.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -33,15 +35,7 @@ namespace {
 
 constexpr double kNoise_Pa = 1000.0;  // 1 kPa pressure noise
 
-models::TendonSpringParams truth() {
-  models::TendonSpringParams p;
-  p.a_N_per_Pa = 54000e-6;
-  p.b_N_per_Pa = -48000e-6;
-  p.c_N_per_Pa = 10050e-6;
-  p.k_N = 6e4;
-  p.eps0 = 0.005;
-  return p;
-}
+models::TendonSpringParams truth() { return peha::testing::synthetic_truth(); }
 
 // eps uniform in [0, 0.2], P uniform in [0.1, 0.6] MPa, F = forward model, measured P = P + noise.
 FitData synthetic(int n, std::uint64_t seed, double noise_Pa = kNoise_Pa) {

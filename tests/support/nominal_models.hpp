@@ -15,6 +15,18 @@ inline models::TendonSpringParams dmsp40_nominal() {
   return p;
 }
 
+/// The "true" muscle of synthetic calibration data (tests and benchmarks of the LM fit): a DMSP-40
+/// like gain with an elastic wire (k = 6e4 N) and a little slack.
+inline models::TendonSpringParams synthetic_truth() {
+  models::TendonSpringParams p;
+  p.a_N_per_Pa = 54000e-6;
+  p.b_N_per_Pa = -48000e-6;
+  p.c_N_per_Pa = 10050e-6;
+  p.k_N = 6e4;
+  p.eps0 = 0.005;
+  return p;
+}
+
 inline models::TendonSpringParams dmsp10_nominal() {
   models::TendonSpringParams p;
   p.a_N_per_Pa = 16960.0e-6;
