@@ -4,7 +4,7 @@
 Reads REPORT_DIR/predictions.csv (and spgp_grid.csv, pseudo_inputs.csv, summary.txt when present)
 and writes REPORT_DIR/report.png with four panels:
   1. measured pressure and the models' pressures over time (held-out blocks shaded), like Fig. 8;
-  2. measured force and the force the parametric model implies, over time;
+  2. the data in (contraction, force), coloured by pressure;
   3. the pressure residual before and after the SPGP (held-out blocks shaded);
   4. the SPGP's predictive standard deviation over (contraction, force) with the data and the
      pseudo-inputs: where it is large, the calibration data did not reach.

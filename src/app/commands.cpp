@@ -107,19 +107,6 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
     return 2;
   }
 
-  const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
-  const std::filesystem::path dir = options.out_root / run_name;
-  std::filesystem::create_directories(dir);
-  {
-    // The exact file the run used, with where it came from: its relative paths resolve there.
-    std::ifstream in(options.config);
-    std::ofstream out(dir / "config.yaml");
-    out << fmt::format("# peha run copy of {}\n# relative paths resolve against {}\n# seed used: {}\n",
-                       std::filesystem::absolute(options.config).string(),
-                       std::filesystem::absolute(options.config).parent_path().string(), scenario.seed)
-        << in.rdbuf();
-  }
-
   if (options.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *options.force_trim_rate_1ps;
 
   // Variants: the config's own model, or - with calibration files - the calibrated parametric model
@@ -156,6 +143,20 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
     }
     variants.push_back({"parametric", parametric});
     if (any_spgp) variants.push_back({"spgp", with_spgp});
+  }
+
+  // Only now, with everything loaded and checked, does the run leave a trace on disk.
+  const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
+  const std::filesystem::path dir = options.out_root / run_name;
+  std::filesystem::create_directories(dir);
+  {
+    // The exact file the run used, with where it came from: its relative paths resolve there.
+    std::ifstream in(options.config);
+    std::ofstream out(dir / "config.yaml");
+    out << fmt::format("# peha run copy of {}\n# relative paths resolve against {}\n# seed used: {}\n",
+                       std::filesystem::absolute(options.config).string(),
+                       std::filesystem::absolute(options.config).parent_path().string(), scenario.seed)
+        << in.rdbuf();
   }
 
   fmt::print("peha run: {}\n  {}\n  {} case(s) x {} model(s), {:.1f} s simulated each, seed {}, force trim {}, output {}\n",
@@ -326,7 +327,7 @@ void write_report(const std::filesystem::path& dir, const calibration::Dataset& 
   std::ofstream txt(dir / "summary.txt");
   const std::string summary = fmt::format(
       "muscle {} from {} (sha256 {})\n"
-      "rows: {} train, {} held out (time-contiguous {})\n"
+      "rows: {} train, {} held out ({})\n"
       "Tendon-spring (LM on the pressure error, best of {} restarts, {} converged, {:.1f} s):\n"
       "  a = {:.6g} N/MPa, b = {:.6g} N/MPa, c = {:.6g} N/MPa, k = {:.6g} N, eps0 = {:.6g}\n"
       "SPGP residual: {}\n"
@@ -365,7 +366,6 @@ int calibrate(const CalibrateCommandOptions& options) {
     o.fit.restarts = options.restarts;
     o.fit.threads = options.threads;
     o.fit.seed = options.seed;
-    o.fit.max_pressure_Pa = options.supply_MPa * 1e6;
     o.spgp.num_pseudo = options.pseudo_inputs;
     o.spgp.max_iterations = options.spgp_iterations;
     o.spgp.seed = options.seed;

@@ -77,7 +77,6 @@ int main(int argc, char** argv) {
   cal_cmd->add_option("--min-rows", cal.min_rows, "Fewest rows accepted (static force maps may have fewer than 50)")
       ->capture_default_str()->check(CLI::Range(5, 100000000));
   cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->capture_default_str();
-  cal_cmd->add_option("--supply-MPa", cal.supply_MPa, "Supply pressure (the inverse model's ceiling)")->capture_default_str()->check(CLI::Range(0.1, 1.0));
   cal_cmd->add_flag("!--no-plot", cal.plot, "Do not render report.png");
 
   std::filesystem::path check_path;

@@ -46,7 +46,10 @@ CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& option
   }
 
   CalibrationOutcome out;
-  out.split = fmt::format("blocks {} of {}", fmt::join(options.heldout_blocks, ","), options.blocks);
+  const char* order = data.t_s.empty() ? "row-order" : "time-contiguous";
+  out.split = options.heldout_blocks.empty()
+                  ? std::string("nothing held out")
+                  : fmt::format("{} blocks {} of {}", order, fmt::join(options.heldout_blocks, ","), options.blocks);
   out.heldout.assign(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
     const int block = static_cast<int>(i * static_cast<std::size_t>(options.blocks) / n);
@@ -60,6 +63,10 @@ CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& option
     train.contraction.push_back(data.contraction[i]);
     train.force_N.push_back(data.force_N[i]);
     train.pressure_Pa.push_back(data.pressure_Pa[i]);
+  }
+  if (options.use_spgp && static_cast<std::size_t>(options.spgp.num_pseudo) > train.pressure_Pa.size()) {
+    throw std::invalid_argument(fmt::format("calibrate: {} pseudo-inputs but only {} training rows; use fewer (--pseudo-inputs)",
+                                            options.spgp.num_pseudo, train.pressure_Pa.size()));
   }
   const FitResult fit = fit_tendon_spring(train, options.fit, progress.restarts);
 

@@ -13,10 +13,11 @@
 /// towards a muscle that can pull instead of stalling on a flat plateau (no inf/NaN ever).
 ///
 /// The cost is one residual block holding all N samples (ceres::AutoDiffCostFunction with a dynamic
-/// residual count). Measured on 15000 samples, 20 starts, one thread: 17-21 ms per solve against
-/// 52-56 ms with one AutoDiff block per sample (Ceres' per-block bookkeeping then dominates).
-/// DENSE_QR on the N x 5 Jacobian: over 300 solves its linear algebra took 1.9 s of 6.8 s against
-/// 0.9 s for DENSE_NORMAL_CHOLESKY, with identical results; QR is kept because the Jacobian is
+/// residual count). Measured before the bounds on k and eps0 were added (15000 samples, one thread):
+/// 17-21 ms per solve against 52-56 ms with one AutoDiff block per sample (Ceres' per-block
+/// bookkeeping then dominates); with the bounds a solve takes ~100 ms (see `make bench`).
+/// DENSE_QR on the N x 5 Jacobian: over 300 unbounded solves its linear algebra took 1.9 s of 6.8 s
+/// against 0.9 s for DENSE_NORMAL_CHOLESKY, with identical results; QR is kept because the Jacobian is
 /// exactly rank-deficient (below) and the normal equations square its conditioning. The AutoDiff
 /// Jacobian itself is ~55% of the time (~36 ns per sample).
 ///

@@ -49,7 +49,6 @@ struct CalibrateCommandOptions {
   bool holdout = true;               ///< false: fit every row (nothing held out)
   std::size_t min_rows = 50;         ///< fewer rows is an error (static maps may have fewer)
   std::uint64_t seed = 1;
-  double supply_MPa = 0.8;
   bool plot = true;
 };
 

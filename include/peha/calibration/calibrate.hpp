@@ -30,7 +30,7 @@ struct CalibrateOptions {
 struct CalibrationOutcome {
   MuscleCalibration calibration;
   std::vector<char> heldout;          ///< 1 where the row was held out
-  std::string split;                  ///< e.g. "blocks 2,7 of 10" (row order = time order)
+  std::string split;                  ///< e.g. "time-contiguous blocks 2,7 of 10", or "nothing held out"
   std::vector<double> pressure_parametric_Pa;  ///< g^-1(F; eps) per row
   std::vector<double> pressure_spgp_Pa;        ///< g^-1 + SPGP mean per row (= parametric without SPGP)
   std::vector<double> spgp_std_Pa;             ///< SPGP predictive std per row (0 without SPGP)
