@@ -1,0 +1,64 @@
+#pragma once
+/// \file
+/// The controller's rigid-body model of the right arm (exoskeleton links + the user's or mannequin's
+/// arm segments + payload), for gravity compensation tau = J^T G (SPEC §2.5) and inverse dynamics.
+///
+/// A serial chain of revolute joints. Joint i's frame is its parent's frame (the world for i = 0),
+/// translated by `offset_m` (in the parent frame at q = 0) and then rotated by q_i about `axis`
+/// (a unit vector in the joint's own frame). Bodies are rigidly attached to a joint frame: mass,
+/// centre of mass and rotational inertia about the COM, in that frame. World z points up; gravity is
+/// (0, 0, -g). Model/Data split: `ArmModel` is constant, `ArmData` holds preallocated scratch.
+
+#include <Eigen/Dense>
+
+#include <string>
+#include <vector>
+
+namespace peha::models {
+
+struct ArmJoint {
+  std::string name;          ///< e.g. "R_SFE"
+  Eigen::Vector3d offset_m;  ///< origin in the parent frame, m
+  Eigen::Vector3d axis;      ///< unit rotation axis in the joint frame
+  bool active = true;        ///< driven (SFE, EFE, WFE) or passive (WR, WAA)
+};
+
+struct ArmBody {
+  std::string name;          ///< e.g. "exo_upper_arm", "user_forearm", "payload"
+  int joint = 0;             ///< index of the joint frame it is attached to
+  double mass_kg = 0;
+  Eigen::Vector3d com_m;     ///< centre of mass in the joint frame, m
+  Eigen::Matrix3d inertia_kgm2 = Eigen::Matrix3d::Zero();  ///< about the COM, in the joint frame
+};
+
+struct ArmModel {
+  std::vector<ArmJoint> joints;
+  std::vector<ArmBody> bodies;
+  double gravity_mps2 = 9.81;
+  int dof() const { return static_cast<int>(joints.size()); }
+};
+
+/// Preallocated scratch sized for one model (construct once; the functions below do not allocate).
+struct ArmData {
+  explicit ArmData(const ArmModel& model);
+  std::vector<Eigen::Matrix3d> R;   ///< world orientation of each joint frame
+  std::vector<Eigen::Vector3d> p;   ///< world origin of each joint frame
+  std::vector<Eigen::Vector3d> z;   ///< world joint axis
+  Eigen::VectorXd tau;              ///< output torques, Nm
+  Eigen::MatrixXd jacobian;         ///< 3 x dof scratch (COM Jacobian)
+};
+
+/// Forward kinematics into `data` (R, p, z) for joint angles `q` (rad).
+void forward_kinematics(const ArmModel& model, ArmData& data, const Eigen::VectorXd& q) noexcept;
+
+/// World position of body b's centre of mass (after forward_kinematics).
+Eigen::Vector3d com_position(const ArmModel& model, const ArmData& data, int body) noexcept;
+
+/// 3 x dof translational Jacobian of body b's centre of mass into data.jacobian (after forward_kinematics).
+void com_jacobian(const ArmModel& model, ArmData& data, int body) noexcept;
+
+/// Gravity compensation tau = sum_b J_b^T (m_b g e_z): the joint torques that hold the arm still
+/// (Nm, into data.tau). noexcept, allocation-free.
+const Eigen::VectorXd& gravity_torque(const ArmModel& model, ArmData& data, const Eigen::VectorXd& q) noexcept;
+
+}  // namespace peha::models
