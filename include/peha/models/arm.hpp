@@ -46,6 +46,9 @@ struct ArmData {
   std::vector<Eigen::Vector3d> z;   ///< world joint axis
   Eigen::VectorXd tau;              ///< output torques, Nm
   Eigen::MatrixXd jacobian;         ///< 3 x dof scratch (COM Jacobian)
+  std::vector<Eigen::Vector3d> omega, alpha, accel;  ///< per joint frame: angular velocity and
+                                                     ///< acceleration, origin's linear acceleration
+  std::vector<Eigen::Vector3d> force, moment;        ///< per body: net force, moment about its COM
 };
 
 /// Forward kinematics into `data` (R, p, z) for joint angles `q` (rad).
@@ -60,5 +63,12 @@ void com_jacobian(const ArmModel& model, ArmData& data, int body) noexcept;
 /// Gravity compensation tau = sum_b J_b^T (m_b g e_z): the joint torques that hold the arm still
 /// (Nm, into data.tau). noexcept, allocation-free.
 const Eigen::VectorXd& gravity_torque(const ArmModel& model, ArmData& data, const Eigen::VectorXd& q) noexcept;
+
+/// Inverse dynamics by recursive Newton-Euler: the joint torques (Nm, into data.tau) that produce
+/// accelerations `qdd` (rad/s^2) at angles `q` and velocities `qd`, gravity included. The same
+/// rigid-body equation MuJoCo's mj_inverse solves (without armature, damping or friction).
+/// noexcept, allocation-free.
+const Eigen::VectorXd& inverse_dynamics(const ArmModel& model, ArmData& data, const Eigen::VectorXd& q,
+                                        const Eigen::VectorXd& qd, const Eigen::VectorXd& qdd) noexcept;
 
 }  // namespace peha::models
