@@ -28,7 +28,9 @@ std::string e1_error_after(const std::string& from, const std::string& to) {
   const auto pos = text.find(from);
   EXPECT_NE(pos, std::string::npos) << from;
   if (pos != std::string::npos) text.replace(pos, from.size(), to);
-  const std::string path = PEHA_SOURCE_DIR "/configs/mutated.yaml";
+  // One file per test: CTest runs tests in parallel, and relative paths must resolve from configs/.
+  const std::string path = std::string(PEHA_SOURCE_DIR "/configs/mutated_") +
+                           ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".yaml";
   { std::ofstream(path) << text; }
   std::string message;
   try {
@@ -44,7 +46,7 @@ TEST(Config, ShippedE1ConfigLoads) { EXPECT_EQ(e1_error_after("seed: 1", "seed: 
 
 TEST(Config, RejectsUnknownKeyWithFileLineAndPath) {
   const std::string e = e1_error_after("    use_motor: true", "    use_motor: true\n    use_motr: false");
-  EXPECT_THAT(e, HasSubstr("mutated.yaml:"));
+  EXPECT_THAT(e, HasSubstr("mutated_RejectsUnknownKeyWithFileLineAndPath.yaml:"));
   EXPECT_THAT(e, HasSubstr("controller.allocation.use_motr: unknown key"));
 }
 

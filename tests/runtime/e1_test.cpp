@@ -44,7 +44,7 @@ TEST(E1, WithoutCompensationTheLinkFalls) {
   sim::OneDofRigParams p = s.plant;
   p.payload_kg = 5.0;
   p.finger.pushes.clear();
-  p.agonist.initial_pressure_Pa = p.antagonist.initial_pressure_Pa = 0.0;
+  p.joint.agonist.initial_pressure_Pa = p.joint.antagonist.initial_pressure_Pa = 0.0;
   sim::OneDofRigBackend plant(p);
   io::Command zero;
   zero.joint_count = 1;

@@ -25,9 +25,9 @@ TEST(SimulatedRig, WireTensionSolvesTheMuscleWireEquilibrium) {
   for (int k = 0; k < 3000; ++k) plant.write(c);
   const OneDofRigTruth& t = plant.truth();
   ASSERT_LT(std::abs(t.velocity_radps), 1e-3);
-  const double r0 = p.pulley_radius_m;
+  const double r0 = p.joint.pulley_radius_m;
   for (int i = 0; i < 2; ++i) {
-    const MusclePlantParams& m = i == 0 ? p.agonist : p.antagonist;
+    const MusclePlantParams& m = i == 0 ? p.joint.agonist : p.joint.antagonist;
     const int side = i == 0 ? +1 : -1;
     const double eps = m.contraction_at_zero_angle + side * r0 * t.angle_rad / m.rest_length_m;
     const double T = t.muscle_force_N[i];
@@ -61,7 +61,7 @@ TEST(SimulatedRig, LoadCellsReadMuscleForceWithConfiguredNoise) {
   const double mean = sum / n;
   const double sd = std::sqrt(sum2 / n - mean * mean);
   EXPECT_LT(std::abs(mean), 0.2);
-  EXPECT_NEAR(sd, p.agonist.loadcell_noise_N, 0.5 * p.agonist.loadcell_noise_N);
+  EXPECT_NEAR(sd, p.joint.agonist.loadcell_noise_N, 0.5 * p.joint.agonist.loadcell_noise_N);
   // Encoder: the measured angle is the true one floored to 2 pi / 70000.
   const double step = 2.0 * M_PI / p.encoder_counts_per_rev;
   EXPECT_LE(plant.truth().angle_rad - s.joints[0].angle_rad, step);

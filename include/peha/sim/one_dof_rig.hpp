@@ -13,8 +13,7 @@
 #include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/sim/mujoco_model.hpp"
-#include "peha/sim/plant_muscle.hpp"
-#include "peha/sim/valve.hpp"
+#include "peha/sim/peha_joint_plant.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -23,38 +22,6 @@
 #include <vector>
 
 namespace peha::sim {
-
-/// The Bowden cable as the plant has it (not the controller's model).
-struct CablePlantParams {
-  double kinetic_friction = 0.05;        ///< mu while sliding
-  double static_friction = 0.08;         ///< mu at rest (stiction), >= kinetic
-  double stribeck_velocity_mps = 0.002;  ///< wire speed over which mu falls from static to kinetic
-  double wrap_angle_rad = 3.14;          ///< psi, total bend of the housing
-  double wire_stiffness_N_per_m = 1.5e5; ///< inner wire + housing compression, N/m
-  double initial_slack_m = 0.002;        ///< slack of the wire at the start
-  double creep_m_per_N_s = 0.0;          ///< slow lengthening of the wire under tension
-  double max_creep_m = 0.003;            ///< creep saturates here
-};
-
-struct MusclePlantParams {
-  std::filesystem::path law_file;     ///< YAML of the fitted static law
-  PlantMuscleParams law;
-  double rest_length_m = 0.4;         ///< L0 of the muscle
-  double contraction_at_zero_angle = 0.1;  ///< rigid-wire contraction at joint angle 0
-  double initial_pressure_Pa = 0.0;   ///< chamber pressure at t = 0
-  ValveParams valve;
-  CablePlantParams cable;
-  double loadcell_noise_N = 1.0;      ///< standard deviation of the load-cell noise
-  double loadcell_range_N = 5000.0;   ///< full scale of the load cell's 16-bit AD channel
-};
-
-struct MotorPlantParams {
-  double gear_ratio = 35.0;                     ///< 14:1 planetary x 5:2 bevel
-  double rotor_inertia_kgm2 = 3.33e-6;          ///< reflected to the joint as gear^2 x this
-  double coulomb_friction_Nm = 0.08;            ///< at the joint
-  double viscous_friction_Nms_per_rad = 0.02;   ///< at the joint
-  double max_torque_Nm = 2.5;                   ///< at the joint; the driver saturates here
-};
 
 /// One push of the operator's finger: from the angle where the push starts the target angle moves
 /// to `target_angle_rad` with a minimum-jerk profile over `move_s`, is held until `duration_s`, then
@@ -82,12 +49,9 @@ struct OneDofRigParams {
   double timestep_s = 0.0005;          ///< MuJoCo step; must divide the control period
   double control_period_s = 0.001;
   double supply_pressure_Pa = 0.8e6;
-  double pulley_radius_m = 0.05;
   double payload_kg = 2.5;
   double initial_angle_rad = 0.0;
-  MusclePlantParams agonist;
-  MusclePlantParams antagonist;
-  MotorPlantParams motor;
+  PehaJointPlantParams joint;          ///< muscles, valves, cables, motor
   double pressure_noise_Pa = 1000;     ///< standard deviation of the pressure sensors' noise
   double pressure_range_Pa = 1.0e6;    ///< full scale of the pressure sensors' AD channels
   double encoder_counts_per_rev = 70000;  ///< joint counts per revolution (motor encoder x gear)
@@ -98,21 +62,15 @@ struct OneDofRigParams {
 /// Reads the `plant:` mapping of a scenario (the finger and payload come from the scenario).
 OneDofRigParams read_one_dof_rig(config::Map& plant, double control_period_s, double supply_pressure_Pa);
 
-/// What really happens in the plant at the current sample (for logs, never for the controller).
-struct OneDofRigTruth {
+/// What really happens in the plant at the current sample (for logs, never for the controller):
+/// the joint's actuators (PehaJointTruth) and the rig's mechanics.
+struct OneDofRigTruth : PehaJointTruth {
   double time_s = 0;
   double angle_rad = 0;
   double velocity_radps = 0;
   double finger_force_N = 0;            ///< along the link's upward normal at the finger
   bool finger_active = false;
-  double muscle_force_N[2] = {0, 0};    ///< muscle-side wire tension = muscle force (agonist, antagonist)
-  double pulley_tension_min_N[2] = {0, 0};  ///< lowest tension anywhere along each wire
-  double pressure_Pa[2] = {0, 0};
-  double muscle_contraction[2] = {0, 0};
-  double motor_torque_Nm = 0;
-  double cable_friction_Nm = 0;         ///< friction bound the cables put on the joint now
   double constraint_torque_Nm = 0;      ///< what MuJoCo's friction and joint-limit constraints applied
-  double creep_m[2] = {0, 0};
 };
 
 class OneDofRigBackend final : public io::Backend {
@@ -125,19 +83,9 @@ class OneDofRigBackend final : public io::Backend {
   const OneDofRigParams& params() const { return params_; }
 
  private:
-  struct Muscle {
-    const MusclePlantParams* p;
-    int side;
-    Valve valve;
-    double tension_N = 0;
-    double contraction = 0;
-    double creep_m = 0;
-  };
   void substep(const io::JointCommand& cmd) noexcept;
-  void solve_muscle(Muscle& m, double angle_rad, double dt_s) noexcept;
   double finger_force(double t, double angle, double omega) noexcept;
   void sample() noexcept;
-  double quantize(double value, double range) const noexcept;
 
   OneDofRigParams params_;
   io::BackendInfo info_;
@@ -148,9 +96,8 @@ class OneDofRigBackend final : public io::Backend {
   double base_damping_ = 0;
   double base_frictionloss_ = 0;
   int substeps_ = 1;
-  Muscle muscles_[2];
+  PehaJointPlant joint_;
   std::mt19937_64 rng_;
-  std::normal_distribution<double> unit_normal_{0.0, 1.0};
   std::vector<double> push_start_angle_;  ///< angle where each push began (NaN until it starts)
   io::SensorState state_;
   OneDofRigTruth truth_;

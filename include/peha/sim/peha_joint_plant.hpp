@@ -1,0 +1,121 @@
+#pragma once
+/// \file
+/// One simulated PEHA joint, as the plant has it (SPEC §4): an agonist and an antagonist muscle
+/// (fitted static law with hysteresis), each behind its servo valve and its Bowden cable (elastic
+/// inner wire with slack and creep, capstan friction with stiction), plus an optional geared motor.
+/// It turns a command and the joint's angle/velocity into a joint torque and a friction bound for
+/// the rigid-body simulation, and produces the joint's sensor readings. Used by every simulated
+/// exoskeleton (the one-DOF rig, the right arm); the rigid bodies are MuJoCo's.
+
+#include "peha/config/reader.hpp"
+#include "peha/io/backend.hpp"
+#include "peha/sim/plant_muscle.hpp"
+#include "peha/sim/valve.hpp"
+
+#include <filesystem>
+#include <random>
+
+namespace peha::sim {
+
+/// The Bowden cable as the plant has it (not the controller's model).
+struct CablePlantParams {
+  double kinetic_friction = 0.05;        ///< mu while sliding
+  double static_friction = 0.08;         ///< mu at rest (stiction), >= kinetic
+  double stribeck_velocity_mps = 0.002;  ///< wire speed over which mu falls from static to kinetic
+  double wrap_angle_rad = 3.14;          ///< psi, total bend of the housing
+  double wire_stiffness_N_per_m = 1.5e5; ///< inner wire + housing compression, N/m
+  double initial_slack_m = 0.002;        ///< slack of the wire at the start
+  double creep_m_per_N_s = 0.0;          ///< slow lengthening of the wire under tension
+  double max_creep_m = 0.003;            ///< creep saturates here
+};
+
+struct MusclePlantParams {
+  std::filesystem::path law_file;     ///< YAML of the fitted static law
+  PlantMuscleParams law;
+  double rest_length_m = 0.4;         ///< L0 of the muscle
+  double contraction_at_zero_angle = 0.1;  ///< rigid-wire contraction at joint angle 0
+  double initial_pressure_Pa = 0.0;   ///< chamber pressure at t = 0
+  ValveParams valve;
+  CablePlantParams cable;
+  double loadcell_noise_N = 1.0;      ///< standard deviation of the load-cell noise
+  double loadcell_range_N = 5000.0;   ///< full scale of the load cell's 16-bit AD channel
+};
+
+struct MotorPlantParams {
+  double gear_ratio = 35.0;                     ///< 14:1 planetary x 5:2 bevel
+  double rotor_inertia_kgm2 = 3.33e-6;          ///< reflected to the joint as gear^2 x this
+  double coulomb_friction_Nm = 0.08;            ///< at the joint
+  double viscous_friction_Nms_per_rad = 0.02;   ///< at the joint
+  double max_torque_Nm = 2.5;                   ///< at the joint; the driver saturates here
+};
+
+struct PehaJointPlantParams {
+  double pulley_radius_m = 0.05;
+  MusclePlantParams agonist;
+  MusclePlantParams antagonist;
+  bool has_motor = true;
+  MotorPlantParams motor;  ///< ignored when has_motor is false
+};
+
+/// Reads a joint's keys from `map` (pulley_radius_m, agonist{...}, antagonist{...}, and motor{...}
+/// when `has_motor`); does not finish `map` (it may hold other keys of the caller's).
+PehaJointPlantParams read_peha_joint_plant(config::Map& map, double supply_pressure_Pa, bool has_motor);
+
+/// What really happens in the joint's actuators now (for logs, never for the controller).
+struct PehaJointTruth {
+  double muscle_force_N[2] = {0, 0};        ///< muscle-side wire tension = muscle force (agonist, antagonist)
+  double pulley_tension_min_N[2] = {0, 0};  ///< lowest tension anywhere along each wire
+  double pressure_Pa[2] = {0, 0};
+  double muscle_contraction[2] = {0, 0};
+  double creep_m[2] = {0, 0};
+  double motor_torque_Nm = 0;
+  double cable_friction_Nm = 0;             ///< friction bound the cables put on the joint now
+};
+
+class PehaJointPlant {
+ public:
+  PehaJointPlant(const PehaJointPlantParams& params, double timestep_s, double initial_angle_rad);
+
+  /// Set-up constants for the joint's MuJoCo dof (the motor's share): reflected rotor inertia
+  /// (kg m^2), viscous friction (Nm s/rad), Coulomb friction (Nm).
+  double armature_kgm2() const;
+  double viscous_friction_Nms_per_rad() const;
+  double coulomb_friction_Nm() const;
+
+  struct Forces {
+    double torque_Nm = 0;         ///< cables + motor, to apply to the joint
+    double friction_bound_Nm = 0; ///< the cables' capstan friction bound (stick-slip via MuJoCo)
+  };
+  /// One physics step of `timestep_s` at the joint's current angle and velocity. noexcept.
+  Forces step(const io::JointCommand& command, double angle_rad, double velocity_radps) noexcept;
+
+  /// The load cells and pressure sensors (noise drawn from `rng`, 16-bit quantised) into `out`;
+  /// the angle is the caller's (encoder). Draw order: agonist force, antagonist force, agonist
+  /// pressure, antagonist pressure.
+  void sense(double pressure_noise_Pa, double pressure_range_Pa, std::mt19937_64& rng, io::JointSensors& out) noexcept;
+
+  const PehaJointTruth& truth() const { return truth_; }
+  const PehaJointPlantParams& params() const { return params_; }
+
+ private:
+  struct Muscle {
+    const MusclePlantParams* p;
+    int side;
+    Valve valve;
+    double tension_N = 0;
+    double contraction = 0;
+    double creep_m = 0;
+  };
+  void solve_muscle(Muscle& m, double angle_rad) noexcept;
+
+  PehaJointPlantParams params_;
+  double timestep_s_;
+  Muscle muscles_[2];
+  std::normal_distribution<double> unit_normal_{0.0, 1.0};
+  PehaJointTruth truth_;
+};
+
+/// 16-bit AD quantisation of `value` over [0, range].
+double quantize_16bit(double value, double range) noexcept;
+
+}  // namespace peha::sim

@@ -1,0 +1,180 @@
+#include "peha/sim/peha_joint_plant.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace peha::sim {
+namespace {
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
+CablePlantParams read_cable(config::Map map) {
+  CablePlantParams c;
+  c.kinetic_friction = map.number("kinetic_friction", {0.0, 1.0});
+  c.static_friction = map.number("static_friction", {c.kinetic_friction, 1.0});
+  c.stribeck_velocity_mps = map.number("stribeck_velocity_mps", {1e-6, 1.0});
+  c.wrap_angle_rad = map.number("wrap_angle_deg", {0.0, 1080.0}) * kDegToRad;
+  c.wire_stiffness_N_per_m = map.number("wire_stiffness_N_per_m", {1e3, 1e8});
+  c.initial_slack_m = map.number("initial_slack_mm", {0.0, 50.0}) * 1e-3;
+  c.creep_m_per_N_s = map.number("creep_m_per_N_s", {0.0, 1e-6});
+  c.max_creep_m = map.number("max_creep_mm", {0.0, 20.0}) * 1e-3;
+  map.finish();
+  return c;
+}
+
+MusclePlantParams read_muscle(config::Map map, double supply_Pa) {
+  MusclePlantParams m;
+  m.law_file = map.path_value("law");
+  m.law = load_plant_muscle(m.law_file);
+  m.rest_length_m = map.number("rest_length_m", {0.05, 2.0});
+  m.contraction_at_zero_angle = map.number("contraction_at_zero_angle", {-0.05, 0.3});
+  m.initial_pressure_Pa = map.number("initial_pressure_MPa", {0.0, supply_Pa * 1e-6}) * 1e6;
+  config::Map loadcell = map.map("loadcell");
+  m.loadcell_noise_N = loadcell.number("noise_N", {0.0, 100.0});
+  m.loadcell_range_N = loadcell.number("range_N", {100.0, 20000.0});
+  loadcell.finish();
+  config::Map valve = map.map("valve");
+  m.valve = read_valve(valve, supply_Pa);
+  m.cable = read_cable(map.map("cable"));
+  map.finish();
+  return m;
+}
+
+}  // namespace
+
+PehaJointPlantParams read_peha_joint_plant(config::Map& map, double supply_pressure_Pa, bool has_motor) {
+  PehaJointPlantParams p;
+  p.pulley_radius_m = map.number("pulley_radius_m", {0.005, 0.2});
+  p.has_motor = has_motor;
+  if (has_motor) {
+    config::Map motor = map.map("motor");
+    p.motor.gear_ratio = motor.number("gear_ratio", {1.0, 1000.0});
+    p.motor.rotor_inertia_kgm2 = motor.number("rotor_inertia_kgm2", {0.0, 1e-2});
+    p.motor.coulomb_friction_Nm = motor.number("coulomb_friction_Nm", {0.0, 10.0});
+    p.motor.viscous_friction_Nms_per_rad = motor.number("viscous_friction_Nms_per_rad", {0.0, 10.0});
+    p.motor.max_torque_Nm = motor.number("max_torque_Nm", {0.0, 50.0});
+    motor.finish();
+  }
+  p.agonist = read_muscle(map.map("agonist"), supply_pressure_Pa);
+  p.antagonist = read_muscle(map.map("antagonist"), supply_pressure_Pa);
+  return p;
+}
+
+double quantize_16bit(double value, double range) noexcept {
+  constexpr double kCodes = 65535.0;
+  const double code = std::round(std::clamp(value / range, 0.0, 1.0) * kCodes);
+  return code / kCodes * range;
+}
+
+PehaJointPlant::PehaJointPlant(const PehaJointPlantParams& params, double timestep_s, double initial_angle_rad)
+    : params_(params),
+      timestep_s_(timestep_s),
+      muscles_{{&params_.agonist, +1, Valve(params_.agonist.valve, timestep_s)},
+               {&params_.antagonist, -1, Valve(params_.antagonist.valve, timestep_s)}} {
+  for (Muscle& mu : muscles_) {
+    mu.valve.reset(mu.p->initial_pressure_Pa);
+    // Twice: the first solve finds the contraction, the second starts from it at zero rate.
+    solve_muscle(mu, initial_angle_rad);
+    solve_muscle(mu, initial_angle_rad);
+    const int i = mu.side > 0 ? 0 : 1;
+    // At rest the friction is static: the lowest tension along the wire is T*exp(-mu_s*psi).
+    truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-mu.p->cable.static_friction * mu.p->cable.wrap_angle_rad);
+    truth_.muscle_force_N[i] = mu.tension_N;
+    truth_.pressure_Pa[i] = mu.valve.pressure_Pa();
+    truth_.muscle_contraction[i] = mu.contraction;
+  }
+}
+
+double PehaJointPlant::armature_kgm2() const {
+  return params_.has_motor ? params_.motor.rotor_inertia_kgm2 * params_.motor.gear_ratio * params_.motor.gear_ratio : 0.0;
+}
+double PehaJointPlant::viscous_friction_Nms_per_rad() const {
+  return params_.has_motor ? params_.motor.viscous_friction_Nms_per_rad : 0.0;
+}
+double PehaJointPlant::coulomb_friction_Nm() const { return params_.has_motor ? params_.motor.coulomb_friction_Nm : 0.0; }
+
+void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
+  const MusclePlantParams& p = *mu.p;
+  const double r0 = params_.pulley_radius_m;
+  const double dt_s = timestep_s_;
+  const double pressure = mu.valve.pressure_Pa();
+  const double eps = p.contraction_at_zero_angle + mu.side * r0 * angle / p.rest_length_m;
+  const double base = eps + (p.cable.initial_slack_m + mu.creep_m) / p.rest_length_m;
+  const double per_N = 1.0 / (p.cable.wire_stiffness_N_per_m * p.rest_length_m);
+  // Equilibrium of a massless muscle on an elastic wire: T = F(P, u(T), du/dt(T)) with
+  // u(T) = base + T*per_N. The contraction rate is taken implicitly, (u(T) - u_previous)/dt: with an
+  // explicit rate the hysteresis term chatters, because a stiff wire turns a small change of force
+  // into a large change of rate. phi(T) = F - T decreases strictly in T (the static force falls with
+  // u and the hysteresis factor falls with the rate), so the root is unique and bracketed by
+  // [0, F at T = 0]. Newton steps with a difference quotient, bisection when a step leaves the bracket.
+  const double u_previous = mu.contraction;
+  auto phi = [&](double T) {
+    const double u = base + T * per_N;
+    return force_N(p.law, pressure, u, (u - u_previous) / dt_s) - T;
+  };
+  double lo = 0.0;
+  double hi = phi(0.0);
+  double T = 0.0;
+  if (hi > 0.0) {
+    T = std::clamp(mu.tension_N, lo, hi);
+    for (int it = 0; it < 80; ++it) {
+      const double r = phi(T);
+      if (r > 0.0) lo = T; else hi = T;
+      if (std::abs(r) < 1e-7 || hi - lo < 1e-9) break;
+      const double h = 1e-6 * (1.0 + T);
+      const double slope = (phi(T + h) - r) / h;
+      double next = slope < 0.0 ? T - r / slope : 0.5 * (lo + hi);
+      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+      T = next;
+    }
+  }
+  mu.contraction = base + T * per_N;
+  mu.tension_N = T;
+}
+
+PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double angle, double omega) noexcept {
+  const double dt = timestep_s_;
+  const double r0 = params_.pulley_radius_m;
+  muscles_[0].valve.step(cmd.agonist_pressure_Pa);
+  muscles_[1].valve.step(cmd.antagonist_pressure_Pa);
+  double friction_Nm = 0.0;
+  for (Muscle& mu : muscles_) {
+    solve_muscle(mu, angle);
+    const CablePlantParams& c = mu.p->cable;
+    mu.creep_m = std::min(mu.creep_m + c.creep_m_per_N_s * mu.tension_N * dt, c.max_creep_m);
+    // Capstan friction: the wire slides toward its muscle (v > 0) or away from it. Moving toward the
+    // muscle the pulley end carries T*exp(-x); away, T*exp(+x). Around v = 0 the friction is static.
+    const double v = mu.side * r0 * omega;
+    const double mu_eff = c.kinetic_friction + (c.static_friction - c.kinetic_friction) *
+                                                   std::exp(-(v / c.stribeck_velocity_mps) * (v / c.stribeck_velocity_mps));
+    const double x = mu_eff * c.wrap_angle_rad;
+    const double toward = mu.tension_N * (1.0 - std::exp(-x));
+    const double away = mu.tension_N * (std::exp(x) - 1.0);
+    const double weight = 0.5 * (1.0 + std::tanh(v / c.stribeck_velocity_mps));  // which way it slides
+    friction_Nm += r0 * (weight * toward + (1.0 - weight) * away);
+    const int i = mu.side > 0 ? 0 : 1;
+    truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-x);
+    truth_.muscle_force_N[i] = mu.tension_N;
+    truth_.pressure_Pa[i] = mu.valve.pressure_Pa();
+    truth_.muscle_contraction[i] = mu.contraction;
+    truth_.creep_m[i] = mu.creep_m;
+  }
+  const double motor = params_.has_motor ? std::clamp(std::isfinite(cmd.motor_torque_Nm) ? cmd.motor_torque_Nm : 0.0,
+                                                      -params_.motor.max_torque_Nm, params_.motor.max_torque_Nm)
+                                         : 0.0;
+  truth_.motor_torque_Nm = motor;
+  truth_.cable_friction_Nm = friction_Nm;
+  return {r0 * (muscles_[0].tension_N - muscles_[1].tension_N) + motor, friction_Nm};
+}
+
+void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, std::mt19937_64& rng,
+                           io::JointSensors& s) noexcept {
+  const double* force = truth_.muscle_force_N;
+  s.agonist_force_N = quantize_16bit(force[0] + params_.agonist.loadcell_noise_N * unit_normal_(rng), params_.agonist.loadcell_range_N);
+  s.antagonist_force_N = quantize_16bit(force[1] + params_.antagonist.loadcell_noise_N * unit_normal_(rng), params_.antagonist.loadcell_range_N);
+  s.agonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[0] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
+  s.antagonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[1] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
+}
+
+}  // namespace peha::sim
