@@ -14,7 +14,7 @@ namespace {
 constexpr double kTol = 1e-12;
 
 std::string right_arm_yaml() {
-  std::ifstream in(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / "right_arm.yaml");
+  std::ifstream in(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / "arm" / "right_arm_body.yaml");
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
@@ -124,7 +124,7 @@ TEST(ArmModelBuild, ChainAndBodiesForTheDefaultUser) {
 }
 
 TEST(RightArmConfig, ReadsTheShippedFile) {
-  const auto doc = config::Document::load_file(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / "right_arm.yaml");
+  const auto doc = config::Document::load_file(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / "arm" / "right_arm_body.yaml");
   const RightArmConfig c = read_right_arm(doc);
   EXPECT_DOUBLE_EQ(c.controller.user_spec.height_m, 1.75);
   EXPECT_DOUBLE_EQ(c.controller.user_spec.mass_kg, 70.0);

@@ -1,5 +1,5 @@
 // Issue 4's cross-checks on the real right-arm model (exoskeleton + user arm + payload, from
-// configs/right_arm.yaml): our gravity compensation tau = J^T G equals MuJoCo's own bias force at
+// configs/arm/right_arm_body.yaml): our gravity compensation tau = J^T G equals MuJoCo's own bias force at
 // zero velocity, and our inverse dynamics equals mj_inverse, at random postures and states.
 #include "peha/models/anthropometry.hpp"
 #include "peha/models/arm.hpp"
@@ -21,7 +21,7 @@ struct RightArm {
 /// pure rigid-body ones our model describes.
 RightArm right_arm() {
   const models::RightArmConfig cfg =
-      models::read_right_arm(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+      models::read_right_arm(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml"));
   models::ArmSetup setup = cfg.plant;
   setup.payload_kg = 2.0;
   RightArm arm{setup.model(), nullptr};

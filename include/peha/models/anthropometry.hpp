@@ -126,7 +126,7 @@ ExoArmParams exo_arm_for_user(const UserArm& user);
 /// link axes at com_from_proximal_m. Throws std::invalid_argument on non-physical input.
 ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double payload_kg, bool include_user_arm);
 
-// ---- configuration (configs/right_arm.yaml) ----
+// ---- configuration (configs/arm/right_arm_body.yaml) ----
 
 /// Reads an `exoskeleton:` section: shoulder_height_m, upper_link{...}, forearm_link{...},
 /// hand_piece{...} (each: mass_kg, com_fraction, radius_of_gyration_fraction,
@@ -158,7 +158,7 @@ struct ArmSetup {
 /// map's other keys to the caller, who calls finish()).
 ArmSetup read_arm_setup(config::Map& map);
 
-/// configs/right_arm.yaml: the controller's model at the top level, the simulated truth under
+/// configs/arm/right_arm_body.yaml: the controller's model at the top level, the simulated truth under
 /// `plant:` (same keys). Rejects unknown keys everywhere.
 struct RightArmConfig {
   ArmSetup controller;

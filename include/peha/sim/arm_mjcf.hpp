@@ -2,7 +2,7 @@
 /// \file
 /// MJCF of a `models::ArmModel` (the right arm's serial chain), so the simulated plant and the
 /// controller's model can be built from one description (with different parameters: the plant's
-/// truth is a second ArmModel, see configs/right_arm.yaml and docs/right-arm.md).
+/// truth is a second ArmModel, see configs/arm/right_arm_body.yaml and docs/right-arm.md).
 ///
 /// Structure of the generated model:
 /// - one MuJoCo body per group of joints: a joint starts a new body unless it sits at its
