@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -235,10 +237,12 @@ TEST(ArmMjcf, RejectsBadInput) {
 
 TEST(ArmMjcf, LeavesNoTemporaryFiles) {
   const auto dir = std::filesystem::temp_directory_path();
+  // Only this process's files: CTest runs other tests (which load arm models too) in parallel.
+  const std::string mine = "peha_arm_mjcf_" + std::to_string(static_cast<long>(::getpid())) + "_";
   auto count = [&] {
     int n = 0;
     for (const auto& e : std::filesystem::directory_iterator(dir)) {
-      if (e.path().filename().string().rfind("peha_arm_mjcf_", 0) == 0) ++n;
+      if (e.path().filename().string().rfind(mine, 0) == 0) ++n;
     }
     return n;
   };
