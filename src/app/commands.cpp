@@ -3,6 +3,7 @@
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/dataset.hpp"
 #include "peha/runtime/e1_gravity.hpp"
+#include "peha/runtime/right_arm.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
 #include <fmt/chrono.h>
@@ -77,6 +78,26 @@ std::filesystem::path plot_tool() {
   return tool;
 }
 
+/// Creates out/<run>/ and copies the config into it, with where it came from (its relative paths
+/// resolve there) and the seed used. Called only once everything is loaded and checked.
+std::filesystem::path prepare_run_dir(const RunOptions& options, const std::string& run_name, std::uint64_t seed) {
+  const std::filesystem::path dir = options.out_root / run_name;
+  std::filesystem::create_directories(dir);
+  std::ifstream in(options.config);
+  std::ofstream out(dir / "config.yaml");
+  out << fmt::format("# peha run copy of {}\n# relative paths resolve against {}\n# seed used: {}\n",
+                     std::filesystem::absolute(options.config).string(),
+                     std::filesystem::absolute(options.config).parent_path().string(), seed)
+      << in.rdbuf();
+  return dir;
+}
+
+void link_latest(const RunOptions& options, const std::string& run_name) {
+  std::error_code ec;
+  std::filesystem::remove(options.out_root / "latest", ec);
+  std::filesystem::create_directory_symlink(run_name, options.out_root / "latest", ec);
+}
+
 void write_summary(const std::filesystem::path& path, const std::vector<runtime::E1Result>& results) {
   std::ofstream out(path);
   out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_excursion_deg,"
@@ -147,18 +168,7 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
 
   // Only now, with everything loaded and checked, does the run leave a trace on disk.
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
-  const std::filesystem::path dir = options.out_root / run_name;
-  std::filesystem::create_directories(dir);
-  {
-    // The exact file the run used, with where it came from: its relative paths resolve there.
-    std::ifstream in(options.config);
-    std::ofstream out(dir / "config.yaml");
-    out << fmt::format("# peha run copy of {}\n# relative paths resolve against {}\n# seed used: {}\n",
-                       std::filesystem::absolute(options.config).string(),
-                       std::filesystem::absolute(options.config).parent_path().string(), scenario.seed)
-        << in.rdbuf();
-  }
-
+  const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
   fmt::print("peha run: {}\n  {}\n  {} case(s) x {} model(s), {:.1f} s simulated each, seed {}, force trim {}, output {}\n",
              doc.name(), scenario.description, cases.size(), variants.size(), scenario.duration_s, scenario.seed,
              scenario.controller.allocation.force_trim_rate_1ps > 0
@@ -223,10 +233,47 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
                          "the logs are complete\n");
     }
   }
-  std::error_code ec;
-  std::filesystem::remove(options.out_root / "latest", ec);
-  std::filesystem::create_directory_symlink(run_name, options.out_root / "latest", ec);
+  link_latest(options, run_name);
   return safe ? 0 : 3;
+}
+
+int run_arm(const RunOptions& options, const config::Document& doc) {
+  if (options.experiment != "postures") {
+    fmt::print(stderr, "error: {} is a right-arm scenario: give --experiment postures\n", doc.name());
+    return 2;
+  }
+  runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
+  if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+  const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
+  const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
+  const double duration_s = 2.0 + 0.2 * scenario.observe_s +
+                            scenario.postures.size() * (scenario.move_s + scenario.hold_s + scenario.observe_s);
+  fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
+             doc.name(), scenario.description, scenario.postures.size(), duration_s, scenario.seed, dir.string());
+  runtime::CsvLog log(runtime::arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+  const runtime::PosturesResult r = runtime::run_postures(scenario, &log);
+  log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
+                                      fmt::format("config: {}; seed {}", options.config.string(), scenario.seed),
+                                      "plant_* columns are simulator truth the controller never sees"});
+  std::ofstream summary(dir / "summary.csv");
+  summary << "posture,target_sfe_deg,target_efe_deg,released_sfe_deg,released_efe_deg,drift_sfe_deg,drift_efe_deg,"
+             "max_excursion_sfe_deg,max_excursion_efe_deg\n";
+  fmt::print("\n{:<15} {:>15} {:>17} {:>19} {:>19}\n", "posture", "target SFE/EFE", "released SFE/EFE",
+             fmt::format("drift {:.0f} s SFE/EFE", scenario.observe_s), "max excursion");
+  for (const auto& p : r.postures) {
+    fmt::print("{:<15} {:>7.1f} {:>7.1f} {:>8.2f} {:>8.2f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f}   deg\n", p.name, p.target_deg[0],
+               p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1], p.max_excursion_deg[0],
+               p.max_excursion_deg[1]);
+    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f}\n", p.name, p.target_deg[0],
+                           p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1],
+                           p.max_excursion_deg[0], p.max_excursion_deg[1]);
+  }
+  fmt::print("safety: peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak operator torque "
+             "{:.1f} Nm: {}\nreal-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
+             r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_operator_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
+             r.realtime_factor, dir.string());
+  link_latest(options, run_name);
+  return r.within_limits ? 0 : 3;
 }
 
 }  // namespace
@@ -234,6 +281,13 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
 int run(const RunOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
+    // The scenario says which kind of exoskeleton it describes.
+    config::Map root = doc.root();
+    if (root.has("experiment") && root.string("experiment") == "right_arm") return run_arm(options, doc);
+    if (!options.experiment.empty()) {
+      fmt::print(stderr, "error: --experiment applies to right-arm scenarios; {} is a one-DOF rig scenario\n", doc.name());
+      return 2;
+    }
     return run_e1(options, doc);
   });
 }

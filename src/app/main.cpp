@@ -34,6 +34,10 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--antagonist-calibration", run.calibration[1], "Calibration YAML for the antagonist")
       ->check(CLI::ExistingFile);
+  run_cmd->add_option("--experiment", run.experiment,
+                      "Right-arm scenarios (configs/right_arm.yaml) only: the experiment to run.\n"
+                      "postures = E3: move the arm with its mannequin to each posture, let go, measure the drift")
+      ->check(CLI::IsMember({"postures"}));
   double trim = 0;
   CLI::Option* trim_opt = run_cmd->add_option(
       "--force-trim-rate", trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward)")

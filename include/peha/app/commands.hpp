@@ -20,6 +20,7 @@ struct RunOptions {
   /// any, each case runs with the calibrated parametric model and with parametric + SPGP.
   std::filesystem::path calibration[2];
   std::optional<double> force_trim_rate_1ps;  ///< overrides the config's force trim (0 = off)
+  std::string experiment;                     ///< right-arm scenarios: which experiment ("postures")
 };
 
 /// `peha run`: runs the scenario's experiment, writes out/<run>/ and prints a summary table.

@@ -1,0 +1,95 @@
+#pragma once
+/// \file
+/// The simulated right-arm exoskeleton (SPEC §1, §4): MuJoCo's rigid bodies of the exoskeleton,
+/// the strapped-on user/mannequin arm and the payload (generated from a models::ArmModel), one
+/// sim::PehaJointPlant per actuated joint (R_SFE and R_EFE with motors, R_WFE with its DMSP-10 pair
+/// only), joint encoders, and the operator's hands: a joint-space impedance that moves the arm to a
+/// posture and lets go. Controllers see it only through io::Backend (io joint i = actuated joint i).
+
+#include "peha/io/backend.hpp"
+#include "peha/models/arm.hpp"
+#include "peha/sim/arm_mjcf.hpp"
+#include "peha/sim/mujoco_model.hpp"
+#include "peha/sim/peha_joint_plant.hpp"
+
+#include <Eigen/Dense>
+
+#include <random>
+#include <string>
+#include <vector>
+
+namespace peha::sim {
+
+/// One move of the operator: grip the arm where it is, carry the actuated joints to `target_rad`
+/// (NaN = leave that joint free) on a minimum-jerk path over `move_s`, hold until `duration_s`, let go.
+struct OperatorMove {
+  std::string name;
+  double start_s = 0;
+  double duration_s = 1;
+  double move_s = 1;
+  std::vector<double> target_rad;  ///< one per actuated joint
+};
+
+/// The operator's hands as a joint-space impedance, saturated per joint.
+struct OperatorParams {
+  double stiffness_Nm_per_rad = 80;
+  double damping_Nms_per_rad = 8;
+  double max_torque_Nm = 25;
+  std::vector<OperatorMove> moves;
+};
+
+struct RightArmPlantParams {
+  models::ArmModel model;                 ///< the plant's true rigid bodies (payload included)
+  ArmMjcfOptions mjcf;                    ///< ranges, passive damping, the R_WR clamp
+  double timestep_s = 0.0005;             ///< MuJoCo step; divides the control period
+  double control_period_s = 0.001;
+  std::vector<std::string> actuated;      ///< names of the actuated joints, in io order
+  std::vector<PehaJointPlantParams> actuators;  ///< one per actuated joint
+  std::vector<double> initial_q_rad;      ///< one per model joint
+  double pressure_noise_Pa = 1000;
+  double pressure_range_Pa = 1.0e6;
+  double encoder_counts_per_rev = 70000;
+  OperatorParams operator_hands;
+  std::uint64_t seed = 1;
+};
+
+/// The plant's truth for logs and figures.
+struct RightArmTruth {
+  double time_s = 0;
+  std::vector<double> q_rad, qd_radps;           ///< every model joint
+  std::vector<PehaJointTruth> actuators;         ///< per actuated joint
+  std::vector<double> operator_torque_Nm;        ///< per actuated joint
+  bool operator_active = false;
+};
+
+class RightArmBackend final : public io::Backend {
+ public:
+  explicit RightArmBackend(const RightArmPlantParams& params);
+  const io::BackendInfo& info() const override { return info_; }
+  bool read(io::SensorState& state) noexcept override;
+  bool write(const io::Command& command) noexcept override;
+  const RightArmTruth& truth() const { return truth_; }
+  /// Adds a generalised torque (Nm, per model joint) applied from now on, e.g. a person's elbow.
+  void set_external_torque(int model_joint, double torque_Nm) noexcept { external_[model_joint] = torque_Nm; }
+
+ private:
+  void substep(const io::Command& command) noexcept;
+  void sample() noexcept;
+
+  RightArmPlantParams params_;
+  io::BackendInfo info_;
+  ModelPtr model_;
+  DataPtr data_;
+  std::vector<int> dof_;                 ///< MuJoCo dof of each actuated joint
+  std::vector<PehaJointPlant> joints_;
+  std::vector<double> base_frictionloss_, base_damping_;
+  std::vector<double> move_start_;       ///< angle where the current move began, per actuated joint
+  int active_move_ = -1;
+  std::vector<double> external_;
+  int substeps_ = 1;
+  std::mt19937_64 rng_;
+  io::SensorState state_;
+  RightArmTruth truth_;
+};
+
+}  // namespace peha::sim

@@ -1,0 +1,229 @@
+#include "peha/runtime/right_arm.hpp"
+
+#include "peha/models/anthropometry.hpp"
+#include "peha/models/model_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace peha::runtime {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr const char* kJointKeys[3] = {"shoulder", "elbow", "wrist"};
+constexpr const char* kJointNames[3] = {"R_SFE", "R_EFE", "R_WFE"};
+
+}  // namespace
+
+ArmScenario read_arm_scenario(const config::Document& doc) {
+  config::Map root = doc.root();
+  ArmScenario s;
+  root.choice("experiment", {"right_arm"});
+  s.description = root.string("description");
+  s.seed = static_cast<std::uint64_t>(root.integer("seed", 0, 1L << 40));
+  const models::RightArmConfig body = models::read_right_arm(config::Document::load_file(root.path_value("body")));
+
+  config::Map run = root.map("run");
+  s.period_s = run.number("control_period_s", {1e-4, 0.1});
+  run.finish();
+  config::Map limits = root.map("limits");
+  const double supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
+  const double rate_Pa = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
+  const double motor_rate = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
+  limits.finish();
+
+  config::Map ctl = root.map("controller");
+  s.controller.arm = body.controller.model();
+  s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
+  config::Map alloc = ctl.map("allocation");
+  s.controller.allocation.pam_cutoff_Hz = alloc.number("pam_cutoff_Hz", {0.01, 500.0});
+  s.controller.allocation.pretension_N = alloc.number("pretension_N", {1.0, 500.0});
+  s.controller.allocation.use_motor = alloc.boolean("use_motor");
+  s.controller.allocation.force_trim_rate_1ps = alloc.number("force_trim_rate_1ps", {0.0, 100.0});
+  s.controller.allocation.force_trim_max_N = alloc.number("force_trim_max_N", {0.0, 2000.0});
+  s.controller.allocation.supply_pressure_Pa = supply_Pa;
+  alloc.finish();
+  s.limits.joint_count = 3;
+  s.limits.period_s = s.period_s;
+  for (int i = 0; i < 3; ++i) {
+    config::Map j = ctl.map(kJointKeys[i]);
+    control::ArmActuatedJoint joint;
+    joint.model_joint = i;  // SFE, EFE, WFE are the first three joints of the arm model
+    const double lo = j.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
+    const double hi = j.number("max_angle_deg", {lo / kDeg, 180.0}) * kDeg;
+    if (i == 2) {
+      joint.mode = control::ArmJointMode::kHoldPressure;
+      joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, supply_Pa * 1e-6}) * 1e6;
+    }
+    joint.actuator = models::read_joint_model(j, kJointNames[i], supply_Pa);
+    j.finish();
+    safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(i)];
+    lim.model = joint.actuator;
+    lim.supply_pressure_Pa = supply_Pa;
+    lim.pretension_N = s.controller.allocation.pretension_N;
+    lim.pressure_rate_Pa_per_s = rate_Pa;
+    lim.motor_rate_Nm_per_s = motor_rate;
+    lim.min_angle_rad = lo;
+    lim.max_angle_rad = hi;
+    s.controller.joints.push_back(joint);
+  }
+  ctl.finish();
+
+  config::Map plant = root.map("plant");
+  sim::RightArmPlantParams& p = s.plant;
+  p.model = body.plant.model();
+  p.mjcf = sim::right_arm_mjcf_options();
+  p.timestep_s = plant.number("timestep_s", {1e-5, 0.01});
+  p.mjcf.timestep_s = p.timestep_s;
+  p.control_period_s = s.period_s;
+  const double ratio = s.period_s / p.timestep_s;
+  if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0) {
+    plant.fail("timestep_s", fmt::format("must divide the control period {} s", s.period_s));
+  }
+  p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  config::Map pressure = plant.map("pressure_sensor");
+  p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
+  p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
+  pressure.finish();
+  const std::vector<double> q0 = plant.numbers("initial_angles_deg", {-180.0, 180.0}, 5, 5);
+  for (double a : q0) p.initial_q_rad.push_back(a * kDeg);
+  for (int i = 0; i < 3; ++i) {
+    config::Map j = plant.map(kJointKeys[i]);
+    p.actuated.emplace_back(kJointNames[i]);
+    p.actuators.push_back(sim::read_peha_joint_plant(j, supply_Pa, /*has_motor=*/i < 2));
+    j.finish();
+  }
+  plant.finish();
+  p.seed = s.seed;
+
+  config::Map op = root.map("operator");
+  p.operator_hands.stiffness_Nm_per_rad = op.number("stiffness_Nm_per_rad", {0.0, 1e4});
+  p.operator_hands.damping_Nms_per_rad = op.number("damping_Nms_per_rad", {0.0, 1e3});
+  p.operator_hands.max_torque_Nm = op.number("max_torque_Nm", {0.0, 200.0});
+  op.finish();
+
+  config::Map postures = root.map("postures");
+  s.move_s = postures.number("move_s", {0.1, 60.0});
+  s.hold_s = postures.number("hold_s", {0.0, 60.0});
+  s.observe_s = postures.number("observe_s", {0.1, 600.0});
+  for (config::Map item : postures.maps("list", 1, 32)) {
+    ArmPosture a;
+    a.name = item.string("name");
+    a.sfe_rad = item.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
+    a.efe_rad = item.number("efe_deg", {s.limits.joints[1].min_angle_rad / kDeg, s.limits.joints[1].max_angle_rad / kDeg}) * kDeg;
+    item.finish();
+    s.postures.push_back(a);
+  }
+  postures.finish();
+  root.finish();
+  return s;
+}
+
+const std::vector<std::string>& arm_log_columns() {
+  static const std::vector<std::string> columns = [] {
+    std::vector<std::string> c = {"t_s", "operator_active"};
+    for (const char* j : {"sfe", "efe", "wfe"}) {
+      for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
+                            "operator_torque_Nm", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "f_agonist_loadcell_N",
+                            "f_antagonist_loadcell_N", "plant_force_agonist_N", "plant_force_antagonist_N"}) {
+        c.push_back(fmt::format("{}_{}", j, f));
+      }
+    }
+    return c;
+  }();
+  return columns;
+}
+
+PosturesResult run_postures(const ArmScenario& scenario, CsvLog* log) {
+  // The operator's script: hold the arm where it starts while compensation comes on, then for each
+  // posture carry the arm there, hold, let go, and watch.
+  sim::RightArmPlantParams plant_params = scenario.plant;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  plant_params.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, {plant_params.initial_q_rad[0], plant_params.initial_q_rad[1], nan}});
+  double t = 2.0 + scenario.observe_s * 0.2;
+  std::vector<double> release_s;
+  for (const ArmPosture& a : scenario.postures) {
+    plant_params.operator_hands.moves.push_back({a.name, t, scenario.move_s + scenario.hold_s, scenario.move_s, {a.sfe_rad, a.efe_rad, nan}});
+    t += scenario.move_s + scenario.hold_s;
+    release_s.push_back(t);
+    t += scenario.observe_s;
+  }
+  const double duration_s = t;
+  sim::RightArmBackend plant(plant_params);
+  control::ArmController controller(scenario.controller);
+  safety::LimitsData limits_data;
+
+  PosturesResult r;
+  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
+  bool safe = true;
+  const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
+  std::vector<double> sfe(steps + 1), efe(steps + 1);
+  io::SensorState state;
+  io::Command command;
+  const auto wall_start = std::chrono::steady_clock::now();
+  for (std::size_t k = 0; k <= steps; ++k) {
+    plant.read(state);
+    controller.update(state, command);
+    safety::apply_limits(scenario.limits, limits_data, state, command);
+    const sim::RightArmTruth& truth = plant.truth();
+    sfe[k] = truth.q_rad[0];
+    efe[k] = truth.q_rad[1];
+    for (std::size_t a = 0; a < truth.actuators.size(); ++a) {
+      const sim::PehaJointTruth& j = truth.actuators[a];
+      const models::JointModel& jm = scenario.controller.joints[a].actuator;
+      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+      r.min_wire_tension_N = std::min({r.min_wire_tension_N, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
+      r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth.operator_torque_Nm[a]));
+      safe = safe && j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) &&
+             j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
+             j.pressure_Pa[0] <= scenario.limits.joints[a].supply_pressure_Pa &&
+             j.pressure_Pa[1] <= scenario.limits.joints[a].supply_pressure_Pa &&
+             std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
+    }
+    if (log && log->begin_row()) {
+      std::size_t col = 0;
+      log->set(col++, state.time_s);
+      log->set(col++, truth.operator_active ? 1.0 : 0.0);
+      const auto& diag = controller.diagnostics();
+      for (std::size_t a = 0; a < 3; ++a) {
+        const sim::PehaJointTruth& j = truth.actuators[a];
+        const double values[] = {state.joints[a].angle_rad, truth.q_rad[a], diag[a].torque_gravity_Nm, diag[a].torque_desired_Nm,
+                                 command.joints[a].motor_torque_Nm, truth.operator_torque_Nm[a],
+                                 command.joints[a].agonist_pressure_Pa * 1e-6, command.joints[a].antagonist_pressure_Pa * 1e-6,
+                                 state.joints[a].agonist_force_N, state.joints[a].antagonist_force_N, j.muscle_force_N[0],
+                                 j.muscle_force_N[1]};
+        for (double v : values) log->set(col++, v);
+      }
+    }
+    if (k < steps) plant.write(command);
+  }
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
+  r.within_limits = safe && r.min_wire_tension_N > 0.0;
+
+  const auto window = static_cast<std::size_t>(std::llround(scenario.observe_s / scenario.period_s));
+  for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
+    PostureResult p;
+    p.name = scenario.postures[i].name;
+    p.target_deg[0] = scenario.postures[i].sfe_rad / kDeg;
+    p.target_deg[1] = scenario.postures[i].efe_rad / kDeg;
+    const auto k0 = static_cast<std::size_t>(std::llround(release_s[i] / scenario.period_s));
+    const std::size_t k1 = std::min(k0 + window, steps);
+    const std::vector<double>* angles[2] = {&sfe, &efe};
+    for (int j = 0; j < 2; ++j) {
+      const std::vector<double>& a = *angles[j];
+      p.released_deg[j] = a[k0] / kDeg;
+      p.drift_deg[j] = (a[k1] - a[k0]) / kDeg;
+      for (std::size_t k = k0; k <= k1; ++k) p.max_excursion_deg[j] = std::max(p.max_excursion_deg[j], std::abs(a[k] - a[k0]) / kDeg);
+    }
+    r.postures.push_back(p);
+  }
+  return r;
+}
+
+}  // namespace peha::runtime

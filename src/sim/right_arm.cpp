@@ -1,0 +1,128 @@
+#include "peha/sim/right_arm.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+
+namespace peha::sim {
+
+RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
+    : params_(params),
+      model_(load_arm_mjcf(arm_mjcf(params.model, params.mjcf))),
+      rng_(params.seed) {
+  mjModel* m = model_.get();
+  if (params_.actuated.size() != params_.actuators.size() || params_.actuated.size() > io::kMaxJoints) {
+    throw std::invalid_argument("right arm: one actuator per actuated joint, at most io::kMaxJoints");
+  }
+  if (static_cast<int>(params_.initial_q_rad.size()) != m->nq) {
+    throw std::invalid_argument(fmt::format("right arm: initial_q has {} values, the model {} joints",
+                                            params_.initial_q_rad.size(), m->nq));
+  }
+  m->opt.timestep = params_.timestep_s;
+  substeps_ = static_cast<int>(std::lround(params_.control_period_s / params_.timestep_s));
+  data_.reset(mj_makeData(m));
+  for (int i = 0; i < m->nq; ++i) data_->qpos[i] = params_.initial_q_rad[static_cast<std::size_t>(i)];
+  for (std::size_t a = 0; a < params_.actuated.size(); ++a) {
+    const int joint = require_id(m, mjOBJ_JOINT, params_.actuated[a], "right arm");
+    const int dof = m->jnt_dofadr[joint];
+    dof_.push_back(dof);
+    joints_.emplace_back(params_.actuators[a], params_.timestep_s, data_->qpos[m->jnt_qposadr[joint]]);
+    m->dof_armature[dof] += joints_.back().armature_kgm2();
+    base_damping_.push_back(m->dof_damping[dof] + joints_.back().viscous_friction_Nms_per_rad());
+    base_frictionloss_.push_back(m->dof_frictionloss[dof] + joints_.back().coulomb_friction_Nm());
+    info_.joint_names.push_back(params_.actuated[a]);
+  }
+  mj_setConst(m, data_.get());
+  mj_forward(m, data_.get());
+  external_.assign(static_cast<std::size_t>(m->nv), 0.0);
+  move_start_.assign(params_.actuated.size(), 0.0);
+  truth_.q_rad.resize(static_cast<std::size_t>(m->nq));
+  truth_.qd_radps.resize(static_cast<std::size_t>(m->nv));
+  truth_.operator_torque_Nm.assign(params_.actuated.size(), 0.0);
+  truth_.actuators.resize(params_.actuated.size());
+  info_.name = "sim:right_arm";
+  info_.period_s = params_.control_period_s;
+  state_.joint_count = static_cast<int>(params_.actuated.size());
+  sample();
+}
+
+void RightArmBackend::substep(const io::Command& command) noexcept {
+  mjModel* m = model_.get();
+  mjData* d = data_.get();
+  mju_zero(d->qfrc_applied, m->nv);
+  for (int i = 0; i < m->nv; ++i) d->qfrc_applied[i] = external_[static_cast<std::size_t>(i)];
+
+  // The operator's hands: which move is on, and its minimum-jerk target per joint.
+  const double t = d->time;
+  int move = -1;
+  for (std::size_t k = 0; k < params_.operator_hands.moves.size(); ++k) {
+    const OperatorMove& mv = params_.operator_hands.moves[k];
+    if (t >= mv.start_s && t < mv.start_s + mv.duration_s) move = static_cast<int>(k);
+  }
+  if (move != active_move_ && move >= 0) {
+    for (std::size_t a = 0; a < dof_.size(); ++a) move_start_[a] = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
+  }
+  active_move_ = move;
+  truth_.operator_active = move >= 0;
+
+  for (std::size_t a = 0; a < joints_.size(); ++a) {
+    const int dof = dof_[a];
+    const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof]]];
+    const double omega = d->qvel[dof];
+    const PehaJointPlant::Forces f = joints_[a].step(command.joints[a], angle, omega);
+    m->dof_frictionloss[dof] = base_frictionloss_[a] + f.friction_bound_Nm;
+    m->dof_damping[dof] = base_damping_[a];
+    d->qfrc_applied[dof] += f.torque_Nm;
+    double hands = 0.0;
+    if (move >= 0) {
+      const OperatorMove& mv = params_.operator_hands.moves[static_cast<std::size_t>(move)];
+      const double goal = mv.target_rad[a];
+      if (std::isfinite(goal)) {
+        const double s = std::clamp((t - mv.start_s) / mv.move_s, 0.0, 1.0);
+        const double blend = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);  // minimum jerk
+        const double target = move_start_[a] + (goal - move_start_[a]) * blend;
+        const OperatorParams& op = params_.operator_hands;
+        hands = std::clamp(op.stiffness_Nm_per_rad * (target - angle) - op.damping_Nms_per_rad * omega,
+                           -op.max_torque_Nm, op.max_torque_Nm);
+      }
+    }
+    d->qfrc_applied[dof] += hands;
+    truth_.operator_torque_Nm[a] = hands;
+  }
+  mj_step(m, d);
+}
+
+void RightArmBackend::sample() noexcept {
+  const mjModel* m = model_.get();
+  const mjData* d = data_.get();
+  truth_.time_s = d->time;
+  for (int i = 0; i < m->nq; ++i) truth_.q_rad[static_cast<std::size_t>(i)] = d->qpos[i];
+  for (int i = 0; i < m->nv; ++i) truth_.qd_radps[static_cast<std::size_t>(i)] = d->qvel[i];
+  const double counts_per_rad = params_.encoder_counts_per_rev / (2.0 * std::numbers::pi);
+  for (std::size_t a = 0; a < joints_.size(); ++a) {
+    truth_.actuators[a] = joints_[a].truth();
+    io::JointSensors& s = state_.joints[a];
+    const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
+    s.angle_rad = std::floor(angle * counts_per_rad) / counts_per_rad;
+    joints_[a].sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
+  }
+  state_.time_s = d->time;
+  ++state_.sequence;
+}
+
+bool RightArmBackend::read(io::SensorState& state) noexcept {
+  state = state_;
+  return true;
+}
+
+bool RightArmBackend::write(const io::Command& command) noexcept {
+  if (command.joint_count != static_cast<int>(joints_.size())) return false;
+  for (int i = 0; i < substeps_; ++i) substep(command);
+  sample();
+  return true;
+}
+
+}  // namespace peha::sim
