@@ -97,7 +97,6 @@ double OneDofRigBackend::finger_force(double t, double angle, double omega) noex
 void OneDofRigBackend::substep(const io::JointCommand& cmd) noexcept {
   mjModel* m = model_.get();
   mjData* d = data_.get();
-  const double dt = params_.timestep_s;
   const double angle = d->qpos[0];
   const double omega = d->qvel[dof_];
 

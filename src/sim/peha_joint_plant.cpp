@@ -70,16 +70,16 @@ double quantize_16bit(double value, double range) noexcept {
 PehaJointPlant::PehaJointPlant(const PehaJointPlantParams& params, double timestep_s, double initial_angle_rad)
     : params_(params),
       timestep_s_(timestep_s),
-      muscles_{{&params_.agonist, +1, Valve(params_.agonist.valve, timestep_s)},
-               {&params_.antagonist, -1, Valve(params_.antagonist.valve, timestep_s)}} {
+      muscles_{{+1, Valve(params_.agonist.valve, timestep_s)}, {-1, Valve(params_.antagonist.valve, timestep_s)}} {
   for (Muscle& mu : muscles_) {
-    mu.valve.reset(mu.p->initial_pressure_Pa);
+    const MusclePlantParams& p = muscle_params(mu);
+    mu.valve.reset(p.initial_pressure_Pa);
     // Twice: the first solve finds the contraction, the second starts from it at zero rate.
     solve_muscle(mu, initial_angle_rad);
     solve_muscle(mu, initial_angle_rad);
     const int i = mu.side > 0 ? 0 : 1;
     // At rest the friction is static: the lowest tension along the wire is T*exp(-mu_s*psi).
-    truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-mu.p->cable.static_friction * mu.p->cable.wrap_angle_rad);
+    truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-p.cable.static_friction * p.cable.wrap_angle_rad);
     truth_.muscle_force_N[i] = mu.tension_N;
     truth_.pressure_Pa[i] = mu.valve.pressure_Pa();
     truth_.muscle_contraction[i] = mu.contraction;
@@ -95,7 +95,7 @@ double PehaJointPlant::viscous_friction_Nms_per_rad() const {
 double PehaJointPlant::coulomb_friction_Nm() const { return params_.has_motor ? params_.motor.coulomb_friction_Nm : 0.0; }
 
 void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
-  const MusclePlantParams& p = *mu.p;
+  const MusclePlantParams& p = muscle_params(mu);
   const double r0 = params_.pulley_radius_m;
   const double dt_s = timestep_s_;
   const double pressure = mu.valve.pressure_Pa();
@@ -141,7 +141,7 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
   double friction_Nm = 0.0;
   for (Muscle& mu : muscles_) {
     solve_muscle(mu, angle);
-    const CablePlantParams& c = mu.p->cable;
+    const CablePlantParams& c = muscle_params(mu).cable;
     mu.creep_m = std::min(mu.creep_m + c.creep_m_per_N_s * mu.tension_N * dt, c.max_creep_m);
     // Capstan friction: the wire slides toward its muscle (v > 0) or away from it. Moving toward the
     // muscle the pulley end carries T*exp(-x); away, T*exp(+x). Around v = 0 the friction is static.

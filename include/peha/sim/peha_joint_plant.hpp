@@ -98,8 +98,8 @@ class PehaJointPlant {
   const PehaJointPlantParams& params() const { return params_; }
 
  private:
+  // No pointer into params_: a PehaJointPlant is moved (e.g. kept in a std::vector by the arm).
   struct Muscle {
-    const MusclePlantParams* p;
     int side;
     Valve valve;
     double tension_N = 0;
@@ -107,6 +107,9 @@ class PehaJointPlant {
     double creep_m = 0;
   };
   void solve_muscle(Muscle& m, double angle_rad) noexcept;
+  const MusclePlantParams& muscle_params(const Muscle& m) const noexcept {
+    return m.side > 0 ? params_.agonist : params_.antagonist;
+  }
 
   PehaJointPlantParams params_;
   double timestep_s_;
