@@ -182,7 +182,11 @@ std::string arm_mjcf(const models::ArmModel& model, const ArmMjcfOptions& option
   out += "  <compiler angle=\"radian\" autolimits=\"true\"/>\n";
   out += fmt::format("  <option timestep=\"{}\" gravity=\"0 0 {}\" integrator=\"{}\"/>\n", num(options.timestep_s),
                      num(-model.gravity_mps2), options.integrator);
-  out += "  <default>\n    <geom contype=\"0\" conaffinity=\"0\"/>\n  </default>\n";
+  // The cables' stiction is MuJoCo's frictionloss constraint (set each step by the plant). It must be
+  // stiff: with MuJoCo's default softness a load below the friction bound still creeps (the elbow slid
+  // 1.5 deg/s at a third of its stiction band). Same values as models/one_dof_rig.xml.
+  out += "  <default>\n    <geom contype=\"0\" conaffinity=\"0\"/>\n"
+         "    <joint solreffriction=\"0.0005 1\" solimpfriction=\"0.99 0.999 0.001\"/>\n  </default>\n";
   out += "  <worldbody>\n";
 
   int depth = 2;

@@ -11,10 +11,10 @@ namespace {
 
 ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
 
-// E3 on the simulated right arm: every safety figure holds through all postures, and the posture in
-// which gravity needs no torque (hanging, straight elbow) is held to 0.1 deg. (The drift of the loaded
-// postures is reported by `peha run --experiment postures`; see the issue notes.)
-TEST(E3, PosturesRunWithinEveryLimitAndTheHangingArmStays) {
+// E3 on the simulated right arm (the paper's claim): released in each posture, including (0, 0) where
+// the shoulder carries the most, the arm stays - under 0.5 deg in the 10 s after release at both
+// joints, with feed-forward J^T G only. Every safety figure holds throughout.
+TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   const ArmScenario s = shipped();
   const PosturesResult r = run_postures(s, nullptr);
   ASSERT_EQ(r.postures.size(), s.postures.size());
@@ -22,9 +22,11 @@ TEST(E3, PosturesRunWithinEveryLimitAndTheHangingArmStays) {
   EXPECT_LE(r.peak_muscle_force_N, 2000.0);
   EXPECT_GT(r.min_wire_tension_N, 0.0);
   for (const PostureResult& p : r.postures) {
-    if (p.name != "hanging") continue;
-    EXPECT_LT(std::abs(p.drift_deg[0]), 0.1);
-    EXPECT_LT(std::abs(p.drift_deg[1]), 0.1);
+    EXPECT_LT(p.max_excursion_deg[0], 0.5) << p.name;
+    EXPECT_LT(p.max_excursion_deg[1], 0.5) << p.name;
+    // The operator really moved the arm there (within the reach of their 30 Nm hands).
+    EXPECT_NEAR(p.released_deg[0], p.target_deg[0], 5.0) << p.name;
+    EXPECT_NEAR(p.released_deg[1], p.target_deg[1], 5.0) << p.name;
   }
 }
 
