@@ -268,10 +268,17 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
                            p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1],
                            p.max_excursion_deg[0], p.max_excursion_deg[1]);
   }
+  summary.close();  // the plotter reads it next
   fmt::print("safety: peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak operator torque "
              "{:.1f} Nm: {}\nreal-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
              r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_operator_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
              r.realtime_factor, dir.string());
+  if (options.plot) {
+    std::fflush(stdout);
+    const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_arm.py";
+    const std::string cmd = fmt::format("'{}' '{}' '{}'", find_python(), tool.string(), dir.string());
+    if (std::system(cmd.c_str()) != 0) fmt::print(stderr, "warning: plotting failed; the logs are complete\n");
+  }
   link_latest(options, run_name);
   return r.within_limits ? 0 : 3;
 }

@@ -36,6 +36,8 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
     info_.joint_names.push_back(params_.actuated[a]);
   }
   mj_setConst(m, data_.get());
+  // mj_setConst works at qpos0 and leaves qpos there: the initial posture goes in afterwards.
+  for (int i = 0; i < m->nq; ++i) data_->qpos[i] = params_.initial_q_rad[static_cast<std::size_t>(i)];
   mj_forward(m, data_.get());
   external_.assign(static_cast<std::size_t>(m->nv), 0.0);
   move_start_.assign(params_.actuated.size(), 0.0);

@@ -1,0 +1,95 @@
+#!/usr/bin/python3
+"""Plot an E3 (postures) run of the right arm: `peha run --config configs/right_arm.yaml --experiment postures`.
+
+Reads RUN_DIR/e3_postures.csv and RUN_DIR/summary.csv and writes RUN_DIR/plot.png:
+  top:    SFE and EFE angles over time (measured and plant), the operator's grips shaded,
+          the releases marked, and the torques (gravity model, operator) below;
+  bottom: the drift after each release, zoomed: angle minus angle at release, per posture.
+Run with Debian's /usr/bin/python3 (numpy + matplotlib).
+"""
+import argparse
+import csv
+import io
+import os
+import sys
+
+try:
+    import numpy as np
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ImportError:
+    sys.stderr.write("plot_arm.py: needs numpy and matplotlib: run it with /usr/bin/python3\n")
+    sys.exit(1)
+
+
+def read(path):
+    with open(path) as f:
+        text = "".join(line for line in f if not line.startswith("#"))
+    return np.genfromtxt(io.StringIO(text), delimiter=",", names=True, dtype=None, encoding=None)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("run_dir", help="run folder written by peha run --experiment postures")
+    p.add_argument("--out", help="output PNG (default RUN_DIR/plot.png)")
+    a = p.parse_args()
+    log_path = os.path.join(a.run_dir, "e3_postures.csv")
+    if not os.path.exists(log_path):
+        sys.stderr.write(f"plot_arm.py: {log_path} not found\n")
+        return 2
+    d = read(log_path)
+    s = read(os.path.join(a.run_dir, "summary.csv"))
+    s = np.atleast_1d(s)
+    t = d["t_s"]
+    op = d["operator_active"] > 0.5
+    releases = t[1:][(op[:-1]) & (~op[1:])]
+    # The first grip only holds the arm while compensation starts; the postures' releases follow.
+    releases = releases[-len(s):] if len(releases) > len(s) else releases
+
+    fig = plt.figure(figsize=(14, 10))
+    ax1 = fig.add_subplot(3, 1, 1)
+    ax2 = fig.add_subplot(3, 1, 2, sharex=ax1)
+    edges = np.flatnonzero(np.diff(np.r_[0, op.astype(int), 0]))
+    for ax in (ax1, ax2):
+        for x0, x1 in zip(edges[::2], edges[1::2]):
+            ax.axvspan(t[x0], t[x1 - 1], color="0.88", lw=0)
+        for r in releases:
+            ax.axvline(r, color="0.4", ls=":", lw=0.8)
+    for j, c in (("sfe", "C0"), ("efe", "C1")):
+        ax1.plot(t, np.degrees(d[f"{j}_plant_angle_rad"]), c, lw=1.2, label=f"{j.upper()} (plant)")
+        ax1.plot(t, np.degrees(d[f"{j}_angle_rad"]), c, lw=0.6, ls="--", label=f"{j.upper()} (encoder)")
+        ax2.plot(t, d[f"{j}_tau_gravity_Nm"], c, lw=1.0, label=f"{j.upper()} J$^T$G")
+        ax2.plot(t, d[f"{j}_operator_torque_Nm"], c, lw=0.6, ls=":", label=f"{j.upper()} operator")
+    ax1.set_ylabel("joint angle [deg]")
+    ax1.set_title("E3: the operator carries the arm to each posture (grey) and lets go (dotted)")
+    ax1.legend(loc="upper right", fontsize=8, ncol=2)
+    ax2.set_ylabel("torque [Nm]")
+    ax2.set_xlabel("time [s]")
+    ax2.legend(loc="upper right", fontsize=8, ncol=2)
+
+    n = len(releases)
+    for i, r in enumerate(releases):
+        ax = fig.add_subplot(3, max(n, 1), 2 * max(n, 1) + i + 1)
+        m = (t >= r) & (t <= r + 10.0)
+        k0 = np.argmax(t >= r)
+        for j, c in (("sfe", "C0"), ("efe", "C1")):
+            ax.plot(t[m] - r, np.degrees(d[f"{j}_plant_angle_rad"][m] - d[f"{j}_plant_angle_rad"][k0]), c, lw=1.0, label=j.upper())
+        name = str(s["posture"][i]) if i < len(s) else f"#{i + 1}"
+        ax.set_title(f"{name}\n({s['target_sfe_deg'][i]:.0f}, {s['target_efe_deg'][i]:.0f}) deg" if i < len(s) else name, fontsize=9)
+        ax.set_xlabel("time after release [s]", fontsize=8)
+        if i == 0:
+            ax.set_ylabel("drift [deg]")
+            ax.legend(fontsize=7)
+        ax.set_ylim(-0.5, 0.5)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.tick_params(labelsize=7)
+    fig.tight_layout()
+    out = a.out or os.path.join(a.run_dir, "plot.png")
+    fig.savefig(out, dpi=110)
+    print(out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
