@@ -11,6 +11,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <unistd.h>
 #include <cstdlib>
@@ -237,12 +239,54 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   return safe ? 0 : 3;
 }
 
+int run_bandwidth(const RunOptions& options, const config::Document& doc, runtime::ArmScenario& scenario) {
+  const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
+  const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
+  const auto& b = scenario.bandwidth;
+  fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} joint locked at SFE {:.0f} deg, EFE {:.0f} deg; gravity torque "
+             "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
+             doc.name(), b.joint == 0 ? "shoulder" : "elbow", b.sfe_rad * 180 / std::numbers::pi,
+             b.efe_rad * 180 / std::numbers::pi, b.amplitude_Nm, b.frequencies_Hz.size());
+  std::vector<runtime::BandwidthResult> results;
+  for (bool hybrid : {false, true}) results.push_back(runtime::run_bandwidth(scenario, hybrid));
+  std::ofstream csv(dir / "bode.csv");
+  csv << "variant,frequency_Hz,gain,gain_dB,phase_deg\n";
+  fmt::print("\n{:>8}  {:>10} {:>10}   {:>10} {:>10}\n", "f/Hz", "PAM gain", "PAM phase", "hyb gain", "hyb phase");
+  for (std::size_t i = 0; i < b.frequencies_Hz.size(); ++i) {
+    const auto& p = results[0].bode[i];
+    const auto& h = results[1].bode[i];
+    fmt::print("{:>8.2f}  {:>10.3f} {:>9.1f}°   {:>10.3f} {:>9.1f}°\n", p.frequency_Hz, p.gain, p.phase_deg, h.gain, h.phase_deg);
+  }
+  bool safe = true;
+  for (const auto& r : results) {
+    for (const auto& p : r.bode) {
+      csv << fmt::format("{},{:.4g},{:.6g},{:.4f},{:.3f}\n", r.variant, p.frequency_Hz, p.gain, 20 * std::log10(p.gain), p.phase_deg);
+    }
+    const bool ok = r.peak_muscle_force_N <= 2000.0 && r.min_wire_tension_N > 0.0;
+    safe = safe && ok;
+    fmt::print("{:<9} -3 dB bandwidth {}{:.2f} Hz; peak muscle force {:.0f} N, min wire tension {:.1f} N, peak motor {:.2f} Nm: {}\n",
+               r.variant, r.reached_3dB ? "" : "> ", r.bandwidth_3dB_Hz, r.peak_muscle_force_N, r.min_wire_tension_N,
+               r.peak_motor_torque_Nm, ok ? "OK" : "VIOLATED");
+  }
+  csv.close();  // the plotter reads it next
+  if (options.plot) {
+    std::fflush(stdout);
+    const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_bode.py";
+    const std::string cmd = fmt::format("'{}' '{}' '{}'", find_python(), tool.string(), dir.string());
+    if (std::system(cmd.c_str()) != 0) fmt::print(stderr, "warning: plotting failed; bode.csv is complete\n");
+  }
+  fmt::print("written: {}/bode.csv, config.yaml\n", dir.string());
+  link_latest(options, run_name);
+  return safe ? 0 : 3;
+}
+
 int run_arm(const RunOptions& options, const config::Document& doc) {
-  if (options.experiment != "postures") {
-    fmt::print(stderr, "error: {} is a right-arm scenario: give --experiment postures\n", doc.name());
+  if (options.experiment != "postures" && options.experiment != "bandwidth") {
+    fmt::print(stderr, "error: {} is a right-arm scenario: give --experiment postures|bandwidth\n", doc.name());
     return 2;
   }
   runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
+  if (options.experiment == "bandwidth") return run_bandwidth(options, doc, scenario);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);

@@ -36,8 +36,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--experiment", run.experiment,
                       "Right-arm scenarios (configs/right_arm.yaml) only: the experiment to run.\n"
-                      "postures = E3: move the arm with its mannequin to each posture, let go, measure the drift")
-      ->check(CLI::IsMember({"postures"}));
+                      "postures  = E3: move the arm with its mannequin to each posture, let go, measure the drift\n"
+                      "bandwidth = E6: sine-sweep torque on one locked joint, PAM-only vs hybrid, Bode plot, -3 dB")
+      ->check(CLI::IsMember({"postures", "bandwidth"}));
   double trim = 0;
   CLI::Option* trim_opt = run_cmd->add_option(
       "--force-trim-rate", trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward)")

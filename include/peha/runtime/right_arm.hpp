@@ -30,6 +30,14 @@ struct ArmScenario {
   sim::RightArmPlantParams plant;
   double move_s = 2.5, hold_s = 1.0, observe_s = 10.0;
   std::vector<ArmPosture> postures;
+  /// E6: sine-sweep torque commands on one joint with the arm locked at a posture (a torque bench).
+  struct Bandwidth {
+    int joint = 1;                      ///< io joint (1 = R_EFE)
+    double sfe_rad = -1.5707963, efe_rad = 1.5707963;  ///< locked posture
+    double amplitude_Nm = 2.0;          ///< sine amplitude on top of the gravity torque
+    std::vector<double> frequencies_Hz;
+    double min_cycles = 4, min_duration_s = 2.0;  ///< per frequency (the first cycle is not analysed)
+  } bandwidth;
 };
 
 /// Reads configs/right_arm.yaml (and the body file it names); throws config::Error.
@@ -51,6 +59,26 @@ struct PosturesResult {
   double realtime_factor = 0;
   bool within_limits = false;         ///< every force/tension/pressure/motor limit held
 };
+
+struct BodePoint {
+  double frequency_Hz = 0;
+  double gain = 0;        ///< |delivered / desired| of the torque at this frequency
+  double phase_deg = 0;   ///< arg(delivered / desired)
+};
+
+struct BandwidthResult {
+  std::string variant;                 ///< "pam_only" or "hybrid"
+  std::vector<BodePoint> bode;
+  double bandwidth_3dB_Hz = 0;         ///< where the gain first falls below 1/sqrt(2) (log-interpolated);
+                                       ///< the highest frequency tested if it never does
+  bool reached_3dB = false;
+  double peak_muscle_force_N = 0;
+  double min_wire_tension_N = 0;
+  double peak_motor_torque_Nm = 0;
+};
+
+/// E6: the torque bandwidth of one joint, PAM-only (no motor, no low-pass split) or hybrid.
+BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid);
 
 const std::vector<std::string>& arm_log_columns();
 
