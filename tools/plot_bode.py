@@ -41,10 +41,13 @@ def main():
         label = "PAM only" if variant == "pam_only" else "hybrid (PAMs + motor)"
         ax_m.semilogx(f, g, "o-", color=colour, label=label)
         ax_p.semilogx(f, ph, "o-", color=colour, label=label)
-        below = np.flatnonzero(g < -3.0103)
+        lin = np.array([float(x["gain"]) for x in r])
+        threshold = 1.0 / np.sqrt(2.0)
+        below = np.flatnonzero(lin < threshold)
         if below.size and below[0] > 0:
+            # Same rule as peha (runtime::run_bandwidth): linear gain, interpolated in log frequency.
             i = below[0]
-            w = (g[i - 1] + 3.0103) / (g[i - 1] - g[i])
+            w = (lin[i - 1] - threshold) / (lin[i - 1] - lin[i])
             f3 = np.exp(np.log(f[i - 1]) + w * (np.log(f[i]) - np.log(f[i - 1])))
             ax_m.axvline(f3, color=colour, ls=":", lw=1)
             ax_m.annotate(f"{f3:.2f} Hz", (f3, -3.0103), color=colour, textcoords="offset points", xytext=(5, 8))
