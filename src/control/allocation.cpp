@@ -54,6 +54,18 @@ bool finite(const AllocationInput& in) {
 
 }  // namespace
 
+AllocationParams read_allocation(config::Map map, double supply_pressure_Pa) {
+  AllocationParams p;
+  p.pam_cutoff_Hz = map.number("pam_cutoff_Hz", {0.01, 500.0});
+  p.pretension_N = map.number("pretension_N", {1.0, 500.0});
+  p.use_motor = map.boolean("use_motor");
+  p.force_trim_rate_1ps = map.number("force_trim_rate_1ps", {0.0, 100.0});
+  p.force_trim_max_N = map.number("force_trim_max_N", {0.0, 2000.0});
+  p.supply_pressure_Pa = supply_pressure_Pa;
+  map.finish();
+  return p;
+}
+
 void allocate(const models::JointModel& joint, const AllocationParams& params, AllocationData& data,
               const AllocationInput& raw, AllocationOutput& out) noexcept {
   out.flags = 0;

@@ -41,14 +41,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   config::Map ctl = root.map("controller");
   s.controller.arm = body.controller.model();
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
-  config::Map alloc = ctl.map("allocation");
-  s.controller.allocation.pam_cutoff_Hz = alloc.number("pam_cutoff_Hz", {0.01, 500.0});
-  s.controller.allocation.pretension_N = alloc.number("pretension_N", {1.0, 500.0});
-  s.controller.allocation.use_motor = alloc.boolean("use_motor");
-  s.controller.allocation.force_trim_rate_1ps = alloc.number("force_trim_rate_1ps", {0.0, 100.0});
-  s.controller.allocation.force_trim_max_N = alloc.number("force_trim_max_N", {0.0, 2000.0});
-  s.controller.allocation.supply_pressure_Pa = supply_Pa;
-  alloc.finish();
+  s.controller.allocation = control::read_allocation(ctl.map("allocation"), supply_Pa);
   s.limits.joint_count = 3;
   s.limits.period_s = s.period_s;
   for (int i = 0; i < 3; ++i) {

@@ -23,6 +23,7 @@
 /// Model/Data split: `JointModel` and `AllocationParams` are constant; `AllocationData` holds the
 /// filter state. `allocate` is noexcept and allocation-free.
 
+#include "peha/config/reader.hpp"
 #include "peha/models/joint.hpp"
 
 #include <cstdint>
@@ -37,6 +38,10 @@ struct AllocationParams {
   double force_trim_rate_1ps = 0.0;  ///< integral gain of the force trim, 1/s (0 = off)
   double force_trim_max_N = 200.0;   ///< bound of the trim's force correction, N
 };
+
+/// Reads an `allocation:` mapping (pam_cutoff_Hz, pretension_N, use_motor, force_trim_rate_1ps,
+/// force_trim_max_N) and finishes it; the supply comes from the scenario's limits.
+AllocationParams read_allocation(config::Map map, double supply_pressure_Pa);
 
 /// Flags raised when a limit shaped the command (bitwise or of AllocationFlag).
 enum AllocationFlag : std::uint32_t {
