@@ -75,9 +75,16 @@ int with_exit_codes(Body&& body) {
   }
 }
 
-std::filesystem::path plot_tool() {
-  const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_run.py";
-  return tool;
+/// Renders a figure with one of tools/*.py on Debian's Python. A failed plot is a warning: the data
+/// files it would read are complete either way.
+void plot_with(const char* tool, const std::filesystem::path& dir, const std::string& extra_args = "") {
+  std::fflush(stdout);  // the plotter writes to the same terminal
+  const std::filesystem::path script = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / tool;
+  const std::string cmd = fmt::format("'{}' '{}' '{}'{}", find_python(), script.string(), dir.string(), extra_args);
+  if (std::system(cmd.c_str()) != 0) {
+    fmt::print(stderr, "warning: {} failed (needs /usr/bin/python3 with matplotlib: run scripts/install-deps.sh); "
+                       "the data in {} are complete\n", tool, dir.string());
+  }
 }
 
 /// Creates out/<run>/ and copies the config into it, with where it came from (its relative paths
@@ -226,15 +233,7 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   }
   fmt::print("\nwritten: {}/summary.csv, config.yaml, e1_<case>.csv\n", dir.string());
 
-  if (options.plot) {
-    std::fflush(stdout);  // the plotter writes to the same terminal
-    const std::string cmd = fmt::format("'{}' '{}' '{}' --title '{}'", find_python(), plot_tool().string(),
-                                        dir.string(), "E1 gravity compensation, one-DOF PEHA rig");
-    if (std::system(cmd.c_str()) != 0) {
-      fmt::print(stderr, "warning: plotting failed (needs /usr/bin/python3 with matplotlib: run scripts/install-deps.sh); "
-                         "the logs are complete\n");
-    }
-  }
+  if (options.plot) plot_with("plot_run.py", dir, " --title 'E1 gravity compensation, one-DOF PEHA rig'");
   link_latest(options, run_name);
   return safe ? 0 : 3;
 }
@@ -269,12 +268,7 @@ int run_bandwidth(const RunOptions& options, const config::Document& doc, runtim
                r.peak_motor_torque_Nm, ok ? "OK" : "VIOLATED");
   }
   csv.close();  // the plotter reads it next
-  if (options.plot) {
-    std::fflush(stdout);
-    const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_bode.py";
-    const std::string cmd = fmt::format("'{}' '{}' '{}'", find_python(), tool.string(), dir.string());
-    if (std::system(cmd.c_str()) != 0) fmt::print(stderr, "warning: plotting failed; bode.csv is complete\n");
-  }
+  if (options.plot) plot_with("plot_bode.py", dir);
   fmt::print("written: {}/bode.csv, config.yaml\n", dir.string());
   link_latest(options, run_name);
   return safe ? 0 : 3;
@@ -317,12 +311,7 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
              "{:.1f} Nm: {}\nreal-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
              r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_operator_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
              r.realtime_factor, dir.string());
-  if (options.plot) {
-    std::fflush(stdout);
-    const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_arm.py";
-    const std::string cmd = fmt::format("'{}' '{}' '{}'", find_python(), tool.string(), dir.string());
-    if (std::system(cmd.c_str()) != 0) fmt::print(stderr, "warning: plotting failed; the logs are complete\n");
-  }
+  if (options.plot) plot_with("plot_arm.py", dir);
   link_latest(options, run_name);
   return r.within_limits ? 0 : 3;
 }
@@ -451,12 +440,7 @@ void write_report(const std::filesystem::path& dir, const calibration::Dataset& 
       c.pressure_Pa.min * 1e-6, c.pressure_Pa.max * 1e-6);
   txt << summary;
   fmt::print("\n{}", summary);
-  if (options.plot) {
-    std::fflush(stdout);
-    const std::filesystem::path tool = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / "plot_calibration.py";
-    const std::string cmd = fmt::format("'{}' '{}' '{}'", find_python(), tool.string(), dir.string());
-    if (std::system(cmd.c_str()) != 0) fmt::print(stderr, "warning: plotting the calibration report failed\n");
-  }
+  if (options.plot) plot_with("plot_calibration.py", dir);
 }
 
 }  // namespace

@@ -72,13 +72,9 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   sim::RightArmPlantParams& p = s.plant;
   p.model = body.plant.model();
   p.mjcf = sim::right_arm_mjcf_options();
-  p.timestep_s = plant.number("timestep_s", {1e-5, 0.01});
+  p.timestep_s = sim::read_timestep_s(plant, s.period_s);
   p.mjcf.timestep_s = p.timestep_s;
   p.control_period_s = s.period_s;
-  const double ratio = s.period_s / p.timestep_s;
-  if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0) {
-    plant.fail("timestep_s", fmt::format("must divide the control period {} s", s.period_s));
-  }
   p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
   config::Map pressure = plant.map("pressure_sensor");
   p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;

@@ -20,12 +20,7 @@ OneDofRigParams read_one_dof_rig(config::Map& plant, double control_period_s, do
   p.control_period_s = control_period_s;
   p.supply_pressure_Pa = supply_pressure_Pa;
   p.model_file = plant.path_value("model");
-  p.timestep_s = plant.number("timestep_s", {1e-5, 0.01});
-  const double ratio = control_period_s / p.timestep_s;
-  if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0) {
-    plant.fail("timestep_s", fmt::format("must divide the control period {} s, found {} s",
-                                         control_period_s, p.timestep_s));
-  }
+  p.timestep_s = read_timestep_s(plant, control_period_s);
   config::Map pressure = plant.map("pressure_sensor");
   p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
   p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
@@ -81,8 +76,7 @@ double OneDofRigBackend::finger_force(double t, double angle, double omega) noex
     if (std::isnan(push_start_angle_[i])) push_start_angle_[i] = angle;
     const double start = push_start_angle_[i];
     const double goal = push.hold ? start : push.target_angle_rad;
-    const double s = std::clamp((t - push.start_s) / push.move_s, 0.0, 1.0);
-    const double blend = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);  // minimum jerk
+    const double blend = minimum_jerk((t - push.start_s) / push.move_s);
     const double target = start + (goal - start) * blend;
     double force = f.stiffness_N_per_m * f.lever_m * (target - angle) - f.damping_Ns_per_m * f.lever_m * omega;
     force = std::clamp(force, -f.max_force_N, f.max_force_N);
@@ -128,9 +122,8 @@ void OneDofRigBackend::sample() noexcept {
   truth_.angle_rad = angle;
   truth_.velocity_radps = d->qvel[dof_];
   static_cast<PehaJointTruth&>(truth_) = joint_.truth();
-  const double counts_per_rad = params_.encoder_counts_per_rev / (2.0 * std::numbers::pi);
   io::JointSensors& s = state_.joints[0];
-  s.angle_rad = std::floor(angle * counts_per_rad) / counts_per_rad;
+  s.angle_rad = encoder_angle_rad(angle, params_.encoder_counts_per_rev);
   joint_.sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   state_.time_s = d->time;
   ++state_.sequence;

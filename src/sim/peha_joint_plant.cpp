@@ -1,5 +1,7 @@
 #include "peha/sim/peha_joint_plant.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -65,6 +67,25 @@ double quantize_16bit(double value, double range) noexcept {
   constexpr double kCodes = 65535.0;
   const double code = std::round(std::clamp(value / range, 0.0, 1.0) * kCodes);
   return code / kCodes * range;
+}
+
+double encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept {
+  const double counts_per_rad = counts_per_rev / (2.0 * std::numbers::pi);
+  return std::floor(angle_rad * counts_per_rad) / counts_per_rad;
+}
+
+double minimum_jerk(double s) noexcept {
+  s = std::clamp(s, 0.0, 1.0);
+  return s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);
+}
+
+double read_timestep_s(config::Map& plant, double control_period_s) {
+  const double timestep_s = plant.number("timestep_s", {1e-5, 0.01});
+  const double ratio = control_period_s / timestep_s;
+  if (std::abs(ratio - std::round(ratio)) > 1e-9 || ratio < 1.0) {
+    plant.fail("timestep_s", fmt::format("must divide the control period {} s, found {} s", control_period_s, timestep_s));
+  }
+  return timestep_s;
 }
 
 PehaJointPlant::PehaJointPlant(const PehaJointPlantParams& params, double timestep_s, double initial_angle_rad)

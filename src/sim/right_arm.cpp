@@ -83,8 +83,7 @@ void RightArmBackend::substep(const io::Command& command) noexcept {
       const OperatorMove& mv = params_.operator_hands.moves[static_cast<std::size_t>(move)];
       const double goal = mv.target_rad[a];
       if (std::isfinite(goal)) {
-        const double s = std::clamp((t - mv.start_s) / mv.move_s, 0.0, 1.0);
-        const double blend = s * s * s * (10.0 - 15.0 * s + 6.0 * s * s);  // minimum jerk
+        const double blend = minimum_jerk((t - mv.start_s) / mv.move_s);
         const double target = move_start_[a] + (goal - move_start_[a]) * blend;
         const OperatorParams& op = params_.operator_hands;
         hands = std::clamp(op.stiffness_Nm_per_rad * (target - angle) - op.damping_Nms_per_rad * omega,
@@ -103,12 +102,11 @@ void RightArmBackend::sample() noexcept {
   truth_.time_s = d->time;
   for (int i = 0; i < m->nq; ++i) truth_.q_rad[static_cast<std::size_t>(i)] = d->qpos[i];
   for (int i = 0; i < m->nv; ++i) truth_.qd_radps[static_cast<std::size_t>(i)] = d->qvel[i];
-  const double counts_per_rad = params_.encoder_counts_per_rev / (2.0 * std::numbers::pi);
   for (std::size_t a = 0; a < joints_.size(); ++a) {
     truth_.actuators[a] = joints_[a].truth();
     io::JointSensors& s = state_.joints[a];
     const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
-    s.angle_rad = std::floor(angle * counts_per_rad) / counts_per_rad;
+    s.angle_rad = encoder_angle_rad(angle, params_.encoder_counts_per_rev);
     joints_[a].sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   }
   state_.time_s = d->time;

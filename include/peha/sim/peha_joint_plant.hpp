@@ -121,4 +121,13 @@ class PehaJointPlant {
 /// 16-bit AD quantisation of `value` over [0, range].
 double quantize_16bit(double value, double range) noexcept;
 
+/// What an incremental encoder with `counts_per_rev` reports for `angle_rad` (floored to a count).
+double encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept;
+
+/// Minimum-jerk blend 10 s^3 - 15 s^4 + 6 s^5 of s in [0, 1] (clamped): the path a person's hand takes.
+double minimum_jerk(double s) noexcept;
+
+/// Reads `timestep_s` (MuJoCo's step) from a plant mapping; it must divide `control_period_s`.
+double read_timestep_s(config::Map& plant, double control_period_s);
+
 }  // namespace peha::sim
