@@ -2,7 +2,9 @@
 
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/dataset.hpp"
+#include "peha/control/butterworth.hpp"
 #include "peha/runtime/e1_gravity.hpp"
+#include "peha/runtime/e4_goniometer.hpp"
 #include "peha/runtime/right_arm.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
@@ -274,14 +276,83 @@ int run_bandwidth(const RunOptions& options, const config::Document& doc, runtim
   return safe ? 0 : 3;
 }
 
+int run_goniometer(const RunOptions& options, const config::Document& doc, runtime::ArmScenario& scenario) {
+  const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
+  const auto& g = scenario.goniometer;
+  std::vector<runtime::GoniometerTrace> traces;
+  if (!options.goniometer_csv.empty()) {
+    traces.push_back(runtime::read_goniometer_csv(options.goniometer_csv, g.sample_rate_Hz, scenario.limits.joints[1].min_angle_rad,
+                                                  scenario.limits.joints[1].max_angle_rad));
+  } else {
+    for (std::size_t i = 0; i < g.movements.size(); ++i) traces.push_back(runtime::synthesize_goniometer(g, g.movements[i], scenario.seed + i));
+  }
+  const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
+  fmt::print("peha run: {} --experiment goniometer (E4)\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at {:.1f} Hz "
+             "(group delay {:.1f} ms); shoulder at {:.0f} deg on gravity compensation\n  {}\n",
+             doc.name(), g.sample_rate_Hz, g.noise_rad * 180 / std::numbers::pi, g.filter_order, g.cutoff_Hz,
+             control::group_delay_s(control::design_butterworth_lowpass(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz), 0.0) * 1e3,
+             g.sfe_rad * 180 / std::numbers::pi,
+             options.goniometer_csv.empty() ? "synthetic person: " + std::to_string(traces.size()) + " movement(s)"
+                                            : "recording: " + options.goniometer_csv.string());
+  std::ofstream summary(dir / "summary.csv");
+  summary << "movement,variant,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
+             "peak_muscle_force_N,min_wire_tension_N,peak_motor_Nm,shoulder_excursion_deg,within_limits\n";
+  bool safe = true;
+  std::vector<runtime::GoniometerResult> results;
+  for (const runtime::GoniometerTrace& trace : traces) {
+    const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
+    fmt::print("  {}: {:.1f} s simulated ...\n", trace.name, duration_s);
+    std::fflush(stdout);
+    runtime::CsvLog log(runtime::goniometer_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    for (const auto variant : {runtime::GoniometerVariant::kOpenLoop, runtime::GoniometerVariant::kFeedback}) {
+    log.clear();
+    const runtime::GoniometerResult r = runtime::run_goniometer(scenario, trace, variant, &log);
+    log.write(dir / fmt::format("e4_{}_{}.csv", trace.name, runtime::to_string(variant)),
+              {fmt::format("case: E4 goniometer-driven elbow, movement {}, variant {}", trace.name, runtime::to_string(variant)),
+               fmt::format("config: {}; seed {}", options.config.string(), scenario.seed),
+               "person_* is the person's true elbow; plant_* columns are simulator truth the controller never sees"});
+    summary << fmt::format("{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.1f},{:.2f},{:.3f},{:.4f},{}\n", r.name,
+                           runtime::to_string(r.variant), r.range_deg,
+                           r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg, r.peak_torque_command_Nm,
+                           r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm, r.shoulder_excursion_deg,
+                           r.within_limits ? 1 : 0);
+    safe = safe && r.within_limits;
+    results.push_back(r);
+    }
+    if (options.goniometer_csv.empty()) runtime::write_goniometer_csv(dir / fmt::format("goniometer_{}.csv", trace.name), trace);
+  }
+  summary.close();  // the plotter reads it next
+  fmt::print("\n{:<10} {:<10} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>10}\n", "movement", "variant", "range", "RMS error", "max error",
+             "delay", "RMS aligned", "peak tau", "SFE moved", "RTF");
+  for (const auto& r : results) {
+    fmt::print("{:<10} {:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>7.2f} deg {:>10.1f}\n",
+               r.name, runtime::to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg, r.peak_torque_command_Nm,
+               r.shoulder_excursion_deg, r.realtime_factor);
+  }
+  for (const auto& r : results) {
+    fmt::print("safety ({}, {}): peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak motor {:.2f} Nm: {}\n",
+               r.name, runtime::to_string(r.variant), r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm, r.within_limits ? "OK" : "VIOLATED");
+  }
+  fmt::print("written: {}/e4_<movement>_<variant>.csv, summary.csv, config.yaml{}\n", dir.string(),
+             options.goniometer_csv.empty() ? ", goniometer_<movement>.csv (replayable with --goniometer-csv)" : "");
+  if (options.plot) plot_with("plot_goniometer.py", dir);
+  link_latest(options, run_name);
+  return safe ? 0 : 3;
+}
+
 int run_arm(const RunOptions& options, const config::Document& doc) {
-  if (options.experiment != "postures" && options.experiment != "bandwidth") {
-    fmt::print(stderr, "error: {} is a right-arm scenario: give --experiment postures|bandwidth\n", doc.name());
+  if (options.experiment != "postures" && options.experiment != "bandwidth" && options.experiment != "goniometer") {
+    fmt::print(stderr, "error: {} is a right-arm scenario: give --experiment postures|goniometer|bandwidth\n", doc.name());
+    return 2;
+  }
+  if (!options.goniometer_csv.empty() && options.experiment != "goniometer") {
+    fmt::print(stderr, "error: --goniometer-csv applies to --experiment goniometer only\n");
     return 2;
   }
   runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
-  if (options.experiment == "bandwidth") return run_bandwidth(options, doc, scenario);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+  if (options.experiment == "bandwidth") return run_bandwidth(options, doc, scenario);
+  if (options.experiment == "goniometer") return run_goniometer(options, doc, scenario);
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
   const double duration_s = 2.0 + 0.2 * scenario.observe_s +

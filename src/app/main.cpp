@@ -37,8 +37,14 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--experiment", run.experiment,
                       "Right-arm scenarios (configs/right_arm.yaml) only: the experiment to run.\n"
                       "postures  = E3: move the arm with its mannequin to each posture, let go, measure the drift\n"
+                      "goniometer = E4: a person's elbow, measured by a goniometer at 200 Hz, drives the exoskeleton's\n"
+                      "             elbow through Butterworth filter, derivatives and inverse dynamics; tracking RMS and delay\n"
                       "bandwidth = E6: sine-sweep torque on one locked joint, PAM-only vs hybrid, Bode plot, -3 dB")
-      ->check(CLI::IsMember({"postures", "bandwidth"}));
+      ->check(CLI::IsMember({"postures", "goniometer", "bandwidth"}));
+  run_cmd->add_option("--goniometer-csv", run.goniometer_csv,
+                      "E4 only: replay a recorded goniometer CSV (columns t_s and elbow_angle_deg or elbow_angle_rad,\n"
+                      "sampled at the config's goniometer.sample_rate_Hz) instead of the config's synthetic movements")
+      ->check(CLI::ExistingFile);
   double trim = 0;
   CLI::Option* trim_opt = run_cmd->add_option(
       "--force-trim-rate", trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward)")

@@ -1,6 +1,7 @@
 #include "peha/runtime/right_arm.hpp"
 
 #include "peha/models/anthropometry.hpp"
+#include "peha/control/butterworth.hpp"
 #include "peha/models/model_config.hpp"
 
 #include <fmt/format.h>
@@ -120,6 +121,40 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   s.bandwidth.min_cycles = bw.number("min_cycles", {2.0, 1000.0});
   s.bandwidth.min_duration_s = bw.number("min_duration_s", {0.1, 600.0});
   bw.finish();
+  config::Map gon = root.map("goniometer");
+  ArmScenario::Goniometer& g = s.goniometer;
+  const double elbow_lo = s.limits.joints[1].min_angle_rad / kDeg, elbow_hi = s.limits.joints[1].max_angle_rad / kDeg;
+  g.sfe_rad = gon.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
+  g.sample_rate_Hz = gon.number("sample_rate_Hz", {10.0, 1.0 / s.period_s});
+  const double ratio = 1.0 / (g.sample_rate_Hz * s.period_s);
+  if (std::abs(ratio - std::round(ratio)) > 1e-9) {
+    gon.fail("sample_rate_Hz", fmt::format("must divide the control rate {} Hz, found {} Hz", 1.0 / s.period_s, g.sample_rate_Hz));
+  }
+  g.noise_rad = gon.number("noise_deg", {0.0, 10.0}) * kDeg;
+  g.resolution_rad = gon.number("resolution_deg", {0.0, 5.0}) * kDeg;
+  config::Map filter = gon.map("filter");
+  g.filter_order = static_cast<int>(filter.integer("order", 1, control::kButterworthMaxOrder));
+  g.cutoff_Hz = filter.number("cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
+  filter.finish();
+  g.settle_s = gon.number("settle_s", {1.5, 60.0});
+  g.tail_s = gon.number("tail_s", {0.0, 60.0});
+  g.max_delay_s = gon.number("max_delay_s", {0.01, 2.0});
+  config::Map fb = gon.map("feedback");
+  g.feedback_stiffness_Nm_per_rad = fb.number("stiffness_Nm_per_rad", {0.0, 1000.0});
+  g.feedback_damping_Nms_per_rad = fb.number("damping_Nms_per_rad", {0.0, 100.0});
+  fb.finish();
+  for (config::Map item : gon.maps("movements", 1, 16)) {
+    ArmScenario::Goniometer::Movement m;
+    m.name = item.string("name");
+    m.from_rad = item.number("from_deg", {elbow_lo, elbow_hi}) * kDeg;
+    m.to_rad = item.number("to_deg", {elbow_lo, elbow_hi}) * kDeg;
+    m.move_s = item.number("move_s", {0.05, 60.0});
+    m.pause_s = item.number("pause_s", {0.0, 60.0});
+    m.repetitions = static_cast<int>(item.integer("repetitions", 1, 1000));
+    item.finish();
+    g.movements.push_back(m);
+  }
+  gon.finish();
   root.finish();
   return s;
 }

@@ -20,7 +20,8 @@ struct RunOptions {
   /// any, each case runs with the calibrated parametric model and with parametric + SPGP.
   std::filesystem::path calibration[2];
   std::optional<double> force_trim_rate_1ps;  ///< overrides the config's force trim (0 = off)
-  std::string experiment;                     ///< right-arm scenarios: which experiment ("postures")
+  std::string experiment;                     ///< right-arm scenarios: postures | goniometer | bandwidth
+  std::filesystem::path goniometer_csv;       ///< E4: a recorded goniometer CSV instead of the synthetic movements
 };
 
 /// `peha run`: runs the scenario's experiment, writes out/<run>/ and prints a summary table.

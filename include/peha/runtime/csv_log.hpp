@@ -18,6 +18,8 @@ class CsvLog {
   bool begin_row() noexcept;
   void set(std::size_t column, double value) noexcept { values_[row_offset_ + column] = value; }
   std::size_t rows() const { return rows_; }
+  /// Forgets every row (the capacity stays): the log can record the next run.
+  void clear() noexcept { rows_ = 0; row_offset_ = 0; }
   double at(std::size_t row, std::size_t column) const { return values_[row * columns_.size() + column]; }
   std::size_t column(const std::string& name) const;  ///< index by name; throws if absent
   /// Writes the header (preceded by `# ` comment lines) and all rows. Throws on I/O failure.

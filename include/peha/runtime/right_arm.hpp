@@ -38,6 +38,32 @@ struct ArmScenario {
     std::vector<double> frequencies_Hz;
     double min_cycles = 4, min_duration_s = 2.0;  ///< per frequency (the first cycle is not analysed)
   } bandwidth;
+  /// E4: the exoskeleton's elbow driven by a person's elbow angle, measured by a goniometer.
+  struct Goniometer {
+    double sfe_rad = -1.5707963;    ///< shoulder posture (held by gravity compensation)
+    double sample_rate_Hz = 200;    ///< goniometer sampling
+    double noise_rad = 0.0087;      ///< standard deviation of the goniometer's noise
+    double resolution_rad = 0.0017; ///< quantisation step of its reading
+    int filter_order = 2;           ///< Butterworth low-pass before the derivatives
+    double cutoff_Hz = 6.0;
+    double settle_s = 3.0;          ///< the person holds still this long before the recording plays;
+                                    ///< the operator's hands hold the arm for the first settle_s - 1 s
+    double tail_s = 2.0;            ///< the last angle is held this long after the recording ends
+    double max_delay_s = 0.4;       ///< longest lag the delay estimate searches
+    /// Beyond the paper: a joint-space impedance from the exoskeleton's elbow encoder toward the
+    /// filtered goniometer angle, added to the inverse-dynamics torque in the `feedback` variant:
+    /// tau += K (q_person - q_exo) + D (qd_person - qd_exo). The paper's variant is pure replay.
+    double feedback_stiffness_Nm_per_rad = 40.0;
+    double feedback_damping_Nms_per_rad = 2.0;
+    /// A synthetic movement: from_rad -> to_rad -> from_rad on minimum-jerk paths of move_s each,
+    /// pause_s at each end, `repetitions` times.
+    struct Movement {
+      std::string name;
+      double from_rad = 0.7, to_rad = 1.75, move_s = 2.0, pause_s = 0.5;
+      int repetitions = 3;
+    };
+    std::vector<Movement> movements;
+  } goniometer;
 };
 
 /// Reads configs/right_arm.yaml (and the body file it names); throws config::Error.

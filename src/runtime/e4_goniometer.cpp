@@ -1,0 +1,328 @@
+#include "peha/runtime/e4_goniometer.hpp"
+
+#include "peha/calibration/dataset.hpp"
+#include "peha/control/butterworth.hpp"
+#include "peha/models/joint.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <charconv>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+namespace peha::runtime {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr int kElbow = 1;  // io joint and model joint of R_EFE
+
+double quantize(double x, double step) { return step > 0.0 ? std::round(x / step) * step : x; }
+
+/// Linear interpolation of `samples` (spaced 1/rate) at time t (s), held at both ends.
+double sample_at(const std::vector<double>& samples, double rate_Hz, double t_s) {
+  const double x = t_s * rate_Hz;
+  if (x <= 0.0) return samples.front();
+  const auto i = static_cast<std::size_t>(x);
+  if (i + 1 >= samples.size()) return samples.back();
+  const double w = x - static_cast<double>(i);
+  return samples[i] * (1.0 - w) + samples[i + 1] * w;
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream ss(line);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) {
+    const auto b = cell.find_first_not_of(" \t\r");
+    const auto e = cell.find_last_not_of(" \t\r");
+    cells.push_back(b == std::string::npos ? std::string() : cell.substr(b, e - b + 1));
+  }
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+}  // namespace
+
+GoniometerTrace synthesize_goniometer(const ArmScenario::Goniometer& g, const ArmScenario::Goniometer::Movement& m,
+                                      std::uint64_t seed) {
+  GoniometerTrace trace;
+  trace.name = m.name;
+  trace.sample_rate_Hz = g.sample_rate_Hz;
+  const double cycle_s = 2.0 * (m.pause_s + m.move_s);
+  const double duration_s = m.repetitions * cycle_s + m.pause_s;
+  const auto n = static_cast<std::size_t>(std::llround(duration_s * g.sample_rate_Hz)) + 1;
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double t = static_cast<double>(k) / g.sample_rate_Hz;
+    // Within a cycle: pause at `from`, move to `to`, pause, move back.
+    const double tc = std::fmod(t, cycle_s);
+    double angle = m.from_rad;
+    if (t < m.repetitions * cycle_s) {
+      if (tc < m.pause_s) {
+        angle = m.from_rad;
+      } else if (tc < m.pause_s + m.move_s) {
+        angle = m.from_rad + (m.to_rad - m.from_rad) * sim::minimum_jerk((tc - m.pause_s) / m.move_s);
+      } else if (tc < 2.0 * m.pause_s + m.move_s) {
+        angle = m.to_rad;
+      } else {
+        angle = m.to_rad + (m.from_rad - m.to_rad) * sim::minimum_jerk((tc - 2.0 * m.pause_s - m.move_s) / m.move_s);
+      }
+    }
+    trace.truth_rad.push_back(angle);
+    trace.measured_rad.push_back(quantize(angle + g.noise_rad * noise(rng), g.resolution_rad));
+  }
+  return trace;
+}
+
+GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sample_rate_Hz, double min_rad,
+                                    double max_rad) {
+  std::ifstream in(path);
+  if (!in) throw calibration::DataError(fmt::format("{}: cannot open the goniometer recording", path.string()));
+  const std::string file = path.string();
+  std::string line;
+  int line_no = 0;
+  std::vector<std::string> header;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty() || line[0] == '#') continue;
+    header = split_csv(line);
+    break;
+  }
+  if (header.empty()) throw calibration::DataError(fmt::format("{}: no header row (expected t_s and elbow_angle_deg or elbow_angle_rad)", file));
+  int col_t = -1, col_angle = -1;
+  double scale = 1.0;
+  for (std::size_t c = 0; c < header.size(); ++c) {
+    const std::string& h = header[c];
+    const int col = static_cast<int>(c);
+    auto take = [&](int& slot) {
+      if (slot >= 0) throw calibration::DataError(fmt::format("{}:{}:{}: column '{}' appears twice", file, line_no, c + 1, h));
+      slot = col;
+    };
+    if (h == "t_s") {
+      take(col_t);
+    } else if (h == "elbow_angle_deg") {
+      take(col_angle);
+      scale = kDeg;
+    } else if (h == "elbow_angle_rad") {
+      take(col_angle);
+      scale = 1.0;
+    } else if (h == "elbow_angle" || h == "angle" || h == "t") {
+      throw calibration::DataError(fmt::format("{}:{}:{}: column '{}' has no unit: name it t_s, elbow_angle_deg or elbow_angle_rad",
+                                           file, line_no, c + 1, h));
+    }
+  }
+  if (col_t < 0) throw calibration::DataError(fmt::format("{}:{}: missing column t_s", file, line_no));
+  if (col_angle < 0) throw calibration::DataError(fmt::format("{}:{}: missing column elbow_angle_deg or elbow_angle_rad", file, line_no));
+
+  GoniometerTrace trace;
+  trace.name = path.stem().string();
+  trace.sample_rate_Hz = sample_rate_Hz;
+  std::vector<double> times;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.empty() || line[0] == '#' || line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    const std::vector<std::string> cells = split_csv(line);
+    if (cells.size() != header.size()) {
+      throw calibration::DataError(fmt::format("{}:{}: expected {} cells, found {}", file, line_no, header.size(), cells.size()));
+    }
+    double v[2];
+    const int cols[2] = {col_t, col_angle};
+    for (int i = 0; i < 2; ++i) {
+      const std::string& cell = cells[static_cast<std::size_t>(cols[i])];
+      const auto [ptr, ec] = std::from_chars(cell.data(), cell.data() + cell.size(), v[i]);
+      if (ec != std::errc() || ptr != cell.data() + cell.size() || !std::isfinite(v[i])) {
+        throw calibration::DataError(fmt::format("{}:{}:{}: {}: expected a finite number, found '{}'", file, line_no, cols[i] + 1,
+                                             header[static_cast<std::size_t>(cols[i])], cell));
+      }
+    }
+    const double angle = v[1] * scale;
+    if (angle < min_rad - 1e-12 || angle > max_rad + 1e-12) {
+      throw calibration::DataError(fmt::format("{}:{}:{}: {} = {} is outside the exoskeleton's elbow range [{:.1f}, {:.1f}] deg", file,
+                                           line_no, col_angle + 1, header[static_cast<std::size_t>(col_angle)], v[1],
+                                           min_rad / kDeg, max_rad / kDeg));
+    }
+    if (!times.empty()) {
+      const double dt = v[0] - times.back();
+      if (std::abs(dt * sample_rate_Hz - 1.0) > 0.02) {
+        throw calibration::DataError(fmt::format("{}:{}:{}: t_s steps by {} s; the goniometer is configured for {} Hz ({} s, within 2 %)",
+                                             file, line_no, col_t + 1, dt, sample_rate_Hz, 1.0 / sample_rate_Hz));
+      }
+    }
+    times.push_back(v[0]);
+    trace.measured_rad.push_back(angle);
+  }
+  if (trace.measured_rad.size() < 2) throw calibration::DataError(fmt::format("{}: fewer than 2 samples", file));
+  trace.truth_rad = trace.measured_rad;  // a recording is all we know of the person
+  return trace;
+}
+
+void write_goniometer_csv(const std::filesystem::path& path, const GoniometerTrace& trace) {
+  std::ofstream out(path);
+  out << fmt::format("# goniometer recording '{}', {} Hz; read by peha run --experiment goniometer --goniometer-csv\n", trace.name,
+                     trace.sample_rate_Hz);
+  out << "t_s,elbow_angle_deg\n";
+  for (std::size_t k = 0; k < trace.measured_rad.size(); ++k) {
+    out << fmt::format("{:.4f},{:.4f}\n", static_cast<double>(k) / trace.sample_rate_Hz, trace.measured_rad[k] / kDeg);
+  }
+  if (!out) throw calibration::DataError(fmt::format("{}: write failed", path.string()));
+}
+
+const char* to_string(GoniometerVariant v) { return v == GoniometerVariant::kOpenLoop ? "open_loop" : "feedback"; }
+
+const std::vector<std::string>& goniometer_log_columns() {
+  static const std::vector<std::string> columns = {
+      "t_s", "operator_active", "person_elbow_deg", "goniometer_deg", "filtered_elbow_deg", "filtered_rate_degps",
+      "filtered_accel_degps2", "tau_elbow_cmd_Nm", "plant_elbow_deg", "elbow_encoder_deg", "plant_sfe_deg",
+      "tau_sfe_gravity_Nm", "tau_motor_cmd_Nm", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "f_agonist_loadcell_N",
+      "f_antagonist_loadcell_N", "plant_force_agonist_N", "plant_force_antagonist_N", "plant_tension_min_N"};
+  return columns;
+}
+
+GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
+                                CsvLog* log) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size()) {
+    throw std::invalid_argument("run_goniometer: empty trace or truth/measured size mismatch");
+  }
+  const double period = scenario.period_s;
+  const auto decimation = static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * period)));
+  const double release_s = g.settle_s - 1.0;
+  const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
+  // The person's elbow (truth) and the goniometer's reading at time t of the run: still at the first
+  // sample during settle_s, then the trace, then its last sample.
+  auto person = [&](double t) { return sample_at(trace.truth_rad, g.sample_rate_Hz, t - g.settle_s); };
+  auto reading = [&](double t) {
+    const double x = (t - g.settle_s) * g.sample_rate_Hz;
+    if (x <= 0.0) return trace.measured_rad.front();
+    const auto i = static_cast<std::size_t>(std::llround(x));
+    return i < trace.measured_rad.size() ? trace.measured_rad[i] : trace.measured_rad.back();
+  };
+
+  sim::RightArmPlantParams plant_params = scenario.plant;
+  plant_params.initial_q_rad[0] = g.sfe_rad;
+  plant_params.initial_q_rad[1] = trace.truth_rad.front();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // The operator holds the arm where it starts while the compensation comes on, then lets go.
+  plant_params.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, {g.sfe_rad, trace.truth_rad.front(), nan}});
+  sim::RightArmBackend plant(plant_params);
+  control::ArmController controller(scenario.controller);
+  controller.set_mode(kElbow, control::ArmJointMode::kCommanded);
+  safety::LimitsData limits_data;
+  control::FilteredDerivative derivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz);
+  const models::ArmModel& arm = controller.model().arm;
+  models::ArmData arm_data(arm);
+  const auto dof = static_cast<Eigen::Index>(arm.joints.size());
+  Eigen::VectorXd q = Eigen::VectorXd::Zero(dof), qd = Eigen::VectorXd::Zero(dof), qdd = Eigen::VectorXd::Zero(dof);
+
+  GoniometerResult r;
+  r.name = trace.name;
+  r.variant = variant;
+  const bool feedback = variant == GoniometerVariant::kFeedback;
+  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
+  r.filter_delay_s = derivative.group_delay_s(0.0);
+  const auto steps = static_cast<std::size_t>(std::llround(duration_s / period));
+  std::vector<double> exo(steps + 1), truth(steps + 1), sfe(steps + 1);
+  io::SensorState state;
+  io::Command command;
+  control::FilteredDerivative::Derivatives d;
+  double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
+  bool safe = true;
+  const auto wall_start = std::chrono::steady_clock::now();
+  for (std::size_t k = 0; k <= steps; ++k) {
+    plant.read(state);
+    const double t = state.time_s;
+    if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
+      goniometer = reading(t);
+      d = derivative.step(goniometer);
+      for (int j = 0; j < state.joint_count && j < dof; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].angle_rad;
+      q[kElbow] = d.value;
+      qd[kElbow] = d.rate;
+      qdd[kElbow] = d.acceleration;
+      tau_id = models::inverse_dynamics(arm, arm_data, q, qd, qdd)[kElbow];
+    }
+    tau_cmd = tau_id;
+    if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
+      tau_cmd += g.feedback_stiffness_Nm_per_rad * (d.value - state.joints[kElbow].angle_rad) +
+                 g.feedback_damping_Nms_per_rad * (d.rate - controller.diagnostics()[kElbow].velocity_radps);
+    }
+    r.peak_torque_command_Nm = std::max(r.peak_torque_command_Nm, std::abs(tau_cmd));
+    controller.set_desired_torque(kElbow, tau_cmd);
+    controller.update(state, command);
+    safety::apply_limits(scenario.limits, limits_data, state, command);
+    const sim::RightArmTruth& tr = plant.truth();
+    exo[k] = tr.q_rad[kElbow];
+    sfe[k] = tr.q_rad[0];
+    truth[k] = person(t);
+    double tension_min = std::numeric_limits<double>::infinity();
+    for (std::size_t a = 0; a < tr.actuators.size(); ++a) {
+      const sim::PehaJointTruth& j = tr.actuators[a];
+      const models::JointModel& jm = scenario.controller.joints[a].actuator;
+      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+      tension_min = std::min({tension_min, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
+      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
+      safe = safe && j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) &&
+             j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
+             j.pressure_Pa[0] <= scenario.limits.joints[a].supply_pressure_Pa &&
+             j.pressure_Pa[1] <= scenario.limits.joints[a].supply_pressure_Pa &&
+             std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12 &&
+             tr.q_rad[a] >= scenario.limits.joints[a].min_angle_rad - 0.02 && tr.q_rad[a] <= scenario.limits.joints[a].max_angle_rad + 0.02;
+    }
+    r.min_wire_tension_N = std::min(r.min_wire_tension_N, tension_min);
+    if (log && log->begin_row()) {
+      const sim::PehaJointTruth& e = tr.actuators[kElbow];
+      const auto& diag = controller.diagnostics();
+      const io::JointSensors& s = state.joints[kElbow];
+      const io::JointCommand& c = command.joints[kElbow];
+      const double values[] = {t, tr.operator_active ? 1.0 : 0.0, truth[k] / kDeg, goniometer / kDeg, d.value / kDeg, d.rate / kDeg,
+                               d.acceleration / kDeg, tau_cmd, exo[k] / kDeg, s.angle_rad / kDeg, sfe[k] / kDeg,
+                               diag[0].torque_gravity_Nm, c.motor_torque_Nm, c.agonist_pressure_Pa * 1e-6,
+                               c.antagonist_pressure_Pa * 1e-6, s.agonist_force_N, s.antagonist_force_N, e.muscle_force_N[0],
+                               e.muscle_force_N[1], tension_min};
+      for (std::size_t i = 0; i < std::size(values); ++i) log->set(i, values[i]);
+    }
+    if (k < steps) plant.write(command);
+  }
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
+  r.within_limits = safe && r.min_wire_tension_N > 0.0;
+
+  // Tracking from the release to the end: raw error, and the lag that best aligns the two.
+  const auto k0 = static_cast<std::size_t>(std::llround(release_s / period));
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
+  for (std::size_t k = k0; k <= steps; ++k) {
+    const double e = exo[k] - truth[k];
+    sum += e * e;
+    r.max_error_deg = std::max(r.max_error_deg, std::abs(e) / kDeg);
+    lo = std::min(lo, truth[k]);
+    hi = std::max(hi, truth[k]);
+    r.shoulder_excursion_deg = std::max(r.shoulder_excursion_deg, std::abs(sfe[k] - sfe[k0]) / kDeg);
+  }
+  r.rms_error_deg = std::sqrt(sum / static_cast<double>(steps - k0 + 1)) / kDeg;
+  r.range_deg = (hi - lo) / kDeg;
+  const auto max_lag = static_cast<std::size_t>(std::llround(g.max_delay_s / period));
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t lag = 0; lag <= max_lag && k0 + lag < steps; ++lag) {
+    double s2 = 0.0;
+    for (std::size_t k = k0 + lag; k <= steps; ++k) {
+      const double e = exo[k] - truth[k - lag];
+      s2 += e * e;
+    }
+    const double rms = std::sqrt(s2 / static_cast<double>(steps - k0 - lag + 1));
+    if (rms < best) {
+      best = rms;
+      r.delay_s = static_cast<double>(lag) * period;
+    }
+  }
+  r.rms_error_aligned_deg = best / kDeg;
+  return r;
+}
+
+}  // namespace peha::runtime

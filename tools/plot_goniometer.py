@@ -1,0 +1,88 @@
+#!/usr/bin/python3
+"""Plot an E4 (goniometer-driven elbow) run: `peha run --config configs/right_arm.yaml --experiment goniometer`.
+
+Reads RUN_DIR/summary.csv and RUN_DIR/e4_<movement>_<variant>.csv and writes RUN_DIR/plot.png, one
+column per movement:
+  top:    the person's elbow (truth), the goniometer's reading, and the exoskeleton's elbow with the
+          paper's pure inverse-dynamics replay (open_loop) and with the impedance added (feedback);
+  middle: tracking error exo - person of both variants;
+  bottom: the elbow torque commands (inverse dynamics; + impedance) and the shoulder angle.
+Run with Debian's /usr/bin/python3 (numpy + matplotlib).
+"""
+import argparse
+import io
+import os
+import sys
+
+try:
+    import numpy as np
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+except ImportError:
+    sys.stderr.write("plot_goniometer.py: needs numpy and matplotlib: run it with /usr/bin/python3\n")
+    sys.exit(1)
+
+
+def read(path):
+    with open(path) as f:
+        text = "".join(line for line in f if not line.startswith("#"))
+    return np.genfromtxt(io.StringIO(text), delimiter=",", names=True, dtype=None, encoding=None)
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("run_dir", help="run folder written by peha run --experiment goniometer")
+    p.add_argument("--out", help="output PNG (default RUN_DIR/plot.png)")
+    a = p.parse_args()
+    summary_path = os.path.join(a.run_dir, "summary.csv")
+    if not os.path.exists(summary_path):
+        sys.stderr.write(f"plot_goniometer.py: {summary_path} not found\n")
+        return 2
+    s = np.atleast_1d(read(summary_path))
+    movements = list(dict.fromkeys(str(m) for m in s["movement"]))
+    fig, axes = plt.subplots(3, len(movements), figsize=(7 * len(movements), 10), squeeze=False,
+                             gridspec_kw={"height_ratios": [3, 1.5, 1.5]})
+    colors = {"open_loop": "tab:red", "feedback": "tab:blue"}
+    for c, m in enumerate(movements):
+        ax, ax_e, ax_t = axes[0][c], axes[1][c], axes[2][c]
+        first = True
+        for row in s[s["movement"] == m]:
+            v = str(row["variant"])
+            d = read(os.path.join(a.run_dir, f"e4_{m}_{v}.csv"))
+            t = d["t_s"]
+            if first:
+                ax.plot(t, d["goniometer_deg"], color="0.7", lw=0.6, label="goniometer (200 Hz, noisy)")
+                ax.plot(t, d["person_elbow_deg"], color="k", lw=1.4, label="person's elbow")
+                op = d["operator_active"] > 0.5
+                if op.any():
+                    for a_ in (ax, ax_e, ax_t):
+                        a_.axvspan(t[op][0], t[op][-1], color="0.92", lw=0)
+                first = False
+            label = "pure ID replay (paper)" if v == "open_loop" else "ID + impedance"
+            ax.plot(t, d["plant_elbow_deg"], color=colors.get(v, "tab:green"), lw=1.1,
+                    label=f"exo elbow, {label}: RMS {row['rms_error_deg']:.1f} deg, delay {row['delay_ms']:.0f} ms")
+            ax_e.plot(t, d["plant_elbow_deg"] - d["person_elbow_deg"], color=colors.get(v, "tab:green"), lw=0.9, label=v)
+            ax_t.plot(t, d["tau_elbow_cmd_Nm"], color=colors.get(v, "tab:green"), lw=0.7, label=f"elbow torque cmd, {v}")
+        ax.set_title(f"E4 movement '{m}'")
+        ax.set_ylabel("elbow angle (deg)")
+        ax.legend(fontsize=8, loc="upper right")
+        ax.grid(alpha=0.3)
+        ax_e.set_ylabel("exo - person (deg)")
+        ax_e.axhline(0, color="k", lw=0.5)
+        ax_e.grid(alpha=0.3)
+        ax_e.legend(fontsize=8)
+        ax_t.set_ylabel("torque (Nm)")
+        ax_t.set_xlabel("time (s); grey: the operator holds the arm")
+        ax_t.grid(alpha=0.3)
+        ax_t.legend(fontsize=8, loc="upper right")
+    fig.suptitle("E4: goniometer -> Butterworth -> derivatives -> inverse dynamics of forearm + hand -> elbow torque")
+    fig.tight_layout()
+    out = a.out or os.path.join(a.run_dir, "plot.png")
+    fig.savefig(out, dpi=110)
+    print(f"plot: {out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
