@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <fstream>
 #include <stdexcept>
 
@@ -15,6 +16,12 @@ bool CsvLog::begin_row() noexcept {
   row_offset_ = rows_ * columns_.size();
   ++rows_;
   return true;
+}
+
+void CsvLog::push_row(std::span<const double> row) noexcept {
+  if (!begin_row()) return;
+  const std::size_t n = std::min(row.size(), columns_.size());
+  for (std::size_t i = 0; i < n; ++i) values_[row_offset_ + i] = row[i];
 }
 
 std::size_t CsvLog::column(const std::string& name) const {

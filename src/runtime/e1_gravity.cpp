@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -119,68 +120,110 @@ const std::vector<std::string>& e1_log_columns() {
   return columns;
 }
 
-E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
-  control::OneDofControllerModel ctl_model = scenario.controller;
-  ctl_model.gravity.payload_mass_kg = c.payload_kg;
-  control::OneDofGravityController controller(ctl_model);
-  sim::OneDofRigParams plant_params = scenario.plant;
-  plant_params.payload_kg = c.payload_kg;
-  sim::OneDofRigBackend plant(plant_params);
+control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c) {
+  control::OneDofControllerModel m = scenario.controller;
+  m.gravity.payload_mass_kg = c.payload_kg;
+  return m;
+}
+
+sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c) {
+  sim::OneDofRigParams p = scenario.plant;
+  p.payload_kg = c.payload_kg;
+  return p;
+}
+
+E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, RowSink* log) {
+  sim::OneDofRigBackend plant(e1_plant_params(scenario, c));
+  return run_e1_on(scenario, c, plant, &plant, log);
+}
+
+E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
+                   RowSink* log, const CycleHooks& hooks) {
+  control::OneDofGravityController controller(e1_controller_model(scenario, c));
   safety::LimitsData limits_data;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
 
   E1Result r;
   r.case_name = c.name;
   r.payload_kg = c.payload_kg;
+  r.from_truth = sim != nullptr;
   r.min_wire_tension_N = std::numeric_limits<double>::infinity();
 
   const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
   std::vector<double> angle_truth(steps + 1);
   std::vector<char> finger_on(steps + 1);
   std::vector<double> finger_force(steps + 1);
+  // Without the simulator's truth, the finger is where the scenario's schedule puts it.
+  for (std::size_t k = 0; k <= steps; ++k) {
+    const double t = static_cast<double>(k) * scenario.period_s;
+    for (const auto& push : scenario.plant.finger.pushes) finger_on[k] |= t >= push.start_s && t < push.start_s + push.duration_s;
+  }
   io::SensorState state;
   io::Command command;
   double tracking_sum[2] = {0, 0};
   std::size_t tracking_count = 0;
+  std::array<double, 25> row{};
   const auto wall_start = std::chrono::steady_clock::now();
   for (std::size_t k = 0; k <= steps; ++k) {
-    plant.read(state);
+    if (hooks.wait) hooks.wait();
+    if (!backend.read(state)) {  // no new sample: hold the last command (it also feeds the board's watchdog)
+      ++r.missed_samples;
+      angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
+      if (k < steps) backend.write(command);
+      continue;
+    }
     controller.update(state, command);
     const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
-    const sim::OneDofRigTruth& t = plant.truth();
-    angle_truth[k] = t.angle_rad;
-    finger_on[k] = t.finger_active;
-    finger_force[k] = t.finger_force_N;
-    r.peak_muscle_force_N[0] = std::max(r.peak_muscle_force_N[0], t.muscle_force_N[0]);
-    r.peak_muscle_force_N[1] = std::max(r.peak_muscle_force_N[1], t.muscle_force_N[1]);
-    r.min_wire_tension_N = std::min({r.min_wire_tension_N, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]});
-    r.max_pressure_MPa = std::max({r.max_pressure_MPa, t.pressure_Pa[0] * 1e-6, t.pressure_Pa[1] * 1e-6});
-    r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(t.motor_torque_Nm));
+    const io::JointSensors& s = state.joints[0];
+    const io::JointCommand& cmd = command.joints[0];
+    const sim::OneDofRigTruth* t = sim ? &sim->truth() : nullptr;
+    if (t) {
+      angle_truth[k] = t->angle_rad;
+      finger_on[k] = t->finger_active;
+      finger_force[k] = t->finger_force_N;
+      r.peak_muscle_force_N[0] = std::max(r.peak_muscle_force_N[0], t->muscle_force_N[0]);
+      r.peak_muscle_force_N[1] = std::max(r.peak_muscle_force_N[1], t->muscle_force_N[1]);
+      r.min_wire_tension_N = std::min({r.min_wire_tension_N, t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]});
+      r.max_pressure_MPa = std::max({r.max_pressure_MPa, t->pressure_Pa[0] * 1e-6, t->pressure_Pa[1] * 1e-6});
+      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(t->motor_torque_Nm));
+    } else {
+      angle_truth[k] = s.angle_rad;
+      finger_force[k] = nan;
+      r.peak_muscle_force_N[0] = std::max(r.peak_muscle_force_N[0], s.agonist_force_N);
+      r.peak_muscle_force_N[1] = std::max(r.peak_muscle_force_N[1], s.antagonist_force_N);
+      r.min_wire_tension_N = std::min({r.min_wire_tension_N, s.agonist_force_N, s.antagonist_force_N});
+      r.max_pressure_MPa = std::max({r.max_pressure_MPa, s.agonist_pressure_Pa * 1e-6, s.antagonist_pressure_Pa * 1e-6});
+      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(cmd.motor_torque_Nm));
+    }
     if (state.time_s >= 1.0) {  // after the start-up transient
       const auto& a = controller.diagnostics().allocation;
-      const double e1 = a.agonist_force_N - state.joints[0].agonist_force_N;
-      const double e2 = a.antagonist_force_N - state.joints[0].antagonist_force_N;
+      const double e1 = a.agonist_force_N - s.agonist_force_N;
+      const double e2 = a.antagonist_force_N - s.antagonist_force_N;
       tracking_sum[0] += e1 * e1;
       tracking_sum[1] += e2 * e2;
       ++tracking_count;
     }
 
-    if (log && log->begin_row()) {
+    if (log) {
       const auto& d = controller.diagnostics();
-      const auto& s = state.joints[0];
-      const auto& cmd = command.joints[0];
-      const double values[] = {
-          state.time_s, s.angle_rad, d.velocity_radps, t.finger_force_N, t.finger_active ? 1.0 : 0.0,
-          d.torque_desired_Nm, d.allocation.torque_pam_Nm, d.allocation.torque_pam_measured_Nm, cmd.motor_torque_Nm,
-          d.allocation.agonist_force_N, d.allocation.antagonist_force_N, s.agonist_force_N, s.antagonist_force_N,
-          cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
-          s.antagonist_pressure_Pa * 1e-6, t.angle_rad, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1],
-          t.muscle_force_N[0], t.muscle_force_N[1], t.cable_friction_Nm, t.constraint_torque_Nm, static_cast<double>(flags)};
-      for (std::size_t i = 0; i < std::size(values); ++i) log->set(i, values[i]);
+      row = {state.time_s, s.angle_rad, d.velocity_radps, t ? t->finger_force_N : nan, finger_on[k] ? 1.0 : 0.0,
+             d.torque_desired_Nm, d.allocation.torque_pam_Nm, d.allocation.torque_pam_measured_Nm, cmd.motor_torque_Nm,
+             d.allocation.agonist_force_N, d.allocation.antagonist_force_N, s.agonist_force_N, s.antagonist_force_N,
+             cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
+             s.antagonist_pressure_Pa * 1e-6, t ? t->angle_rad : nan, t ? t->pulley_tension_min_N[0] : nan,
+             t ? t->pulley_tension_min_N[1] : nan, t ? t->muscle_force_N[0] : nan, t ? t->muscle_force_N[1] : nan,
+             t ? t->cable_friction_Nm : nan, t ? t->constraint_torque_Nm : nan, static_cast<double>(flags)};
+      log->push_row(row);
     }
-    if (k < steps) plant.write(command);
+    if (hooks.after && !hooks.after(state, command, flags)) {
+      angle_truth.resize(k + 1);
+      break;
+    }
+    if (k < steps) backend.write(command);
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  r.simulated_s = steps * scenario.period_s;
+  const std::size_t done = angle_truth.size() - 1;  // a run ended early analyses what it has
+  r.simulated_s = static_cast<double>(done) * scenario.period_s;
   for (int i = 0; i < 2; ++i) r.force_tracking_rms_N[i] = tracking_count ? std::sqrt(tracking_sum[i] / tracking_count) : 0.0;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   std::copy(std::begin(limits_data.counts), std::end(limits_data.counts), std::begin(r.limit_counts));
@@ -199,12 +242,12 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
   const auto& pushes = scenario.plant.finger.pushes;
   for (const auto& push : pushes) {
     const auto k0 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
-    if (k0 > steps) continue;
+    if (k0 > done) continue;
     E1Release rel;
     rel.push = push.name;
     rel.time_s = k0 * scenario.period_s;
     rel.angle_deg = angle_truth[k0] / kDeg;
-    const std::size_t k1 = std::min(k0 + window, steps);
+    const std::size_t k1 = std::min(k0 + window, done);
     for (std::size_t k = k0; k <= k1 && !(k > k0 && finger_on[k]); ++k) {
       rel.max_excursion_deg = std::max(rel.max_excursion_deg, std::abs(angle_truth[k] - angle_truth[k0]) / kDeg);
       rel.drift_deg = (angle_truth[k] - angle_truth[k0]) / kDeg;
@@ -215,10 +258,11 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log) {
     if (push.hold) continue;
     const auto k0 = static_cast<std::size_t>(std::llround(push.start_s / scenario.period_s));
     const auto k1 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
-    for (std::size_t k = k0; k <= std::min(k1, steps); ++k) {
+    for (std::size_t k = k0; k <= std::min(k1, done); ++k) {
       r.peak_finger_force_N = std::max(r.peak_finger_force_N, std::abs(finger_force[k]));
     }
   }
+  if (!r.from_truth) r.peak_finger_force_N = nan;  // the finger is the simulator's secret
   return r;
 }
 

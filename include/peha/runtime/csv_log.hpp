@@ -4,12 +4,22 @@
 /// control loop does not allocate; `write` puts it on disk afterwards (time first, units in names).
 
 #include <filesystem>
+#include <span>
 #include <string>
 #include <vector>
 
 namespace peha::runtime {
 
-class CsvLog {
+/// Where a loop's per-cycle rows go: the in-memory CsvLog (simulation runs) or the real-time
+/// AsyncCsvLog (a writer thread). `push_row` is called from the control loop: noexcept, no allocation.
+class RowSink {
+ public:
+  virtual ~RowSink() = default;
+  /// One row, values in column order. A full sink drops the row (and counts it, if it can).
+  virtual void push_row(std::span<const double> row) noexcept = 0;
+};
+
+class CsvLog final : public RowSink {
  public:
   /// `columns`: names with units, e.g. "t_s", "angle_rad". Reserves `expected_rows` rows.
   CsvLog(std::vector<std::string> columns, std::size_t expected_rows);
@@ -17,6 +27,8 @@ class CsvLog {
   /// Starts a row; call `set` for its values. Returns false (and drops the row) once full.
   bool begin_row() noexcept;
   void set(std::size_t column, double value) noexcept { values_[row_offset_ + column] = value; }
+  /// begin_row + set of every column (extra values are ignored, missing ones left 0).
+  void push_row(std::span<const double> row) noexcept override;
   std::size_t rows() const { return rows_; }
   /// Forgets every row (the capacity stays): the log can record the next run.
   void clear() noexcept { rows_ = 0; row_offset_ = 0; }

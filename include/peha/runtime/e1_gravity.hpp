@@ -67,13 +67,39 @@ struct E1Result {
   bool within_limits = false;           ///< forces, tension, pressure, motor and joint range all held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;
+  /// Where the figures come from: the simulator's truth (in-process) or, over a real backend
+  /// (UDP to the MFB), the sensors: encoder angle, load cells, pressure sensors, commanded motor
+  /// torque; the finger's force is then unknown (NaN) and wire tension is the load cells' reading.
+  bool from_truth = true;
+  std::uint64_t missed_samples = 0;     ///< cycles the backend had no new sample (command held)
   std::uint64_t limit_counts[5] = {0, 0, 0, 0, 0};  ///< by safety::LimitFlag bit
 };
 
 /// Column names of the per-cycle log.
 const std::vector<std::string>& e1_log_columns();
 
-/// Runs one case. `log` (optional) receives one row per control cycle.
-E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, CsvLog* log);
+/// What a loop does around each control cycle besides control. Both may be empty.
+struct CycleHooks {
+  /// Before reading the backend: e.g. sleep to the next absolute deadline.
+  std::function<void()> wait;
+  /// After the command was limited and before it is written; returning false ends the run early
+  /// (e.g. a fault). Called from the control loop: must not block.
+  std::function<bool(const io::SensorState&, const io::Command&, std::uint32_t limit_flags)> after;
+};
+
+/// Runs one case on the in-process simulated rig (as fast as it computes). `log` (optional)
+/// receives one row per control cycle.
+E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, RowSink* log);
+
+/// Runs one case on any backend: the same controller, limits and analysis. `sim` (optional) is
+/// the in-process rig when `backend` is it, for truth figures; without it the figures come from
+/// the sensors (see E1Result::from_truth). A cycle whose read() fails re-sends the last command.
+E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
+                   RowSink* log, const CycleHooks& hooks = {});
+
+/// The controller's model of a case (the scenario's, with the case's payload).
+control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c);
+/// The simulated rig's parameters for a case (the scenario's plant with the case's payload).
+sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c);
 
 }  // namespace peha::runtime
