@@ -5,7 +5,7 @@ CONFIG ?= configs/e1_one_dof.yaml
 CAL    := out/calibration
 PEHA    = ./$(BUILD)/peha
 
-.PHONY: all deps configure build run test bench clean help
+.PHONY: all deps configure build run test bench fuzz soak clean help
 
 all: build
 
@@ -13,7 +13,8 @@ help:
 	@echo "make run    install missing packages, build Release, run E1 on the simulated one-DOF rig,"
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
-	@echo "make bench  build and run the Google Benchmark suite"
+	@echo "make bench  build and run the Google Benchmark suite (incl. 60 s of MFB round trips over UDP)"
+	@echo "make fuzz   fuzz the MFB packet parser for 10 minutes (libFuzzer, ASan, UBSan)"
 	@echo "make clean  remove build/ and out/"
 
 deps:
@@ -52,6 +53,10 @@ bench: build
 	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out out/bench/agonist.csv
 	$(PEHA) calibrate out/bench/agonist.csv --muscle agonist --out out/bench/agonist_lm.yaml --no-spgp --no-holdout --no-plot
 	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --json out/bench/scipy_vs_peha.json
+
+# The MFB packet parser under libFuzzer for 10 minutes (make test runs it for 20 s).
+fuzz: deps
+	./scripts/fuzz-mfb.sh 600
 
 clean:
 	rm -rf build out

@@ -15,6 +15,7 @@ packages=(
   libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   pybind11-dev
+  clang-14 libclang-rt-14-dev   # libFuzzer (+ ASan/UBSan) for the MFB packet parser's fuzz target
   python3-numpy python3-scipy python3-matplotlib python3-sklearn  # tools/ on /usr/bin/python3
 )
 

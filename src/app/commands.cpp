@@ -5,6 +5,10 @@
 #include "peha/control/butterworth.hpp"
 #include "peha/runtime/e1_gravity.hpp"
 #include "peha/runtime/e4_goniometer.hpp"
+#include "peha/runtime/e1_realtime.hpp"
+#include "peha/io/udp_socket.hpp"
+#include "peha/mfb/board_emulator.hpp"
+#include "peha/sim/one_dof_rig.hpp"
 #include "peha/runtime/right_arm.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
@@ -12,6 +16,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <chrono>
 #include <cmath>
 #include <numbers>
@@ -177,6 +183,22 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
     if (any_spgp) variants.push_back({"spgp", with_spgp});
   }
 
+  // Over the board: the endpoint and the mfb: section are checked before anything is written.
+  std::optional<runtime::RealtimeRunOptions> realtime;
+  if (!options.backend.empty()) {
+    realtime.emplace();
+    realtime->board = io::parse_udp_endpoint(options.backend);
+    if (!scenario.link) {
+      fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(),
+                 options.backend);
+      return 2;
+    }
+    if (!options.telemetry.empty()) realtime->telemetry = io::parse_udp_endpoint(options.telemetry);
+    realtime->realtime.fifo_priority = options.fifo_priority;
+    realtime->realtime.cpu = options.cpu;
+    realtime->recover_after_s = options.recover_after_s.value_or(-1.0);
+  }
+
   // Only now, with everything loaded and checked, does the run leave a trace on disk.
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
@@ -200,6 +222,27 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   for (std::size_t i = 0; i < cases.size(); ++i) {
     fmt::print("  [{}/{}] {} ... ", i + 1, cases.size(), cases[i].name);
     std::fflush(stdout);
+    if (realtime) {
+      realtime->dir = dir;
+      fmt::print("on the board at udp://{} in real time\n", realtime->board.to_string());
+      std::fflush(stdout);
+      const runtime::RealtimeRunResult rr = runtime::run_e1_realtime(runs[i].second->scenario, cases[i], *realtime);
+      results.push_back(rr.e1);
+      fmt::print("  real-time setup: {}\n", rr.realtime.summary());
+      fmt::print("{}\n", rr.timing.table());
+      const auto& l = rr.link;
+      fmt::print("  link: {} commands sent ({} send failures), states accepted {}, dropped: foreign source {}, foreign "
+                 "session {}, duplicate {}, stale {}, malformed {}; gaps {}; no reply in time {}; implausible samples {}; "
+                 "clamped DA codes {}\n",
+                 l.commands_sent, l.send_failures, l.received.accepted, l.received.foreign_source, l.received.foreign_session,
+                 l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.replies_missing,
+                 l.implausible_samples, l.clamped_outputs);
+      fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
+                 rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
+      for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
+      rr.timing.write_csv(dir / fmt::format("timing_{}", cases[i].name));
+      continue;
+    }
     runtime::CsvLog log(runtime::e1_log_columns(), rows);
     results.push_back(runtime::run_e1_case(runs[i].second->scenario, cases[i], &log));
     const auto& r = results.back();
@@ -563,6 +606,59 @@ int check_config(const std::filesystem::path& config) {
     fmt::print(stderr, "config error: {}\n", e.what());
     return 2;
   }
+}
+
+namespace {
+std::atomic<bool> g_stop{false};
+extern "C" void on_stop_signal(int) { g_stop = true; }
+}  // namespace
+
+int mfb_emulator(const EmulatorOptions& options) {
+  return with_exit_codes([&] {
+    const config::Document doc = config::Document::load_file(options.config);
+    runtime::E1Scenario scenario = runtime::read_e1(doc);
+    if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+    if (!scenario.link) {
+      fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+      return 2;
+    }
+    const runtime::E1Case* chosen = &scenario.cases.front();
+    for (const auto& c : scenario.cases) {
+      if (c.name == options.case_name) chosen = &c;
+    }
+    if (!options.case_name.empty() && chosen->name != options.case_name) {
+      fmt::print(stderr, "error: no case named '{}' in {}\n", options.case_name, doc.name());
+      return 2;
+    }
+    mfb::EmulatorParams p;
+    p.bind = io::parse_udp_endpoint(fmt::format("{}:{}", options.bind, options.port == 0 ? 1 : options.port));
+    p.bind.port = static_cast<std::uint16_t>(options.port);
+    p.period_s = scenario.period_s;
+    p.watchdog_s = options.watchdog_ms ? *options.watchdog_ms * 1e-3 : scenario.link->board_watchdog_s;
+    p.vent_s = scenario.link->vent_s;
+    p.max_runtime_s = options.max_runtime_s;
+    p.sessions = options.sessions;
+    p.faults = {options.loss, options.duplicate, options.reorder, options.corrupt, options.delay_ms * 1e-3, options.fault_seed,
+                options.estop_at_s, options.estop_for_s};
+    const std::vector<std::string> joints = {"joint"};
+    const sim::OneDofRigParams plant = runtime::e1_plant_params(scenario, *chosen);
+    mfb::BoardEmulator board(p, mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), joints),
+                             [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); });
+    std::signal(SIGINT, on_stop_signal);
+    std::signal(SIGTERM, on_stop_signal);
+    fmt::print("peha mfb-emulator: listening on udp://{} - one-DOF rig, case {} ({} kg), watchdog {} ms, vent {} s{}\n",
+               board.local().to_string(), chosen->name, chosen->payload_kg, p.watchdog_s * 1e3, p.vent_s,
+               p.faults.any() ? fmt::format("; injecting loss {} duplicate {} reorder {} corrupt {} delay {} ms{}", p.faults.loss,
+                                            p.faults.duplicate, p.faults.reorder, p.faults.corrupt, options.delay_ms,
+                                            p.faults.estop_from_s >= 0 ? fmt::format(", e-stop at {} s for {} s", p.faults.estop_from_s,
+                                                                                     p.faults.estop_for_s)
+                                                                       : std::string())
+                                : std::string());
+    std::fflush(stdout);
+    board.run(g_stop);
+    fmt::print("peha mfb-emulator: stopped\n{}\n", board.stats().table());
+    return 0;
+  });
 }
 
 }  // namespace peha::app

@@ -45,6 +45,20 @@ int main(int argc, char** argv) {
                       "E4 only: replay a recorded goniometer CSV (columns t_s and elbow_angle_deg or elbow_angle_rad,\n"
                       "sampled at the config's goniometer.sample_rate_Hz) instead of the config's synthetic movements")
       ->check(CLI::ExistingFile);
+  run_cmd->add_option("--backend", run.backend,
+                      "E1 only: run on a multifunction board over UDP instead of the in-process simulator,\n"
+                      "e.g. udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
+                      "Runs in real time at the config's control period with timing statistics (docs/runtime.md)");
+  run_cmd->add_option("--rt-priority", run.fifo_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
+      ->capture_default_str()->check(CLI::Range(0, 99));
+  run_cmd->add_option("--cpu", run.cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->capture_default_str();
+  run_cmd->add_option("--telemetry", run.telemetry,
+                      "With --backend: stream signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870");
+  double recover_after = 0;
+  CLI::Option* recover_opt = run_cmd->add_option(
+      "--recover-after", recover_after,
+      "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
+      "without it, type r + Enter on the terminal to recover")->check(CLI::Range(0.0, 3600.0));
   double trim = 0;
   CLI::Option* trim_opt = run_cmd->add_option(
       "--force-trim-rate", trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward)")
@@ -90,6 +104,36 @@ int main(int argc, char** argv) {
   cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->capture_default_str();
   cal_cmd->add_flag("!--no-plot", cal.plot, "Do not render report.png");
 
+  peha::app::EmulatorOptions emu;
+  std::uint64_t emu_seed = 0;
+  double emu_watchdog = 0;
+  CLI::App* emu_cmd = app.add_subcommand(
+      "mfb-emulator",
+      "Serve the multifunction board's side of the MFB protocol (docs/mfb-protocol.md) over UDP, with the\n"
+      "simulated one-DOF rig behind it: AD codes from its sensors, DA codes to its valves and motor driver,\n"
+      "encoder counts, through the config's channel map. Its own watchdog puts the outputs in a safe state\n"
+      "(motor off, valves vented slowly) when no valid command arrives. Faults can be injected into the\n"
+      "state packets it sends. Runs until Ctrl-C, --max-runtime or --sessions.");
+  emu_cmd->add_option("-c,--config", emu.config, "Rig scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
+  emu_cmd->add_option("--case", emu.case_name, "The case whose plant (payload) to simulate (default: the first)");
+  emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
+  emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
+      ->capture_default_str()->check(CLI::Range(0, 65535));
+  CLI::Option* emu_seed_opt = emu_cmd->add_option("--seed", emu_seed, "Override the sensor-noise seed");
+  CLI::Option* emu_wd_opt = emu_cmd->add_option("--watchdog-ms", emu_watchdog, "Override the config's board_watchdog_ms")
+      ->check(CLI::Range(2.0, 10000.0));
+  emu_cmd->add_option("--loss", emu.loss, "Probability a state packet is dropped")->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--duplicate", emu.duplicate, "Probability a state packet is sent twice")->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--reorder", emu.reorder, "Probability a state packet is held back behind the next")->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--corrupt", emu.corrupt, "Probability one bit of a state packet is flipped")->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--delay-ms", emu.delay_ms, "Every state packet leaves this much later")->check(CLI::Range(0.0, 1000.0));
+  emu_cmd->add_option("--fault-seed", emu.fault_seed, "Seed of the injected faults")->capture_default_str();
+  emu_cmd->add_option("--estop-at", emu.estop_at_s, "Assert the e-stop input at this simulated time, s")->check(CLI::Range(0.0, 1e6));
+  emu_cmd->add_option("--estop-for", emu.estop_for_s, "... for this long, s")->capture_default_str()->check(CLI::Range(0.0, 1e6));
+  emu_cmd->add_option("--max-runtime", emu.max_runtime_s, "Stop after this much wall time, s (0 = never)")->check(CLI::Range(0.0, 1e7));
+  emu_cmd->add_option("--sessions", emu.sessions, "Stop after this many sessions ended by the watchdog (0 = never)")
+      ->check(CLI::Range(0, 1000000));
+
   std::filesystem::path check_path;
   CLI::App* check_cmd = app.add_subcommand(
       "check-config", "Parse and validate a scenario YAML without running it. Unknown keys, missing keys, wrong\n"
@@ -103,7 +147,13 @@ int main(int argc, char** argv) {
   if (*run_cmd) {
     if (*seed_opt) run.seed = seed;
     if (*trim_opt) run.force_trim_rate_1ps = trim;
+    if (*recover_opt) run.recover_after_s = recover_after;
     return peha::app::run(run);
+  }
+  if (*emu_cmd) {
+    if (*emu_seed_opt) emu.seed = emu_seed;
+    if (*emu_wd_opt) emu.watchdog_ms = emu_watchdog;
+    return peha::app::mfb_emulator(emu);
   }
   if (*check_cmd) return peha::app::check_config(check_path);
   if (*cal_cmd) return peha::app::calibrate(cal);

@@ -45,6 +45,18 @@ sim::FingerParams read_finger(config::Map map, double duration_s) {
 
 }  // namespace
 
+LinkConfig read_link_config(config::Map map) {
+  LinkConfig l;
+  l.channel_map = map.path_value("channel_map");
+  l.board_watchdog_s = map.number("board_watchdog_ms", {2.0, 10000.0}) * 1e-3;
+  l.host_watchdog_s = map.number("host_watchdog_ms", {2.0, 10000.0}) * 1e-3;
+  l.receive_timeout_s = map.number("receive_timeout_ms", {0.05, 100.0}) * 1e-3;
+  l.vent_s = map.number("vent_s", {0.0, 60.0});
+  l.recovery_ramp_s = map.number("recovery_ramp_s", {0.0, 60.0});
+  map.finish();
+  return l;
+}
+
 E1Scenario read_e1(const config::Document& doc) {
   config::Map root = doc.root();
   E1Scenario s;
@@ -99,6 +111,7 @@ E1Scenario read_e1(const config::Document& doc) {
     c.finish();
     s.cases.push_back(e);
   }
+  if (root.has("mfb")) s.link = read_link_config(root.map("mfb"));
   if (root.has("calibration")) {
     config::Map cal = root.map("calibration");
     s.excitation[0] = calibration::read_excitation(cal.map("agonist"));
@@ -169,6 +182,10 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     if (!backend.read(state)) {  // no new sample: hold the last command (it also feeds the board's watchdog)
       ++r.missed_samples;
       angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
+      if (hooks.after && !hooks.after(state, command, 0)) {  // the hook still sees the silence
+        angle_truth.resize(k + 1);
+        break;
+      }
       if (k < steps) backend.write(command);
       continue;
     }

@@ -22,7 +22,31 @@ struct RunOptions {
   std::optional<double> force_trim_rate_1ps;  ///< overrides the config's force trim (0 = off)
   std::string experiment;                     ///< right-arm scenarios: postures | goniometer | bandwidth
   std::filesystem::path goniometer_csv;       ///< E4: a recorded goniometer CSV instead of the synthetic movements
+  /// E1 on the multifunction board: "udp://A.B.C.D:PORT" (empty: the in-process simulator).
+  std::string backend;
+  int fifo_priority = 80;                     ///< real-time loop: SCHED_FIFO priority (0 = don't ask)
+  int cpu = -1;                               ///< real-time loop: pin to this CPU (-1 = don't)
+  std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
+  std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
 };
+
+struct EmulatorOptions {
+  std::filesystem::path config;  ///< scenario with an mfb: section (the one-DOF rig)
+  std::string case_name;         ///< which case's plant (payload); empty: the first
+  std::string bind = "127.0.0.1";
+  int port = 0;                  ///< 0: any free port (printed)
+  std::optional<std::uint64_t> seed;  ///< sensor noise
+  double loss = 0, duplicate = 0, reorder = 0, corrupt = 0, delay_ms = 0;
+  std::uint64_t fault_seed = 1;
+  double estop_at_s = -1, estop_for_s = 1.0;
+  std::optional<double> watchdog_ms;  ///< overrides the config's board_watchdog_ms
+  double max_runtime_s = 0;
+  int sessions = 0;
+};
+
+/// `peha mfb-emulator`: serves the MFB protocol over UDP in front of the simulated rig until
+/// interrupted (SIGINT/SIGTERM), max_runtime_s, or `sessions` sessions ended; prints its counters.
+int mfb_emulator(const EmulatorOptions& options);
 
 /// `peha run`: runs the scenario's experiment, writes out/<run>/ and prints a summary table.
 /// Returns the process exit code (0 when every case ran and every safety figure held).

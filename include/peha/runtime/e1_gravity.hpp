@@ -12,12 +12,26 @@
 #include "peha/safety/limits.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
+#include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace peha::runtime {
+
+/// The `mfb:` section of a scenario: the board link (docs/mfb-protocol.md, docs/runtime.md).
+struct LinkConfig {
+  std::filesystem::path channel_map;   ///< resolved against the scenario's folder
+  double board_watchdog_s = 0.05;      ///< the board's: no command this long -> safe outputs
+  double host_watchdog_s = 0.02;       ///< the host's: no sample this long -> fault
+  double receive_timeout_s = 0.0008;   ///< how long a cycle waits for the board's reply
+  double vent_s = 2.0;                 ///< the board's controlled venting after its watchdog fired
+  double recovery_ramp_s = 1.0;        ///< after a recovery, commands ramp from safe to the controller's
+};
+
+/// Reads an `mfb:` mapping (finishes it).
+LinkConfig read_link_config(config::Map map);
 
 struct E1Case {
   std::string name;     ///< used in file names, e.g. "payload_2.5kg"
@@ -37,6 +51,8 @@ struct E1Scenario {
   /// Optional `calibration:` section: the excitation of each muscle for `peha record-calibration`
   /// (index 0 agonist, 1 antagonist).
   std::optional<calibration::ExcitationParams> excitation[2];
+  /// Optional `mfb:` section: how the scenario runs on the multifunction board over UDP.
+  std::optional<LinkConfig> link;
 };
 
 /// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.
@@ -82,9 +98,10 @@ const std::vector<std::string>& e1_log_columns();
 struct CycleHooks {
   /// Before reading the backend: e.g. sleep to the next absolute deadline.
   std::function<void()> wait;
-  /// After the command was limited and before it is written; returning false ends the run early
-  /// (e.g. a fault). Called from the control loop: must not block.
-  std::function<bool(const io::SensorState&, const io::Command&, std::uint32_t limit_flags)> after;
+  /// After the command was limited and before it is written. It may replace the command (a
+  /// fault's safe command, a recovery ramp); returning false ends the run early. Called from the
+  /// control loop: must not block or allocate.
+  std::function<bool(const io::SensorState&, io::Command&, std::uint32_t limit_flags)> after;
 };
 
 /// Runs one case on the in-process simulated rig (as fast as it computes). `log` (optional)

@@ -1,0 +1,124 @@
+#pragma once
+/// \file
+/// `peha mfb-emulator`: the board's side of the MFB protocol over UDP, with a simulated exoskeleton
+/// behind it. AD codes come from the simulated sensors and encoder counts from its joint angles
+/// (through the channel map's inverse), DA codes drive the simulated valves and motor drivers.
+///
+/// Timing: the emulator advances its simulation by one control period per command it applies and
+/// replies with the new sample at once, so a host at 1 kHz sees the same plant as the in-process
+/// simulator (the first command of a new session is answered with the initial sample, without a
+/// step). When commands stop for two periods the simulation runs on by itself, one period per
+/// period of wall time, and a state packet goes to the last host every period.
+///
+/// Its own watchdog: no accepted command for `watchdog_s` -> the board disarms, releases the
+/// session and reports kStatusWatchdogTripped until a host acknowledges with an enable-clear
+/// command; an enable edge re-arms it (mfb::OutputArming). Whenever the outputs disarm (watchdog,
+/// e-stop, the host's disable) the safe state is reached the SPEC §6 way: motor torque cut at once,
+/// valve setpoints ramped linearly to 0 Pa over `vent_s`, so the arm descends slowly, not drops.
+/// A new session puts the simulated exoskeleton back into its initial state.
+///
+/// Fault injection on the state packets it sends: loss, duplication, reordering, delay and
+/// corruption (a flipped bit after the CRC), each with its probability, drawn from a seed; and an
+/// e-stop input asserted over a time window of the simulation.
+
+#include "peha/io/backend.hpp"
+#include "peha/io/udp_socket.hpp"
+#include "peha/mfb/channel_map.hpp"
+#include "peha/mfb/protocol.hpp"
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace peha::mfb {
+
+struct FaultInjection {
+  double loss = 0;          ///< probability a state packet is not sent
+  double duplicate = 0;     ///< probability it is sent twice
+  double reorder = 0;       ///< probability it is held back and sent after the next one
+  double corrupt = 0;       ///< probability one random bit of it is flipped (after the CRC)
+  double delay_s = 0;       ///< every state packet leaves this much later
+  std::uint64_t seed = 1;
+  double estop_from_s = -1; ///< simulated time the e-stop input goes active (< 0: never)
+  double estop_for_s = 0;   ///< and how long it stays active
+  bool any() const { return loss > 0 || duplicate > 0 || reorder > 0 || corrupt > 0 || delay_s > 0 || estop_from_s >= 0; }
+};
+
+struct EmulatorParams {
+  io::UdpEndpoint bind{0x7F000001u, 0};  ///< where the board listens (port 0 = any)
+  double period_s = 1e-3;                ///< the simulation's step per command
+  double watchdog_s = 0.05;              ///< no accepted command this long -> safe outputs
+  double vent_s = 2.0;                   ///< valve setpoints ramp to 0 Pa over this after a trip
+  double max_runtime_s = 0;              ///< stop after this much wall time (0 = until stopped)
+  int sessions = 0;                      ///< stop after this many sessions ended by the watchdog (0 = never)
+  FaultInjection faults;
+};
+
+/// What the board saw and did.
+struct EmulatorStats {
+  ReceiveCounters received;              ///< the CommandFilter's verdicts
+  std::uint64_t oversized = 0;
+  std::uint64_t steps_on_command = 0;    ///< simulation periods advanced by commands
+  std::uint64_t steps_free_running = 0;  ///< ... by the wall clock while no command came
+  std::uint64_t states_sent = 0;
+  std::uint64_t sessions = 0;            ///< sessions adopted (each resets the simulation)
+  std::uint64_t watchdog_trips = 0;
+  std::uint64_t estop_cycles = 0;
+  std::uint64_t injected_loss = 0, injected_duplicate = 0, injected_reorder = 0, injected_corrupt = 0, injected_delay = 0;
+  std::string table() const;
+};
+
+class BoardEmulator {
+ public:
+  /// `make_plant` builds the simulated exoskeleton in its initial state (called per session).
+  BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant);
+
+  /// The bound address (port chosen by the kernel when asked for 0).
+  const io::UdpEndpoint& local() const noexcept { return socket_.local(); }
+  /// Serves until `stop` is set, max_runtime_s passes or `sessions` sessions have ended.
+  void run(const std::atomic<bool>& stop);
+  const EmulatorStats& stats() const noexcept { return stats_; }
+
+ private:
+  void apply_and_step(bool by_command) noexcept;
+  void send_state(std::int64_t now) noexcept;
+  void transmit(const std::uint8_t* bytes, std::size_t n, std::int64_t at_ns) noexcept;
+  void flush_delayed(std::int64_t now) noexcept;
+  double uniform() noexcept;
+
+  EmulatorParams params_;
+  ChannelMap map_;
+  std::function<std::unique_ptr<io::Backend>()> make_plant_;
+  io::UdpSocket socket_;
+  std::unique_ptr<io::Backend> plant_;
+  CommandFilter filter_;
+  OutputArming arming_;
+  io::SensorState state_;
+  CommandPacket last_command_{};
+  BoardOutputs applied_{};               ///< what the DA is driving now
+  BoardOutputs trip_outputs_{};          ///< what it drove when it disarmed (vent ramp start)
+  std::int64_t trip_ns_ = 0;
+  bool armed_ = false;                   ///< outputs followed the command last period
+  bool venting_ = false;                 ///< the vent ramp is running
+  bool have_host_ = false;
+  io::UdpEndpoint host_;
+  std::uint32_t session_ = 0;
+  bool have_session_ = false;
+  std::uint32_t state_sequence_ = 0;
+  std::int64_t last_command_ns_ = 0;
+  std::uint64_t rng_state_;
+  struct Pending {
+    std::int64_t at_ns;
+    std::size_t size;
+    std::array<std::uint8_t, kMaxPacketSize> bytes;
+  };
+  std::vector<Pending> pending_;         ///< delayed datagrams (fixed capacity)
+  bool have_held_ = false;               ///< a reordered packet waiting for the next
+  Pending held_{};
+  EmulatorStats stats_;
+};
+
+}  // namespace peha::mfb

@@ -1,0 +1,338 @@
+#pragma once
+/// \file
+/// The MFB wire protocol: the UDP datagrams between peha's real-time PC and the multifunction board
+/// (16 AD channels, 8 DA channels, 8 digital lines each way, 8 quadrature encoders).
+///
+/// Pure code, no sockets. Packets are serialised byte by byte in little-endian order (never by
+/// copying structs), so the layout does not depend on the compiler or the CPU. Every packet is
+///
+///     header (16 bytes) | type-specific payload | CRC-32C (4 bytes) over everything before it
+///
+/// The byte tables, the session, sequence, timing and watchdog rules are in `docs/mfb-protocol.md`;
+/// the offsets below (`kCommand...Offset`, `kState...Offset`) are the same table in code.
+///
+/// Receiving is two steps: `decode` checks one datagram on its own (size, magic, version, type,
+/// length, CRC, flag bits, session != 0); `StateFilter` (host) and `CommandFilter` (board) then
+/// judge it against the stream (source, session, newest-only) and count what they drop.
+///
+/// Everything here is `noexcept` and allocates nothing: it runs inside the control loop.
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+namespace peha::mfb {
+
+// ---------------------------------------------------------------------------------------------
+// Constants
+
+/// First four bytes of every packet: 'M','F','B','1' on the wire (read as a little-endian u32).
+inline constexpr std::uint32_t kMagic = 0x3142464D;
+/// Layout version. Any change to a layout or to the meaning of a field or bit bumps it; receivers
+/// accept exactly this version and reject every other (`ParseError::kBadVersion`).
+inline constexpr std::uint8_t kProtocolVersion = 1;
+
+inline constexpr int kAdChannels = 16;       ///< 16-bit analogue inputs
+inline constexpr int kDaChannels = 8;        ///< 16-bit analogue outputs
+inline constexpr int kEncoderChannels = 8;   ///< quadrature decoders, 32-bit signed counts
+
+/// `CommandPacket::flags` bit 0: outputs enabled. Outputs follow the command only while this is
+/// set and the board is armed (see `OutputArming`); otherwise the board holds its safe outputs.
+inline constexpr std::uint8_t kCommandEnable = 0x01;
+/// Every flag bit version 1 defines; a command with any other bit set is rejected (`kBadFlags`).
+inline constexpr std::uint8_t kCommandKnownFlags = kCommandEnable;
+
+/// `StatePacket::status` bits.
+/// The watchdog fired (no accepted command for `watchdog_ms`). Latched until the host acknowledges
+/// with a command whose enable flag is clear.
+inline constexpr std::uint8_t kStatusWatchdogTripped = 0x01;
+/// The board holds its safe outputs (safe DA codes, all digital outputs low) instead of the
+/// command's. Set whenever the outputs are not armed, for whatever reason.
+inline constexpr std::uint8_t kStatusOutputsSafe = 0x02;
+/// The hardware emergency-stop input is active.
+inline constexpr std::uint8_t kStatusEstop = 0x04;
+/// The board holds no session: the next valid command of any session will be adopted.
+inline constexpr std::uint8_t kStatusNoSession = 0x08;
+/// Every status bit version 1 defines; a state packet with any other bit set is rejected.
+inline constexpr std::uint8_t kStatusKnownBits =
+    kStatusWatchdogTripped | kStatusOutputsSafe | kStatusEstop | kStatusNoSession;
+
+/// `PacketType` on the wire (header byte 5).
+enum class PacketType : std::uint8_t {
+  kCommand = 1,  ///< host -> board
+  kState = 2,    ///< board -> host
+};
+
+// ---------------------------------------------------------------------------------------------
+// Packets (the decoded values; their wire layout is the byte table in docs/mfb-protocol.md)
+
+/// Host -> board, one per control period.
+struct CommandPacket {
+  /// Chosen by the host per session, nonzero and different from its previous one (random is
+  /// best). The board adopts a session as described at `CommandFilter`.
+  std::uint32_t session_id = 0;
+  /// +1 per command within a session; wraps from 2^32-1 to 0.
+  std::uint32_t sequence = 0;
+  /// Host monotonic clock when sent [ns]; the board echoes it back (`StatePacket::echo_host_time_ns`)
+  /// so the host can measure the round trip with its own clock.
+  std::uint64_t host_time_ns = 0;
+  /// DA output codes 0..65535 (the board's channel map turns them into volts).
+  std::array<std::uint16_t, kDaChannels> da{};
+  /// Digital output lines, bit i = line i, 1 = high.
+  std::uint8_t digital_out = 0;
+  /// `kCommandEnable`; every other bit must be 0.
+  std::uint8_t flags = 0;
+
+  bool operator==(const CommandPacket&) const = default;
+};
+
+/// Board -> host, one per accepted command, and one per board period while no command arrives.
+struct StatePacket {
+  /// The session the board adopted last (also while it holds none, see `kStatusNoSession`).
+  std::uint32_t session_id = 0;
+  /// The board's own counter, +1 per state packet sent; wraps from 2^32-1 to 0.
+  std::uint32_t sequence = 0;
+  /// `sequence` of the last command the board accepted (0 before the first).
+  std::uint32_t ack_sequence = 0;
+  /// `host_time_ns` of that command [ns, host clock]: round trip = host now - this.
+  std::uint64_t echo_host_time_ns = 0;
+  /// Board clock when the inputs were sampled [ns, board clock, not synchronised to the host].
+  std::uint64_t board_time_ns = 0;
+  /// AD input codes 0..65535.
+  std::array<std::uint16_t, kAdChannels> ad{};
+  /// Encoder positions [counts], two's complement, wrapping at +-2^31.
+  std::array<std::int32_t, kEncoderChannels> encoder{};
+  /// Digital input lines, bit i = line i, 1 = high.
+  std::uint8_t digital_in = 0;
+  /// `kStatus...` bits; every other bit must be 0.
+  std::uint8_t status = 0;
+
+  bool operator==(const StatePacket&) const = default;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Layout (byte offsets from the start of the datagram; all fields little-endian)
+
+inline constexpr std::size_t kHeaderSize = 16;  ///< magic, version, type, length, session, sequence
+inline constexpr std::size_t kCrcSize = 4;      ///< trailing CRC-32C
+
+inline constexpr std::size_t kMagicOffset = 0;          ///< u32
+inline constexpr std::size_t kVersionOffset = 4;        ///< u8
+inline constexpr std::size_t kTypeOffset = 5;           ///< u8, `PacketType`
+inline constexpr std::size_t kPayloadLengthOffset = 6;  ///< u16, bytes between header and CRC
+inline constexpr std::size_t kSessionOffset = 8;        ///< u32
+inline constexpr std::size_t kSequenceOffset = 12;      ///< u32
+
+inline constexpr std::size_t kCommandHostTimeOffset = 16;    ///< u64
+inline constexpr std::size_t kCommandDaOffset = 24;          ///< u16 x 8
+inline constexpr std::size_t kCommandDigitalOutOffset = 40;  ///< u8
+inline constexpr std::size_t kCommandFlagsOffset = 41;       ///< u8
+/// Bytes between the command's header and its CRC (the header's length field).
+inline constexpr std::size_t kCommandPayloadSize = 26;
+/// Exact size of a command datagram.
+inline constexpr std::size_t kCommandPacketSize = kHeaderSize + kCommandPayloadSize + kCrcSize;  // 46
+
+inline constexpr std::size_t kStateEchoHostTimeOffset = 16;  ///< u64
+inline constexpr std::size_t kStateBoardTimeOffset = 24;     ///< u64
+inline constexpr std::size_t kStateAckSequenceOffset = 32;   ///< u32
+inline constexpr std::size_t kStateAdOffset = 36;            ///< u16 x 16
+inline constexpr std::size_t kStateEncoderOffset = 68;       ///< i32 x 8
+inline constexpr std::size_t kStateDigitalInOffset = 100;    ///< u8
+inline constexpr std::size_t kStateStatusOffset = 101;       ///< u8
+/// Bytes between the state's header and its CRC (the header's length field).
+inline constexpr std::size_t kStatePayloadSize = 86;
+/// Exact size of a state datagram.
+inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kCrcSize;  // 106
+
+/// Largest datagram of this version: a receive buffer of this size holds any valid packet (use one
+/// byte more to tell "too long" from "exactly the largest").
+inline constexpr std::size_t kMaxPacketSize =
+    kCommandPacketSize > kStatePacketSize ? kCommandPacketSize : kStatePacketSize;
+
+// ---------------------------------------------------------------------------------------------
+// Encoding and decoding
+
+/// Why `decode` rejected a datagram. The checks run in this order, so a packet of another
+/// version reports `kBadVersion` even though its size differs too.
+enum class ParseError : std::uint8_t {
+  kOk,          ///< accepted
+  kTooShort,    ///< fewer bytes than the header, or than the packet type's exact size
+  kTooLong,     ///< more bytes than the packet type's exact size
+  kBadMagic,    ///< first four bytes are not 'MFB1'
+  kBadVersion,  ///< version byte != `kProtocolVersion`
+  kWrongType,   ///< type byte is not the type the caller decodes
+  kBadLength,   ///< header length field != the type's payload size
+  kBadCrc,      ///< CRC-32C does not match
+  kBadFlags,    ///< unknown bits in `CommandPacket::flags` or `StatePacket::status`
+  kZeroSession, ///< session id 0 (never valid; 0 means "none")
+};
+
+/// Short lower-case name of `e` ("bad crc"); never null.
+const char* to_string(ParseError e) noexcept;
+
+/// CRC-32C (Castagnoli; reflected polynomial 0x82F63B78, initial value and final XOR 0xFFFFFFFF),
+/// table-driven. The check value of the ASCII bytes "123456789" is 0xE3069283.
+std::uint32_t crc32c(const std::uint8_t* data, std::size_t size) noexcept;
+
+/// Serialises `packet` into the first `kCommandPacketSize` bytes of `out`, CRC included.
+/// Returns the bytes written, or 0 (writing nothing) if `out` is too small. Does not validate:
+/// fields the receiver rejects (session 0, unknown flags) are written as they are.
+std::size_t encode(const CommandPacket& packet, std::span<std::uint8_t> out) noexcept;
+/// Same for a state packet (`kStatePacketSize` bytes).
+std::size_t encode(const StatePacket& packet, std::span<std::uint8_t> out) noexcept;
+
+/// Parses one whole datagram as a command. `out` is written only when the result is `kOk`.
+ParseError decode(std::span<const std::uint8_t> in, CommandPacket& out) noexcept;
+/// Parses one whole datagram as a state packet. `out` is written only when the result is `kOk`.
+ParseError decode(std::span<const std::uint8_t> in, StatePacket& out) noexcept;
+
+/// Serial-number order of 32-bit sequence numbers (RFC 1982): true if `a` comes after `b`, i.e.
+/// `a - b` modulo 2^32 is in [1, 2^31 - 1]. So 0 is newer than 0xFFFFFFFF, and a number exactly
+/// 2^31 ahead counts as older.
+constexpr bool sequence_newer(std::uint32_t a, std::uint32_t b) noexcept {
+  const std::uint32_t d = a - b;
+  return d != 0 && d < 0x80000000u;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Stream acceptance
+
+/// What a filter decided about one datagram. Everything but `kAccept` is dropped and counted.
+enum class Verdict : std::uint8_t {
+  kAccept,          ///< newest packet of the current session from the right peer
+  kForeignSource,   ///< came from an address other than the configured board (not parsed)
+  kForeignSession,  ///< valid, but another session
+  kDuplicate,       ///< same sequence as the last accepted packet
+  kStale,           ///< older than the last accepted packet (reordered or late)
+  kMalformed,       ///< `decode` rejected it (`last_error()` says why)
+};
+
+/// Short lower-case name of `v` ("foreign session"); never null.
+const char* to_string(Verdict v) noexcept;
+
+/// What a filter has seen since construction or its last `reset`. Every datagram given to
+/// `accept` increments exactly one of the verdict counters.
+struct ReceiveCounters {
+  std::uint64_t accepted = 0;
+  std::uint64_t foreign_source = 0;
+  std::uint64_t foreign_session = 0;
+  std::uint64_t duplicate = 0;
+  std::uint64_t stale = 0;
+  std::uint64_t malformed = 0;
+  /// Sequence numbers skipped between consecutive accepted packets (accepting 7 after 4 adds 2).
+  /// A skipped packet that arrives later is dropped as stale and stays counted here.
+  std::uint64_t gaps = 0;
+};
+
+/// Host side: accepts the state packets of one session, newest only.
+///
+/// A datagram is accepted only if it came from the configured board address, decodes, carries the
+/// filter's session and its sequence is newer (`sequence_newer`) than the last accepted one. The
+/// first valid packet of the session is accepted whatever its sequence: the board's counter runs
+/// across sessions. No allocation, no exceptions.
+class StateFilter {
+ public:
+  /// Filters for `session_id`, the session the host puts in its commands (nonzero; with 0 every
+  /// valid packet is judged `kForeignSession`).
+  explicit StateFilter(std::uint32_t session_id) noexcept;
+
+  /// Parses `datagram` and judges it. `from_board_address` is whether the datagram's source
+  /// address and port are the configured board's (if not, it is not even parsed). On `kAccept`
+  /// fills `out`; otherwise `out` is untouched.
+  Verdict accept(std::span<const std::uint8_t> datagram, bool from_board_address,
+                 StatePacket& out) noexcept;
+
+  const ReceiveCounters& counters() const noexcept { return counters_; }
+  /// Why the last `kMalformed` datagram was rejected (`kOk` if none was).
+  ParseError last_error() const noexcept { return last_error_; }
+  std::uint32_t session_id() const noexcept { return session_id_; }
+
+  /// Starts over for a new session: forgets the last sequence, zeroes the counters.
+  void reset(std::uint32_t session_id) noexcept;
+
+ private:
+  std::uint32_t session_id_;
+  bool have_last_ = false;
+  std::uint32_t last_sequence_ = 0;
+  ReceiveCounters counters_{};
+  ParseError last_error_ = ParseError::kOk;
+};
+
+/// Board side: adopts one host's session and accepts its commands, newest only.
+///
+/// Session rule: the board holds at most one session. Without one (after power-on, `reset`, or
+/// `release` when its watchdog fired) the next command that decodes is adopted and accepted,
+/// whatever its session and sequence — except that a command of the session just released must
+/// still be newer than that session's last accepted command (a late packet cannot revive an old
+/// command). While holding a session, commands of any other session are dropped as
+/// `kForeignSession`; so a second host can take over only after the first has been silent for the
+/// watchdog time. Within the session the rules are `StateFilter`'s: duplicates and older sequences
+/// are dropped, skipped sequences counted as gaps. The board replies to the source address of the
+/// last accepted command; it has no address check of its own (`foreign_source` stays 0).
+class CommandFilter {
+ public:
+  /// Power-on state: no session.
+  CommandFilter() noexcept = default;
+
+  /// Parses `datagram` and judges it. On `kAccept` fills `out` (and holds `out.session_id`);
+  /// otherwise `out` is untouched.
+  Verdict accept(std::span<const std::uint8_t> datagram, CommandPacket& out) noexcept;
+
+  /// The board's watchdog fired: let go of the session, so that the next valid command of any
+  /// session is adopted. `session_id()` keeps the released session for the state packets.
+  void release() noexcept { has_session_ = false; }
+
+  /// True while a session is held (false: the board reports `kStatusNoSession`).
+  bool has_session() const noexcept { return has_session_; }
+  /// The session held or last held (0 before the first adoption).
+  std::uint32_t session_id() const noexcept { return session_id_; }
+  const ReceiveCounters& counters() const noexcept { return counters_; }
+  /// Why the last `kMalformed` datagram was rejected (`kOk` if none was).
+  ParseError last_error() const noexcept { return last_error_; }
+
+  /// Back to the power-on state: no session, no last sequence, counters zeroed.
+  void reset() noexcept { *this = CommandFilter(); }
+
+ private:
+  bool has_session_ = false;
+  std::uint32_t session_id_ = 0;
+  bool have_last_ = false;
+  std::uint32_t last_sequence_ = 0;
+  ReceiveCounters counters_{};
+  ParseError last_error_ = ParseError::kOk;
+};
+
+/// Board side: when the outputs may follow the commands (the re-arm rule), and the status bits
+/// that report it.
+///
+/// Outputs are armed only by an enable edge: an accepted command with `kCommandEnable` set that
+/// follows an accepted command of the same session with it clear. Power-on, a new session, the
+/// watchdog and the emergency stop all disarm and need a new edge; while disarmed the board holds
+/// its safe outputs (`kStatusOutputsSafe`). A watchdog trip also latches `kStatusWatchdogTripped`
+/// until the host acknowledges it with a command whose enable flag is clear; so a host that was
+/// only stalled cannot resume driving the outputs without first noticing the trip.
+class OutputArming {
+ public:
+  /// Call with every command `CommandFilter` accepted, before applying its outputs.
+  void on_command(const CommandPacket& command) noexcept;
+  /// Call when the watchdog fires (no accepted command for `watchdog_ms`).
+  void on_watchdog() noexcept;
+  /// Call every board period with the level of the emergency-stop input.
+  void set_estop(bool active) noexcept;
+
+  /// True if the outputs follow the last accepted command; false: safe outputs.
+  bool outputs_enabled() const noexcept { return armed_ && !estop_; }
+  /// `kStatusWatchdogTripped`, `kStatusOutputsSafe`, `kStatusEstop` as they apply now.
+  /// (`kStatusNoSession` comes from `CommandFilter::has_session`.)
+  std::uint8_t status() const noexcept;
+
+ private:
+  std::uint32_t session_id_ = 0;
+  bool seen_disable_ = false;  // an accepted command with enable clear since the last disarm
+  bool armed_ = false;
+  bool tripped_ = false;
+  bool estop_ = false;
+};
+
+}  // namespace peha::mfb

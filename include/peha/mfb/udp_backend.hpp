@@ -1,0 +1,106 @@
+#pragma once
+/// \file
+/// The host side of the MFB link: an io::Backend that drives a multifunction board (or
+/// `peha mfb-emulator`) over UDP with the protocol of docs/mfb-protocol.md and a channel map
+/// (docs/channel-maps.md). Per control cycle the loop calls read() (the newest sample, without
+/// waiting) and write() (one command datagram, then waiting at most `receive_timeout_s` for the
+/// board's reply, which the next read() returns).
+///
+/// Only state packets from the configured board address and the host's session, newer than the
+/// last accepted one and intact (CRC) are applied; every other datagram is counted and dropped
+/// (mfb::StateFilter). A sample whose AD codes are implausible (a sensor at its rail) is dropped too.
+/// read()/write() are noexcept and allocation-free; construction and connect() throw.
+
+#include "peha/io/backend.hpp"
+#include "peha/io/udp_socket.hpp"
+#include "peha/mfb/channel_map.hpp"
+#include "peha/mfb/protocol.hpp"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace peha::mfb {
+
+struct UdpBackendParams {
+  io::UdpEndpoint board;                     ///< where the board listens
+  io::UdpEndpoint local{0x7F000001u, 0};     ///< host's bind address (port 0 = any)
+  std::uint32_t session_id = 0;              ///< 0 = random nonzero
+  double period_s = 1e-3;                    ///< control period
+  double receive_timeout_s = 0.0008;         ///< how long read() waits for the reply to the last command
+  double connect_timeout_s = 2.0;            ///< connect() gives up after this
+  std::vector<std::string> joint_names;      ///< io joint order (the channel map's joints)
+};
+
+/// What the host has seen of the link.
+struct UdpLinkStats {
+  ReceiveCounters received;                  ///< the StateFilter's verdict counters
+  std::uint64_t commands_sent = 0;
+  std::uint64_t send_failures = 0;
+  std::uint64_t replies_missing = 0;         ///< read() calls that got no new sample in time
+  std::uint64_t implausible_samples = 0;     ///< accepted packets whose AD codes were implausible
+  std::uint64_t clamped_outputs = 0;         ///< DA codes clamped to 0..65535
+  std::uint64_t oversized = 0;               ///< datagrams longer than any MFB packet
+};
+
+class UdpBackend final : public io::Backend {
+ public:
+  UdpBackend(const UdpBackendParams& params, ChannelMap map);
+
+  /// Opens the session: sends commands with outputs disabled until the board answers with a
+  /// state packet of this session. Throws std::runtime_error after connect_timeout_s.
+  void connect();
+
+  const io::BackendInfo& info() const override { return info_; }
+  /// The newest accepted sample not returned before (normally the reply write() waited for).
+  /// False if none arrived (the caller holds its command and counts it).
+  bool read(io::SensorState& state) noexcept override;
+  /// Encodes and sends one command with the current enable flag, then waits up to
+  /// receive_timeout_s for the board's reply (noted for the next read()).
+  bool write(const io::Command& command) noexcept override;
+
+  /// Outputs enabled in the commands from now on (the board arms on the clear -> set edge).
+  void set_enable(bool enable) noexcept { enable_ = enable; }
+  bool enabled() const noexcept { return enable_; }
+  /// Status bits of the newest accepted state packet (kStatus...).
+  std::uint8_t board_status() const noexcept { return last_.status; }
+  /// True once the board has acknowledged a command sent with enable clear (needed before an enable edge).
+  bool board_saw_disable() const noexcept { return acked_disable_; }
+  /// Host monotonic ns when the last sample was accepted (0 before any).
+  std::int64_t last_sample_ns() const noexcept { return last_sample_ns_; }
+  /// Round-trip time of the last accepted reply to a command, s (NaN before any).
+  double last_rtt_s() const noexcept { return last_rtt_s_; }
+  /// True if the last write()'s command was answered within receive_timeout_s.
+  bool last_read_was_reply() const noexcept { return last_was_reply_; }
+  const UdpLinkStats& stats() const noexcept { return stats_; }
+  std::uint32_t session_id() const noexcept { return session_; }
+  const ChannelMap& channel_map() const noexcept { return map_; }
+  const io::UdpEndpoint& local() const noexcept { return socket_.local(); }
+  /// A sample's e-stop input (from the last accepted packet's digital lines).
+  bool estop_input() const noexcept { return map_.estop_active(last_inputs_); }
+  /// Starts a new session (new id, fresh filter) - after a fault, before connect() again.
+  void new_session() noexcept;
+
+ private:
+  void drain(std::int64_t deadline_ns) noexcept;
+
+  UdpBackendParams params_;
+  ChannelMap map_;
+  io::BackendInfo info_;
+  io::UdpSocket socket_;
+  std::uint32_t session_ = 0;
+  StateFilter filter_;
+  std::uint32_t sequence_ = 0;
+  bool enable_ = false;
+  bool acked_disable_ = false;
+  bool have_new_ = false;
+  bool last_was_reply_ = false;
+  std::uint32_t disable_sequence_ = 0;       ///< a command sent with enable clear
+  StatePacket last_{};
+  BoardInputs last_inputs_{};
+  std::int64_t last_sample_ns_ = 0;
+  double last_rtt_s_;
+  UdpLinkStats stats_;
+};
+
+}  // namespace peha::mfb

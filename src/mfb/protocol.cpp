@@ -1,0 +1,298 @@
+#include "peha/mfb/protocol.hpp"
+
+namespace peha::mfb {
+namespace {
+
+// ---- CRC-32C ------------------------------------------------------------------------------------
+
+constexpr std::uint32_t kCrc32cPolynomial = 0x82F63B78;  // 0x1EDC6F41 bit-reversed
+
+constexpr std::array<std::uint32_t, 256> make_crc32c_table() {
+  std::array<std::uint32_t, 256> table{};
+  for (std::uint32_t i = 0; i < 256; ++i) {
+    std::uint32_t c = i;
+    for (int bit = 0; bit < 8; ++bit) c = (c & 1u) ? (c >> 1) ^ kCrc32cPolynomial : c >> 1;
+    table[i] = c;
+  }
+  return table;
+}
+
+constexpr std::array<std::uint32_t, 256> kCrc32cTable = make_crc32c_table();
+
+// ---- little-endian byte access (no struct copies: the layout is the byte table, not the ABI) ---
+
+void put_u8(std::uint8_t* p, std::size_t at, std::uint8_t v) { p[at] = v; }
+void put_u16(std::uint8_t* p, std::size_t at, std::uint16_t v) {
+  p[at] = static_cast<std::uint8_t>(v);
+  p[at + 1] = static_cast<std::uint8_t>(v >> 8);
+}
+void put_u32(std::uint8_t* p, std::size_t at, std::uint32_t v) {
+  for (std::size_t i = 0; i < 4; ++i) p[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+void put_u64(std::uint8_t* p, std::size_t at, std::uint64_t v) {
+  for (std::size_t i = 0; i < 8; ++i) p[at + i] = static_cast<std::uint8_t>(v >> (8 * i));
+}
+
+std::uint16_t get_u16(const std::uint8_t* p, std::size_t at) {
+  return static_cast<std::uint16_t>(p[at] | (p[at + 1] << 8));
+}
+std::uint32_t get_u32(const std::uint8_t* p, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i) v |= std::uint32_t{p[at + i]} << (8 * i);
+  return v;
+}
+std::uint64_t get_u64(const std::uint8_t* p, std::size_t at) {
+  std::uint64_t v = 0;
+  for (std::size_t i = 0; i < 8; ++i) v |= std::uint64_t{p[at + i]} << (8 * i);
+  return v;
+}
+
+// ---- shared header and trailer ----------------------------------------------------------------
+
+void put_header(std::uint8_t* p, PacketType type, std::size_t payload_size, std::uint32_t session,
+                std::uint32_t sequence) {
+  put_u32(p, kMagicOffset, kMagic);
+  put_u8(p, kVersionOffset, kProtocolVersion);
+  put_u8(p, kTypeOffset, static_cast<std::uint8_t>(type));
+  put_u16(p, kPayloadLengthOffset, static_cast<std::uint16_t>(payload_size));
+  put_u32(p, kSessionOffset, session);
+  put_u32(p, kSequenceOffset, sequence);
+}
+
+/// Writes the CRC of the first `size - kCrcSize` bytes into the last four.
+void put_crc(std::uint8_t* p, std::size_t size) {
+  put_u32(p, size - kCrcSize, crc32c(p, size - kCrcSize));
+}
+
+/// Every check that does not depend on the payload's content, in `ParseError`'s order.
+ParseError check_frame(std::span<const std::uint8_t> in, PacketType type, std::size_t payload_size) {
+  const std::size_t packet_size = kHeaderSize + payload_size + kCrcSize;
+  if (in.size() < kHeaderSize) return ParseError::kTooShort;
+  const std::uint8_t* p = in.data();
+  if (get_u32(p, kMagicOffset) != kMagic) return ParseError::kBadMagic;
+  if (p[kVersionOffset] != kProtocolVersion) return ParseError::kBadVersion;
+  if (p[kTypeOffset] != static_cast<std::uint8_t>(type)) return ParseError::kWrongType;
+  if (get_u16(p, kPayloadLengthOffset) != payload_size) return ParseError::kBadLength;
+  if (in.size() < packet_size) return ParseError::kTooShort;
+  if (in.size() > packet_size) return ParseError::kTooLong;
+  if (get_u32(p, packet_size - kCrcSize) != crc32c(p, packet_size - kCrcSize)) return ParseError::kBadCrc;
+  return ParseError::kOk;
+}
+
+// ---- stream acceptance, shared by both filters -------------------------------------------------
+
+Verdict count(ReceiveCounters& c, Verdict v) {
+  switch (v) {
+    case Verdict::kAccept: ++c.accepted; break;
+    case Verdict::kForeignSource: ++c.foreign_source; break;
+    case Verdict::kForeignSession: ++c.foreign_session; break;
+    case Verdict::kDuplicate: ++c.duplicate; break;
+    case Verdict::kStale: ++c.stale; break;
+    case Verdict::kMalformed: ++c.malformed; break;
+  }
+  return v;
+}
+
+/// Newest-only rule of one session: accepts `sequence` if there is no last one or it is newer,
+/// counting the skipped numbers; updates the last sequence on acceptance.
+Verdict judge_sequence(bool& have_last, std::uint32_t& last, std::uint32_t sequence,
+                       ReceiveCounters& c) {
+  if (have_last) {
+    if (sequence == last) return count(c, Verdict::kDuplicate);
+    if (!sequence_newer(sequence, last)) return count(c, Verdict::kStale);
+    c.gaps += sequence - last - 1u;  // modulo 2^32, so right across the wrap
+  }
+  have_last = true;
+  last = sequence;
+  return count(c, Verdict::kAccept);
+}
+
+}  // namespace
+
+const char* to_string(ParseError e) noexcept {
+  switch (e) {
+    case ParseError::kOk: return "ok";
+    case ParseError::kTooShort: return "too short";
+    case ParseError::kTooLong: return "too long";
+    case ParseError::kBadMagic: return "bad magic";
+    case ParseError::kBadVersion: return "bad version";
+    case ParseError::kWrongType: return "wrong type";
+    case ParseError::kBadLength: return "bad length";
+    case ParseError::kBadCrc: return "bad crc";
+    case ParseError::kBadFlags: return "bad flags";
+    case ParseError::kZeroSession: return "zero session";
+  }
+  return "unknown parse error";
+}
+
+const char* to_string(Verdict v) noexcept {
+  switch (v) {
+    case Verdict::kAccept: return "accept";
+    case Verdict::kForeignSource: return "foreign source";
+    case Verdict::kForeignSession: return "foreign session";
+    case Verdict::kDuplicate: return "duplicate";
+    case Verdict::kStale: return "stale";
+    case Verdict::kMalformed: return "malformed";
+  }
+  return "unknown verdict";
+}
+
+std::uint32_t crc32c(const std::uint8_t* data, std::size_t size) noexcept {
+  std::uint32_t crc = 0xFFFFFFFFu;
+  for (std::size_t i = 0; i < size; ++i) crc = (crc >> 8) ^ kCrc32cTable[(crc ^ data[i]) & 0xFFu];
+  return crc ^ 0xFFFFFFFFu;
+}
+
+std::size_t encode(const CommandPacket& packet, std::span<std::uint8_t> out) noexcept {
+  if (out.size() < kCommandPacketSize) return 0;
+  std::uint8_t* p = out.data();
+  put_header(p, PacketType::kCommand, kCommandPayloadSize, packet.session_id, packet.sequence);
+  put_u64(p, kCommandHostTimeOffset, packet.host_time_ns);
+  for (std::size_t i = 0; i < packet.da.size(); ++i) put_u16(p, kCommandDaOffset + 2 * i, packet.da[i]);
+  put_u8(p, kCommandDigitalOutOffset, packet.digital_out);
+  put_u8(p, kCommandFlagsOffset, packet.flags);
+  put_crc(p, kCommandPacketSize);
+  return kCommandPacketSize;
+}
+
+std::size_t encode(const StatePacket& packet, std::span<std::uint8_t> out) noexcept {
+  if (out.size() < kStatePacketSize) return 0;
+  std::uint8_t* p = out.data();
+  put_header(p, PacketType::kState, kStatePayloadSize, packet.session_id, packet.sequence);
+  put_u64(p, kStateEchoHostTimeOffset, packet.echo_host_time_ns);
+  put_u64(p, kStateBoardTimeOffset, packet.board_time_ns);
+  put_u32(p, kStateAckSequenceOffset, packet.ack_sequence);
+  for (std::size_t i = 0; i < packet.ad.size(); ++i) put_u16(p, kStateAdOffset + 2 * i, packet.ad[i]);
+  for (std::size_t i = 0; i < packet.encoder.size(); ++i) {
+    put_u32(p, kStateEncoderOffset + 4 * i, static_cast<std::uint32_t>(packet.encoder[i]));
+  }
+  put_u8(p, kStateDigitalInOffset, packet.digital_in);
+  put_u8(p, kStateStatusOffset, packet.status);
+  put_crc(p, kStatePacketSize);
+  return kStatePacketSize;
+}
+
+ParseError decode(std::span<const std::uint8_t> in, CommandPacket& out) noexcept {
+  if (const ParseError e = check_frame(in, PacketType::kCommand, kCommandPayloadSize); e != ParseError::kOk) {
+    return e;
+  }
+  const std::uint8_t* p = in.data();
+  CommandPacket c;
+  c.session_id = get_u32(p, kSessionOffset);
+  c.sequence = get_u32(p, kSequenceOffset);
+  c.host_time_ns = get_u64(p, kCommandHostTimeOffset);
+  for (std::size_t i = 0; i < c.da.size(); ++i) c.da[i] = get_u16(p, kCommandDaOffset + 2 * i);
+  c.digital_out = p[kCommandDigitalOutOffset];
+  c.flags = p[kCommandFlagsOffset];
+  if ((c.flags & ~kCommandKnownFlags) != 0) return ParseError::kBadFlags;
+  if (c.session_id == 0) return ParseError::kZeroSession;
+  out = c;
+  return ParseError::kOk;
+}
+
+ParseError decode(std::span<const std::uint8_t> in, StatePacket& out) noexcept {
+  if (const ParseError e = check_frame(in, PacketType::kState, kStatePayloadSize); e != ParseError::kOk) {
+    return e;
+  }
+  const std::uint8_t* p = in.data();
+  StatePacket s;
+  s.session_id = get_u32(p, kSessionOffset);
+  s.sequence = get_u32(p, kSequenceOffset);
+  s.echo_host_time_ns = get_u64(p, kStateEchoHostTimeOffset);
+  s.board_time_ns = get_u64(p, kStateBoardTimeOffset);
+  s.ack_sequence = get_u32(p, kStateAckSequenceOffset);
+  for (std::size_t i = 0; i < s.ad.size(); ++i) s.ad[i] = get_u16(p, kStateAdOffset + 2 * i);
+  for (std::size_t i = 0; i < s.encoder.size(); ++i) {
+    s.encoder[i] = static_cast<std::int32_t>(get_u32(p, kStateEncoderOffset + 4 * i));
+  }
+  s.digital_in = p[kStateDigitalInOffset];
+  s.status = p[kStateStatusOffset];
+  if ((s.status & ~kStatusKnownBits) != 0) return ParseError::kBadFlags;
+  if (s.session_id == 0) return ParseError::kZeroSession;
+  out = s;
+  return ParseError::kOk;
+}
+
+// ---- StateFilter --------------------------------------------------------------------------------
+
+StateFilter::StateFilter(std::uint32_t session_id) noexcept : session_id_(session_id) {}
+
+void StateFilter::reset(std::uint32_t session_id) noexcept { *this = StateFilter(session_id); }
+
+Verdict StateFilter::accept(std::span<const std::uint8_t> datagram, bool from_board_address,
+                            StatePacket& out) noexcept {
+  if (!from_board_address) return count(counters_, Verdict::kForeignSource);
+  StatePacket packet;
+  if (const ParseError e = decode(datagram, packet); e != ParseError::kOk) {
+    last_error_ = e;
+    return count(counters_, Verdict::kMalformed);
+  }
+  if (packet.session_id != session_id_) return count(counters_, Verdict::kForeignSession);
+  const Verdict v = judge_sequence(have_last_, last_sequence_, packet.sequence, counters_);
+  if (v == Verdict::kAccept) out = packet;
+  return v;
+}
+
+// ---- CommandFilter ------------------------------------------------------------------------------
+
+Verdict CommandFilter::accept(std::span<const std::uint8_t> datagram, CommandPacket& out) noexcept {
+  CommandPacket packet;
+  if (const ParseError e = decode(datagram, packet); e != ParseError::kOk) {
+    last_error_ = e;
+    return count(counters_, Verdict::kMalformed);
+  }
+  if (packet.session_id != session_id_) {
+    if (has_session_) return count(counters_, Verdict::kForeignSession);
+    // Adoption of a new session: its sequence starts a fresh baseline. (Re-adopting the released
+    // session keeps that session's baseline, so the newest-only rule below still applies.)
+    have_last_ = false;
+  }
+  const Verdict v = judge_sequence(have_last_, last_sequence_, packet.sequence, counters_);
+  if (v == Verdict::kAccept) {
+    session_id_ = packet.session_id;
+    has_session_ = true;
+    out = packet;
+  }
+  return v;
+}
+
+// ---- OutputArming -------------------------------------------------------------------------------
+
+void OutputArming::on_command(const CommandPacket& command) noexcept {
+  if (command.session_id != session_id_) {  // a new host must make its own enable edge
+    session_id_ = command.session_id;
+    armed_ = false;
+    seen_disable_ = false;
+  }
+  if ((command.flags & kCommandEnable) == 0) {
+    armed_ = false;
+    seen_disable_ = !estop_;  // the edge must start after the e-stop is released
+    tripped_ = false;  // the host has acknowledged the trip
+  } else if (seen_disable_ && !estop_) {
+    armed_ = true;
+  }
+}
+
+void OutputArming::on_watchdog() noexcept {
+  tripped_ = true;
+  armed_ = false;
+  seen_disable_ = false;
+}
+
+void OutputArming::set_estop(bool active) noexcept {
+  estop_ = active;
+  if (active) {
+    armed_ = false;
+    seen_disable_ = false;
+  }
+}
+
+std::uint8_t OutputArming::status() const noexcept {
+  std::uint8_t s = 0;
+  if (tripped_) s |= kStatusWatchdogTripped;
+  if (!outputs_enabled()) s |= kStatusOutputsSafe;
+  if (estop_) s |= kStatusEstop;
+  return s;
+}
+
+}  // namespace peha::mfb

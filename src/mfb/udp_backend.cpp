@@ -1,0 +1,148 @@
+#include "peha/mfb/udp_backend.hpp"
+
+#include <fmt/format.h>
+
+#include <array>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <time.h>
+
+namespace peha::mfb {
+namespace {
+
+std::int64_t now_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+std::uint32_t random_session(std::uint32_t previous) {
+  std::random_device rd;
+  std::uint32_t s = 0;
+  while (s == 0 || s == previous) s = rd();
+  return s;
+}
+
+}  // namespace
+
+UdpBackend::UdpBackend(const UdpBackendParams& params, ChannelMap map)
+    : params_(params),
+      map_(std::move(map)),
+      socket_(params.local),
+      session_(params.session_id ? params.session_id : random_session(0)),
+      filter_(session_),
+      last_rtt_s_(std::numeric_limits<double>::quiet_NaN()) {
+  if (static_cast<int>(params.joint_names.size()) != map_.joint_count()) {
+    throw std::invalid_argument(fmt::format("UdpBackend: {} joint names for a channel map of {} joints", params.joint_names.size(),
+                                            map_.joint_count()));
+  }
+  info_.name = "mfb:udp://" + params.board.to_string();
+  info_.joint_names = params.joint_names;
+  info_.period_s = params.period_s;
+}
+
+void UdpBackend::new_session() noexcept {
+  session_ = random_session(session_);
+  filter_.reset(session_);
+  acked_disable_ = false;
+  have_new_ = false;
+  enable_ = false;
+}
+
+void UdpBackend::connect() {
+  enable_ = false;
+  const std::int64_t give_up = now_ns() + static_cast<std::int64_t>(params_.connect_timeout_s * 1e9);
+  io::Command idle;
+  idle.joint_count = map_.joint_count();
+  while (now_ns() < give_up) {
+    write(idle);
+    drain(now_ns() + 20'000'000);  // 20 ms per attempt
+    if (have_new_) return;
+  }
+  throw std::runtime_error(fmt::format("no MFB answered at {} within {} s (session {:08x}): is the board (or peha mfb-emulator "
+                                       "--port {}) running?",
+                                       params_.board.to_string(), params_.connect_timeout_s, session_, params_.board.port));
+}
+
+void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
+  std::array<std::uint8_t, 512> buffer;
+  for (;;) {
+    io::UdpEndpoint from;
+    const long n = socket_.receive(buffer, from);
+    if (n >= 0) {
+      if (static_cast<std::size_t>(n) > buffer.size()) {
+        ++stats_.oversized;
+        continue;
+      }
+      StatePacket packet;
+      const Verdict v = filter_.accept(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), from == params_.board,
+                                       packet);
+      if (v != Verdict::kAccept) continue;
+      last_ = packet;
+      have_new_ = true;
+      last_sample_ns_ = now_ns();
+      if (packet.ack_sequence == disable_sequence_ && sequence_ != 0) acked_disable_ = true;
+      if (packet.ack_sequence == sequence_) {
+        last_rtt_s_ = static_cast<double>(last_sample_ns_ - static_cast<std::int64_t>(packet.echo_host_time_ns)) * 1e-9;
+        last_was_reply_ = true;
+        return;  // the reply to the newest command: nothing newer can be waiting for
+      }
+      continue;
+    }
+    const std::int64_t left = deadline_ns - now_ns();
+    if (left <= 0 || !socket_.wait_readable(left)) return;
+  }
+}
+
+bool UdpBackend::read(io::SensorState& state) noexcept {
+  // write() waited for the reply to the last command; whatever came since is taken without waiting.
+  drain(now_ns());
+  stats_.received = filter_.counters();
+  if (!have_new_) {
+    ++stats_.replies_missing;
+    return false;
+  }
+  have_new_ = false;
+  BoardInputs in;
+  in.ad = last_.ad;
+  in.encoder = last_.encoder;
+  in.digital_in = last_.digital_in;
+  last_inputs_ = in;
+  if (!map_.decode_inputs(in, state)) {
+    ++stats_.implausible_samples;
+    return false;
+  }
+  state.time_s = static_cast<double>(last_.board_time_ns) * 1e-9;
+  state.sequence = last_.sequence;
+  return true;
+}
+
+bool UdpBackend::write(const io::Command& command) noexcept {
+  CommandPacket packet;
+  packet.session_id = session_;
+  packet.sequence = ++sequence_;
+  packet.host_time_ns = static_cast<std::uint64_t>(now_ns());
+  BoardOutputs out;
+  const int clamped = map_.encode_outputs(command, enable_, out);
+  if (clamped > 0) stats_.clamped_outputs += static_cast<std::uint64_t>(clamped);
+  packet.da = out.da;
+  packet.digital_out = out.digital_out;
+  packet.flags = enable_ ? kCommandEnable : 0;
+  if (!enable_) disable_sequence_ = packet.sequence;
+  std::array<std::uint8_t, kMaxPacketSize> bytes;
+  const std::size_t n = encode(packet, bytes);
+  ++stats_.commands_sent;
+  if (n == 0 || !socket_.send_to(params_.board, std::span<const std::uint8_t>(bytes.data(), n))) {
+    ++stats_.send_failures;
+    return false;
+  }
+  // The board answers each command with its next sample: wait for it here, so the round trip is
+  // measured when it happens and the next read() finds the sample ready.
+  last_was_reply_ = false;
+  drain(now_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
+  return true;
+}
+
+}  // namespace peha::mfb

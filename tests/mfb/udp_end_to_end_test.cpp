@@ -1,0 +1,286 @@
+// The whole hardware path on one machine: `peha mfb-emulator` in its own process, the host's
+// real-time loop talking real UDP to it over loopback. Each test runs a few seconds of real time.
+#include "peha/mfb/udp_backend.hpp"
+#include "peha/runtime/e1_realtime.hpp"
+
+#include "../support/child_process.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+namespace peha::runtime {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+E1Scenario scenario(double duration_s) {
+  E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  s.duration_s = duration_s;
+  return s;
+}
+
+struct Emulator {
+  testing::ChildProcess process;
+  int port = 0;
+  explicit Emulator(std::vector<std::string> extra)
+      : process([&] {
+          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0"};
+          argv.insert(argv.end(), extra.begin(), extra.end());
+          return argv;
+        }()) {
+    port = testing::parse_listening_port(process.wait_for_line("listening on", 10.0));
+  }
+};
+
+RealtimeRunOptions options(int port, const std::string& name) {
+  RealtimeRunOptions o;
+  o.board = io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port));
+  o.realtime.fifo_priority = 0;  // tests share the machine: no SCHED_FIFO
+  o.realtime.lock_memory = false;
+  o.quiet = true;
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_" + name);
+  std::filesystem::remove_all(o.dir);
+  std::filesystem::create_directories(o.dir);
+  return o;
+}
+
+/// Column `name` of a CSV written by a log (comment lines skipped).
+std::vector<double> column(const std::filesystem::path& path, const std::string& name) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
+  }
+  std::vector<std::string> header;
+  {
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) header.push_back(cell);
+  }
+  const auto col = static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
+  std::vector<double> out;
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string cell;
+    for (std::size_t i = 0; std::getline(ss, cell, ','); ++i) {
+      if (i == col) out.push_back(std::stod(cell));
+    }
+  }
+  return out;
+}
+
+// The same E1 case (10 s: the start-up hold, a finger push up and 1 s after its release) in-process
+// and across UDP to the emulator. The emulator steps its simulation once per command, so the two
+// see the same plant; they differ by the DA's 16-bit quantisation of the commands (15 Pa, 92 uNm)
+// and the re-quantisation of the sensors through the channel map. Agreement: the encoder angle
+// within 0.05 deg at every cycle, peak forces within 5 %, release angle within 0.05 deg.
+TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
+  const E1Scenario s = scenario(10.0);
+  const E1Case& c = s.cases.front();
+  CsvLog in_process_log(e1_log_columns(), 10001);
+  sim::OneDofRigBackend plant(e1_plant_params(s, c));
+  const E1Result local = run_e1_on(s, c, plant, nullptr, &in_process_log);
+
+  Emulator emulator({});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const RealtimeRunOptions o = options(emulator.port, "agree");
+  const RealtimeRunResult udp = run_e1_realtime(s, c, o);
+  EXPECT_EQ(udp.faults, 0u);
+  EXPECT_LE(udp.e1.missed_samples, 100u);  // a loaded machine may miss a few replies; the command is held
+
+  const std::vector<double> t_udp = column(udp.log_file, "t_s"), a_udp = column(udp.log_file, "angle_rad");
+  ASSERT_GT(a_udp.size(), 9900u);
+  // Rows are matched by the board's time stamp (a command that came late lets the board's
+  // simulation run a period on its own, so the host's cycle count may lag the plant's time).
+  double worst = 0.0;
+  std::size_t compared = 0;
+  for (std::size_t i = 0; i < a_udp.size(); ++i) {
+    const auto k = static_cast<std::size_t>(std::llround(t_udp[i] / s.period_s));
+    if (k >= in_process_log.rows()) continue;
+    worst = std::max(worst, std::abs(a_udp[i] - in_process_log.at(k, 1)));
+    ++compared;
+  }
+  EXPECT_GT(compared, 9900u);
+  RecordProperty("max_angle_difference_deg", std::to_string(worst / kDeg));
+  EXPECT_LT(worst / kDeg, 0.05);
+  ASSERT_EQ(udp.e1.releases.size(), local.releases.size());
+  for (std::size_t i = 0; i < local.releases.size(); ++i) {
+    EXPECT_NEAR(udp.e1.releases[i].angle_deg, local.releases[i].angle_deg, 0.05) << local.releases[i].push;
+  }
+  // Peaks of noisy load cells over slightly different sample sets (held cycles): within 5 %.
+  EXPECT_NEAR(udp.e1.peak_muscle_force_N[0], local.peak_muscle_force_N[0], 0.05 * local.peak_muscle_force_N[0]);
+  EXPECT_NEAR(udp.e1.peak_muscle_force_N[1], local.peak_muscle_force_N[1], 0.05 * local.peak_muscle_force_N[1]);
+  std::printf("agreement UDP vs in-process over %zu cycles: max angle difference %.4f deg; peak forces %.1f/%.1f vs %.1f/%.1f N; "
+              "missed samples %llu\n",
+              compared, worst / kDeg, udp.e1.peak_muscle_force_N[0], udp.e1.peak_muscle_force_N[1], local.peak_muscle_force_N[0],
+              local.peak_muscle_force_N[1], static_cast<unsigned long long>(udp.e1.missed_samples));
+  EXPECT_TRUE(udp.e1.within_limits);
+  // Timing was measured: one round trip per answered command, the loop's period around 1 ms.
+  EXPECT_GT(udp.timing.rtt.count(), 9000u);
+  EXPECT_NEAR(udp.timing.period.percentile(0.5), 1e-3, 0.2e-3);
+  EXPECT_EQ(udp.dropped_rows, 0u);
+}
+
+// Injected on the board's side: 3 % loss, 3 % duplicates, 3 % reordered, 2 % corrupted state
+// packets. The host counts each kind and applies none of them; the run completes, within limits.
+TEST(MfbEndToEnd, LostDuplicatedReorderedAndCorruptPacketsAreCountedAndDropped) {
+  Emulator emulator({"--loss", "0.03", "--duplicate", "0.03", "--reorder", "0.03", "--corrupt", "0.02", "--fault-seed", "5"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const E1Scenario s = scenario(3.0);
+  const RealtimeRunResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "faults"));
+  const mfb::ReceiveCounters& c = r.link.received;
+  EXPECT_GT(c.malformed, 20u);    // ~2 % of 3000 corrupt: CRC
+  EXPECT_GT(c.duplicate, 20u);    // ~3 % duplicated
+  EXPECT_GT(c.stale, 20u);        // ~3 % held back behind a newer one
+  EXPECT_GT(c.gaps, 50u);         // lost + held back
+  EXPECT_GT(r.link.replies_missing, 50u);
+  EXPECT_EQ(c.foreign_session + c.foreign_source, 0u);
+  EXPECT_EQ(r.faults, 0u);        // single losses are held over, not faults
+  EXPECT_TRUE(r.e1.within_limits);
+}
+
+// The host stops talking: the board's watchdog (50 ms) fires, it disarms its outputs and reports it.
+// Seen from a raw socket speaking the protocol.
+TEST(MfbEndToEnd, BoardWatchdogFiresWhenTheHostStops) {
+  Emulator emulator({"--watchdog-ms", "30"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  io::UdpSocket host({0x7F000001u, 0});
+  const io::UdpEndpoint board{0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
+  std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
+  auto send = [&](std::uint32_t seq, bool enable) {
+    mfb::CommandPacket c;
+    c.session_id = 0xC0FFEEu;
+    c.sequence = seq;
+    c.flags = enable ? mfb::kCommandEnable : 0;
+    c.digital_out = 1;  // the enable line
+    host.send_to(board, std::span<const std::uint8_t>(bytes.data(), mfb::encode(c, bytes)));
+  };
+  mfb::StateFilter filter(0xC0FFEEu);
+  auto newest = [&](double wait_s) {
+    mfb::StatePacket last{}, p;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+    while (std::chrono::steady_clock::now() < end) {
+      if (!host.wait_readable(5'000'000)) continue;
+      std::array<std::uint8_t, 512> buf;
+      io::UdpEndpoint from;
+      const long n = host.receive(buf, from);
+      if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
+                       mfb::Verdict::kAccept) {
+        last = p;
+      }
+    }
+    return last;
+  };
+  std::uint32_t seq = 0;
+  send(++seq, false);  // adopt the session, outputs disabled
+  for (int i = 0; i < 20; ++i) {
+    send(++seq, true);  // the enable edge: armed
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const mfb::StatePacket armed = newest(0.005);
+  EXPECT_EQ(armed.status & (mfb::kStatusOutputsSafe | mfb::kStatusWatchdogTripped), 0) << int(armed.status);
+  // Silence: within 30 ms the board trips; it keeps sending state every period.
+  const mfb::StatePacket tripped = newest(0.2);
+  EXPECT_TRUE(tripped.status & mfb::kStatusWatchdogTripped) << int(tripped.status);
+  EXPECT_TRUE(tripped.status & mfb::kStatusOutputsSafe);
+  EXPECT_GT(tripped.board_time_ns, armed.board_time_ns + 150'000'000u);  // the plant ran on by itself
+  const int code = emulator.process.stop(SIGTERM);
+  EXPECT_EQ(code, 0);
+  EXPECT_NE(emulator.process.output().find("1 watchdog trip(s)"), std::string::npos) << emulator.process.output();
+}
+
+// The board dies mid-run (SIGKILL): the host notices within its 20 ms watchdog, goes to fault,
+// writes the last seconds to a fault dump and ends the run without a crash.
+TEST(MfbEndToEnd, HostNoticesWhenTheBoardStops) {
+  Emulator emulator({});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const E1Scenario s = scenario(3.0);
+  std::thread killer([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+    emulator.process.stop(SIGKILL);
+  });
+  const RealtimeRunResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "board_dies"));
+  killer.join();
+  EXPECT_EQ(r.faults, 1u);
+  EXPECT_EQ(r.recoveries, 0u);
+  ASSERT_EQ(r.fault_dumps.size(), 1u);
+  EXPECT_TRUE(std::filesystem::exists(r.fault_dumps.front()));
+  const std::vector<double> dump_t = column(r.fault_dumps.front(), "t_s");
+  ASSERT_FALSE(dump_t.empty());
+  EXPECT_NEAR(dump_t.back(), 1.5, 0.3);  // ends where the board went silent
+  bool saw_fault = false;
+  for (const auto& e : r.lifecycle) saw_fault |= e.find("active -> fault (board silent") != std::string::npos;
+  EXPECT_TRUE(saw_fault);
+  EXPECT_GT(r.e1.missed_samples, 1000u);
+}
+
+// The board's e-stop input goes active for 0.4 s at t = 1 s: fault, then - on the operator's command
+// 0.8 s later, the e-stop released - recovering, the board re-armed by a new enable edge, and the
+// valve commands ramp from the vented pressures back to the controller's: no step larger than the
+// ramp's over one cycle.
+TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
+  Emulator emulator({"--estop-at", "1.0", "--estop-for", "0.4"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const E1Scenario s = scenario(4.0);
+  RealtimeRunOptions o = options(emulator.port, "estop");
+  o.recover_after_s = 0.8;
+  const RealtimeRunResult r = run_e1_realtime(s, s.cases.front(), o);
+  EXPECT_EQ(r.faults, 1u);
+  EXPECT_EQ(r.recoveries, 1u);
+  std::string path;
+  for (const auto& e : r.lifecycle) path += e + "\n";
+  EXPECT_NE(path.find("active -> fault (board reports its e-stop input)"), std::string::npos) << path;
+  EXPECT_NE(path.find("fault -> recovering"), std::string::npos) << path;
+  EXPECT_NE(path.find("recovering -> inactive"), std::string::npos) << path;
+  const std::vector<double> t = column(r.log_file, "t_s"), p = column(r.log_file, "p_agonist_cmd_MPa");
+  double recovered_at = 0;
+  for (const auto& e : r.lifecycle) {
+    if (e.find("fault -> recovering") != std::string::npos) recovered_at = std::stod(e);
+  }
+  ASSERT_GT(recovered_at, 1.5);
+  double worst_step = 0;
+  for (std::size_t i = 1; i < p.size(); ++i) {
+    if (t[i] > recovered_at && t[i] < recovered_at + s.link->recovery_ramp_s) worst_step = std::max(worst_step, std::abs(p[i] - p[i - 1]));
+  }
+  EXPECT_LT(worst_step, 0.01);  // MPa per cycle: a ramp of ~0.3 MPa over 1 s is 0.0003 per cycle
+  EXPECT_TRUE(r.e1.within_limits);
+}
+
+// Datagrams from a stranger (another socket) and from another session reach the host's port: they
+// are counted and never applied; the real board's samples still are.
+TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
+  Emulator emulator({});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const E1Scenario s = scenario(1.0);
+  mfb::UdpBackendParams p;
+  p.board = {0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
+  p.joint_names = {"joint"};
+  mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(s.link->channel_map), p.joint_names));
+  backend.connect();
+  io::UdpSocket stranger({0x7F000001u, 0});
+  mfb::StatePacket fake;
+  fake.session_id = backend.session_id();
+  fake.sequence = 0x7FFFFFF0u;
+  fake.encoder[0] = 12345;  // would be a wild angle if applied
+  std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
+  const std::size_t n = mfb::encode(fake, bytes);
+  io::SensorState state;
+  io::Command cmd;
+  cmd.joint_count = 1;
+  for (int i = 0; i < 50; ++i) {
+    stranger.send_to(backend.local(), std::span<const std::uint8_t>(bytes.data(), n));
+    backend.write(cmd);
+    if (backend.read(state)) EXPECT_LT(std::abs(state.joints[0].angle_rad), 0.05);
+  }
+  EXPECT_EQ(backend.stats().received.foreign_source, 50u);
+  EXPECT_GT(backend.stats().received.accepted, 40u);
+}
+
+}  // namespace
+}  // namespace peha::runtime
