@@ -186,14 +186,24 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   // Over the board: the endpoint and the mfb: section are checked before anything is written.
   std::optional<runtime::RealtimeRunOptions> realtime;
   if (!options.backend.empty()) {
+    if (cases.size() > 1) {
+      fmt::print(stderr, "error: --backend runs one case against the board's plant: give --case NAME (the board's payload; "
+                         "with peha mfb-emulator the same --case); {} has {} cases\n", doc.name(), cases.size());
+      return 2;
+    }
     realtime.emplace();
-    realtime->board = io::parse_udp_endpoint(options.backend);
+    try {
+      realtime->board = io::parse_udp_endpoint(options.backend);
+      if (!options.telemetry.empty()) realtime->telemetry = io::parse_udp_endpoint(options.telemetry);
+    } catch (const std::invalid_argument& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return 2;
+    }
     if (!scenario.link) {
       fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(),
                  options.backend);
       return 2;
     }
-    if (!options.telemetry.empty()) realtime->telemetry = io::parse_udp_endpoint(options.telemetry);
     realtime->realtime.fifo_priority = options.fifo_priority;
     realtime->realtime.cpu = options.cpu;
     realtime->recover_after_s = options.recover_after_s.value_or(-1.0);
@@ -620,6 +630,11 @@ int mfb_emulator(const EmulatorOptions& options) {
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     if (!scenario.link) {
       fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+      return 2;
+    }
+    if (options.case_name.empty() && scenario.cases.size() > 1) {
+      fmt::print(stderr, "error: {} has {} cases: give --case NAME (the payload the simulated rig carries; the host's "
+                         "peha run --backend needs the same --case)\n", doc.name(), scenario.cases.size());
       return 2;
     }
     const runtime::E1Case* chosen = &scenario.cases.front();

@@ -115,7 +115,7 @@ int main(int argc, char** argv) {
       "(motor off, valves vented slowly) when no valid command arrives. Faults can be injected into the\n"
       "state packets it sends. Runs until Ctrl-C, --max-runtime or --sessions.");
   emu_cmd->add_option("-c,--config", emu.config, "Rig scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
-  emu_cmd->add_option("--case", emu.case_name, "The case whose plant (payload) to simulate (default: the first)");
+  emu_cmd->add_option("--case", emu.case_name, "The case whose plant (payload) to simulate (needed when the config has several)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
       ->capture_default_str()->check(CLI::Range(0, 65535));

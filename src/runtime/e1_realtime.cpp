@@ -86,7 +86,7 @@ RealtimeRunResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, c
                   1u << 14, static_cast<std::size_t>(std::llround(5.0 / scenario.period_s)));
   AsyncSink sink(log);
   std::unique_ptr<Telemetry> telemetry;
-  const std::vector<std::string> signals = {"angle_deg", "tau_desired_Nm", "f_agonist_N", "f_antagonist_N",
+  const std::vector<std::string> signals = {"angle_deg", "f_agonist_N", "f_antagonist_N",
                                             "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "motor_Nm", "rtt_us", "state"};
   if (options.telemetry) {
     const io::UdpEndpoint& e = *options.telemetry;
@@ -118,7 +118,7 @@ RealtimeRunResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, c
   std::int64_t cycle_start = 0, last_wake = 0;
   double fault_t = -1.0, ramp_t = -1.0;
   io::Command ramp_from;
-  std::array<double, 9> tele{};
+  std::array<double, 8> tele{};
 
   backend.set_enable(true);
   lc.apply(Transition::kActivate, 0.0, "enable edge sent");
@@ -193,7 +193,7 @@ RealtimeRunResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, c
     if (telemetry) {
       const auto& s = state.joints[0];
       const auto& o = cmd.joints[0];
-      tele = {s.angle_rad * 180.0 / 3.141592653589793, 0.0, s.agonist_force_N, s.antagonist_force_N,
+      tele = {s.angle_rad * 180.0 / 3.141592653589793, s.agonist_force_N, s.antagonist_force_N,
               o.agonist_pressure_Pa * 1e-6, o.antagonist_pressure_Pa * 1e-6, o.motor_torque_Nm,
               backend.last_rtt_s() * 1e6, static_cast<double>(static_cast<int>(lc.state()))};
       telemetry->publish(t, tele);

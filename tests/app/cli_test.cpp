@@ -109,3 +109,34 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
 }
 
 }  // namespace
+
+namespace {
+
+// The hardware path's command line: the emulator documents itself; a run over the board needs one
+// case (the board's payload) on both sides and a well-formed address, or exits 2 before touching
+// anything.
+TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
+  const Result help = run("mfb-emulator --help");
+  EXPECT_EQ(help.code, 0);
+  for (const char* option : {"--port", "--case", "--loss", "--duplicate", "--reorder", "--corrupt", "--delay-ms", "--estop-at",
+                             "--watchdog-ms", "--sessions"}) {
+    EXPECT_THAT(help.output, HasSubstr(option));
+  }
+  const std::string config = std::string(" --config ") + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml";
+  const Result no_case = run("mfb-emulator" + config);
+  EXPECT_EQ(no_case.code, 2) << no_case.output;
+  EXPECT_THAT(no_case.output, HasSubstr("give --case NAME"));
+  const Result host_no_case = run("run --no-plot --backend udp://127.0.0.1:9" + config);
+  EXPECT_EQ(host_no_case.code, 2) << host_no_case.output;
+  EXPECT_THAT(host_no_case.output, HasSubstr("--backend runs one case"));
+  const Result bad_url = run("run --no-plot --case payload_2.5kg --backend udp://localhost:9" + config);
+  EXPECT_EQ(bad_url.code, 2) << bad_url.output;
+  EXPECT_THAT(bad_url.output, HasSubstr("'localhost' is not a numeric IPv4 address"));
+  const Result run_help = run("run --help");
+  for (const char* option : {"--backend", "--rt-priority", "--cpu", "--telemetry", "--recover-after"}) {
+    EXPECT_THAT(run_help.output, HasSubstr(option));
+  }
+}
+
+}  // namespace
+

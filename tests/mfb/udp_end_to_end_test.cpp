@@ -31,7 +31,7 @@ struct Emulator {
   int port = 0;
   explicit Emulator(std::vector<std::string> extra)
       : process([&] {
-          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0"};
+          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0", "--case", "payload_2.5kg"};
           argv.insert(argv.end(), extra.begin(), extra.end());
           return argv;
         }()) {

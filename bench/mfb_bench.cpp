@@ -1,0 +1,56 @@
+// The hardware path measured end to end on loopback: `peha mfb-emulator` in its own process, the
+// host's E1 loop at 1 kHz for 60 s (absolute deadlines; SCHED_FIFO, mlockall when permitted) over
+// real UDP. Reports the round trip (command sent -> the board's reply received, host clock)
+// median/p99/p99.9/max, the deadline-miss rate, the control step's compute time (read -> controller
+// -> limits -> hooks, without the send) and the link's counters. One iteration: it is a soak, not
+// a micro-benchmark; the figures are the counters.
+#include "peha/runtime/e1_realtime.hpp"
+
+#include "../tests/support/child_process.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+
+namespace {
+
+using namespace peha;
+
+void BM_MfbLoopback1kHz60s(benchmark::State& state) {
+  runtime::E1Scenario s = runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  s.duration_s = 60.0;
+  for (auto _ : state) {
+    testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0", "--case", "payload_2.5kg"});
+    const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
+    if (port == 0) {
+      state.SkipWithError("mfb-emulator did not start");
+      return;
+    }
+    runtime::RealtimeRunOptions o;
+    o.board = io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port));
+    o.quiet = true;
+    o.dir = std::filesystem::path("out") / "bench" / "mfb_loopback";
+    std::filesystem::create_directories(o.dir);
+    const runtime::RealtimeRunResult r = runtime::run_e1_realtime(s, s.cases.front(), o);
+    emulator.stop(SIGTERM);
+    r.timing.write_csv(o.dir);
+    std::printf("\n%s\n%s\n", r.realtime.summary().c_str(), r.timing.table().c_str());
+    const auto& t = r.timing;
+    state.counters["cycles"] = static_cast<double>(t.cycles);
+    state.counters["rtt_median_us"] = t.rtt.percentile(0.5) * 1e6;
+    state.counters["rtt_p99_us"] = t.rtt.percentile(0.99) * 1e6;
+    state.counters["rtt_p999_us"] = t.rtt.percentile(0.999) * 1e6;
+    state.counters["rtt_max_us"] = t.rtt.max() * 1e6;
+    state.counters["compute_median_us"] = t.compute.percentile(0.5) * 1e6;
+    state.counters["compute_p999_us"] = t.compute.percentile(0.999) * 1e6;
+    state.counters["period_p999_us"] = t.period.percentile(0.999) * 1e6;
+    state.counters["miss_rate_pct"] = 100.0 * static_cast<double>(t.deadline_misses) / static_cast<double>(t.cycles + t.deadline_misses);
+    state.counters["lost_pct"] = 100.0 * static_cast<double>(r.link.replies_missing) / static_cast<double>(r.link.commands_sent);
+    state.counters["fifo"] = r.realtime.fifo ? 1 : 0;
+  }
+}
+BENCHMARK(BM_MfbLoopback1kHz60s)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+}  // namespace
