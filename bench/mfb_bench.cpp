@@ -33,7 +33,7 @@ void BM_MfbLoopback1kHz60s(benchmark::State& state) {
     o.quiet = true;
     o.dir = std::filesystem::path("out") / "bench" / "mfb_loopback";
     std::filesystem::create_directories(o.dir);
-    const runtime::RealtimeRunResult r = runtime::run_e1_realtime(s, s.cases.front(), o);
+    const runtime::E1RealtimeResult r = runtime::run_e1_realtime(s, s.cases.front(), o);
     emulator.stop(SIGTERM);
     r.timing.write_csv(o.dir);
     std::printf("\n%s\n%s\n", r.realtime.summary().c_str(), r.timing.table().c_str());

@@ -236,7 +236,7 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
       realtime->dir = dir;
       fmt::print("on the board at udp://{} in real time\n", realtime->board.to_string());
       std::fflush(stdout);
-      const runtime::RealtimeRunResult rr = runtime::run_e1_realtime(runs[i].second->scenario, cases[i], *realtime);
+      const runtime::E1RealtimeResult rr = runtime::run_e1_realtime(runs[i].second->scenario, cases[i], *realtime);
       results.push_back(rr.e1);
       fmt::print("  real-time setup: {}\n", rr.realtime.summary());
       fmt::print("{}\n", rr.timing.table());

@@ -90,7 +90,7 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const RealtimeRunOptions o = options(emulator.port, "agree");
-  const RealtimeRunResult udp = run_e1_realtime(s, c, o);
+  const E1RealtimeResult udp = run_e1_realtime(s, c, o);
   EXPECT_EQ(udp.faults, 0u);
   EXPECT_LE(udp.e1.missed_samples, 100u);  // a loaded machine may miss a few replies; the command is held
 
@@ -133,7 +133,7 @@ TEST(MfbEndToEnd, LostDuplicatedReorderedAndCorruptPacketsAreCountedAndDropped) 
   Emulator emulator({"--loss", "0.03", "--duplicate", "0.03", "--reorder", "0.03", "--corrupt", "0.02", "--fault-seed", "5"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const E1Scenario s = scenario(3.0);
-  const RealtimeRunResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "faults"));
+  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "faults"));
   const mfb::ReceiveCounters& c = r.link.received;
   EXPECT_GT(c.malformed, 20u);    // ~2 % of 3000 corrupt: CRC
   EXPECT_GT(c.duplicate, 20u);    // ~3 % duplicated
@@ -205,7 +205,7 @@ TEST(MfbEndToEnd, HostNoticesWhenTheBoardStops) {
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     emulator.process.stop(SIGKILL);
   });
-  const RealtimeRunResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "board_dies"));
+  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "board_dies"));
   killer.join();
   EXPECT_EQ(r.faults, 1u);
   EXPECT_EQ(r.recoveries, 0u);
@@ -230,7 +230,7 @@ TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
   const E1Scenario s = scenario(4.0);
   RealtimeRunOptions o = options(emulator.port, "estop");
   o.recover_after_s = 0.8;
-  const RealtimeRunResult r = run_e1_realtime(s, s.cases.front(), o);
+  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), o);
   EXPECT_EQ(r.faults, 1u);
   EXPECT_EQ(r.recoveries, 1u);
   std::string path;

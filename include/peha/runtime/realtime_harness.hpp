@@ -1,0 +1,118 @@
+#pragma once
+/// \file
+/// What every experiment needs to run in real time on the multifunction board (SPEC §5), around
+/// its own loop (`run_e1_on`, `run_postures_on`, ...): the absolute-deadline clock, the real-time
+/// thread set-up with its warnings, the board's lifecycle with fault detection and the operator's
+/// recovery path (commands ramped back, no jump), the writer-thread CSV log with fault dumps,
+/// optional PlotJuggler telemetry, a progress line and the timing statistics. The experiment's loop
+/// gets `hooks()` (pacing and supervision) and `sink()` (its log rows).
+///
+/// Lifecycle (runtime::Lifecycle): unconfigured -> configure (the session handshake, done by the
+/// caller's UdpBackend::connect before the harness starts) -> inactive -> activate (enable edge)
+/// -> active. Faults: the board silent for host_watchdog_ms, its watchdog tripped, or its e-stop
+/// (status bit or input line) -> fault: outputs disabled (the board holds its safe outputs and
+/// vents slowly), the last 5 s dumped. Recovery only on the operator's command (`r` + Enter on the
+/// terminal, or `recover_after_s` for unattended runs) and only once the board is alive and its
+/// e-stop released: fault -> recovering (a new enable edge; the commands ramp from the pressures the
+/// muscles hold to the controller's over recovery_ramp_s) -> inactive -> active.
+
+#include "peha/mfb/udp_backend.hpp"
+#include "peha/runtime/async_log.hpp"
+#include "peha/runtime/e1_gravity.hpp"
+#include "peha/runtime/lifecycle.hpp"
+#include "peha/runtime/realtime.hpp"
+#include "peha/runtime/telemetry.hpp"
+#include "peha/runtime/timing_stats.hpp"
+
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace peha::runtime {
+
+struct RealtimeRunOptions {
+  io::UdpEndpoint board;                       ///< from --backend udp://A.B.C.D:PORT
+  RealtimeOptions realtime;                    ///< SCHED_FIFO priority, CPU, mlockall
+  std::optional<io::UdpEndpoint> telemetry;    ///< PlotJuggler UDP server, if streaming
+  double telemetry_rate_Hz = 100;
+  double recover_after_s = -1;                 ///< unattended operator: recover this long after a fault (< 0: only 'r' on stdin)
+  std::filesystem::path dir;                   ///< run directory: log, fault dumps, timing
+  bool quiet = false;                          ///< no progress line
+};
+
+/// What the harness measured (the experiment's own figures come with its runner).
+struct RealtimeRunResult {
+  LoopTiming timing;
+  mfb::UdpLinkStats link;
+  RealtimeReport realtime;
+  std::uint64_t faults = 0;
+  std::uint64_t recoveries = 0;
+  std::uint64_t logged_rows = 0, dropped_rows = 0;
+  std::vector<std::string> lifecycle;          ///< "t_s  from -> to (reason)" per transition
+  std::vector<std::filesystem::path> fault_dumps;
+  std::uint64_t telemetry_datagrams = 0;
+  std::string log_file;
+};
+
+/// The UdpBackend of a scenario's board link for joints `joint_names` (channel map from `link`).
+std::unique_ptr<mfb::UdpBackend> make_board_backend(const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
+                                                    const std::vector<std::string>& joint_names);
+
+class RealtimeHarness {
+ public:
+  /// `backend` must be connected (session open). Opens the log `log_file` with `columns` and
+  /// `comments`; `label` and `duration_s` are for the progress line.
+  RealtimeHarness(mfb::UdpBackend& backend, const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
+                  double duration_s, std::string label, const std::filesystem::path& log_file, const std::vector<std::string>& columns,
+                  const std::vector<std::string>& comments);
+  ~RealtimeHarness();
+  RealtimeHarness(const RealtimeHarness&) = delete;
+  RealtimeHarness& operator=(const RealtimeHarness&) = delete;
+
+  /// Where the experiment's loop puts its rows (the writer thread's ring).
+  RowSink& sink() noexcept { return sink_; }
+  /// Configures the calling thread for real time, sends the enable edge (-> active), starts the
+  /// clock, and returns the hooks the loop calls each cycle. Call once, on the loop's thread.
+  CycleHooks start();
+  /// Winds down (outputs disabled, -> inactive -> finalized), stops the threads, closes the log and
+  /// fills `result`.
+  void finish(RealtimeRunResult& result);
+
+ private:
+  class Sink final : public RowSink {
+   public:
+    explicit Sink(AsyncCsvLog& log) : log_(log) {}
+    void push_row(std::span<const double> row) noexcept override { log_.push(row); }
+
+   private:
+    AsyncCsvLog& log_;
+  };
+  bool after(const io::SensorState& state, io::Command& command) noexcept;
+
+  mfb::UdpBackend& backend_;
+  LinkConfig link_;
+  RealtimeRunOptions options_;
+  double period_s_, duration_s_;
+  std::string label_;
+  AsyncCsvLog log_;
+  Sink sink_;
+  std::unique_ptr<Telemetry> telemetry_;
+  std::vector<double> telemetry_values_;
+  Lifecycle lifecycle_;
+  PeriodicClock clock_;
+  RealtimeRunResult result_;
+  std::int64_t cycle_start_ns_ = 0, last_wake_ns_ = 0;
+  double fault_t_ = -1.0, ramp_t_ = -1.0;
+  io::Command ramp_from_;
+  std::atomic<bool> operator_recover_{false};
+  std::atomic<bool> done_{false};
+  std::atomic<double> progress_t_{0.0};
+  std::atomic<int> progress_state_{0};
+  std::thread console_, progress_;
+};
+
+}  // namespace peha::runtime
