@@ -6,9 +6,12 @@
 #include "peha/runtime/e1_gravity.hpp"
 #include "peha/runtime/e4_goniometer.hpp"
 #include "peha/runtime/e1_realtime.hpp"
+#include "peha/runtime/arm_realtime.hpp"
+#include "peha/runtime/realtime.hpp"
 #include "peha/io/udp_socket.hpp"
 #include "peha/mfb/board_emulator.hpp"
 #include "peha/sim/one_dof_rig.hpp"
+#include "peha/sim/right_arm.hpp"
 #include "peha/runtime/right_arm.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
@@ -133,6 +136,39 @@ void write_summary(const std::filesystem::path& path, const std::vector<runtime:
   }
 }
 
+/// What a real-time run on the board measured, printed after its experiment's table.
+void print_realtime(const runtime::RealtimeRunResult& rr, const std::filesystem::path& timing_dir) {
+  fmt::print("  real-time setup: {}\n", rr.realtime.summary());
+  fmt::print("{}\n", rr.timing.table());
+  const auto& l = rr.link;
+  fmt::print("  link: {} commands sent ({} send failures), states accepted {}, dropped: foreign source {}, foreign "
+             "session {}, duplicate {}, stale {}, malformed {}; gaps {}; no reply in time {}; implausible samples {}; "
+             "clamped DA codes {}\n",
+             l.commands_sent, l.send_failures, l.received.accepted, l.received.foreign_source, l.received.foreign_session,
+             l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.replies_missing, l.implausible_samples,
+             l.clamped_outputs);
+  fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
+             rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
+  for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
+  rr.timing.write_csv(timing_dir);
+}
+
+/// --backend, --telemetry and the real-time options; nullopt (after a message) when malformed.
+std::optional<runtime::RealtimeRunOptions> realtime_options(const RunOptions& options) {
+  runtime::RealtimeRunOptions o;
+  try {
+    o.board = io::parse_udp_endpoint(options.backend);
+    if (!options.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(options.telemetry);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return std::nullopt;
+  }
+  o.realtime.fifo_priority = options.fifo_priority;
+  o.realtime.cpu = options.cpu;
+  o.recover_after_s = options.recover_after_s.value_or(-1.0);
+  return o;
+}
+
 int run_e1(const RunOptions& options, const config::Document& doc) {
   runtime::E1Scenario scenario = runtime::read_e1(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
@@ -191,22 +227,13 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
                          "with peha mfb-emulator the same --case); {} has {} cases\n", doc.name(), cases.size());
       return 2;
     }
-    realtime.emplace();
-    try {
-      realtime->board = io::parse_udp_endpoint(options.backend);
-      if (!options.telemetry.empty()) realtime->telemetry = io::parse_udp_endpoint(options.telemetry);
-    } catch (const std::invalid_argument& e) {
-      fmt::print(stderr, "error: {}\n", e.what());
-      return 2;
-    }
+    realtime = realtime_options(options);
+    if (!realtime) return 2;
     if (!scenario.link) {
       fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(),
                  options.backend);
       return 2;
     }
-    realtime->realtime.fifo_priority = options.fifo_priority;
-    realtime->realtime.cpu = options.cpu;
-    realtime->recover_after_s = options.recover_after_s.value_or(-1.0);
   }
 
   // Only now, with everything loaded and checked, does the run leave a trace on disk.
@@ -238,19 +265,7 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
       std::fflush(stdout);
       const runtime::E1RealtimeResult rr = runtime::run_e1_realtime(runs[i].second->scenario, cases[i], *realtime);
       results.push_back(rr.e1);
-      fmt::print("  real-time setup: {}\n", rr.realtime.summary());
-      fmt::print("{}\n", rr.timing.table());
-      const auto& l = rr.link;
-      fmt::print("  link: {} commands sent ({} send failures), states accepted {}, dropped: foreign source {}, foreign "
-                 "session {}, duplicate {}, stale {}, malformed {}; gaps {}; no reply in time {}; implausible samples {}; "
-                 "clamped DA codes {}\n",
-                 l.commands_sent, l.send_failures, l.received.accepted, l.received.foreign_source, l.received.foreign_session,
-                 l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.replies_missing,
-                 l.implausible_samples, l.clamped_outputs);
-      fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
-                 rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
-      for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
-      rr.timing.write_csv(dir / fmt::format("timing_{}", cases[i].name));
+      print_realtime(rr, dir / fmt::format("timing_{}", cases[i].name));
       continue;
     }
     runtime::CsvLog log(runtime::e1_log_columns(), rows);
@@ -404,6 +419,20 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
   }
   runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+  std::optional<runtime::RealtimeRunOptions> realtime;
+  if (!options.backend.empty()) {
+    if (options.experiment != "postures") {
+      fmt::print(stderr, "error: over the board (--backend) the right arm runs --experiment postures (E3); {} runs in-process only\n",
+                 options.experiment);
+      return 2;
+    }
+    if (!scenario.link) {
+      fmt::print(stderr, "config error: {}: --backend needs an mfb: section (channel map, watchdogs)\n", doc.name());
+      return 2;
+    }
+    realtime = realtime_options(options);
+    if (!realtime) return 2;
+  }
   if (options.experiment == "bandwidth") return run_bandwidth(options, doc, scenario);
   if (options.experiment == "goniometer") return run_goniometer(options, doc, scenario);
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
@@ -412,11 +441,21 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
                             scenario.postures.size() * (scenario.move_s + scenario.hold_s + scenario.observe_s);
   fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
              doc.name(), scenario.description, scenario.postures.size(), duration_s, scenario.seed, dir.string());
-  runtime::CsvLog log(runtime::arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
-  const runtime::PosturesResult r = runtime::run_postures(scenario, &log);
-  log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
-                                      fmt::format("config: {}; seed {}", options.config.string(), scenario.seed),
-                                      "plant_* columns are simulator truth the controller never sees"});
+  runtime::PosturesResult r;
+  std::optional<runtime::PosturesRealtimeResult> rr;
+  if (realtime) {
+    realtime->dir = dir;
+    fmt::print("  on the board at udp://{} in real time\n", realtime->board.to_string());
+    std::fflush(stdout);
+    rr = runtime::run_postures_realtime(scenario, *realtime);
+    r = rr->postures;
+  } else {
+    runtime::CsvLog log(runtime::arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    r = runtime::run_postures(scenario, &log);
+    log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
+                                        fmt::format("config: {}; seed {}", options.config.string(), scenario.seed),
+                                        "plant_* columns are simulator truth the controller never sees"});
+  }
   std::ofstream summary(dir / "summary.csv");
   summary << "posture,target_sfe_deg,target_efe_deg,released_sfe_deg,released_efe_deg,drift_sfe_deg,drift_efe_deg,"
              "max_excursion_sfe_deg,max_excursion_efe_deg\n";
@@ -435,6 +474,7 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
              "{:.1f} Nm: {}\nreal-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
              r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_operator_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
              r.realtime_factor, dir.string());
+  if (rr) print_realtime(*rr, dir / "timing");
   if (options.plot) plot_with("plot_arm.py", dir);
   link_latest(options, run_name);
   return r.within_limits ? 0 : 3;
@@ -623,9 +663,65 @@ std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
 }  // namespace
 
+mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double period_s, const runtime::LinkConfig& link) {
+  mfb::EmulatorParams p;
+  p.bind = io::parse_udp_endpoint(fmt::format("{}:1", options.bind));
+  p.bind.port = static_cast<std::uint16_t>(options.port);
+  p.period_s = period_s;
+  p.watchdog_s = options.watchdog_ms ? *options.watchdog_ms * 1e-3 : link.board_watchdog_s;
+  p.vent_s = link.vent_s;
+  p.max_runtime_s = options.max_runtime_s;
+  p.sessions = options.sessions;
+  p.faults = {options.loss, options.duplicate, options.reorder, options.corrupt, options.delay_ms * 1e-3, options.fault_seed,
+              options.estop_at_s, options.estop_for_s};
+  return p;
+}
+
+int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const EmulatorOptions& options, const std::string& what) {
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+  runtime::RealtimeOptions rt;
+  rt.fifo_priority = options.fifo_priority;
+  rt.lock_memory = options.fifo_priority > 0;
+  const runtime::RealtimeReport report = runtime::configure_realtime_thread(rt);
+  (void)report;  // its warnings were printed; the board runs best-effort without
+  fmt::print("peha mfb-emulator: listening on udp://{} - {}, watchdog {} ms, vent {} s{}\n", board.local().to_string(), what,
+             p.watchdog_s * 1e3, p.vent_s,
+             p.faults.any() ? fmt::format("; injecting loss {} duplicate {} reorder {} corrupt {} delay {} ms{}", p.faults.loss,
+                                          p.faults.duplicate, p.faults.reorder, p.faults.corrupt, options.delay_ms,
+                                          p.faults.estop_from_s >= 0
+                                              ? fmt::format(", e-stop at {} s for {} s", p.faults.estop_from_s, p.faults.estop_for_s)
+                                              : std::string())
+                            : std::string());
+  std::fflush(stdout);
+  board.run(g_stop);
+  fmt::print("peha mfb-emulator: stopped\n{}\n", board.stats().table());
+  return 0;
+}
+
+int mfb_emulator_arm(const EmulatorOptions& options, const config::Document& doc) {
+  runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
+  if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+  if (!scenario.link) {
+    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+    return 2;
+  }
+  if (!options.case_name.empty() && options.case_name != "postures") {
+    fmt::print(stderr, "error: the right arm's board serves E3 (--case postures); '{}' runs in-process only\n", options.case_name);
+    return 2;
+  }
+  const mfb::EmulatorParams p = emulator_params(options, scenario.period_s, *scenario.link);
+  const sim::RightArmPlantParams plant = runtime::postures_plant_params(scenario);
+  mfb::BoardEmulator board(p, mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), runtime::arm_joint_names(scenario)),
+                           [plant] { return std::make_unique<sim::RightArmBackend>(plant); });
+  return serve(board, p, options, fmt::format("right arm with the operator's E3 script ({} postures)", scenario.postures.size()));
+}
+
 int mfb_emulator(const EmulatorOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
+    config::Map root = doc.root();
+    if (root.has("experiment") && root.string("experiment") == "right_arm") return mfb_emulator_arm(options, doc);
     runtime::E1Scenario scenario = runtime::read_e1(doc);
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     if (!scenario.link) {
@@ -645,34 +741,12 @@ int mfb_emulator(const EmulatorOptions& options) {
       fmt::print(stderr, "error: no case named '{}' in {}\n", options.case_name, doc.name());
       return 2;
     }
-    mfb::EmulatorParams p;
-    p.bind = io::parse_udp_endpoint(fmt::format("{}:{}", options.bind, options.port == 0 ? 1 : options.port));
-    p.bind.port = static_cast<std::uint16_t>(options.port);
-    p.period_s = scenario.period_s;
-    p.watchdog_s = options.watchdog_ms ? *options.watchdog_ms * 1e-3 : scenario.link->board_watchdog_s;
-    p.vent_s = scenario.link->vent_s;
-    p.max_runtime_s = options.max_runtime_s;
-    p.sessions = options.sessions;
-    p.faults = {options.loss, options.duplicate, options.reorder, options.corrupt, options.delay_ms * 1e-3, options.fault_seed,
-                options.estop_at_s, options.estop_for_s};
+    const mfb::EmulatorParams p = emulator_params(options, scenario.period_s, *scenario.link);
     const std::vector<std::string> joints = {"joint"};
     const sim::OneDofRigParams plant = runtime::e1_plant_params(scenario, *chosen);
     mfb::BoardEmulator board(p, mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), joints),
                              [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); });
-    std::signal(SIGINT, on_stop_signal);
-    std::signal(SIGTERM, on_stop_signal);
-    fmt::print("peha mfb-emulator: listening on udp://{} - one-DOF rig, case {} ({} kg), watchdog {} ms, vent {} s{}\n",
-               board.local().to_string(), chosen->name, chosen->payload_kg, p.watchdog_s * 1e3, p.vent_s,
-               p.faults.any() ? fmt::format("; injecting loss {} duplicate {} reorder {} corrupt {} delay {} ms{}", p.faults.loss,
-                                            p.faults.duplicate, p.faults.reorder, p.faults.corrupt, options.delay_ms,
-                                            p.faults.estop_from_s >= 0 ? fmt::format(", e-stop at {} s for {} s", p.faults.estop_from_s,
-                                                                                     p.faults.estop_for_s)
-                                                                       : std::string())
-                                : std::string());
-    std::fflush(stdout);
-    board.run(g_stop);
-    fmt::print("peha mfb-emulator: stopped\n{}\n", board.stats().table());
-    return 0;
+    return serve(board, p, options, fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg));
   });
 }
 

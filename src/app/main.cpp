@@ -115,7 +115,8 @@ int main(int argc, char** argv) {
       "(motor off, valves vented slowly) when no valid command arrives. Faults can be injected into the\n"
       "state packets it sends. Runs until Ctrl-C, --max-runtime or --sessions.");
   emu_cmd->add_option("-c,--config", emu.config, "Rig scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
-  emu_cmd->add_option("--case", emu.case_name, "The case whose plant (payload) to simulate (needed when the config has several)");
+  emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (payload) to simulate (needed when the config\n"
+                                               "has several). Right arm: postures (E3, the default and only one)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
       ->capture_default_str()->check(CLI::Range(0, 65535));
@@ -130,6 +131,8 @@ int main(int argc, char** argv) {
   emu_cmd->add_option("--fault-seed", emu.fault_seed, "Seed of the injected faults")->capture_default_str();
   emu_cmd->add_option("--estop-at", emu.estop_at_s, "Assert the e-stop input at this simulated time, s")->check(CLI::Range(0.0, 1e6));
   emu_cmd->add_option("--estop-for", emu.estop_for_s, "... for this long, s")->capture_default_str()->check(CLI::Range(0.0, 1e6));
+  emu_cmd->add_option("--rt-priority", emu.fifo_priority, "SCHED_FIFO priority of the board's loop (0 = don't ask)")
+      ->capture_default_str()->check(CLI::Range(0, 99));
   emu_cmd->add_option("--max-runtime", emu.max_runtime_s, "Stop after this much wall time, s (0 = never)")->check(CLI::Range(0.0, 1e7));
   emu_cmd->add_option("--sessions", emu.sessions, "Stop after this many sessions ended by the watchdog (0 = never)")
       ->check(CLI::Range(0, 1000000));

@@ -121,6 +121,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   s.bandwidth.min_cycles = bw.number("min_cycles", {2.0, 1000.0});
   s.bandwidth.min_duration_s = bw.number("min_duration_s", {0.1, 600.0});
   bw.finish();
+  if (root.has("mfb")) s.link = read_link_config(root.map("mfb"));
   config::Map gon = root.map("goniometer");
   ArmScenario::Goniometer& g = s.goniometer;
   const double elbow_lo = s.limits.joints[1].min_angle_rad / kDeg, elbow_hi = s.limits.joints[1].max_angle_rad / kDeg;
@@ -251,24 +252,49 @@ const std::vector<std::string>& arm_log_columns() {
   return columns;
 }
 
-PosturesResult run_postures(const ArmScenario& scenario, CsvLog* log) {
+sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
   // The operator's script: hold the arm where it starts while compensation comes on, then for each
   // posture carry the arm there, hold, let go, and watch.
-  sim::RightArmPlantParams plant_params = scenario.plant;
+  sim::RightArmPlantParams p = scenario.plant;
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  plant_params.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, {plant_params.initial_q_rad[0], plant_params.initial_q_rad[1], nan}});
+  p.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, {p.initial_q_rad[0], p.initial_q_rad[1], nan}});
   double t = 2.0 + scenario.observe_s * 0.2;
-  std::vector<double> release_s;
   for (const ArmPosture& a : scenario.postures) {
-    plant_params.operator_hands.moves.push_back({a.name, t, scenario.move_s + scenario.hold_s, scenario.move_s, {a.sfe_rad, a.efe_rad, nan}});
+    p.operator_hands.moves.push_back({a.name, t, scenario.move_s + scenario.hold_s, scenario.move_s, {a.sfe_rad, a.efe_rad, nan}});
+    t += scenario.move_s + scenario.hold_s + scenario.observe_s;
+  }
+  return p;
+}
+
+std::vector<double> postures_release_times_s(const ArmScenario& scenario) {
+  std::vector<double> release_s;
+  double t = 2.0 + scenario.observe_s * 0.2;
+  for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
     t += scenario.move_s + scenario.hold_s;
     release_s.push_back(t);
     t += scenario.observe_s;
   }
-  const double duration_s = t;
-  sim::RightArmBackend plant(plant_params);
+  return release_s;
+}
+
+double postures_duration_s(const ArmScenario& scenario) {
+  return 2.0 + scenario.observe_s * 0.2 +
+         static_cast<double>(scenario.postures.size()) * (scenario.move_s + scenario.hold_s + scenario.observe_s);
+}
+
+PosturesResult run_postures(const ArmScenario& scenario, RowSink* log) {
+  sim::RightArmBackend plant(postures_plant_params(scenario));
+  return run_postures_on(scenario, plant, &plant, log);
+}
+
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::RightArmBackend* sim, RowSink* log,
+                               const CycleHooks& hooks) {
+  const std::vector<double> release_s = postures_release_times_s(scenario);
+  const double duration_s = postures_duration_s(scenario);
+  const sim::RightArmPlantParams script = postures_plant_params(scenario);  // where the operator's hands are, by the clock
   control::ArmController controller(scenario.controller);
   safety::LimitsData limits_data;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
 
   PosturesResult r;
   r.min_wire_tension_N = std::numeric_limits<double>::infinity();
@@ -277,42 +303,77 @@ PosturesResult run_postures(const ArmScenario& scenario, CsvLog* log) {
   std::vector<double> sfe(steps + 1), efe(steps + 1);
   io::SensorState state;
   io::Command command;
+  std::vector<double> row(arm_log_columns().size());
   const auto wall_start = std::chrono::steady_clock::now();
+  std::size_t done = steps;
   for (std::size_t k = 0; k <= steps; ++k) {
-    plant.read(state);
-    controller.update(state, command);
-    safety::apply_limits(scenario.limits, limits_data, state, command);
-    const sim::RightArmTruth& truth = plant.truth();
-    sfe[k] = truth.q_rad[0];
-    efe[k] = truth.q_rad[1];
-    for (std::size_t a = 0; a < truth.actuators.size(); ++a) {
-      const sim::PehaJointTruth& j = truth.actuators[a];
-      const models::JointModel& jm = scenario.controller.joints[a].actuator;
-      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
-      r.min_wire_tension_N = std::min({r.min_wire_tension_N, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
-      r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth.operator_torque_Nm[a]));
-      safe = safe && j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) &&
-             j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
-             j.pressure_Pa[0] <= scenario.limits.joints[a].supply_pressure_Pa &&
-             j.pressure_Pa[1] <= scenario.limits.joints[a].supply_pressure_Pa &&
-             std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
+    if (hooks.wait) hooks.wait();
+    if (!backend.read(state)) {  // no new sample: hold the last command
+      sfe[k] = k ? sfe[k - 1] : 0.0;
+      efe[k] = k ? efe[k - 1] : 0.0;
+      if (hooks.after && !hooks.after(state, command, 0)) {
+        done = k;
+        break;
+      }
+      if (k < steps) backend.write(command);
+      continue;
     }
-    if (log && log->begin_row()) {
-      std::size_t col = 0;
-      log->set(col++, state.time_s);
-      log->set(col++, truth.operator_active ? 1.0 : 0.0);
-      const auto& diag = controller.diagnostics();
-      for (std::size_t a = 0; a < 3; ++a) {
-        const sim::PehaJointTruth& j = truth.actuators[a];
-        const double values[] = {state.joints[a].angle_rad, truth.q_rad[a], diag[a].torque_gravity_Nm, diag[a].torque_desired_Nm,
-                                 command.joints[a].motor_torque_Nm, truth.operator_torque_Nm[a],
-                                 command.joints[a].agonist_pressure_Pa * 1e-6, command.joints[a].antagonist_pressure_Pa * 1e-6,
-                                 state.joints[a].agonist_force_N, state.joints[a].antagonist_force_N, j.muscle_force_N[0],
-                                 j.muscle_force_N[1]};
-        for (double v : values) log->set(col++, v);
+    controller.update(state, command);
+    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
+    const sim::RightArmTruth* truth = sim ? &sim->truth() : nullptr;
+    bool operator_active = false;
+    if (truth) {
+      operator_active = truth->operator_active;
+    } else {
+      for (const auto& m : script.operator_hands.moves) operator_active |= state.time_s >= m.start_s && state.time_s < m.start_s + m.duration_s;
+    }
+    sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
+    efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
+    for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
+      const models::JointModel& jm = scenario.controller.joints[a].actuator;
+      if (truth) {
+        const sim::PehaJointTruth& j = truth->actuators[a];
+        r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+        r.min_wire_tension_N = std::min({r.min_wire_tension_N, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
+        r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
+        safe = safe && j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) &&
+               j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
+               j.pressure_Pa[0] <= scenario.limits.joints[a].supply_pressure_Pa &&
+               j.pressure_Pa[1] <= scenario.limits.joints[a].supply_pressure_Pa &&
+               std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
+      } else {
+        const io::JointSensors& s = state.joints[a];
+        r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, s.agonist_force_N, s.antagonist_force_N});
+        r.min_wire_tension_N = std::min({r.min_wire_tension_N, s.agonist_force_N, s.antagonist_force_N});
+        safe = safe && s.agonist_force_N <= models::force_ceiling_N(jm.agonist) &&
+               s.antagonist_force_N <= models::force_ceiling_N(jm.antagonist) &&
+               s.agonist_pressure_Pa <= scenario.limits.joints[a].supply_pressure_Pa &&
+               s.antagonist_pressure_Pa <= scenario.limits.joints[a].supply_pressure_Pa &&
+               std::abs(command.joints[a].motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
       }
     }
-    if (k < steps) plant.write(command);
+    if (log) {
+      std::size_t col = 0;
+      row[col++] = state.time_s;
+      row[col++] = operator_active ? 1.0 : 0.0;
+      const auto& diag = controller.diagnostics();
+      for (std::size_t a = 0; a < 3; ++a) {
+        const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
+        const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].torque_desired_Nm,
+                                 command.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
+                                 command.joints[a].agonist_pressure_Pa * 1e-6, command.joints[a].antagonist_pressure_Pa * 1e-6,
+                                 state.joints[a].agonist_force_N, state.joints[a].antagonist_force_N, j ? j->muscle_force_N[0] : nan,
+                                 j ? j->muscle_force_N[1] : nan};
+        for (double v : values) row[col++] = v;
+      }
+      log->push_row(row);
+    }
+    (void)flags;
+    if (hooks.after && !hooks.after(state, command, flags)) {
+      done = k;
+      break;
+    }
+    if (k < steps) backend.write(command);
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
@@ -325,7 +386,8 @@ PosturesResult run_postures(const ArmScenario& scenario, CsvLog* log) {
     p.target_deg[0] = scenario.postures[i].sfe_rad / kDeg;
     p.target_deg[1] = scenario.postures[i].efe_rad / kDeg;
     const auto k0 = static_cast<std::size_t>(std::llround(release_s[i] / scenario.period_s));
-    const std::size_t k1 = std::min(k0 + window, steps);
+    if (k0 > done) continue;  // a run ended early analyses what it has
+    const std::size_t k1 = std::min(k0 + window, done);
     const std::vector<double>* angles[2] = {&sfe, &efe};
     for (int j = 0; j < 2; ++j) {
       const std::vector<double>& a = *angles[j];

@@ -42,6 +42,7 @@ struct EmulatorOptions {
   std::optional<double> watchdog_ms;  ///< overrides the config's board_watchdog_ms
   double max_runtime_s = 0;
   int sessions = 0;
+  int fifo_priority = 70;        ///< the board is a real-time device too: SCHED_FIFO priority (0 = don't ask)
 };
 
 /// `peha mfb-emulator`: serves the MFB protocol over UDP in front of the simulated rig until

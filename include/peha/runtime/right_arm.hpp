@@ -7,9 +7,11 @@
 #include "peha/config/reader.hpp"
 #include "peha/control/arm_controller.hpp"
 #include "peha/runtime/csv_log.hpp"
+#include "peha/runtime/e1_gravity.hpp"  // CycleHooks, LinkConfig
 #include "peha/safety/limits.hpp"
 #include "peha/sim/right_arm.hpp"
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -23,6 +25,7 @@ struct ArmPosture {
 
 struct ArmScenario {
   std::string description;
+  std::optional<LinkConfig> link;   ///< optional `mfb:` section: the board link
   std::uint64_t seed = 1;
   double period_s = 1e-3;
   control::ArmControllerModel controller;
@@ -108,7 +111,20 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid);
 
 const std::vector<std::string>& arm_log_columns();
 
-/// E3. `log` (optional) gets one row per control cycle.
-PosturesResult run_postures(const ArmScenario& scenario, CsvLog* log);
+/// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
+PosturesResult run_postures(const ArmScenario& scenario, RowSink* log);
+
+/// The simulated arm of E3: the scenario's plant with the operator's script (hold at the start,
+/// then carry the arm to each posture, hold, let go) - also what `peha mfb-emulator` simulates.
+sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario);
+/// When the operator lets go of each posture, s (E3's script), and the whole run's length.
+std::vector<double> postures_release_times_s(const ArmScenario& scenario);
+double postures_duration_s(const ArmScenario& scenario);
+
+/// E3 on any backend. `sim` (optional) is the in-process arm when `backend` is it (truth figures);
+/// without it the drift comes from the joint encoders, forces and tensions from the load cells, and
+/// the operator is where the script puts them. A cycle whose read() fails holds the last command.
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::RightArmBackend* sim, RowSink* log,
+                               const CycleHooks& hooks = {});
 
 }  // namespace peha::runtime

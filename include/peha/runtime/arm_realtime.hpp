@@ -1,0 +1,21 @@
+#pragma once
+/// \file
+/// The right arm's E3 (postures) on the multifunction board over UDP, in real time: the same
+/// controller, limits and analysis as in-process (`run_postures_on`), inside a RealtimeHarness.
+
+#include "peha/runtime/realtime_harness.hpp"
+#include "peha/runtime/right_arm.hpp"
+
+namespace peha::runtime {
+
+struct PosturesRealtimeResult : RealtimeRunResult {
+  PosturesResult postures;  ///< figures from the board's sensors (encoders, load cells)
+};
+
+/// The io joints of the right arm as the board's channel map names them (R_SFE, R_EFE, R_WFE).
+const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario);
+
+/// Runs E3 on the board at `options.board`; throws (set-up) without an `mfb:` section or a board.
+PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const RealtimeRunOptions& options);
+
+}  // namespace peha::runtime
