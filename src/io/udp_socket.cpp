@@ -11,6 +11,7 @@
 #include <poll.h>
 #include <stdexcept>
 #include <sys/socket.h>
+#include <time.h>
 #include <unistd.h>
 
 namespace peha::io {
@@ -25,6 +26,12 @@ sockaddr_in to_sockaddr(const UdpEndpoint& e) {
 }
 
 }  // namespace
+
+std::int64_t monotonic_ns() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
 
 std::string UdpEndpoint::to_string() const {
   return fmt::format("{}.{}.{}.{}:{}", address >> 24, (address >> 16) & 0xFF, (address >> 8) & 0xFF, address & 0xFF, port);

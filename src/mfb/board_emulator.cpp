@@ -11,12 +11,6 @@
 namespace peha::mfb {
 namespace {
 
-std::int64_t now_ns() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
 constexpr std::size_t kMaxPending = 4096;
 
 }  // namespace
@@ -60,7 +54,7 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
                      t < params_.faults.estop_from_s + params_.faults.estop_for_s;
   arming_.set_estop(estop);
   if (estop) ++stats_.estop_cycles;
-  const std::int64_t now = now_ns();
+  const std::int64_t now = io::monotonic_ns();
   if (arming_.outputs_enabled()) {
     applied_.da = last_command_.da;
     applied_.digital_out = last_command_.digital_out;
@@ -96,7 +90,7 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
 }
 
 void BoardEmulator::transmit(const std::uint8_t* bytes, std::size_t n, std::int64_t at_ns) noexcept {
-  if (at_ns <= now_ns()) {
+  if (at_ns <= io::monotonic_ns()) {
     socket_.send_to(host_, std::span<const std::uint8_t>(bytes, n));
     ++stats_.states_sent;
     return;
@@ -171,18 +165,18 @@ void BoardEmulator::send_state(std::int64_t now) noexcept {
 void BoardEmulator::run(const std::atomic<bool>& stop) {
   const std::int64_t period = static_cast<std::int64_t>(params_.period_s * 1e9);
   const std::int64_t watchdog = static_cast<std::int64_t>(params_.watchdog_s * 1e9);
-  const std::int64_t start = now_ns();
+  const std::int64_t start = io::monotonic_ns();
   std::int64_t next_free = start + 2 * period;
   std::array<std::uint8_t, 512> buffer;
   int sessions_ended = 0;
   while (!stop.load(std::memory_order_relaxed)) {
-    std::int64_t now = now_ns();
+    std::int64_t now = io::monotonic_ns();
     if (params_.max_runtime_s > 0 && now - start > static_cast<std::int64_t>(params_.max_runtime_s * 1e9)) break;
     if (params_.sessions > 0 && sessions_ended >= params_.sessions) break;
     std::int64_t wake = next_free;
     for (const Pending& p : pending_) wake = std::min(wake, p.at_ns);
     if (wake > now) socket_.wait_readable(std::min<std::int64_t>(wake - now, 100'000'000));
-    now = now_ns();
+    now = io::monotonic_ns();
     for (;;) {
       io::UdpEndpoint from;
       const long n = socket_.receive(buffer, from);
@@ -199,7 +193,7 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       if (v != Verdict::kAccept) continue;
       host_ = from;
       have_host_ = true;
-      last_command_ns_ = now_ns();
+      last_command_ns_ = io::monotonic_ns();
       arming_.on_command(c);
       last_command_ = c;
       if (!had_session && (c.session_id != previous || !have_session_)) {
@@ -213,10 +207,10 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       } else {
         apply_and_step(true);
       }
-      send_state(now_ns());
-      next_free = now_ns() + 2 * period;
+      send_state(io::monotonic_ns());
+      next_free = io::monotonic_ns() + 2 * period;
     }
-    now = now_ns();
+    now = io::monotonic_ns();
     if (filter_.has_session() && now - last_command_ns_ > watchdog) {
       arming_.on_watchdog();
       filter_.release();
@@ -229,7 +223,7 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       next_free += period;
       if (next_free < now) next_free = now + period;  // stalled (e.g. suspended): no burst
     }
-    flush_delayed(now_ns());
+    flush_delayed(io::monotonic_ns());
   }
 }
 

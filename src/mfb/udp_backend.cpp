@@ -12,12 +12,6 @@
 namespace peha::mfb {
 namespace {
 
-std::int64_t now_ns() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<std::int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
-}
-
 std::uint32_t random_session(std::uint32_t previous) {
   std::random_device rd;
   std::uint32_t s = 0;
@@ -53,12 +47,12 @@ void UdpBackend::new_session() noexcept {
 
 void UdpBackend::connect() {
   enable_ = false;
-  const std::int64_t give_up = now_ns() + static_cast<std::int64_t>(params_.connect_timeout_s * 1e9);
+  const std::int64_t give_up = io::monotonic_ns() + static_cast<std::int64_t>(params_.connect_timeout_s * 1e9);
   io::Command idle;
   idle.joint_count = map_.joint_count();
-  while (now_ns() < give_up) {
+  while (io::monotonic_ns() < give_up) {
     write(idle);
-    drain(now_ns() + 20'000'000);  // 20 ms per attempt
+    drain(io::monotonic_ns() + 20'000'000);  // 20 ms per attempt
     if (have_new_) return;
   }
   throw std::runtime_error(fmt::format("no MFB answered at {} within {} s (session {:08x}): is the board (or peha mfb-emulator "
@@ -82,7 +76,7 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       if (v != Verdict::kAccept) continue;
       last_ = packet;
       have_new_ = true;
-      last_sample_ns_ = now_ns();
+      last_sample_ns_ = io::monotonic_ns();
       if (packet.ack_sequence == disable_sequence_ && sequence_ != 0) acked_disable_ = true;
       if (packet.ack_sequence == sequence_) {
         last_rtt_s_ = static_cast<double>(last_sample_ns_ - static_cast<std::int64_t>(packet.echo_host_time_ns)) * 1e-9;
@@ -91,14 +85,14 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       }
       continue;
     }
-    const std::int64_t left = deadline_ns - now_ns();
+    const std::int64_t left = deadline_ns - io::monotonic_ns();
     if (left <= 0 || !socket_.wait_readable(left)) return;
   }
 }
 
 bool UdpBackend::read(io::SensorState& state) noexcept {
   // write() waited for the reply to the last command; whatever came since is taken without waiting.
-  drain(now_ns());
+  drain(io::monotonic_ns());
   stats_.received = filter_.counters();
   if (!have_new_) {
     ++stats_.replies_missing;
@@ -123,7 +117,7 @@ bool UdpBackend::write(const io::Command& command) noexcept {
   CommandPacket packet;
   packet.session_id = session_;
   packet.sequence = ++sequence_;
-  packet.host_time_ns = static_cast<std::uint64_t>(now_ns());
+  packet.host_time_ns = static_cast<std::uint64_t>(io::monotonic_ns());
   BoardOutputs out;
   const int clamped = map_.encode_outputs(command, enable_, out);
   if (clamped > 0) stats_.clamped_outputs += static_cast<std::uint64_t>(clamped);
@@ -141,7 +135,7 @@ bool UdpBackend::write(const io::Command& command) noexcept {
   // The board answers each command with its next sample: wait for it here, so the round trip is
   // measured when it happens and the next read() finds the sample ready.
   last_was_reply_ = false;
-  drain(now_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
+  drain(io::monotonic_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
   return true;
 }
 

@@ -106,7 +106,7 @@ Telemetry::Telemetry(const std::string& host, int port, double rate_Hz, std::str
     : destination_(fmt::format("{}:{}", host, port)),
       address_(checked_address(host, port)),
       head_("{\"timestamp\":"),
-      group_open_("," + checked_name("group", group) + ":{"),
+      group_open_(fmt::format(",{}:{{", checked_name("group", group))),
       keys_(checked_keys(signals)),
       interval_s_(checked_interval(rate_Hz)),
       socket_(open_socket()),

@@ -287,7 +287,9 @@ TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
   for (int i = 0; i < 50; ++i) {
     stranger.send_to(backend.local(), std::span<const std::uint8_t>(bytes.data(), n));
     backend.write(cmd);
-    if (backend.read(state)) EXPECT_LT(std::abs(state.joints[0].angle_rad), 0.05);
+    if (backend.read(state)) {
+      EXPECT_LT(std::abs(state.joints[0].angle_rad), 0.05);
+    }
   }
   EXPECT_EQ(backend.stats().received.foreign_source, 50u);
   EXPECT_GT(backend.stats().received.accepted, 40u);

@@ -10,6 +10,9 @@
 
 namespace peha::io {
 
+/// CLOCK_MONOTONIC now, ns: the clock of the link's time stamps (round trips, watchdogs).
+std::int64_t monotonic_ns() noexcept;
+
 /// An IPv4 address and port, both in host byte order.
 struct UdpEndpoint {
   std::uint32_t address = 0;  ///< e.g. 0x7F000001 for 127.0.0.1
