@@ -51,8 +51,8 @@ class AsyncCsvLog {
   AsyncCsvLog& operator=(const AsyncCsvLog&) = delete;
 
   /// Loop thread. Queues one row (`row.size()` must equal the column count; `row[0]` is the time).
-  /// Never blocks: returns false and counts the row in `dropped_rows` if the queue is full, or in
-  /// `malformed_rows` if its width is wrong, or if the log is closed.
+  /// Never blocks: returns false and counts the row in `dropped_rows` if the queue is full or the
+  /// log is closed, or in `malformed_rows` if its width is wrong.
   bool push(std::span<const double> row) noexcept;
 
   /// Loop thread. Asks the writer to write the last `fault_window_rows` rows pushed so far to
