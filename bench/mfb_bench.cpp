@@ -47,7 +47,8 @@ void BM_MfbLoopback1kHz60s(benchmark::State& state) {
     state.counters["compute_p999_us"] = t.compute.percentile(99.9) * 1e6;
     state.counters["period_p999_us"] = t.period.percentile(99.9) * 1e6;
     state.counters["miss_rate_pct"] = 100.0 * static_cast<double>(t.deadline_misses) / static_cast<double>(t.cycles + t.deadline_misses);
-    state.counters["lost_pct"] = 100.0 * static_cast<double>(r.link.replies_missing) / static_cast<double>(r.link.commands_sent);
+    state.counters["no_sample_pct"] = 100.0 * static_cast<double>(r.link.replies_missing) / static_cast<double>(r.link.commands_sent);
+    state.counters["late_pct"] = 100.0 * static_cast<double>(r.link.late_replies) / static_cast<double>(r.link.commands_sent);
     state.counters["fifo"] = r.realtime.fifo ? 1 : 0;
   }
 }

@@ -142,11 +142,11 @@ void print_realtime(const runtime::RealtimeRunResult& rr, const std::filesystem:
   fmt::print("{}\n", rr.timing.table());
   const auto& l = rr.link;
   fmt::print("  link: {} commands sent ({} send failures), states accepted {}, dropped: foreign source {}, foreign "
-             "session {}, duplicate {}, stale {}, malformed {}; gaps {}; no reply in time {}; implausible samples {}; "
-             "clamped DA codes {}\n",
+             "session {}, duplicate {}, stale {}, malformed {}; gaps {}; replies later than receive_timeout {}; cycles without a "
+             "new sample {}; implausible samples {}; clamped DA codes {}\n",
              l.commands_sent, l.send_failures, l.received.accepted, l.received.foreign_source, l.received.foreign_session,
-             l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.replies_missing, l.implausible_samples,
-             l.clamped_outputs);
+             l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.late_replies, l.replies_missing,
+             l.implausible_samples, l.clamped_outputs);
   fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
              rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
   for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);

@@ -78,8 +78,11 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       have_new_ = true;
       last_sample_ns_ = io::monotonic_ns();
       if (packet.ack_sequence == disable_sequence_ && sequence_ != 0) acked_disable_ = true;
-      if (packet.ack_sequence == sequence_) {
+      if (packet.echo_host_time_ns != 0) {
         last_rtt_s_ = static_cast<double>(last_sample_ns_ - static_cast<std::int64_t>(packet.echo_host_time_ns)) * 1e-9;
+        new_rtt_ = true;
+      }
+      if (packet.ack_sequence == sequence_) {
         last_was_reply_ = true;
         return;  // the reply to the newest command: nothing newer can be waiting for
       }
@@ -136,6 +139,7 @@ bool UdpBackend::write(const io::Command& command) noexcept {
   // measured when it happens and the next read() finds the sample ready.
   last_was_reply_ = false;
   drain(io::monotonic_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
+  if (!last_was_reply_) ++stats_.late_replies;
   return true;
 }
 

@@ -104,7 +104,8 @@ CycleHooks RealtimeHarness::start() {
 
 bool RealtimeHarness::after(const io::SensorState& state, io::Command& cmd) noexcept {
   const double t = clock_.deadline_s();
-  if (backend_.last_read_was_reply()) result_.timing.rtt.add(backend_.last_rtt_s());  // the previous cycle's command
+  double rtt_s = 0.0;
+  if (backend_.take_new_rtt(rtt_s)) result_.timing.rtt.add(rtt_s);  // the command this sample answers
   const bool silent = PeriodicClock::now_ns() - backend_.last_sample_ns() > static_cast<std::int64_t>(link_.host_watchdog_s * 1e9);
   const std::uint8_t status = backend_.board_status();
   const bool estop = (status & mfb::kStatusEstop) || backend_.estop_input();

@@ -37,7 +37,8 @@ struct UdpLinkStats {
   ReceiveCounters received;                  ///< the StateFilter's verdict counters
   std::uint64_t commands_sent = 0;
   std::uint64_t send_failures = 0;
-  std::uint64_t replies_missing = 0;         ///< read() calls that got no new sample in time
+  std::uint64_t replies_missing = 0;         ///< read() calls that found no new sample (the loop held its command)
+  std::uint64_t late_replies = 0;            ///< commands whose reply did not come within receive_timeout_s
   std::uint64_t implausible_samples = 0;     ///< accepted packets whose AD codes were implausible
   std::uint64_t clamped_outputs = 0;         ///< DA codes clamped to 0..65535
   std::uint64_t oversized = 0;               ///< datagrams longer than any MFB packet
@@ -68,8 +69,16 @@ class UdpBackend final : public io::Backend {
   bool board_saw_disable() const noexcept { return acked_disable_; }
   /// Host monotonic ns when the last sample was accepted (0 before any).
   std::int64_t last_sample_ns() const noexcept { return last_sample_ns_; }
-  /// Round-trip time of the last accepted reply to a command, s (NaN before any).
+  /// Round-trip time of the newest accepted sample's command (host now - its echoed send time), s
+  /// (NaN before any).
   double last_rtt_s() const noexcept { return last_rtt_s_; }
+  /// True once per accepted sample: its round trip is new (for the timing statistics).
+  bool take_new_rtt(double& rtt_s) noexcept {
+    rtt_s = last_rtt_s_;
+    const bool fresh = new_rtt_;
+    new_rtt_ = false;
+    return fresh;
+  }
   /// True if the last write()'s command was answered within receive_timeout_s.
   bool last_read_was_reply() const noexcept { return last_was_reply_; }
   const UdpLinkStats& stats() const noexcept { return stats_; }
@@ -95,6 +104,7 @@ class UdpBackend final : public io::Backend {
   bool acked_disable_ = false;
   bool have_new_ = false;
   bool last_was_reply_ = false;
+  bool new_rtt_ = false;
   std::uint32_t disable_sequence_ = 0;       ///< a command sent with enable clear
   StatePacket last_{};
   BoardInputs last_inputs_{};

