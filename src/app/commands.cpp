@@ -645,12 +645,32 @@ int calibrate(const CalibrateCommandOptions& options) {
 int check_config(const std::filesystem::path& config) {
   try {
     const config::Document doc = config::Document::load_file(config);
-    const runtime::E1Scenario s = runtime::read_e1(doc);
-    sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
-    fmt::print("{}: OK\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
-               "plant model {}\n",
-               config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s,
-               s.plant.finger.pushes.size(), s.plant.model_file.string());
+    config::Map root = doc.root();
+    std::optional<runtime::LinkConfig> link;
+    std::vector<std::string> joints;
+    if (root.has("experiment") && root.string("experiment") == "right_arm") {
+      const runtime::ArmScenario s = runtime::read_arm_scenario(doc);
+      fmt::print("{}: OK\n  experiment right_arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
+                 "{} bandwidth frequencies (E6), control at {} Hz\n",
+                 config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
+                 s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);
+      link = s.link;
+      joints = runtime::arm_joint_names(s);
+    } else {
+      const runtime::E1Scenario s = runtime::read_e1(doc);
+      sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
+      fmt::print("{}: OK\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
+                 "plant model {}\n",
+                 config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
+                 s.plant.model_file.string());
+      link = s.link;
+      joints = {"joint"};
+    }
+    if (link) {  // the board's channel map must load for the backend's joints
+      const mfb::ChannelMap map = mfb::read_channel_map(config::Document::load_file(link->channel_map), joints);
+      fmt::print("  mfb: channel map {} ({} joints), watchdogs board {} ms / host {} ms\n", link->channel_map.string(), map.joint_count(),
+                 link->board_watchdog_s * 1e3, link->host_watchdog_s * 1e3);
+    }
     return 0;
   } catch (const std::exception& e) {
     fmt::print(stderr, "config error: {}\n", e.what());

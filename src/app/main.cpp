@@ -139,7 +139,8 @@ int main(int argc, char** argv) {
 
   std::filesystem::path check_path;
   CLI::App* check_cmd = app.add_subcommand(
-      "check-config", "Parse and validate a scenario YAML without running it. Unknown keys, missing keys, wrong\n"
+      "check-config", "Parse and validate a scenario YAML (one-DOF rig or right arm, with its channel map if it has an\n"
+                      "mfb: section) without running it. Unknown keys, missing keys, wrong\n"
                       "types and out-of-range values are reported with file:line:column, key path and reason.");
   check_cmd->add_option("-c,--config", check_path, "Scenario YAML to check")->required()->check(CLI::ExistingFile);
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -11,6 +12,14 @@
 #include <unistd.h>
 
 namespace peha::runtime {
+namespace {
+
+// Ctrl-C / SIGTERM during a run: the loop ends at the next cycle and winds down normally (outputs
+// disabled, log flushed, statistics printed) instead of dying mid-cycle.
+std::atomic<bool> g_interrupted{false};
+extern "C" void on_interrupt(int) { g_interrupted = true; }
+
+}  // namespace
 
 std::unique_ptr<mfb::UdpBackend> make_board_backend(const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
                                                     const std::vector<std::string>& joint_names) {
@@ -87,6 +96,9 @@ RealtimeHarness::~RealtimeHarness() {
 }
 
 CycleHooks RealtimeHarness::start() {
+  g_interrupted = false;
+  previous_sigint_ = std::signal(SIGINT, on_interrupt);
+  previous_sigterm_ = std::signal(SIGTERM, on_interrupt);
   result_.realtime = configure_realtime_thread(options_.realtime);
   backend_.set_enable(true);
   lifecycle_.apply(Transition::kActivate, 0.0, "enable edge sent");
@@ -181,6 +193,10 @@ bool RealtimeHarness::after(const io::SensorState& state, io::Command& cmd) noex
   progress_t_.store(t, std::memory_order_relaxed);
   progress_state_.store(static_cast<int>(lifecycle_.state()), std::memory_order_relaxed);
   result_.timing.compute.add(static_cast<double>(PeriodicClock::now_ns() - cycle_start_ns_) * 1e-9);
+  if (g_interrupted.load(std::memory_order_relaxed)) {
+    interrupted_ = true;
+    return false;  // the experiment's loop ends here; finish() winds down
+  }
   return true;
 }
 
@@ -190,7 +206,9 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   io::Command idle;
   idle.joint_count = static_cast<int>(backend_.info().joint_names.size());
   for (int i = 0; i < 5; ++i) backend_.write(idle);
-  lifecycle_.apply(Transition::kDeactivate, clock_.deadline_s(), "experiment finished");
+  lifecycle_.apply(Transition::kDeactivate, clock_.deadline_s(), interrupted_ ? "interrupted (Ctrl-C)" : "experiment finished");
+  std::signal(SIGINT, previous_sigint_);
+  std::signal(SIGTERM, previous_sigterm_);
   lifecycle_.apply(Transition::kShutdown, clock_.deadline_s(), "run ended");
   make_thread_non_realtime();
   done_ = true;

@@ -140,3 +140,17 @@ TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
 
 }  // namespace
 
+
+namespace {
+
+// check-config knows both kinds of scenario and loads the board's channel map of each.
+TEST(Cli, CheckConfigValidatesBothScenariosAndTheirChannelMaps) {
+  for (const char* name : {"e1_one_dof.yaml", "right_arm.yaml"}) {
+    const Result r = run(std::string("check-config --config ") + PEHA_SOURCE_DIR + "/configs/" + name);
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_THAT(r.output, HasSubstr(": OK"));
+    EXPECT_THAT(r.output, HasSubstr("mfb: channel map"));
+  }
+}
+
+}  // namespace

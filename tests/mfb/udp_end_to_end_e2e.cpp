@@ -133,7 +133,10 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
   EXPECT_TRUE(udp.e1.within_limits);
   // Timing was measured: one round trip per answered command, the loop's period around 1 ms.
   EXPECT_GT(udp.timing.rtt.count(), 9000u);
-  EXPECT_NEAR(udp.timing.period.mean(), 1e-3, 0.1e-3);  // absolute deadlines: the mean holds even when single wake-ups are late
+  // Absolute deadlines: single late wake-ups do not stretch the mean; only skipped deadlines do
+  // (0.2 % on a quiet machine, up to ~15 % when another job takes both cores).
+  EXPECT_GT(udp.timing.period.mean(), 0.99e-3);
+  EXPECT_LT(udp.timing.period.mean(), 1.3e-3);
   EXPECT_EQ(udp.dropped_rows, 0u);
 }
 
@@ -377,6 +380,33 @@ TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   std::printf("E3 over UDP: released %.2f/%.2f deg (in-process %.2f/%.2f), drift %.3f/%.3f deg (in-process %.3f/%.3f)\n",
               a.released_deg[0], a.released_deg[1], b.released_deg[0], b.released_deg[1], a.drift_deg[0], a.drift_deg[1],
               b.drift_deg[0], b.drift_deg[1]);
+}
+
+}  // namespace
+}  // namespace peha::runtime
+
+namespace peha::runtime {
+namespace {
+
+// Ctrl-C during a run on the board (the whole CLI, two processes): the loop stops at the next cycle,
+// winds down (outputs disabled, lifecycle finalized), and the log holds every cycle up to there.
+TEST(MfbEndToEnd, CtrlCEndsARunOnTheBoardCleanly) {
+  Emulator emulator({});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_mfb_ctrl_c";
+  std::filesystem::remove_all(out);
+  testing::ChildProcess host({PEHA_BINARY, "run", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--case", "payload_2.5kg",
+                              "--backend", "udp://127.0.0.1:" + std::to_string(emulator.port), "--rt-priority", "0", "--no-plot",
+                              "--out", out.string(), "--name", "r"});
+  ASSERT_FALSE(host.wait_for_line("payload_2.5kg: t =", 15.0).empty()) << host.output();  // the first progress line, ~1 s in
+  const int code = host.stop(SIGINT, 10.0);
+  EXPECT_NE(code, -1) << host.output();  // it exited
+  EXPECT_NE(host.output().find("-> inactive (interrupted (Ctrl-C))"), std::string::npos) << host.output();
+  EXPECT_NE(host.output().find("inactive -> finalized"), std::string::npos) << host.output();
+  const std::vector<double> t = column(out / "r" / "e1_payload_2.5kg.csv", "t_s");
+  ASSERT_GT(t.size(), 500u);  // ~1 s of cycles before the signal
+  EXPECT_LT(t.back(), 10.0);  // of the case's 24 s
+  std::filesystem::remove_all(out);
 }
 
 }  // namespace

@@ -79,7 +79,8 @@ class RealtimeHarness {
   /// clock, and returns the hooks the loop calls each cycle. Call once, on the loop's thread.
   CycleHooks start();
   /// Winds down (outputs disabled, -> inactive -> finalized), stops the threads, closes the log and
-  /// fills `result`.
+  /// fills `result`. Ctrl-C (SIGINT) or SIGTERM during the run end the loop at the next cycle and
+  /// come here too: the log is complete up to that cycle.
   void finish(RealtimeRunResult& result);
 
  private:
@@ -113,6 +114,9 @@ class RealtimeHarness {
   std::atomic<double> progress_t_{0.0};
   std::atomic<int> progress_state_{0};
   std::thread console_, progress_;
+  bool interrupted_ = false;
+  void (*previous_sigint_)(int) = nullptr;
+  void (*previous_sigterm_)(int) = nullptr;
 };
 
 }  // namespace peha::runtime
