@@ -186,33 +186,52 @@ const std::vector<std::string>& goniometer_log_columns() {
   return columns;
 }
 
-GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
-                                CsvLog* log) {
+double goniometer_run_duration_s(const ArmScenario& scenario, const GoniometerTrace& trace) {
+  return scenario.goniometer.settle_s + trace.duration_s() + scenario.goniometer.tail_s;
+}
+
+double goniometer_reading(const ArmScenario& scenario, const GoniometerTrace& trace, double t_s) noexcept {
+  // Still at the first sample during settle_s, then the trace, then its last sample.
   const ArmScenario::Goniometer& g = scenario.goniometer;
+  const double x = (t_s - g.settle_s) * g.sample_rate_Hz;
+  if (x <= 0.0) return trace.measured_rad.front();
+  const auto i = static_cast<std::size_t>(std::llround(x));
+  return i < trace.measured_rad.size() ? trace.measured_rad[i] : trace.measured_rad.back();
+}
+
+sim::RightArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  sim::RightArmPlantParams p = scenario.plant;
+  p.initial_q_rad[0] = g.sfe_rad;
+  p.initial_q_rad[1] = trace.truth_rad.front();
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double release_s = g.settle_s - 1.0;
+  // The operator holds the arm where it starts while the compensation comes on, then lets go.
+  p.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, {g.sfe_rad, trace.truth_rad.front(), nan}});
+  return p;
+}
+
+GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
+                                RowSink* log) {
   if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size()) {
     throw std::invalid_argument("run_goniometer: empty trace or truth/measured size mismatch");
   }
+  sim::RightArmBackend plant(goniometer_plant_params(scenario, trace));
+  const double settle_s = scenario.goniometer.settle_s, rate_Hz = scenario.goniometer.sample_rate_Hz;
+  return run_goniometer_on(
+      scenario, trace.name, variant, goniometer_run_duration_s(scenario, trace), plant, &plant,
+      [&](double t) { return goniometer_reading(scenario, trace, t); },
+      [&](double t) { return sample_at(trace.truth_rad, rate_Hz, t - settle_s); }, log);
+}
+
+GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
+                                   io::Backend& backend, const sim::RightArmBackend* sim, const GoniometerSource& reading,
+                                   const GoniometerSource& person, RowSink* log, const CycleHooks& hooks) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
   const double period = scenario.period_s;
   const auto decimation = static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * period)));
   const double release_s = g.settle_s - 1.0;
-  const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
-  // The person's elbow (truth) and the goniometer's reading at time t of the run: still at the first
-  // sample during settle_s, then the trace, then its last sample.
-  auto person = [&](double t) { return sample_at(trace.truth_rad, g.sample_rate_Hz, t - g.settle_s); };
-  auto reading = [&](double t) {
-    const double x = (t - g.settle_s) * g.sample_rate_Hz;
-    if (x <= 0.0) return trace.measured_rad.front();
-    const auto i = static_cast<std::size_t>(std::llround(x));
-    return i < trace.measured_rad.size() ? trace.measured_rad[i] : trace.measured_rad.back();
-  };
-
-  sim::RightArmPlantParams plant_params = scenario.plant;
-  plant_params.initial_q_rad[0] = g.sfe_rad;
-  plant_params.initial_q_rad[1] = trace.truth_rad.front();
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  // The operator holds the arm where it starts while the compensation comes on, then lets go.
-  plant_params.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, {g.sfe_rad, trace.truth_rad.front(), nan}});
-  sim::RightArmBackend plant(plant_params);
   control::ArmController controller(scenario.controller);
   controller.set_mode(kElbow, control::ArmJointMode::kCommanded);
   safety::LimitsData limits_data;
@@ -223,21 +242,34 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
   Eigen::VectorXd q = Eigen::VectorXd::Zero(dof), qd = Eigen::VectorXd::Zero(dof), qdd = Eigen::VectorXd::Zero(dof);
 
   GoniometerResult r;
-  r.name = trace.name;
+  r.name = name;
   r.variant = variant;
   const bool feedback = variant == GoniometerVariant::kFeedback;
   r.min_wire_tension_N = std::numeric_limits<double>::infinity();
   r.filter_delay_s = derivative.group_delay_s(0.0);
   const auto steps = static_cast<std::size_t>(std::llround(duration_s / period));
   std::vector<double> exo(steps + 1), truth(steps + 1), sfe(steps + 1);
+  std::vector<double> row(goniometer_log_columns().size());
   io::SensorState state;
   io::Command command;
   control::FilteredDerivative::Derivatives d;
   double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
   bool safe = true;
+  std::size_t done = steps;
   const auto wall_start = std::chrono::steady_clock::now();
   for (std::size_t k = 0; k <= steps; ++k) {
-    plant.read(state);
+    if (hooks.wait) hooks.wait();
+    if (!backend.read(state)) {  // no new sample: hold the last command
+      exo[k] = k ? exo[k - 1] : 0.0;
+      sfe[k] = k ? sfe[k - 1] : 0.0;
+      truth[k] = k ? truth[k - 1] : 0.0;
+      if (hooks.after && !hooks.after(state, command, 0)) {
+        done = k;
+        break;
+      }
+      if (k < steps) backend.write(command);
+      continue;
+    }
     const double t = state.time_s;
     if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
       goniometer = reading(t);
@@ -256,48 +288,59 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
     r.peak_torque_command_Nm = std::max(r.peak_torque_command_Nm, std::abs(tau_cmd));
     controller.set_desired_torque(kElbow, tau_cmd);
     controller.update(state, command);
-    safety::apply_limits(scenario.limits, limits_data, state, command);
-    const sim::RightArmTruth& tr = plant.truth();
-    exo[k] = tr.q_rad[kElbow];
-    sfe[k] = tr.q_rad[0];
-    truth[k] = person(t);
+    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
+    const sim::RightArmTruth* tr = sim ? &sim->truth() : nullptr;
+    // Without the simulator: the exoskeleton by its encoders, the person by the goniometer.
+    exo[k] = tr ? tr->q_rad[kElbow] : state.joints[kElbow].angle_rad;
+    sfe[k] = tr ? tr->q_rad[0] : state.joints[0].angle_rad;
+    truth[k] = person ? person(t) : goniometer;
     double tension_min = std::numeric_limits<double>::infinity();
-    for (std::size_t a = 0; a < tr.actuators.size(); ++a) {
-      const sim::PehaJointTruth& j = tr.actuators[a];
+    for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       const models::JointModel& jm = scenario.controller.joints[a].actuator;
-      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
-      tension_min = std::min({tension_min, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
-      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
-      safe = safe && j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) &&
-             j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
-             j.pressure_Pa[0] <= scenario.limits.joints[a].supply_pressure_Pa &&
-             j.pressure_Pa[1] <= scenario.limits.joints[a].supply_pressure_Pa &&
-             std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12 &&
-             tr.q_rad[a] >= scenario.limits.joints[a].min_angle_rad - 0.02 && tr.q_rad[a] <= scenario.limits.joints[a].max_angle_rad + 0.02;
+      const safety::JointLimits& lim = scenario.limits.joints[a];
+      const io::JointSensors& s = state.joints[a];
+      const double f[2] = {tr ? tr->actuators[a].muscle_force_N[0] : s.agonist_force_N,
+                           tr ? tr->actuators[a].muscle_force_N[1] : s.antagonist_force_N};
+      const double p[2] = {tr ? tr->actuators[a].pressure_Pa[0] : s.agonist_pressure_Pa,
+                           tr ? tr->actuators[a].pressure_Pa[1] : s.antagonist_pressure_Pa};
+      const double motor = tr ? tr->actuators[a].motor_torque_Nm : command.joints[a].motor_torque_Nm;
+      const double angle = tr ? tr->q_rad[a] : s.angle_rad;
+      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, f[0], f[1]});
+      tension_min = std::min({tension_min, tr ? tr->actuators[a].pulley_tension_min_N[0] : f[0],
+                              tr ? tr->actuators[a].pulley_tension_min_N[1] : f[1]});
+      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(motor));
+      safe = safe && f[0] <= models::force_ceiling_N(jm.agonist) && f[1] <= models::force_ceiling_N(jm.antagonist) &&
+             p[0] <= lim.supply_pressure_Pa && p[1] <= lim.supply_pressure_Pa && std::abs(motor) <= jm.motor_max_torque_Nm + 1e-12 &&
+             angle >= lim.min_angle_rad - 0.02 && angle <= lim.max_angle_rad + 0.02;
     }
     r.min_wire_tension_N = std::min(r.min_wire_tension_N, tension_min);
-    if (log && log->begin_row()) {
-      const sim::PehaJointTruth& e = tr.actuators[kElbow];
+    if (log) {
       const auto& diag = controller.diagnostics();
       const io::JointSensors& s = state.joints[kElbow];
       const io::JointCommand& c = command.joints[kElbow];
-      const double values[] = {t, tr.operator_active ? 1.0 : 0.0, truth[k] / kDeg, goniometer / kDeg, d.value / kDeg, d.rate / kDeg,
-                               d.acceleration / kDeg, tau_cmd, exo[k] / kDeg, s.angle_rad / kDeg, sfe[k] / kDeg,
-                               diag[0].torque_gravity_Nm, c.motor_torque_Nm, c.agonist_pressure_Pa * 1e-6,
-                               c.antagonist_pressure_Pa * 1e-6, s.agonist_force_N, s.antagonist_force_N, e.muscle_force_N[0],
-                               e.muscle_force_N[1], tension_min};
-      for (std::size_t i = 0; i < std::size(values); ++i) log->set(i, values[i]);
+      bool operator_active = tr ? tr->operator_active : t < release_s;
+      row = {t, operator_active ? 1.0 : 0.0, truth[k] / kDeg, goniometer / kDeg, d.value / kDeg, d.rate / kDeg,
+             d.acceleration / kDeg, tau_cmd, tr ? exo[k] / kDeg : nan, s.angle_rad / kDeg, sfe[k] / kDeg,
+             diag[0].torque_gravity_Nm, c.motor_torque_Nm, c.agonist_pressure_Pa * 1e-6,
+             c.antagonist_pressure_Pa * 1e-6, s.agonist_force_N, s.antagonist_force_N,
+             tr ? tr->actuators[kElbow].muscle_force_N[0] : nan, tr ? tr->actuators[kElbow].muscle_force_N[1] : nan, tension_min};
+      log->push_row(row);
     }
-    if (k < steps) plant.write(command);
+    if (hooks.after && !hooks.after(state, command, flags)) {
+      done = k;
+      break;
+    }
+    if (k < steps) backend.write(command);
   }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.within_limits = safe && r.min_wire_tension_N > 0.0;
 
   // Tracking from the release to the end: raw error, and the lag that best aligns the two.
-  const auto k0 = static_cast<std::size_t>(std::llround(release_s / period));
+  const auto k0 = std::min(static_cast<std::size_t>(std::llround(release_s / period)), done);
+  const std::size_t steps_done = done;
   double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
-  for (std::size_t k = k0; k <= steps; ++k) {
+  for (std::size_t k = k0; k <= steps_done; ++k) {
     const double e = exo[k] - truth[k];
     sum += e * e;
     r.max_error_deg = std::max(r.max_error_deg, std::abs(e) / kDeg);
@@ -305,17 +348,17 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
     hi = std::max(hi, truth[k]);
     r.shoulder_excursion_deg = std::max(r.shoulder_excursion_deg, std::abs(sfe[k] - sfe[k0]) / kDeg);
   }
-  r.rms_error_deg = std::sqrt(sum / static_cast<double>(steps - k0 + 1)) / kDeg;
+  r.rms_error_deg = std::sqrt(sum / static_cast<double>(steps_done - k0 + 1)) / kDeg;
   r.range_deg = (hi - lo) / kDeg;
   const auto max_lag = static_cast<std::size_t>(std::llround(g.max_delay_s / period));
   double best = std::numeric_limits<double>::infinity();
-  for (std::size_t lag = 0; lag <= max_lag && k0 + lag < steps; ++lag) {
+  for (std::size_t lag = 0; lag <= max_lag && k0 + lag < steps_done; ++lag) {
     double s2 = 0.0;
-    for (std::size_t k = k0 + lag; k <= steps; ++k) {
+    for (std::size_t k = k0 + lag; k <= steps_done; ++k) {
       const double e = exo[k] - truth[k - lag];
       s2 += e * e;
     }
-    const double rms = std::sqrt(s2 / static_cast<double>(steps - k0 - lag + 1));
+    const double rms = std::sqrt(s2 / static_cast<double>(steps_done - k0 - lag + 1));
     if (rms < best) {
       best = rms;
       r.delay_s = static_cast<double>(lag) * period;

@@ -19,6 +19,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -74,8 +75,29 @@ struct GoniometerResult {
 
 const std::vector<std::string>& goniometer_log_columns();
 
-/// Runs E4 for one trace. `log` (optional) gets one row per control cycle.
+/// Runs E4 for one trace on the in-process simulated arm. `log` (optional) gets one row per cycle.
 GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
-                                CsvLog* log);
+                                RowSink* log);
+
+/// The goniometer's reading (rad) at time t_s of an E4 run: the trace's first sample during
+/// settle_s, then the trace, then its last sample. What the board emulator puts on the goniometer's
+/// AD channel.
+double goniometer_reading(const ArmScenario& scenario, const GoniometerTrace& trace, double t_s) noexcept;
+/// How long an E4 run of `trace` lasts: settle_s + the trace + tail_s.
+double goniometer_run_duration_s(const ArmScenario& scenario, const GoniometerTrace& trace);
+/// The simulated arm of an E4 run: shoulder at goniometer.sfe_deg, elbow where the person starts,
+/// the operator holding it until settle_s - 1.
+sim::RightArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace);
+
+/// A goniometer angle (rad) as a function of the run's time (s).
+using GoniometerSource = std::function<double(double t_s)>;
+
+/// E4 on any backend. `reading` gives the goniometer (sampled every 1/sample_rate_Hz); `person`
+/// the person's true elbow for the figures (empty: the goniometer's reading is all that is known,
+/// as over the board). `sim` (optional) is the in-process arm for truth figures; without it the
+/// exoskeleton's elbow is its encoder and forces are the load cells'.
+GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
+                                   io::Backend& backend, const sim::RightArmBackend* sim, const GoniometerSource& reading,
+                                   const GoniometerSource& person, RowSink* log, const CycleHooks& hooks = {});
 
 }  // namespace peha::runtime
