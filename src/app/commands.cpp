@@ -408,6 +408,45 @@ int run_goniometer(const RunOptions& options, const config::Document& doc, runti
   return safe ? 0 : 3;
 }
 
+int run_goniometer_on_board(const RunOptions& options, const config::Document& doc, runtime::ArmScenario& scenario,
+                            runtime::RealtimeRunOptions realtime) {
+  const auto& g = scenario.goniometer;
+  std::size_t index = g.movements.size();
+  for (std::size_t i = 0; i < g.movements.size(); ++i) {
+    if (g.movements[i].name == options.only_case) index = i;
+  }
+  if (index == g.movements.size()) {
+    std::string names;
+    for (const auto& m : g.movements) names += (names.empty() ? "" : ", ") + m.name;
+    fmt::print(stderr, "error: E4 on the board runs one movement: give --case NAME ({}); the emulator needs --case goniometer_NAME\n",
+               names);
+    return 2;
+  }
+  const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
+  const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
+  realtime.dir = dir;
+  fmt::print("peha run: {} --experiment goniometer (E4) on the board at udp://{}, movement {}, both variants\n", doc.name(),
+             realtime.board.to_string(), g.movements[index].name);
+  std::fflush(stdout);
+  bool safe = true;
+  std::vector<runtime::GoniometerRealtimeResult> results;
+  for (const auto variant : {runtime::GoniometerVariant::kOpenLoop, runtime::GoniometerVariant::kFeedback}) {
+    results.push_back(runtime::run_goniometer_realtime(scenario, index, variant, realtime));
+    print_realtime(results.back(), dir / fmt::format("timing_{}", runtime::to_string(variant)));
+  }
+  fmt::print("\n{:<10} {:>9} {:>10} {:>10} {:>9} {:>12}   (person = the goniometer's reading, exo = the elbow encoder)\n",
+             "variant", "range", "RMS error", "max error", "delay", "RMS aligned");
+  for (const auto& rr : results) {
+    const auto& r = rr.goniometer;
+    safe = safe && r.within_limits && rr.faults == 0;
+    fmt::print("{:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg; safety {}, faults {}\n",
+               runtime::to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
+               r.within_limits ? "OK" : "VIOLATED", rr.faults);
+  }
+  link_latest(options, run_name);
+  return safe ? 0 : 3;
+}
+
 int run_arm(const RunOptions& options, const config::Document& doc) {
   if (options.experiment != "postures" && options.experiment != "bandwidth" && options.experiment != "goniometer") {
     fmt::print(stderr, "error: {} is a right-arm scenario: give --experiment postures|goniometer|bandwidth\n", doc.name());
@@ -421,9 +460,13 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
   std::optional<runtime::RealtimeRunOptions> realtime;
   if (!options.backend.empty()) {
-    if (options.experiment != "postures") {
-      fmt::print(stderr, "error: over the board (--backend) the right arm runs --experiment postures (E3); {} runs in-process only\n",
-                 options.experiment);
+    if (options.experiment == "bandwidth") {
+      fmt::print(stderr, "error: E6 (--experiment bandwidth) runs in-process only: it needs the joint's true delivered torque, "
+                         "which no board sensor measures\n");
+      return 2;
+    }
+    if (!options.goniometer_csv.empty()) {
+      fmt::print(stderr, "error: over the board the goniometer is the board's AD channel; --goniometer-csv is for in-process runs\n");
       return 2;
     }
     if (!scenario.link) {
@@ -434,7 +477,8 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
     if (!realtime) return 2;
   }
   if (options.experiment == "bandwidth") return run_bandwidth(options, doc, scenario);
-  if (options.experiment == "goniometer") return run_goniometer(options, doc, scenario);
+  if (options.experiment == "goniometer") return realtime ? run_goniometer_on_board(options, doc, scenario, *realtime)
+                                                          : run_goniometer(options, doc, scenario);
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
   const double duration_s = 2.0 + 0.2 * scenario.observe_s +
@@ -726,15 +770,37 @@ int mfb_emulator_arm(const EmulatorOptions& options, const config::Document& doc
     fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
     return 2;
   }
-  if (!options.case_name.empty() && options.case_name != "postures") {
-    fmt::print(stderr, "error: the right arm's board serves E3 (--case postures); '{}' runs in-process only\n", options.case_name);
-    return 2;
-  }
   const mfb::EmulatorParams p = emulator_params(options, scenario.period_s, *scenario.link);
-  const sim::RightArmPlantParams plant = runtime::postures_plant_params(scenario);
-  mfb::BoardEmulator board(p, mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), runtime::arm_joint_names(scenario)),
-                           [plant] { return std::make_unique<sim::RightArmBackend>(plant); });
-  return serve(board, p, options, fmt::format("right arm with the operator's E3 script ({} postures)", scenario.postures.size()));
+  const mfb::ChannelMap map =
+      mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), runtime::arm_joint_names(scenario));
+  if (options.case_name.empty() || options.case_name == "postures") {
+    const sim::RightArmPlantParams plant = runtime::postures_plant_params(scenario);
+    mfb::BoardEmulator board(p, map, [plant] { return std::make_unique<sim::RightArmBackend>(plant); });
+    return serve(board, p, options, fmt::format("right arm with the operator's E3 script ({} postures)", scenario.postures.size()));
+  }
+  // E4: the arm where the person starts, and the person's goniometer on its AD channel.
+  const auto& g = scenario.goniometer;
+  for (std::size_t i = 0; i < g.movements.size(); ++i) {
+    if (options.case_name != "goniometer_" + g.movements[i].name) continue;
+    if (!map.has_goniometer(1)) {
+      fmt::print(stderr, "config error: {}: no R_EFE.goniometer channel to put the person's elbow on\n",
+                 scenario.link->channel_map.string());
+      return 2;
+    }
+    const runtime::GoniometerTrace trace = runtime::synthesize_goniometer(g, g.movements[i], scenario.seed + i);
+    const sim::RightArmPlantParams plant = runtime::goniometer_plant_params(scenario, trace);
+    mfb::BoardEmulator board(p, map, [plant] { return std::make_unique<sim::RightArmBackend>(plant); });
+    const mfb::AnalogChannel channel = map.joint(1).goniometer;
+    board.set_input_hook([&scenario, trace, channel](double t_s, mfb::BoardInputs& in) {
+      bool clamped = false;
+      in.ad[static_cast<std::size_t>(channel.channel)] = channel.to_code(runtime::goniometer_reading(scenario, trace, t_s), clamped);
+    });
+    return serve(board, p, options, fmt::format("right arm, E4: a person's elbow '{}' on the goniometer channel", trace.name));
+  }
+  std::string cases = "postures";
+  for (const auto& m : g.movements) cases += ", goniometer_" + m.name;
+  fmt::print(stderr, "error: the right arm's board serves --case {}; found '{}'\n", cases, options.case_name);
+  return 2;
 }
 
 int mfb_emulator(const EmulatorOptions& options) {

@@ -46,8 +46,9 @@ int main(int argc, char** argv) {
                       "sampled at the config's goniometer.sample_rate_Hz) instead of the config's synthetic movements")
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--backend", run.backend,
-                      "E1 only: run on a multifunction board over UDP instead of the in-process simulator,\n"
-                      "e.g. udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
+                      "Run on a multifunction board over UDP instead of the in-process simulator, e.g.\n"
+                      "udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
+                      "E1 (one case: --case), E3 postures, E4 goniometer (one movement: --case slow|brisk); not E6.\n"
                       "Runs in real time at the config's control period with timing statistics (docs/runtime.md)");
   run_cmd->add_option("--rt-priority", run.fifo_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
       ->capture_default_str()->check(CLI::Range(0, 99));
@@ -116,7 +117,7 @@ int main(int argc, char** argv) {
       "state packets it sends. Runs until Ctrl-C, --max-runtime or --sessions.");
   emu_cmd->add_option("-c,--config", emu.config, "Rig scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
   emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (payload) to simulate (needed when the config\n"
-                                               "has several). Right arm: postures (E3, the default and only one)");
+                                               "has several). Right arm: postures (E3, the default) or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
       ->capture_default_str()->check(CLI::Range(0, 65535));

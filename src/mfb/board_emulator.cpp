@@ -127,6 +127,7 @@ void BoardEmulator::send_state(std::int64_t now) noexcept {
   const bool estop = params_.faults.estop_from_s >= 0 && t >= params_.faults.estop_from_s &&
                      t < params_.faults.estop_from_s + params_.faults.estop_for_s;
   map_.encode_inputs(state_, estop, in);
+  if (input_hook_) input_hook_(state_.time_s, in);
   s.ad = in.ad;
   s.encoder = in.encoder;
   s.digital_in = in.digital_in;

@@ -132,6 +132,16 @@ TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
   const Result bad_url = run("run --no-plot --case payload_2.5kg --backend udp://localhost:9" + config);
   EXPECT_EQ(bad_url.code, 2) << bad_url.output;
   EXPECT_THAT(bad_url.output, HasSubstr("'localhost' is not a numeric IPv4 address"));
+  const std::string arm = std::string(" --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml";
+  const Result e6 = run("run --no-plot --experiment bandwidth --backend udp://127.0.0.1:9" + arm);
+  EXPECT_EQ(e6.code, 2) << e6.output;
+  EXPECT_THAT(e6.output, HasSubstr("runs in-process only"));
+  const Result e4 = run("run --no-plot --experiment goniometer --backend udp://127.0.0.1:9" + arm);
+  EXPECT_EQ(e4.code, 2) << e4.output;
+  EXPECT_THAT(e4.output, HasSubstr("give --case NAME (slow, brisk)"));
+  const Result board_case = run("mfb-emulator --case nonsense" + arm);
+  EXPECT_EQ(board_case.code, 2) << board_case.output;
+  EXPECT_THAT(board_case.output, HasSubstr("--case postures, goniometer_slow, goniometer_brisk"));
   const Result run_help = run("run --help");
   for (const char* option : {"--backend", "--rt-priority", "--cpu", "--telemetry", "--recover-after"}) {
     EXPECT_THAT(run_help.output, HasSubstr(option));

@@ -78,6 +78,9 @@ class BoardEmulator {
 
   /// The bound address (port chosen by the kernel when asked for 0).
   const io::UdpEndpoint& local() const noexcept { return socket_.local(); }
+  /// Inputs the simulator does not have (e.g. a person's goniometer for E4): called with the
+  /// simulated time (s) after the channel map has encoded the simulator's sensors, before sending.
+  void set_input_hook(std::function<void(double t_s, BoardInputs& inputs)> hook) { input_hook_ = std::move(hook); }
   /// Serves until `stop` is set, max_runtime_s passes or `sessions` sessions have ended.
   void run(const std::atomic<bool>& stop);
   const EmulatorStats& stats() const noexcept { return stats_; }
@@ -92,6 +95,7 @@ class BoardEmulator {
   EmulatorParams params_;
   ChannelMap map_;
   std::function<std::unique_ptr<io::Backend>()> make_plant_;
+  std::function<void(double, BoardInputs&)> input_hook_;
   io::UdpSocket socket_;
   std::unique_ptr<io::Backend> plant_;
   CommandFilter filter_;

@@ -85,6 +85,8 @@ class UdpBackend final : public io::Backend {
   std::uint32_t session_id() const noexcept { return session_; }
   const ChannelMap& channel_map() const noexcept { return map_; }
   const io::UdpEndpoint& local() const noexcept { return socket_.local(); }
+  /// The goniometer of io joint `joint` in the newest sample, rad (NaN if the map has none).
+  double goniometer_rad(int joint) const noexcept { return map_.goniometer_rad(last_inputs_, joint); }
   /// A sample's e-stop input (from the last accepted packet's digital lines).
   bool estop_input() const noexcept { return map_.estop_active(last_inputs_); }
   /// Starts a new session (new id, fresh filter) - after a fault, before connect() again.
