@@ -177,18 +177,11 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   std::size_t tracking_count = 0;
   std::array<double, 25> row{};
   const auto wall_start = std::chrono::steady_clock::now();
-  for (std::size_t k = 0; k <= steps; ++k) {
-    if (hooks.wait) hooks.wait();
-    if (!backend.read(state)) {  // no new sample: hold the last command (it also feeds the board's watchdog)
-      ++r.missed_samples;
-      angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
-      if (hooks.after && !hooks.after(state, command, 0)) {  // the hook still sees the silence
-        angle_truth.resize(k + 1);
-        break;
-      }
-      if (k < steps) backend.write(command);
-      continue;
-    }
+  auto hold = [&](std::size_t k) {  // no new sample: the command is held
+    ++r.missed_samples;
+    angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
+  };
+  auto step = [&](std::size_t k) -> std::uint32_t {
     controller.update(state, command);
     const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
     const io::JointSensors& s = state.joints[0];
@@ -232,12 +225,9 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
              t ? t->cable_friction_Nm : nan, t ? t->constraint_torque_Nm : nan, static_cast<double>(flags)};
       log->push_row(row);
     }
-    if (hooks.after && !hooks.after(state, command, flags)) {
-      angle_truth.resize(k + 1);
-      break;
-    }
-    if (k < steps) backend.write(command);
-  }
+    return flags;
+  };
+  angle_truth.resize(run_cycles(backend, hooks, steps, state, command, step, hold) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = angle_truth.size() - 1;  // a run ended early analyses what it has
   r.simulated_s = static_cast<double>(done) * scenario.period_s;

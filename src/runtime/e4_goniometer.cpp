@@ -255,21 +255,13 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   control::FilteredDerivative::Derivatives d;
   double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
   bool safe = true;
-  std::size_t done = steps;
   const auto wall_start = std::chrono::steady_clock::now();
-  for (std::size_t k = 0; k <= steps; ++k) {
-    if (hooks.wait) hooks.wait();
-    if (!backend.read(state)) {  // no new sample: hold the last command
-      exo[k] = k ? exo[k - 1] : 0.0;
-      sfe[k] = k ? sfe[k - 1] : 0.0;
-      truth[k] = k ? truth[k - 1] : 0.0;
-      if (hooks.after && !hooks.after(state, command, 0)) {
-        done = k;
-        break;
-      }
-      if (k < steps) backend.write(command);
-      continue;
-    }
+  auto hold = [&](std::size_t k) {  // no new sample: the command is held
+    exo[k] = k ? exo[k - 1] : 0.0;
+    sfe[k] = k ? sfe[k - 1] : 0.0;
+    truth[k] = k ? truth[k - 1] : 0.0;
+  };
+  auto step = [&](std::size_t k) -> std::uint32_t {
     const double t = state.time_s;
     if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
       goniometer = reading(t);
@@ -326,12 +318,9 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
              tr ? tr->actuators[kElbow].muscle_force_N[0] : nan, tr ? tr->actuators[kElbow].muscle_force_N[1] : nan, tension_min};
       log->push_row(row);
     }
-    if (hooks.after && !hooks.after(state, command, flags)) {
-      done = k;
-      break;
-    }
-    if (k < steps) backend.write(command);
-  }
+    return flags;
+  };
+  const std::size_t done = run_cycles(backend, hooks, steps, state, command, step, hold);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.within_limits = safe && r.min_wire_tension_N > 0.0;

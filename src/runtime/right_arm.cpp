@@ -305,19 +305,11 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   io::Command command;
   std::vector<double> row(arm_log_columns().size());
   const auto wall_start = std::chrono::steady_clock::now();
-  std::size_t done = steps;
-  for (std::size_t k = 0; k <= steps; ++k) {
-    if (hooks.wait) hooks.wait();
-    if (!backend.read(state)) {  // no new sample: hold the last command
-      sfe[k] = k ? sfe[k - 1] : 0.0;
-      efe[k] = k ? efe[k - 1] : 0.0;
-      if (hooks.after && !hooks.after(state, command, 0)) {
-        done = k;
-        break;
-      }
-      if (k < steps) backend.write(command);
-      continue;
-    }
+  auto hold = [&](std::size_t k) {  // no new sample: the command is held
+    sfe[k] = k ? sfe[k - 1] : 0.0;
+    efe[k] = k ? efe[k - 1] : 0.0;
+  };
+  auto step = [&](std::size_t k) -> std::uint32_t {
     controller.update(state, command);
     const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
     const sim::RightArmTruth* truth = sim ? &sim->truth() : nullptr;
@@ -368,13 +360,9 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       }
       log->push_row(row);
     }
-    (void)flags;
-    if (hooks.after && !hooks.after(state, command, flags)) {
-      done = k;
-      break;
-    }
-    if (k < steps) backend.write(command);
-  }
+    return flags;
+  };
+  const std::size_t done = run_cycles(backend, hooks, steps, state, command, step, hold);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.within_limits = safe && r.min_wire_tension_N > 0.0;
