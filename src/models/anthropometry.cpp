@@ -149,15 +149,6 @@ ExoArmParams read_exo_arm(config::Map map, const UserArm& sized_for) {
   exo.upper_link = read_link(map.map("upper_link"), sized_for.upper_arm.length_m);
   exo.forearm_link = read_link(map.map("forearm_link"), sized_for.forearm.length_m);
   exo.hand_piece = read_link(map.map("hand_piece"), sized_for.hand.length_m);
-  exo.shoulder_pulley_radius_m = map.number("shoulder_pulley_radius_m", {0.005, 0.2});
-  exo.elbow_pulley_radius_m = map.number("elbow_pulley_radius_m", {0.005, 0.2});
-  {
-    config::Map w = map.map("wrist_pams");
-    exo.wrist.pulley_radius_m = w.number("pulley_radius_m", {0.003, 0.1});
-    exo.wrist.hold_pressure_MPa = w.number("hold_pressure_MPa", {0.0, 0.8});
-    exo.wrist.max_force_N = w.number("max_force_N", {0.0, 2000.0});
-    w.finish();
-  }
   map.finish();
   return exo;
 }

@@ -30,6 +30,18 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   }
 }
 
+// The actuators as the SPEC sizes them (SPEC §1): peak pulley torques at the 2000 N force limit of
+// about 100 Nm (shoulder) and 76 Nm (elbow); the wrist's DMSP-10 pair, no motor, held at 0.25 MPa.
+TEST(RightArmScenario, ActuatorsAreSizedAsSpecified) {
+  const ArmScenario s = shipped();
+  ASSERT_EQ(s.controller.joints.size(), 3u);
+  EXPECT_NEAR(2000.0 * s.controller.joints[0].actuator.pulley_radius_m, 100.0, 1e-9);
+  EXPECT_NEAR(2000.0 * s.controller.joints[1].actuator.pulley_radius_m, 76.0, 1e-9);
+  EXPECT_FALSE(s.controller.joints[2].actuator.has_motor);
+  EXPECT_EQ(s.controller.joints[2].mode, control::ArmJointMode::kHoldPressure);
+  EXPECT_DOUBLE_EQ(s.controller.joints[2].hold_pressure_Pa, 0.25e6);
+}
+
 // The arm's control step (J^T G + three allocations + limits) allocates nothing.
 TEST(ArmController, StepAllocatesNothing) {
   const ArmScenario s = shipped();

@@ -94,23 +94,12 @@ struct ExoLinkParams {
   Eigen::Matrix3d inertia_kgm2() const;      ///< about the COM, link frame
 };
 
-/// The wrist flexion-extension's antagonistic pair of 10 mm PAMs (no motor; held at a constant
-/// pressure in both muscles: a compliant hold, SPEC §1).
-struct WristPamPair {
-  double pulley_radius_m = 0.015;
-  double hold_pressure_MPa = 0.25;
-  double max_force_N = 630.0;                ///< DMSP-10 nominal
-};
-
 /// The exoskeleton arm from the shoulder joint to the tip (SPEC §1; paper §III: < 5 kg).
 struct ExoArmParams {
   double shoulder_height_m = 1.40;           ///< world z of the R_SFE axis
   ExoLinkParams upper_link;                  ///< shoulder -> elbow, carries the elbow's motor/pulley
   ExoLinkParams forearm_link;                ///< elbow -> wrist, carries the wrist pulley
   ExoLinkParams hand_piece;                  ///< beyond the wrist joints (palm plate, WR/WAA bearings)
-  double shoulder_pulley_radius_m = 0.050;   ///< r0 of R_SFE (100 Nm at 2000 N)
-  double elbow_pulley_radius_m = 0.038;      ///< r0 of R_EFE (76 Nm at 2000 N)
-  WristPamPair wrist;                        ///< R_WFE
 
   double total_mass_kg() const { return upper_link.mass_kg + forearm_link.mass_kg + hand_piece.mass_kg; }
 };
@@ -130,9 +119,9 @@ ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double pa
 
 /// Reads an `exoskeleton:` section: shoulder_height_m, upper_link{...}, forearm_link{...},
 /// hand_piece{...} (each: mass_kg, com_fraction, radius_of_gyration_fraction,
-/// axial_radius_of_gyration_m, optional length_m overriding the user's segment length),
-/// shoulder_pulley_radius_m, elbow_pulley_radius_m, wrist_pams{pulley_radius_m, hold_pressure_MPa,
-/// max_force_N}. Link lengths default to `sized_for`'s segments.
+/// axial_radius_of_gyration_m, optional length_m overriding the user's segment length). Link
+/// lengths default to `sized_for`'s segments. The actuators (pulleys, muscles, motors) are the
+/// scenario's (configs/right_arm.yaml), not the body's.
 ExoArmParams read_exo_arm(config::Map map, const UserArm& sized_for);
 
 /// Reads a `user:` section: height_m, mass_kg, optional upper_arm_mass_scale, forearm_mass_scale,
