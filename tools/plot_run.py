@@ -274,7 +274,11 @@ def plot_column(axes, log, title, draw_limit, ff_ylim):
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    cols = log["columns"]
+    # A column that is NaN throughout carries nothing to draw: over the multifunction board the
+    # simulator's truth (plant_*, finger force) is unknown and logged as NaN. Leave such traces out
+    # quietly rather than draw empty legend entries.
+    unknown = [k for k, v in log["columns"].items() if k != "t_s" and np.all(np.isnan(v))]
+    cols = {k: v for k, v in log["columns"].items() if k not in unknown}
     t = cols["t_s"]
     missing = []
     ax_ang, ax_tau, ax_f, ax_p = axes
@@ -383,8 +387,9 @@ def plot_column(axes, log, title, draw_limit, ff_ylim):
         ax.margins(x=0)
 
     for name in missing:
-        warn("%s: column '%s' missing; trace skipped"
-             % (log["path"], name))
+        if name not in unknown:
+            warn("%s: column '%s' missing; trace skipped"
+                 % (log["path"], name))
 
 
 def _peak(cols, names):

@@ -158,6 +158,30 @@ class PlotRunTest(unittest.TestCase):
         self.assertIn("plant_angle_rad", r.stderr)
         self.assert_png(os.path.join(self.tmp, "plot.png"))
 
+    def test_board_run_with_unknown_truth_columns_plots_quietly(self):
+        # Over the multifunction board the simulator's truth is unknown: plant_* and the finger's
+        # force are NaN in every row. They are left out without a warning.
+        path = os.path.join(self.tmp, "e1_payload_2.5kg.csv")
+        write_log(path, 2.5)
+        with open(path) as fh:
+            lines = fh.read().splitlines()
+        header_at = next(i for i, l in enumerate(lines) if not l.startswith("#"))
+        names = lines[header_at].split(",")
+        nan_cols = [names.index(c) for c in names if c.startswith("plant_") or c == "finger_force_N"]
+        out = lines[:header_at + 1]
+        for line in lines[header_at + 1:]:
+            cells = line.split(",")
+            for i in nan_cols:
+                cells[i] = "nan"
+            out.append(",".join(cells))
+        with open(path, "w") as fh:
+            fh.write("\n".join(out) + "\n")
+        r = self.run_plotter(self.tmp)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertNotIn("plant_angle_rad", r.stderr)
+        self.assertNotIn("finger_force_N", r.stderr)
+        self.assert_png(os.path.join(self.tmp, "plot.png"))
+
     def test_malformed_csv_names_file(self):
         write_log(os.path.join(self.tmp, "good.csv"), 2.5)
         bad = os.path.join(self.tmp, "bad_case.csv")
