@@ -481,8 +481,7 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
                                                           : run_goniometer(options, doc, scenario);
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
-  const double duration_s = 2.0 + 0.2 * scenario.observe_s +
-                            scenario.postures.size() * (scenario.move_s + scenario.hold_s + scenario.observe_s);
+  const double duration_s = runtime::postures_duration_s(scenario);
   fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
              doc.name(), scenario.description, scenario.postures.size(), duration_s, scenario.seed, dir.string());
   runtime::PosturesResult r;
@@ -708,7 +707,7 @@ int check_config(const std::filesystem::path& config) {
                  config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
                  s.plant.model_file.string());
       link = s.link;
-      joints = {"joint"};
+      joints = sim::one_dof_rig_joint_names();
     }
     if (link) {  // the board's channel map must load for the backend's joints
       const mfb::ChannelMap map = mfb::read_channel_map(config::Document::load_file(link->channel_map), joints);
@@ -729,8 +728,7 @@ extern "C" void on_stop_signal(int) { g_stop = true; }
 
 mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double period_s, const runtime::LinkConfig& link) {
   mfb::EmulatorParams p;
-  p.bind = io::parse_udp_endpoint(fmt::format("{}:1", options.bind));
-  p.bind.port = static_cast<std::uint16_t>(options.port);
+  p.bind = {io::parse_ipv4(options.bind), static_cast<std::uint16_t>(options.port)};
   p.period_s = period_s;
   p.watchdog_s = options.watchdog_ms ? *options.watchdog_ms * 1e-3 : link.board_watchdog_s;
   p.vent_s = link.vent_s;
@@ -828,7 +826,7 @@ int mfb_emulator(const EmulatorOptions& options) {
       return 2;
     }
     const mfb::EmulatorParams p = emulator_params(options, scenario.period_s, *scenario.link);
-    const std::vector<std::string> joints = {"joint"};
+    const std::vector<std::string>& joints = sim::one_dof_rig_joint_names();
     const sim::OneDofRigParams plant = runtime::e1_plant_params(scenario, *chosen);
     mfb::BoardEmulator board(p, mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), joints),
                              [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); });

@@ -37,6 +37,14 @@ std::string UdpEndpoint::to_string() const {
   return fmt::format("{}.{}.{}.{}:{}", address >> 24, (address >> 16) & 0xFF, (address >> 8) & 0xFF, address & 0xFF, port);
 }
 
+std::uint32_t parse_ipv4(const std::string& text) {
+  in_addr addr{};
+  if (inet_pton(AF_INET, text.c_str(), &addr) != 1) {
+    throw std::invalid_argument(fmt::format("'{}' is not a numeric IPv4 address", text));
+  }
+  return ntohl(addr.s_addr);
+}
+
 UdpEndpoint parse_udp_endpoint(const std::string& text) {
   std::string rest = text;
   if (rest.rfind("udp://", 0) == 0) rest = rest.substr(6);
@@ -44,10 +52,12 @@ UdpEndpoint parse_udp_endpoint(const std::string& text) {
   if (colon == std::string::npos) {
     throw std::invalid_argument(fmt::format("'{}': expected udp://A.B.C.D:PORT (numeric IPv4 address and a port)", text));
   }
-  in_addr addr{};
   const std::string host = rest.substr(0, colon);
-  if (inet_pton(AF_INET, host.c_str(), &addr) != 1) {
-    throw std::invalid_argument(fmt::format("'{}': '{}' is not a numeric IPv4 address", text, host));
+  std::uint32_t address = 0;
+  try {
+    address = parse_ipv4(host);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(fmt::format("'{}': {}", text, e.what()));
   }
   const std::string port_text = rest.substr(colon + 1);
   unsigned port = 0;
@@ -55,7 +65,7 @@ UdpEndpoint parse_udp_endpoint(const std::string& text) {
   if (ec != std::errc() || ptr != port_text.data() + port_text.size() || port == 0 || port > 65535) {
     throw std::invalid_argument(fmt::format("'{}': port must be 1..65535, found '{}'", text, port_text));
   }
-  return {ntohl(addr.s_addr), static_cast<std::uint16_t>(port)};
+  return {address, static_cast<std::uint16_t>(port)};
 }
 
 UdpSocket::UdpSocket(const UdpEndpoint& local) {

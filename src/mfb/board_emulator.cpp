@@ -49,9 +49,7 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
   // What the DA drives: the command while armed. Once disarmed (watchdog, e-stop, the host's
   // disable), the safe outputs - the motor cut at once, the valves vented along a ramp from where
   // they were, so the arm descends slowly instead of dropping.
-  const double t = state_.time_s;
-  const bool estop = params_.faults.estop_from_s >= 0 && t >= params_.faults.estop_from_s &&
-                     t < params_.faults.estop_from_s + params_.faults.estop_for_s;
+  const bool estop = estop_at(state_.time_s);
   arming_.set_estop(estop);
   if (estop) ++stats_.estop_cycles;
   const std::int64_t now = io::monotonic_ns();
@@ -123,10 +121,7 @@ void BoardEmulator::send_state(std::int64_t now) noexcept {
   s.echo_host_time_ns = last_command_.host_time_ns;
   s.board_time_ns = static_cast<std::uint64_t>(std::llround(state_.time_s * 1e9));
   BoardInputs in;
-  const double t = state_.time_s;
-  const bool estop = params_.faults.estop_from_s >= 0 && t >= params_.faults.estop_from_s &&
-                     t < params_.faults.estop_from_s + params_.faults.estop_for_s;
-  map_.encode_inputs(state_, estop, in);
+  map_.encode_inputs(state_, estop_at(state_.time_s), in);
   if (input_hook_) input_hook_(state_.time_s, in);
   s.ad = in.ad;
   s.encoder = in.encoder;

@@ -52,8 +52,10 @@ void UdpBackend::connect() {
   idle.joint_count = map_.joint_count();
   while (io::monotonic_ns() < give_up) {
     write(idle);
-    drain(io::monotonic_ns() + 20'000'000);  // 20 ms per attempt
-    if (have_new_) return;
+    // Only the reply to this very command counts: state packets the board sent while the host was
+    // busy (free-running, perhaps with a watchdog trip the command has since acknowledged) do not.
+    if (!last_was_reply_) drain(io::monotonic_ns() + 20'000'000);  // 20 ms per attempt
+    if (last_was_reply_) return;
   }
   throw std::runtime_error(fmt::format("no MFB answered at {} within {} s (session {:08x}): is the board (or peha mfb-emulator "
                                        "--port {}) running?",

@@ -9,7 +9,6 @@ const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario) { r
 PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const RealtimeRunOptions& options) {
   if (!scenario.link) throw std::runtime_error("the scenario has no mfb: section (channel map, watchdogs): see docs/runtime.md");
   const auto backend = make_board_backend(*scenario.link, options, scenario.period_s, arm_joint_names(scenario));
-  backend->connect();
   PosturesRealtimeResult res;
   {
     RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, postures_duration_s(scenario), "postures",
@@ -36,7 +35,6 @@ GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, st
   const ArmScenario::Goniometer::Movement& m = scenario.goniometer.movements.at(movement);
   // The movement's length is the protocol's; its samples come from the board.
   const double duration_s = goniometer_run_duration_s(scenario, synthesize_goniometer(scenario.goniometer, m, scenario.seed));
-  backend->connect();
   GoniometerRealtimeResult res;
   {
     RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, duration_s, m.name + "/" + to_string(variant),

@@ -6,8 +6,7 @@ namespace peha::runtime {
 
 E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, const RealtimeRunOptions& options) {
   if (!scenario.link) throw std::runtime_error("the scenario has no mfb: section (channel map, watchdogs): see docs/runtime.md");
-  const auto backend = make_board_backend(*scenario.link, options, scenario.period_s, {"joint"});
-  backend->connect();
+  const auto backend = make_board_backend(*scenario.link, options, scenario.period_s, sim::one_dof_rig_joint_names());
   E1RealtimeResult res;
   {
     RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, scenario.duration_s, c.name,

@@ -288,22 +288,13 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     truth[k] = person ? person(t) : goniometer;
     double tension_min = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
-      const models::JointModel& jm = scenario.controller.joints[a].actuator;
+      const ArmJointSample j = arm_joint_sample(state, command, tr, a);
       const safety::JointLimits& lim = scenario.limits.joints[a];
-      const io::JointSensors& s = state.joints[a];
-      const double f[2] = {tr ? tr->actuators[a].muscle_force_N[0] : s.agonist_force_N,
-                           tr ? tr->actuators[a].muscle_force_N[1] : s.antagonist_force_N};
-      const double p[2] = {tr ? tr->actuators[a].pressure_Pa[0] : s.agonist_pressure_Pa,
-                           tr ? tr->actuators[a].pressure_Pa[1] : s.antagonist_pressure_Pa};
-      const double motor = tr ? tr->actuators[a].motor_torque_Nm : command.joints[a].motor_torque_Nm;
-      const double angle = tr ? tr->q_rad[a] : s.angle_rad;
-      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, f[0], f[1]});
-      tension_min = std::min({tension_min, tr ? tr->actuators[a].pulley_tension_min_N[0] : f[0],
-                              tr ? tr->actuators[a].pulley_tension_min_N[1] : f[1]});
-      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(motor));
-      safe = safe && f[0] <= models::force_ceiling_N(jm.agonist) && f[1] <= models::force_ceiling_N(jm.antagonist) &&
-             p[0] <= lim.supply_pressure_Pa && p[1] <= lim.supply_pressure_Pa && std::abs(motor) <= jm.motor_max_torque_Nm + 1e-12 &&
-             angle >= lim.min_angle_rad - 0.02 && angle <= lim.max_angle_rad + 0.02;
+      const double angle = tr ? tr->q_rad[a] : state.joints[a].angle_rad;
+      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+      tension_min = std::min(tension_min, j.min_tension_N);
+      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
+      safe = safe && arm_joint_within_limits(scenario, a, j) && angle >= lim.min_angle_rad - 0.02 && angle <= lim.max_angle_rad + 0.02;
     }
     r.min_wire_tension_N = std::min(r.min_wire_tension_N, tension_min);
     if (log) {

@@ -44,7 +44,6 @@ RealtimeHarness::RealtimeHarness(mfb::UdpBackend& backend, const LinkConfig& lin
       sink_(log_),
       clock_(period_s) {
   result_.log_file = log_file.string();
-  lifecycle_.apply(Transition::kConfigure, 0.0, "session open: the board answered");
   if (options.telemetry) {
     std::vector<std::string> signals;
     const auto& names = backend.info().joint_names;
@@ -100,6 +99,13 @@ CycleHooks RealtimeHarness::start() {
   previous_sigint_ = std::signal(SIGINT, on_interrupt);
   previous_sigterm_ = std::signal(SIGTERM, on_interrupt);
   result_.realtime = configure_realtime_thread(options_.realtime);
+  // The handshake comes last, right before the enable edge: from the board's first answer until
+  // an enabled command it holds its safe outputs and its plant vents (tens of ms of set-up here -
+  // log, threads, mlockall of the whole process - would start the run from a sagging arm, and
+  // more than the board's watchdog would trip it). The reply also carries the board's status as of
+  // now: a trip latched earlier is acknowledged by the handshake's disabled command.
+  backend_.connect();
+  lifecycle_.apply(Transition::kConfigure, 0.0, "session open: the board answered");
   backend_.set_enable(true);
   lifecycle_.apply(Transition::kActivate, 0.0, "enable edge sent");
   clock_.start();

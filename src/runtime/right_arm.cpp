@@ -267,19 +267,35 @@ sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
 }
 
 std::vector<double> postures_release_times_s(const ArmScenario& scenario) {
+  // The operator lets go at the end of each posture's move (the script's moves after "start").
+  const std::vector<sim::OperatorMove>& moves = postures_plant_params(scenario).operator_hands.moves;
   std::vector<double> release_s;
-  double t = 2.0 + scenario.observe_s * 0.2;
-  for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
-    t += scenario.move_s + scenario.hold_s;
-    release_s.push_back(t);
-    t += scenario.observe_s;
-  }
+  for (std::size_t i = 1; i < moves.size(); ++i) release_s.push_back(moves[i].start_s + moves[i].duration_s);
   return release_s;
 }
 
-double postures_duration_s(const ArmScenario& scenario) {
-  return 2.0 + scenario.observe_s * 0.2 +
-         static_cast<double>(scenario.postures.size()) * (scenario.move_s + scenario.hold_s + scenario.observe_s);
+double postures_duration_s(const ArmScenario& scenario) { return postures_release_times_s(scenario).back() + scenario.observe_s; }
+
+ArmJointSample arm_joint_sample(const io::SensorState& state, const io::Command& command, const sim::RightArmTruth* truth,
+                                std::size_t joint) noexcept {
+  ArmJointSample j;
+  if (truth) {
+    const sim::PehaJointTruth& t = truth->actuators[joint];
+    j = {{t.muscle_force_N[0], t.muscle_force_N[1]}, std::min(t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]),
+         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm};
+  } else {
+    const io::JointSensors& s = state.joints[joint];
+    j = {{s.agonist_force_N, s.antagonist_force_N}, std::min(s.agonist_force_N, s.antagonist_force_N),
+         {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, command.joints[joint].motor_torque_Nm};
+  }
+  return j;
+}
+
+bool arm_joint_within_limits(const ArmScenario& scenario, std::size_t joint, const ArmJointSample& j) noexcept {
+  const models::JointModel& jm = scenario.controller.joints[joint].actuator;
+  const double supply_Pa = scenario.limits.joints[joint].supply_pressure_Pa;
+  return j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) && j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
+         j.pressure_Pa[0] <= supply_Pa && j.pressure_Pa[1] <= supply_Pa && std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
 }
 
 PosturesResult run_postures(const ArmScenario& scenario, RowSink* log) {
@@ -322,27 +338,11 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
     efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
-      const models::JointModel& jm = scenario.controller.joints[a].actuator;
-      if (truth) {
-        const sim::PehaJointTruth& j = truth->actuators[a];
-        r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
-        r.min_wire_tension_N = std::min({r.min_wire_tension_N, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
-        r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
-        safe = safe && j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) &&
-               j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
-               j.pressure_Pa[0] <= scenario.limits.joints[a].supply_pressure_Pa &&
-               j.pressure_Pa[1] <= scenario.limits.joints[a].supply_pressure_Pa &&
-               std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
-      } else {
-        const io::JointSensors& s = state.joints[a];
-        r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, s.agonist_force_N, s.antagonist_force_N});
-        r.min_wire_tension_N = std::min({r.min_wire_tension_N, s.agonist_force_N, s.antagonist_force_N});
-        safe = safe && s.agonist_force_N <= models::force_ceiling_N(jm.agonist) &&
-               s.antagonist_force_N <= models::force_ceiling_N(jm.antagonist) &&
-               s.agonist_pressure_Pa <= scenario.limits.joints[a].supply_pressure_Pa &&
-               s.antagonist_pressure_Pa <= scenario.limits.joints[a].supply_pressure_Pa &&
-               std::abs(command.joints[a].motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
-      }
+      const ArmJointSample j = arm_joint_sample(state, command, truth, a);
+      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+      r.min_wire_tension_N = std::min(r.min_wire_tension_N, j.min_tension_N);
+      if (truth) r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
+      safe = safe && arm_joint_within_limits(scenario, a, j);
     }
     if (log) {
       std::size_t col = 0;

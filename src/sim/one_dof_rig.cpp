@@ -31,6 +31,11 @@ OneDofRigParams read_one_dof_rig(config::Map& plant, double control_period_s, do
   return p;
 }
 
+const std::vector<std::string>& one_dof_rig_joint_names() {
+  static const std::vector<std::string> names = {"joint"};
+  return names;
+}
+
 OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
     : params_(params),
       model_(load_mjcf(params.model_file)),
@@ -62,7 +67,7 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
   mj_forward(m, data_.get());
 
   info_.name = "sim:one_dof_rig";
-  info_.joint_names = {"joint"};
+  info_.joint_names = one_dof_rig_joint_names();
   info_.period_s = params_.control_period_s;
   state_.joint_count = 1;
   sample();

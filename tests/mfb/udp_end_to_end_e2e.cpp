@@ -169,7 +169,9 @@ TEST(MfbEndToEnd, DelayedPacketsAreCountedAsLateAndTheLoopRunsOnOlderSamples) {
   EXPECT_GT(r.link.late_replies, 1500u);             // of ~2000 commands
   EXPECT_GT(r.link.received.accepted, 1500u);        // ... yet the samples arrive, late
   EXPECT_EQ(r.link.received.stale + r.link.received.duplicate + r.link.received.malformed, 0u);
-  EXPECT_EQ(r.faults, 0u);
+  std::string lifecycle;
+  for (const auto& e : r.lifecycle) lifecycle += e + "\n";
+  EXPECT_EQ(r.faults, 0u) << lifecycle << r.timing.table();
   EXPECT_GT(r.timing.rtt.count(), 1500u);
   EXPECT_GT(r.timing.rtt.percentile(50), 3e-3);
   EXPECT_TRUE(r.e1.within_limits);
@@ -223,6 +225,42 @@ TEST(MfbEndToEnd, BoardWatchdogFiresWhenTheHostStops) {
   const int code = emulator.process.stop(SIGTERM);
   EXPECT_EQ(code, 0);
   EXPECT_NE(emulator.process.output().find("1 watchdog trip(s)"), std::string::npos) << emulator.process.output();
+}
+
+// A host that opened the session early and then paused longer than the board's watchdog (here
+// 400 ms against 100 ms): the board released the session and latched a trip meanwhile. The
+// harness's own handshake right before the enable edge re-confirms the session and acknowledges
+// the trip, so the run starts clean - no fault - and the free-running samples of the pause are not
+// taken as replies. (A late handshake is also why set-up no longer sits between handshake and enable:
+// the first cycle saw exactly this latched trip and faulted, CI 2026-11-22.)
+TEST(MfbEndToEnd, ASetUpLongerThanTheBoardWatchdogDoesNotFaultTheRun) {
+  Emulator emulator({"--watchdog-ms", "100"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const E1Scenario s = scenario(1.0);
+  const E1Case& c = s.cases.front();
+  const RealtimeRunOptions o = options(emulator.port, "slow_setup");
+  const auto backend = make_board_backend(*s.link, o, s.period_s, sim::one_dof_rig_joint_names());
+  backend->connect();
+  std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the board's watchdog fires meanwhile
+  E1RealtimeResult r;
+  {
+    RealtimeHarness harness(*backend, *s.link, o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(), {});
+    const CycleHooks hooks = harness.start();
+    r.e1 = run_e1_on(s, c, *backend, nullptr, &harness.sink(), hooks);
+    harness.finish(r);
+  }
+  std::string lifecycle;
+  for (const auto& e : r.lifecycle) lifecycle += e + "\n";
+  EXPECT_EQ(r.faults, 0u) << lifecycle;
+  EXPECT_GT(r.timing.rtt.count(), 900u);  // ~1000 cycles, answered
+  EXPECT_LT(r.timing.rtt.percentile(50), 0.1);  // the free-running samples of the pause were not taken as replies
+  // The board held its safe outputs through the pause (vented: the wires went slack, which the
+  // tension figure reports); from there the controller ramps up within the force and pressure limits.
+  EXPECT_LT(r.e1.peak_muscle_force_N[0], 2000.0);
+  EXPECT_LE(r.e1.max_pressure_MPa, 0.8);
+  emulator.process.stop(SIGTERM);
+  // The pause did trip the board's watchdog (and the end of the run may trip it once more).
+  EXPECT_EQ(emulator.process.output().find(" 0 watchdog trip(s)"), std::string::npos) << emulator.process.output();
 }
 
 // The board dies mid-run (SIGKILL): the host notices within its 20 ms watchdog, goes to fault,

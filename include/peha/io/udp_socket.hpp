@@ -21,6 +21,9 @@ struct UdpEndpoint {
   std::string to_string() const;  ///< "127.0.0.1:50000"
 };
 
+/// Parses a numeric IPv4 address "A.B.C.D" (host byte order). Throws std::invalid_argument.
+std::uint32_t parse_ipv4(const std::string& text);
+
 /// Parses "udp://A.B.C.D:PORT" or "A.B.C.D:PORT" (numeric IPv4 only, port 1..65535).
 /// Throws std::invalid_argument naming what is wrong.
 UdpEndpoint parse_udp_endpoint(const std::string& text);

@@ -91,6 +91,11 @@ class BoardEmulator {
   void transmit(const std::uint8_t* bytes, std::size_t n, std::int64_t at_ns) noexcept;
   void flush_delayed(std::int64_t now) noexcept;
   double uniform() noexcept;
+  /// The injected e-stop input at simulated time t_s.
+  bool estop_at(double t_s) const noexcept {
+    return params_.faults.estop_from_s >= 0 && t_s >= params_.faults.estop_from_s &&
+           t_s < params_.faults.estop_from_s + params_.faults.estop_for_s;
+  }
 
   EmulatorParams params_;
   ChannelMap map_;

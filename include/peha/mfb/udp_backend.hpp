@@ -48,8 +48,13 @@ class UdpBackend final : public io::Backend {
  public:
   UdpBackend(const UdpBackendParams& params, ChannelMap map);
 
-  /// Opens the session: sends commands with outputs disabled until the board answers with a
-  /// state packet of this session. Throws std::runtime_error after connect_timeout_s.
+  /// Opens (or re-confirms) the session: sends commands with outputs disabled until the board
+  /// answers one of them with its reply (a state packet of this session acknowledging that
+  /// command). The disabled command also acknowledges a watchdog trip the board may have latched
+  /// meanwhile, so the reply carries the board's status as of now, not a stale one. Calling it
+  /// again re-confirms the session (same id). Until an enabled command follows, the board holds
+  /// its safe outputs: send the enable edge right after.
+  /// Throws std::runtime_error after connect_timeout_s.
   void connect();
 
   const io::BackendInfo& info() const override { return info_; }
@@ -79,8 +84,6 @@ class UdpBackend final : public io::Backend {
     new_rtt_ = false;
     return fresh;
   }
-  /// True if the last write()'s command was answered within receive_timeout_s.
-  bool last_read_was_reply() const noexcept { return last_was_reply_; }
   const UdpLinkStats& stats() const noexcept { return stats_; }
   std::uint32_t session_id() const noexcept { return session_; }
   const ChannelMap& channel_map() const noexcept { return map_; }

@@ -7,9 +7,10 @@
 /// optional PlotJuggler telemetry, a progress line and the timing statistics. The experiment's loop
 /// gets `hooks()` (pacing and supervision) and `sink()` (its log rows).
 ///
-/// Lifecycle (runtime::Lifecycle): unconfigured -> configure (the session handshake, done by the
-/// caller's UdpBackend::connect before the harness starts) -> inactive -> activate (enable edge)
-/// -> active. Faults: the board silent for host_watchdog_ms, its watchdog tripped, or its e-stop
+/// Lifecycle (runtime::Lifecycle): unconfigured -> configure (the session handshake,
+/// UdpBackend::connect, done by `start()` after every other set-up step so that the enable edge
+/// follows the board's first answer within a period: until then the board holds its safe outputs
+/// and its plant vents) -> inactive -> activate (enable edge) -> active. Faults: the board silent for host_watchdog_ms, its watchdog tripped, or its e-stop
 /// (status bit or input line) -> fault: outputs disabled (the board holds its safe outputs and
 /// vents slowly), the last 5 s dumped. Recovery only on the operator's command (`r` + Enter on the
 /// terminal, or `recover_after_s` for unattended runs) and only once the board is alive and its
@@ -75,8 +76,10 @@ class RealtimeHarness {
 
   /// Where the experiment's loop puts its rows (the writer thread's ring).
   RowSink& sink() noexcept { return sink_; }
-  /// Configures the calling thread for real time, sends the enable edge (-> active), starts the
-  /// clock, and returns the hooks the loop calls each cycle. Call once, on the loop's thread.
+  /// Configures the calling thread for real time, opens the board's session (UdpBackend::connect;
+  /// re-confirms it if the caller connected earlier), sends the enable edge (-> active), starts
+  /// the clock, and returns the hooks the loop calls each cycle. Call once, on the loop's thread.
+  /// Throws std::runtime_error if the board does not answer.
   CycleHooks start();
   /// Winds down (outputs disabled, -> inactive -> finalized), stops the threads, closes the log and
   /// fills `result`. Ctrl-C (SIGINT) or SIGTERM during the run end the loop at the next cycle and

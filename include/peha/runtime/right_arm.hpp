@@ -111,6 +111,19 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid);
 
 const std::vector<std::string>& arm_log_columns();
 
+/// One actuated joint at one cycle, as the arm's safety figures need it: from the simulator's truth
+/// when there is one, else from what the host has (load cells, pressure sensors, the command).
+struct ArmJointSample {
+  double muscle_force_N[2] = {0, 0};  ///< agonist, antagonist: muscle force (truth) or load cell
+  double min_tension_N = 0;           ///< lowest along either wire (truth) or the lower load cell
+  double pressure_Pa[2] = {0, 0};     ///< chamber (truth) or sensor
+  double motor_torque_Nm = 0;         ///< delivered (truth) or commanded
+};
+ArmJointSample arm_joint_sample(const io::SensorState& state, const io::Command& command, const sim::RightArmTruth* truth,
+                                std::size_t joint) noexcept;
+/// The joint's force ceilings, supply pressure and motor rating held in `sample`.
+bool arm_joint_within_limits(const ArmScenario& scenario, std::size_t joint, const ArmJointSample& sample) noexcept;
+
 /// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
 PosturesResult run_postures(const ArmScenario& scenario, RowSink* log);
 

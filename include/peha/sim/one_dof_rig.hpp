@@ -59,6 +59,9 @@ struct OneDofRigParams {
   std::uint64_t seed = 1;
 };
 
+/// The rig's io joints (one, named "joint"): what its channel map names and its backend reports.
+const std::vector<std::string>& one_dof_rig_joint_names();
+
 /// Reads the `plant:` mapping of a scenario (the finger and payload come from the scenario).
 OneDofRigParams read_one_dof_rig(config::Map& plant, double control_period_s, double supply_pressure_Pa);
 
