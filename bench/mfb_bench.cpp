@@ -50,6 +50,8 @@ void BM_MfbLoopback1kHz60s(benchmark::State& state) {
     state.counters["no_sample_pct"] = 100.0 * static_cast<double>(r.link.replies_missing) / static_cast<double>(r.link.commands_sent);
     state.counters["late_pct"] = 100.0 * static_cast<double>(r.link.late_replies) / static_cast<double>(r.link.commands_sent);
     state.counters["fifo"] = r.realtime.fifo ? 1 : 0;
+    state.counters["faults"] = static_cast<double>(r.faults);  // host watchdog / board trip / e-stop during the soak
+    for (const std::string& e : r.lifecycle) std::printf("  %s\n", e.c_str());
   }
 }
 BENCHMARK(BM_MfbLoopback1kHz60s)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();

@@ -124,7 +124,11 @@ bool RealtimeHarness::after(const io::SensorState& state, io::Command& cmd) noex
   const double t = clock_.deadline_s();
   double rtt_s = 0.0;
   if (backend_.take_new_rtt(rtt_s)) result_.timing.rtt.add(rtt_s);  // the command this sample answers
-  const bool silent = PeriodicClock::now_ns() - backend_.last_sample_ns() > static_cast<std::int64_t>(link_.host_watchdog_s * 1e9);
+  const std::int64_t sample_ns = backend_.last_sample_ns();
+  cycles_without_sample_ = sample_ns != seen_sample_ns_ ? 0 : cycles_without_sample_ + 1;
+  seen_sample_ns_ = sample_ns;
+  const bool silent = cycles_without_sample_ >= kSilentCycles &&
+                      PeriodicClock::now_ns() - sample_ns > static_cast<std::int64_t>(link_.host_watchdog_s * 1e9);
   const std::uint8_t status = backend_.board_status();
   const bool estop = (status & mfb::kStatusEstop) || backend_.estop_input();
   switch (lifecycle_.state()) {
