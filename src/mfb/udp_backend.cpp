@@ -51,7 +51,7 @@ void UdpBackend::connect() {
   io::Command idle;
   idle.joint_count = map_.joint_count();
   while (io::monotonic_ns() < give_up) {
-    write(idle);
+    send_and_wait(idle);
     // Only the reply to this very command counts: state packets the board sent while the host was
     // busy (free-running, perhaps with a watchdog trip the command has since acknowledged) do not.
     if (!last_was_reply_) drain(io::monotonic_ns() + 20'000'000);  // 20 ms per attempt
@@ -119,6 +119,12 @@ bool UdpBackend::read(io::SensorState& state) noexcept {
 }
 
 bool UdpBackend::write(const io::Command& command) noexcept {
+  if (!send_and_wait(command)) return false;
+  if (!last_was_reply_) ++stats_.late_replies;
+  return true;
+}
+
+bool UdpBackend::send_and_wait(const io::Command& command) noexcept {
   CommandPacket packet;
   packet.session_id = session_;
   packet.sequence = ++sequence_;
@@ -141,7 +147,6 @@ bool UdpBackend::write(const io::Command& command) noexcept {
   // measured when it happens and the next read() finds the sample ready.
   last_was_reply_ = false;
   drain(io::monotonic_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
-  if (!last_was_reply_) ++stats_.late_replies;
   return true;
 }
 

@@ -97,6 +97,8 @@ class UdpBackend final : public io::Backend {
 
  private:
   void drain(std::int64_t deadline_ns) noexcept;
+  /// write() without counting a late reply (the handshake's commands are not the loop's).
+  bool send_and_wait(const io::Command& command) noexcept;
 
   UdpBackendParams params_;
   ChannelMap map_;
