@@ -268,7 +268,8 @@ sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
 
 std::vector<double> postures_release_times_s(const ArmScenario& scenario) {
   // The operator lets go at the end of each posture's move (the script's moves after "start").
-  const std::vector<sim::OperatorMove>& moves = postures_plant_params(scenario).operator_hands.moves;
+  const sim::RightArmPlantParams script = postures_plant_params(scenario);
+  const std::vector<sim::OperatorMove>& moves = script.operator_hands.moves;
   std::vector<double> release_s;
   for (std::size_t i = 1; i < moves.size(); ++i) release_s.push_back(moves[i].start_s + moves[i].duration_s);
   return release_s;

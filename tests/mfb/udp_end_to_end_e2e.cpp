@@ -13,6 +13,7 @@
 #include <csignal>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <sstream>
 #include <thread>
 
@@ -83,6 +84,27 @@ std::vector<double> column(const std::filesystem::path& path, const std::string&
     }
   }
   return out;
+}
+
+/// A run's lifecycle, one transition a line (for failure messages).
+std::string lifecycle_text(const RealtimeRunResult& r) {
+  std::string text;
+  for (const auto& e : r.lifecycle) text += e + "\n";
+  return text;
+}
+
+/// E1 in a RealtimeHarness on `backend`, as run_e1_realtime does, with the test's say over the
+/// hooks: `adjust` may wrap them (a freeze at some cycle).
+E1RealtimeResult run_e1_in_harness(const E1Scenario& s, const RealtimeRunOptions& o, mfb::UdpBackend& backend,
+                                   const std::function<void(CycleHooks&)>& adjust = {}) {
+  const E1Case& c = s.cases.front();
+  E1RealtimeResult r;
+  RealtimeHarness harness(backend, *s.link, o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(), {});
+  CycleHooks hooks = harness.start();
+  if (adjust) adjust(hooks);
+  r.e1 = run_e1_on(s, c, backend, nullptr, &harness.sink(), hooks);
+  harness.finish(r);
+  return r;
 }
 
 // The same E1 case (10 s: the start-up hold, a finger push up and 1 s after its release) in-process
@@ -169,9 +191,7 @@ TEST(MfbEndToEnd, DelayedPacketsAreCountedAsLateAndTheLoopRunsOnOlderSamples) {
   EXPECT_GT(r.link.late_replies, 1500u);             // of ~2000 commands
   EXPECT_GT(r.link.received.accepted, 1500u);        // ... yet the samples arrive, late
   EXPECT_EQ(r.link.received.stale + r.link.received.duplicate + r.link.received.malformed, 0u);
-  std::string lifecycle;
-  for (const auto& e : r.lifecycle) lifecycle += e + "\n";
-  EXPECT_EQ(r.faults, 0u) << lifecycle << r.timing.table();
+  EXPECT_EQ(r.faults, 0u) << lifecycle_text(r) << r.timing.table();
   EXPECT_GT(r.timing.rtt.count(), 1500u);
   EXPECT_GT(r.timing.rtt.percentile(50), 3e-3);
   EXPECT_TRUE(r.e1.within_limits);
@@ -237,21 +257,12 @@ TEST(MfbEndToEnd, ASetUpLongerThanTheBoardWatchdogDoesNotFaultTheRun) {
   Emulator emulator({"--watchdog-ms", "100"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const E1Scenario s = scenario(1.0);
-  const E1Case& c = s.cases.front();
   const RealtimeRunOptions o = options(emulator.port, "slow_setup");
   const auto backend = make_board_backend(*s.link, o, s.period_s, sim::one_dof_rig_joint_names());
   backend->connect();
   std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the board's watchdog fires meanwhile
-  E1RealtimeResult r;
-  {
-    RealtimeHarness harness(*backend, *s.link, o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(), {});
-    const CycleHooks hooks = harness.start();
-    r.e1 = run_e1_on(s, c, *backend, nullptr, &harness.sink(), hooks);
-    harness.finish(r);
-  }
-  std::string lifecycle;
-  for (const auto& e : r.lifecycle) lifecycle += e + "\n";
-  EXPECT_EQ(r.faults, 0u) << lifecycle;
+  const E1RealtimeResult r = run_e1_in_harness(s, o, *backend);
+  EXPECT_EQ(r.faults, 0u) << lifecycle_text(r);
   EXPECT_GT(r.timing.rtt.count(), 900u);  // ~1000 cycles, answered
   EXPECT_LT(r.timing.rtt.percentile(50), 0.1);  // the free-running samples of the pause were not taken as replies
   // The board held its safe outputs through the pause (vented: the wires went slack, which the
@@ -273,14 +284,10 @@ TEST(MfbEndToEnd, AWholeMachineFreezeIsNotTakenForASilentBoard) {
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   E1Scenario s = scenario(2.0);
   s.link->host_watchdog_s = 0.02;  // the shipped value: what is tested
-  const E1Case& c = s.cases.front();
   const RealtimeRunOptions o = options(emulator.port, "freeze");
   const auto backend = make_board_backend(*s.link, o, s.period_s, sim::one_dof_rig_joint_names());
-  E1RealtimeResult r;
-  {
-    RealtimeHarness harness(*backend, *s.link, o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(), {});
-    CycleHooks hooks = harness.start();
-    int cycle = 0;
+  int cycle = 0;
+  const E1RealtimeResult r = run_e1_in_harness(s, o, *backend, [&](CycleHooks& hooks) {
     hooks.wait = [&, wait = hooks.wait] {
       if (++cycle == 1000) {
         ::kill(emulator.process.pid(), SIGSTOP);
@@ -289,12 +296,8 @@ TEST(MfbEndToEnd, AWholeMachineFreezeIsNotTakenForASilentBoard) {
       }
       wait();
     };
-    r.e1 = run_e1_on(s, c, *backend, nullptr, &harness.sink(), hooks);
-    harness.finish(r);
-  }
-  std::string lifecycle;
-  for (const auto& e : r.lifecycle) lifecycle += e + "\n";
-  EXPECT_EQ(r.faults, 0u) << lifecycle << r.timing.table();
+  });
+  EXPECT_EQ(r.faults, 0u) << lifecycle_text(r) << r.timing.table();
   EXPECT_GT(r.timing.period.max(), 0.039);  // the freeze happened
   EXPECT_GT(r.timing.rtt.count(), 1800u);
 }
@@ -445,9 +448,7 @@ TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
   ASSERT_GT(port, 0) << emulator.output();
   const PosturesRealtimeResult udp = run_postures_realtime(s, options(port, "arm"));
-  std::string lifecycle;
-  for (const auto& e : udp.lifecycle) lifecycle += e + "\n";
-  EXPECT_EQ(udp.faults, 0u) << lifecycle << udp.timing.table();
+  EXPECT_EQ(udp.faults, 0u) << lifecycle_text(udp) << udp.timing.table();
   ASSERT_EQ(udp.postures.postures.size(), 1u);
   const PostureResult& a = udp.postures.postures[0];
   const PostureResult& b = local.postures[0];

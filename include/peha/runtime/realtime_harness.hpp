@@ -13,8 +13,8 @@
 /// and its plant vents) -> inactive -> activate (enable edge) -> active. Faults: the board silent
 /// (no new sample for host_watchdog_ms *and* for kSilentCycles of the host's own cycles in a row -
 /// a host that was itself descheduled has not heard a dead board, it has not listened), its
-/// watchdog tripped, or its e-stop (status bit or input line) -> fault: outputs disabled (the board holds its safe outputs and
-/// vents slowly), the last 5 s dumped. Recovery only on the operator's command (`r` + Enter on the
+/// watchdog tripped, or its e-stop (status bit or input line) -> fault: outputs disabled (the
+/// board holds its safe outputs and vents slowly), the last 5 s dumped. Recovery only on the operator's command (`r` + Enter on the
 /// terminal, or `recover_after_s` for unattended runs) and only once the board is alive and its
 /// e-stop released: fault -> recovering (a new enable edge; the commands ramp from the pressures the
 /// muscles hold to the controller's over recovery_ramp_s) -> inactive -> active.
@@ -69,12 +69,12 @@ class RealtimeHarness {
  public:
   /// The board counts as silent only after this many of the host's cycles in a row brought no new
   /// sample (besides host_watchdog_ms without one). On a machine that froze as a whole (a VM's
-  /// host, 20 ms seen here) the board froze too; its replies come within the next cycle or two. At 1 kHz
-  /// this adds nothing to the 20 ms detection time of a board that really stopped.
+  /// host, 20 ms seen here) the board froze too; its replies come within the next cycle or two.
+  /// At 1 kHz this adds nothing to the 20 ms detection time of a board that really stopped.
   static constexpr int kSilentCycles = 5;
 
-  /// `backend` need not be connected: `start()` opens the session. Opens the log `log_file` with `columns` and
-  /// `comments`; `label` and `duration_s` are for the progress line.
+  /// `backend` need not be connected: `start()` opens the session. Opens the log `log_file` with
+  /// `columns` and `comments`; `label` and `duration_s` are for the progress line.
   RealtimeHarness(mfb::UdpBackend& backend, const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
                   double duration_s, std::string label, const std::filesystem::path& log_file, const std::vector<std::string>& columns,
                   const std::vector<std::string>& comments);
