@@ -1,7 +1,7 @@
 // The right arm's control step (J^T G over 5 joints and 9 bodies + three allocations + limits) and
 // one control period of the simulated arm (MuJoCo + three PehaJointPlants), on states recorded from
 // the simulated arm holding a loaded posture.
-#include "peha/runtime/right_arm.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -11,9 +11,9 @@ namespace {
 
 using namespace peha;
 
-const runtime::ArmScenario& scenario() {
-  static const runtime::ArmScenario s =
-      runtime::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+const experiments::ArmScenario& scenario() {
+  static const experiments::ArmScenario s =
+      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
   return s;
 }
 

@@ -11,14 +11,14 @@
 
 namespace peha::bench {
 
-const runtime::E1Scenario& e1_scenario() {
-  static const runtime::E1Scenario s =
-      runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+const experiments::E1Scenario& e1_scenario() {
+  static const experiments::E1Scenario s =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   return s;
 }
 
-const runtime::E1Case& e1_heavy_case() {
-  for (const runtime::E1Case& c : e1_scenario().cases) {
+const experiments::E1Case& e1_heavy_case() {
+  for (const experiments::E1Case& c : e1_scenario().cases) {
     if (std::abs(c.payload_kg - 5.0) < 1e-9) return c;
   }
   throw std::runtime_error("configs/e1_one_dof.yaml has no 5.0 kg case");
@@ -39,7 +39,7 @@ sim::OneDofRigParams heavy_plant_params() {
 namespace {
 
 E1Recording record() {
-  const runtime::E1Scenario& s = e1_scenario();
+  const experiments::E1Scenario& s = e1_scenario();
   control::OneDofGravityController controller(heavy_controller_model());
   sim::OneDofRigBackend plant(heavy_plant_params());
   safety::LimitsData limits_data;

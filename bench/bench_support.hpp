@@ -6,20 +6,20 @@
 
 #include "peha/control/allocation.hpp"
 #include "peha/io/backend.hpp"
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include <vector>
 
 namespace peha::bench {
 
 /// The shipped scenario, configs/e1_one_dof.yaml.
-const runtime::E1Scenario& e1_scenario();
+const experiments::E1Scenario& e1_scenario();
 
 /// The scenario's 5.0 kg case (the heavier one).
-const runtime::E1Case& e1_heavy_case();
+const experiments::E1Case& e1_heavy_case();
 
 /// One full closed-loop run of the heavy case (read -> update -> apply_limits -> write), exactly as
-/// runtime::run_e1_case does it: duration_s / period_s + 1 samples.
+/// experiments::run_e1_case does it: duration_s / period_s + 1 samples.
 struct E1Recording {
   std::vector<io::SensorState> states;                ///< what the controller read, per cycle
   std::vector<io::Command> commands;                  ///< what reached the plant (after the limits)

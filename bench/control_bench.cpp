@@ -91,7 +91,7 @@ BENCHMARK(BM_Allocate);
 // states recorded from the closed-loop simulated rig (5.0 kg E1 case, 24 s). At the end of the
 // recording the controller and limits restart (untimed), so time stamps stay monotonic.
 void BM_ControlStep(benchmark::State& state) {
-  const runtime::E1Scenario& s = e1_scenario();
+  const experiments::E1Scenario& s = e1_scenario();
   const control::OneDofControllerModel m = heavy_controller_model();
   const std::vector<io::SensorState>& states = e1_recording().states;
   std::optional<control::OneDofGravityController> controller(std::in_place, m);

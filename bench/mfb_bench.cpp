@@ -4,7 +4,7 @@
 // median/p99/p99.9/max, the deadline-miss rate, the control step's compute time (read -> controller
 // -> limits -> hooks, without the send) and the link's counters. One iteration: it is a soak, not
 // a micro-benchmark; the figures are the counters.
-#include "peha/runtime/e1_realtime.hpp"
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
 #include "../tests/support/child_process.hpp"
 
@@ -19,7 +19,7 @@ namespace {
 using namespace peha;
 
 void BM_MfbLoopback1kHz60s(benchmark::State& state) {
-  runtime::E1Scenario s = runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  experiments::E1Scenario s = experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   s.duration_s = 60.0;
   for (auto _ : state) {
     testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0", "--case", "payload_2.5kg"});
@@ -33,7 +33,7 @@ void BM_MfbLoopback1kHz60s(benchmark::State& state) {
     o.quiet = true;
     o.dir = std::filesystem::path("out") / "bench" / "mfb_loopback";
     std::filesystem::create_directories(o.dir);
-    const runtime::E1RealtimeResult r = runtime::run_e1_realtime(s, s.cases.front(), o);
+    const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
     emulator.stop(SIGTERM);
     r.timing.write_csv(o.dir);
     std::printf("\n%s\n%s\n", r.realtime.summary().c_str(), r.timing.table().c_str());

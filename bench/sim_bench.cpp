@@ -3,7 +3,7 @@
 
 #include "bench_support.hpp"
 
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
 #include <benchmark/benchmark.h>
@@ -49,11 +49,11 @@ BENCHMARK(BM_SimulatedRigStep)->UseRealTime();
 
 // One whole E1 case (5.0 kg, 24 s simulated): plant construction, closed loop, release analysis.
 void BM_E1CaseFull(benchmark::State& state) {
-  const runtime::E1Scenario& s = e1_scenario();
-  const runtime::E1Case& c = e1_heavy_case();
+  const experiments::E1Scenario& s = e1_scenario();
+  const experiments::E1Case& c = e1_heavy_case();
   double internal_rtf = 0;
   for (auto _ : state) {
-    runtime::E1Result r = runtime::run_e1_case(s, c, nullptr);
+    experiments::E1Result r = experiments::run_e1_case(s, c, nullptr);
     internal_rtf += r.realtime_factor;
     benchmark::DoNotOptimize(r);
   }

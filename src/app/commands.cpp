@@ -3,16 +3,18 @@
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/dataset.hpp"
 #include "peha/control/butterworth.hpp"
-#include "peha/runtime/e1_gravity.hpp"
-#include "peha/runtime/e4_goniometer.hpp"
-#include "peha/runtime/e1_realtime.hpp"
-#include "peha/runtime/arm_realtime.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
+#include "peha/experiments/e3_postures/postures_realtime.hpp"
+#include "peha/experiments/e4_goniometer/goniometer_realtime.hpp"
 #include "peha/runtime/realtime.hpp"
 #include "peha/io/udp_socket.hpp"
 #include "peha/mfb/board_emulator.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 #include "peha/sim/right_arm.hpp"
-#include "peha/runtime/right_arm.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
 #include <fmt/chrono.h>
@@ -118,7 +120,7 @@ void link_latest(const RunOptions& options, const std::string& run_name) {
   std::filesystem::create_directory_symlink(run_name, options.out_root / "latest", ec);
 }
 
-void write_summary(const std::filesystem::path& path, const std::vector<runtime::E1Result>& results) {
+void write_summary(const std::filesystem::path& path, const std::vector<experiments::E1Result>& results) {
   std::ofstream out(path);
   out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_excursion_deg,"
          "peak_finger_force_N,peak_agonist_force_N,peak_antagonist_force_N,min_wire_tension_N,"
@@ -170,9 +172,9 @@ std::optional<runtime::RealtimeRunOptions> realtime_options(const RunOptions& op
 }
 
 int run_e1(const RunOptions& options, const config::Document& doc) {
-  runtime::E1Scenario scenario = runtime::read_e1(doc);
+  experiments::E1Scenario scenario = experiments::read_e1(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
-  std::vector<runtime::E1Case> cases;
+  std::vector<experiments::E1Case> cases;
   for (const auto& c : scenario.cases) {
     if (options.only_case.empty() || c.name == options.only_case) cases.push_back(c);
   }
@@ -187,21 +189,21 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   // alone and with its SPGP residual, so the SPGP's effect is measured in the same run.
   struct Variant {
     std::string label;
-    runtime::E1Scenario scenario;
+    experiments::E1Scenario scenario;
   };
   std::vector<Variant> variants;
   const bool calibrated = !options.calibration[0].empty() || !options.calibration[1].empty();
   if (!calibrated) {
     variants.push_back({"", scenario});
   } else {
-    runtime::E1Scenario parametric = scenario;
-    runtime::E1Scenario with_spgp = scenario;
+    experiments::E1Scenario parametric = scenario;
+    experiments::E1Scenario with_spgp = scenario;
     bool any_spgp = false;
     for (int i = 0; i < 2; ++i) {
       if (options.calibration[i].empty()) continue;
       const calibration::MuscleCalibration c =
           calibration::read_calibration(options.calibration[i], scenario.controller.allocation.supply_pressure_Pa);
-      for (runtime::E1Scenario* s : {&parametric, &with_spgp}) {
+      for (experiments::E1Scenario* s : {&parametric, &with_spgp}) {
         models::MuscleModel& m = i == 0 ? s->controller.joint.agonist : s->controller.joint.antagonist;
         m.pam = c.params;
         m.residual = nullptr;
@@ -244,12 +246,12 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
              scenario.controller.allocation.force_trim_rate_1ps > 0
                  ? fmt::format("{} /s", scenario.controller.allocation.force_trim_rate_1ps) : std::string("off"),
              dir.string());
-  std::vector<runtime::E1Result> results;
+  std::vector<experiments::E1Result> results;
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
-  std::vector<std::pair<runtime::E1Case, const Variant*>> runs;
+  std::vector<std::pair<experiments::E1Case, const Variant*>> runs;
   for (const auto& c : cases) {
     for (const auto& v : variants) {
-      runtime::E1Case named = c;
+      experiments::E1Case named = c;
       if (!v.label.empty()) named.name += "_" + v.label;
       runs.emplace_back(named, &v);
     }
@@ -263,13 +265,13 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
       realtime->dir = dir;
       fmt::print("on the board at udp://{} in real time\n", realtime->board.to_string());
       std::fflush(stdout);
-      const runtime::E1RealtimeResult rr = runtime::run_e1_realtime(runs[i].second->scenario, cases[i], *realtime);
+      const experiments::E1RealtimeResult rr = experiments::run_e1_realtime(runs[i].second->scenario, cases[i], *realtime);
       results.push_back(rr.e1);
       print_realtime(rr, dir / fmt::format("timing_{}", cases[i].name));
       continue;
     }
-    runtime::CsvLog log(runtime::e1_log_columns(), rows);
-    results.push_back(runtime::run_e1_case(runs[i].second->scenario, cases[i], &log));
+    runtime::CsvLog log(experiments::e1_log_columns(), rows);
+    results.push_back(experiments::run_e1_case(runs[i].second->scenario, cases[i], &log));
     const auto& r = results.back();
     const std::filesystem::path log_path = dir / fmt::format("e1_{}.csv", cases[i].name);
     log.write(log_path, {fmt::format("case: {} ({} kg payload)", cases[i].name, cases[i].payload_kg),
@@ -308,7 +310,7 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
   return safe ? 0 : 3;
 }
 
-int run_bandwidth(const RunOptions& options, const config::Document& doc, runtime::ArmScenario& scenario) {
+int run_bandwidth(const RunOptions& options, const config::Document& doc, experiments::ArmScenario& scenario) {
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
   const auto& b = scenario.bandwidth;
@@ -316,8 +318,8 @@ int run_bandwidth(const RunOptions& options, const config::Document& doc, runtim
              "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
              doc.name(), b.joint == 0 ? "shoulder" : "elbow", b.sfe_rad * 180 / std::numbers::pi,
              b.efe_rad * 180 / std::numbers::pi, b.amplitude_Nm, b.frequencies_Hz.size());
-  std::vector<runtime::BandwidthResult> results;
-  for (bool hybrid : {false, true}) results.push_back(runtime::run_bandwidth(scenario, hybrid));
+  std::vector<experiments::BandwidthResult> results;
+  for (bool hybrid : {false, true}) results.push_back(experiments::run_bandwidth(scenario, hybrid));
   std::ofstream csv(dir / "bode.csv");
   csv << "variant,frequency_Hz,gain,gain_dB,phase_deg\n";
   fmt::print("\n{:>8}  {:>10} {:>10}   {:>10} {:>10}\n", "f/Hz", "PAM gain", "PAM phase", "hyb gain", "hyb phase");
@@ -344,15 +346,15 @@ int run_bandwidth(const RunOptions& options, const config::Document& doc, runtim
   return safe ? 0 : 3;
 }
 
-int run_goniometer(const RunOptions& options, const config::Document& doc, runtime::ArmScenario& scenario) {
+int run_goniometer(const RunOptions& options, const config::Document& doc, experiments::ArmScenario& scenario) {
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const auto& g = scenario.goniometer;
-  std::vector<runtime::GoniometerTrace> traces;
+  std::vector<experiments::GoniometerTrace> traces;
   if (!options.goniometer_csv.empty()) {
-    traces.push_back(runtime::read_goniometer_csv(options.goniometer_csv, g.sample_rate_Hz, scenario.limits.joints[1].min_angle_rad,
+    traces.push_back(experiments::read_goniometer_csv(options.goniometer_csv, g.sample_rate_Hz, scenario.limits.joints[1].min_angle_rad,
                                                   scenario.limits.joints[1].max_angle_rad));
   } else {
-    for (std::size_t i = 0; i < g.movements.size(); ++i) traces.push_back(runtime::synthesize_goniometer(g, g.movements[i], scenario.seed + i));
+    for (std::size_t i = 0; i < g.movements.size(); ++i) traces.push_back(experiments::synthesize_goniometer(g, g.movements[i], scenario.seed + i));
   }
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
   fmt::print("peha run: {} --experiment goniometer (E4)\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at {:.1f} Hz "
@@ -366,40 +368,40 @@ int run_goniometer(const RunOptions& options, const config::Document& doc, runti
   summary << "movement,variant,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
              "peak_muscle_force_N,min_wire_tension_N,peak_motor_Nm,shoulder_excursion_deg,within_limits\n";
   bool safe = true;
-  std::vector<runtime::GoniometerResult> results;
-  for (const runtime::GoniometerTrace& trace : traces) {
+  std::vector<experiments::GoniometerResult> results;
+  for (const experiments::GoniometerTrace& trace : traces) {
     const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
     fmt::print("  {}: {:.1f} s simulated ...\n", trace.name, duration_s);
     std::fflush(stdout);
-    runtime::CsvLog log(runtime::goniometer_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
-    for (const auto variant : {runtime::GoniometerVariant::kOpenLoop, runtime::GoniometerVariant::kFeedback}) {
+    runtime::CsvLog log(experiments::goniometer_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    for (const auto variant : {experiments::GoniometerVariant::kOpenLoop, experiments::GoniometerVariant::kFeedback}) {
     log.clear();
-    const runtime::GoniometerResult r = runtime::run_goniometer(scenario, trace, variant, &log);
-    log.write(dir / fmt::format("e4_{}_{}.csv", trace.name, runtime::to_string(variant)),
-              {fmt::format("case: E4 goniometer-driven elbow, movement {}, variant {}", trace.name, runtime::to_string(variant)),
+    const experiments::GoniometerResult r = experiments::run_goniometer(scenario, trace, variant, &log);
+    log.write(dir / fmt::format("e4_{}_{}.csv", trace.name, experiments::to_string(variant)),
+              {fmt::format("case: E4 goniometer-driven elbow, movement {}, variant {}", trace.name, experiments::to_string(variant)),
                fmt::format("config: {}; seed {}", options.config.string(), scenario.seed),
                "person_* is the person's true elbow; plant_* columns are simulator truth the controller never sees"});
     summary << fmt::format("{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.1f},{:.2f},{:.3f},{:.4f},{}\n", r.name,
-                           runtime::to_string(r.variant), r.range_deg,
+                           experiments::to_string(r.variant), r.range_deg,
                            r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg, r.peak_torque_command_Nm,
                            r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm, r.shoulder_excursion_deg,
                            r.within_limits ? 1 : 0);
     safe = safe && r.within_limits;
     results.push_back(r);
     }
-    if (options.goniometer_csv.empty()) runtime::write_goniometer_csv(dir / fmt::format("goniometer_{}.csv", trace.name), trace);
+    if (options.goniometer_csv.empty()) experiments::write_goniometer_csv(dir / fmt::format("goniometer_{}.csv", trace.name), trace);
   }
   summary.close();  // the plotter reads it next
   fmt::print("\n{:<10} {:<10} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>10}\n", "movement", "variant", "range", "RMS error", "max error",
              "delay", "RMS aligned", "peak tau", "SFE moved", "RTF");
   for (const auto& r : results) {
     fmt::print("{:<10} {:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>7.2f} deg {:>10.1f}\n",
-               r.name, runtime::to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg, r.peak_torque_command_Nm,
+               r.name, experiments::to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg, r.peak_torque_command_Nm,
                r.shoulder_excursion_deg, r.realtime_factor);
   }
   for (const auto& r : results) {
     fmt::print("safety ({}, {}): peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak motor {:.2f} Nm: {}\n",
-               r.name, runtime::to_string(r.variant), r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm, r.within_limits ? "OK" : "VIOLATED");
+               r.name, experiments::to_string(r.variant), r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm, r.within_limits ? "OK" : "VIOLATED");
   }
   fmt::print("written: {}/e4_<movement>_<variant>.csv, summary.csv, config.yaml{}\n", dir.string(),
              options.goniometer_csv.empty() ? ", goniometer_<movement>.csv (replayable with --goniometer-csv)" : "");
@@ -408,7 +410,7 @@ int run_goniometer(const RunOptions& options, const config::Document& doc, runti
   return safe ? 0 : 3;
 }
 
-int run_goniometer_on_board(const RunOptions& options, const config::Document& doc, runtime::ArmScenario& scenario,
+int run_goniometer_on_board(const RunOptions& options, const config::Document& doc, experiments::ArmScenario& scenario,
                             runtime::RealtimeRunOptions realtime) {
   const auto& g = scenario.goniometer;
   std::size_t index = g.movements.size();
@@ -429,10 +431,10 @@ int run_goniometer_on_board(const RunOptions& options, const config::Document& d
              realtime.board.to_string(), g.movements[index].name);
   std::fflush(stdout);
   bool safe = true;
-  std::vector<runtime::GoniometerRealtimeResult> results;
-  for (const auto variant : {runtime::GoniometerVariant::kOpenLoop, runtime::GoniometerVariant::kFeedback}) {
-    results.push_back(runtime::run_goniometer_realtime(scenario, index, variant, realtime));
-    print_realtime(results.back(), dir / fmt::format("timing_{}", runtime::to_string(variant)));
+  std::vector<experiments::GoniometerRealtimeResult> results;
+  for (const auto variant : {experiments::GoniometerVariant::kOpenLoop, experiments::GoniometerVariant::kFeedback}) {
+    results.push_back(experiments::run_goniometer_realtime(scenario, index, variant, realtime));
+    print_realtime(results.back(), dir / fmt::format("timing_{}", experiments::to_string(variant)));
   }
   fmt::print("\n{:<10} {:>9} {:>10} {:>10} {:>9} {:>12}   (person = the goniometer's reading, exo = the elbow encoder)\n",
              "variant", "range", "RMS error", "max error", "delay", "RMS aligned");
@@ -440,7 +442,7 @@ int run_goniometer_on_board(const RunOptions& options, const config::Document& d
     const auto& r = rr.goniometer;
     safe = safe && r.within_limits && rr.faults == 0;
     fmt::print("{:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg; safety {}, faults {}\n",
-               runtime::to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
+               experiments::to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
                r.within_limits ? "OK" : "VIOLATED", rr.faults);
   }
   link_latest(options, run_name);
@@ -456,7 +458,7 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
     fmt::print(stderr, "error: --goniometer-csv applies to --experiment goniometer only\n");
     return 2;
   }
-  runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
+  experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
   std::optional<runtime::RealtimeRunOptions> realtime;
   if (!options.backend.empty()) {
@@ -481,20 +483,20 @@ int run_arm(const RunOptions& options, const config::Document& doc) {
                                                           : run_goniometer(options, doc, scenario);
   const std::string run_name = options.run_name.empty() ? default_run_name(options.config) : options.run_name;
   const std::filesystem::path dir = prepare_run_dir(options, run_name, scenario.seed);
-  const double duration_s = runtime::postures_duration_s(scenario);
+  const double duration_s = experiments::postures_duration_s(scenario);
   fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
              doc.name(), scenario.description, scenario.postures.size(), duration_s, scenario.seed, dir.string());
-  runtime::PosturesResult r;
-  std::optional<runtime::PosturesRealtimeResult> rr;
+  experiments::PosturesResult r;
+  std::optional<experiments::PosturesRealtimeResult> rr;
   if (realtime) {
     realtime->dir = dir;
     fmt::print("  on the board at udp://{} in real time\n", realtime->board.to_string());
     std::fflush(stdout);
-    rr = runtime::run_postures_realtime(scenario, *realtime);
+    rr = experiments::run_postures_realtime(scenario, *realtime);
     r = rr->postures;
   } else {
-    runtime::CsvLog log(runtime::arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
-    r = runtime::run_postures(scenario, &log);
+    runtime::CsvLog log(experiments::arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    r = experiments::run_postures(scenario, &log);
     log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
                                         fmt::format("config: {}; seed {}", options.config.string(), scenario.seed),
                                         "plant_* columns are simulator truth the controller never sees"});
@@ -542,14 +544,14 @@ int run(const RunOptions& options) {
 int record_calibration(const RecordOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
-    runtime::E1Scenario scenario = runtime::read_e1(doc);
+    experiments::E1Scenario scenario = experiments::read_e1(doc);
     const int index = options.muscle == "agonist" ? 0 : 1;
     if (!scenario.excitation[index]) {
       fmt::print(stderr, "config error: {}: no calibration.{} section (the excitation to run)\n", doc.name(),
                  options.muscle);
       return 2;
     }
-    const calibration::ExcitationParams& e = *scenario.excitation[index];
+    const experiments::ExcitationParams& e = *scenario.excitation[index];
     sim::OneDofRigParams plant_params = scenario.plant;
     plant_params.payload_kg = e.payload_kg;
     plant_params.finger.pushes.clear();
@@ -560,7 +562,7 @@ int record_calibration(const RecordOptions& options) {
                options.muscle, doc.name(), e.duration_s, e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
                e.max_pressure_Pa * 1e-6, e.period_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
                e.payload_kg);
-    const calibration::Dataset data = calibration::record_excitation(
+    const calibration::Dataset data = experiments::record_excitation(
         plant, scenario.controller.joint, index == 0 ? +1 : -1, e, scenario.limits,
         [&, bar = std::make_shared<ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
     if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
@@ -689,18 +691,18 @@ int check_config(const std::filesystem::path& config) {
   try {
     const config::Document doc = config::Document::load_file(config);
     config::Map root = doc.root();
-    std::optional<runtime::LinkConfig> link;
+    std::optional<mfb::LinkConfig> link;
     std::vector<std::string> joints;
     if (root.has("experiment") && root.string("experiment") == "right_arm") {
-      const runtime::ArmScenario s = runtime::read_arm_scenario(doc);
+      const experiments::ArmScenario s = experiments::read_arm_scenario(doc);
       fmt::print("{}: OK\n  experiment right_arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
                  "{} bandwidth frequencies (E6), control at {} Hz\n",
                  config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
                  s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);
       link = s.link;
-      joints = runtime::arm_joint_names(s);
+      joints = experiments::arm_joint_names(s);
     } else {
-      const runtime::E1Scenario s = runtime::read_e1(doc);
+      const experiments::E1Scenario s = experiments::read_e1(doc);
       sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
       fmt::print("{}: OK\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
                  "plant model {}\n",
@@ -726,7 +728,7 @@ std::atomic<bool> g_stop{false};
 extern "C" void on_stop_signal(int) { g_stop = true; }
 }  // namespace
 
-mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double period_s, const runtime::LinkConfig& link) {
+mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double period_s, const mfb::LinkConfig& link) {
   mfb::EmulatorParams p;
   p.bind = {io::parse_ipv4(options.bind), static_cast<std::uint16_t>(options.port)};
   p.period_s = period_s;
@@ -762,7 +764,7 @@ int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const Emulato
 }
 
 int mfb_emulator_arm(const EmulatorOptions& options, const config::Document& doc) {
-  runtime::ArmScenario scenario = runtime::read_arm_scenario(doc);
+  experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
   if (!scenario.link) {
     fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
@@ -770,9 +772,9 @@ int mfb_emulator_arm(const EmulatorOptions& options, const config::Document& doc
   }
   const mfb::EmulatorParams p = emulator_params(options, scenario.period_s, *scenario.link);
   const mfb::ChannelMap map =
-      mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), runtime::arm_joint_names(scenario));
+      mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), experiments::arm_joint_names(scenario));
   if (options.case_name.empty() || options.case_name == "postures") {
-    const sim::RightArmPlantParams plant = runtime::postures_plant_params(scenario);
+    const sim::RightArmPlantParams plant = experiments::postures_plant_params(scenario);
     mfb::BoardEmulator board(p, map, [plant] { return std::make_unique<sim::RightArmBackend>(plant); });
     return serve(board, p, options, fmt::format("right arm with the operator's E3 script ({} postures)", scenario.postures.size()));
   }
@@ -785,13 +787,13 @@ int mfb_emulator_arm(const EmulatorOptions& options, const config::Document& doc
                  scenario.link->channel_map.string());
       return 2;
     }
-    const runtime::GoniometerTrace trace = runtime::synthesize_goniometer(g, g.movements[i], scenario.seed + i);
-    const sim::RightArmPlantParams plant = runtime::goniometer_plant_params(scenario, trace);
+    const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(g, g.movements[i], scenario.seed + i);
+    const sim::RightArmPlantParams plant = experiments::goniometer_plant_params(scenario, trace);
     mfb::BoardEmulator board(p, map, [plant] { return std::make_unique<sim::RightArmBackend>(plant); });
     const mfb::AnalogChannel channel = map.joint(1).goniometer;
     board.set_input_hook([&scenario, trace, channel](double t_s, mfb::BoardInputs& in) {
       bool clamped = false;
-      in.ad[static_cast<std::size_t>(channel.channel)] = channel.to_code(runtime::goniometer_reading(scenario, trace, t_s), clamped);
+      in.ad[static_cast<std::size_t>(channel.channel)] = channel.to_code(experiments::goniometer_reading(scenario, trace, t_s), clamped);
     });
     return serve(board, p, options, fmt::format("right arm, E4: a person's elbow '{}' on the goniometer channel", trace.name));
   }
@@ -806,7 +808,7 @@ int mfb_emulator(const EmulatorOptions& options) {
     const config::Document doc = config::Document::load_file(options.config);
     config::Map root = doc.root();
     if (root.has("experiment") && root.string("experiment") == "right_arm") return mfb_emulator_arm(options, doc);
-    runtime::E1Scenario scenario = runtime::read_e1(doc);
+    experiments::E1Scenario scenario = experiments::read_e1(doc);
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     if (!scenario.link) {
       fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
@@ -817,7 +819,7 @@ int mfb_emulator(const EmulatorOptions& options) {
                          "peha run --backend needs the same --case)\n", doc.name(), scenario.cases.size());
       return 2;
     }
-    const runtime::E1Case* chosen = &scenario.cases.front();
+    const experiments::E1Case* chosen = &scenario.cases.front();
     for (const auto& c : scenario.cases) {
       if (c.name == options.case_name) chosen = &c;
     }
@@ -827,7 +829,7 @@ int mfb_emulator(const EmulatorOptions& options) {
     }
     const mfb::EmulatorParams p = emulator_params(options, scenario.period_s, *scenario.link);
     const std::vector<std::string>& joints = sim::one_dof_rig_joint_names();
-    const sim::OneDofRigParams plant = runtime::e1_plant_params(scenario, *chosen);
+    const sim::OneDofRigParams plant = experiments::e1_plant_params(scenario, *chosen);
     mfb::BoardEmulator board(p, mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), joints),
                              [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); });
     return serve(board, p, options, fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg));

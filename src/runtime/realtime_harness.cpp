@@ -21,17 +21,7 @@ extern "C" void on_interrupt(int) { g_interrupted = true; }
 
 }  // namespace
 
-std::unique_ptr<mfb::UdpBackend> make_board_backend(const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
-                                                    const std::vector<std::string>& joint_names) {
-  mfb::UdpBackendParams bp;
-  bp.board = options.board;
-  bp.period_s = period_s;
-  bp.receive_timeout_s = link.receive_timeout_s;
-  bp.joint_names = joint_names;
-  return std::make_unique<mfb::UdpBackend>(bp, mfb::read_channel_map(config::Document::load_file(link.channel_map), joint_names));
-}
-
-RealtimeHarness::RealtimeHarness(mfb::UdpBackend& backend, const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
+RealtimeHarness::RealtimeHarness(mfb::UdpBackend& backend, const mfb::LinkConfig& link, const RealtimeRunOptions& options, double period_s,
                                  double duration_s, std::string label, const std::filesystem::path& log_file,
                                  const std::vector<std::string>& columns, const std::vector<std::string>& comments)
     : backend_(backend),

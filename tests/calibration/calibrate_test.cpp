@@ -1,6 +1,6 @@
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
-#include "peha/calibration/excitation.hpp"
+#include "peha/experiments/calibration_recording/excitation.hpp"
 #include "peha/config/reader.hpp"
 
 #include "../support/nominal_models.hpp"
@@ -122,18 +122,18 @@ TEST(Calibrate, RejectsABadSplit) {
 }
 
 TEST(Excitation, TriangleAndAntiphaseReachTheirEnds) {
-  ExcitationParams e;
+  experiments::ExcitationParams e;
   e.min_pressure_Pa = 0.1e6;
   e.max_pressure_Pa = 0.5e6;
   e.period_s = 10.0;
   e.other_pressure_Pa = 0.1e6;
   e.other_pressure_at_min_Pa = 0.3e6;
-  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 0.0), 0.1e6);
-  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 5.0), 0.5e6);
-  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 2.5), 0.3e6);
-  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 12.5), 0.3e6);
-  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 0.0), 0.3e6);  // antiphase
-  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 5.0), 0.1e6);
+  EXPECT_DOUBLE_EQ(experiments::triangle_pressure_Pa(e, 0.0), 0.1e6);
+  EXPECT_DOUBLE_EQ(experiments::triangle_pressure_Pa(e, 5.0), 0.5e6);
+  EXPECT_DOUBLE_EQ(experiments::triangle_pressure_Pa(e, 2.5), 0.3e6);
+  EXPECT_DOUBLE_EQ(experiments::triangle_pressure_Pa(e, 12.5), 0.3e6);
+  EXPECT_DOUBLE_EQ(experiments::other_pressure_Pa(e, 0.0), 0.3e6);  // antiphase
+  EXPECT_DOUBLE_EQ(experiments::other_pressure_Pa(e, 5.0), 0.1e6);
 }
 
 }  // namespace

@@ -1,6 +1,6 @@
 #include "peha/config/reader.hpp"
 
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include <gtest/gtest.h>
 #include <gmock/gmock.h>
@@ -34,7 +34,7 @@ std::string e1_error_after(const std::string& from, const std::string& to) {
   { std::ofstream(path) << text; }
   std::string message;
   try {
-    runtime::read_e1(Document::load_file(path));
+    experiments::read_e1(Document::load_file(path));
   } catch (const Error& e) {
     message = e.what();
   }

@@ -1,7 +1,7 @@
 // The control step allocates nothing (STYLE.md principle 3): the controller's update and the
 // limits layer run 10^4 cycles on the simulated rig without a single heap allocation.
 #include "peha/control/one_dof_gravity.hpp"
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/safety/limits.hpp"
 
 #include "../support/alloc_counter.hpp"
@@ -12,8 +12,8 @@ namespace peha {
 namespace {
 
 TEST(ControlStep, AllocatesNothing) {
-  const runtime::E1Scenario scenario =
-      runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const experiments::E1Scenario scenario =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   sim::OneDofRigParams plant_params = scenario.plant;
   sim::OneDofRigBackend plant(plant_params);
   control::OneDofGravityController controller(scenario.controller);
@@ -34,8 +34,8 @@ TEST(ControlStep, AllocatesNothing) {
 
 // The simulated plant steps without allocating too (MuJoCo works in its preallocated arena).
 TEST(SimulatedRig, StepsWithoutAllocating) {
-  const runtime::E1Scenario scenario =
-      runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const experiments::E1Scenario scenario =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   sim::OneDofRigBackend plant(scenario.plant);
   io::SensorState state;
   io::Command command;

@@ -1,7 +1,7 @@
 // The whole hardware path on one machine: `peha mfb-emulator` in its own process, the host's
 // real-time loop talking real UDP to it over loopback. Each test runs a few seconds of real time.
 #include "peha/mfb/udp_backend.hpp"
-#include "peha/runtime/e1_realtime.hpp"
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
 #include "../support/child_process.hpp"
 
@@ -27,8 +27,8 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 // (20 ms host / 50 ms board in the shipped config) - except where a watchdog is what is tested.
 constexpr double kTestWatchdog_s = 0.25;
 
-E1Scenario scenario(double duration_s) {
-  E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+experiments::E1Scenario scenario(double duration_s) {
+  experiments::E1Scenario s = experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   s.duration_s = duration_s;
   s.link->host_watchdog_s = kTestWatchdog_s;
   return s;
@@ -95,14 +95,14 @@ std::string lifecycle_text(const RealtimeRunResult& r) {
 
 /// E1 in a RealtimeHarness on `backend`, as run_e1_realtime does, with the test's say over the
 /// hooks: `adjust` may wrap them (a freeze at some cycle).
-E1RealtimeResult run_e1_in_harness(const E1Scenario& s, const RealtimeRunOptions& o, mfb::UdpBackend& backend,
+experiments::E1RealtimeResult run_e1_in_harness(const experiments::E1Scenario& s, const RealtimeRunOptions& o, mfb::UdpBackend& backend,
                                    const std::function<void(CycleHooks&)>& adjust = {}) {
-  const E1Case& c = s.cases.front();
-  E1RealtimeResult r;
-  RealtimeHarness harness(backend, *s.link, o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(), {});
+  const experiments::E1Case& c = s.cases.front();
+  experiments::E1RealtimeResult r;
+  RealtimeHarness harness(backend, *s.link, o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", experiments::e1_log_columns(), {});
   CycleHooks hooks = harness.start();
   if (adjust) adjust(hooks);
-  r.e1 = run_e1_on(s, c, backend, nullptr, &harness.sink(), hooks);
+  r.e1 = experiments::run_e1_on(s, c, backend, nullptr, &harness.sink(), hooks);
   harness.finish(r);
   return r;
 }
@@ -113,16 +113,16 @@ E1RealtimeResult run_e1_in_harness(const E1Scenario& s, const RealtimeRunOptions
 // and the re-quantisation of the sensors through the channel map. Agreement: the encoder angle
 // within 0.05 deg at every cycle, peak forces within 5 %, release angle within 0.05 deg.
 TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
-  const E1Scenario s = scenario(10.0);
-  const E1Case& c = s.cases.front();
-  CsvLog in_process_log(e1_log_columns(), 10001);
-  sim::OneDofRigBackend plant(e1_plant_params(s, c));
-  const E1Result local = run_e1_on(s, c, plant, nullptr, &in_process_log);
+  const experiments::E1Scenario s = scenario(10.0);
+  const experiments::E1Case& c = s.cases.front();
+  CsvLog in_process_log(experiments::e1_log_columns(), 10001);
+  sim::OneDofRigBackend plant(experiments::e1_plant_params(s, c));
+  const experiments::E1Result local = experiments::run_e1_on(s, c, plant, nullptr, &in_process_log);
 
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const RealtimeRunOptions o = options(emulator.port, "agree");
-  const E1RealtimeResult udp = run_e1_realtime(s, c, o);
+  const experiments::E1RealtimeResult udp = experiments::run_e1_realtime(s, c, o);
   EXPECT_EQ(udp.faults, 0u);
   EXPECT_LE(udp.e1.missed_samples, 500u);  // a loaded machine may miss a few replies (< 5 %); the command is held
 
@@ -167,8 +167,8 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
 TEST(MfbEndToEnd, LostDuplicatedReorderedAndCorruptPacketsAreCountedAndDropped) {
   Emulator emulator({"--loss", "0.03", "--duplicate", "0.03", "--reorder", "0.03", "--corrupt", "0.02", "--fault-seed", "5"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const E1Scenario s = scenario(3.0);
-  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "faults"));
+  const experiments::E1Scenario s = scenario(3.0);
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), options(emulator.port, "faults"));
   const mfb::ReceiveCounters& c = r.link.received;
   EXPECT_GT(c.malformed, 20u);    // ~2 % of 3000 corrupt: CRC
   EXPECT_GT(c.duplicate, 20u);    // ~3 % duplicated
@@ -186,8 +186,8 @@ TEST(MfbEndToEnd, LostDuplicatedReorderedAndCorruptPacketsAreCountedAndDropped) 
 TEST(MfbEndToEnd, DelayedPacketsAreCountedAsLateAndTheLoopRunsOnOlderSamples) {
   Emulator emulator({"--delay-ms", "3"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const E1Scenario s = scenario(2.0);
-  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "delay"));
+  const experiments::E1Scenario s = scenario(2.0);
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), options(emulator.port, "delay"));
   EXPECT_GT(r.link.late_replies, 1500u);             // of ~2000 commands
   EXPECT_GT(r.link.received.accepted, 1500u);        // ... yet the samples arrive, late
   EXPECT_EQ(r.link.received.stale + r.link.received.duplicate + r.link.received.malformed, 0u);
@@ -256,12 +256,12 @@ TEST(MfbEndToEnd, BoardWatchdogFiresWhenTheHostStops) {
 TEST(MfbEndToEnd, ASetUpLongerThanTheBoardWatchdogDoesNotFaultTheRun) {
   Emulator emulator({"--watchdog-ms", "100"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const E1Scenario s = scenario(1.0);
+  const experiments::E1Scenario s = scenario(1.0);
   const RealtimeRunOptions o = options(emulator.port, "slow_setup");
-  const auto backend = make_board_backend(*s.link, o, s.period_s, sim::one_dof_rig_joint_names());
+  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
   backend->connect();
   std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the board's watchdog fires meanwhile
-  const E1RealtimeResult r = run_e1_in_harness(s, o, *backend);
+  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, *backend);
   EXPECT_EQ(r.faults, 0u) << lifecycle_text(r);
   EXPECT_GT(r.timing.rtt.count(), 900u);  // ~1000 cycles, answered
   EXPECT_LT(r.timing.rtt.percentile(50), 0.1);  // the free-running samples of the pause were not taken as replies
@@ -282,12 +282,12 @@ TEST(MfbEndToEnd, ASetUpLongerThanTheBoardWatchdogDoesNotFaultTheRun) {
 TEST(MfbEndToEnd, AWholeMachineFreezeIsNotTakenForASilentBoard) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  E1Scenario s = scenario(2.0);
+  experiments::E1Scenario s = scenario(2.0);
   s.link->host_watchdog_s = 0.02;  // the shipped value: what is tested
   const RealtimeRunOptions o = options(emulator.port, "freeze");
-  const auto backend = make_board_backend(*s.link, o, s.period_s, sim::one_dof_rig_joint_names());
+  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
   int cycle = 0;
-  const E1RealtimeResult r = run_e1_in_harness(s, o, *backend, [&](CycleHooks& hooks) {
+  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, *backend, [&](CycleHooks& hooks) {
     hooks.wait = [&, wait = hooks.wait] {
       if (++cycle == 1000) {
         ::kill(emulator.process.pid(), SIGSTOP);
@@ -307,13 +307,13 @@ TEST(MfbEndToEnd, AWholeMachineFreezeIsNotTakenForASilentBoard) {
 TEST(MfbEndToEnd, HostNoticesWhenTheBoardStops) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  E1Scenario s = scenario(3.0);
+  experiments::E1Scenario s = scenario(3.0);
   s.link->host_watchdog_s = 0.05;  // what is tested: the host notices within 50 ms
   std::thread killer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     emulator.process.stop(SIGKILL);
   });
-  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), options(emulator.port, "board_dies"));
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), options(emulator.port, "board_dies"));
   killer.join();
   EXPECT_EQ(r.faults, 1u);
   EXPECT_EQ(r.recoveries, 0u);
@@ -335,10 +335,10 @@ TEST(MfbEndToEnd, HostNoticesWhenTheBoardStops) {
 TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
   Emulator emulator({"--estop-at", "1.0", "--estop-for", "0.4"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const E1Scenario s = scenario(4.0);
+  const experiments::E1Scenario s = scenario(4.0);
   RealtimeRunOptions o = options(emulator.port, "estop");
   o.recover_after_s = 0.8;
-  const E1RealtimeResult r = run_e1_realtime(s, s.cases.front(), o);
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
   EXPECT_EQ(r.faults, 1u);
   EXPECT_EQ(r.recoveries, 1u);
   std::string path;
@@ -365,7 +365,7 @@ TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
 TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const E1Scenario s = scenario(1.0);
+  const experiments::E1Scenario s = scenario(1.0);
   mfb::UdpBackendParams p;
   p.board = {0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
   p.joint_names = {"joint"};
@@ -395,7 +395,8 @@ TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
 }  // namespace
 }  // namespace peha::runtime
 
-#include "peha/runtime/arm_realtime.hpp"
+#include "peha/experiments/e3_postures/postures_realtime.hpp"
+#include "peha/experiments/e4_goniometer/goniometer_realtime.hpp"
 
 #include <yaml-cpp/yaml.h>
 
@@ -439,19 +440,19 @@ std::filesystem::path short_arm_config(const std::filesystem::path& dir) {
 TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_mfb_arm_config";
   const std::filesystem::path config = short_arm_config(dir);
-  ArmScenario s = read_arm_scenario(config::Document::load_file(config));
+  experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   ASSERT_EQ(s.postures.size(), 1u);
   s.link->host_watchdog_s = kTestWatchdog_s;
-  const PosturesResult local = run_postures_on(s, *std::make_unique<sim::RightArmBackend>(postures_plant_params(s)), nullptr, nullptr);
+  const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::RightArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
 
   testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
   const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
   ASSERT_GT(port, 0) << emulator.output();
-  const PosturesRealtimeResult udp = run_postures_realtime(s, options(port, "arm"));
+  const experiments::PosturesRealtimeResult udp = experiments::run_postures_realtime(s, options(port, "arm"));
   EXPECT_EQ(udp.faults, 0u) << lifecycle_text(udp) << udp.timing.table();
   ASSERT_EQ(udp.postures.postures.size(), 1u);
-  const PostureResult& a = udp.postures.postures[0];
-  const PostureResult& b = local.postures[0];
+  const experiments::PostureResult& a = udp.postures.postures[0];
+  const experiments::PostureResult& b = local.postures[0];
   for (int j = 0; j < 2; ++j) {
     EXPECT_NEAR(a.released_deg[j], b.released_deg[j], 0.2) << j;
     EXPECT_NEAR(a.drift_deg[j], b.drift_deg[j], 0.1) << j;
@@ -502,19 +503,19 @@ namespace {
 // in-process run (against the truth) within 1.5 deg RMS and 25 ms of delay.
 TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   const std::filesystem::path config = short_arm_config(std::filesystem::temp_directory_path() / "peha_mfb_arm_config_e4");
-  ArmScenario s = read_arm_scenario(config::Document::load_file(config));
+  experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   s.link->host_watchdog_s = kTestWatchdog_s;
   ASSERT_EQ(s.goniometer.movements.size(), 1u);
-  const GoniometerTrace trace = synthesize_goniometer(s.goniometer, s.goniometer.movements[0], s.seed);
-  const GoniometerResult local = run_goniometer(s, trace, GoniometerVariant::kFeedback, nullptr);
+  const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(s.goniometer, s.goniometer.movements[0], s.seed);
+  const experiments::GoniometerResult local = experiments::run_goniometer(s, trace, experiments::GoniometerVariant::kFeedback, nullptr);
 
   testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0",
                                   "--watchdog-ms", "250", "--case", "goniometer_brisk"});
   const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
   ASSERT_GT(port, 0) << emulator.output();
-  const GoniometerRealtimeResult udp = run_goniometer_realtime(s, 0, GoniometerVariant::kFeedback, options(port, "e4"));
+  const experiments::GoniometerRealtimeResult udp = experiments::run_goniometer_realtime(s, 0, experiments::GoniometerVariant::kFeedback, options(port, "e4"));
   EXPECT_EQ(udp.faults, 0u);
-  const GoniometerResult& r = udp.goniometer;
+  const experiments::GoniometerResult& r = udp.goniometer;
   EXPECT_NEAR(r.range_deg, 60.0, 2.0);  // the goniometer's noise widens the range a little
   EXPECT_NEAR(r.rms_error_deg, local.rms_error_deg, 1.5);
   EXPECT_NEAR(r.delay_s, local.delay_s, 0.025);

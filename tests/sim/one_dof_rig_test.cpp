@@ -1,4 +1,4 @@
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
 #include <gtest/gtest.h>
@@ -9,7 +9,7 @@ namespace peha::sim {
 namespace {
 
 OneDofRigParams rig() {
-  return runtime::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")).plant;
+  return experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")).plant;
 }
 
 // At rest the wire tension is the muscle law at the muscle's own contraction, which includes the

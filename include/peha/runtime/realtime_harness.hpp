@@ -21,7 +21,9 @@
 
 #include "peha/mfb/udp_backend.hpp"
 #include "peha/runtime/async_log.hpp"
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/mfb/link_config.hpp"
+#include "peha/runtime/control_loop.hpp"
+#include "peha/runtime/csv_log.hpp"
 #include "peha/runtime/lifecycle.hpp"
 #include "peha/runtime/realtime.hpp"
 #include "peha/runtime/telemetry.hpp"
@@ -61,10 +63,6 @@ struct RealtimeRunResult {
   std::string log_file;
 };
 
-/// The UdpBackend of a scenario's board link for joints `joint_names` (channel map from `link`).
-std::unique_ptr<mfb::UdpBackend> make_board_backend(const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
-                                                    const std::vector<std::string>& joint_names);
-
 class RealtimeHarness {
  public:
   /// The board counts as silent only after this many of the host's cycles in a row brought no new
@@ -75,7 +73,7 @@ class RealtimeHarness {
 
   /// `backend` need not be connected: `start()` opens the session. Opens the log `log_file` with
   /// `columns` and `comments`; `label` and `duration_s` are for the progress line.
-  RealtimeHarness(mfb::UdpBackend& backend, const LinkConfig& link, const RealtimeRunOptions& options, double period_s,
+  RealtimeHarness(mfb::UdpBackend& backend, const mfb::LinkConfig& link, const RealtimeRunOptions& options, double period_s,
                   double duration_s, std::string label, const std::filesystem::path& log_file, const std::vector<std::string>& columns,
                   const std::vector<std::string>& comments);
   ~RealtimeHarness();
@@ -106,7 +104,7 @@ class RealtimeHarness {
   bool after(const io::SensorState& state, io::Command& command) noexcept;
 
   mfb::UdpBackend& backend_;
-  LinkConfig link_;
+  mfb::LinkConfig link_;
   RealtimeRunOptions options_;
   double period_s_, duration_s_;
   std::string label_;

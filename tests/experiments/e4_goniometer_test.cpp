@@ -1,6 +1,6 @@
 // E4: a person's elbow, measured by a goniometer, drives the exoskeleton's elbow through the
 // Butterworth filter, derivatives and the forearm + hand inverse dynamics.
-#include "peha/runtime/e4_goniometer.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
 
 #include "peha/calibration/dataset.hpp"
 
@@ -15,7 +15,7 @@
 #include <numbers>
 #include <sys/wait.h>
 
-namespace peha::runtime {
+namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
@@ -147,4 +147,4 @@ TEST(E4, CliReplaysARecordedGoniometerFile) {
 }
 
 }  // namespace
-}  // namespace peha::runtime
+}  // namespace peha::experiments

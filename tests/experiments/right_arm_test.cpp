@@ -1,4 +1,5 @@
-#include "peha/runtime/right_arm.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
 #include "../support/alloc_counter.hpp"
 
@@ -6,7 +7,7 @@
 
 #include <cmath>
 
-namespace peha::runtime {
+namespace peha::experiments {
 namespace {
 
 ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
@@ -63,9 +64,9 @@ TEST(ArmController, StepAllocatesNothing) {
 }
 
 }  // namespace
-}  // namespace peha::runtime
+}  // namespace peha::experiments
 
-namespace peha::runtime {
+namespace peha::experiments {
 namespace {
 
 // E6 (the paper's open question): on the locked elbow, a 2 Nm torque sine (within the motor's
@@ -92,4 +93,4 @@ TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
 }
 
 }  // namespace
-}  // namespace peha::runtime
+}  // namespace peha::experiments

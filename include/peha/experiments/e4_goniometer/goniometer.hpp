@@ -15,7 +15,7 @@
 /// `elbow_angle_rad`, sampled at the configured rate).
 
 #include "peha/runtime/csv_log.hpp"
-#include "peha/runtime/right_arm.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-namespace peha::runtime {
+namespace peha::experiments {
 
 /// What the goniometer delivers, sample by sample, and what the person's elbow really did.
 struct GoniometerTrace {
@@ -77,7 +77,7 @@ const std::vector<std::string>& goniometer_log_columns();
 
 /// Runs E4 for one trace on the in-process simulated arm. `log` (optional) gets one row per cycle.
 GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
-                                RowSink* log);
+                                runtime::RowSink* log);
 
 /// The goniometer's reading (rad) at time t_s of an E4 run: the trace's first sample during
 /// settle_s, then the trace, then its last sample. What the board emulator puts on the goniometer's
@@ -98,6 +98,6 @@ using GoniometerSource = std::function<double(double t_s)>;
 /// exoskeleton's elbow is its encoder and forces are the load cells'.
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
                                    io::Backend& backend, const sim::RightArmBackend* sim, const GoniometerSource& reading,
-                                   const GoniometerSource& person, RowSink* log, const CycleHooks& hooks = {});
+                                   const GoniometerSource& person, runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
 
-}  // namespace peha::runtime
+}  // namespace peha::experiments

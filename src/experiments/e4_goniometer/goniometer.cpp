@@ -1,4 +1,4 @@
-#include "peha/runtime/e4_goniometer.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
 
 #include "peha/calibration/dataset.hpp"
 #include "peha/control/butterworth.hpp"
@@ -17,7 +17,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace peha::runtime {
+namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
@@ -212,7 +212,7 @@ sim::RightArmPlantParams goniometer_plant_params(const ArmScenario& scenario, co
 }
 
 GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
-                                RowSink* log) {
+                                runtime::RowSink* log) {
   if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size()) {
     throw std::invalid_argument("run_goniometer: empty trace or truth/measured size mismatch");
   }
@@ -226,7 +226,7 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
 
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
                                    io::Backend& backend, const sim::RightArmBackend* sim, const GoniometerSource& reading,
-                                   const GoniometerSource& person, RowSink* log, const CycleHooks& hooks) {
+                                   const GoniometerSource& person, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
   const ArmScenario::Goniometer& g = scenario.goniometer;
   const double period = scenario.period_s;
   const auto decimation = static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * period)));
@@ -311,7 +311,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     }
     return flags;
   };
-  const std::size_t done = run_cycles(backend, hooks, steps, state, command, step, hold);
+  const std::size_t done = runtime::run_cycles(backend, hooks, steps, state, command, step, hold);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.within_limits = safe && r.min_wire_tension_N > 0.0;
@@ -348,4 +348,4 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   return r;
 }
 
-}  // namespace peha::runtime
+}  // namespace peha::experiments

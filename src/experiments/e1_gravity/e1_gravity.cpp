@@ -1,4 +1,4 @@
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include "peha/models/model_config.hpp"
 
@@ -10,7 +10,7 @@
 #include <cmath>
 #include <numbers>
 
-namespace peha::runtime {
+namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
@@ -44,18 +44,6 @@ sim::FingerParams read_finger(config::Map map, double duration_s) {
 }
 
 }  // namespace
-
-LinkConfig read_link_config(config::Map map) {
-  LinkConfig l;
-  l.channel_map = map.path_value("channel_map");
-  l.board_watchdog_s = map.number("board_watchdog_ms", {2.0, 10000.0}) * 1e-3;
-  l.host_watchdog_s = map.number("host_watchdog_ms", {2.0, 10000.0}) * 1e-3;
-  l.receive_timeout_s = map.number("receive_timeout_ms", {0.05, 100.0}) * 1e-3;
-  l.vent_s = map.number("vent_s", {0.0, 60.0});
-  l.recovery_ramp_s = map.number("recovery_ramp_s", {0.0, 60.0});
-  map.finish();
-  return l;
-}
 
 E1Scenario read_e1(const config::Document& doc) {
   config::Map root = doc.root();
@@ -111,11 +99,11 @@ E1Scenario read_e1(const config::Document& doc) {
     c.finish();
     s.cases.push_back(e);
   }
-  if (root.has("mfb")) s.link = read_link_config(root.map("mfb"));
+  if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
   if (root.has("calibration")) {
     config::Map cal = root.map("calibration");
-    s.excitation[0] = calibration::read_excitation(cal.map("agonist"));
-    s.excitation[1] = calibration::read_excitation(cal.map("antagonist"));
+    s.excitation[0] = experiments::read_excitation(cal.map("agonist"));
+    s.excitation[1] = experiments::read_excitation(cal.map("antagonist"));
     cal.finish();
   }
   root.finish();
@@ -145,13 +133,13 @@ sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c
   return p;
 }
 
-E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, RowSink* log) {
+E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSink* log) {
   sim::OneDofRigBackend plant(e1_plant_params(scenario, c));
   return run_e1_on(scenario, c, plant, &plant, log);
 }
 
 E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
-                   RowSink* log, const CycleHooks& hooks) {
+                   runtime::RowSink* log, const runtime::CycleHooks& hooks) {
   control::OneDofGravityController controller(e1_controller_model(scenario, c));
   safety::LimitsData limits_data;
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -227,7 +215,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     }
     return flags;
   };
-  angle_truth.resize(run_cycles(backend, hooks, steps, state, command, step, hold) + 1);
+  angle_truth.resize(runtime::run_cycles(backend, hooks, steps, state, command, step, hold) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = angle_truth.size() - 1;  // a run ended early analyses what it has
   r.simulated_s = static_cast<double>(done) * scenario.period_s;
@@ -273,4 +261,4 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   return r;
 }
 
-}  // namespace peha::runtime
+}  // namespace peha::experiments

@@ -14,7 +14,7 @@
 #include <functional>
 #include <string>
 
-namespace peha::calibration {
+namespace peha::experiments {
 
 /// The excitation of one muscle.
 struct ExcitationParams {
@@ -42,8 +42,8 @@ double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept;
 /// Runs the excitation of muscle `side` (+1 agonist, -1 antagonist) of joint 0 on `backend` and
 /// returns the logged data (contraction from the controller's rigid-wire geometry, wire velocity
 /// from a filtered encoder difference). `progress(fraction)` is called about once per second of data.
-Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
+calibration::Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
                           const ExcitationParams& excitation, const safety::LimitsModel& limits,
                           const std::function<void(double)>& progress = {});
 
-}  // namespace peha::calibration
+}  // namespace peha::experiments

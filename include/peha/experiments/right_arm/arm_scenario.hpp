@@ -1,13 +1,14 @@
 #pragma once
 /// \file
-/// Experiments on the simulated right arm (SPEC §7): E3 "postures" - the operator moves the arm with
-/// its mannequin to several postures and lets go; with gravity compensation tau = J^T G and no
-/// position feedback it should stay. The scenario is configs/right_arm.yaml.
+/// The right arm's scenario (configs/right_arm.yaml): controller, limits, simulated plant and the
+/// sections of E3 (postures), E4 (goniometer) and E6 (bandwidth), read once and shared by the
+/// three experiments; and the per-joint sample their safety figures are computed from.
 
 #include "peha/config/reader.hpp"
 #include "peha/control/arm_controller.hpp"
 #include "peha/runtime/csv_log.hpp"
-#include "peha/runtime/e1_gravity.hpp"  // CycleHooks, LinkConfig
+#include "peha/mfb/link_config.hpp"
+#include "peha/runtime/control_loop.hpp"
 #include "peha/safety/limits.hpp"
 #include "peha/sim/right_arm.hpp"
 
@@ -15,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace peha::runtime {
+namespace peha::experiments {
 
 struct ArmPosture {
   std::string name;
@@ -25,7 +26,7 @@ struct ArmPosture {
 
 struct ArmScenario {
   std::string description;
-  std::optional<LinkConfig> link;   ///< optional `mfb:` section: the board link
+  std::optional<mfb::LinkConfig> link;   ///< optional `mfb:` section: the board link
   std::uint64_t seed = 1;
   double period_s = 1e-3;
   control::ArmControllerModel controller;
@@ -72,44 +73,8 @@ struct ArmScenario {
 /// Reads configs/right_arm.yaml (and the body file it names); throws config::Error.
 ArmScenario read_arm_scenario(const config::Document& doc);
 
-struct PostureResult {
-  std::string name;
-  double target_deg[2] = {0, 0};      ///< SFE, EFE the operator aimed at
-  double released_deg[2] = {0, 0};    ///< where the arm was at release (plant truth)
-  double drift_deg[2] = {0, 0};       ///< angle observe_s after release minus at release
-  double max_excursion_deg[2] = {0, 0};
-};
-
-struct PosturesResult {
-  std::vector<PostureResult> postures;
-  double peak_muscle_force_N = 0;     ///< any muscle, plant truth
-  double min_wire_tension_N = 0;      ///< any wire, plant truth
-  double peak_operator_torque_Nm = 0;
-  double realtime_factor = 0;
-  bool within_limits = false;         ///< every force/tension/pressure/motor limit held
-};
-
-struct BodePoint {
-  double frequency_Hz = 0;
-  double gain = 0;        ///< |delivered / desired| of the torque at this frequency
-  double phase_deg = 0;   ///< arg(delivered / desired)
-};
-
-struct BandwidthResult {
-  std::string variant;                 ///< "pam_only" or "hybrid"
-  std::vector<BodePoint> bode;
-  double bandwidth_3dB_Hz = 0;         ///< where the gain first falls below 1/sqrt(2) (log-interpolated);
-                                       ///< the highest frequency tested if it never does
-  bool reached_3dB = false;
-  double peak_muscle_force_N = 0;
-  double min_wire_tension_N = 0;
-  double peak_motor_torque_Nm = 0;
-};
-
-/// E6: the torque bandwidth of one joint, PAM-only (no motor, no low-pass split) or hybrid.
-BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid);
-
-const std::vector<std::string>& arm_log_columns();
+/// The io joints of the right arm as the board's channel map names them (R_SFE, R_EFE, R_WFE).
+const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario);
 
 /// One actuated joint at one cycle, as the arm's safety figures need it: from the simulator's truth
 /// when there is one, else from what the host has (load cells, pressure sensors, the command).
@@ -124,20 +89,4 @@ ArmJointSample arm_joint_sample(const io::SensorState& state, const io::Command&
 /// The joint's force ceilings, supply pressure and motor rating held in `sample`.
 bool arm_joint_within_limits(const ArmScenario& scenario, std::size_t joint, const ArmJointSample& sample) noexcept;
 
-/// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
-PosturesResult run_postures(const ArmScenario& scenario, RowSink* log);
-
-/// The simulated arm of E3: the scenario's plant with the operator's script (hold at the start,
-/// then carry the arm to each posture, hold, let go) - also what `peha mfb-emulator` simulates.
-sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario);
-/// When the operator lets go of each posture, s (E3's script), and the whole run's length.
-std::vector<double> postures_release_times_s(const ArmScenario& scenario);
-double postures_duration_s(const ArmScenario& scenario);
-
-/// E3 on any backend. `sim` (optional) is the in-process arm when `backend` is it (truth figures);
-/// without it the drift comes from the joint encoders, forces and tensions from the load cells, and
-/// the operator is where the script puts them. A cycle whose read() fails holds the last command.
-PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::RightArmBackend* sim, RowSink* log,
-                               const CycleHooks& hooks = {});
-
-}  // namespace peha::runtime
+}  // namespace peha::experiments

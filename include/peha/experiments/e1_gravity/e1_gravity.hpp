@@ -5,9 +5,11 @@
 /// and down with a finger and lets go; with feed-forward compensation only (no position feedback) it
 /// should stay where it was left. The scenario is entirely configuration (configs/e1_one_dof.yaml).
 
-#include "peha/calibration/excitation.hpp"
+#include "peha/experiments/calibration_recording/excitation.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/control/one_dof_gravity.hpp"
+#include "peha/mfb/link_config.hpp"
+#include "peha/runtime/control_loop.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/safety/limits.hpp"
 #include "peha/sim/one_dof_rig.hpp"
@@ -18,20 +20,7 @@
 #include <string>
 #include <vector>
 
-namespace peha::runtime {
-
-/// The `mfb:` section of a scenario: the board link (docs/mfb-protocol.md, docs/runtime.md).
-struct LinkConfig {
-  std::filesystem::path channel_map;   ///< resolved against the scenario's folder
-  double board_watchdog_s = 0.05;      ///< the board's: no command this long -> safe outputs
-  double host_watchdog_s = 0.02;       ///< the host's: no sample this long -> fault
-  double receive_timeout_s = 0.0008;   ///< how long a cycle waits for the board's reply
-  double vent_s = 2.0;                 ///< the board's controlled venting after its watchdog fired
-  double recovery_ramp_s = 1.0;        ///< after a recovery, commands ramp from safe to the controller's
-};
-
-/// Reads an `mfb:` mapping (finishes it).
-LinkConfig read_link_config(config::Map map);
+namespace peha::experiments {
 
 struct E1Case {
   std::string name;     ///< used in file names, e.g. "payload_2.5kg"
@@ -50,9 +39,9 @@ struct E1Scenario {
   std::vector<E1Case> cases;
   /// Optional `calibration:` section: the excitation of each muscle for `peha record-calibration`
   /// (index 0 agonist, 1 antagonist).
-  std::optional<calibration::ExcitationParams> excitation[2];
+  std::optional<experiments::ExcitationParams> excitation[2];
   /// Optional `mfb:` section: how the scenario runs on the multifunction board over UDP.
-  std::optional<LinkConfig> link;
+  std::optional<mfb::LinkConfig> link;
 };
 
 /// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.
@@ -94,51 +83,19 @@ struct E1Result {
 /// Column names of the per-cycle log.
 const std::vector<std::string>& e1_log_columns();
 
-/// What a loop does around each control cycle besides control. Both may be empty.
-struct CycleHooks {
-  /// Before reading the backend: e.g. sleep to the next absolute deadline.
-  std::function<void()> wait;
-  /// After the command was limited and before it is written. It may replace the command (a
-  /// fault's safe command, a recovery ramp); returning false ends the run early. Called from the
-  /// control loop: must not block or allocate.
-  std::function<bool(const io::SensorState&, io::Command&, std::uint32_t limit_flags)> after;
-};
-
-/// The loop skeleton every experiment runner shares, for cycles k = 0..steps on `backend`: wait
-/// (hooks.wait), read; on a new sample `step(k)` (control, limits, figures, log; returns the limit
-/// flags), without one `hold(k)` and the last command goes out again (it also feeds a board's
-/// watchdog); then hooks.after - which may end the run - and write, except after the last cycle.
-/// Returns the last cycle run (< steps if a hook ended the run).
-template <class Step, class Hold>
-std::size_t run_cycles(io::Backend& backend, const CycleHooks& hooks, std::size_t steps, io::SensorState& state,
-                       io::Command& command, Step&& step, Hold&& hold) {
-  for (std::size_t k = 0; k <= steps; ++k) {
-    if (hooks.wait) hooks.wait();
-    std::uint32_t flags = 0;
-    if (backend.read(state)) {
-      flags = step(k);
-    } else {
-      hold(k);
-    }
-    if (hooks.after && !hooks.after(state, command, flags)) return k;
-    if (k < steps) backend.write(command);
-  }
-  return steps;
-}
-
 /// Runs one case on the in-process simulated rig (as fast as it computes). `log` (optional)
 /// receives one row per control cycle.
-E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, RowSink* log);
+E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSink* log);
 
 /// Runs one case on any backend: the same controller, limits and analysis. `sim` (optional) is
 /// the in-process rig when `backend` is it, for truth figures; without it the figures come from
 /// the sensors (see E1Result::from_truth). A cycle whose read() fails re-sends the last command.
 E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
-                   RowSink* log, const CycleHooks& hooks = {});
+                   runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
 
 /// The controller's model of a case (the scenario's, with the case's payload).
 control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c);
 /// The simulated rig's parameters for a case (the scenario's plant with the case's payload).
 sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c);
 
-}  // namespace peha::runtime
+}  // namespace peha::experiments

@@ -1,11 +1,11 @@
-#include "peha/calibration/excitation.hpp"
+#include "peha/experiments/calibration_recording/excitation.hpp"
 
 #include "peha/control/one_dof_gravity.hpp"
 
 #include <cmath>
 #include <stdexcept>
 
-namespace peha::calibration {
+namespace peha::experiments {
 
 ExcitationParams read_excitation(config::Map map) {
   ExcitationParams e;
@@ -39,7 +39,7 @@ double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept {
   return e.other_pressure_at_min_Pa + (e.other_pressure_Pa - e.other_pressure_at_min_Pa) * triangle_unit(e, t_s);
 }
 
-Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
+calibration::Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
                           const ExcitationParams& excitation, const safety::LimitsModel& limits,
                           const std::function<void(double)>& progress) {
   const double period_s = backend.info().period_s;
@@ -51,7 +51,7 @@ Dataset record_excitation(io::Backend& backend, const models::JointModel& joint,
   const models::MuscleModel& muscle = side > 0 ? joint.agonist : joint.antagonist;
   const auto steps = static_cast<long>(std::llround(excitation.duration_s / period_s));
 
-  Dataset data;
+  calibration::Dataset data;
   const auto rows = static_cast<std::size_t>(steps / every + 1);
   for (auto* v : {&data.t_s, &data.pressure_Pa, &data.angle_rad, &data.contraction, &data.force_N,
                   &data.wire_velocity_mps}) {
@@ -92,4 +92,4 @@ Dataset record_excitation(io::Backend& backend, const models::JointModel& joint,
   return data;
 }
 
-}  // namespace peha::calibration
+}  // namespace peha::experiments

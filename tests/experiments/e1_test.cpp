@@ -1,10 +1,10 @@
-#include "peha/runtime/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-namespace peha::runtime {
+namespace peha::experiments {
 namespace {
 
 E1Scenario shipped_scenario() {
@@ -69,7 +69,7 @@ TEST(E1, SameSeedReproducesTheLogExactly) {
   s.duration_s = 4.0;
   const E1Case c = s.cases[1];
   const std::size_t rows = 4001;
-  CsvLog a(e1_log_columns(), rows), b(e1_log_columns(), rows), other(e1_log_columns(), rows);
+  runtime::CsvLog a(e1_log_columns(), rows), b(e1_log_columns(), rows), other(e1_log_columns(), rows);
   run_e1_case(s, c, &a);
   run_e1_case(s, c, &b);
   s.plant.seed = 99;
@@ -88,4 +88,4 @@ TEST(E1, SameSeedReproducesTheLogExactly) {
 }
 
 }  // namespace
-}  // namespace peha::runtime
+}  // namespace peha::experiments

@@ -1,24 +1,24 @@
-#include "peha/runtime/e1_realtime.hpp"
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
 #include <fmt/format.h>
 
-namespace peha::runtime {
+namespace peha::experiments {
 
-E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, const RealtimeRunOptions& options) {
+E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, const runtime::RealtimeRunOptions& options) {
   if (!scenario.link) throw std::runtime_error("the scenario has no mfb: section (channel map, watchdogs): see docs/runtime.md");
-  const auto backend = make_board_backend(*scenario.link, options, scenario.period_s, sim::one_dof_rig_joint_names());
+  const auto backend = mfb::make_board_backend(*scenario.link, options.board, scenario.period_s, sim::one_dof_rig_joint_names());
   E1RealtimeResult res;
   {
-    RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, scenario.duration_s, c.name,
+    runtime::RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, scenario.duration_s, c.name,
                             options.dir / fmt::format("e1_{}.csv", c.name), e1_log_columns(),
                             {fmt::format("case: {} (payload {} kg) on the MFB at udp://{}", c.name, c.payload_kg, options.board.to_string()),
                              fmt::format("session {:08x}; plant_* and finger columns are NaN: the host sees only the board's sensors",
                                          backend->session_id())});
-    const CycleHooks hooks = harness.start();
+    const runtime::CycleHooks hooks = harness.start();
     res.e1 = run_e1_on(scenario, c, *backend, nullptr, &harness.sink(), hooks);
     harness.finish(res);
   }
   return res;
 }
 
-}  // namespace peha::runtime
+}  // namespace peha::experiments

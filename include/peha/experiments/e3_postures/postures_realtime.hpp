@@ -1,0 +1,18 @@
+#pragma once
+/// \file
+/// The right arm's E3 (postures) on the multifunction board over UDP, in real time: the same
+/// controller, limits and analysis as in-process (`run_postures_on`), inside a RealtimeHarness.
+
+#include "peha/runtime/realtime_harness.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
+
+namespace peha::experiments {
+
+struct PosturesRealtimeResult : runtime::RealtimeRunResult {
+  PosturesResult postures;  ///< figures from the board's sensors (encoders, load cells)
+};
+
+/// Runs E3 on the board at `options.board`; throws (set-up) without an `mfb:` section or a board.
+PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const runtime::RealtimeRunOptions& options);
+
+}  // namespace peha::experiments

@@ -1,0 +1,21 @@
+#pragma once
+/// \file
+/// The right arm's E4 (goniometer) on the multifunction board over UDP, in real time: the same
+/// controller, limits and analysis as in-process (`run_goniometer_on`), inside a RealtimeHarness.
+
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
+#include "peha/runtime/realtime_harness.hpp"
+
+namespace peha::experiments {
+
+struct GoniometerRealtimeResult : runtime::RealtimeRunResult {
+  GoniometerResult goniometer;  ///< the person's elbow is the goniometer's reading; the exoskeleton's its encoder
+};
+
+/// E4 on the board: the goniometer comes from its AD channel (the channel map's R_EFE.goniometer),
+/// for as long as the scenario's movement `movement` lasts. One session per call (the emulator
+/// resets its arm). Throws (set-up) without an `mfb:` section, a goniometer channel or a board.
+GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, std::size_t movement, GoniometerVariant variant,
+                                                 const runtime::RealtimeRunOptions& options);
+
+}  // namespace peha::experiments

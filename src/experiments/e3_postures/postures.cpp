@@ -1,0 +1,149 @@
+#include "peha/experiments/e3_postures/postures.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <limits>
+#include <numbers>
+
+namespace peha::experiments {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+}  // namespace
+
+const std::vector<std::string>& arm_log_columns() {
+  static const std::vector<std::string> columns = [] {
+    std::vector<std::string> c = {"t_s", "operator_active"};
+    for (const char* j : {"sfe", "efe", "wfe"}) {
+      for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
+                            "operator_torque_Nm", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "f_agonist_loadcell_N",
+                            "f_antagonist_loadcell_N", "plant_force_agonist_N", "plant_force_antagonist_N"}) {
+        c.push_back(fmt::format("{}_{}", j, f));
+      }
+    }
+    return c;
+  }();
+  return columns;
+}
+
+sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
+  // The operator's script: hold the arm where it starts while compensation comes on, then for each
+  // posture carry the arm there, hold, let go, and watch.
+  sim::RightArmPlantParams p = scenario.plant;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  p.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, {p.initial_q_rad[0], p.initial_q_rad[1], nan}});
+  double t = 2.0 + scenario.observe_s * 0.2;
+  for (const ArmPosture& a : scenario.postures) {
+    p.operator_hands.moves.push_back({a.name, t, scenario.move_s + scenario.hold_s, scenario.move_s, {a.sfe_rad, a.efe_rad, nan}});
+    t += scenario.move_s + scenario.hold_s + scenario.observe_s;
+  }
+  return p;
+}
+
+std::vector<double> postures_release_times_s(const ArmScenario& scenario) {
+  // The operator lets go at the end of each posture's move (the script's moves after "start").
+  const sim::RightArmPlantParams script = postures_plant_params(scenario);
+  const std::vector<sim::OperatorMove>& moves = script.operator_hands.moves;
+  std::vector<double> release_s;
+  for (std::size_t i = 1; i < moves.size(); ++i) release_s.push_back(moves[i].start_s + moves[i].duration_s);
+  return release_s;
+}
+
+double postures_duration_s(const ArmScenario& scenario) { return postures_release_times_s(scenario).back() + scenario.observe_s; }
+
+PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) {
+  sim::RightArmBackend plant(postures_plant_params(scenario));
+  return run_postures_on(scenario, plant, &plant, log);
+}
+
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::RightArmBackend* sim, runtime::RowSink* log,
+                               const runtime::CycleHooks& hooks) {
+  const std::vector<double> release_s = postures_release_times_s(scenario);
+  const double duration_s = postures_duration_s(scenario);
+  const sim::RightArmPlantParams script = postures_plant_params(scenario);  // where the operator's hands are, by the clock
+  control::ArmController controller(scenario.controller);
+  safety::LimitsData limits_data;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  PosturesResult r;
+  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
+  bool safe = true;
+  const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
+  std::vector<double> sfe(steps + 1), efe(steps + 1);
+  io::SensorState state;
+  io::Command command;
+  std::vector<double> row(arm_log_columns().size());
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto hold = [&](std::size_t k) {  // no new sample: the command is held
+    sfe[k] = k ? sfe[k - 1] : 0.0;
+    efe[k] = k ? efe[k - 1] : 0.0;
+  };
+  auto step = [&](std::size_t k) -> std::uint32_t {
+    controller.update(state, command);
+    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
+    const sim::RightArmTruth* truth = sim ? &sim->truth() : nullptr;
+    bool operator_active = false;
+    if (truth) {
+      operator_active = truth->operator_active;
+    } else {
+      for (const auto& m : script.operator_hands.moves) operator_active |= state.time_s >= m.start_s && state.time_s < m.start_s + m.duration_s;
+    }
+    sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
+    efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
+    for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
+      const ArmJointSample j = arm_joint_sample(state, command, truth, a);
+      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+      r.min_wire_tension_N = std::min(r.min_wire_tension_N, j.min_tension_N);
+      if (truth) r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
+      safe = safe && arm_joint_within_limits(scenario, a, j);
+    }
+    if (log) {
+      std::size_t col = 0;
+      row[col++] = state.time_s;
+      row[col++] = operator_active ? 1.0 : 0.0;
+      const auto& diag = controller.diagnostics();
+      for (std::size_t a = 0; a < 3; ++a) {
+        const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
+        const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].torque_desired_Nm,
+                                 command.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
+                                 command.joints[a].agonist_pressure_Pa * 1e-6, command.joints[a].antagonist_pressure_Pa * 1e-6,
+                                 state.joints[a].agonist_force_N, state.joints[a].antagonist_force_N, j ? j->muscle_force_N[0] : nan,
+                                 j ? j->muscle_force_N[1] : nan};
+        for (double v : values) row[col++] = v;
+      }
+      log->push_row(row);
+    }
+    return flags;
+  };
+  const std::size_t done = runtime::run_cycles(backend, hooks, steps, state, command, step, hold);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
+  r.within_limits = safe && r.min_wire_tension_N > 0.0;
+
+  const auto window = static_cast<std::size_t>(std::llround(scenario.observe_s / scenario.period_s));
+  for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
+    PostureResult p;
+    p.name = scenario.postures[i].name;
+    p.target_deg[0] = scenario.postures[i].sfe_rad / kDeg;
+    p.target_deg[1] = scenario.postures[i].efe_rad / kDeg;
+    const auto k0 = static_cast<std::size_t>(std::llround(release_s[i] / scenario.period_s));
+    if (k0 > done) continue;  // a run ended early analyses what it has
+    const std::size_t k1 = std::min(k0 + window, done);
+    const std::vector<double>* angles[2] = {&sfe, &efe};
+    for (int j = 0; j < 2; ++j) {
+      const std::vector<double>& a = *angles[j];
+      p.released_deg[j] = a[k0] / kDeg;
+      p.drift_deg[j] = (a[k1] - a[k0]) / kDeg;
+      for (std::size_t k = k0; k <= k1; ++k) p.max_excursion_deg[j] = std::max(p.max_excursion_deg[j], std::abs(a[k] - a[k0]) / kDeg);
+    }
+    r.postures.push_back(p);
+  }
+  return r;
+}
+
+}  // namespace peha::experiments

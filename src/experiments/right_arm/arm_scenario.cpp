@@ -1,0 +1,187 @@
+#include "peha/experiments/e3_postures/postures.hpp"
+
+#include "peha/models/anthropometry.hpp"
+#include "peha/control/butterworth.hpp"
+#include "peha/models/model_config.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <complex>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace peha::experiments {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr const char* kJointKeys[3] = {"shoulder", "elbow", "wrist"};
+constexpr const char* kJointNames[3] = {"R_SFE", "R_EFE", "R_WFE"};
+
+}  // namespace
+
+ArmScenario read_arm_scenario(const config::Document& doc) {
+  config::Map root = doc.root();
+  ArmScenario s;
+  root.choice("experiment", {"right_arm"});
+  s.description = root.string("description");
+  s.seed = static_cast<std::uint64_t>(root.integer("seed", 0, 1L << 40));
+  const models::RightArmConfig body = models::read_right_arm(config::Document::load_file(root.path_value("body")));
+
+  config::Map run = root.map("run");
+  s.period_s = run.number("control_period_s", {1e-4, 0.1});
+  run.finish();
+  config::Map limits = root.map("limits");
+  const double supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
+  const double rate_Pa = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
+  const double motor_rate = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
+  limits.finish();
+
+  config::Map ctl = root.map("controller");
+  s.controller.arm = body.controller.model();
+  s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
+  s.controller.allocation = control::read_allocation(ctl.map("allocation"), supply_Pa);
+  s.limits.joint_count = 3;
+  s.limits.period_s = s.period_s;
+  for (int i = 0; i < 3; ++i) {
+    config::Map j = ctl.map(kJointKeys[i]);
+    control::ArmActuatedJoint joint;
+    joint.model_joint = i;  // SFE, EFE, WFE are the first three joints of the arm model
+    const double lo = j.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
+    const double hi = j.number("max_angle_deg", {lo / kDeg, 180.0}) * kDeg;
+    if (i == 2) {
+      joint.mode = control::ArmJointMode::kHoldPressure;
+      joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, supply_Pa * 1e-6}) * 1e6;
+    }
+    joint.actuator = models::read_joint_model(j, kJointNames[i], supply_Pa);
+    j.finish();
+    safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(i)];
+    lim.model = joint.actuator;
+    lim.supply_pressure_Pa = supply_Pa;
+    lim.pretension_N = s.controller.allocation.pretension_N;
+    lim.pressure_rate_Pa_per_s = rate_Pa;
+    lim.motor_rate_Nm_per_s = motor_rate;
+    lim.min_angle_rad = lo;
+    lim.max_angle_rad = hi;
+    s.controller.joints.push_back(joint);
+  }
+  ctl.finish();
+
+  config::Map plant = root.map("plant");
+  sim::RightArmPlantParams& p = s.plant;
+  p.model = body.plant.model();
+  p.mjcf = sim::right_arm_mjcf_options();
+  p.timestep_s = sim::read_timestep_s(plant, s.period_s);
+  p.mjcf.timestep_s = p.timestep_s;
+  p.control_period_s = s.period_s;
+  p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  config::Map pressure = plant.map("pressure_sensor");
+  p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
+  p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
+  pressure.finish();
+  const std::vector<double> q0 = plant.numbers("initial_angles_deg", {-180.0, 180.0}, 5, 5);
+  for (double a : q0) p.initial_q_rad.push_back(a * kDeg);
+  for (int i = 0; i < 3; ++i) {
+    config::Map j = plant.map(kJointKeys[i]);
+    p.actuated.emplace_back(kJointNames[i]);
+    p.actuators.push_back(sim::read_peha_joint_plant(j, supply_Pa, /*has_motor=*/i < 2));
+    j.finish();
+  }
+  plant.finish();
+  p.seed = s.seed;
+
+  config::Map op = root.map("operator");
+  p.operator_hands.stiffness_Nm_per_rad = op.number("stiffness_Nm_per_rad", {0.0, 1e4});
+  p.operator_hands.damping_Nms_per_rad = op.number("damping_Nms_per_rad", {0.0, 1e3});
+  p.operator_hands.max_torque_Nm = op.number("max_torque_Nm", {0.0, 200.0});
+  op.finish();
+
+  config::Map postures = root.map("postures");
+  s.move_s = postures.number("move_s", {0.1, 60.0});
+  s.hold_s = postures.number("hold_s", {0.0, 60.0});
+  s.observe_s = postures.number("observe_s", {0.1, 600.0});
+  for (config::Map item : postures.maps("list", 1, 32)) {
+    ArmPosture a;
+    a.name = item.string("name");
+    a.sfe_rad = item.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
+    a.efe_rad = item.number("efe_deg", {s.limits.joints[1].min_angle_rad / kDeg, s.limits.joints[1].max_angle_rad / kDeg}) * kDeg;
+    item.finish();
+    s.postures.push_back(a);
+  }
+  postures.finish();
+  config::Map bw = root.map("bandwidth");
+  const std::string joint = bw.choice("joint", {"shoulder", "elbow"});
+  s.bandwidth.joint = joint == "shoulder" ? 0 : 1;
+  s.bandwidth.sfe_rad = bw.number("sfe_deg", {-100.0, 60.0}) * kDeg;
+  s.bandwidth.efe_rad = bw.number("efe_deg", {0.0, 135.0}) * kDeg;
+  s.bandwidth.amplitude_Nm = bw.number("amplitude_Nm", {0.01, 50.0});
+  s.bandwidth.frequencies_Hz = bw.numbers("frequencies_Hz", {0.01, 0.25 / s.period_s}, 2, 64);
+  s.bandwidth.min_cycles = bw.number("min_cycles", {2.0, 1000.0});
+  s.bandwidth.min_duration_s = bw.number("min_duration_s", {0.1, 600.0});
+  bw.finish();
+  if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
+  config::Map gon = root.map("goniometer");
+  ArmScenario::Goniometer& g = s.goniometer;
+  const double elbow_lo = s.limits.joints[1].min_angle_rad / kDeg, elbow_hi = s.limits.joints[1].max_angle_rad / kDeg;
+  g.sfe_rad = gon.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
+  g.sample_rate_Hz = gon.number("sample_rate_Hz", {10.0, 1.0 / s.period_s});
+  const double ratio = 1.0 / (g.sample_rate_Hz * s.period_s);
+  if (std::abs(ratio - std::round(ratio)) > 1e-9) {
+    gon.fail("sample_rate_Hz", fmt::format("must divide the control rate {} Hz, found {} Hz", 1.0 / s.period_s, g.sample_rate_Hz));
+  }
+  g.noise_rad = gon.number("noise_deg", {0.0, 10.0}) * kDeg;
+  g.resolution_rad = gon.number("resolution_deg", {0.0, 5.0}) * kDeg;
+  config::Map filter = gon.map("filter");
+  g.filter_order = static_cast<int>(filter.integer("order", 1, control::kButterworthMaxOrder));
+  g.cutoff_Hz = filter.number("cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
+  filter.finish();
+  g.settle_s = gon.number("settle_s", {1.5, 60.0});
+  g.tail_s = gon.number("tail_s", {0.0, 60.0});
+  g.max_delay_s = gon.number("max_delay_s", {0.01, 2.0});
+  config::Map fb = gon.map("feedback");
+  g.feedback_stiffness_Nm_per_rad = fb.number("stiffness_Nm_per_rad", {0.0, 1000.0});
+  g.feedback_damping_Nms_per_rad = fb.number("damping_Nms_per_rad", {0.0, 100.0});
+  fb.finish();
+  for (config::Map item : gon.maps("movements", 1, 16)) {
+    ArmScenario::Goniometer::Movement m;
+    m.name = item.string("name");
+    m.from_rad = item.number("from_deg", {elbow_lo, elbow_hi}) * kDeg;
+    m.to_rad = item.number("to_deg", {elbow_lo, elbow_hi}) * kDeg;
+    m.move_s = item.number("move_s", {0.05, 60.0});
+    m.pause_s = item.number("pause_s", {0.0, 60.0});
+    m.repetitions = static_cast<int>(item.integer("repetitions", 1, 1000));
+    item.finish();
+    g.movements.push_back(m);
+  }
+  gon.finish();
+  root.finish();
+  return s;
+}
+
+const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario) { return scenario.plant.actuated; }
+
+ArmJointSample arm_joint_sample(const io::SensorState& state, const io::Command& command, const sim::RightArmTruth* truth,
+                                std::size_t joint) noexcept {
+  ArmJointSample j;
+  if (truth) {
+    const sim::PehaJointTruth& t = truth->actuators[joint];
+    j = {{t.muscle_force_N[0], t.muscle_force_N[1]}, std::min(t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]),
+         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm};
+  } else {
+    const io::JointSensors& s = state.joints[joint];
+    j = {{s.agonist_force_N, s.antagonist_force_N}, std::min(s.agonist_force_N, s.antagonist_force_N),
+         {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, command.joints[joint].motor_torque_Nm};
+  }
+  return j;
+}
+
+bool arm_joint_within_limits(const ArmScenario& scenario, std::size_t joint, const ArmJointSample& j) noexcept {
+  const models::JointModel& jm = scenario.controller.joints[joint].actuator;
+  const double supply_Pa = scenario.limits.joints[joint].supply_pressure_Pa;
+  return j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) && j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
+         j.pressure_Pa[0] <= supply_Pa && j.pressure_Pa[1] <= supply_Pa && std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
+}
+
+}  // namespace peha::experiments
