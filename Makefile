@@ -15,6 +15,7 @@ help:
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make bench  build and run the Google Benchmark suite (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser for 10 minutes (libFuzzer, ASan, UBSan)"
+	@echo "make soak   opt-in: build and run only the long benchmark (60 s of MFB round trips at 1 kHz over UDP)"
 	@echo "make clean  remove build/ and out/"
 
 deps:
@@ -53,6 +54,10 @@ bench: build
 	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out out/bench/agonist.csv
 	$(PEHA) calibrate out/bench/agonist.csv --muscle agonist --out out/bench/agonist_lm.yaml --no-spgp --no-holdout --no-plot
 	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --json out/bench/scipy_vs_peha.json
+
+# Opt-in soak: only the 60 s MFB loopback benchmark at 1 kHz (also part of `make bench`).
+soak: build
+	./$(BUILD)/peha_bench --benchmark_filter=BM_MfbLoopback1kHz60s --benchmark_counters_tabular=true
 
 # The MFB packet parser under libFuzzer for 10 minutes (make test runs it for 20 s).
 fuzz: deps

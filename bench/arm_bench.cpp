@@ -21,6 +21,7 @@ const experiments::ArmScenario& scenario() {
 const std::vector<io::SensorState>& recorded_states() {
   static const std::vector<io::SensorState> states = [] {
     sim::RightArmBackend plant(scenario().plant);
+    plant.activate();
     control::ArmController controller(scenario().controller);
     safety::LimitsData limits;
     std::vector<io::SensorState> out(2000);
@@ -28,7 +29,7 @@ const std::vector<io::SensorState>& recorded_states() {
     for (auto& s : out) {
       plant.read(s);
       controller.update(s, command);
-      safety::apply_limits(scenario().limits, limits, s, command);
+      safety::apply_limits(scenario().limits, experiments::arm_joint_models(scenario().controller), limits, s, command);
       plant.write(command);
     }
     return out;
@@ -44,7 +45,7 @@ void BM_ArmControlStep(benchmark::State& state) {
   std::size_t k = 0;
   for (auto _ : state) {
     controller.update(states[k], command);
-    safety::apply_limits(scenario().limits, limits, states[k], command);
+    safety::apply_limits(scenario().limits, experiments::arm_joint_models(scenario().controller), limits, states[k], command);
     benchmark::DoNotOptimize(command);
     if (++k == states.size()) {  // restart the sequence so time stamps keep increasing
       state.PauseTiming();
@@ -60,6 +61,7 @@ BENCHMARK(BM_ArmControlStep);
 
 void BM_SimulatedArmStep(benchmark::State& state) {
   sim::RightArmBackend plant(scenario().plant);
+  plant.activate();
   control::ArmController controller(scenario().controller);
   safety::LimitsData limits;
   io::SensorState s;
@@ -67,7 +69,7 @@ void BM_SimulatedArmStep(benchmark::State& state) {
   for (auto _ : state) {
     plant.read(s);
     controller.update(s, command);
-    safety::apply_limits(scenario().limits, limits, s, command);
+    safety::apply_limits(scenario().limits, experiments::arm_joint_models(scenario().controller), limits, s, command);
     plant.write(command);
   }
   state.counters["realtime_factor"] = benchmark::Counter(static_cast<double>(state.iterations()) * scenario().period_s,

@@ -42,6 +42,7 @@ E1Recording record() {
   const experiments::E1Scenario& s = e1_scenario();
   control::OneDofGravityController controller(heavy_controller_model());
   sim::OneDofRigBackend plant(heavy_plant_params());
+  plant.activate();
   safety::LimitsData limits_data;
 
   const auto steps = static_cast<std::size_t>(std::llround(s.duration_s / s.period_s));
@@ -54,7 +55,7 @@ E1Recording record() {
   for (std::size_t k = 0; k <= steps; ++k) {
     plant.read(state);
     controller.update(state, command);
-    safety::apply_limits(s.limits, limits_data, state, command);
+    safety::apply_limits(s.limits, {&s.controller.joint}, limits_data, state, command);
     r.states.push_back(state);
     r.commands.push_back(command);
     r.allocation.push_back(controller.diagnostics().allocation_input);

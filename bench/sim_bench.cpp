@@ -23,6 +23,7 @@ void BM_SimulatedRigStep(benchmark::State& state) {
   const std::vector<io::Command>& commands = e1_recording().commands;
   const std::size_t steps = commands.size() - 1;  // the last command is never written
   std::optional<sim::OneDofRigBackend> plant(std::in_place, params);
+  plant->activate();
   io::SensorState sensors;
   plant->read(sensors);
   std::size_t k = 0;
@@ -34,6 +35,7 @@ void BM_SimulatedRigStep(benchmark::State& state) {
       state.PauseTiming();
       k = 0;
       plant.emplace(params);
+      plant->activate();
       plant->read(sensors);
       state.ResumeTiming();
     }

@@ -183,7 +183,7 @@ class PressureError:
 
 # --------------------------------------------------------------------------- input
 def read_calibration_csv(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(eps, force_N, pressure_MPa) from a calibration CSV (SPEC §3: header row, '#' comments)."""
+    """(eps, force_N, pressure_MPa) from a calibration CSV (header row of named columns, '#' comments)."""
     required = ("pressure_MPa", "contraction", "force_N")
     columns: dict[str, list[float]] = {name: [] for name in required}
     header: list[str] | None = None

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
-"""Convert the real Festo fluidic-muscle force maps into peha calibration CSVs (SPEC §3).
+"""Convert the real Festo fluidic-muscle force maps into peha calibration CSVs (docs/calibration.md).
 
-Sources (read in place from ../shared/data/pam, never copied into the repository):
+Sources (read in place from the reference data directory, by default ../shared/data/pam beside the
+checkout; never copied into the repository):
 
   festo_datasheet_*.csv   pressure_kPa, contraction, force_N             (Festo datasheet curves)
   martens2017_*.csv       pressure_Pa, length_m, contraction, force_N    (Martens & Boblan 2017)

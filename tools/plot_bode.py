@@ -45,7 +45,7 @@ def main():
         threshold = 1.0 / np.sqrt(2.0)
         below = np.flatnonzero(lin < threshold)
         if below.size and below[0] > 0:
-            # Same rule as peha (runtime::run_bandwidth): linear gain, interpolated in log frequency.
+            # Same rule as peha (experiments::run_bandwidth): linear gain, interpolated in log frequency.
             i = below[0]
             w = (lin[i - 1] - threshold) / (lin[i - 1] - lin[i])
             f3 = np.exp(np.log(f[i - 1]) + w * (np.log(f[i]) - np.log(f[i - 1])))

@@ -1,5 +1,6 @@
 #!/usr/bin/python3
-"""Tests for tools/festo_to_calibration.py (on the real Festo maps in ../shared/data/pam).
+"""Tests for tools/festo_to_calibration.py (on the real Festo maps in the reference data directory:
+PEHA_PAM_DATA_DIR, by default ../shared/data/pam beside the checkout).
 
 Run:  /usr/bin/python3 -m unittest tools/test_festo_to_calibration.py
   or  /usr/bin/python3 tools/test_festo_to_calibration.py

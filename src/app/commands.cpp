@@ -139,7 +139,7 @@ void write_summary(const std::filesystem::path& path, const std::vector<experime
 }
 
 /// What a real-time run on the board measured, printed after its experiment's table.
-void print_realtime(const runtime::RealtimeRunResult& rr, const std::filesystem::path& timing_dir) {
+void print_realtime(const experiments::BoardRunResult& rr, const std::filesystem::path& timing_dir) {
   fmt::print("  real-time setup: {}\n", rr.realtime.summary());
   fmt::print("{}\n", rr.timing.table());
   const auto& l = rr.link;
@@ -201,18 +201,10 @@ int run_e1(const RunOptions& options, const config::Document& doc) {
     bool any_spgp = false;
     for (int i = 0; i < 2; ++i) {
       if (options.calibration[i].empty()) continue;
-      const calibration::MuscleCalibration c =
-          calibration::read_calibration(options.calibration[i], scenario.controller.allocation.supply_pressure_Pa);
-      for (experiments::E1Scenario* s : {&parametric, &with_spgp}) {
-        models::MuscleModel& m = i == 0 ? s->controller.joint.agonist : s->controller.joint.antagonist;
-        m.pam = c.params;
-        m.residual = nullptr;
-        if (s == &with_spgp && c.spgp) {
-          m.residual = std::make_shared<calibration::SpgpResidual>(c.spgp);
-          any_spgp = true;
-        }
-        s->limits.joints[0].model = s->controller.joint;
-      }
+      const calibration::MuscleCalibration c = calibration::read_calibration(options.calibration[i]);
+      calibration::apply_calibration(c, false, i == 0 ? parametric.controller.joint.agonist : parametric.controller.joint.antagonist);
+      calibration::apply_calibration(c, true, i == 0 ? with_spgp.controller.joint.agonist : with_spgp.controller.joint.antagonist);
+      any_spgp = any_spgp || c.spgp;
       fmt::print("  {} calibration: {} (held-out pressure RMS {:.1f} kPa parametric, {:.1f} kPa with SPGP)\n",
                  i == 0 ? "agonist" : "antagonist", options.calibration[i].string(),
                  c.stats.heldout_rms_parametric_Pa * 1e-3, c.stats.heldout_rms_spgp_Pa * 1e-3);

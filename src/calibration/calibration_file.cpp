@@ -109,13 +109,13 @@ void write_calibration(const std::filesystem::path& path, const MuscleCalibratio
   out << YAML::EndMap;
   if (!out.good()) throw std::runtime_error(fmt::format("{}: cannot emit YAML: {}", path.string(), out.GetLastError()));
   std::ofstream file(path);
-  file << "# peha muscle calibration (SPEC §3): Tendon-spring parameters + SPGP residual.\n"
+  file << "# peha muscle calibration: Tendon-spring parameters + SPGP residual.\n"
           "# Written by `peha calibrate`. SPGP: inputs (contraction, force_N), output pressure in Pa.\n"
        << out.c_str() << '\n';
   if (!file) throw std::runtime_error(fmt::format("{}: cannot write calibration file", path.string()));
 }
 
-MuscleCalibration read_calibration(const std::filesystem::path& path, double max_pressure_Pa) {
+MuscleCalibration read_calibration(const std::filesystem::path& path) {
   const config::Document doc = config::Document::load_file(path);
   config::Map root = doc.root();
   MuscleCalibration c;
@@ -130,7 +130,6 @@ MuscleCalibration read_calibration(const std::filesystem::path& path, double max
   c.params.c_N_per_Pa = ts.number("c_N_per_MPa", {-1e7, 1e7}) * 1e-6;
   c.params.k_N = ts.number("k_N", {1.0, 1e12});
   c.params.eps0 = ts.number("eps0", {-1.0, 1.0});
-  c.params.max_pressure_Pa = max_pressure_Pa;
   ts.finish();
   config::Map ranges = root.map("input_ranges");
   c.contraction = read_span(ranges, "contraction");
@@ -177,6 +176,11 @@ MuscleCalibration read_calibration(const std::filesystem::path& path, double max
   }
   root.finish();
   return c;
+}
+
+void apply_calibration(const MuscleCalibration& c, bool with_spgp, models::MuscleModel& m) {
+  m.pam = c.params;
+  m.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp) : nullptr;
 }
 
 }  // namespace peha::calibration

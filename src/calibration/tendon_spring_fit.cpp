@@ -169,7 +169,7 @@ SolverParams to_solver_params(const models::TendonSpringParams& p) {
   return {p.a_N_per_Pa * 1e6, p.b_N_per_Pa * 1e6, p.c_N_per_Pa * 1e6, std::log(p.k_N), p.eps0};
 }
 
-/// Solver parameters -> model parameters (max_pressure_Pa and min_gain keep their defaults).
+/// Solver parameters -> model parameters (min_gain keeps its default).
 models::TendonSpringParams from_solver_params(const SolverParams& x) {
   models::TendonSpringParams p;
   p.a_N_per_Pa = x[0] * 1e-6;
@@ -277,9 +277,6 @@ FitResult fit_tendon_spring(const FitData& data, const FitOptions& options, cons
   if (options.restarts < 1) throw std::invalid_argument("fit_tendon_spring: restarts must be >= 1");
   if (options.threads < 1) throw std::invalid_argument("fit_tendon_spring: threads must be >= 1");
   if (options.max_iterations < 1) throw std::invalid_argument("fit_tendon_spring: max_iterations must be >= 1");
-  if (!(options.max_pressure_Pa > 0.0) || !std::isfinite(options.max_pressure_Pa)) {
-    throw std::invalid_argument("fit_tendon_spring: max_pressure_Pa must be finite and > 0");
-  }
 
   const auto start = std::chrono::steady_clock::now();
   const std::unique_ptr<ceres::CostFunction> cost = detail::make_pressure_cost_function(data);
@@ -334,7 +331,6 @@ FitResult fit_tendon_spring(const FitData& data, const FitOptions& options, cons
 
   const detail::RestartOutcome& winner = outcomes[static_cast<std::size_t>(best)];
   result.params = detail::from_solver_params(winner.x);
-  result.params.max_pressure_Pa = options.max_pressure_Pa;
   result.best_cost = winner.cost;
   result.restarts_run = total;
   const std::vector<double> r = pressure_residuals_Pa(result.params, data);

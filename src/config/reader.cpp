@@ -125,10 +125,6 @@ long Map::integer(std::string_view key, long min, long max) {
   return static_cast<long>(x);
 }
 
-long Map::integer_or(std::string_view key, long fallback, long min, long max) {
-  return has(key) ? integer(key, min, max) : (used_.emplace(key), fallback);
-}
-
 bool Map::boolean(std::string_view key) {
   const YAML::Node value = required(key);
   if (value.IsScalar()) {
@@ -151,10 +147,6 @@ std::string Map::string(std::string_view key) {
   return value.Scalar();
 }
 
-std::string Map::string_or(std::string_view key, const std::string& fallback) {
-  return has(key) ? string(key) : (used_.emplace(key), fallback);
-}
-
 std::string Map::choice(std::string_view key, const std::vector<std::string>& options) {
   const YAML::Node value = required(key);
   const std::string s = value.IsScalar() ? value.Scalar() : std::string();
@@ -163,11 +155,6 @@ std::string Map::choice(std::string_view key, const std::vector<std::string>& op
   }
   fail_at(value, key,
           fmt::format("expected one of {{{}}}, found {}", fmt::join(options, ", "), describe(value)));
-}
-
-std::string Map::choice_or(std::string_view key, const std::string& fallback,
-                           const std::vector<std::string>& options) {
-  return has(key) ? choice(key, options) : (used_.emplace(key), fallback);
 }
 
 std::vector<double> Map::numbers(std::string_view key, Range range, std::size_t min_count,

@@ -15,35 +15,29 @@ struct MuscleCommand {
   bool saturated;
 };
 
-MuscleCommand command_muscle(const models::MuscleModel& m, double r0, int side, double joint_force_N,
-                             const AllocationParams& params, const AllocationInput& in, double loadcell_N,
+/// `wire_velocity_mps`: this muscle's wire velocity (> 0 toward the muscle).
+MuscleCommand command_muscle(const models::JointModel& joint, const models::MuscleModel& m, int side, double joint_force_N,
+                             double wire_velocity_mps, const AllocationParams& params, const AllocationInput& in, double loadcell_N,
                              double measured_pressure_Pa, bool first, bool sensors_valid, double& trim_N) {
-  const double v = models::wire_velocity_mps(r0, side, in.velocity_radps);
-  const double wanted = models::muscle_force_for_joint_N(m.bowden, joint_force_N, v);
+  const double supply_Pa = joint.supply_pressure_Pa;
+  const double wanted = models::muscle_force_for_joint_N(m.bowden, joint_force_N, wire_velocity_mps);
   const double ceiling = models::force_ceiling_N(m);
-  const double force = std::clamp(wanted, std::min(params.pretension_N, ceiling), ceiling);
-  const double eps = models::rigid_contraction(m, r0, side, in.angle_rad);
+  const double force = std::clamp(wanted, std::min(joint.pretension_N, ceiling), ceiling);
+  const double eps = models::rigid_contraction(m, joint.pulley_radius_m, side, in.angle_rad);
   if (params.force_trim_rate_1ps > 0.0 && sensors_valid && first && std::isfinite(measured_pressure_Pa)) {
     const double held_N = models::forward_force_N(m.pam, measured_pressure_Pa, eps);  // what the model says P makes
     trim_N = std::clamp(held_N - force, -params.force_trim_max_N, params.force_trim_max_N);
   } else if (params.force_trim_rate_1ps > 0.0 && sensors_valid) {
     const double step = params.force_trim_rate_1ps * (force - loadcell_N) * in.dt_s;
-    const auto now = models::inverse_pressure(m.pam, force + trim_N, eps);
+    const auto now = models::muscle_pressure(m, force + trim_N, eps, supply_Pa);
     // Anti-windup: do not integrate further into a saturated pressure.
-    const bool at_top = now.pressure_Pa >= params.supply_pressure_Pa && step > 0.0;
+    const bool at_top = now.pressure_Pa >= supply_Pa && step > 0.0;
     const bool at_bottom = now.pressure_Pa <= 0.0 && step < 0.0;
     if (!at_top && !at_bottom) trim_N = std::clamp(trim_N + step, -params.force_trim_max_N, params.force_trim_max_N);
   }
-  const auto inv = models::inverse_pressure(m.pam, force + trim_N, eps);
-  // The learned residual corrects the parametric inverse where it is defined (SPEC §2.2).
-  const double residual =
-      m.residual && inv.status == models::InverseStatus::kOk ? m.residual->pressure_Pa(eps, force + trim_N) : 0.0;
-  const double pressure = std::clamp(inv.pressure_Pa + (std::isfinite(residual) ? residual : 0.0), 0.0,
-                                     params.supply_pressure_Pa);
-  return {force, pressure, eps, wanted > ceiling,
-          inv.status == models::InverseStatus::kSaturated ||
-              inv.status == models::InverseStatus::kUnreachable ||
-              inv.pressure_Pa > params.supply_pressure_Pa};
+  const auto inv = models::muscle_pressure(m, force + trim_N, eps, supply_Pa);
+  return {force, inv.pressure_Pa, eps, wanted > ceiling,
+          inv.status == models::InverseStatus::kSaturated || inv.status == models::InverseStatus::kUnreachable};
 }
 
 bool finite(const AllocationInput& in) {
@@ -54,14 +48,13 @@ bool finite(const AllocationInput& in) {
 
 }  // namespace
 
-AllocationParams read_allocation(config::Map map, double supply_pressure_Pa) {
+AllocationParams read_allocation(config::Map map, double& pretension_N) {
   AllocationParams p;
   p.pam_cutoff_Hz = map.number("pam_cutoff_Hz", {0.01, 500.0});
-  p.pretension_N = map.number("pretension_N", {1.0, 500.0});
+  pretension_N = map.number("pretension_N", {1.0, 500.0});
   p.use_motor = map.boolean("use_motor");
   p.force_trim_rate_1ps = map.number("force_trim_rate_1ps", {0.0, 100.0});
   p.force_trim_max_N = map.number("force_trim_max_N", {0.0, 2000.0});
-  p.supply_pressure_Pa = supply_pressure_Pa;
   map.finish();
   return p;
 }
@@ -93,13 +86,16 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
 
   // Pulley forces: the pretension on both wires, plus the torque on the side that can make it.
   const double pull_N = std::abs(out.torque_pam_Nm) / r0;
-  const double f1 = params.pretension_N + (out.torque_pam_Nm >= 0.0 ? pull_N : 0.0);
-  const double f2 = params.pretension_N + (out.torque_pam_Nm < 0.0 ? pull_N : 0.0);
+  const double f1 = joint.pretension_N + (out.torque_pam_Nm >= 0.0 ? pull_N : 0.0);
+  const double f2 = joint.pretension_N + (out.torque_pam_Nm < 0.0 ? pull_N : 0.0);
   const bool valid = !(out.flags & kNonFiniteInput);
-  const MuscleCommand c1 = command_muscle(joint.agonist, r0, +1, f1, params, in, in.agonist_loadcell_N, in.agonist_pressure_Pa, first, valid,
-                                          data.force_trim_N[0]);
-  const MuscleCommand c2 = command_muscle(joint.antagonist, r0, -1, f2, params, in, in.antagonist_loadcell_N, in.antagonist_pressure_Pa, first, valid,
-                                          data.force_trim_N[1]);
+  // Wire velocities, once: > 0 toward the agonist for its wire, toward the antagonist for the other.
+  const double v1 = models::wire_velocity_mps(r0, +1, in.velocity_radps);
+  const double v2 = models::wire_velocity_mps(r0, -1, in.velocity_radps);
+  const MuscleCommand c1 = command_muscle(joint, joint.agonist, +1, f1, v1, params, in, in.agonist_loadcell_N, in.agonist_pressure_Pa, first,
+                                          valid, data.force_trim_N[0]);
+  const MuscleCommand c2 = command_muscle(joint, joint.antagonist, -1, f2, v2, params, in, in.antagonist_loadcell_N,
+                                          in.antagonist_pressure_Pa, first, valid, data.force_trim_N[1]);
   out.agonist_trim_N = data.force_trim_N[0];
   out.antagonist_trim_N = data.force_trim_N[1];
   out.agonist_force_N = c1.force_N;
@@ -112,9 +108,8 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   if (c1.saturated || c2.saturated) out.flags |= kPressureSaturated;
 
   // Mini: the motor closes the gap between the desired and the measured PAM torque.
-  const double v = r0 * in.velocity_radps;
-  const double f1_joint = models::joint_force_from_loadcell_N(joint.agonist.bowden, in.agonist_loadcell_N, v);
-  const double f2_joint = models::joint_force_from_loadcell_N(joint.antagonist.bowden, in.antagonist_loadcell_N, -v);
+  const double f1_joint = models::joint_force_from_loadcell_N(joint.agonist.bowden, in.agonist_loadcell_N, v1);
+  const double f2_joint = models::joint_force_from_loadcell_N(joint.antagonist.bowden, in.antagonist_loadcell_N, v2);
   out.torque_pam_measured_Nm = models::joint_torque_Nm(r0, f1_joint, f2_joint, 0.0);
   out.torque_motor_Nm = 0.0;
   if (params.use_motor && joint.has_motor && !(out.flags & kNonFiniteInput)) {

@@ -33,6 +33,7 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
   }
   pending_.reserve(kMaxPending);
   plant_ = make_plant_();
+  plant_->activate();  // the plant is the world behind the board's outputs: always driven
   plant_->read(state_);
   applied_ = map_.safe_outputs();
 }
@@ -195,6 +196,7 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       if (!had_session && (c.session_id != previous || !have_session_)) {
         // A new session: the exoskeleton back to its initial state, answered without a step.
         plant_ = make_plant_();
+  plant_->activate();  // the plant is the world behind the board's outputs: always driven
         plant_->read(state_);
         armed_ = venting_ = false;
         applied_ = map_.safe_outputs();

@@ -37,12 +37,16 @@ UdpBackend::UdpBackend(const UdpBackendParams& params, ChannelMap map)
   info_.period_s = params.period_s;
 }
 
-void UdpBackend::new_session() noexcept {
-  session_ = random_session(session_);
-  filter_.reset(session_);
-  acked_disable_ = false;
-  have_new_ = false;
-  enable_ = false;
+io::BackendStatus UdpBackend::status() const noexcept {
+  io::BackendStatus s;
+  s.active = enable_ && !(last_.status & kStatusOutputsSafe);
+  s.estop = (last_.status & kStatusEstop) || estop_input() || estop_latched_;
+  s.watchdog_tripped = (last_.status & kStatusWatchdogTripped) != 0;
+  s.ready_to_arm = acked_disable_;
+  s.last_sample_ns = last_sample_ns_;
+  s.last_rtt_s = last_rtt_s_;
+  s.rtt_samples = rtt_samples_;
+  return s;
 }
 
 void UdpBackend::connect() {
@@ -82,7 +86,7 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       if (packet.ack_sequence == disable_sequence_ && sequence_ != 0) acked_disable_ = true;
       if (packet.echo_host_time_ns != 0) {
         last_rtt_s_ = static_cast<double>(last_sample_ns_ - static_cast<std::int64_t>(packet.echo_host_time_ns)) * 1e-9;
-        new_rtt_ = true;
+        ++rtt_samples_;
       }
       if (packet.ack_sequence == sequence_) {
         last_was_reply_ = true;

@@ -4,7 +4,7 @@
 
 namespace peha::models {
 
-TendonSpringParams read_tendon_spring(config::Map map, double max_pressure_Pa) {
+TendonSpringParams read_tendon_spring(config::Map map) {
   TendonSpringParams p;
   constexpr double kPerMPa = 1e-6;  // N/MPa -> N/Pa
   p.a_N_per_Pa = map.number("a_N_per_MPa", {-1e6, 1e6}) * kPerMPa;
@@ -12,7 +12,6 @@ TendonSpringParams read_tendon_spring(config::Map map, double max_pressure_Pa) {
   p.c_N_per_Pa = map.number("c_N_per_MPa", {1.0, 1e6}) * kPerMPa;
   p.k_N = map.number("k_N", {1.0, 1e9});
   p.eps0 = map.number("eps0", {-0.2, 0.2});
-  p.max_pressure_Pa = max_pressure_Pa;
   map.finish();
   return p;
 }
@@ -26,26 +25,28 @@ BowdenParams read_bowden(config::Map map) {
   return p;
 }
 
-MuscleModel read_muscle_model(config::Map map, const std::string& name, double max_pressure_Pa) {
+MuscleModel read_muscle_model(config::Map map, const std::string& name) {
   MuscleModel m;
   m.name = name;
   m.rest_length_m = map.number("rest_length_m", {0.05, 2.0});
   m.contraction_at_zero_angle = map.number("contraction_at_zero_angle", {-0.05, 0.3});
   m.max_force_N = map.number("max_force_N", {1.0, kMaxPamForce_N});
-  m.pam = read_tendon_spring(map.map("pam"), max_pressure_Pa);
+  m.pam = read_tendon_spring(map.map("pam"));
   m.bowden = read_bowden(map.map("bowden"));
   map.finish();
   return m;
 }
 
-JointModel read_joint_model(config::Map& map, const std::string& name, double max_pressure_Pa) {
+JointModel read_joint_model(config::Map& map, const std::string& name, double supply_pressure_Pa, double pretension_N) {
   JointModel j;
   j.name = name;
+  j.supply_pressure_Pa = supply_pressure_Pa;
+  j.pretension_N = pretension_N;
   j.pulley_radius_m = map.number("pulley_radius_m", {0.005, 0.2});
   j.has_motor = map.boolean("has_motor");
   j.motor_max_torque_Nm = map.number("motor_max_torque_Nm", {0.0, 50.0});
-  j.agonist = read_muscle_model(map.map("agonist"), "agonist", max_pressure_Pa);
-  j.antagonist = read_muscle_model(map.map("antagonist"), "antagonist", max_pressure_Pa);
+  j.agonist = read_muscle_model(map.map("agonist"), "agonist");
+  j.antagonist = read_muscle_model(map.map("antagonist"), "antagonist");
   return j;
 }
 

@@ -53,13 +53,13 @@ double forward_force_N(const TendonSpringParams& p, double pressure_Pa, double e
   return std::isfinite(best) ? best : 0.0;
 }
 
-InverseResult inverse_pressure(const TendonSpringParams& p, double force_N, double eps) noexcept {
+InverseResult inverse_pressure(const TendonSpringParams& p, double force_N, double eps, double max_pressure_Pa) noexcept {
   if (!std::isfinite(eps)) return {0.0, InverseStatus::kInvalidInput};
   if (!(force_N > 0.0) || !std::isfinite(force_N)) return {0.0, InverseStatus::kNoForce};
   const double g = gain_N_per_Pa(p, eps + p.eps0 + force_N / p.k_N);
-  if (!(g > p.min_gain_N_per_Pa)) return {p.max_pressure_Pa, InverseStatus::kUnreachable};
+  if (!(g > p.min_gain_N_per_Pa)) return {max_pressure_Pa, InverseStatus::kUnreachable};
   const double pressure_Pa = force_N / g;
-  if (pressure_Pa > p.max_pressure_Pa) return {p.max_pressure_Pa, InverseStatus::kSaturated};
+  if (pressure_Pa > max_pressure_Pa) return {max_pressure_Pa, InverseStatus::kSaturated};
   return {pressure_Pa, InverseStatus::kOk};
 }
 

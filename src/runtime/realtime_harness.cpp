@@ -21,11 +21,11 @@ extern "C" void on_interrupt(int) { g_interrupted = true; }
 
 }  // namespace
 
-RealtimeHarness::RealtimeHarness(mfb::UdpBackend& backend, const mfb::LinkConfig& link, const RealtimeRunOptions& options, double period_s,
-                                 double duration_s, std::string label, const std::filesystem::path& log_file,
+RealtimeHarness::RealtimeHarness(io::Backend& backend, const SupervisorParams& supervision, const RealtimeRunOptions& options,
+                                 double period_s, double duration_s, std::string label, const std::filesystem::path& log_file,
                                  const std::vector<std::string>& columns, const std::vector<std::string>& comments)
     : backend_(backend),
-      link_(link),
+      supervisor_(backend, supervision),
       options_(options),
       period_s_(period_s),
       duration_s_(duration_s),
@@ -60,7 +60,9 @@ RealtimeHarness::RealtimeHarness(mfb::UdpBackend& backend, const mfb::LinkConfig
           char buf[64];
           const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
           if (n <= 0) return;
-          for (ssize_t i = 0; i < n; ++i) operator_recover_ = operator_recover_ || buf[i] == 'r' || buf[i] == 'R';
+          for (ssize_t i = 0; i < n; ++i) {
+            if (buf[i] == 'r' || buf[i] == 'R') supervisor_.request_recovery();
+          }
         }
       }
     });
@@ -89,15 +91,8 @@ CycleHooks RealtimeHarness::start() {
   previous_sigint_ = std::signal(SIGINT, on_interrupt);
   previous_sigterm_ = std::signal(SIGTERM, on_interrupt);
   result_.realtime = configure_realtime_thread(options_.realtime);
-  // The handshake comes last, right before the enable edge: from the board's first answer until
-  // an enabled command it holds its safe outputs and its plant vents (tens of ms of set-up here -
-  // log, threads, mlockall of the whole process - would start the run from a sagging arm, and
-  // more than the board's watchdog would trip it). The reply also carries the board's status as of
-  // now: a trip latched earlier is acknowledged by the handshake's disabled command.
-  backend_.connect();
-  lifecycle_.apply(Transition::kConfigure, 0.0, "session open: the board answered");
-  backend_.set_enable(true);
-  lifecycle_.apply(Transition::kActivate, 0.0, "enable edge sent");
+  supervisor_.on_fault = [this](const char* why) { log_.request_fault_dump(why); };
+  supervisor_.start(0.0);  // last in set-up: the handshake's answer is followed by the enable edge within a period
   clock_.start();
   CycleHooks hooks;
   hooks.wait = [this] {
@@ -106,76 +101,19 @@ CycleHooks RealtimeHarness::start() {
     if (last_wake_ns_) result_.timing.period.add(static_cast<double>(now - last_wake_ns_) * 1e-9);
     last_wake_ns_ = cycle_start_ns_ = now;
   };
-  hooks.after = [this](const io::SensorState& state, io::Command& command, std::uint32_t) { return after(state, command); };
+  hooks.supervisor = &supervisor_;
+  hooks.after = [this](const io::SensorState& state, const io::Command& sent) { return after(state, sent); };
   return hooks;
 }
 
-bool RealtimeHarness::after(const io::SensorState& state, io::Command& cmd) noexcept {
+bool RealtimeHarness::after(const io::SensorState& state, const io::Command& cmd) noexcept {
   const double t = clock_.deadline_s();
-  double rtt_s = 0.0;
-  if (backend_.take_new_rtt(rtt_s)) result_.timing.rtt.add(rtt_s);  // the command this sample answers
-  const std::int64_t sample_ns = backend_.last_sample_ns();
-  cycles_without_sample_ = sample_ns != seen_sample_ns_ ? 0 : cycles_without_sample_ + 1;
-  seen_sample_ns_ = sample_ns;
-  const bool silent = cycles_without_sample_ >= kSilentCycles &&
-                      PeriodicClock::now_ns() - sample_ns > static_cast<std::int64_t>(link_.host_watchdog_s * 1e9);
-  const std::uint8_t status = backend_.board_status();
-  const bool estop = (status & mfb::kStatusEstop) || backend_.estop_input();
-  switch (lifecycle_.state()) {
-    case LifecycleState::kActive:
-      if (silent || estop || (status & mfb::kStatusWatchdogTripped)) {
-        const char* why = silent ? "board silent for longer than host_watchdog_ms"
-                          : estop ? "board reports its e-stop input"
-                                  : "board watchdog tripped";
-        lifecycle_.apply(Transition::kFault, t, why);
-        log_.request_fault_dump(why);
-        backend_.set_enable(false);
-        ++result_.faults;
-        fault_t_ = t;
-      }
-      break;
-    case LifecycleState::kFault: {
-      const bool asked = operator_recover_.exchange(false) || (options_.recover_after_s >= 0 && t - fault_t_ >= options_.recover_after_s);
-      if (asked && !silent && !estop && backend_.board_saw_disable()) {
-        lifecycle_.apply(Transition::kRecover, t, "operator's command");
-        backend_.set_enable(true);  // the enable edge re-arms the board
-        ramp_t_ = t;
-        ramp_from_ = cmd;
-        for (int j = 0; j < cmd.joint_count; ++j) {  // from what the muscles hold now, motor off
-          const auto i = static_cast<std::size_t>(j);
-          ramp_from_.joints[i].agonist_pressure_Pa = state.joints[i].agonist_pressure_Pa;
-          ramp_from_.joints[i].antagonist_pressure_Pa = state.joints[i].antagonist_pressure_Pa;
-          ramp_from_.joints[i].motor_torque_Nm = 0.0;
-        }
-      }
-      break;
-    }
-    case LifecycleState::kRecovering:
-      if (!(status & mfb::kStatusOutputsSafe)) {
-        lifecycle_.apply(Transition::kRecovered, t, "board re-armed");
-        lifecycle_.apply(Transition::kActivate, t, "ramping back to the controller's command");
-        ++result_.recoveries;
-      } else if (t - ramp_t_ > 0.5) {
-        lifecycle_.apply(Transition::kFault, t, "board did not re-arm within 0.5 s");
-        backend_.set_enable(false);
-        fault_t_ = t;
-      }
-      break;
-    default:
-      break;
+  const io::BackendStatus status = backend_.status();
+  if (status.rtt_samples != rtt_samples_) {  // the round trip of the command this sample answers
+    rtt_samples_ = status.rtt_samples;
+    result_.timing.rtt.add(status.last_rtt_s);
   }
-  // After a recovery: from what the muscles held to the controller's command, no jump.
-  if (ramp_t_ >= 0.0 && lifecycle_.state() != LifecycleState::kFault) {
-    const double s = link_.recovery_ramp_s > 0 ? std::clamp((t - ramp_t_) / link_.recovery_ramp_s, 0.0, 1.0) : 1.0;
-    for (int j = 0; j < cmd.joint_count; ++j) {
-      auto& o = cmd.joints[static_cast<std::size_t>(j)];
-      const auto& f = ramp_from_.joints[static_cast<std::size_t>(j)];
-      o.agonist_pressure_Pa = f.agonist_pressure_Pa + s * (o.agonist_pressure_Pa - f.agonist_pressure_Pa);
-      o.antagonist_pressure_Pa = f.antagonist_pressure_Pa + s * (o.antagonist_pressure_Pa - f.antagonist_pressure_Pa);
-      o.motor_torque_Nm = f.motor_torque_Nm + s * (o.motor_torque_Nm - f.motor_torque_Nm);
-    }
-    if (s >= 1.0) ramp_t_ = -1.0;
-  }
+  const LifecycleState lifecycle = supervisor_.lifecycle().state();
   if (telemetry_) {
     std::size_t k = 0;
     for (int j = 0; j < state.joint_count && k + 6 <= telemetry_values_.size(); ++j) {
@@ -186,12 +124,12 @@ bool RealtimeHarness::after(const io::SensorState& state, io::Command& cmd) noex
         telemetry_values_[k++] = v;
       }
     }
-    telemetry_values_[telemetry_values_.size() - 2] = backend_.last_rtt_s() * 1e6;
-    telemetry_values_.back() = static_cast<double>(static_cast<int>(lifecycle_.state()));
+    telemetry_values_[telemetry_values_.size() - 2] = status.last_rtt_s * 1e6;
+    telemetry_values_.back() = static_cast<double>(static_cast<int>(lifecycle));
     telemetry_->publish(t, telemetry_values_);
   }
   progress_t_.store(t, std::memory_order_relaxed);
-  progress_state_.store(static_cast<int>(lifecycle_.state()), std::memory_order_relaxed);
+  progress_state_.store(static_cast<int>(lifecycle), std::memory_order_relaxed);
   result_.timing.compute.add(static_cast<double>(PeriodicClock::now_ns() - cycle_start_ns_) * 1e-9);
   if (g_interrupted.load(std::memory_order_relaxed)) {
     interrupted_ = true;
@@ -201,15 +139,14 @@ bool RealtimeHarness::after(const io::SensorState& state, io::Command& cmd) noex
 }
 
 void RealtimeHarness::finish(RealtimeRunResult& res) {
-  // Wind down: outputs disabled (the board vents in its controlled way), then close.
-  backend_.set_enable(false);
+  // Wind down: outputs disabled (a board vents in its controlled way; the disabled commands tell it
+  // so), then close.
+  supervisor_.finish(clock_.deadline_s(), interrupted_ ? "interrupted (Ctrl-C)" : "experiment finished");
   io::Command idle;
   idle.joint_count = static_cast<int>(backend_.info().joint_names.size());
   for (int i = 0; i < 5; ++i) backend_.write(idle);
-  lifecycle_.apply(Transition::kDeactivate, clock_.deadline_s(), interrupted_ ? "interrupted (Ctrl-C)" : "experiment finished");
   std::signal(SIGINT, previous_sigint_);
   std::signal(SIGTERM, previous_sigterm_);
-  lifecycle_.apply(Transition::kShutdown, clock_.deadline_s(), "run ended");
   make_thread_non_realtime();
   done_ = true;
   if (progress_.joinable()) progress_.join();
@@ -217,8 +154,9 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   result_.timing.cycles = clock_.cycles();
   result_.timing.overruns = clock_.overruns();
   result_.timing.deadline_misses = clock_.missed_deadlines();
-  result_.timing.lost_packets = backend_.stats().replies_missing;
-  result_.link = backend_.stats();
+  result_.timing.lost_packets = supervisor_.cycles_without_sample();
+  result_.faults = supervisor_.faults();
+  result_.recoveries = supervisor_.recoveries();
   log_.close();
   result_.logged_rows = log_.written_rows();
   result_.dropped_rows = log_.dropped_rows();
@@ -227,8 +165,9 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
     telemetry_->close();
     result_.telemetry_datagrams = telemetry_->sent_datagrams();
   }
-  for (std::size_t i = 0; i < lifecycle_.history_size(); ++i) {
-    const LifecycleEvent& e = lifecycle_.history(i);
+  const Lifecycle& lifecycle = supervisor_.lifecycle();
+  for (std::size_t i = 0; i < lifecycle.history_size(); ++i) {
+    const LifecycleEvent& e = lifecycle.history(i);
     result_.lifecycle.push_back(fmt::format("{:8.3f} s  {} -> {} ({})", e.t_s, to_string(e.from), to_string(e.to), e.reason));
   }
   res = std::move(result_);

@@ -13,16 +13,16 @@ struct Band {
   double ceiling_Pa;
 };
 
-Band pressure_band(const models::MuscleModel& m, const JointLimits& lim, double eps) {
+Band pressure_band(const models::MuscleModel& m, const models::JointModel& joint, double eps) {
   const double force_ceiling = models::force_ceiling_N(m);
   // The ceiling is the pressure at which the model makes exactly the force ceiling. When the model
   // cannot reach it at all (kUnreachable/kSaturated), the supply is the ceiling.
-  const auto top = models::inverse_pressure(m.pam, force_ceiling, eps);
-  double ceiling = lim.supply_pressure_Pa;
+  const auto top = models::muscle_pressure(m, force_ceiling, eps, joint.supply_pressure_Pa);
+  double ceiling = joint.supply_pressure_Pa;
   if (top.status == models::InverseStatus::kOk) ceiling = std::min(ceiling, top.pressure_Pa);
   // The floor keeps the pretension; where the model says the muscle cannot make it (unreachable),
   // forcing the supply would be the wrong guess, so there is no floor.
-  const auto bottom = models::inverse_pressure(m.pam, lim.pretension_N, eps);
+  const auto bottom = models::muscle_pressure(m, joint.pretension_N, eps, joint.supply_pressure_Pa);
   const double floor = bottom.status == models::InverseStatus::kOk ? std::min(bottom.pressure_Pa, ceiling) : 0.0;
   return {floor, ceiling};
 }
@@ -35,12 +35,13 @@ double step_toward(double previous, double wanted, double max_step, bool& limite
 
 }  // namespace
 
-std::uint32_t apply_limits(const LimitsModel& model, LimitsData& data, const io::SensorState& state,
+std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, LimitsData& data, const io::SensorState& state,
                            io::Command& command) noexcept {
   std::uint32_t all = 0;
   command.joint_count = model.joint_count;
   for (int j = 0; j < model.joint_count; ++j) {
     const JointLimits& lim = model.joints[j];
+    const models::JointModel& jm = *joints[static_cast<std::size_t>(j)];
     const io::JointSensors& s = state.joints[j];
     io::JointCommand& c = command.joints[j];
     const io::JointCommand prev = data.has_previous ? data.previous.joints[j] : io::JointCommand{};
@@ -61,9 +62,9 @@ std::uint32_t apply_limits(const LimitsModel& model, LimitsData& data, const io:
       flags |= kJointRange;
     }
 
-    const double r0 = lim.model.pulley_radius_m;
-    const Band b1 = pressure_band(lim.model.agonist, lim, models::rigid_contraction(lim.model.agonist, r0, +1, angle));
-    const Band b2 = pressure_band(lim.model.antagonist, lim, models::rigid_contraction(lim.model.antagonist, r0, -1, angle));
+    const double r0 = jm.pulley_radius_m;
+    const Band b1 = pressure_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle));
+    const Band b2 = pressure_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle));
     const double p1 = std::clamp(c.agonist_pressure_Pa, b1.floor_Pa, b1.ceiling_Pa);
     const double p2 = std::clamp(c.antagonist_pressure_Pa, b2.floor_Pa, b2.ceiling_Pa);
     if (p1 != c.agonist_pressure_Pa || p2 != c.antagonist_pressure_Pa) flags |= kPressureLimited;
@@ -80,7 +81,7 @@ std::uint32_t apply_limits(const LimitsModel& model, LimitsData& data, const io:
       if (limited) flags |= kRateLimited;
     }
 
-    const double motor_max = lim.model.has_motor ? lim.model.motor_max_torque_Nm : 0.0;
+    const double motor_max = jm.has_motor ? jm.motor_max_torque_Nm : 0.0;
     const double tau = std::clamp(c.motor_torque_Nm, -motor_max, motor_max);
     if (tau != c.motor_torque_Nm) flags |= kMotorLimited;
     c.motor_torque_Nm = tau;

@@ -41,7 +41,8 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
       model_(load_mjcf(params.model_file)),
       joint_(params_.joint, params.timestep_s, params.initial_angle_rad),
       rng_(params.seed),
-      push_start_angle_(params.finger.pushes.size(), std::numeric_limits<double>::quiet_NaN()) {
+      push_start_angle_(params.finger.pushes.size(), std::numeric_limits<double>::quiet_NaN()),
+      gate_(params.control_period_s, kSafeVent_s) {
   const std::string name = params_.model_file.string();
   mjModel* m = model_.get();
   const int joint = require_id(m, mjOBJ_JOINT, "joint", name);
@@ -71,6 +72,7 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
   info_.period_s = params_.control_period_s;
   state_.joint_count = 1;
   sample();
+  sampled_truth_ = truth_;
 }
 
 double OneDofRigBackend::finger_force(double t, double angle, double omega) noexcept {
@@ -136,12 +138,14 @@ void OneDofRigBackend::sample() noexcept {
 
 bool OneDofRigBackend::read(io::SensorState& state) noexcept {
   state = state_;
+  sampled_truth_ = truth_;
   return true;
 }
 
 bool OneDofRigBackend::write(const io::Command& command) noexcept {
   if (command.joint_count != 1) return false;
-  for (int i = 0; i < substeps_; ++i) substep(command.joints[0]);
+  const io::Command& applied = gate_.apply(command);
+  for (int i = 0; i < substeps_; ++i) substep(applied.joints[0]);
   sample();
   return true;
 }

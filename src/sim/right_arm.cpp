@@ -12,7 +12,8 @@ namespace peha::sim {
 RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
     : params_(params),
       model_(load_arm_mjcf(arm_mjcf(params.model, params.mjcf))),
-      rng_(params.seed) {
+      rng_(params.seed),
+      gate_(params.control_period_s, kSafeVent_s) {
   mjModel* m = model_.get();
   if (params_.actuated.size() != params_.actuators.size() || params_.actuated.size() > io::kMaxJoints) {
     throw std::invalid_argument("right arm: one actuator per actuated joint, at most io::kMaxJoints");
@@ -39,7 +40,6 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
   // mj_setConst works at qpos0 and leaves qpos there: the initial posture goes in afterwards.
   for (int i = 0; i < m->nq; ++i) data_->qpos[i] = params_.initial_q_rad[static_cast<std::size_t>(i)];
   mj_forward(m, data_.get());
-  external_.assign(static_cast<std::size_t>(m->nv), 0.0);
   move_start_.assign(params_.actuated.size(), 0.0);
   truth_.q_rad.resize(static_cast<std::size_t>(m->nq));
   truth_.qd_radps.resize(static_cast<std::size_t>(m->nv));
@@ -49,13 +49,13 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
   info_.period_s = params_.control_period_s;
   state_.joint_count = static_cast<int>(params_.actuated.size());
   sample();
+  sampled_truth_ = truth_;
 }
 
 void RightArmBackend::substep(const io::Command& command) noexcept {
   mjModel* m = model_.get();
   mjData* d = data_.get();
   mju_zero(d->qfrc_applied, m->nv);
-  for (int i = 0; i < m->nv; ++i) d->qfrc_applied[i] = external_[static_cast<std::size_t>(i)];
 
   // The operator's hands: which move is on, and its minimum-jerk target per joint.
   const double t = d->time;
@@ -115,12 +115,14 @@ void RightArmBackend::sample() noexcept {
 
 bool RightArmBackend::read(io::SensorState& state) noexcept {
   state = state_;
+  sampled_truth_ = truth_;  // same sizes every time: no allocation after the constructor's copy
   return true;
 }
 
 bool RightArmBackend::write(const io::Command& command) noexcept {
   if (command.joint_count != static_cast<int>(joints_.size())) return false;
-  for (int i = 0; i < substeps_; ++i) substep(command);
+  const io::Command& applied = gate_.apply(command);
+  for (int i = 0; i < substeps_; ++i) substep(applied);
   sample();
   return true;
 }

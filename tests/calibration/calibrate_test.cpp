@@ -32,7 +32,7 @@ Dataset synthetic_threshold_muscle() {
     const double phase = std::fmod(t, 12.0) / 12.0;
     const double force = 150.0 + 900.0 * (phase < 0.5 ? 2 * phase : 2 - 2 * phase);
     const double threshold_Pa = 40e3 + 200e3 * eps * eps;
-    const double P = models::inverse_pressure(truth, force, eps).pressure_Pa + threshold_Pa;
+    const double P = models::inverse_pressure(truth, force, eps, 0.8e6).pressure_Pa + threshold_Pa;
     d.t_s.push_back(t);
     d.contraction.push_back(eps);
     d.force_N.push_back(force);
@@ -74,7 +74,7 @@ TEST(CalibrationFile, RoundTripPreservesPredictions) {
   const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
   const auto path = std::filesystem::temp_directory_path() / "peha_calibration_roundtrip.yaml";
   write_calibration(path, out.calibration);
-  const MuscleCalibration back = read_calibration(path, 0.8e6);
+  const MuscleCalibration back = read_calibration(path);
   ASSERT_TRUE(back.spgp);
   EXPECT_EQ(back.params.a_N_per_Pa, out.calibration.params.a_N_per_Pa);
   EXPECT_EQ(back.params.k_N, out.calibration.params.k_N);
@@ -106,7 +106,7 @@ TEST(CalibrationFile, RejectsEditedFilesWithFileLineAndKey) {
   text.insert(alpha, "unexpected: 1\n  ");  // an unknown key inside spgp
   { std::ofstream(path) << text; }
   try {
-    read_calibration(path, 0.8e6);
+    read_calibration(path);
     FAIL() << "an unknown key must be rejected";
   } catch (const config::Error& e) {
     EXPECT_THAT(std::string(e.what()), HasSubstr("spgp.unexpected: unknown key"));

@@ -15,9 +15,9 @@ namespace {
 // Whatever comes in, every command is finite and within its limits: 0 <= force <= the muscle's
 // ceiling (<= 2000 N), force >= pretension, 0 <= pressure <= supply, |motor| <= rating.
 TEST(Allocation, LimitsNeverExceededUnderRandomRequests) {
-  const models::JointModel joint = peha::testing::rig_joint();
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 60.0;
   AllocationParams params;
-  params.pretension_N = 60.0;
   std::mt19937_64 rng(2024);
   std::uniform_real_distribution<double> torque(-500.0, 500.0), angle(-3.0, 3.0), vel(-20.0, 20.0),
       force(-100.0, 5000.0), unit(0.0, 1.0);
@@ -44,13 +44,13 @@ TEST(Allocation, LimitsNeverExceededUnderRandomRequests) {
     for (double p : {out.agonist_pressure_Pa, out.antagonist_pressure_Pa}) {
       ASSERT_TRUE(std::isfinite(p)) << "request " << i;
       ASSERT_GE(p, 0.0);
-      ASSERT_LE(p, params.supply_pressure_Pa);
+      ASSERT_LE(p, joint.supply_pressure_Pa);
     }
     ASSERT_LE(out.agonist_force_N, joint.agonist.max_force_N);
     ASSERT_LE(out.antagonist_force_N, joint.antagonist.max_force_N);
     ASSERT_LE(out.agonist_force_N, models::kMaxPamForce_N);
-    ASSERT_GE(out.agonist_force_N, params.pretension_N);
-    ASSERT_GE(out.antagonist_force_N, params.pretension_N);
+    ASSERT_GE(out.agonist_force_N, joint.pretension_N);
+    ASSERT_GE(out.antagonist_force_N, joint.pretension_N);
     ASSERT_TRUE(std::isfinite(out.torque_motor_Nm));
     ASSERT_LE(std::abs(out.torque_motor_Nm), joint.motor_max_torque_Nm);
     ASSERT_TRUE(std::isfinite(out.torque_pam_Nm));
@@ -60,9 +60,9 @@ TEST(Allocation, LimitsNeverExceededUnderRandomRequests) {
 
 // A steady positive torque goes to the agonist: (f1 - f2) r0 = tau at the pulley, at rest.
 TEST(Allocation, SteadyTorqueSplitsIntoAgonistPullAndAntagonistPretension) {
-  const models::JointModel joint = peha::testing::rig_joint();
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 40.0;
   AllocationParams params;
-  params.pretension_N = 40.0;
   AllocationData data;
   AllocationOutput out;
   AllocationInput in;
@@ -77,7 +77,7 @@ TEST(Allocation, SteadyTorqueSplitsIntoAgonistPullAndAntagonistPretension) {
   EXPECT_NEAR(out.torque_motor_Nm, 0.0, 1e-9);  // nothing left for the motor
   // The pressure is the inverse model's at the rigid-wire contraction.
   const double eps = joint.agonist.contraction_at_zero_angle;
-  EXPECT_NEAR(out.agonist_pressure_Pa, models::inverse_pressure(joint.agonist.pam, 340.0, eps).pressure_Pa, 1e-6);
+  EXPECT_NEAR(out.agonist_pressure_Pa, models::inverse_pressure(joint.agonist.pam, 340.0, eps, joint.supply_pressure_Pa).pressure_Pa, 1e-6);
 }
 
 // A torque step reaches the PAMs through the low-pass; the motor takes the gap meanwhile.
@@ -87,7 +87,7 @@ TEST(Allocation, MotorCoversTheFastPartOfATorqueStep) {
   AllocationData data;
   AllocationOutput out;
   AllocationInput in;
-  in.agonist_loadcell_N = in.antagonist_loadcell_N = params.pretension_N;
+  in.agonist_loadcell_N = in.antagonist_loadcell_N = joint.pretension_N;
   allocate(joint, params, data, in, out);
   in.torque_desired_Nm = 2.0;  // step of 2 Nm, within the motor's 2.5 Nm
   allocate(joint, params, data, in, out);
@@ -107,7 +107,7 @@ TEST(Allocation, NegativeTorqueLoadsTheAntagonistUpToItsCeiling) {
   in.torque_desired_Nm = -100.0;  // would need 2000 N at r0 = 0.05
   for (int i = 0; i < 2000; ++i) allocate(joint, params, data, in, out);
   EXPECT_EQ(out.antagonist_force_N, 630.0);
-  EXPECT_EQ(out.agonist_force_N, params.pretension_N);
+  EXPECT_EQ(out.agonist_force_N, joint.pretension_N);
   EXPECT_TRUE(out.flags & kForceClampedHigh);
 }
 

@@ -1,5 +1,6 @@
 // The control step allocates nothing (STYLE.md principle 3): the controller's update and the
 // limits layer run 10^4 cycles on the simulated rig without a single heap allocation.
+#include "peha/safety/limited_backend.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/safety/limits.hpp"
@@ -17,17 +18,18 @@ TEST(ControlStep, AllocatesNothing) {
   sim::OneDofRigParams plant_params = scenario.plant;
   sim::OneDofRigBackend plant(plant_params);
   control::OneDofGravityController controller(scenario.controller);
-  safety::LimitsData limits;
+  // The step as every experiment runs it: read and write through the limits stage at the boundary.
+  safety::LimitedBackend limited(plant, scenario.limits, {&scenario.controller.joint});
+  limited.activate();
   io::SensorState state;
   io::Command command;
   std::size_t control_allocations = 0;
   for (int k = 0; k < 10000; ++k) {
-    plant.read(state);
     control_allocations += testing::allocations_during([&] {
+      limited.read(state);
       controller.update(state, command);
-      safety::apply_limits(scenario.limits, limits, state, command);
+      limited.write(command);
     });
-    plant.write(command);
   }
   EXPECT_EQ(control_allocations, 0u);
 }
@@ -37,6 +39,7 @@ TEST(SimulatedRig, StepsWithoutAllocating) {
   const experiments::E1Scenario scenario =
       experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   sim::OneDofRigBackend plant(scenario.plant);
+  plant.activate();
   io::SensorState state;
   io::Command command;
   command.joint_count = 1;

@@ -46,6 +46,7 @@ TEST(E1, WithoutCompensationTheLinkFalls) {
   p.finger.pushes.clear();
   p.joint.agonist.initial_pressure_Pa = p.joint.antagonist.initial_pressure_Pa = 0.0;
   sim::OneDofRigBackend plant(p);
+  plant.activate();
   io::Command zero;
   zero.joint_count = 1;
   for (int k = 0; k < 3000; ++k) plant.write(zero);

@@ -1,3 +1,4 @@
+#include "peha/safety/limited_backend.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
@@ -48,17 +49,17 @@ TEST(ArmController, StepAllocatesNothing) {
   const ArmScenario s = shipped();
   sim::RightArmBackend plant(s.plant);
   control::ArmController controller(s.controller);
-  safety::LimitsData limits;
+  safety::LimitedBackend limited(plant, s.limits, arm_joint_models(controller.model()));
+  limited.activate();
   io::SensorState state;
   io::Command command;
   std::size_t n = 0;
   for (int k = 0; k < 2000; ++k) {
-    plant.read(state);
-    n += testing::allocations_during([&] {
+    n += testing::allocations_during([&] {  // read (a copy of the truth), control, limits, one plant period
+      limited.read(state);
       controller.update(state, command);
-      safety::apply_limits(s.limits, limits, state, command);
+      limited.write(command);
     });
-    plant.write(command);
   }
   EXPECT_EQ(n, 0u);
 }

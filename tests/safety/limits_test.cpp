@@ -11,12 +11,21 @@
 namespace peha::safety {
 namespace {
 
+// The joint set-up the limits read (the controller's): the rig's, with a 40 N pretension.
+const models::JointModel& rig() {
+  static const models::JointModel joint = [] {
+    models::JointModel j = peha::testing::rig_joint();
+    j.pretension_N = 40.0;
+    return j;
+  }();
+  return joint;
+}
+const JointModels kJoints{&rig()};
+
 LimitsModel rig_limits() {
   LimitsModel m;
   m.joint_count = 1;
   m.period_s = 1e-3;
-  m.joints[0].model = peha::testing::rig_joint();
-  m.joints[0].pretension_N = 40.0;
   m.joints[0].min_angle_rad = -0.8;
   m.joints[0].max_angle_rad = 0.8;
   return m;
@@ -46,15 +55,15 @@ TEST(Limits, EveryCommandLeavesWithinAllLimits) {
     c.joints[0] = {p(rng), p(rng), tau(rng)};
     if (i % 97 == 0) c.joints[0].agonist_pressure_Pa = nan;
     if (i % 89 == 0) c.joints[0].motor_torque_Nm = std::numeric_limits<double>::infinity();
-    apply_limits(model, data, s, c);
+    apply_limits(model, kJoints, data, s, c);
     const io::JointCommand& j = c.joints[0];
-    const auto& jm = model.joints[0].model;
+    const auto& jm = rig();
     const double r0 = jm.pulley_radius_m;
     const double eps1 = models::rigid_contraction(jm.agonist, r0, +1, s.joints[0].angle_rad);
     const double eps2 = models::rigid_contraction(jm.antagonist, r0, -1, s.joints[0].angle_rad);
     ASSERT_TRUE(std::isfinite(j.agonist_pressure_Pa) && std::isfinite(j.antagonist_pressure_Pa) &&
                 std::isfinite(j.motor_torque_Nm));
-    ASSERT_LE(j.agonist_pressure_Pa, model.joints[0].supply_pressure_Pa);
+    ASSERT_LE(j.agonist_pressure_Pa, rig().supply_pressure_Pa);
     ASSERT_LE(models::forward_force_N(jm.agonist.pam, j.agonist_pressure_Pa, eps1), 2000.0 + 1e-6);
     ASSERT_LE(models::forward_force_N(jm.antagonist.pam, j.antagonist_pressure_Pa, eps2), 630.0 + 1e-6);
     ASSERT_LE(std::abs(j.motor_torque_Nm), jm.motor_max_torque_Nm);
@@ -74,9 +83,9 @@ TEST(Limits, PressureFloorKeepsPretension) {
   for (int i = 0; i < 2000; ++i) {  // let the rate limit settle
     c.joint_count = 1;
     c.joints[0] = {0.0, 0.0, 0.0};  // asks for slack wires
-    apply_limits(model, data, s, c);
+    apply_limits(model, kJoints, data, s, c);
   }
-  const auto& jm = model.joints[0].model;
+  const auto& jm = rig();
   const double eps1 = models::rigid_contraction(jm.agonist, jm.pulley_radius_m, +1, 0.2);
   EXPECT_NEAR(models::forward_force_N(jm.agonist.pam, c.joints[0].agonist_pressure_Pa, eps1), 40.0, 1e-6);
   EXPECT_TRUE(data.flags[0] & kPressureLimited);
@@ -91,13 +100,13 @@ TEST(Limits, BeyondRangeNothingPushesFurtherOut) {
   c.joints[0] = {0.2e6, 0.2e6, 0.0};
   for (int i = 0; i < 500; ++i) {
     io::Command step = c;
-    apply_limits(model, data, at_angle(0.0), step);
+    apply_limits(model, kJoints, data, at_angle(0.0), step);
   }
   const double before = data.previous.joints[0].agonist_pressure_Pa;
   io::Command push{};
   push.joint_count = 1;
   push.joints[0] = {0.6e6, 0.2e6, 2.0};
-  apply_limits(model, data, at_angle(0.9), push);
+  apply_limits(model, kJoints, data, at_angle(0.9), push);
   EXPECT_LE(push.joints[0].agonist_pressure_Pa, before);
   EXPECT_LE(push.joints[0].motor_torque_Nm, 0.0);
   EXPECT_TRUE(data.flags[0] & kJointRange);

@@ -19,6 +19,7 @@ TEST(SimulatedRig, WireTensionSolvesTheMuscleWireEquilibrium) {
   p.payload_kg = 2.5;
   p.finger.pushes = {{"hold", 0.0, 10.0, 10.0, 0.0, true}};
   OneDofRigBackend plant(p);
+  plant.activate();
   io::Command c;
   c.joint_count = 1;
   c.joints[0] = {0.12e6, 0.21e6, 0.0};  // about what holds 2.5 kg (see E1), the hand does the rest
@@ -44,6 +45,7 @@ TEST(SimulatedRig, LoadCellsReadMuscleForceWithConfiguredNoise) {
   OneDofRigParams p = rig();
   p.finger.pushes = {{"hold", 0.0, 10.0, 10.0, 0.0, true}};
   OneDofRigBackend plant(p);
+  plant.activate();
   io::Command c;
   c.joint_count = 1;
   c.joints[0] = {0.25e6, 0.3e6, 0.0};

@@ -11,7 +11,6 @@ inline models::TendonSpringParams dmsp40_nominal() {
   p.c_N_per_Pa = 10199.0e-6;
   p.k_N = 8e4;
   p.eps0 = 0.005;
-  p.max_pressure_Pa = 0.8e6;
   return p;
 }
 
@@ -34,7 +33,6 @@ inline models::TendonSpringParams dmsp10_nominal() {
   p.c_N_per_Pa = 763.0e-6;
   p.k_N = 1e5;
   p.eps0 = 0.0;
-  p.max_pressure_Pa = 0.8e6;
   return p;
 }
 

@@ -37,7 +37,7 @@ struct MuscleCalibration {
   std::string muscle;                       ///< e.g. "agonist"
   std::string data_file;
   std::string data_sha256;
-  models::TendonSpringParams params;        ///< max_pressure_Pa = the supply given at calibration
+  models::TendonSpringParams params;        ///< the fitted Tendon-spring parameters
   std::shared_ptr<const Spgp> spgp;         ///< residual in Pa over x = (eps, force_N); may be null
   Span contraction, force_N, pressure_Pa;   ///< ranges the training data covered
   CalibrationStats stats;
@@ -46,9 +46,13 @@ struct MuscleCalibration {
 /// Writes `c` (throws on I/O failure).
 void write_calibration(const std::filesystem::path& path, const MuscleCalibration& c);
 
-/// Reads a calibration file; throws config::Error naming file, line, key. `max_pressure_Pa` (the
-/// supply of the controller that loads it) becomes the inverse model's ceiling.
-MuscleCalibration read_calibration(const std::filesystem::path& path, double max_pressure_Pa);
+/// Reads a calibration file; throws config::Error naming file, line, key.
+MuscleCalibration read_calibration(const std::filesystem::path& path);
+
+/// Puts calibration `c` into muscle `m` of a joint set-up: its Tendon-spring parameters, and its
+/// SPGP as the pressure residual when `with_spgp` (else no residual). The one place a calibration
+/// enters a joint model; controller and limits then both read the same muscle.
+void apply_calibration(const MuscleCalibration& c, bool with_spgp, models::MuscleModel& m);
 
 /// The SPGP as the controller's pressure residual: pressure_Pa(eps, F) = spgp.predict_mean({eps, F}).
 class SpgpResidual final : public models::PressureResidual {

@@ -18,7 +18,6 @@ struct FitOptions {
   int threads = 2;               ///< worker threads running restarts in parallel
   std::uint64_t seed = 1;        ///< of the random initialisations (deterministic for a seed)
   int max_iterations = 200;      ///< per LM solve
-  double max_pressure_Pa = 0.8e6;///< ceiling written into the fitted params (the supply)
 };
 
 /// Data for the fit: equal-length arrays (eps = rigid-wire contraction).

@@ -73,16 +73,12 @@ class Map {
   double number_or(std::string_view key, double fallback, Range range);
   /// Required integer within [min, max].
   long integer(std::string_view key, long min, long max);
-  long integer_or(std::string_view key, long fallback, long min, long max);
   bool boolean(std::string_view key);
   bool boolean_or(std::string_view key, bool fallback);
   /// Required non-empty string.
   std::string string(std::string_view key);
-  std::string string_or(std::string_view key, const std::string& fallback);
   /// Required string that must be one of `options`.
   std::string choice(std::string_view key, const std::vector<std::string>& options);
-  std::string choice_or(std::string_view key, const std::string& fallback,
-                        const std::vector<std::string>& options);
   /// Required list of numbers, each within `range`, with a length in [min_count, max_count].
   std::vector<double> numbers(std::string_view key, Range range, std::size_t min_count,
                               std::size_t max_count);

@@ -5,8 +5,9 @@
 /// - Macro (PAMs): the low-pass filtered desired torque (first order, `pam_cutoff_Hz`). A torque
 ///   >= 0 goes to the agonist, < 0 to the antagonist; the other muscle keeps the pretension. Each
 ///   pulley force is converted to a muscle force through the Bowden model, clamped to
-///   [pretension_N, max_force_N], and to a pressure through the inverse Tendon-spring model,
-///   clamped to [0, supply].
+///   [pretension_N, max_force_N], and to a pressure through the muscle's pressure model
+///   (models::muscle_pressure: inverse Tendon-spring + learned residual), clamped to [0, supply].
+///   Supply and pretension are the joint's (models::JointModel).
 /// - Force trim (optional, `force_trim_rate_1ps` > 0): a slow integral of each muscle's force error
 ///   (commanded muscle-side force minus its load cell) is added to the force handed to the inverse
 ///   model, bounded by `force_trim_max_N` and frozen while the pressure is saturated (anti-windup).
@@ -32,16 +33,15 @@ namespace peha::control {
 
 struct AllocationParams {
   double pam_cutoff_Hz = 5.0;       ///< cut-off of the PAM share's first-order low-pass, Hz
-  double pretension_N = 20.0;       ///< minimum muscle force on both wires (never slack), N
-  double supply_pressure_Pa = 0.8e6;///< pressure ceiling, Pa
   bool use_motor = true;            ///< false: PAM-only joint (the motor command is 0)
   double force_trim_rate_1ps = 0.0;  ///< integral gain of the force trim, 1/s (0 = off)
   double force_trim_max_N = 200.0;   ///< bound of the trim's force correction, N
 };
 
 /// Reads an `allocation:` mapping (pam_cutoff_Hz, pretension_N, use_motor, force_trim_rate_1ps,
-/// force_trim_max_N) and finishes it; the supply comes from the scenario's limits.
-AllocationParams read_allocation(config::Map map, double supply_pressure_Pa);
+/// force_trim_max_N) and finishes it. The pretension belongs to the joints (models::JointModel::
+/// pretension_N): it is returned in `pretension_N` for the scenario to put there.
+AllocationParams read_allocation(config::Map map, double& pretension_N);
 
 /// Flags raised when a limit shaped the command (bitwise or of AllocationFlag).
 enum AllocationFlag : std::uint32_t {

@@ -1,10 +1,19 @@
 #pragma once
 /// \file
-/// The one interface between controllers and an exoskeleton: sensor state in, command out.
+/// The one interface between controllers and an exoskeleton: sensor state in, command out, and the
+/// hardware's lifecycle (after ros2_control's hardware components).
 ///
-/// Implementations: the in-process simulator (`sim::OneDofRigBackend`) now; the MFB over UDP later.
-/// Controllers never see anything else of the plant. Every command passes the limits layer
-/// (`safety::CommandLimiter`) before it reaches `Backend::write`.
+/// Implementations: the in-process simulators (`sim::OneDofRigBackend`, `sim::RightArmBackend`) and
+/// the multifunction board over UDP (`mfb::UdpBackend`). Controllers never see anything else of the
+/// plant. Every command passes the limits layer on its way in: experiments write through
+/// `safety::LimitedBackend`, which wraps the backend, so no command reaches `write` unlimited.
+///
+/// Lifecycle, driven by the run (runtime::Supervisor keeps the named states):
+///   configure()  set-up: open the link (a board's session handshake). May throw.
+///   activate()   outputs follow the commands from now on (a board's enable edge).
+///   deactivate() outputs to their safe state: motor off, valves vent slowly. Commands are ignored.
+///   estop()      the software e-stop: safe outputs now, latched until deactivate() + activate().
+///   status()     what the loop's supervisor needs to detect a fault.
 
 #include <array>
 #include <cstdint>
@@ -50,10 +59,31 @@ struct BackendInfo {
   double period_s = 1e-3;                ///< control period the backend runs at
 };
 
+/// What a backend tells its supervisor each cycle. noexcept to read, no allocation.
+struct BackendStatus {
+  bool active = false;            ///< outputs follow the commands (activated, not e-stopped, not tripped)
+  bool estop = false;             ///< an e-stop holds the outputs safe (input line, board status or estop())
+  bool watchdog_tripped = false;  ///< the backend's own watchdog put the outputs in their safe state
+  bool ready_to_arm = true;       ///< activate() now would arm the outputs (a board has seen a disabled command)
+  std::int64_t last_sample_ns = 0;///< monotonic ns when the newest sample arrived (0: the backend has its own
+                                  ///< clock and is never silent, e.g. a simulator)
+  double last_rtt_s = 0;          ///< round trip of the newest sample's command, s (0: not measured)
+  std::uint64_t rtt_samples = 0;  ///< how many round trips were measured (a new one when it grows)
+};
+
 class Backend {
  public:
   virtual ~Backend() = default;
   virtual const BackendInfo& info() const = 0;
+  /// Set-up: opens the link (the board's session). Throws std::runtime_error if it cannot.
+  virtual void configure() {}
+  /// Outputs follow the commands from now on.
+  virtual void activate() noexcept = 0;
+  /// Outputs to their safe state (motor off, valves vent slowly); commands are ignored until activate().
+  virtual void deactivate() noexcept = 0;
+  /// Safe outputs now; latched until deactivate() and activate().
+  virtual void estop() noexcept = 0;
+  virtual BackendStatus status() const noexcept = 0;
   /// Latest sensor sample. Returns false if no valid sample is available (the caller holds).
   virtual bool read(SensorState& state) noexcept = 0;
   /// Sends a command (already limited). For the simulator this also advances time by one period.

@@ -159,8 +159,6 @@ class ChannelMap {
   const std::vector<std::string>& joint_names() const noexcept { return joint_names_; }
   /// Channels of joint `i`; throws std::out_of_range unless 0 <= i < joint_count().
   const JointChannels& joint(int i) const;
-  const DigitalLine& enable_line() const noexcept { return enable_; }
-  const DigitalLine& estop_line() const noexcept { return estop_; }
 
  private:
   friend ChannelMap read_channel_map(config::Map map, const std::vector<std::string>& joint_names);

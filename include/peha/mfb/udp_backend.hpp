@@ -58,6 +58,23 @@ class UdpBackend final : public io::Backend {
   void connect();
 
   const io::BackendInfo& info() const override { return info_; }
+  /// The lifecycle on the board: configure() = connect(); activate() = the enable edge (the board
+  /// arms on clear -> set, once it has seen a disabled command); deactivate() = enable clear (the
+  /// board holds its safe outputs and vents); estop() = enable clear, latched until deactivate().
+  void configure() override { connect(); }
+  void activate() noexcept override { enable_ = !estop_latched_; }
+  void deactivate() noexcept override {
+    enable_ = false;
+    estop_latched_ = false;
+  }
+  void estop() noexcept override {
+    enable_ = false;
+    estop_latched_ = true;
+  }
+  /// From the newest accepted state packet: active = enabled and the board's outputs armed; e-stop
+  /// from its status bit, its input line or estop(); its watchdog's trip; ready_to_arm once it has
+  /// acknowledged a disabled command; when the sample arrived and its command's round trip.
+  io::BackendStatus status() const noexcept override;
   /// The newest accepted sample not returned before (normally the reply write() waited for).
   /// False if none arrived (the caller holds its command and counts it).
   bool read(io::SensorState& state) noexcept override;
@@ -65,8 +82,6 @@ class UdpBackend final : public io::Backend {
   /// receive_timeout_s for the board's reply (noted for the next read()).
   bool write(const io::Command& command) noexcept override;
 
-  /// Outputs enabled in the commands from now on (the board arms on the clear -> set edge).
-  void set_enable(bool enable) noexcept { enable_ = enable; }
   bool enabled() const noexcept { return enable_; }
   /// Status bits of the newest accepted state packet (kStatus...).
   std::uint8_t board_status() const noexcept { return last_.status; }
@@ -77,13 +92,6 @@ class UdpBackend final : public io::Backend {
   /// Round-trip time of the newest accepted sample's command (host now - its echoed send time), s
   /// (NaN before any).
   double last_rtt_s() const noexcept { return last_rtt_s_; }
-  /// True once per accepted sample: its round trip is new (for the timing statistics).
-  bool take_new_rtt(double& rtt_s) noexcept {
-    rtt_s = last_rtt_s_;
-    const bool fresh = new_rtt_;
-    new_rtt_ = false;
-    return fresh;
-  }
   const UdpLinkStats& stats() const noexcept { return stats_; }
   std::uint32_t session_id() const noexcept { return session_; }
   const ChannelMap& channel_map() const noexcept { return map_; }
@@ -92,8 +100,6 @@ class UdpBackend final : public io::Backend {
   double goniometer_rad(int joint) const noexcept { return map_.goniometer_rad(last_inputs_, joint); }
   /// A sample's e-stop input (from the last accepted packet's digital lines).
   bool estop_input() const noexcept { return map_.estop_active(last_inputs_); }
-  /// Starts a new session (new id, fresh filter) - after a fault, before connect() again.
-  void new_session() noexcept;
 
  private:
   void drain(std::int64_t deadline_ns) noexcept;
@@ -111,7 +117,8 @@ class UdpBackend final : public io::Backend {
   bool acked_disable_ = false;
   bool have_new_ = false;
   bool last_was_reply_ = false;
-  bool new_rtt_ = false;
+  bool estop_latched_ = false;
+  std::uint64_t rtt_samples_ = 0;            ///< round trips measured
   std::uint32_t disable_sequence_ = 0;       ///< a command sent with enable clear
   StatePacket last_{};
   BoardInputs last_inputs_{};

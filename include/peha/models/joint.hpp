@@ -39,10 +39,14 @@ struct MuscleModel {
   std::shared_ptr<const PressureResidual> residual;
 };
 
-/// Immutable model of a PEHA joint.
+/// Immutable model of a PEHA joint: the one joint set-up the controller and the limits layer share,
+/// assembled once from the scenario (and, where given, a muscle calibration replaces `pam` and
+/// `residual` of a muscle). Supply pressure and pretension live here and nowhere else.
 struct JointModel {
   std::string name;
   double pulley_radius_m = 0.05;  ///< r0, m
+  double supply_pressure_Pa = 0.8e6;  ///< the valves' supply: the ceiling of every pressure command, Pa (gauge)
+  double pretension_N = 20.0;     ///< the least muscle force that keeps a wire taut (never slack), N
   MuscleModel agonist;            ///< muscle 1, pulls toward positive angles
   MuscleModel antagonist;         ///< muscle 2, pulls toward negative angles
   bool has_motor = true;
@@ -51,6 +55,12 @@ struct JointModel {
 
 /// The force no command may ask of muscle `m`: its own ceiling, never above kMaxPamForce_N, N.
 double force_ceiling_N(const MuscleModel& m) noexcept;
+
+/// The one pressure model of a muscle, used by the allocation and by the limits layer alike: the
+/// closed-form inverse Tendon-spring pressure for `force_N` at rigid-wire contraction `eps`, plus the
+/// learned residual where the parametric inverse is defined (status kOk), clamped to [0, supply].
+/// A non-finite residual counts as 0. noexcept, allocation-free.
+InverseResult muscle_pressure(const MuscleModel& m, double force_N, double eps, double supply_pressure_Pa) noexcept;
 
 /// Rigid-wire contraction of the agonist (+1) or antagonist (-1) at `angle_rad`.
 /// eps = eps(0) + side * r0 * angle / L0.

@@ -12,14 +12,13 @@
 
 namespace peha::models {
 
-/// The five calibrated parameters lambda = (a, b, c, k, eps0) and the pressure ceiling.
+/// The five calibrated parameters lambda = (a, b, c, k, eps0).
 struct TendonSpringParams {
   double a_N_per_Pa = 0.0;         ///< quadratic coefficient of g(u), N/Pa
   double b_N_per_Pa = 0.0;         ///< linear coefficient of g(u), N/Pa
   double c_N_per_Pa = 0.0;         ///< g(0), force per pressure at zero contraction, N/Pa
   double k_N = 1.0;                ///< wire stiffness, N per unit contraction ratio (> 0)
   double eps0 = 0.0;               ///< initial wire slack expressed as a contraction ratio
-  double max_pressure_Pa = 0.8e6;  ///< pressure ceiling of the inverse model (the supply), Pa
   /// g(u) below this is treated as "the muscle cannot pull here", N/Pa. Keeps P* = F/g finite.
   double min_gain_N_per_Pa = 1e-6;
 };
@@ -50,7 +49,8 @@ struct InverseResult {
 double forward_force_N(const TendonSpringParams& p, double pressure_Pa, double eps) noexcept;
 
 /// Inverse model (F*, eps) -> P* in closed form: P* = F* / g(eps + eps0 + F*/k), see InverseStatus
-/// for every edge. Never NaN; always within [0, max_pressure_Pa].
-InverseResult inverse_pressure(const TendonSpringParams& p, double force_N, double eps) noexcept;
+/// for every edge. Never NaN; always within [0, max_pressure_Pa], the ceiling the caller has (the
+/// joint's supply: models::JointModel::supply_pressure_Pa).
+InverseResult inverse_pressure(const TendonSpringParams& p, double force_N, double eps, double max_pressure_Pa) noexcept;
 
 }  // namespace peha::models

@@ -1,46 +1,69 @@
 #pragma once
 /// \file
-/// The one loop skeleton every experiment runs on (in-process or on the board, E1 to E6 and the
-/// calibration recording): wait, read, step or hold, supervise, write.
+/// The one loop every experiment runs on (E1, E3, E4, E6 and the calibration recording; in-process
+/// or on the board): wait, read, step or hold, supervise, limit and write, observe.
+///
+/// The loop only ever writes through safety::LimitedBackend, so every command passes the limits
+/// stage at the backend boundary, and through a runtime::Supervisor, so every run has the same
+/// lifecycle and fault path. The supervisor's recovery ramp shapes the command *before* the limits:
+/// what is sent is what was limited.
 
 #include "peha/io/backend.hpp"
+#include "peha/runtime/supervisor.hpp"
+#include "peha/safety/limited_backend.hpp"
 
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <optional>
 
 namespace peha::runtime {
 
-/// What a loop does around each control cycle besides control. Both may be empty.
+/// What a loop does around each control cycle besides control. All may be empty.
 struct CycleHooks {
   /// Before reading the backend: e.g. sleep to the next absolute deadline.
   std::function<void()> wait;
-  /// After the command was limited and before it is written. It may replace the command (a
-  /// fault's safe command, a recovery ramp); returning false ends the run early. Called from the
-  /// control loop: must not block or allocate.
-  std::function<bool(const io::SensorState&, io::Command&, std::uint32_t limit_flags)> after;
+  /// The run's supervisor (a real-time harness's). Null: run_cycles starts its own with default
+  /// parameters on the backend and finishes it after the last cycle (in-process runs).
+  Supervisor* supervisor = nullptr;
+  /// After the write, with the command as sent: timing, telemetry, progress. Returning false ends
+  /// the run. Called from the control loop: must not block or allocate.
+  std::function<bool(const io::SensorState&, const io::Command& sent)> after;
 };
 
-/// The loop skeleton every experiment runner shares, for cycles k = 0..steps on `backend`: wait
-/// (hooks.wait), read; on a new sample `step(k)` (control, limits, figures, log; returns the limit
-/// flags), without one `hold(k)` and the last command goes out again (it also feeds a board's
-/// watchdog); then hooks.after - which may end the run - and write, except after the last cycle.
-/// Returns the last cycle run (< steps if a hook ended the run).
-template <class Step, class Hold>
-std::size_t run_cycles(io::Backend& backend, const CycleHooks& hooks, std::size_t steps, io::SensorState& state,
-                       io::Command& command, Step&& step, Hold&& hold) {
-  for (std::size_t k = 0; k <= steps; ++k) {
+/// Runs cycles k = 0..steps on `backend`: wait, read; with a new sample `step(k)` computes
+/// `command`, without one `hold(k)` and the previous command goes out again (it also feeds a board's
+/// watchdog); the supervisor supervises (it may fault the run or ramp the command); the command is
+/// limited and written; with a new sample `observe(k, sent, limit_flags)` records figures and log
+/// rows (a simulator's `sampled_truth()` is the truth of that sample); then hooks.after. Returns
+/// the last cycle run (< steps if a hook ended the run).
+template <class Step, class Hold, class Observe>
+std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks, std::size_t steps, io::SensorState& state,
+                       io::Command& command, Step&& step, Hold&& hold, Observe&& observe) {
+  const double period_s = backend.info().period_s;
+  std::optional<Supervisor> own;
+  if (!hooks.supervisor) {
+    own.emplace(backend, SupervisorParams{});
+    own->start(0.0);
+  }
+  Supervisor& supervisor = hooks.supervisor ? *hooks.supervisor : *own;
+  std::size_t k = 0;
+  for (; k <= steps; ++k) {
     if (hooks.wait) hooks.wait();
-    std::uint32_t flags = 0;
-    if (backend.read(state)) {
-      flags = step(k);
+    const bool fresh = backend.read(state);
+    if (fresh) {
+      step(k);
     } else {
       hold(k);
     }
-    if (hooks.after && !hooks.after(state, command, flags)) return k;
-    if (k < steps) backend.write(command);
+    supervisor.supervise(static_cast<double>(k) * period_s, fresh, state, command);
+    backend.write(command);
+    if (fresh) observe(k, backend.sent(), backend.flags());
+    if (hooks.after && !hooks.after(state, backend.sent())) break;
   }
-  return steps;
+  const std::size_t last = std::min(k, steps);
+  if (own) own->finish(static_cast<double>(last) * period_s, "experiment finished");
+  return last;
 }
 
 }  // namespace peha::runtime

@@ -58,7 +58,6 @@ class Telemetry {
   /// Sends what is queued, stops the sender thread and closes the socket. Idempotent.
   void close();
 
-  std::size_t signal_count() const noexcept { return keys_.size(); }
   std::uint64_t published_samples() const noexcept { return published_.load(std::memory_order_relaxed); }  ///< kept and queued
   std::uint64_t dropped_samples() const noexcept { return dropped_.load(std::memory_order_relaxed); }
   std::uint64_t sent_datagrams() const noexcept { return sent_.load(std::memory_order_relaxed); }

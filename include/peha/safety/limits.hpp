@@ -1,7 +1,8 @@
 #pragma once
 /// \file
-/// The limits layer every command passes before it reaches a backend (SPEC §6). The safety
-/// supervisor of a later issue extends it; it replaces nothing here.
+/// The limits layer every command passes before it reaches a backend. It sits at the backend
+/// boundary (safety::LimitedBackend wraps the backend and applies it in write()), so no experiment
+/// can send a command around it.
 ///
 /// Per joint, in this order:
 /// 1. a non-finite pressure is replaced by the previous command, a non-finite motor torque by 0
@@ -9,8 +10,11 @@
 /// 2. joint range: outside [min_angle, max_angle] the muscle that pushes further out may not gain
 ///    pressure and the motor may not push further out (flag kJointRange);
 /// 3. pressures: within [floor, ceiling], where the ceiling is min(supply, P that makes the muscle's
-///    force ceiling by the controller's model) and the floor is the P that keeps the wire pretension
-///    by that model, or 0 where the model says the muscle cannot make it (flag kPressureLimited);
+///    force ceiling by the controller's pressure model) and the floor is the P that keeps the wire
+///    pretension by that model, or 0 where the model says the muscle cannot make it (flag
+///    kPressureLimited). The pressure model is models::muscle_pressure - the same one the allocation
+///    uses, learned residual (SPGP) included - and supply, pretension and force ceilings are the
+///    joint set-up's (models::JointModel), the very object the controller was built from;
 /// 4. rate limits on pressures and motor torque (flag kRateLimited);
 /// 5. motor torque within its rating (flag kMotorLimited).
 /// noexcept and allocation-free.
@@ -31,10 +35,8 @@ enum LimitFlag : std::uint32_t {
   kMotorLimited = 1u << 4,
 };
 
+/// What the limits add to a joint set-up: rates and range.
 struct JointLimits {
-  models::JointModel model;             ///< the controller's model (for force ceiling/pretension)
-  double supply_pressure_Pa = 0.8e6;
-  double pretension_N = 20;             ///< minimum muscle force that keeps the wire taut, N
   double pressure_rate_Pa_per_s = 5e6;  ///< max |dP/dt| of a command
   double motor_rate_Nm_per_s = 500;     ///< max |d tau/dt| of the motor command
   double min_angle_rad = -1;
@@ -47,6 +49,10 @@ struct LimitsModel {
   double period_s = 1e-3;
 };
 
+/// The joint set-ups a limits pass reads (force ceilings, supply, pretension, pressure model, motor
+/// rating): pointers to the models the controller runs with, per io joint; non-owning.
+using JointModels = std::array<const models::JointModel*, io::kMaxJoints>;
+
 struct LimitsData {
   io::Command previous{};
   bool has_previous = false;
@@ -54,8 +60,9 @@ struct LimitsData {
   std::array<std::uint64_t, 5> counts{};              ///< how often each flag fired, by bit index
 };
 
-/// Limits `command` in place against `state`. Returns the or of all joints' flags.
-std::uint32_t apply_limits(const LimitsModel& model, LimitsData& data, const io::SensorState& state,
+/// Limits `command` in place against `state`. Returns the or of all joints' flags. `joints[j]` must
+/// be set for every j < model.joint_count.
+std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, LimitsData& data, const io::SensorState& state,
                            io::Command& command) noexcept;
 
 }  // namespace peha::safety

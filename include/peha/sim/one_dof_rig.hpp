@@ -13,6 +13,7 @@
 #include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/sim/mujoco_model.hpp"
+#include "peha/sim/output_gate.hpp"
 #include "peha/sim/peha_joint_plant.hpp"
 
 #include <cstdint>
@@ -81,8 +82,18 @@ class OneDofRigBackend final : public io::Backend {
   explicit OneDofRigBackend(const OneDofRigParams& params);
   const io::BackendInfo& info() const override { return info_; }
   bool read(io::SensorState& state) noexcept override;
+  void activate() noexcept override { gate_.activate(); }
+  void deactivate() noexcept override { gate_.deactivate(); }
+  void estop() noexcept override { gate_.estop(); }
+  io::BackendStatus status() const noexcept override { return gate_.status(); }
+  /// Writes step the plant by one control period with the command - or, unless activated, with the
+  /// safe outputs (OutputGate: motor off, valves vented over kSafeVent_s).
   bool write(const io::Command& command) noexcept override;
+  /// The truth after the latest write().
   const OneDofRigTruth& truth() const { return truth_; }
+  /// The truth at the instant of the sample the latest read() returned: what the figures of a
+  /// cycle that read that sample describe, even after the cycle's write() stepped the plant on.
+  const OneDofRigTruth& sampled_truth() const { return sampled_truth_; }
   const OneDofRigParams& params() const { return params_; }
 
  private:
@@ -103,7 +114,8 @@ class OneDofRigBackend final : public io::Backend {
   std::mt19937_64 rng_;
   std::vector<double> push_start_angle_;  ///< angle where each push began (NaN until it starts)
   io::SensorState state_;
-  OneDofRigTruth truth_;
+  OneDofRigTruth truth_, sampled_truth_;
+  OutputGate gate_;
 };
 
 }  // namespace peha::sim

@@ -10,6 +10,7 @@
 #include "peha/models/arm.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 #include "peha/sim/mujoco_model.hpp"
+#include "peha/sim/output_gate.hpp"
 #include "peha/sim/peha_joint_plant.hpp"
 
 #include <Eigen/Dense>
@@ -67,10 +68,17 @@ class RightArmBackend final : public io::Backend {
   explicit RightArmBackend(const RightArmPlantParams& params);
   const io::BackendInfo& info() const override { return info_; }
   bool read(io::SensorState& state) noexcept override;
+  void activate() noexcept override { gate_.activate(); }
+  void deactivate() noexcept override { gate_.deactivate(); }
+  void estop() noexcept override { gate_.estop(); }
+  io::BackendStatus status() const noexcept override { return gate_.status(); }
+  /// Writes step the plant by one control period with the command - or, unless activated, with the
+  /// safe outputs (OutputGate: motor off, valves vented over vent_s).
   bool write(const io::Command& command) noexcept override;
+  /// The truth at the latest sample (after the latest write()).
   const RightArmTruth& truth() const { return truth_; }
-  /// Adds a generalised torque (Nm, per model joint) applied from now on, e.g. a person's elbow.
-  void set_external_torque(int model_joint, double torque_Nm) noexcept { external_[model_joint] = torque_Nm; }
+  /// The truth at the instant of the sample the latest read() returned (see OneDofRigBackend).
+  const RightArmTruth& sampled_truth() const { return sampled_truth_; }
 
  private:
   void substep(const io::Command& command) noexcept;
@@ -85,11 +93,11 @@ class RightArmBackend final : public io::Backend {
   std::vector<double> base_frictionloss_, base_damping_;
   std::vector<double> move_start_;       ///< angle where the current move began, per actuated joint
   int active_move_ = -1;
-  std::vector<double> external_;
   int substeps_ = 1;
   std::mt19937_64 rng_;
   io::SensorState state_;
-  RightArmTruth truth_;
+  RightArmTruth truth_, sampled_truth_;
+  OutputGate gate_;
 };
 
 }  // namespace peha::sim

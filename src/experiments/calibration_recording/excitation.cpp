@@ -1,6 +1,7 @@
 #include "peha/experiments/calibration_recording/excitation.hpp"
 
 #include "peha/control/one_dof_gravity.hpp"
+#include "peha/runtime/control_loop.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -57,15 +58,16 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
                   &data.wire_velocity_mps}) {
     v->reserve(rows);
   }
-  safety::LimitsData limits_data;
+  const safety::JointModels joints{&joint};
+  safety::LimitedBackend limited(backend, limits, joints);
   control::VelocityEstimator velocity;
   io::SensorState state;
   io::Command command;
   command.joint_count = 1;
   const double t0 = [&] { backend.read(state); return state.time_s; }();
   long next_report = 0;
-  for (long k = 0; k <= steps; ++k) {
-    backend.read(state);
+  auto step = [&](std::size_t kk) {
+    const auto k = static_cast<long>(kk);
     const io::JointSensors& s = state.joints[0];
     const double omega = velocity.update(s.angle_rad, k == 0 ? 0.0 : period_s);
     if (k % every == 0) {
@@ -81,13 +83,14 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
     command.joints[0].agonist_pressure_Pa = side > 0 ? excited : other;
     command.joints[0].antagonist_pressure_Pa = side > 0 ? other : excited;
     command.joints[0].motor_torque_Nm = 0.0;
-    safety::apply_limits(limits, limits_data, state, command);
-    if (k < steps) backend.write(command);
     if (progress && k >= next_report) {
       progress(static_cast<double>(k) / steps);
       next_report += std::max(1L, steps / 10);
     }
-  }
+  };
+  auto hold = [](std::size_t) {};
+  auto observe = [](std::size_t, const io::Command&, std::uint32_t) {};
+  runtime::run_cycles(limited, {}, static_cast<std::size_t>(steps), state, command, step, hold, observe);
   if (progress) progress(1.0);
   return data;
 }

@@ -1,6 +1,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include "peha/models/model_config.hpp"
+#include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
 
@@ -63,7 +64,9 @@ E1Scenario read_e1(const config::Document& doc) {
   const double supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
 
   config::Map ctl = root.map("controller");
-  s.controller.joint = models::read_joint_model(ctl, "joint", supply_Pa);
+  double pretension_N = 0;
+  s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
+  s.controller.joint = models::read_joint_model(ctl, "joint", supply_Pa, pretension_N);
   config::Map gravity = ctl.map("gravity");
   s.controller.gravity.link_mass_kg = gravity.number("link_mass_kg", {0.0, 50.0});
   s.controller.gravity.link_com_m = gravity.number("link_com_m", {0.0, 2.0});
@@ -71,15 +74,11 @@ E1Scenario read_e1(const config::Document& doc) {
   s.controller.gravity.gravity_mps2 = gravity.number("gravity_mps2", {0.0, 20.0});
   gravity.finish();
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
-  s.controller.allocation = control::read_allocation(ctl.map("allocation"), supply_Pa);
   ctl.finish();
 
   safety::JointLimits& jl = s.limits.joints[0];
   s.limits.joint_count = 1;
   s.limits.period_s = s.period_s;
-  jl.model = s.controller.joint;
-  jl.supply_pressure_Pa = supply_Pa;
-  jl.pretension_N = s.controller.allocation.pretension_N;
   jl.pressure_rate_Pa_per_s = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
   jl.motor_rate_Nm_per_s = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
   jl.min_angle_rad = limits.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
@@ -140,15 +139,17 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSi
 
 E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
                    runtime::RowSink* log, const runtime::CycleHooks& hooks) {
-  control::OneDofGravityController controller(e1_controller_model(scenario, c));
-  safety::LimitsData limits_data;
+  const control::OneDofControllerModel model = e1_controller_model(scenario, c);
+  control::OneDofGravityController controller(model);
+  const safety::JointModels joints{&model.joint};  // the controller's joint set-up, shared with the limits
+  safety::LimitedBackend limited(backend, scenario.limits, joints);
+  safety::Envelope envelope;
   const double nan = std::numeric_limits<double>::quiet_NaN();
 
   E1Result r;
   r.case_name = c.name;
   r.payload_kg = c.payload_kg;
   r.from_truth = sim != nullptr;
-  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
 
   const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
   std::vector<double> angle_truth(steps + 1);
@@ -169,30 +170,25 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     ++r.missed_samples;
     angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
   };
-  auto step = [&](std::size_t k) -> std::uint32_t {
-    controller.update(state, command);
-    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
+  auto step = [&](std::size_t) { controller.update(state, command); };
+  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t flags) {
     const io::JointSensors& s = state.joints[0];
-    const io::JointCommand& cmd = command.joints[0];
-    const sim::OneDofRigTruth* t = sim ? &sim->truth() : nullptr;
+    const io::JointCommand& cmd = sent.joints[0];
+    const sim::OneDofRigTruth* t = sim ? &sim->sampled_truth() : nullptr;
+    safety::JointSample j;
     if (t) {
       angle_truth[k] = t->angle_rad;
       finger_on[k] = t->finger_active;
       finger_force[k] = t->finger_force_N;
-      r.peak_muscle_force_N[0] = std::max(r.peak_muscle_force_N[0], t->muscle_force_N[0]);
-      r.peak_muscle_force_N[1] = std::max(r.peak_muscle_force_N[1], t->muscle_force_N[1]);
-      r.min_wire_tension_N = std::min({r.min_wire_tension_N, t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]});
-      r.max_pressure_MPa = std::max({r.max_pressure_MPa, t->pressure_Pa[0] * 1e-6, t->pressure_Pa[1] * 1e-6});
-      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(t->motor_torque_Nm));
+      j = {{t->muscle_force_N[0], t->muscle_force_N[1]}, std::min(t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]),
+           {t->pressure_Pa[0], t->pressure_Pa[1]}, t->motor_torque_Nm, t->angle_rad};
     } else {
       angle_truth[k] = s.angle_rad;
       finger_force[k] = nan;
-      r.peak_muscle_force_N[0] = std::max(r.peak_muscle_force_N[0], s.agonist_force_N);
-      r.peak_muscle_force_N[1] = std::max(r.peak_muscle_force_N[1], s.antagonist_force_N);
-      r.min_wire_tension_N = std::min({r.min_wire_tension_N, s.agonist_force_N, s.antagonist_force_N});
-      r.max_pressure_MPa = std::max({r.max_pressure_MPa, s.agonist_pressure_Pa * 1e-6, s.antagonist_pressure_Pa * 1e-6});
-      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(cmd.motor_torque_Nm));
+      j = {{s.agonist_force_N, s.antagonist_force_N}, std::min(s.agonist_force_N, s.antagonist_force_N),
+           {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, cmd.motor_torque_Nm, s.angle_rad};
     }
+    envelope.observe(0, j);
     if (state.time_s >= 1.0) {  // after the start-up transient
       const auto& a = controller.diagnostics().allocation;
       const double e1 = a.agonist_force_N - s.agonist_force_N;
@@ -213,24 +209,25 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
              t ? t->cable_friction_Nm : nan, t ? t->constraint_torque_Nm : nan, static_cast<double>(flags)};
       log->push_row(row);
     }
-    return flags;
   };
-  angle_truth.resize(runtime::run_cycles(backend, hooks, steps, state, command, step, hold) + 1);
+  angle_truth.resize(runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = angle_truth.size() - 1;  // a run ended early analyses what it has
   r.simulated_s = static_cast<double>(done) * scenario.period_s;
   for (int i = 0; i < 2; ++i) r.force_tracking_rms_N[i] = tracking_count ? std::sqrt(tracking_sum[i] / tracking_count) : 0.0;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
-  std::copy(std::begin(limits_data.counts), std::end(limits_data.counts), std::begin(r.limit_counts));
+  std::copy(std::begin(limited.data().counts), std::end(limited.data().counts), std::begin(r.limit_counts));
   const auto [lowest, highest] = std::minmax_element(angle_truth.begin(), angle_truth.end());
   r.min_angle_deg = *lowest / kDeg;
   r.max_angle_deg = *highest / kDeg;
-  const safety::JointLimits& lim = scenario.limits.joints[0];
-  r.within_limits = r.peak_muscle_force_N[0] <= models::force_ceiling_N(scenario.controller.joint.agonist) &&
-                    r.peak_muscle_force_N[1] <= models::force_ceiling_N(scenario.controller.joint.antagonist) &&
-                    r.min_wire_tension_N > 0.0 && r.max_pressure_MPa * 1e6 <= lim.supply_pressure_Pa &&
-                    r.peak_motor_torque_Nm <= lim.model.motor_max_torque_Nm &&
-                    *lowest >= lim.min_angle_rad && *highest <= lim.max_angle_rad;
+  const safety::Envelope::Joint& e = envelope.joints[0];
+  r.peak_muscle_force_N[0] = e.peak_muscle_force_N[0];
+  r.peak_muscle_force_N[1] = e.peak_muscle_force_N[1];
+  r.min_wire_tension_N = e.min_tension_N;
+  r.max_pressure_MPa = e.max_pressure_Pa * 1e-6;
+  r.peak_motor_torque_Nm = e.peak_motor_torque_Nm;
+  safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, r.verdict);
+  r.within_limits = r.verdict.passed();
 
   // Releases: the instants the finger lets go; drift over the window that follows.
   const auto window = static_cast<std::size_t>(std::llround(scenario.drift_window_s / scenario.period_s));

@@ -9,7 +9,7 @@ E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, co
   const auto backend = mfb::make_board_backend(*scenario.link, options.board, scenario.period_s, sim::one_dof_rig_joint_names());
   E1RealtimeResult res;
   {
-    runtime::RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, scenario.duration_s, c.name,
+    runtime::RealtimeHarness harness(*backend, supervisor_params(*scenario.link, options), options, scenario.period_s, scenario.duration_s, c.name,
                             options.dir / fmt::format("e1_{}.csv", c.name), e1_log_columns(),
                             {fmt::format("case: {} (payload {} kg) on the MFB at udp://{}", c.name, c.payload_kg, options.board.to_string()),
                              fmt::format("session {:08x}; plant_* and finger columns are NaN: the host sees only the board's sensors",
@@ -17,6 +17,7 @@ E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, co
     const runtime::CycleHooks hooks = harness.start();
     res.e1 = run_e1_on(scenario, c, *backend, nullptr, &harness.sink(), hooks);
     harness.finish(res);
+    res.link = backend->stats();
   }
   return res;
 }

@@ -1,5 +1,7 @@
 #include "peha/experiments/e3_postures/postures.hpp"
 
+#include "peha/safety/limited_backend.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -67,12 +69,12 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   const double duration_s = postures_duration_s(scenario);
   const sim::RightArmPlantParams script = postures_plant_params(scenario);  // where the operator's hands are, by the clock
   control::ArmController controller(scenario.controller);
-  safety::LimitsData limits_data;
+  const safety::JointModels joints = arm_joint_models(controller.model());
+  safety::LimitedBackend limited(backend, scenario.limits, joints);
+  safety::Envelope envelope;
   const double nan = std::numeric_limits<double>::quiet_NaN();
 
   PosturesResult r;
-  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
-  bool safe = true;
   const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
   std::vector<double> sfe(steps + 1), efe(steps + 1);
   io::SensorState state;
@@ -83,10 +85,9 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     sfe[k] = k ? sfe[k - 1] : 0.0;
     efe[k] = k ? efe[k - 1] : 0.0;
   };
-  auto step = [&](std::size_t k) -> std::uint32_t {
-    controller.update(state, command);
-    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
-    const sim::RightArmTruth* truth = sim ? &sim->truth() : nullptr;
+  auto step = [&](std::size_t) { controller.update(state, command); };
+  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
+    const sim::RightArmTruth* truth = sim ? &sim->sampled_truth() : nullptr;
     bool operator_active = false;
     if (truth) {
       operator_active = truth->operator_active;
@@ -96,11 +97,8 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
     efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
-      const ArmJointSample j = arm_joint_sample(state, command, truth, a);
-      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
-      r.min_wire_tension_N = std::min(r.min_wire_tension_N, j.min_tension_N);
+      envelope.observe(a, arm_joint_sample(state, sent, truth, a));
       if (truth) r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
-      safe = safe && arm_joint_within_limits(scenario, a, j);
     }
     if (log) {
       std::size_t col = 0;
@@ -110,20 +108,22 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       for (std::size_t a = 0; a < 3; ++a) {
         const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
         const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].torque_desired_Nm,
-                                 command.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
-                                 command.joints[a].agonist_pressure_Pa * 1e-6, command.joints[a].antagonist_pressure_Pa * 1e-6,
+                                 sent.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
+                                 sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
                                  state.joints[a].agonist_force_N, state.joints[a].antagonist_force_N, j ? j->muscle_force_N[0] : nan,
                                  j ? j->muscle_force_N[1] : nan};
         for (double v : values) row[col++] = v;
       }
       log->push_row(row);
     }
-    return flags;
   };
-  const std::size_t done = runtime::run_cycles(backend, hooks, steps, state, command, step, hold);
+  const std::size_t done = runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
-  r.within_limits = safe && r.min_wire_tension_N > 0.0;
+  r.peak_muscle_force_N = envelope.peak_muscle_force_N();
+  r.min_wire_tension_N = envelope.min_tension_N();
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, r.verdict);
+  r.within_limits = r.verdict.passed();
 
   const auto window = static_cast<std::size_t>(std::llround(scenario.observe_s / scenario.period_s));
   for (std::size_t i = 0; i < scenario.postures.size(); ++i) {

@@ -9,7 +9,7 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
   const auto backend = mfb::make_board_backend(*scenario.link, options.board, scenario.period_s, arm_joint_names(scenario));
   PosturesRealtimeResult res;
   {
-    runtime::RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, postures_duration_s(scenario), "postures",
+    runtime::RealtimeHarness harness(*backend, supervisor_params(*scenario.link, options), options, scenario.period_s, postures_duration_s(scenario), "postures",
                             options.dir / "e3_postures.csv", arm_log_columns(),
                             {fmt::format("case: E3 postures on the MFB at udp://{}, session {:08x}", options.board.to_string(),
                                          backend->session_id()),
@@ -17,6 +17,7 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
     const runtime::CycleHooks hooks = harness.start();
     res.postures = run_postures_on(scenario, *backend, nullptr, &harness.sink(), hooks);
     harness.finish(res);
+    res.link = backend->stats();
   }
   return res;
 }

@@ -3,6 +3,7 @@
 #include "peha/calibration/dataset.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
 
@@ -234,7 +235,9 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   const double nan = std::numeric_limits<double>::quiet_NaN();
   control::ArmController controller(scenario.controller);
   controller.set_mode(kElbow, control::ArmJointMode::kCommanded);
-  safety::LimitsData limits_data;
+  const safety::JointModels joints = arm_joint_models(controller.model());
+  safety::LimitedBackend limited(backend, scenario.limits, joints);
+  safety::Envelope envelope;
   control::FilteredDerivative derivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz);
   const models::ArmModel& arm = controller.model().arm;
   models::ArmData arm_data(arm);
@@ -245,7 +248,6 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   r.name = name;
   r.variant = variant;
   const bool feedback = variant == GoniometerVariant::kFeedback;
-  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
   r.filter_delay_s = derivative.group_delay_s(0.0);
   const auto steps = static_cast<std::size_t>(std::llround(duration_s / period));
   std::vector<double> exo(steps + 1), truth(steps + 1), sfe(steps + 1);
@@ -254,14 +256,13 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   io::Command command;
   control::FilteredDerivative::Derivatives d;
   double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
-  bool safe = true;
   const auto wall_start = std::chrono::steady_clock::now();
   auto hold = [&](std::size_t k) {  // no new sample: the command is held
     exo[k] = k ? exo[k - 1] : 0.0;
     sfe[k] = k ? sfe[k - 1] : 0.0;
     truth[k] = k ? truth[k - 1] : 0.0;
   };
-  auto step = [&](std::size_t k) -> std::uint32_t {
+  auto step = [&](std::size_t k) {
     const double t = state.time_s;
     if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
       goniometer = reading(t);
@@ -280,27 +281,25 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     r.peak_torque_command_Nm = std::max(r.peak_torque_command_Nm, std::abs(tau_cmd));
     controller.set_desired_torque(kElbow, tau_cmd);
     controller.update(state, command);
-    const std::uint32_t flags = safety::apply_limits(scenario.limits, limits_data, state, command);
-    const sim::RightArmTruth* tr = sim ? &sim->truth() : nullptr;
+  };
+  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
+    const double t = state.time_s;
+    const sim::RightArmTruth* tr = sim ? &sim->sampled_truth() : nullptr;
     // Without the simulator: the exoskeleton by its encoders, the person by the goniometer.
     exo[k] = tr ? tr->q_rad[kElbow] : state.joints[kElbow].angle_rad;
     sfe[k] = tr ? tr->q_rad[0] : state.joints[0].angle_rad;
     truth[k] = person ? person(t) : goniometer;
     double tension_min = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
-      const ArmJointSample j = arm_joint_sample(state, command, tr, a);
-      const safety::JointLimits& lim = scenario.limits.joints[a];
-      const double angle = tr ? tr->q_rad[a] : state.joints[a].angle_rad;
-      r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+      const safety::JointSample j = arm_joint_sample(state, sent, tr, a);
+      envelope.observe(a, j);
       tension_min = std::min(tension_min, j.min_tension_N);
       r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
-      safe = safe && arm_joint_within_limits(scenario, a, j) && angle >= lim.min_angle_rad - 0.02 && angle <= lim.max_angle_rad + 0.02;
     }
-    r.min_wire_tension_N = std::min(r.min_wire_tension_N, tension_min);
     if (log) {
       const auto& diag = controller.diagnostics();
       const io::JointSensors& s = state.joints[kElbow];
-      const io::JointCommand& c = command.joints[kElbow];
+      const io::JointCommand& c = sent.joints[kElbow];
       bool operator_active = tr ? tr->operator_active : t < release_s;
       row = {t, operator_active ? 1.0 : 0.0, truth[k] / kDeg, goniometer / kDeg, d.value / kDeg, d.rate / kDeg,
              d.acceleration / kDeg, tau_cmd, tr ? exo[k] / kDeg : nan, s.angle_rad / kDeg, sfe[k] / kDeg,
@@ -309,12 +308,14 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
              tr ? tr->actuators[kElbow].muscle_force_N[0] : nan, tr ? tr->actuators[kElbow].muscle_force_N[1] : nan, tension_min};
       log->push_row(row);
     }
-    return flags;
   };
-  const std::size_t done = runtime::run_cycles(backend, hooks, steps, state, command, step, hold);
+  const std::size_t done = runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
-  r.within_limits = safe && r.min_wire_tension_N > 0.0;
+  r.peak_muscle_force_N = envelope.peak_muscle_force_N();
+  r.min_wire_tension_N = envelope.min_tension_N();
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, r.verdict);
+  r.within_limits = r.verdict.passed();
 
   // Tracking from the release to the end: raw error, and the lag that best aligns the two.
   const auto k0 = std::min(static_cast<std::size_t>(std::llround(release_s / period)), done);

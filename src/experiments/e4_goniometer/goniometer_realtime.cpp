@@ -20,7 +20,7 @@ GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, st
   const double duration_s = goniometer_run_duration_s(scenario, synthesize_goniometer(scenario.goniometer, m, scenario.seed));
   GoniometerRealtimeResult res;
   {
-    runtime::RealtimeHarness harness(*backend, *scenario.link, options, scenario.period_s, duration_s, m.name + "/" + to_string(variant),
+    runtime::RealtimeHarness harness(*backend, supervisor_params(*scenario.link, options), options, scenario.period_s, duration_s, m.name + "/" + to_string(variant),
                             options.dir / fmt::format("e4_{}_{}.csv", m.name, to_string(variant)), goniometer_log_columns(),
                             {fmt::format("case: E4 movement {}, variant {}, on the MFB at udp://{}, session {:08x}", m.name,
                                          to_string(variant), options.board.to_string(), backend->session_id()),
@@ -30,6 +30,7 @@ GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, st
     res.goniometer = run_goniometer_on(scenario, m.name, variant, duration_s, b, nullptr,
                                        [&b](double) { return b.goniometer_rad(kElbow); }, {}, &harness.sink(), hooks);
     harness.finish(res);
+    res.link = backend->stats();
   }
   return res;
 }

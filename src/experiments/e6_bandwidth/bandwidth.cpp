@@ -1,6 +1,7 @@
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
 #include "peha/control/arm_controller.hpp"
+#include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
 
@@ -34,53 +35,74 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   // PAM-only: no motor to hand the fast part to, so no low-pass split either.
   if (!hybrid) model.allocation.pam_cutoff_Hz = 0.25 / scenario.period_s;
   control::ArmController controller(model);
-  controller.set_mode(b.joint, control::ArmJointMode::kCommanded);
-  safety::LimitsData limits;
-  const double r0 = plant_params.actuators[static_cast<std::size_t>(b.joint)].pulley_radius_m;
+  controller.set_mode(b.joint, control::ArmJointMode::kGravity);
+  const safety::JointModels joints = arm_joint_models(controller.model());
+  safety::LimitedBackend limited(plant, scenario.limits, joints);
+  safety::Envelope envelope;
+  const auto bench = static_cast<std::size_t>(b.joint);
+  const double r0 = plant_params.actuators[bench].pulley_radius_m;
 
   BandwidthResult r;
   r.variant = hybrid ? "hybrid" : "pam_only";
-  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
-  io::SensorState state;
-  io::Command command;
-  auto step = [&](double desired_Nm) {
-    plant.read(state);
-    controller.set_desired_torque(b.joint, desired_Nm);
-    controller.update(state, command);
-    safety::apply_limits(scenario.limits, limits, state, command);
-    plant.write(command);
-    const sim::PehaJointTruth& j = plant.truth().actuators[static_cast<std::size_t>(b.joint)];
-    r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
-    r.min_wire_tension_N = std::min({r.min_wire_tension_N, j.pulley_tension_min_N[0], j.pulley_tension_min_N[1]});
-    r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
-    return r0 * (j.muscle_force_N[0] - j.muscle_force_N[1]) + j.motor_torque_Nm;  // delivered, Nm
+  // The schedule: 2 s in gravity compensation to settle (its last gravity torque is the bias), then
+  // per frequency whole cycles of bias + amplitude sin(2 pi f t); the first cycle is not analysed.
+  struct Segment {
+    double frequency_Hz;
+    std::size_t start, total, n_cycle;
+    std::complex<double> U = 0, Y = 0;
   };
-  // The bias: the controller's gravity torque at the locked posture, settled for 2 s.
-  double bias = 0.0;
-  for (int k = 0; k < static_cast<int>(2.0 / scenario.period_s); ++k) {
-    controller.set_mode(b.joint, control::ArmJointMode::kGravity);
-    step(0.0);
-    bias = controller.diagnostics()[static_cast<std::size_t>(b.joint)].torque_gravity_Nm;
-  }
-  controller.set_mode(b.joint, control::ArmJointMode::kCommanded);
+  const auto settle = static_cast<std::size_t>(2.0 / scenario.period_s);
+  std::vector<Segment> segments;
+  std::size_t end = settle;
   for (double f : b.frequencies_Hz) {
     const double cycles = std::ceil(std::max(b.min_cycles, b.min_duration_s * f));
-    const auto n_cycle = static_cast<long>(std::llround(1.0 / (f * scenario.period_s)));
-    const long total = static_cast<long>(cycles) * n_cycle;
-    std::complex<double> U = 0, Y = 0;
-    for (long k = 0; k < total; ++k) {
-      const double phase = 2.0 * std::numbers::pi * f * k * scenario.period_s;
-      const double u = b.amplitude_Nm * std::sin(phase);
-      const double y = step(bias + u) - bias;
-      if (k >= n_cycle) {  // skip the first cycle (transient); whole cycles remain
-        const std::complex<double> e = std::polar(1.0, -phase);
-        U += u * e;
-        Y += y * e;
-      }
-    }
-    const std::complex<double> H = Y / U;
-    r.bode.push_back({f, std::abs(H), std::arg(H) * 180.0 / std::numbers::pi});
+    const auto n_cycle = static_cast<std::size_t>(std::llround(1.0 / (f * scenario.period_s)));
+    segments.push_back({f, end, static_cast<std::size_t>(cycles) * n_cycle, n_cycle});
+    end += segments.back().total;
   }
+  double bias = 0.0, u = 0.0, phase = 0.0;
+  std::size_t segment = 0;
+  io::SensorState state;
+  io::Command command;
+  auto step = [&](std::size_t k) {
+    if (k == settle) controller.set_mode(b.joint, control::ArmJointMode::kCommanded);
+    if (k >= settle) {
+      while (k >= segments[segment].start + segments[segment].total) ++segment;
+      const Segment& sg = segments[segment];
+      phase = 2.0 * std::numbers::pi * sg.frequency_Hz * static_cast<double>(k - sg.start) * scenario.period_s;
+      u = b.amplitude_Nm * std::sin(phase);
+      controller.set_desired_torque(b.joint, bias + u);
+    }
+    controller.update(state, command);
+    if (k < settle) bias = controller.diagnostics()[bench].torque_gravity_Nm;
+  };
+  auto hold = [](std::size_t) {};
+  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
+    // A torque bench measures what the actuator delivers in answer to the command just sent: the
+    // plant's truth after this cycle's write.
+    const sim::RightArmTruth& truth = plant.truth();
+    for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) envelope.observe(a, arm_joint_sample(state, sent, &truth, a));
+    const sim::PehaJointTruth& j = truth.actuators[bench];
+    r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
+    r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
+    if (k < settle) return;
+    Segment& sg = segments[segment];
+    const double y = r0 * (j.muscle_force_N[0] - j.muscle_force_N[1]) + j.motor_torque_Nm - bias;  // delivered, Nm
+    if (k >= sg.start + sg.n_cycle) {  // whole cycles after the first (transient)
+      const std::complex<double> e = std::polar(1.0, -phase);
+      sg.U += u * e;
+      sg.Y += y * e;
+    }
+  };
+  runtime::run_cycles(limited, {}, end - 1, state, command, step, hold, observe);
+  for (const Segment& sg : segments) {
+    const std::complex<double> H = sg.Y / sg.U;
+    r.bode.push_back({sg.frequency_Hz, std::abs(H), std::arg(H) * 180.0 / std::numbers::pi});
+  }
+  const safety::Envelope::Joint& e = envelope.joints[bench];
+  r.min_wire_tension_N = e.min_tension_N;
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, r.verdict);
+  r.within_limits = r.verdict.passed();
   const double threshold = 1.0 / std::sqrt(2.0);
   r.bandwidth_3dB_Hz = r.bode.back().frequency_Hz;
   for (std::size_t i = 1; i < r.bode.size(); ++i) {

@@ -42,7 +42,8 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   config::Map ctl = root.map("controller");
   s.controller.arm = body.controller.model();
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
-  s.controller.allocation = control::read_allocation(ctl.map("allocation"), supply_Pa);
+  double pretension_N = 0;
+  s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
   s.limits.joint_count = 3;
   s.limits.period_s = s.period_s;
   for (int i = 0; i < 3; ++i) {
@@ -55,12 +56,9 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
       joint.mode = control::ArmJointMode::kHoldPressure;
       joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, supply_Pa * 1e-6}) * 1e6;
     }
-    joint.actuator = models::read_joint_model(j, kJointNames[i], supply_Pa);
+    joint.actuator = models::read_joint_model(j, kJointNames[i], supply_Pa, pretension_N);
     j.finish();
     safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(i)];
-    lim.model = joint.actuator;
-    lim.supply_pressure_Pa = supply_Pa;
-    lim.pretension_N = s.controller.allocation.pretension_N;
     lim.pressure_rate_Pa_per_s = rate_Pa;
     lim.motor_rate_Nm_per_s = motor_rate;
     lim.min_angle_rad = lo;
@@ -162,26 +160,25 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
 
 const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario) { return scenario.plant.actuated; }
 
-ArmJointSample arm_joint_sample(const io::SensorState& state, const io::Command& command, const sim::RightArmTruth* truth,
-                                std::size_t joint) noexcept {
-  ArmJointSample j;
+safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::RightArmTruth* truth,
+                                     std::size_t joint) noexcept {
+  safety::JointSample j;
   if (truth) {
     const sim::PehaJointTruth& t = truth->actuators[joint];
     j = {{t.muscle_force_N[0], t.muscle_force_N[1]}, std::min(t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]),
-         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm};
+         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm, truth->q_rad[joint]};
   } else {
     const io::JointSensors& s = state.joints[joint];
     j = {{s.agonist_force_N, s.antagonist_force_N}, std::min(s.agonist_force_N, s.antagonist_force_N),
-         {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, command.joints[joint].motor_torque_Nm};
+         {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, sent.joints[joint].motor_torque_Nm, s.angle_rad};
   }
   return j;
 }
 
-bool arm_joint_within_limits(const ArmScenario& scenario, std::size_t joint, const ArmJointSample& j) noexcept {
-  const models::JointModel& jm = scenario.controller.joints[joint].actuator;
-  const double supply_Pa = scenario.limits.joints[joint].supply_pressure_Pa;
-  return j.muscle_force_N[0] <= models::force_ceiling_N(jm.agonist) && j.muscle_force_N[1] <= models::force_ceiling_N(jm.antagonist) &&
-         j.pressure_Pa[0] <= supply_Pa && j.pressure_Pa[1] <= supply_Pa && std::abs(j.motor_torque_Nm) <= jm.motor_max_torque_Nm + 1e-12;
+safety::JointModels arm_joint_models(const control::ArmControllerModel& model) noexcept {
+  safety::JointModels joints{};
+  for (std::size_t i = 0; i < model.joints.size() && i < joints.size(); ++i) joints[i] = &model.joints[i].actuator;
+  return joints;
 }
 
 }  // namespace peha::experiments

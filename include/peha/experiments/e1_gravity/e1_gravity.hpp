@@ -12,6 +12,7 @@
 #include "peha/runtime/control_loop.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/safety/limits.hpp"
+#include "peha/safety/verdict.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
 #include <filesystem>
@@ -69,7 +70,8 @@ struct E1Result {
   double force_tracking_rms_N[2] = {0, 0};
   double min_angle_deg = 0;             ///< lowest joint angle reached (plant truth)
   double max_angle_deg = 0;             ///< highest joint angle reached (plant truth)
-  bool within_limits = false;           ///< forces, tension, pressure, motor and joint range all held
+  safety::Verdict verdict;              ///< the safety envelope's checks (safety/verdict.hpp)
+  bool within_limits = false;           ///< verdict.passed(): forces, tension, pressure, motor and joint range all held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;
   /// Where the figures come from: the simulator's truth (in-process) or, over a real backend

@@ -6,11 +6,12 @@
 /// dumps, telemetry, timing statistics).
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/common/board_run.hpp"
 #include "peha/runtime/realtime_harness.hpp"
 
 namespace peha::experiments {
 
-struct E1RealtimeResult : runtime::RealtimeRunResult {
+struct E1RealtimeResult : BoardRunResult {
   E1Result e1;  ///< figures from the board's sensors (E1Result::from_truth is false)
 };
 

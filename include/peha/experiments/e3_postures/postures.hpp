@@ -26,7 +26,8 @@ struct PosturesResult {
   double min_wire_tension_N = 0;      ///< any wire, plant truth
   double peak_operator_torque_Nm = 0;
   double realtime_factor = 0;
-  bool within_limits = false;         ///< every force/tension/pressure/motor limit held
+  safety::Verdict verdict;            ///< the safety envelope's checks (safety/verdict.hpp)
+  bool within_limits = false;         ///< verdict.passed()
 };
 
 const std::vector<std::string>& arm_log_columns();

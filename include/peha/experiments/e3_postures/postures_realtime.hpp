@@ -3,12 +3,13 @@
 /// The right arm's E3 (postures) on the multifunction board over UDP, in real time: the same
 /// controller, limits and analysis as in-process (`run_postures_on`), inside a RealtimeHarness.
 
+#include "peha/experiments/common/board_run.hpp"
 #include "peha/runtime/realtime_harness.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
 
 namespace peha::experiments {
 
-struct PosturesRealtimeResult : runtime::RealtimeRunResult {
+struct PosturesRealtimeResult : BoardRunResult {
   PosturesResult postures;  ///< figures from the board's sensors (encoders, load cells)
 };
 

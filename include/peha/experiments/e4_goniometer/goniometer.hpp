@@ -70,7 +70,8 @@ struct GoniometerResult {
   double peak_motor_torque_Nm = 0;
   double shoulder_excursion_deg = 0;  ///< largest |SFE - SFE at release|: does the shoulder hold?
   double realtime_factor = 0;
-  bool within_limits = false;
+  safety::Verdict verdict;            ///< the safety envelope's checks (safety/verdict.hpp)
+  bool within_limits = false;         ///< verdict.passed()
 };
 
 const std::vector<std::string>& goniometer_log_columns();

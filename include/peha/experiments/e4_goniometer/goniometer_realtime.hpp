@@ -4,11 +4,12 @@
 /// controller, limits and analysis as in-process (`run_goniometer_on`), inside a RealtimeHarness.
 
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
+#include "peha/experiments/common/board_run.hpp"
 #include "peha/runtime/realtime_harness.hpp"
 
 namespace peha::experiments {
 
-struct GoniometerRealtimeResult : runtime::RealtimeRunResult {
+struct GoniometerRealtimeResult : BoardRunResult {
   GoniometerResult goniometer;  ///< the person's elbow is the goniometer's reading; the exoskeleton's its encoder
 };
 

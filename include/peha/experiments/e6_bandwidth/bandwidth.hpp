@@ -26,6 +26,8 @@ struct BandwidthResult {
   double peak_muscle_force_N = 0;
   double min_wire_tension_N = 0;
   double peak_motor_torque_Nm = 0;
+  safety::Verdict verdict;             ///< the safety envelope over every joint (safety/verdict.hpp)
+  bool within_limits = false;          ///< verdict.passed()
 };
 
 /// E6: the torque bandwidth of one joint, PAM-only (no motor, no low-pass split) or hybrid.

@@ -10,6 +10,7 @@
 #include "peha/mfb/link_config.hpp"
 #include "peha/runtime/control_loop.hpp"
 #include "peha/safety/limits.hpp"
+#include "peha/safety/verdict.hpp"
 #include "peha/sim/right_arm.hpp"
 
 #include <optional>
@@ -76,17 +77,13 @@ ArmScenario read_arm_scenario(const config::Document& doc);
 /// The io joints of the right arm as the board's channel map names them (R_SFE, R_EFE, R_WFE).
 const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario);
 
-/// One actuated joint at one cycle, as the arm's safety figures need it: from the simulator's truth
-/// when there is one, else from what the host has (load cells, pressure sensors, the command).
-struct ArmJointSample {
-  double muscle_force_N[2] = {0, 0};  ///< agonist, antagonist: muscle force (truth) or load cell
-  double min_tension_N = 0;           ///< lowest along either wire (truth) or the lower load cell
-  double pressure_Pa[2] = {0, 0};     ///< chamber (truth) or sensor
-  double motor_torque_Nm = 0;         ///< delivered (truth) or commanded
-};
-ArmJointSample arm_joint_sample(const io::SensorState& state, const io::Command& command, const sim::RightArmTruth* truth,
-                                std::size_t joint) noexcept;
-/// The joint's force ceilings, supply pressure and motor rating held in `sample`.
-bool arm_joint_within_limits(const ArmScenario& scenario, std::size_t joint, const ArmJointSample& sample) noexcept;
+/// One actuated joint at one cycle for the safety envelope: from the simulator's truth when there is
+/// one (the sample's, `sampled_truth()`), else from what the host has (load cells, pressure sensors,
+/// encoders, the command as sent).
+safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::RightArmTruth* truth,
+                                     std::size_t joint) noexcept;
+/// The joint set-ups of `model`'s actuated joints, for the limits stage and the envelope (pointers
+/// into `model`, which must outlive their use).
+safety::JointModels arm_joint_models(const control::ArmControllerModel& model) noexcept;
 
 }  // namespace peha::experiments

@@ -1,0 +1,20 @@
+#pragma once
+/// \file
+/// What every experiment's run on the multifunction board shares: the supervision parameters from
+/// the scenario's `mfb:` section and the command line, and the result with the link's counters.
+
+#include "peha/mfb/link_config.hpp"
+#include "peha/runtime/realtime_harness.hpp"
+
+namespace peha::experiments {
+
+/// A real-time run on the board: the harness's figures and the host's link counters.
+struct BoardRunResult : runtime::RealtimeRunResult {
+  mfb::UdpLinkStats link;
+};
+
+/// The supervisor's parameters of a board run: watchdog and recovery ramp from the scenario's
+/// `mfb:` section, the unattended recovery from the command line.
+runtime::SupervisorParams supervisor_params(const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& options) noexcept;
+
+}  // namespace peha::experiments

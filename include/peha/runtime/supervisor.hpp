@@ -1,0 +1,73 @@
+#pragma once
+/// \file
+/// The run's lifecycle and fault path, the same for every backend (the in-process simulators and
+/// the board over UDP): runtime::Lifecycle's named states driven through io::Backend's lifecycle
+/// calls, fault detection from io::BackendStatus, the operator's recovery and the ramp back.
+///
+/// start(): configure (the board's session handshake) -> inactive -> activate -> active.
+/// Each cycle, before the command goes to the limits stage, supervise():
+/// - active: a fault when the backend is silent (no new sample for host_watchdog_s *and* for
+///   kSilentCycles of the loop's own cycles in a row - a loop that was itself descheduled has not
+///   heard a dead board, it has not listened), reports an e-stop, or its watchdog tripped ->
+///   fault: backend.deactivate() (outputs safe, valves vent slowly), on_fault(reason).
+/// - fault: recovery only on the operator's request (request_recovery(), or recover_after_s for
+///   unattended runs) and only once the backend is alive, its e-stop released and it is ready to
+///   arm: -> recovering (activate) -> inactive -> active once its outputs are armed again; not
+///   armed within 0.5 s -> fault.
+/// - after a recovery the command ramps from the pressures the muscles hold (motor off) to the
+///   controller's over recovery_ramp_s - before the limits stage, so what is sent is what was
+///   limited.
+/// finish(): deactivate -> inactive -> finalized. noexcept and allocation-free in the loop.
+
+#include "peha/io/backend.hpp"
+#include "peha/runtime/lifecycle.hpp"
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+
+namespace peha::runtime {
+
+struct SupervisorParams {
+  double host_watchdog_s = 0.02;  ///< no new sample this long (and kSilentCycles cycles) -> fault
+  double recovery_ramp_s = 1.0;   ///< after a recovery, commands ramp from safe to the controller's
+  double recover_after_s = -1.0;  ///< unattended operator: recover this long after a fault (< 0: only on request)
+};
+
+class Supervisor {
+ public:
+  static constexpr int kSilentCycles = 5;
+
+  Supervisor(io::Backend& backend, const SupervisorParams& params) : backend_(backend), params_(params) {}
+
+  /// Called (from the loop's thread) when a fault is raised, with its reason; may be empty.
+  std::function<void(const char* reason)> on_fault;
+
+  /// configure + activate. Throws (set-up) if the backend cannot be configured.
+  void start(double t_s);
+  /// One cycle's supervision; `fresh`: this cycle read a new sample. May replace `command` (ramp).
+  void supervise(double t_s, bool fresh, const io::SensorState& state, io::Command& command) noexcept;
+  /// deactivate -> inactive -> finalized, with `reason`.
+  void finish(double t_s, const char* reason) noexcept;
+  /// The operator's recover command (any thread).
+  void request_recovery() noexcept { recover_requested_ = true; }
+
+  const Lifecycle& lifecycle() const noexcept { return lifecycle_; }
+  std::uint64_t faults() const noexcept { return faults_; }
+  std::uint64_t recoveries() const noexcept { return recoveries_; }
+  std::uint64_t cycles_without_sample() const noexcept { return missed_; }
+
+ private:
+  void fault(double t_s, const char* why) noexcept;
+
+  io::Backend& backend_;
+  SupervisorParams params_;
+  Lifecycle lifecycle_;
+  int silent_cycles_ = 0;
+  std::uint64_t faults_ = 0, recoveries_ = 0, missed_ = 0;
+  double fault_t_ = -1.0, ramp_t_ = -1.0;
+  io::Command ramp_from_{};
+  std::atomic<bool> recover_requested_{false};
+};
+
+}  // namespace peha::runtime

@@ -1,0 +1,94 @@
+#include "peha/runtime/supervisor.hpp"
+
+#include "peha/io/udp_socket.hpp"
+
+#include <algorithm>
+
+namespace peha::runtime {
+
+void Supervisor::start(double t_s) {
+  // The handshake comes last in set-up, right before the enable edge: from a board's first answer
+  // until an enabled command it holds its safe outputs and its plant vents; set-up in between would
+  // start the run from a sagging arm, and more than the board's watchdog would trip it.
+  backend_.configure();
+  lifecycle_.apply(Transition::kConfigure, t_s, "configured: the backend answered");
+  backend_.activate();
+  lifecycle_.apply(Transition::kActivate, t_s, "outputs enabled");
+}
+
+void Supervisor::fault(double t_s, const char* why) noexcept {
+  lifecycle_.apply(Transition::kFault, t_s, why);
+  backend_.deactivate();
+  ++faults_;
+  fault_t_ = t_s;
+  if (on_fault) on_fault(why);
+}
+
+void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state, io::Command& cmd) noexcept {
+  const io::BackendStatus status = backend_.status();
+  if (!fresh) ++missed_;
+  silent_cycles_ = fresh ? 0 : silent_cycles_ + 1;
+  const double silent_for_s = status.last_sample_ns > 0 ? static_cast<double>(io::monotonic_ns() - status.last_sample_ns) * 1e-9
+                                                        : silent_cycles_ * backend_.info().period_s;
+  const bool silent = silent_cycles_ >= kSilentCycles && silent_for_s > params_.host_watchdog_s;
+  switch (lifecycle_.state()) {
+    case LifecycleState::kActive:
+      if (silent) {
+        fault(t_s, "backend silent for longer than host_watchdog_ms");
+      } else if (status.estop) {
+        fault(t_s, "e-stop");
+      } else if (status.watchdog_tripped) {
+        fault(t_s, "backend watchdog tripped");
+      }
+      break;
+    case LifecycleState::kFault: {
+      const bool asked = recover_requested_.exchange(false) || (params_.recover_after_s >= 0 && t_s - fault_t_ >= params_.recover_after_s);
+      if (asked && !silent && !status.estop && status.ready_to_arm) {
+        lifecycle_.apply(Transition::kRecover, t_s, "operator's command");
+        backend_.activate();  // the enable edge re-arms a board
+        ramp_t_ = t_s;
+        ramp_from_ = cmd;
+        for (int j = 0; j < cmd.joint_count; ++j) {  // from what the muscles hold now, motor off
+          const auto i = static_cast<std::size_t>(j);
+          ramp_from_.joints[i].agonist_pressure_Pa = state.joints[i].agonist_pressure_Pa;
+          ramp_from_.joints[i].antagonist_pressure_Pa = state.joints[i].antagonist_pressure_Pa;
+          ramp_from_.joints[i].motor_torque_Nm = 0.0;
+        }
+      }
+      break;
+    }
+    case LifecycleState::kRecovering:
+      if (status.active) {
+        lifecycle_.apply(Transition::kRecovered, t_s, "outputs re-armed");
+        lifecycle_.apply(Transition::kActivate, t_s, "ramping back to the controller's command");
+        ++recoveries_;
+      } else if (t_s - ramp_t_ > 0.5) {
+        lifecycle_.apply(Transition::kFault, t_s, "outputs did not re-arm within 0.5 s");
+        backend_.deactivate();
+        fault_t_ = t_s;
+      }
+      break;
+    default:
+      break;
+  }
+  // After a recovery: from what the muscles held to the controller's command, no jump.
+  if (ramp_t_ >= 0.0 && lifecycle_.state() != LifecycleState::kFault) {
+    const double s = params_.recovery_ramp_s > 0 ? std::clamp((t_s - ramp_t_) / params_.recovery_ramp_s, 0.0, 1.0) : 1.0;
+    for (int j = 0; j < cmd.joint_count; ++j) {
+      auto& o = cmd.joints[static_cast<std::size_t>(j)];
+      const auto& f = ramp_from_.joints[static_cast<std::size_t>(j)];
+      o.agonist_pressure_Pa = f.agonist_pressure_Pa + s * (o.agonist_pressure_Pa - f.agonist_pressure_Pa);
+      o.antagonist_pressure_Pa = f.antagonist_pressure_Pa + s * (o.antagonist_pressure_Pa - f.antagonist_pressure_Pa);
+      o.motor_torque_Nm = f.motor_torque_Nm + s * (o.motor_torque_Nm - f.motor_torque_Nm);
+    }
+    if (s >= 1.0) ramp_t_ = -1.0;
+  }
+}
+
+void Supervisor::finish(double t_s, const char* reason) noexcept {
+  backend_.deactivate();
+  lifecycle_.apply(Transition::kDeactivate, t_s, reason);
+  lifecycle_.apply(Transition::kShutdown, t_s, "run ended");
+}
+
+}  // namespace peha::runtime

@@ -1,0 +1,102 @@
+#include "peha/safety/verdict.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+namespace peha::safety {
+
+bool Check::passed() const noexcept {
+  switch (rule) {
+    case Rule::kAtMost: return value <= limit;
+    case Rule::kAbove: return value > limit;
+    case Rule::kWithin: return value >= lower && value <= limit;
+  }
+  return false;
+}
+
+std::string Check::describe() const {
+  switch (rule) {
+    case Rule::kAtMost: return fmt::format("{} {:.4g} {} {} {:.4g} {}", figure, value, unit, passed() ? "<=" : ">", limit, unit);
+    case Rule::kAbove: return fmt::format("{} {:.4g} {} {} {:.4g} {}", figure, value, unit, passed() ? ">" : "<=", limit, unit);
+    case Rule::kWithin:
+      return fmt::format("{} {:.4g} {} {} [{:.4g}, {:.4g}] {}", figure, value, unit, passed() ? "in" : "outside", lower, limit, unit);
+  }
+  return figure;
+}
+
+void Verdict::at_most(std::string figure, std::string unit, double value, double limit) {
+  checks.push_back({std::move(figure), std::move(unit), value, limit, 0.0, Check::Rule::kAtMost});
+}
+void Verdict::above(std::string figure, std::string unit, double value, double limit) {
+  checks.push_back({std::move(figure), std::move(unit), value, limit, 0.0, Check::Rule::kAbove});
+}
+void Verdict::within(std::string figure, std::string unit, double value, double lower, double upper) {
+  checks.push_back({std::move(figure), std::move(unit), value, upper, lower, Check::Rule::kWithin});
+}
+
+bool Verdict::passed() const noexcept {
+  return !checks.empty() && std::all_of(checks.begin(), checks.end(), [](const Check& c) { return c.passed(); });
+}
+
+std::string Verdict::failures() const {
+  std::string out;
+  for (const Check& c : checks) {
+    if (!c.passed()) out += c.describe() + "\n";
+  }
+  if (checks.empty()) out = "no figure was checked\n";
+  return out;
+}
+
+void Envelope::observe(std::size_t joint, const JointSample& s) noexcept {
+  Joint& j = joints[joint];
+  // NaN never improves a peak and must fail the check: carried through as NaN.
+  for (int m = 0; m < 2; ++m) {
+    j.peak_muscle_force_N[m] = std::isnan(s.muscle_force_N[m]) ? s.muscle_force_N[m] : std::max(j.peak_muscle_force_N[m], s.muscle_force_N[m]);
+  }
+  j.min_tension_N = std::min(j.min_tension_N, s.min_tension_N);
+  j.max_pressure_Pa = std::max({j.max_pressure_Pa, s.pressure_Pa[0], s.pressure_Pa[1]});
+  j.peak_motor_torque_Nm = std::max(j.peak_motor_torque_Nm, std::abs(s.motor_torque_Nm));
+  j.min_angle_rad = std::min(j.min_angle_rad, s.angle_rad);
+  j.max_angle_rad = std::max(j.max_angle_rad, s.angle_rad);
+  ++j.samples;
+}
+
+double Envelope::peak_muscle_force_N() const noexcept {
+  double peak = 0.0;
+  for (const Joint& j : joints) peak = std::max({peak, j.peak_muscle_force_N[0], j.peak_muscle_force_N[1]});
+  return peak;
+}
+
+double Envelope::min_tension_N() const noexcept {
+  double low = std::numeric_limits<double>::infinity();
+  for (const Joint& j : joints) {
+    if (j.samples) low = std::min(low, j.min_tension_N);
+  }
+  return low;
+}
+
+void add_envelope_checks(const LimitsModel& model, const JointModels& joints, const std::vector<std::string>& names,
+                         const Envelope& envelope, Verdict& v) {
+  constexpr double kDeg = 180.0 / std::numbers::pi;
+  for (int i = 0; i < model.joint_count; ++i) {
+    const auto j = static_cast<std::size_t>(i);
+    const models::JointModel& jm = *joints[j];
+    const Envelope::Joint& e = envelope.joints[j];
+    const std::string name = j < names.size() ? names[j] : fmt::format("joint {}", i);
+    v.at_most(name + " agonist peak force", "N", e.peak_muscle_force_N[0], models::force_ceiling_N(jm.agonist));
+    v.at_most(name + " antagonist peak force", "N", e.peak_muscle_force_N[1], models::force_ceiling_N(jm.antagonist));
+    v.above(name + " lowest wire tension", "N", e.min_tension_N, 0.0);
+    v.at_most(name + " highest pressure", "MPa", e.max_pressure_Pa * 1e-6, jm.supply_pressure_Pa * 1e-6);
+    v.at_most(name + " peak motor torque", "Nm", e.peak_motor_torque_Nm, (jm.has_motor ? jm.motor_max_torque_Nm : 0.0) + 1e-12);
+    const JointLimits& lim = model.joints[j];
+    v.within(name + " lowest angle", "deg", e.min_angle_rad * kDeg, (lim.min_angle_rad - kRangeTolerance_rad) * kDeg,
+             (lim.max_angle_rad + kRangeTolerance_rad) * kDeg);
+    v.within(name + " highest angle", "deg", e.max_angle_rad * kDeg, (lim.min_angle_rad - kRangeTolerance_rad) * kDeg,
+             (lim.max_angle_rad + kRangeTolerance_rad) * kDeg);
+  }
+}
+
+}  // namespace peha::safety
