@@ -70,7 +70,7 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
     in.velocity_radps = 0.0;
     in.agonist_loadcell_N = in.antagonist_loadcell_N = 0.0;
     if (!std::isfinite(in.angle_rad)) in.angle_rad = 0.0;
-    if (!(std::isfinite(in.dt_s) && in.dt_s > 0.0)) in.dt_s = 1e-3;
+    if (!(std::isfinite(in.dt_s) && in.dt_s > 0.0)) in.dt_s = params.period_s;
   }
   const double r0 = joint.pulley_radius_m;
 

@@ -43,7 +43,7 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
     in.antagonist_loadcell_N = s.antagonist_force_N;
     in.agonist_pressure_Pa = s.agonist_pressure_Pa;
     in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
-    in.dt_s = dt_s > 0.0 ? dt_s : 1e-3;
+    in.dt_s = dt_s > 0.0 ? dt_s : model_.allocation.period_s;
     allocate(j.actuator, model_.allocation, allocation_data_[i], in, d.allocation);
     c.agonist_pressure_Pa = d.allocation.agonist_pressure_Pa;
     c.antagonist_pressure_Pa = d.allocation.antagonist_pressure_Pa;

@@ -48,7 +48,7 @@ void OneDofGravityController::update(const io::SensorState& state, io::Command& 
   in.antagonist_loadcell_N = s.antagonist_force_N;
   in.agonist_pressure_Pa = s.agonist_pressure_Pa;
   in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
-  in.dt_s = first || !(dt_s > 0.0) ? 1e-3 : dt_s;
+  in.dt_s = first || !(dt_s > 0.0) ? model_.allocation.period_s : dt_s;
   allocate(model_.joint, model_.allocation, allocation_data_, in, diag_.allocation);
 
   command.joint_count = 1;

@@ -90,3 +90,40 @@ TEST(E1, SameSeedReproducesTheLogExactly) {
 
 }  // namespace
 }  // namespace peha::experiments
+
+namespace peha::experiments {
+namespace {
+
+// In-process runs have the same lifecycle and fault path as runs on the board: an e-stop of the
+// simulated rig at t = 3 s faults the run (active -> fault), the supervisor deactivates the backend
+// and the plant gets the safe state - motor torque exactly 0 from then on, pressures vented.
+TEST(E1, AnEstopInProcessFaultsTheRunAndTheRigGoesSafe) {
+  const E1Scenario s = shipped_scenario();
+  const E1Case& c = s.cases.front();
+  sim::OneDofRigBackend plant(e1_plant_params(s, c));
+  runtime::Supervisor supervisor(plant, runtime::SupervisorParams{});
+  supervisor.start(0.0);
+  runtime::CycleHooks hooks;
+  hooks.supervisor = &supervisor;
+  double max_motor_after_Nm = 0, pressure_at_fault_Pa = 0, pressure_end_Pa = 0;
+  hooks.after = [&](const io::SensorState& state, const io::Command&) {
+    if (std::abs(state.time_s - 3.0) < 1e-9) {
+      plant.estop();
+      pressure_at_fault_Pa = plant.truth().pressure_Pa[0];
+    }
+    if (state.time_s > 3.01) max_motor_after_Nm = std::max(max_motor_after_Nm, std::abs(plant.truth().motor_torque_Nm));
+    pressure_end_Pa = plant.truth().pressure_Pa[0];
+    return state.time_s < 6.0;
+  };
+  run_e1_on(s, c, plant, &plant, nullptr, hooks);
+  EXPECT_EQ(supervisor.faults(), 1u);
+  EXPECT_EQ(supervisor.lifecycle().state(), runtime::LifecycleState::kFault);
+  EXPECT_NE(supervisor.lifecycle().describe_history().find("active -> fault (fault): e-stop"), std::string::npos)
+      << supervisor.lifecycle().describe_history();
+  EXPECT_EQ(max_motor_after_Nm, 0.0);
+  EXPECT_GT(pressure_at_fault_Pa, 0.1e6);
+  EXPECT_LT(pressure_end_Pa, 0.5 * pressure_at_fault_Pa);  // 3 s after: vented (2 s ramp + valve lag)
+}
+
+}  // namespace
+}  // namespace peha::experiments

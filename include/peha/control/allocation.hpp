@@ -36,6 +36,9 @@ struct AllocationParams {
   bool use_motor = true;            ///< false: PAM-only joint (the motor command is 0)
   double force_trim_rate_1ps = 0.0;  ///< integral gain of the force trim, 1/s (0 = off)
   double force_trim_max_N = 200.0;   ///< bound of the trim's force correction, N
+  /// The control period, s (the scenario's run.control_period_s): the step the controllers use
+  /// when the sample time stamps give none (first sample, or a bad stamp).
+  double period_s = 1e-3;
 };
 
 /// Reads an `allocation:` mapping (pam_cutoff_Hz, pretension_N, use_motor, force_trim_rate_1ps,

@@ -66,6 +66,7 @@ E1Scenario read_e1(const config::Document& doc) {
   config::Map ctl = root.map("controller");
   double pretension_N = 0;
   s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
+  s.controller.allocation.period_s = s.period_s;
   s.controller.joint = models::read_joint_model(ctl, "joint", supply_Pa, pretension_N);
   config::Map gravity = ctl.map("gravity");
   s.controller.gravity.link_mass_kg = gravity.number("link_mass_kg", {0.0, 50.0});

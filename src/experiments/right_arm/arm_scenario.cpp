@@ -44,6 +44,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
   double pretension_N = 0;
   s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
+  s.controller.allocation.period_s = s.period_s;
   s.limits.joint_count = 3;
   s.limits.period_s = s.period_s;
   for (int i = 0; i < 3; ++i) {

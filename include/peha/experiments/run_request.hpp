@@ -1,0 +1,62 @@
+#pragma once
+/// \file
+/// What every experiment's run sequence gets from the command line (`peha run`), and the few
+/// things they share: the real-time options over the board, the board run's printout, the Python
+/// plot tools and a progress bar. The run directory is opened through `RunRequest::open_run_dir`,
+/// once the experiment has loaded and checked everything, so a rejected run leaves no trace.
+
+#include "peha/experiments/common/board_run.hpp"
+#include "peha/runtime/realtime_harness.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace peha::experiments {
+
+struct RunRequest {
+  std::filesystem::path config;                 ///< the scenario YAML (named in the logs' headers)
+  std::optional<std::uint64_t> seed;            ///< overrides the scenario's seed
+  std::string only_case;                        ///< run only this case / movement (empty: all)
+  std::filesystem::path calibration[2];         ///< E1: agonist [0] and antagonist [1] calibration files (empty: none)
+  std::optional<double> force_trim_rate_1ps;    ///< overrides the controller's force trim rate (0 = off)
+  std::filesystem::path goniometer_csv;         ///< E4: a recorded goniometer CSV instead of the synthetic movements
+  bool plot = true;                             ///< render the figures with tools/*.py
+  /// The real-time run on the board: "udp://A.B.C.D:PORT" (empty: in-process) and its options.
+  std::string backend;
+  std::string telemetry;                        ///< "udp://A.B.C.D:PORT" of a PlotJuggler server (empty: off)
+  int fifo_priority = 80;                       ///< SCHED_FIFO priority of the loop (0 = don't ask)
+  int cpu = -1;                                 ///< pin the loop to this CPU (-1 = don't)
+  std::optional<double> recover_after_s;        ///< unattended operator: recover this long after a fault
+  /// Creates the run directory (with the copy of the config and `seed`, the seed used) and returns
+  /// it. Called once, when everything is loaded and checked.
+  std::function<std::filesystem::path(std::uint64_t seed)> open_run_dir;
+};
+
+/// --backend, --telemetry and the real-time options; nullopt (after a message) when malformed.
+std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request);
+
+/// What a real-time run on the board measured, printed after its experiment's table; writes the
+/// timing statistics to `timing_dir`.
+void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timing_dir);
+
+/// Renders a figure with one of tools/*.py on Debian's Python: `tool dir args...`. A failed plot is
+/// a warning: the data files it would read are complete either way.
+void plot_with(const char* tool, const std::filesystem::path& dir, const std::vector<std::string>& args = {});
+
+/// Progress of long work: a live bar on a terminal, a line per 10 % when the output is a log.
+class ProgressPrinter {
+ public:
+  explicit ProgressPrinter(std::string what);
+  void update(double done, double total, const std::string& detail = "");
+
+ private:
+  std::string what_;
+  bool tty_;
+  int last_ = -1;
+};
+
+}  // namespace peha::experiments

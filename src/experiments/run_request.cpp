@@ -1,0 +1,100 @@
+#include "peha/experiments/run_request.hpp"
+
+#include "peha/io/udp_socket.hpp"
+
+#include <fmt/format.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <spawn.h>
+#include <stdexcept>
+#include <sys/wait.h>
+#include <unistd.h>
+
+extern char** environ;
+
+namespace peha::experiments {
+
+std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request) {
+  runtime::RealtimeRunOptions o;
+  try {
+    o.board = io::parse_udp_endpoint(request.backend);
+    if (!request.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(request.telemetry);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return std::nullopt;
+  }
+  o.realtime.fifo_priority = request.fifo_priority;
+  o.realtime.cpu = request.cpu;
+  o.recover_after_s = request.recover_after_s.value_or(-1.0);
+  return o;
+}
+
+void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timing_dir) {
+  fmt::print("  real-time setup: {}\n", rr.realtime.summary());
+  fmt::print("{}\n", rr.timing.table());
+  const auto& l = rr.link;
+  fmt::print("  link: {} commands sent ({} send failures), states accepted {}, dropped: foreign source {}, foreign "
+             "session {}, duplicate {}, stale {}, malformed {}; gaps {}; replies later than receive_timeout {}; cycles without a "
+             "new sample {}; implausible samples {}; clamped DA codes {}\n",
+             l.commands_sent, l.send_failures, l.received.accepted, l.received.foreign_source, l.received.foreign_session,
+             l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.late_replies, l.replies_missing,
+             l.implausible_samples, l.clamped_outputs);
+  fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
+             rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
+  for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
+  rr.timing.write_csv(timing_dir);
+}
+
+namespace {
+
+std::string find_python() {
+  // Debian's interpreter carries numpy/matplotlib; the python3 first on PATH may not.
+  return std::filesystem::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
+}
+
+/// Runs argv[0] (searched on PATH) with `args` and waits; true when it exited with 0.
+bool run_and_wait(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  if (posix_spawnp(&pid, argv[0], nullptr, nullptr, argv.data(), environ) != 0) return false;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0) {
+    if (errno != EINTR) return false;
+  }
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+}  // namespace
+
+void plot_with(const char* tool, const std::filesystem::path& dir, const std::vector<std::string>& args) {
+  std::fflush(stdout);  // the plotter writes to the same terminal
+  const std::filesystem::path script = std::filesystem::path(PEHA_SOURCE_DIR) / "tools" / tool;
+  std::vector<std::string> argv = {find_python(), script.string(), dir.string()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  if (!run_and_wait(argv)) {
+    fmt::print(stderr, "warning: {} failed (needs /usr/bin/python3 with matplotlib: run scripts/install-deps.sh); "
+                       "the data in {} are complete\n", tool, dir.string());
+  }
+}
+
+ProgressPrinter::ProgressPrinter(std::string what) : what_(std::move(what)), tty_(isatty(fileno(stdout)) != 0) {}
+
+void ProgressPrinter::update(double done, double total, const std::string& detail) {
+  const int percent = total > 0 ? static_cast<int>(100.0 * done / total) : 100;
+  if (tty_) {
+    if (percent == last_) return;
+    const int filled = percent * 30 / 100;
+    fmt::print("\r  {:<14} [{:<30}] {:3d} % {}", what_, std::string(static_cast<std::size_t>(filled), '#'), percent, detail);
+    if (percent >= 100) fmt::print("\n");
+  } else {
+    if (percent / 10 == last_ / 10 && last_ >= 0) return;
+    fmt::print("  {:<14} {:3d} % {}\n", what_, percent / 10 * 10, detail);
+  }
+  last_ = percent;
+  std::fflush(stdout);
+}
+
+}  // namespace peha::experiments
