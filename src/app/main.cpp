@@ -5,34 +5,50 @@
 #include <fmt/format.h>
 #include <mujoco/mujoco.h>
 
-int main(int argc, char** argv) {
-  CLI::App app{
-      "peha - control software for exoskeletons driven by pneumatic-electric hybrid actuators\n"
-      "(pneumatic artificial muscles + geared motors, forces through Bowden cables; Noda et al., IROS 2014).\n"
-      "Every command runs on the simulated exoskeleton unless told otherwise."};
-  app.require_subcommand(1);
-  app.set_version_flag("--version", std::string("peha 0.1.0"));
+#include <functional>
+#include <memory>
 
-  peha::app::RunOptions run;
-  std::uint64_t seed = 0;
+namespace {
+
+/// A sub-command: its definition, and what runs it once the command line is parsed.
+struct Command {
+  CLI::App* app;
+  std::function<int()> run;
+};
+
+Command add_run(CLI::App& app) {
+  struct State {
+    peha::app::RunOptions run;
+    std::uint64_t seed = 0;
+    int rt_priority = 80, cpu = -1;
+    double recover_after = 0, trim = 0;
+    CLI::Option *seed_opt, *rt_priority_opt, *cpu_opt, *recover_opt, *trim_opt;
+  };
+  auto s = std::make_shared<State>();
+  peha::app::RunOptions& run = s->run;
   CLI::App* run_cmd = app.add_subcommand(
       "run", "Run a scenario (an experiment described in a YAML config) on the simulated exoskeleton.\n"
              "Writes <out>/<run>/: one per-cycle CSV log per case (time first, units in column names),\n"
              "config.yaml (the config it ran with), summary.csv and plot.png; prints a summary table.\n"
-             "Exit code 0 = ran and every safety figure held, 2 = bad config, 3 = a safety figure was violated.");
+             "The scenario's experiment: key picks the experiment (gravity_compensation_1dof = E1; right_arm =\n"
+             "E3, E4 or E6 by --experiment); an option that experiment does not take is an error, never ignored.\n"
+             "Exit code 0 = ran and every safety figure held, 2 = bad config or an option the experiment does\n"
+             "not take (nothing written), 3 = a safety figure was violated.");
   run_cmd->add_option("-c,--config", run.config, "Scenario YAML, e.g. configs/e1_one_dof.yaml")
       ->required()->check(CLI::ExistingFile);
   run_cmd->add_option("-o,--out", run.out_root, "Directory under which the run directory is created")
       ->capture_default_str();
   run_cmd->add_option("-n,--name", run.run_name, "Run directory name (default: <config stem>-<UTC time>)");
-  run_cmd->add_option("--case", run.only_case, "Run only the case with this name (default: all cases)");
-  CLI::Option* seed_opt = run_cmd->add_option("--seed", seed, "Override the scenario's random seed (sensor noise)");
+  run_cmd->add_option("--case", run.only_case,
+                      "Run only the case with this name (default: all cases): E1 a payload case,\n"
+                      "E4 (--experiment goniometer) a movement");
+  s->seed_opt = run_cmd->add_option("--seed", s->seed, "Override the scenario's random seed (sensor noise)");
   run_cmd->add_flag("!--no-plot", run.plot, "Do not render plot.png (no Python needed)");
   run_cmd->add_option("--agonist-calibration", run.calibration[0],
-                      "Calibration YAML (from peha calibrate) for the agonist; with a calibration, every case\n"
+                      "E1 only: calibration YAML (from peha calibrate) for the agonist; with a calibration, every case\n"
                       "runs twice: calibrated parametric model alone, and with its SPGP residual")
       ->check(CLI::ExistingFile);
-  run_cmd->add_option("--antagonist-calibration", run.calibration[1], "Calibration YAML for the antagonist")
+  run_cmd->add_option("--antagonist-calibration", run.calibration[1], "E1 only: calibration YAML for the antagonist")
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--experiment", run.experiment,
                       "Right-arm scenarios (configs/right_arm.yaml) only: the experiment to run.\n"
@@ -50,23 +66,39 @@ int main(int argc, char** argv) {
                       "udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
                       "E1 (one case: --case), E3 postures, E4 goniometer (one movement: --case slow|brisk); not E6.\n"
                       "Runs in real time at the config's control period with timing statistics (docs/runtime.md)");
-  run_cmd->add_option("--rt-priority", run.fifo_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
-      ->capture_default_str()->check(CLI::Range(0, 99));
-  run_cmd->add_option("--cpu", run.cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->capture_default_str();
+  s->rt_priority_opt =
+      run_cmd->add_option("--rt-priority", s->rt_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
+          ->capture_default_str()->check(CLI::Range(0, 99));
+  s->cpu_opt =
+      run_cmd->add_option("--cpu", s->cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->capture_default_str();
   run_cmd->add_option("--telemetry", run.telemetry,
                       "With --backend: stream signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870");
-  double recover_after = 0;
-  CLI::Option* recover_opt = run_cmd->add_option(
-      "--recover-after", recover_after,
+  s->recover_opt = run_cmd->add_option(
+      "--recover-after", s->recover_after,
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
       "without it, type r + Enter on the terminal to recover")->check(CLI::Range(0.0, 3600.0));
-  double trim = 0;
-  CLI::Option* trim_opt = run_cmd->add_option(
-      "--force-trim-rate", trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward)")
+  s->trim_opt = run_cmd->add_option(
+      "--force-trim-rate", s->trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward);\n"
+               "E1 and the right arm's experiments")
       ->check(CLI::Range(0.0, 100.0));
+  return {run_cmd, [s] {
+            if (*s->seed_opt) s->run.seed = s->seed;
+            if (*s->trim_opt) s->run.force_trim_rate_1ps = s->trim;
+            if (*s->recover_opt) s->run.recover_after_s = s->recover_after;
+            if (*s->rt_priority_opt) s->run.fifo_priority = s->rt_priority;
+            if (*s->cpu_opt) s->run.cpu = s->cpu;
+            return peha::app::run(s->run);
+          }};
+}
 
-  peha::app::RecordOptions record;
-  std::uint64_t record_seed = 0;
+Command add_record_calibration(CLI::App& app) {
+  struct State {
+    peha::app::RecordOptions record;
+    std::uint64_t seed = 0;
+    CLI::Option* seed_opt;
+  };
+  auto s = std::make_shared<State>();
+  peha::app::RecordOptions& record = s->record;
   CLI::App* record_cmd = app.add_subcommand(
       "record-calibration",
       "Drive the paper's triangle-wave pressure excitation on one muscle (the other held at a constant\n"
@@ -78,9 +110,16 @@ int main(int argc, char** argv) {
   record_cmd->add_option("-m,--muscle", record.muscle, "Which muscle to excite")
       ->required()->check(CLI::IsMember({"agonist", "antagonist"}));
   record_cmd->add_option("-o,--out", record.out, "Calibration CSV to write (folders are created)")->required();
-  CLI::Option* record_seed_opt = record_cmd->add_option("--seed", record_seed, "Override the sensor-noise seed");
+  s->seed_opt = record_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed");
+  return {record_cmd, [s] {
+            if (*s->seed_opt) s->record.seed = s->seed;
+            return peha::app::record_calibration(s->record);
+          }};
+}
 
-  peha::app::CalibrateCommandOptions cal;
+Command add_calibrate(CLI::App& app) {
+  auto options = std::make_shared<peha::app::CalibrateCommandOptions>();
+  peha::app::CalibrateCommandOptions& cal = *options;
   CLI::App* cal_cmd = app.add_subcommand(
       "calibrate",
       "Fit a muscle model to a calibration CSV (columns pressure_MPa, contraction, force_N; optional\n"
@@ -104,25 +143,34 @@ int main(int argc, char** argv) {
       ->capture_default_str()->check(CLI::Range(5, 100000000));
   cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->capture_default_str();
   cal_cmd->add_flag("!--no-plot", cal.plot, "Do not render report.png");
+  return {cal_cmd, [options] { return peha::app::calibrate(*options); }};
+}
 
-  peha::app::EmulatorOptions emu;
-  std::uint64_t emu_seed = 0;
-  double emu_watchdog = 0;
+Command add_mfb_emulator(CLI::App& app) {
+  struct State {
+    peha::app::EmulatorOptions emu;
+    std::uint64_t seed = 0;
+    double watchdog_ms = 0;
+    CLI::Option *seed_opt, *watchdog_opt;
+  };
+  auto s = std::make_shared<State>();
+  peha::app::EmulatorOptions& emu = s->emu;
   CLI::App* emu_cmd = app.add_subcommand(
       "mfb-emulator",
       "Serve the multifunction board's side of the MFB protocol (docs/mfb-protocol.md) over UDP, with the\n"
-      "simulated one-DOF rig behind it: AD codes from its sensors, DA codes to its valves and motor driver,\n"
-      "encoder counts, through the config's channel map. Its own watchdog puts the outputs in a safe state\n"
-      "(motor off, valves vented slowly) when no valid command arrives. Faults can be injected into the\n"
-      "state packets it sends. Runs until Ctrl-C, --max-runtime or --sessions.");
-  emu_cmd->add_option("-c,--config", emu.config, "Rig scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
+      "scenario's simulated plant behind it (the one-DOF rig or the right arm): AD codes from its sensors,\n"
+      "DA codes to its valves and motor driver, encoder counts, through the config's channel map. Its own\n"
+      "watchdog puts the outputs in a safe state (motor off, valves vented slowly) when no valid command\n"
+      "arrives. Faults can be injected into the state packets it sends. Runs until Ctrl-C, --max-runtime\n"
+      "or --sessions.");
+  emu_cmd->add_option("-c,--config", emu.config, "Scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
   emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (payload) to simulate (needed when the config\n"
                                                "has several). Right arm: postures (E3, the default) or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
       ->capture_default_str()->check(CLI::Range(0, 65535));
-  CLI::Option* emu_seed_opt = emu_cmd->add_option("--seed", emu_seed, "Override the sensor-noise seed");
-  CLI::Option* emu_wd_opt = emu_cmd->add_option("--watchdog-ms", emu_watchdog, "Override the config's board_watchdog_ms")
+  s->seed_opt = emu_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed");
+  s->watchdog_opt = emu_cmd->add_option("--watchdog-ms", s->watchdog_ms, "Override the config's board_watchdog_ms")
       ->check(CLI::Range(2.0, 10000.0));
   emu_cmd->add_option("--loss", emu.loss, "Probability a state packet is dropped")->check(CLI::Range(0.0, 1.0));
   emu_cmd->add_option("--duplicate", emu.duplicate, "Probability a state packet is sent twice")->check(CLI::Range(0.0, 1.0));
@@ -137,38 +185,45 @@ int main(int argc, char** argv) {
   emu_cmd->add_option("--max-runtime", emu.max_runtime_s, "Stop after this much wall time, s (0 = never)")->check(CLI::Range(0.0, 1e7));
   emu_cmd->add_option("--sessions", emu.sessions, "Stop after this many sessions ended by the watchdog (0 = never)")
       ->check(CLI::Range(0, 1000000));
+  return {emu_cmd, [s] {
+            if (*s->seed_opt) s->emu.seed = s->seed;
+            if (*s->watchdog_opt) s->emu.watchdog_ms = s->watchdog_ms;
+            return peha::app::mfb_emulator(s->emu);
+          }};
+}
 
-  std::filesystem::path check_path;
+Command add_check_config(CLI::App& app) {
+  auto check_path = std::make_shared<std::filesystem::path>();
   CLI::App* check_cmd = app.add_subcommand(
       "check-config", "Parse and validate a scenario YAML (one-DOF rig or right arm, with its channel map if it has an\n"
                       "mfb: section) without running it. Unknown keys, missing keys, wrong\n"
                       "types and out-of-range values are reported with file:line:column, key path and reason.");
-  check_cmd->add_option("-c,--config", check_path, "Scenario YAML to check")->required()->check(CLI::ExistingFile);
+  check_cmd->add_option("-c,--config", *check_path, "Scenario YAML to check")->required()->check(CLI::ExistingFile);
+  return {check_cmd, [check_path] { return peha::app::check_config(*check_path); }};
+}
 
-  CLI::App* version_cmd = app.add_subcommand("version", "Print peha's and MuJoCo's versions.");
+Command add_version(CLI::App& app) {
+  return {app.add_subcommand("version", "Print peha's and MuJoCo's versions."), [] {
+            fmt::print("peha 0.1.0 (MuJoCo {})\n", mj_versionString());
+            return 0;
+          }};
+}
 
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "peha - control software for exoskeletons driven by pneumatic-electric hybrid actuators\n"
+      "(pneumatic artificial muscles + geared motors, forces through Bowden cables; Noda et al., IROS 2014).\n"
+      "Every command runs on the simulated exoskeleton unless told otherwise."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("peha 0.1.0"));
+
+  const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_mfb_emulator(app),
+                              add_check_config(app), add_version(app)};
   CLI11_PARSE(app, argc, argv);
-
-  if (*run_cmd) {
-    if (*seed_opt) run.seed = seed;
-    if (*trim_opt) run.force_trim_rate_1ps = trim;
-    if (*recover_opt) run.recover_after_s = recover_after;
-    return peha::app::run(run);
-  }
-  if (*emu_cmd) {
-    if (*emu_seed_opt) emu.seed = emu_seed;
-    if (*emu_wd_opt) emu.watchdog_ms = emu_watchdog;
-    return peha::app::mfb_emulator(emu);
-  }
-  if (*check_cmd) return peha::app::check_config(check_path);
-  if (*cal_cmd) return peha::app::calibrate(cal);
-  if (*record_cmd) {
-    if (*record_seed_opt) record.seed = record_seed;
-    return peha::app::record_calibration(record);
-  }
-  if (*version_cmd) {
-    fmt::print("peha 0.1.0 (MuJoCo {})\n", mj_versionString());
-    return 0;
+  for (const Command& command : commands) {
+    if (*command.app) return command.run();
   }
   return 0;
 }

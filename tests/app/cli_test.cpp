@@ -2,12 +2,14 @@
 #include <gtest/gtest.h>
 #include <gmock/gmock.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <sys/wait.h>
+#include <vector>
 
 namespace {
 
@@ -161,6 +163,83 @@ TEST(Cli, CheckConfigValidatesBothScenariosAndTheirChannelMaps) {
     EXPECT_THAT(r.output, HasSubstr(": OK"));
     EXPECT_THAT(r.output, HasSubstr("mfb: channel map"));
   }
+}
+
+}  // namespace
+
+namespace {
+
+// An option the scenario's experiment does not take is an error naming the option (exit code 2,
+// nothing written), never silently ignored.
+TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_refused";
+  std::filesystem::remove_all(out);
+  const std::string e1 = std::string(" --no-plot --out ") + out.string() + " --config " + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml";
+  const std::string arm = std::string(" --no-plot --out ") + out.string() + " --config " + PEHA_SOURCE_DIR + "/configs/right_arm.yaml";
+  const std::string any_file = std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml";  // exists: passes CLI11's check
+  const struct {
+    std::string args, option, detail;
+  } refused[] = {
+      {"run --experiment postures --agonist-calibration " + any_file + arm, "--agonist-calibration", "no calibration input"},
+      {"run --experiment goniometer --antagonist-calibration " + any_file + arm, "--antagonist-calibration", "no calibration input"},
+      {"run --experiment postures" + e1, "--experiment", "gravity_compensation_1dof"},
+      {"run --goniometer-csv " + any_file + e1, "--goniometer-csv", "gravity_compensation_1dof"},
+      {"run --experiment postures --goniometer-csv " + any_file + arm, "--goniometer-csv", "--experiment postures"},
+      {"run --experiment bandwidth --case slow" + arm, "--case", "--experiment bandwidth"},
+      {"run --cpu 1" + e1, "--cpu", "--backend"},
+      {"run --telemetry udp://127.0.0.1:9870" + e1, "--telemetry", "--backend"},
+      {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
+       "in-process"},
+  };
+  for (const auto& r : refused) {
+    const Result result = run(r.args);
+    EXPECT_EQ(result.code, 2) << r.args << "\n" << result.output;
+    EXPECT_THAT(result.output, HasSubstr(r.option)) << r.args;
+    EXPECT_THAT(result.output, HasSubstr(r.detail)) << r.args;
+  }
+  EXPECT_FALSE(std::filesystem::exists(out));  // nothing written
+}
+
+// The scenario's `experiment:` key picks the experiment; an unknown one names the known keys.
+TEST(Cli, UnknownExperimentKeyNamesTheKnownOnes) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_unknown";
+  std::filesystem::create_directories(dir);
+  { std::ofstream(dir / "unknown.yaml") << "experiment: levitation\ndescription: x\n"; }
+  for (const std::string command : {"run --no-plot", "check-config", "mfb-emulator"}) {
+    const Result r = run(command + " --config " + (dir / "unknown.yaml").string());
+    EXPECT_EQ(r.code, 2) << command << "\n" << r.output;
+    EXPECT_THAT(r.output, HasSubstr("unknown.yaml:1:13: experiment"));
+    EXPECT_THAT(r.output, HasSubstr("gravity_compensation_1dof"));
+    EXPECT_THAT(r.output, HasSubstr("right_arm"));
+  }
+}
+
+// The run directory: created once, with the config's copy, and out/latest pointing at it.
+TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_rundir";
+  std::filesystem::remove_all(out);
+  const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml --experiment bandwidth --no-plot"
+                       " --seed 7 --out " + out.string() + " --name \"it's\"");  // a quote in the name: no shell between peha and the plotter either
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::vector<std::filesystem::path> entries;
+  for (const auto& e : std::filesystem::directory_iterator(out)) entries.push_back(e.path().filename());
+  std::sort(entries.begin(), entries.end());
+  ASSERT_EQ(entries.size(), 2u);
+  EXPECT_EQ(entries[0], "it's");
+  EXPECT_EQ(entries[1], "latest");
+  EXPECT_TRUE(std::filesystem::is_symlink(out / "latest"));
+  EXPECT_EQ(std::filesystem::read_symlink(out / "latest"), "it's");
+  std::ifstream config(out / "it's" / "config.yaml");
+  std::string first, second, third;
+  std::getline(config, first);
+  std::getline(config, second);
+  std::getline(config, third);
+  EXPECT_THAT(first, HasSubstr("# peha run copy of "));
+  EXPECT_THAT(first, HasSubstr("right_arm.yaml"));
+  EXPECT_THAT(second, HasSubstr("# relative paths resolve against "));
+  EXPECT_EQ(third, "# seed used: 7");
+  EXPECT_TRUE(std::filesystem::exists(out / "it's" / "bode.csv"));
+  std::filesystem::remove_all(out);
 }
 
 }  // namespace

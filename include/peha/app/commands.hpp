@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -20,12 +21,12 @@ struct RunOptions {
   /// any, each case runs with the calibrated parametric model and with parametric + SPGP.
   std::filesystem::path calibration[2];
   std::optional<double> force_trim_rate_1ps;  ///< overrides the config's force trim (0 = off)
-  std::string experiment;                     ///< right-arm scenarios: postures | goniometer | bandwidth
+  std::string experiment;                     ///< scenarios with sub-experiments (right arm): postures | goniometer | bandwidth
   std::filesystem::path goniometer_csv;       ///< E4: a recorded goniometer CSV instead of the synthetic movements
-  /// E1 on the multifunction board: "udp://A.B.C.D:PORT" (empty: the in-process simulator).
+  /// On the multifunction board: "udp://A.B.C.D:PORT" (empty: the in-process simulator).
   std::string backend;
-  int fifo_priority = 80;                     ///< real-time loop: SCHED_FIFO priority (0 = don't ask)
-  int cpu = -1;                               ///< real-time loop: pin to this CPU (-1 = don't)
+  std::optional<int> fifo_priority;           ///< real-time loop: SCHED_FIFO priority (0 = don't ask; unset: 80)
+  std::optional<int> cpu;                     ///< real-time loop: pin to this CPU (-1 = don't; unset: -1)
   std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
 };
@@ -49,8 +50,10 @@ struct EmulatorOptions {
 /// interrupted (SIGINT/SIGTERM), max_runtime_s, or `sessions` sessions ended; prints its counters.
 int mfb_emulator(const EmulatorOptions& options);
 
-/// `peha run`: runs the scenario's experiment, writes out/<run>/ and prints a summary table.
-/// Returns the process exit code (0 when every case ran and every safety figure held).
+/// `peha run`: runs the scenario's experiment (found by its `experiment:` key in the registry),
+/// writes out/<run>/ and prints a summary table. An option the experiment does not take is
+/// rejected (exit code 2, nothing written). Returns the process exit code (0 when every case ran
+/// and every safety figure held, 2 bad input, 3 a safety figure violated, 1 other errors).
 int run(const RunOptions& options);
 
 struct RecordOptions {
@@ -84,5 +87,9 @@ int calibrate(const CalibrateCommandOptions& options);
 
 /// `peha check-config`: parses and validates a scenario, prints what it would run. Exit code.
 int check_config(const std::filesystem::path& config);
+
+/// Runs a command body and maps what it throws to the exit codes every command documents:
+/// 2 for bad input (config or data), 1 for anything else (after a message on stderr).
+int with_exit_codes(const std::function<int()>& body);
 
 }  // namespace peha::app

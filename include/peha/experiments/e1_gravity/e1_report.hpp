@@ -1,0 +1,36 @@
+#pragma once
+/// \file
+/// E1's run sequence for `peha run` (cases x model variants, in-process or on the board) and what
+/// it writes and prints: summary.csv, the per-case logs and the table with the safety figures.
+
+#include "peha/config/reader.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/run_request.hpp"
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace peha::experiments {
+
+/// One model the cases run with: the config's own (label empty), or a calibrated one.
+struct E1Variant {
+  std::string label;      ///< appended to the case names ("parametric", "spgp"); empty: the config's model
+  E1Scenario scenario;
+};
+
+/// The config's own model, or - with calibration files (agonist [0], antagonist [1]; empty: none)
+/// - the calibrated parametric model alone and with its SPGP residual, so the SPGP's effect is
+/// measured in the same run. Prints which calibration each muscle got.
+std::vector<E1Variant> e1_variants(const E1Scenario& scenario, const std::filesystem::path calibration[2]);
+
+/// summary.csv: one row per release of each case.
+void write_e1_summary(const std::filesystem::path& path, const std::vector<E1Result>& results);
+
+/// The table of releases with each case's safety figures; true when every safety figure held.
+bool print_e1_table(const std::vector<E1Result>& results);
+
+/// `peha run` of an E1 scenario: exit code 0 (every safety figure held), 2 (bad request) or 3.
+int run_e1_experiment(const config::Document& doc, const RunRequest& request);
+
+}  // namespace peha::experiments

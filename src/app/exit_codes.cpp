@@ -1,0 +1,25 @@
+#include "peha/app/commands.hpp"
+
+#include "peha/calibration/dataset.hpp"
+#include "peha/config/reader.hpp"
+
+#include <fmt/format.h>
+
+namespace peha::app {
+
+int with_exit_codes(const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const config::Error& e) {
+    fmt::print(stderr, "config error: {}\n", e.what());
+    return 2;
+  } catch (const calibration::DataError& e) {
+    fmt::print(stderr, "data error: {}\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return 1;
+  }
+}
+
+}  // namespace peha::app

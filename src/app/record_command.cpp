@@ -1,0 +1,61 @@
+// `peha record-calibration`: the triangle-wave excitation of one muscle on the simulated rig, logged
+// to a calibration CSV.
+#include "peha/app/commands.hpp"
+#include "peha/calibration/dataset.hpp"
+#include "peha/experiments/calibration_recording/excitation.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/run_request.hpp"
+#include "peha/sim/one_dof_rig.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <memory>
+
+namespace peha::app {
+
+int record_calibration(const RecordOptions& options) {
+  return with_exit_codes([&] {
+    const config::Document doc = config::Document::load_file(options.config);
+    experiments::E1Scenario scenario = experiments::read_e1(doc);
+    const int index = options.muscle == "agonist" ? 0 : 1;
+    if (!scenario.excitation[index]) {
+      fmt::print(stderr, "config error: {}: no calibration.{} section (the excitation to run)\n", doc.name(),
+                 options.muscle);
+      return 2;
+    }
+    const experiments::ExcitationParams& e = *scenario.excitation[index];
+    sim::OneDofRigParams plant_params = scenario.plant;
+    plant_params.payload_kg = e.payload_kg;
+    plant_params.finger.pushes.clear();
+    if (options.seed) plant_params.seed = *options.seed;
+    sim::OneDofRigBackend plant(plant_params);
+    fmt::print("peha record-calibration: {} of the simulated rig ({}), {:.0f} s at {:.0f} Hz\n"
+               "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
+               options.muscle, doc.name(), e.duration_s, e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
+               e.max_pressure_Pa * 1e-6, e.period_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
+               e.payload_kg);
+    const calibration::Dataset data = experiments::record_excitation(
+        plant, scenario.controller.joint, index == 0 ? +1 : -1, e, scenario.limits,
+        [&, bar = std::make_shared<experiments::ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
+    if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
+    calibration::write_dataset(
+        options.out, data,
+        {fmt::format("peha record-calibration: muscle {} of the simulated one-DOF rig", options.muscle),
+         fmt::format("config: {}; seed {}", options.config.string(), plant_params.seed),
+         "contraction = rigid-wire contraction from the joint encoder with the controller's nominal geometry",
+         "force_N = load cell at the muscle; pressure_MPa = valve pressure sensor (gauge)"});
+    auto span = [](const std::vector<double>& v) {
+      const auto [lo, hi] = std::minmax_element(v.begin(), v.end());
+      return std::pair{*lo, *hi};
+    };
+    const auto [p0, p1] = span(data.pressure_Pa);
+    const auto [f0, f1] = span(data.force_N);
+    const auto [e0, e1] = span(data.contraction);
+    fmt::print("  {} rows -> {}\n  pressure {:.3f}..{:.3f} MPa, force {:.0f}..{:.0f} N, contraction {:.3f}..{:.3f}\n",
+               data.size(), options.out.string(), p0 * 1e-6, p1 * 1e-6, f0, f1, e0, e1);
+    return 0;
+  });
+}
+
+}  // namespace peha::app

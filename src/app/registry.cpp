@@ -1,0 +1,202 @@
+#include "peha/app/registry.hpp"
+
+#include "peha/experiments/e1_gravity/e1_report.hpp"
+#include "peha/experiments/e3_postures/postures_report.hpp"
+#include "peha/experiments/e4_goniometer/goniometer_report.hpp"
+#include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
+#include "peha/sim/mujoco_model.hpp"
+#include "peha/sim/one_dof_rig.hpp"
+#include "peha/sim/right_arm.hpp"
+
+#include <fmt/format.h>
+
+namespace peha::app {
+namespace {
+
+// --- gravity_compensation_1dof: E1 on the one-DOF rig ---
+
+ScenarioCheck check_e1(const std::filesystem::path& config, const config::Document& doc) {
+  const experiments::E1Scenario s = experiments::read_e1(doc);
+  sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
+  fmt::print("{}: OK\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
+             "plant model {}\n",
+             config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
+             s.plant.model_file.string());
+  return {sim::one_dof_rig_joint_names(), s.link};
+}
+
+std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOptions& options) {
+  experiments::E1Scenario scenario = experiments::read_e1(doc);
+  if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+  if (!scenario.link) {
+    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+    return std::nullopt;
+  }
+  if (options.case_name.empty() && scenario.cases.size() > 1) {
+    fmt::print(stderr, "error: {} has {} cases: give --case NAME (the payload the simulated rig carries; the host's "
+                       "peha run --backend needs the same --case)\n", doc.name(), scenario.cases.size());
+    return std::nullopt;
+  }
+  const experiments::E1Case* chosen = &scenario.cases.front();
+  for (const auto& c : scenario.cases) {
+    if (c.name == options.case_name) chosen = &c;
+  }
+  if (!options.case_name.empty() && chosen->name != options.case_name) {
+    fmt::print(stderr, "error: no case named '{}' in {}\n", options.case_name, doc.name());
+    return std::nullopt;
+  }
+  const sim::OneDofRigParams plant = experiments::e1_plant_params(scenario, *chosen);
+  return BoardPlant{scenario.period_s, *scenario.link,
+                    mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names()),
+                    [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
+                    fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg)};
+}
+
+// --- right_arm: E3 postures, E4 goniometer, E6 bandwidth ---
+
+ScenarioCheck check_arm(const std::filesystem::path& config, const config::Document& doc) {
+  const experiments::ArmScenario s = experiments::read_arm_scenario(doc);
+  fmt::print("{}: OK\n  experiment right_arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
+             "{} bandwidth frequencies (E6), control at {} Hz\n",
+             config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
+             s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);
+  return {experiments::arm_joint_names(s), s.link};
+}
+
+using ArmRun = int (*)(const config::Document&, const experiments::ArmScenario&, const experiments::RunRequest&,
+                       std::optional<runtime::RealtimeRunOptions>);
+
+/// The right arm's scenario with the request's seed and force trim; over the board, its mfb:
+/// section and the real-time options are checked before `run` writes anything.
+int run_arm(const config::Document& doc, const experiments::RunRequest& request, ArmRun run) {
+  experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
+  if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
+  if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;
+  std::optional<runtime::RealtimeRunOptions> realtime;
+  if (!request.backend.empty()) {
+    if (!scenario.link) {
+      fmt::print(stderr, "config error: {}: --backend needs an mfb: section (channel map, watchdogs)\n", doc.name());
+      return 2;
+    }
+    realtime = experiments::realtime_options(request);
+    if (!realtime) return 2;
+  }
+  return run(doc, scenario, request, std::move(realtime));
+}
+
+int run_bandwidth(const config::Document& doc, const experiments::ArmScenario& scenario, const experiments::RunRequest& request,
+                  std::optional<runtime::RealtimeRunOptions>) {
+  return experiments::run_bandwidth_experiment(doc, scenario, request);
+}
+
+std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorOptions& options) {
+  auto scenario = std::make_shared<experiments::ArmScenario>(experiments::read_arm_scenario(doc));
+  if (options.seed) scenario->plant.seed = scenario->seed = *options.seed;
+  if (!scenario->link) {
+    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+    return std::nullopt;
+  }
+  BoardPlant board{scenario->period_s, *scenario->link,
+                   mfb::read_channel_map(config::Document::load_file(scenario->link->channel_map),
+                                         experiments::arm_joint_names(*scenario)),
+                   {}, {}, {}};
+  if (options.case_name.empty() || options.case_name == "postures") {
+    const sim::RightArmPlantParams plant = experiments::postures_plant_params(*scenario);
+    board.make_plant = [plant] { return std::make_unique<sim::RightArmBackend>(plant); };
+    board.what = fmt::format("right arm with the operator's E3 script ({} postures)", scenario->postures.size());
+    return board;
+  }
+  // E4: the arm where the person starts, and the person's goniometer on its AD channel.
+  const auto& g = scenario->goniometer;
+  for (std::size_t i = 0; i < g.movements.size(); ++i) {
+    if (options.case_name != "goniometer_" + g.movements[i].name) continue;
+    if (!board.map.has_goniometer(1)) {
+      fmt::print(stderr, "config error: {}: no R_EFE.goniometer channel to put the person's elbow on\n",
+                 scenario->link->channel_map.string());
+      return std::nullopt;
+    }
+    const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(g, g.movements[i], scenario->seed + i);
+    const sim::RightArmPlantParams plant = experiments::goniometer_plant_params(*scenario, trace);
+    board.make_plant = [plant] { return std::make_unique<sim::RightArmBackend>(plant); };
+    const mfb::AnalogChannel channel = board.map.joint(1).goniometer;
+    board.input_hook = [scenario, trace, channel](double t_s, mfb::BoardInputs& in) {
+      bool clamped = false;
+      in.ad[static_cast<std::size_t>(channel.channel)] = channel.to_code(experiments::goniometer_reading(*scenario, trace, t_s), clamped);
+    };
+    board.what = fmt::format("right arm, E4: a person's elbow '{}' on the goniometer channel", trace.name);
+    return board;
+  }
+  std::string cases = "postures";
+  for (const auto& m : g.movements) cases += ", goniometer_" + m.name;
+  fmt::print(stderr, "error: the right arm's board serves --case {}; found '{}'\n", cases, options.case_name);
+  return std::nullopt;
+}
+
+const Refusal kNoArmCalibration[] = {
+    {"--agonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
+    {"--antagonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
+};
+const std::string kCsvElsewhere = "a recorded goniometer drives the right arm's E4 only (--experiment goniometer)";
+
+std::vector<Refusal> arm_refusals(std::vector<Refusal> more) {
+  more.insert(more.begin(), std::begin(kNoArmCalibration), std::end(kNoArmCalibration));
+  return more;
+}
+
+std::vector<ExperimentEntry> make_registry() {
+  std::vector<ExperimentEntry> r;
+  r.push_back({"gravity_compensation_1dof", "one-DOF rig",
+               "E1: gravity compensation of the one-DOF PEHA rig with each payload (configs/e1_one_dof.yaml)",
+               {{"", "E1 gravity compensation",
+                 {"--case", "--agonist-calibration", "--antagonist-calibration", "--force-trim-rate", "--backend"},
+                 {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"}},
+                 {},
+                 experiments::run_e1_experiment}},
+               check_e1, e1_board});
+  r.push_back({"right_arm", "right-arm",
+               "the right arm (configs/right_arm.yaml): E3 postures, E4 goniometer, E6 bandwidth (--experiment)",
+               {{"postures", "E3 postures", {"--force-trim-rate", "--backend"},
+                 arm_refusals({{"--case", "E3 runs every posture in one script (--case picks a movement of --experiment goniometer)"},
+                               {"--goniometer-csv", kCsvElsewhere}}),
+                 {},
+                 [](const config::Document& doc, const experiments::RunRequest& request) {
+                   return run_arm(doc, request, experiments::run_postures_experiment);
+                 }},
+                {"goniometer", "E4 goniometer", {"--case", "--goniometer-csv", "--force-trim-rate", "--backend"},
+                 arm_refusals({}),
+                 {{"--goniometer-csv", "over the board the goniometer is the board's AD channel; --goniometer-csv is for in-process runs"}},
+                 [](const config::Document& doc, const experiments::RunRequest& request) {
+                   return run_arm(doc, request, experiments::run_goniometer_experiment);
+                 }},
+                {"bandwidth", "E6 bandwidth", {"--force-trim-rate"},
+                 arm_refusals({{"--case", "E6 sweeps every frequency of the scenario (--case picks a movement of --experiment goniometer)"},
+                               {"--goniometer-csv", kCsvElsewhere},
+                               {"--backend", "E6 (--experiment bandwidth) runs in-process only: it needs the joint's true delivered "
+                                             "torque, which no board sensor measures"}}),
+                 {},
+                 [](const config::Document& doc, const experiments::RunRequest& request) {
+                   return run_arm(doc, request, run_bandwidth);
+                 }}},
+               check_arm, arm_board});
+  return r;
+}
+
+}  // namespace
+
+const std::vector<ExperimentEntry>& experiment_registry() {
+  static const std::vector<ExperimentEntry> registry = make_registry();
+  return registry;
+}
+
+const ExperimentEntry& find_experiment(const config::Document& doc) {
+  std::vector<std::string> keys;
+  for (const auto& e : experiment_registry()) keys.push_back(e.key);
+  config::Map root = doc.root();
+  const std::string key = root.choice("experiment", keys);  // throws, naming the known keys
+  for (const auto& e : experiment_registry()) {
+    if (e.key == key) return e;
+  }
+  throw std::logic_error("unreachable: the experiment key was checked");
+}
+
+}  // namespace peha::app

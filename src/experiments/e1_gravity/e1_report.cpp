@@ -1,0 +1,177 @@
+#include "peha/experiments/e1_gravity/e1_report.hpp"
+
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <optional>
+#include <utility>
+
+namespace peha::experiments {
+
+std::vector<E1Variant> e1_variants(const E1Scenario& scenario, const std::filesystem::path calibration[2]) {
+  std::vector<E1Variant> variants;
+  const bool calibrated = !calibration[0].empty() || !calibration[1].empty();
+  if (!calibrated) {
+    variants.push_back({"", scenario});
+  } else {
+    E1Scenario parametric = scenario;
+    E1Scenario with_spgp = scenario;
+    bool any_spgp = false;
+    for (int i = 0; i < 2; ++i) {
+      if (calibration[i].empty()) continue;
+      const calibration::MuscleCalibration c = calibration::read_calibration(calibration[i]);
+      calibration::apply_calibration(c, false, i == 0 ? parametric.controller.joint.agonist : parametric.controller.joint.antagonist);
+      calibration::apply_calibration(c, true, i == 0 ? with_spgp.controller.joint.agonist : with_spgp.controller.joint.antagonist);
+      any_spgp = any_spgp || c.spgp;
+      fmt::print("  {} calibration: {} (held-out pressure RMS {:.1f} kPa parametric, {:.1f} kPa with SPGP)\n",
+                 i == 0 ? "agonist" : "antagonist", calibration[i].string(),
+                 c.stats.heldout_rms_parametric_Pa * 1e-3, c.stats.heldout_rms_spgp_Pa * 1e-3);
+    }
+    variants.push_back({"parametric", parametric});
+    if (any_spgp) variants.push_back({"spgp", with_spgp});
+  }
+  return variants;
+}
+
+void write_e1_summary(const std::filesystem::path& path, const std::vector<E1Result>& results) {
+  std::ofstream out(path);
+  out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_excursion_deg,"
+         "peak_finger_force_N,peak_agonist_force_N,peak_antagonist_force_N,min_wire_tension_N,"
+         "max_pressure_MPa,peak_motor_torque_Nm,min_angle_deg,max_angle_deg,within_limits,"
+         "force_tracking_rms_agonist_N,force_tracking_rms_antagonist_N,realtime_factor\n";
+  for (const auto& r : results) {
+    for (const auto& rel : r.releases) {
+      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.2f},{:.1f},{:.1f},{:.2f},{:.4f},{:.3f},{:.2f},{:.2f},{},{:.2f},{:.2f},{:.2f}\n",
+                         r.case_name, r.payload_kg, rel.push, rel.time_s, rel.angle_deg, rel.drift_deg,
+                         rel.max_excursion_deg, r.peak_finger_force_N, r.peak_muscle_force_N[0],
+                         r.peak_muscle_force_N[1], r.min_wire_tension_N, r.max_pressure_MPa,
+                         r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg, r.within_limits ? 1 : 0,
+                         r.force_tracking_rms_N[0], r.force_tracking_rms_N[1], r.realtime_factor);
+    }
+  }
+}
+
+bool print_e1_table(const std::vector<E1Result>& results) {
+  fmt::print("\n{:<26} {:<10} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>6}\n", "case", "release",
+             "angle/deg", "drift/deg", "excurs/deg", "finger/N", "F_ago/N", "F_ant/N", "T_min/N", "Ftrk_ago", "Ftrk_ant",
+             "RTF");
+  bool safe = true;
+  for (const auto& r : results) {
+    for (const auto& rel : r.releases) {
+      fmt::print("{:<26} {:<10} {:>9.2f} {:>10.3f} {:>11.3f} {:>9.1f} {:>8.1f} {:>8.1f} {:>8.2f} {:>8.1f}N {:>8.1f}N {:>6.1f}\n",
+                 r.case_name, rel.push, rel.angle_deg, rel.drift_deg, rel.max_excursion_deg, r.peak_finger_force_N,
+                 r.peak_muscle_force_N[0], r.peak_muscle_force_N[1], r.min_wire_tension_N, r.force_tracking_rms_N[0],
+                 r.force_tracking_rms_N[1], r.realtime_factor);
+    }
+    safe = safe && r.within_limits;
+    fmt::print("{:<26} safety: peak PAM force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), max pressure "
+               "{:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",
+               "", std::max(r.peak_muscle_force_N[0], r.peak_muscle_force_N[1]), r.min_wire_tension_N,
+               r.max_pressure_MPa, r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg,
+               r.within_limits ? "OK" : "VIOLATED");
+    fmt::print("{:<26} limits layer shaped the command in: pressure band {} cycles, rate {}, joint range {}, "
+               "motor rating {}, non-finite {}\n",
+               "", r.limit_counts[2], r.limit_counts[3], r.limit_counts[1], r.limit_counts[4], r.limit_counts[0]);
+  }
+  return safe;
+}
+
+namespace {
+
+/// One case with one model variant, in-process: its per-cycle log e1_<case>.csv.
+E1Result run_in_process(const E1Scenario& scenario, const E1Case& c, const RunRequest& request, const std::filesystem::path& dir) {
+  const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
+  runtime::CsvLog log(e1_log_columns(), rows);
+  E1Result r = run_e1_case(scenario, c, &log);
+  const std::filesystem::path log_path = dir / fmt::format("e1_{}.csv", c.name);
+  log.write(log_path, {fmt::format("case: {} ({} kg payload)", c.name, c.payload_kg),
+                       fmt::format("config: {}", request.config.string()),
+                       fmt::format("seed: {}", scenario.seed),
+                       "pressures gauge; plant_* columns are simulator truth the controller never sees"});
+  fmt::print("{:.1f} s simulated at {:.1f}x real time -> {}\n", r.simulated_s, r.realtime_factor, log_path.string());
+  return r;
+}
+
+/// Over the board: the endpoint and the mfb: section, checked before anything is written. False
+/// (after a message) when the request cannot run.
+bool check_board(const config::Document& doc, const E1Scenario& scenario, std::size_t cases, const RunRequest& request,
+                 std::optional<runtime::RealtimeRunOptions>& realtime) {
+  if (request.backend.empty()) return true;
+  if (cases > 1) {
+    fmt::print(stderr, "error: --backend runs one case against the board's plant: give --case NAME (the board's payload; "
+                       "with peha mfb-emulator the same --case); {} has {} cases\n", doc.name(), cases);
+    return false;
+  }
+  realtime = realtime_options(request);
+  if (!realtime) return false;
+  if (!scenario.link) {
+    fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(),
+               request.backend);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+int run_e1_experiment(const config::Document& doc, const RunRequest& request) {
+  E1Scenario scenario = read_e1(doc);
+  if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
+  std::vector<E1Case> cases;
+  for (const auto& c : scenario.cases) {
+    if (request.only_case.empty() || c.name == request.only_case) cases.push_back(c);
+  }
+  if (cases.empty()) {
+    fmt::print(stderr, "error: no case named '{}' in {}\n", request.only_case, doc.name());
+    return 2;
+  }
+  if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;
+  const std::vector<E1Variant> variants = e1_variants(scenario, request.calibration);
+  std::optional<runtime::RealtimeRunOptions> realtime;
+  if (!check_board(doc, scenario, cases.size(), request, realtime)) return 2;
+
+  // Only now, with everything loaded and checked, does the run leave a trace on disk.
+  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
+  fmt::print("peha run: {}\n  {}\n  {} case(s) x {} model(s), {:.1f} s simulated each, seed {}, force trim {}, output {}\n",
+             doc.name(), scenario.description, cases.size(), variants.size(), scenario.duration_s, scenario.seed,
+             scenario.controller.allocation.force_trim_rate_1ps > 0
+                 ? fmt::format("{} /s", scenario.controller.allocation.force_trim_rate_1ps) : std::string("off"),
+             dir.string());
+  std::vector<std::pair<E1Case, const E1Variant*>> runs;  // every case with every variant
+  for (const auto& c : cases) {
+    for (const auto& v : variants) {
+      E1Case named = c;
+      if (!v.label.empty()) named.name += "_" + v.label;
+      runs.emplace_back(named, &v);
+    }
+  }
+  std::vector<E1Result> results;
+  for (std::size_t i = 0; i < runs.size(); ++i) {
+    const auto& [c, variant] = runs[i];
+    fmt::print("  [{}/{}] {} ... ", i + 1, runs.size(), c.name);
+    std::fflush(stdout);
+    if (!realtime) {
+      results.push_back(run_in_process(variant->scenario, c, request, dir));
+      continue;
+    }
+    realtime->dir = dir;
+    fmt::print("on the board at udp://{} in real time\n", realtime->board.to_string());
+    std::fflush(stdout);
+    const E1RealtimeResult rr = run_e1_realtime(variant->scenario, c, *realtime);
+    results.push_back(rr.e1);
+    print_realtime(rr, dir / fmt::format("timing_{}", c.name));
+  }
+  write_e1_summary(dir / "summary.csv", results);
+  const bool safe = print_e1_table(results);
+  fmt::print("\nwritten: {}/summary.csv, config.yaml, e1_<case>.csv\n", dir.string());
+  if (request.plot) plot_with("plot_run.py", dir, {"--title", "E1 gravity compensation, one-DOF PEHA rig"});
+  return safe ? 0 : 3;
+}
+
+}  // namespace peha::experiments

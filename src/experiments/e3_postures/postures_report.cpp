@@ -1,0 +1,59 @@
+#include "peha/experiments/e3_postures/postures_report.hpp"
+
+#include "peha/experiments/e3_postures/postures_realtime.hpp"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <fstream>
+
+namespace peha::experiments {
+
+void write_postures_summary(const std::filesystem::path& path, const PosturesResult& r, double observe_s) {
+  std::ofstream summary(path);
+  summary << "posture,target_sfe_deg,target_efe_deg,released_sfe_deg,released_efe_deg,drift_sfe_deg,drift_efe_deg,"
+             "max_excursion_sfe_deg,max_excursion_efe_deg\n";
+  fmt::print("\n{:<15} {:>15} {:>17} {:>19} {:>19}\n", "posture", "target SFE/EFE", "released SFE/EFE",
+             fmt::format("drift {:.0f} s SFE/EFE", observe_s), "max excursion");
+  for (const auto& p : r.postures) {
+    fmt::print("{:<15} {:>7.1f} {:>7.1f} {:>8.2f} {:>8.2f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f}   deg\n", p.name, p.target_deg[0],
+               p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1], p.max_excursion_deg[0],
+               p.max_excursion_deg[1]);
+    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f}\n", p.name, p.target_deg[0],
+                           p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1],
+                           p.max_excursion_deg[0], p.max_excursion_deg[1]);
+  }
+}
+
+int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
+                            std::optional<runtime::RealtimeRunOptions> realtime) {
+  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
+  const double duration_s = postures_duration_s(scenario);
+  fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
+             doc.name(), scenario.description, scenario.postures.size(), duration_s, scenario.seed, dir.string());
+  PosturesResult r;
+  std::optional<PosturesRealtimeResult> rr;
+  if (realtime) {
+    realtime->dir = dir;
+    fmt::print("  on the board at udp://{} in real time\n", realtime->board.to_string());
+    std::fflush(stdout);
+    rr = run_postures_realtime(scenario, *realtime);
+    r = rr->postures;
+  } else {
+    runtime::CsvLog log(arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    r = run_postures(scenario, &log);
+    log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
+                                        fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
+                                        "plant_* columns are simulator truth the controller never sees"});
+  }
+  write_postures_summary(dir / "summary.csv", r, scenario.observe_s);  // closed: the plotter reads it next
+  fmt::print("safety: peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak operator torque "
+             "{:.1f} Nm: {}\nreal-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
+             r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_operator_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
+             r.realtime_factor, dir.string());
+  if (rr) print_realtime(*rr, dir / "timing");
+  if (request.plot) plot_with("plot_arm.py", dir);
+  return r.within_limits ? 0 : 3;
+}
+
+}  // namespace peha::experiments

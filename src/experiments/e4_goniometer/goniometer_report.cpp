@@ -1,0 +1,157 @@
+#include "peha/experiments/e4_goniometer/goniometer_report.hpp"
+
+#include "peha/control/butterworth.hpp"
+#include "peha/experiments/e4_goniometer/goniometer_realtime.hpp"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <fstream>
+#include <numbers>
+#include <string>
+
+namespace peha::experiments {
+namespace {
+
+constexpr GoniometerVariant kVariants[] = {GoniometerVariant::kOpenLoop, GoniometerVariant::kFeedback};
+
+/// The scenario's movement names, comma-separated.
+std::string movement_names(const ArmScenario::Goniometer& g) {
+  std::string names;
+  for (const auto& m : g.movements) names += (names.empty() ? "" : ", ") + m.name;
+  return names;
+}
+
+/// The index of the movement `name`, or movements.size().
+std::size_t find_movement(const ArmScenario::Goniometer& g, const std::string& name) {
+  std::size_t index = g.movements.size();
+  for (std::size_t i = 0; i < g.movements.size(); ++i) {
+    if (g.movements[i].name == name) index = i;
+  }
+  return index;
+}
+
+/// The person's movements: the recording, or the synthetic movements (only `only_case` if given;
+/// each drawn from seed + its index, as in a run of all). Empty (after a message): no such movement.
+std::vector<GoniometerTrace> person_traces(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
+  const auto& g = scenario.goniometer;
+  std::vector<GoniometerTrace> traces;
+  if (!request.goniometer_csv.empty()) {
+    traces.push_back(read_goniometer_csv(request.goniometer_csv, g.sample_rate_Hz, scenario.limits.joints[1].min_angle_rad,
+                                         scenario.limits.joints[1].max_angle_rad));
+    return traces;
+  }
+  for (std::size_t i = 0; i < g.movements.size(); ++i) {
+    if (request.only_case.empty() || g.movements[i].name == request.only_case) {
+      traces.push_back(synthesize_goniometer(g, g.movements[i], scenario.seed + i));
+    }
+  }
+  if (traces.empty()) {
+    fmt::print(stderr, "error: no goniometer movement named '{}' in {} (movements: {})\n", request.only_case, doc.name(),
+               movement_names(g));
+  }
+  return traces;
+}
+
+int run_in_process(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
+  const auto& g = scenario.goniometer;
+  const std::vector<GoniometerTrace> traces = person_traces(doc, scenario, request);
+  if (traces.empty()) return 2;
+  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
+  fmt::print("peha run: {} --experiment goniometer (E4)\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at {:.1f} Hz "
+             "(group delay {:.1f} ms); shoulder at {:.0f} deg on gravity compensation\n  {}\n",
+             doc.name(), g.sample_rate_Hz, g.noise_rad * 180 / std::numbers::pi, g.filter_order, g.cutoff_Hz,
+             control::group_delay_s(control::design_butterworth_lowpass(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz), 0.0) * 1e3,
+             g.sfe_rad * 180 / std::numbers::pi,
+             request.goniometer_csv.empty() ? "synthetic person: " + std::to_string(traces.size()) + " movement(s)"
+                                            : "recording: " + request.goniometer_csv.string());
+  std::ofstream summary(dir / "summary.csv");
+  summary << "movement,variant,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
+             "peak_muscle_force_N,min_wire_tension_N,peak_motor_Nm,shoulder_excursion_deg,within_limits\n";
+  std::vector<GoniometerResult> results;
+  for (const GoniometerTrace& trace : traces) {
+    const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
+    fmt::print("  {}: {:.1f} s simulated ...\n", trace.name, duration_s);
+    std::fflush(stdout);
+    runtime::CsvLog log(goniometer_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    for (const auto variant : kVariants) {
+      log.clear();
+      const GoniometerResult r = run_goniometer(scenario, trace, variant, &log);
+      log.write(dir / fmt::format("e4_{}_{}.csv", trace.name, to_string(variant)),
+                {fmt::format("case: E4 goniometer-driven elbow, movement {}, variant {}", trace.name, to_string(variant)),
+                 fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
+                 "person_* is the person's true elbow; plant_* columns are simulator truth the controller never sees"});
+      summary << fmt::format("{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.1f},{:.2f},{:.3f},{:.4f},{}\n", r.name,
+                             to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3,
+                             r.rms_error_aligned_deg, r.peak_torque_command_Nm, r.peak_muscle_force_N, r.min_wire_tension_N,
+                             r.peak_motor_torque_Nm, r.shoulder_excursion_deg, r.within_limits ? 1 : 0);
+      results.push_back(r);
+    }
+    if (request.goniometer_csv.empty()) write_goniometer_csv(dir / fmt::format("goniometer_{}.csv", trace.name), trace);
+  }
+  summary.close();  // the plotter reads it next
+  const bool safe = print_goniometer_tables(results);
+  fmt::print("written: {}/e4_<movement>_<variant>.csv, summary.csv, config.yaml{}\n", dir.string(),
+             request.goniometer_csv.empty() ? ", goniometer_<movement>.csv (replayable with --goniometer-csv)" : "");
+  if (request.plot) plot_with("plot_goniometer.py", dir);
+  return safe ? 0 : 3;
+}
+
+int run_on_board(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
+                 runtime::RealtimeRunOptions realtime) {
+  const auto& g = scenario.goniometer;
+  const std::size_t index = find_movement(g, request.only_case);
+  if (index == g.movements.size()) {
+    fmt::print(stderr, "error: E4 on the board runs one movement: give --case NAME ({}); the emulator needs --case goniometer_NAME\n",
+               movement_names(g));
+    return 2;
+  }
+  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
+  realtime.dir = dir;
+  fmt::print("peha run: {} --experiment goniometer (E4) on the board at udp://{}, movement {}, both variants\n", doc.name(),
+             realtime.board.to_string(), g.movements[index].name);
+  std::fflush(stdout);
+  bool safe = true;
+  std::vector<GoniometerRealtimeResult> results;
+  for (const auto variant : kVariants) {
+    results.push_back(run_goniometer_realtime(scenario, index, variant, realtime));
+    print_realtime(results.back(), dir / fmt::format("timing_{}", to_string(variant)));
+  }
+  fmt::print("\n{:<10} {:>9} {:>10} {:>10} {:>9} {:>12}   (person = the goniometer's reading, exo = the elbow encoder)\n",
+             "variant", "range", "RMS error", "max error", "delay", "RMS aligned");
+  for (const auto& rr : results) {
+    const auto& r = rr.goniometer;
+    safe = safe && r.within_limits && rr.faults == 0;
+    fmt::print("{:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg; safety {}, faults {}\n",
+               to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
+               r.within_limits ? "OK" : "VIOLATED", rr.faults);
+  }
+  return safe ? 0 : 3;
+}
+
+}  // namespace
+
+bool print_goniometer_tables(const std::vector<GoniometerResult>& results) {
+  fmt::print("\n{:<10} {:<10} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>10}\n", "movement", "variant", "range", "RMS error",
+             "max error", "delay", "RMS aligned", "peak tau", "SFE moved", "RTF");
+  for (const auto& r : results) {
+    fmt::print("{:<10} {:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>7.2f} deg {:>10.1f}\n",
+               r.name, to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
+               r.peak_torque_command_Nm, r.shoulder_excursion_deg, r.realtime_factor);
+  }
+  bool safe = true;
+  for (const auto& r : results) {
+    safe = safe && r.within_limits;
+    fmt::print("safety ({}, {}): peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak motor {:.2f} Nm: {}\n",
+               r.name, to_string(r.variant), r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm,
+               r.within_limits ? "OK" : "VIOLATED");
+  }
+  return safe;
+}
+
+int run_goniometer_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
+                              std::optional<runtime::RealtimeRunOptions> realtime) {
+  return realtime ? run_on_board(doc, scenario, request, *realtime) : run_in_process(doc, scenario, request);
+}
+
+}  // namespace peha::experiments

@@ -1,0 +1,49 @@
+#include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+namespace peha::experiments {
+
+bool write_bandwidth_report(const std::filesystem::path& bode_csv, const std::vector<BandwidthResult>& results) {
+  std::ofstream csv(bode_csv);
+  csv << "variant,frequency_Hz,gain,gain_dB,phase_deg\n";
+  fmt::print("\n{:>8}  {:>10} {:>10}   {:>10} {:>10}\n", "f/Hz", "PAM gain", "PAM phase", "hyb gain", "hyb phase");
+  for (std::size_t i = 0; i < results[0].bode.size(); ++i) {
+    const auto& p = results[0].bode[i];
+    const auto& h = results[1].bode[i];
+    fmt::print("{:>8.2f}  {:>10.3f} {:>9.1f}°   {:>10.3f} {:>9.1f}°\n", p.frequency_Hz, p.gain, p.phase_deg, h.gain, h.phase_deg);
+  }
+  bool safe = true;
+  for (const auto& r : results) {
+    for (const auto& p : r.bode) {
+      csv << fmt::format("{},{:.4g},{:.6g},{:.4f},{:.3f}\n", r.variant, p.frequency_Hz, p.gain, 20 * std::log10(p.gain), p.phase_deg);
+    }
+    const bool ok = r.peak_muscle_force_N <= 2000.0 && r.min_wire_tension_N > 0.0;
+    safe = safe && ok;
+    fmt::print("{:<9} -3 dB bandwidth {}{:.2f} Hz; peak muscle force {:.0f} N, min wire tension {:.1f} N, peak motor {:.2f} Nm: {}\n",
+               r.variant, r.reached_3dB ? "" : "> ", r.bandwidth_3dB_Hz, r.peak_muscle_force_N, r.min_wire_tension_N,
+               r.peak_motor_torque_Nm, ok ? "OK" : "VIOLATED");
+  }
+  return safe;
+}
+
+int run_bandwidth_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
+  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
+  const auto& b = scenario.bandwidth;
+  fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} joint locked at SFE {:.0f} deg, EFE {:.0f} deg; gravity torque "
+             "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
+             doc.name(), b.joint == 0 ? "shoulder" : "elbow", b.sfe_rad * 180 / std::numbers::pi,
+             b.efe_rad * 180 / std::numbers::pi, b.amplitude_Nm, b.frequencies_Hz.size());
+  std::vector<BandwidthResult> results;
+  for (bool hybrid : {false, true}) results.push_back(run_bandwidth(scenario, hybrid));
+  const bool safe = write_bandwidth_report(dir / "bode.csv", results);  // closed: the plotter reads it next
+  if (request.plot) plot_with("plot_bode.py", dir);
+  fmt::print("written: {}/bode.csv, config.yaml\n", dir.string());
+  return safe ? 0 : 3;
+}
+
+}  // namespace peha::experiments
