@@ -47,16 +47,16 @@ TORQUE_TRACES = [
     ("tau_motor_cmd_Nm", r"$\tau$ motor", dict(color="C2", lw=1.2)),
 ]
 FORCE_TRACES = [
-    ("f_agonist_cmd_N", "agonist cmd", dict(color="C0", lw=1.2, ls="--")),
-    ("f_agonist_loadcell_N", "agonist load cell", dict(color="C0", lw=1.2)),
-    ("f_antagonist_cmd_N", "antagonist cmd", dict(color="C1", lw=1.2, ls="--")),
-    ("f_antagonist_loadcell_N", "antagonist load cell", dict(color="C1", lw=1.2)),
+    ("agonist_force_cmd_N", "agonist cmd", dict(color="C0", lw=1.2, ls="--")),
+    ("agonist_loadcell_N", "agonist load cell", dict(color="C0", lw=1.2)),
+    ("antagonist_force_cmd_N", "antagonist cmd", dict(color="C1", lw=1.2, ls="--")),
+    ("antagonist_loadcell_N", "antagonist load cell", dict(color="C1", lw=1.2)),
 ]
 PRESSURE_TRACES = [
-    ("p_agonist_cmd_MPa", "agonist cmd", dict(color="C0", lw=1.2, ls="--")),
-    ("p_agonist_meas_MPa", "agonist meas.", dict(color="C0", lw=1.2)),
-    ("p_antagonist_cmd_MPa", "antagonist cmd", dict(color="C1", lw=1.2, ls="--")),
-    ("p_antagonist_meas_MPa", "antagonist meas.", dict(color="C1", lw=1.2)),
+    ("agonist_pressure_cmd_MPa", "agonist cmd", dict(color="C0", lw=1.2, ls="--")),
+    ("agonist_pressure_MPa", "agonist meas.", dict(color="C0", lw=1.2)),
+    ("antagonist_pressure_cmd_MPa", "antagonist cmd", dict(color="C1", lw=1.2, ls="--")),
+    ("antagonist_pressure_MPa", "antagonist meas.", dict(color="C1", lw=1.2)),
 ]
 
 CASE_RE = re.compile(r"^\s*#\s*case\s*:\s*(.*?)\s*$", re.IGNORECASE)

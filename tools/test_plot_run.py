@@ -20,11 +20,11 @@ PLOTTER = os.path.join(HERE, "plot_run.py")
 COLUMNS = [
     "t_s", "angle_rad", "velocity_radps", "finger_force_N", "finger_active",
     "tau_desired_Nm", "tau_pam_cmd_Nm", "tau_pam_measured_Nm", "tau_motor_cmd_Nm",
-    "f_agonist_cmd_N", "f_antagonist_cmd_N", "f_agonist_loadcell_N",
-    "f_antagonist_loadcell_N", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa",
-    "p_agonist_meas_MPa", "p_antagonist_meas_MPa", "plant_angle_rad",
-    "plant_tension_agonist_N", "plant_tension_antagonist_N",
-    "plant_force_agonist_N", "plant_force_antagonist_N", "fault",
+    "agonist_force_cmd_N", "antagonist_force_cmd_N", "agonist_loadcell_N",
+    "antagonist_loadcell_N", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa",
+    "agonist_pressure_MPa", "antagonist_pressure_MPa", "plant_angle_rad",
+    "plant_agonist_tension_N", "plant_antagonist_tension_N",
+    "plant_agonist_force_N", "plant_antagonist_force_N", "fault",
     "extra_unknown_column",
 ]
 

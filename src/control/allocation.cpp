@@ -41,7 +41,7 @@ MuscleCommand command_muscle(const models::JointModel& joint, const models::Musc
 }
 
 bool finite(const AllocationInput& in) {
-  return std::isfinite(in.torque_desired_Nm) && std::isfinite(in.angle_rad) &&
+  return std::isfinite(in.tau_desired_Nm) && std::isfinite(in.angle_rad) &&
          std::isfinite(in.velocity_radps) && std::isfinite(in.agonist_loadcell_N) &&
          std::isfinite(in.antagonist_loadcell_N) && std::isfinite(in.dt_s) && in.dt_s > 0.0;
 }
@@ -66,7 +66,7 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   if (!finite(in)) {
     // Keep the last PAM share (no jump), estimate nothing from bad sensors, motor off.
     out.flags |= kNonFiniteInput;
-    in.torque_desired_Nm = data.torque_pam_filtered_Nm;
+    in.tau_desired_Nm = data.tau_pam_filtered_Nm;
     in.velocity_radps = 0.0;
     in.agonist_loadcell_N = in.antagonist_loadcell_N = 0.0;
     if (!std::isfinite(in.angle_rad)) in.angle_rad = 0.0;
@@ -77,45 +77,49 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   // Macro: first-order low-pass of the desired torque (exact discretisation).
   const bool first = !data.initialized;
   if (first) {
-    data.torque_pam_filtered_Nm = in.torque_desired_Nm;
+    data.tau_pam_filtered_Nm = in.tau_desired_Nm;
     data.initialized = true;
   }
   const double blend = 1.0 - std::exp(-2.0 * std::numbers::pi * params.pam_cutoff_Hz * in.dt_s);
-  data.torque_pam_filtered_Nm += blend * (in.torque_desired_Nm - data.torque_pam_filtered_Nm);
-  out.torque_pam_Nm = data.torque_pam_filtered_Nm;
+  data.tau_pam_filtered_Nm += blend * (in.tau_desired_Nm - data.tau_pam_filtered_Nm);
+  out.tau_pam_cmd_Nm = data.tau_pam_filtered_Nm;
 
   // Pulley forces: the pretension on both wires, plus the torque on the side that can make it.
-  const double pull_N = std::abs(out.torque_pam_Nm) / r0;
-  const double f1 = joint.pretension_N + (out.torque_pam_Nm >= 0.0 ? pull_N : 0.0);
-  const double f2 = joint.pretension_N + (out.torque_pam_Nm < 0.0 ? pull_N : 0.0);
+  const double pull_N = std::abs(out.tau_pam_cmd_Nm) / r0;
+  const double agonist_joint_force_cmd_N = joint.pretension_N + (out.tau_pam_cmd_Nm >= 0.0 ? pull_N : 0.0);
+  const double antagonist_joint_force_cmd_N = joint.pretension_N + (out.tau_pam_cmd_Nm < 0.0 ? pull_N : 0.0);
   const bool valid = !(out.flags & kNonFiniteInput);
   // Wire velocities, once: > 0 toward the agonist for its wire, toward the antagonist for the other.
-  const double v1 = models::wire_velocity_mps(r0, +1, in.velocity_radps);
-  const double v2 = models::wire_velocity_mps(r0, -1, in.velocity_radps);
-  const MuscleCommand c1 = command_muscle(joint, joint.agonist, +1, f1, v1, params, in, in.agonist_loadcell_N, in.agonist_pressure_Pa, first,
-                                          valid, data.force_trim_N[0]);
-  const MuscleCommand c2 = command_muscle(joint, joint.antagonist, -1, f2, v2, params, in, in.antagonist_loadcell_N,
-                                          in.antagonist_pressure_Pa, first, valid, data.force_trim_N[1]);
+  const double agonist_wire_mps = models::wire_velocity_mps(r0, +1, in.velocity_radps);
+  const double antagonist_wire_mps = models::wire_velocity_mps(r0, -1, in.velocity_radps);
+  const MuscleCommand agonist =
+      command_muscle(joint, joint.agonist, +1, agonist_joint_force_cmd_N, agonist_wire_mps, params, in, in.agonist_loadcell_N,
+                     in.agonist_pressure_Pa, first, valid, data.force_trim_N[0]);
+  const MuscleCommand antagonist =
+      command_muscle(joint, joint.antagonist, -1, antagonist_joint_force_cmd_N, antagonist_wire_mps, params, in,
+                     in.antagonist_loadcell_N, in.antagonist_pressure_Pa, first, valid, data.force_trim_N[1]);
   out.agonist_trim_N = data.force_trim_N[0];
   out.antagonist_trim_N = data.force_trim_N[1];
-  out.agonist_force_N = c1.force_N;
-  out.antagonist_force_N = c2.force_N;
-  out.agonist_pressure_Pa = c1.pressure_Pa;
-  out.antagonist_pressure_Pa = c2.pressure_Pa;
-  out.agonist_contraction = c1.contraction;
-  out.antagonist_contraction = c2.contraction;
-  if (c1.clamped || c2.clamped) out.flags |= kForceClampedHigh;
-  if (c1.saturated || c2.saturated) out.flags |= kPressureSaturated;
+  out.agonist_force_cmd_N = agonist.force_N;
+  out.antagonist_force_cmd_N = antagonist.force_N;
+  out.agonist_pressure_Pa = agonist.pressure_Pa;
+  out.antagonist_pressure_Pa = antagonist.pressure_Pa;
+  out.agonist_contraction = agonist.contraction;
+  out.antagonist_contraction = antagonist.contraction;
+  if (agonist.clamped || antagonist.clamped) out.flags |= kForceClampedHigh;
+  if (agonist.saturated || antagonist.saturated) out.flags |= kPressureSaturated;
 
   // Mini: the motor closes the gap between the desired and the measured PAM torque.
-  const double f1_joint = models::joint_force_from_loadcell_N(joint.agonist.bowden, in.agonist_loadcell_N, v1);
-  const double f2_joint = models::joint_force_from_loadcell_N(joint.antagonist.bowden, in.antagonist_loadcell_N, v2);
-  out.torque_pam_measured_Nm = models::joint_torque_Nm(r0, f1_joint, f2_joint, 0.0);
-  out.torque_motor_Nm = 0.0;
+  const double agonist_joint_force_N =
+      models::joint_force_from_loadcell_N(joint.agonist.bowden, in.agonist_loadcell_N, agonist_wire_mps);
+  const double antagonist_joint_force_N =
+      models::joint_force_from_loadcell_N(joint.antagonist.bowden, in.antagonist_loadcell_N, antagonist_wire_mps);
+  out.tau_pam_measured_Nm = models::joint_torque_Nm(r0, agonist_joint_force_N, antagonist_joint_force_N, 0.0);
+  out.tau_motor_cmd_Nm = 0.0;
   if (params.use_motor && joint.has_motor && !(out.flags & kNonFiniteInput)) {
-    const double wanted = in.torque_desired_Nm - out.torque_pam_measured_Nm;
-    out.torque_motor_Nm = std::clamp(wanted, -joint.motor_max_torque_Nm, joint.motor_max_torque_Nm);
-    if (out.torque_motor_Nm != wanted) out.flags |= kMotorSaturated;
+    const double wanted = in.tau_desired_Nm - out.tau_pam_measured_Nm;
+    out.tau_motor_cmd_Nm = std::clamp(wanted, -joint.motor_max_torque_Nm, joint.motor_max_torque_Nm);
+    if (out.tau_motor_cmd_Nm != wanted) out.flags |= kMotorSaturated;
   }
 }
 

@@ -29,25 +29,25 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
     d.torque_gravity_Nm = tau_g[j.model_joint];
     io::JointCommand& c = command.joints[i];
     if (j.mode == ArmJointMode::kHoldPressure) {
-      d.torque_desired_Nm = 0.0;
+      d.tau_desired_Nm = 0.0;
       c.agonist_pressure_Pa = c.antagonist_pressure_Pa = j.hold_pressure_Pa;
       c.motor_torque_Nm = 0.0;
       continue;
     }
-    d.torque_desired_Nm = j.mode == ArmJointMode::kCommanded ? commanded_[i] : d.torque_gravity_Nm;
+    d.tau_desired_Nm = j.mode == ArmJointMode::kCommanded ? commanded_[i] : d.torque_gravity_Nm;
     AllocationInput in;
-    in.torque_desired_Nm = d.torque_desired_Nm;
+    in.tau_desired_Nm = d.tau_desired_Nm;
     in.angle_rad = s.angle_rad;
     in.velocity_radps = d.velocity_radps;
-    in.agonist_loadcell_N = s.agonist_force_N;
-    in.antagonist_loadcell_N = s.antagonist_force_N;
+    in.agonist_loadcell_N = s.agonist_loadcell_N;
+    in.antagonist_loadcell_N = s.antagonist_loadcell_N;
     in.agonist_pressure_Pa = s.agonist_pressure_Pa;
     in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
     in.dt_s = dt_s > 0.0 ? dt_s : model_.allocation.period_s;
     allocate(j.actuator, model_.allocation, allocation_data_[i], in, d.allocation);
     c.agonist_pressure_Pa = d.allocation.agonist_pressure_Pa;
     c.antagonist_pressure_Pa = d.allocation.antagonist_pressure_Pa;
-    c.motor_torque_Nm = d.allocation.torque_motor_Nm;
+    c.motor_torque_Nm = d.allocation.tau_motor_cmd_Nm;
   }
 }
 

@@ -38,14 +38,14 @@ void OneDofGravityController::update(const io::SensorState& state, io::Command& 
   started_ = true;
 
   diag_.velocity_radps = velocity_.update(s.angle_rad, dt_s);
-  diag_.torque_desired_Nm = gravity_torque_Nm(model_.gravity, s.angle_rad);
+  diag_.tau_desired_Nm = gravity_torque_Nm(model_.gravity, s.angle_rad);
 
   AllocationInput& in = diag_.allocation_input;
-  in.torque_desired_Nm = diag_.torque_desired_Nm;
+  in.tau_desired_Nm = diag_.tau_desired_Nm;
   in.angle_rad = s.angle_rad;
   in.velocity_radps = diag_.velocity_radps;
-  in.agonist_loadcell_N = s.agonist_force_N;
-  in.antagonist_loadcell_N = s.antagonist_force_N;
+  in.agonist_loadcell_N = s.agonist_loadcell_N;
+  in.antagonist_loadcell_N = s.antagonist_loadcell_N;
   in.agonist_pressure_Pa = s.agonist_pressure_Pa;
   in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
   in.dt_s = first || !(dt_s > 0.0) ? model_.allocation.period_s : dt_s;
@@ -54,7 +54,7 @@ void OneDofGravityController::update(const io::SensorState& state, io::Command& 
   command.joint_count = 1;
   command.joints[0].agonist_pressure_Pa = diag_.allocation.agonist_pressure_Pa;
   command.joints[0].antagonist_pressure_Pa = diag_.allocation.antagonist_pressure_Pa;
-  command.joints[0].motor_torque_Nm = diag_.allocation.torque_motor_Nm;
+  command.joints[0].motor_torque_Nm = diag_.allocation.tau_motor_cmd_Nm;
 }
 
 }  // namespace peha::control

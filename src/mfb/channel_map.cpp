@@ -43,8 +43,8 @@ struct Quantity {
 };
 
 const Quantity kAdQuantities[] = {
-    {"agonist_force", &kForce, true, &JointChannels::agonist_force},
-    {"antagonist_force", &kForce, true, &JointChannels::antagonist_force},
+    {"agonist_loadcell", &kForce, true, &JointChannels::agonist_loadcell},
+    {"antagonist_loadcell", &kForce, true, &JointChannels::antagonist_loadcell},
     {"agonist_pressure", &kPressure, true, &JointChannels::agonist_pressure},
     {"antagonist_pressure", &kPressure, true, &JointChannels::antagonist_pressure},
     {"goniometer", &kAngle, false, &JointChannels::goniometer},
@@ -333,8 +333,8 @@ bool ChannelMap::decode_inputs(const BoardInputs& in, io::SensorState& out) cons
     const JointChannels& c = joints_[static_cast<std::size_t>(j)];
     io::JointSensors& s = out.joints[static_cast<std::size_t>(j)];
     s.angle_rad = c.encoder.to_rad(in.encoder[static_cast<std::size_t>(c.encoder.channel)]);
-    s.agonist_force_N = ad(c.agonist_force);
-    s.antagonist_force_N = ad(c.antagonist_force);
+    s.agonist_loadcell_N = ad(c.agonist_loadcell);
+    s.antagonist_loadcell_N = ad(c.antagonist_loadcell);
     s.agonist_pressure_Pa = ad(c.agonist_pressure);
     s.antagonist_pressure_Pa = ad(c.antagonist_pressure);
   }
@@ -384,8 +384,8 @@ void ChannelMap::encode_inputs(const io::SensorState& s, bool estop, BoardInputs
   for (int j = 0; j < joint_count(); ++j) {
     const JointChannels& c = joints_[static_cast<std::size_t>(j)];
     const io::JointSensors& js = s.joints[static_cast<std::size_t>(j)];
-    put(c.agonist_force, js.agonist_force_N);
-    put(c.antagonist_force, js.antagonist_force_N);
+    put(c.agonist_loadcell, js.agonist_loadcell_N);
+    put(c.antagonist_loadcell, js.antagonist_loadcell_N);
     put(c.agonist_pressure, js.agonist_pressure_Pa);
     put(c.antagonist_pressure, js.antagonist_pressure_Pa);
     put(c.goniometer, js.angle_rad);

@@ -14,8 +14,8 @@ double muscle_force_for_joint_N(const BowdenParams& p, double joint_force_N, dou
   return joint_force_N * muscle_to_joint_ratio(p, v);
 }
 
-double joint_force_from_loadcell_N(const BowdenParams& p, double loadcell_force_N, double v) noexcept {
-  return loadcell_force_N / muscle_to_joint_ratio(p, v);
+double joint_force_from_loadcell_N(const BowdenParams& p, double loadcell_N, double v) noexcept {
+  return loadcell_N / muscle_to_joint_ratio(p, v);
 }
 
 }  // namespace peha::models

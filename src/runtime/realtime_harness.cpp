@@ -39,7 +39,7 @@ RealtimeHarness::RealtimeHarness(io::Backend& backend, const SupervisorParams& s
     const auto& names = backend.info().joint_names;
     for (const std::string& j : names) {
       const std::string p = names.size() > 1 ? j + "." : std::string();
-      for (const char* s : {"angle_deg", "f_agonist_N", "f_antagonist_N", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "motor_Nm"}) {
+      for (const char* s : {"angle_deg", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"}) {
         signals.push_back(p + s);
       }
     }
@@ -119,7 +119,7 @@ bool RealtimeHarness::after(const io::SensorState& state, const io::Command& cmd
     for (int j = 0; j < state.joint_count && k + 6 <= telemetry_values_.size(); ++j) {
       const auto& s = state.joints[static_cast<std::size_t>(j)];
       const auto& o = cmd.joints[static_cast<std::size_t>(j)];
-      for (double v : {s.angle_rad * 180.0 / std::numbers::pi, s.agonist_force_N, s.antagonist_force_N, o.agonist_pressure_Pa * 1e-6,
+      for (double v : {s.angle_rad * 180.0 / std::numbers::pi, s.agonist_loadcell_N, s.antagonist_loadcell_N, o.agonist_pressure_Pa * 1e-6,
                        o.antagonist_pressure_Pa * 1e-6, o.motor_torque_Nm}) {
         telemetry_values_[k++] = v;
       }

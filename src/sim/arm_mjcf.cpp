@@ -137,7 +137,7 @@ ArmMjcfOptions right_arm_mjcf_options() {
   o.joints[models::kSFE] = {-100 * kDeg, 60 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
   o.joints[models::kEFE] = {0.0, 135 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
   o.joints[models::kWFE] = {-60 * kDeg, 60 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
-  o.joints[models::kWR] = {-80 * kDeg, 80 * kDeg, 0.05, 0.0, 0.0, 0.0, true, 0.0};  // clamped (SPEC §1)
+  o.joints[models::kWR] = {-80 * kDeg, 80 * kDeg, 0.05, 0.0, 0.0, 0.0, true, 0.0};  // clamped (docs/models.md)
   o.joints[models::kWAA] = {-30 * kDeg, 20 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
   return o;
 }

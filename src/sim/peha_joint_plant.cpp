@@ -192,8 +192,8 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
 void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, std::mt19937_64& rng,
                            io::JointSensors& s) noexcept {
   const double* force = truth_.muscle_force_N;
-  s.agonist_force_N = quantize_16bit(force[0] + params_.agonist.loadcell_noise_N * unit_normal_(rng), params_.agonist.loadcell_range_N);
-  s.antagonist_force_N = quantize_16bit(force[1] + params_.antagonist.loadcell_noise_N * unit_normal_(rng), params_.antagonist.loadcell_range_N);
+  s.agonist_loadcell_N = quantize_16bit(force[0] + params_.agonist.loadcell_noise_N * unit_normal_(rng), params_.agonist.loadcell_range_N);
+  s.antagonist_loadcell_N = quantize_16bit(force[1] + params_.antagonist.loadcell_noise_N * unit_normal_(rng), params_.antagonist.loadcell_range_N);
   s.agonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[0] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
   s.antagonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[1] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
 }

@@ -28,14 +28,14 @@ TEST(Allocation, LimitsNeverExceededUnderRandomRequests) {
   int nonfinite_cases = 0;
   for (int i = 0; i < 100000; ++i) {
     AllocationInput in;
-    in.torque_desired_Nm = torque(rng);
+    in.tau_desired_Nm = torque(rng);
     in.angle_rad = angle(rng);
     in.velocity_radps = vel(rng);
     in.agonist_loadcell_N = force(rng);
     in.antagonist_loadcell_N = force(rng);
     in.dt_s = 1e-3;
     if (unit(rng) < 0.02) {  // 2 % of the requests carry a special value somewhere
-      double* fields[] = {&in.torque_desired_Nm, &in.angle_rad, &in.velocity_radps, &in.agonist_loadcell_N,
+      double* fields[] = {&in.tau_desired_Nm, &in.angle_rad, &in.velocity_radps, &in.agonist_loadcell_N,
                           &in.antagonist_loadcell_N, &in.dt_s};
       *fields[rng() % 6] = specials[rng() % 5];
       ++nonfinite_cases;
@@ -46,14 +46,14 @@ TEST(Allocation, LimitsNeverExceededUnderRandomRequests) {
       ASSERT_GE(p, 0.0);
       ASSERT_LE(p, joint.supply_pressure_Pa);
     }
-    ASSERT_LE(out.agonist_force_N, joint.agonist.max_force_N);
-    ASSERT_LE(out.antagonist_force_N, joint.antagonist.max_force_N);
-    ASSERT_LE(out.agonist_force_N, models::kMaxPamForce_N);
-    ASSERT_GE(out.agonist_force_N, joint.pretension_N);
-    ASSERT_GE(out.antagonist_force_N, joint.pretension_N);
-    ASSERT_TRUE(std::isfinite(out.torque_motor_Nm));
-    ASSERT_LE(std::abs(out.torque_motor_Nm), joint.motor_max_torque_Nm);
-    ASSERT_TRUE(std::isfinite(out.torque_pam_Nm));
+    ASSERT_LE(out.agonist_force_cmd_N, joint.agonist.max_force_N);
+    ASSERT_LE(out.antagonist_force_cmd_N, joint.antagonist.max_force_N);
+    ASSERT_LE(out.agonist_force_cmd_N, models::kMaxPamForce_N);
+    ASSERT_GE(out.agonist_force_cmd_N, joint.pretension_N);
+    ASSERT_GE(out.antagonist_force_cmd_N, joint.pretension_N);
+    ASSERT_TRUE(std::isfinite(out.tau_motor_cmd_Nm));
+    ASSERT_LE(std::abs(out.tau_motor_cmd_Nm), joint.motor_max_torque_Nm);
+    ASSERT_TRUE(std::isfinite(out.tau_pam_cmd_Nm));
   }
   EXPECT_GT(nonfinite_cases, 1000);
 }
@@ -66,15 +66,15 @@ TEST(Allocation, SteadyTorqueSplitsIntoAgonistPullAndAntagonistPretension) {
   AllocationData data;
   AllocationOutput out;
   AllocationInput in;
-  in.torque_desired_Nm = 15.0;
+  in.tau_desired_Nm = 15.0;
   in.agonist_loadcell_N = 40.0 + 15.0 / joint.pulley_radius_m;
   in.antagonist_loadcell_N = 40.0;
   for (int i = 0; i < 3000; ++i) allocate(joint, params, data, in, out);
-  EXPECT_NEAR(out.torque_pam_Nm, 15.0, 1e-9);
-  EXPECT_NEAR(out.agonist_force_N, 40.0 + 15.0 / 0.05, 1e-9);  // 340 N at v = 0 (no Bowden factor)
-  EXPECT_NEAR(out.antagonist_force_N, 40.0, 1e-12);
-  EXPECT_NEAR(out.torque_pam_measured_Nm, 15.0, 1e-9);
-  EXPECT_NEAR(out.torque_motor_Nm, 0.0, 1e-9);  // nothing left for the motor
+  EXPECT_NEAR(out.tau_pam_cmd_Nm, 15.0, 1e-9);
+  EXPECT_NEAR(out.agonist_force_cmd_N, 40.0 + 15.0 / 0.05, 1e-9);  // 340 N at v = 0 (no Bowden factor)
+  EXPECT_NEAR(out.antagonist_force_cmd_N, 40.0, 1e-12);
+  EXPECT_NEAR(out.tau_pam_measured_Nm, 15.0, 1e-9);
+  EXPECT_NEAR(out.tau_motor_cmd_Nm, 0.0, 1e-9);  // nothing left for the motor
   // The pressure is the inverse model's at the rigid-wire contraction.
   const double eps = joint.agonist.contraction_at_zero_angle;
   EXPECT_NEAR(out.agonist_pressure_Pa, models::inverse_pressure(joint.agonist.pam, 340.0, eps, joint.supply_pressure_Pa).pressure_Pa, 1e-6);
@@ -89,12 +89,12 @@ TEST(Allocation, MotorCoversTheFastPartOfATorqueStep) {
   AllocationInput in;
   in.agonist_loadcell_N = in.antagonist_loadcell_N = joint.pretension_N;
   allocate(joint, params, data, in, out);
-  in.torque_desired_Nm = 2.0;  // step of 2 Nm, within the motor's 2.5 Nm
+  in.tau_desired_Nm = 2.0;  // step of 2 Nm, within the motor's 2.5 Nm
   allocate(joint, params, data, in, out);
-  EXPECT_LT(out.torque_pam_Nm, 0.07 * 2.0);  // one 1 ms step of a 5 Hz low-pass: 3.1 %
-  EXPECT_NEAR(out.torque_motor_Nm, 2.0, 1e-9);  // load cells still show no PAM torque
+  EXPECT_LT(out.tau_pam_cmd_Nm, 0.07 * 2.0);  // one 1 ms step of a 5 Hz low-pass: 3.1 %
+  EXPECT_NEAR(out.tau_motor_cmd_Nm, 2.0, 1e-9);  // load cells still show no PAM torque
   for (int i = 0; i < 1000; ++i) allocate(joint, params, data, in, out);  // 1 s = 31 time constants
-  EXPECT_NEAR(out.torque_pam_Nm, 2.0, 1e-9);
+  EXPECT_NEAR(out.tau_pam_cmd_Nm, 2.0, 1e-9);
 }
 
 // Negative torque goes to the antagonist and is capped by the DMSP-10's 630 N.
@@ -104,10 +104,10 @@ TEST(Allocation, NegativeTorqueLoadsTheAntagonistUpToItsCeiling) {
   AllocationData data;
   AllocationOutput out;
   AllocationInput in;
-  in.torque_desired_Nm = -100.0;  // would need 2000 N at r0 = 0.05
+  in.tau_desired_Nm = -100.0;  // would need 2000 N at r0 = 0.05
   for (int i = 0; i < 2000; ++i) allocate(joint, params, data, in, out);
-  EXPECT_EQ(out.antagonist_force_N, 630.0);
-  EXPECT_EQ(out.agonist_force_N, joint.pretension_N);
+  EXPECT_EQ(out.antagonist_force_cmd_N, 630.0);
+  EXPECT_EQ(out.agonist_force_cmd_N, joint.pretension_N);
   EXPECT_TRUE(out.flags & kForceClampedHigh);
 }
 

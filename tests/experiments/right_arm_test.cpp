@@ -32,7 +32,7 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   }
 }
 
-// The actuators as the SPEC sizes them (SPEC §1): peak pulley torques at the 2000 N force limit of
+// The actuators as peha sizes them (docs/models.md): peak pulley torques at the 2000 N force limit of
 // about 100 Nm (shoulder) and 76 Nm (elbow); the wrist's DMSP-10 pair, no motor, held at 0.25 MPa.
 TEST(RightArmScenario, ActuatorsAreSizedAsSpecified) {
   const ArmScenario s = shipped();

@@ -38,8 +38,8 @@ ChannelMap arm_map() {
 // the line numbers below (1-based, as in the messages).
 const std::string kKnee = R"(# test map
 analog_inputs:
-  - {channel: 0, signal: knee.agonist_force, unit: N, scale: 0.1, offset: 0}
-  - {channel: 1, signal: knee.antagonist_force, unit: N, scale: 0.1, offset: 0}
+  - {channel: 0, signal: knee.agonist_loadcell, unit: N, scale: 0.1, offset: 0}
+  - {channel: 1, signal: knee.antagonist_loadcell, unit: N, scale: 0.1, offset: 0}
   - {channel: 2, signal: knee.agonist_pressure, unit: kPa, range: [0, 1000]}
   - {channel: 3, signal: knee.antagonist_pressure, unit: bar, scale: 1.0e-4, offset: 0}
 analog_outputs:
@@ -80,7 +80,7 @@ std::string error_after(const std::string& from, const std::string& to) {
 }
 
 /// Pointers to every AD / DA channel of a joint, for loops over all of them.
-constexpr AnalogChannel JointChannels::*kAd[] = {&JointChannels::agonist_force, &JointChannels::antagonist_force,
+constexpr AnalogChannel JointChannels::*kAd[] = {&JointChannels::agonist_loadcell, &JointChannels::antagonist_loadcell,
                                                  &JointChannels::agonist_pressure,
                                                  &JointChannels::antagonist_pressure, &JointChannels::goniometer};
 constexpr AnalogChannel JointChannels::*kDa[] = {&JointChannels::agonist_valve, &JointChannels::antagonist_valve,
@@ -94,8 +94,8 @@ TEST(ChannelMapFiles, OneDofRigMapLoadsWithTheSimulatedSensorRanges) {
   const ChannelMap m = rig_map();
   ASSERT_EQ(m.joint_count(), 1);
   const JointChannels& j = m.joint(0);
-  EXPECT_DOUBLE_EQ(j.agonist_force.max_si(), 5000.0 * 65534 / 65535);  // top valid code: 65534
-  EXPECT_DOUBLE_EQ(j.antagonist_force.scale_SI, 1000.0 / 65535);
+  EXPECT_DOUBLE_EQ(j.agonist_loadcell.max_si(), 5000.0 * 65534 / 65535);  // top valid code: 65534
+  EXPECT_DOUBLE_EQ(j.antagonist_loadcell.scale_SI, 1000.0 / 65535);
   EXPECT_DOUBLE_EQ(j.agonist_pressure.scale_SI, 1.0e6 / 65535);         // MPa converted to Pa
   EXPECT_DOUBLE_EQ(j.motor.to_si(32768), 0.0);                            // offset binary
   EXPECT_NEAR(j.agonist_valve.to_si(52428), 0.8e6, j.agonist_valve.scale_SI);  // supply, 25 % below full scale
@@ -117,7 +117,7 @@ TEST(ChannelMapFiles, RightArmMapLoadsWithAllEightDaChannelsAndNoWristMotor) {
     EXPECT_DOUBLE_EQ(m.joint(j).encoder.counts_per_rev * m.joint(j).encoder.gear, 70000.0);
   }
   EXPECT_EQ(da_used, std::vector<int>(kDaChannels, 1));
-  EXPECT_DOUBLE_EQ(m.joint(2).agonist_force.scale_SI, 1000.0 / 65535);  // DMSP-10 load cells on the wrist
+  EXPECT_DOUBLE_EQ(m.joint(2).agonist_loadcell.scale_SI, 1000.0 / 65535);  // DMSP-10 load cells on the wrist
 }
 
 // ---------------------------------------------------------------- conversions
@@ -134,8 +134,8 @@ TEST(ChannelMap, InputsRoundTripWithinHalfACode) {
         const JointChannels& c = m.joint(j);
         io::JointSensors& js = s.joints[static_cast<std::size_t>(j)];
         js.angle_rad = uniform(rng, -kPi, kPi);
-        js.agonist_force_N = uniform(rng, c.agonist_force.min_si(), c.agonist_force.max_si());
-        js.antagonist_force_N = uniform(rng, c.antagonist_force.min_si(), c.antagonist_force.max_si());
+        js.agonist_loadcell_N = uniform(rng, c.agonist_loadcell.min_si(), c.agonist_loadcell.max_si());
+        js.antagonist_loadcell_N = uniform(rng, c.antagonist_loadcell.min_si(), c.antagonist_loadcell.max_si());
         js.agonist_pressure_Pa = uniform(rng, c.agonist_pressure.min_si(), c.agonist_pressure.max_si());
         js.antagonist_pressure_Pa = uniform(rng, c.antagonist_pressure.min_si(), c.antagonist_pressure.max_si());
       }
@@ -150,8 +150,8 @@ TEST(ChannelMap, InputsRoundTripWithinHalfACode) {
         const io::JointSensors& b = back.joints[static_cast<std::size_t>(j)];
         const auto half = [](const AnalogChannel& ch) { return 0.5 * std::abs(ch.scale_SI) * (1 + 1e-9); };
         EXPECT_NEAR(b.angle_rad, a.angle_rad, 0.5 * std::abs(c.encoder.rad_per_count) * (1 + 1e-9));
-        EXPECT_NEAR(b.agonist_force_N, a.agonist_force_N, half(c.agonist_force));
-        EXPECT_NEAR(b.antagonist_force_N, a.antagonist_force_N, half(c.antagonist_force));
+        EXPECT_NEAR(b.agonist_loadcell_N, a.agonist_loadcell_N, half(c.agonist_loadcell));
+        EXPECT_NEAR(b.antagonist_loadcell_N, a.antagonist_loadcell_N, half(c.antagonist_loadcell));
         EXPECT_NEAR(b.agonist_pressure_Pa, a.agonist_pressure_Pa, half(c.agonist_pressure));
         EXPECT_NEAR(b.antagonist_pressure_Pa, a.antagonist_pressure_Pa, half(c.antagonist_pressure));
       }
@@ -205,8 +205,8 @@ TEST(ChannelMapFiles, EmulatorReproducesTheSimulatedSensorCodesExactly) {
       io::SensorState s;
       s.joint_count = 1;
       io::JointSensors& js = s.joints[0];
-      js.agonist_force_N = code / 65535.0 * kAgonistRange_N;
-      js.antagonist_force_N = code / 65535.0 * kAntagonistRange_N;
+      js.agonist_loadcell_N = code / 65535.0 * kAgonistRange_N;
+      js.antagonist_loadcell_N = code / 65535.0 * kAntagonistRange_N;
       js.agonist_pressure_Pa = code / 65535.0 * kPressureRange_Pa;
       js.antagonist_pressure_Pa = code / 65535.0 * kPressureRange_Pa;
       js.angle_rad = counts / kCountsPerRad;
@@ -381,13 +381,13 @@ TEST(ChannelMap, SensorAtItsUpperRailFailsDecodeAndLeavesTheStateUntouched) {
   in.ad.fill(30000);
   io::SensorState s;
   s.joint_count = 3;
-  s.joints[1].antagonist_force_N = 123.0;
+  s.joints[1].antagonist_loadcell_N = 123.0;
   s.sequence = 42;
-  in.ad[5] = 65535;  // R_EFE.antagonist_force
+  in.ad[5] = 65535;  // R_EFE.antagonist_loadcell
   const io::SensorState before = s;
   EXPECT_FALSE(m.decode_inputs(in, s));
   EXPECT_EQ(m.implausible_ad_channels(in), 1u << 5);
-  EXPECT_EQ(s.joints[1].antagonist_force_N, 123.0);
+  EXPECT_EQ(s.joints[1].antagonist_loadcell_N, 123.0);
   EXPECT_EQ(s.joint_count, before.joint_count);
   EXPECT_EQ(s.sequence, before.sequence);
   in.ad[5] = 65534;
@@ -480,15 +480,15 @@ TEST(ChannelMapReader, RejectsAnUnknownJoint) {
 }
 
 TEST(ChannelMapReader, RejectsAnUnknownQuantityOrOneOfTheOtherDirection) {
-  EXPECT_THAT(error_after("signal: knee.agonist_force", "signal: knee.agonist_torque"),
+  EXPECT_THAT(error_after("signal: knee.agonist_loadcell", "signal: knee.agonist_torque"),
               HasSubstr("knee.yaml:3:26: analog_inputs[0].signal: unknown analog input quantity 'agonist_torque' in "
-                        "'knee.agonist_torque'; expected one of agonist_force, antagonist_force, agonist_pressure, "
+                        "'knee.agonist_torque'; expected one of agonist_loadcell, antagonist_loadcell, agonist_pressure, "
                         "antagonist_pressure, goniometer"));
   // A valve is an output: on an AD channel it is unknown.
-  EXPECT_THAT(error_after("signal: knee.agonist_force", "signal: knee.agonist_valve"),
+  EXPECT_THAT(error_after("signal: knee.agonist_loadcell", "signal: knee.agonist_valve"),
               HasSubstr("knee.yaml:3:26: analog_inputs[0].signal: unknown analog input quantity 'agonist_valve'"));
-  EXPECT_THAT(error_after("signal: knee.agonist_force", "signal: agonist_force"),
-              HasSubstr("knee.yaml:3:26: analog_inputs[0].signal: expected '<joint>.<quantity>', found 'agonist_force'"));
+  EXPECT_THAT(error_after("signal: knee.agonist_loadcell", "signal: agonist_loadcell"),
+              HasSubstr("knee.yaml:3:26: analog_inputs[0].signal: expected '<joint>.<quantity>', found 'agonist_loadcell'"));
 }
 
 TEST(ChannelMapReader, RejectsAJointWithoutItsRequiredSignals) {
@@ -500,8 +500,8 @@ TEST(ChannelMapReader, RejectsAJointWithoutItsRequiredSignals) {
   // A second joint "hip" with all its AD and DA channels but no encoder.
   const std::string two = replaced(
       replaced(kKnee, "analog_outputs:",
-               "  - {channel: 4, signal: hip.agonist_force, unit: N, scale: 0.1, offset: 0}\n"
-               "  - {channel: 5, signal: hip.antagonist_force, unit: N, scale: 0.1, offset: 0}\n"
+               "  - {channel: 4, signal: hip.agonist_loadcell, unit: N, scale: 0.1, offset: 0}\n"
+               "  - {channel: 5, signal: hip.antagonist_loadcell, unit: N, scale: 0.1, offset: 0}\n"
                "  - {channel: 6, signal: hip.agonist_pressure, unit: Pa, scale: 20, offset: 0}\n"
                "  - {channel: 7, signal: hip.antagonist_pressure, unit: Pa, scale: 20, offset: 0}\n"
                "analog_outputs:"),
@@ -522,9 +522,9 @@ TEST(ChannelMapReader, RejectsASecondEncoderForAJoint) {
 
 TEST(ChannelMapReader, RejectsAZeroOrNonFiniteScale) {
   EXPECT_THAT(error_after("scale: 0.1", "scale: 0"),
-              HasSubstr("knee.yaml:3:62: analog_inputs[0].scale: expected a nonzero number"));
-  EXPECT_THAT(error_after("scale: 0.1", "scale: .nan"), HasSubstr("knee.yaml:3:62: analog_inputs[0].scale: expected a number in"));
-  EXPECT_THAT(error_after("scale: 0.1", "scale: inf"), HasSubstr("knee.yaml:3:62: analog_inputs[0].scale: expected a number in"));
+              HasSubstr("knee.yaml:3:65: analog_inputs[0].scale: expected a nonzero number"));
+  EXPECT_THAT(error_after("scale: 0.1", "scale: .nan"), HasSubstr("knee.yaml:3:65: analog_inputs[0].scale: expected a number in"));
+  EXPECT_THAT(error_after("scale: 0.1", "scale: inf"), HasSubstr("knee.yaml:3:65: analog_inputs[0].scale: expected a number in"));
   EXPECT_THAT(error_after("range: [0, 1000]", "range: [0, 0]"),
               HasSubstr("knee.yaml:5:67: analog_inputs[2].range: the values at code 0 and code 65535 must differ"));
 }
@@ -557,7 +557,7 @@ TEST(ChannelMapReader, RejectsEnableOrEstopDeclaredTwice) {
 
 TEST(ChannelMapReader, RejectsUnknownKeys) {
   EXPECT_THAT(error_after("scale: 0.1, offset: 0}", "scale: 0.1, offset: 0, gain: 2}"),
-              HasSubstr("knee.yaml:3:78: analog_inputs[0].gain: unknown key"));
+              HasSubstr("knee.yaml:3:81: analog_inputs[0].gain: unknown key"));
   EXPECT_THAT(error_after("unit: MPa, range: [0, 1]}", "unit: MPa, range: [0, 1], valid_codes: [0, 65534]}"),
               HasSubstr("knee.yaml:8:72: analog_outputs[0].valid_codes: unknown key"));
   EXPECT_THAT(error_after("  estop_input:", "  brake_output: {line: 1, active: high}\n  estop_input:"),
@@ -571,8 +571,8 @@ TEST(ChannelMapReader, RejectsAUnitOfTheWrongDimension) {
             "'knee.antagonist_pressure', found 'N'");
   EXPECT_THAT(error_after("unit: Nm", "unit: N"),
               HasSubstr("knee.yaml:10:44: analog_outputs[2].unit: expected a torque unit (Nm) for 'knee.motor', found 'N'"));
-  EXPECT_THAT(error_after("signal: knee.agonist_force, unit: N", "signal: knee.agonist_force, unit: kN"),
-              HasSubstr("analog_inputs[0].unit: expected a force unit (N) for 'knee.agonist_force', found 'kN'"));
+  EXPECT_THAT(error_after("signal: knee.agonist_loadcell, unit: N", "signal: knee.agonist_loadcell, unit: kN"),
+              HasSubstr("analog_inputs[0].unit: expected a force unit (N) for 'knee.agonist_loadcell', found 'kN'"));
 }
 
 // The watchdog must be able to vent the valves and stop the motor: a DA range without 0 Pa / 0 Nm

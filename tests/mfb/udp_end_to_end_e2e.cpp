@@ -347,7 +347,7 @@ TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
   EXPECT_NE(path.find("active -> fault (e-stop)"), std::string::npos) << path;
   EXPECT_NE(path.find("fault -> recovering"), std::string::npos) << path;
   EXPECT_NE(path.find("recovering -> inactive"), std::string::npos) << path;
-  const std::vector<double> t = column(r.log_file, "t_s"), p = column(r.log_file, "p_agonist_cmd_MPa");
+  const std::vector<double> t = column(r.log_file, "t_s"), p = column(r.log_file, "agonist_pressure_cmd_MPa");
   double recovered_at = 0;
   for (const auto& e : r.lifecycle) {
     if (e.find("fault -> recovering") != std::string::npos) recovered_at = std::stod(e);

@@ -56,7 +56,7 @@ TEST(SimulatedRig, LoadCellsReadMuscleForceWithConfiguredNoise) {
   for (int k = 0; k < n; ++k) {
     plant.write(c);
     plant.read(s);
-    const double e = s.joints[0].agonist_force_N - plant.truth().muscle_force_N[0];
+    const double e = s.joints[0].agonist_loadcell_N - plant.truth().muscle_force_N[0];
     sum += e;
     sum2 += e * e;
   }

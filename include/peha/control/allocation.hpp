@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Torque allocation of one PEHA joint: the macro-mini split (SPEC §2.4).
+/// Torque allocation of one PEHA joint: the macro-mini split (docs/models.md).
 ///
 /// - Macro (PAMs): the low-pass filtered desired torque (first order, `pam_cutoff_Hz`). A torque
 ///   >= 0 goes to the agonist, < 0 to the antagonist; the other muscle keeps the pretension. Each
@@ -55,7 +55,7 @@ enum AllocationFlag : std::uint32_t {
 };
 
 struct AllocationInput {
-  double torque_desired_Nm = 0;
+  double tau_desired_Nm = 0;
   double angle_rad = 0;
   double velocity_radps = 0;
   double agonist_loadcell_N = 0;
@@ -66,11 +66,11 @@ struct AllocationInput {
 };
 
 struct AllocationOutput {
-  double torque_pam_Nm = 0;          ///< PAM share after the low-pass (desired)
-  double torque_pam_measured_Nm = 0; ///< PAM torque from the load cells through the Bowden model
-  double torque_motor_Nm = 0;        ///< motor command at the joint
-  double agonist_force_N = 0;        ///< commanded muscle-side force of the agonist
-  double antagonist_force_N = 0;     ///< commanded muscle-side force of the antagonist
+  double tau_pam_cmd_Nm = 0;          ///< PAM share after the low-pass (desired)
+  double tau_pam_measured_Nm = 0; ///< PAM torque from the load cells through the Bowden model
+  double tau_motor_cmd_Nm = 0;        ///< motor command at the joint
+  double agonist_force_cmd_N = 0;        ///< commanded muscle-side force of the agonist
+  double antagonist_force_cmd_N = 0;     ///< commanded muscle-side force of the antagonist
   double agonist_pressure_Pa = 0;
   double antagonist_pressure_Pa = 0;
   double agonist_contraction = 0;    ///< rigid-wire contraction used for the inverse model
@@ -82,7 +82,7 @@ struct AllocationOutput {
 
 /// Filter state.
 struct AllocationData {
-  double torque_pam_filtered_Nm = 0;
+  double tau_pam_filtered_Nm = 0;
   double force_trim_N[2] = {0, 0};  ///< integral force corrections, agonist and antagonist
   bool initialized = false;
 };

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Torque control of the right arm (SPEC §2.5): gravity compensation tau = J^T G of the robot and
+/// Torque control of the right arm (docs/right-arm.md): gravity compensation tau = J^T G of the robot and
 /// the user's arm from the controller's own nominal model (feed-forward only, no position
 /// feedback), turned into pressures and motor torques joint by joint by the macro-mini allocation.
 /// A joint may instead be driven by a desired torque the experiment supplies each cycle (E4's
@@ -40,7 +40,7 @@ struct ArmControllerModel {
 struct ArmJointDiagnostics {
   double velocity_radps = 0;
   double torque_gravity_Nm = 0;  ///< J^T G component
-  double torque_desired_Nm = 0;
+  double tau_desired_Nm = 0;
   AllocationOutput allocation;
 };
 

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Digital Butterworth low-pass and a filtered derivative (SPEC §2.5, experiment E4: the elbow
+/// Digital Butterworth low-pass and a filtered derivative (docs/right-arm.md, experiment E4: the elbow
 /// goniometer is sampled at 200 Hz, low-passed, differentiated and fed to inverse dynamics).
 ///
 /// Design (the textbook construction, equal to scipy.signal.butter(N, fc, fs=fs)):

@@ -46,7 +46,7 @@ struct OneDofControllerModel {
 /// What one step computed (for logs and plots).
 struct OneDofDiagnostics {
   double velocity_radps = 0;
-  double torque_desired_Nm = 0;
+  double tau_desired_Nm = 0;
   AllocationInput allocation_input;  ///< what the allocation was given this step
   AllocationOutput allocation;
 };

@@ -28,8 +28,8 @@ inline constexpr int kMaxJoints = 8;
 /// What the sensors of one joint report, already converted to SI by the backend's channel map.
 struct JointSensors {
   double angle_rad = 0;              ///< joint encoder
-  double agonist_force_N = 0;        ///< load cell at the agonist's tip (muscle side of the cable)
-  double antagonist_force_N = 0;     ///< load cell at the antagonist's tip
+  double agonist_loadcell_N = 0;        ///< load cell at the agonist's tip (muscle side of the cable)
+  double antagonist_loadcell_N = 0;     ///< load cell at the antagonist's tip
   double agonist_pressure_Pa = 0;    ///< valve pressure sensor, gauge
   double antagonist_pressure_Pa = 0; ///< valve pressure sensor, gauge
 };

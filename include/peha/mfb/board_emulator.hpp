@@ -13,7 +13,7 @@
 /// Its own watchdog: no accepted command for `watchdog_s` -> the board disarms, releases the
 /// session and reports kStatusWatchdogTripped until a host acknowledges with an enable-clear
 /// command; an enable edge re-arms it (mfb::OutputArming). Whenever the outputs disarm (watchdog,
-/// e-stop, the host's disable) the safe state is reached the SPEC §6 way: motor torque cut at once,
+/// e-stop, the host's disable) the safe state is reached as docs/runtime.md describes: motor torque cut at once,
 /// valve setpoints ramped linearly to 0 Pa over `vent_s`, so the arm descends slowly, not drops.
 /// A new session puts the simulated exoskeleton back into its initial state.
 ///

@@ -90,8 +90,8 @@ struct DigitalLine {
 /// Every channel of one joint.
 struct JointChannels {
   // AD
-  AnalogChannel agonist_force;        ///< load cell, N
-  AnalogChannel antagonist_force;     ///< load cell, N
+  AnalogChannel agonist_loadcell;        ///< load cell, N
+  AnalogChannel antagonist_loadcell;     ///< load cell, N
   AnalogChannel agonist_pressure;     ///< pressure sensor, Pa (gauge)
   AnalogChannel antagonist_pressure;  ///< pressure sensor, Pa (gauge)
   AnalogChannel goniometer;           ///< optional, rad

@@ -2,7 +2,7 @@
 /// \file
 /// The right arm's parameters: the user's (or mannequin's) arm segments from body height and mass
 /// (anthropometric tables), the exoskeleton's links sized to that user, and the serial-chain
-/// `ArmModel` of both plus a payload (SPEC §1, §2.5). Conventions and sources: docs/right-arm.md.
+/// `ArmModel` of both plus a payload (docs/models.md). Conventions and sources: docs/right-arm.md.
 ///
 /// Kinematic convention (world x forward, y to the user's left, z up; the shoulder joint centre at
 /// (0, 0, shoulder_height_m)):
@@ -94,7 +94,7 @@ struct ExoLinkParams {
   Eigen::Matrix3d inertia_kgm2() const;      ///< about the COM, link frame
 };
 
-/// The exoskeleton arm from the shoulder joint to the tip (SPEC §1; paper §III: < 5 kg).
+/// The exoskeleton arm from the shoulder joint to the tip (docs/models.md; paper §III: < 5 kg).
 struct ExoArmParams {
   double shoulder_height_m = 1.40;           ///< world z of the R_SFE axis
   ExoLinkParams upper_link;                  ///< shoulder -> elbow, carries the elbow's motor/pulley

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// The controller's rigid-body model of the right arm (exoskeleton links + the user's or mannequin's
-/// arm segments + payload), for gravity compensation tau = J^T G (SPEC §2.5) and inverse dynamics.
+/// arm segments + payload), for gravity compensation tau = J^T G (docs/right-arm.md) and inverse dynamics.
 ///
 /// A serial chain of revolute joints. Joint i's frame is its parent's frame (the world for i = 0),
 /// translated by `offset_m` (in the parent frame at q = 0) and then rotated by q_i about `axis`

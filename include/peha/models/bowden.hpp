@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Bowden cable friction compensation (SPEC §2.3).
+/// Bowden cable friction compensation (docs/models.md).
 ///
 /// The capstan law gives a force ratio exp(mu * psi) between the two ends of a wire sliding over a
 /// total wrap angle psi. Its direction follows the wire's motion; a sigmoid of the wire velocity
@@ -28,8 +28,8 @@ double muscle_to_joint_ratio(const BowdenParams& p, double wire_velocity_mps) no
 double muscle_force_for_joint_N(const BowdenParams& p, double joint_force_N,
                                 double wire_velocity_mps) noexcept;
 
-/// Force reaching the pulley when the muscle-side load cell reads `loadcell_force_N`.
-double joint_force_from_loadcell_N(const BowdenParams& p, double loadcell_force_N,
+/// Force reaching the pulley when the muscle-side load cell reads `loadcell_N`.
+double joint_force_from_loadcell_N(const BowdenParams& p, double loadcell_N,
                                    double wire_velocity_mps) noexcept;
 
 }  // namespace peha::models

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// One PEHA joint as the controller models it: an antagonistic PAM pair pulling a pulley through
-/// Bowden cables, plus an optional geared motor (SPEC §1, paper eq. 1).
+/// Bowden cables, plus an optional geared motor (docs/models.md, paper eq. 1).
 ///
 /// Sign conventions: joint angle and torque are positive in the agonist's direction (the agonist
 /// lifts against gravity). When the angle grows the agonist shortens (its contraction grows) and its
@@ -15,10 +15,10 @@
 
 namespace peha::models {
 
-/// Safety ceiling of any PAM force: the 1.7 mm inner wire broke at 2250 N (SPEC §1), 11 % margin.
+/// Safety ceiling of any PAM force: the 1.7 mm inner wire broke at 2250 N (docs/models.md), 11 % margin.
 inline constexpr double kMaxPamForce_N = 2000.0;
 
-/// A learned correction of the inverse model's pressure (SPEC §2.2: p* = g^-1(F*) + f(eps, F*)).
+/// A learned correction of the inverse model's pressure (docs/spgp.md: p* = g^-1(F*) + f(eps, F*)).
 /// Implementations must be noexcept, allocation-free and O(small) per call: they run in the loop.
 class PressureResidual {
  public:

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The controller's PAM force model: the Tendon-spring model (SPEC §2.1, paper §IV-B).
+/// The controller's PAM force model: the Tendon-spring model (docs/models.md, paper §IV-B).
 ///
 ///     F = P * g(u),  g(u) = a*u^2 + b*u + c,  u = eps + eps0 + F/k
 ///

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Real-time set-up of the control thread and its periodic clock (SPEC: 1 kHz loop with absolute
+/// Real-time set-up of the control thread and its periodic clock (1 kHz loop with absolute
 /// deadlines; SCHED_FIFO, locked memory and a pinned CPU when permitted, a loud warning when not).
 ///
 /// `configure_realtime_thread` asks the kernel for each setting separately. A refusal is not an

@@ -3,7 +3,7 @@
 /// Live telemetry for PlotJuggler's "UDP Server" data source with the JSON protocol: one JSON object
 /// per datagram,
 ///
-///     {"timestamp":12.345000,"exo":{"angle_rad":0.25,"tau_motor_cmd_Nm":-1.5,"p_agonist_MPa":null}}
+///     {"timestamp":12.345000,"exo":{"angle_rad":0.25,"tau_motor_cmd_Nm":-1.5,"agonist_pressure_MPa":null}}
 ///
 /// PlotJuggler names the series "/exo/angle_rad" etc. and, with "use field as timestamp" ticked,
 /// plots them against "timestamp" (seconds since the loop started); otherwise against arrival time.

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The simulated one-DOF PEHA test rig (SPEC §1, §4, experiment E1): a MuJoCo hinge with link and
+/// The simulated one-DOF PEHA test rig (docs/simulator.md, experiment E1): a MuJoCo hinge with link and
 /// payload; an agonist DMSP-40 and an antagonist DMSP-10 whose static laws are fitted to the real
 /// Festo maps (`plant_muscle.hpp`) with hysteresis; servo valves; Bowden cables with capstan friction,
 /// stiction, an elastic inner wire, initial slack and creep; a 35:1 geared motor; noisy, quantised

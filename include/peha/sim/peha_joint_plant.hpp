@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// One simulated PEHA joint, as the plant has it (SPEC §4): an agonist and an antagonist muscle
+/// One simulated PEHA joint, as the plant has it (docs/simulator.md): an agonist and an antagonist muscle
 /// (fitted static law with hysteresis), each behind its servo valve and its Bowden cable (elastic
 /// inner wire with slack and creep, capstan friction with stiction), plus an optional geared motor.
 /// It turns a command and the joint's angle/velocity into a joint torque and a friction bound for

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The simulated plant's muscle force law (SPEC §4): a static force map F(P, u) of a Festo DMSP
+/// The simulated plant's muscle force law (docs/simulator.md): a static force map F(P, u) of a Festo DMSP
 /// fluidic muscle fitted to the real datasheet maps, plus a rate-dependent hysteresis factor.
 /// This is the truth the controller never sees; it is deliberately richer than the controller's
 /// Tendon-spring model F = P*g(u) (models/tendon_spring.hpp). See docs/plant-muscle.md.

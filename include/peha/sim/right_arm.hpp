@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The simulated right-arm exoskeleton (SPEC §1, §4): MuJoCo's rigid bodies of the exoskeleton,
+/// The simulated right-arm exoskeleton (docs/models.md): MuJoCo's rigid bodies of the exoskeleton,
 /// the strapped-on user/mannequin arm and the payload (generated from a models::ArmModel), one
 /// sim::PehaJointPlant per actuated joint (R_SFE and R_EFE with motors, R_WFE with its DMSP-10 pair
 /// only), joint encoders, and the operator's hands: a joint-space impedance that moves the arm to a

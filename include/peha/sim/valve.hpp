@@ -1,7 +1,7 @@
 #pragma once
 /// \file
 /// Pressure servo valve of the simulated plant: dead time, then a rate limit, then a first-order lag,
-/// all bounded by the supply (SPEC §4).
+/// all bounded by the supply (docs/simulator.md).
 
 #include "peha/config/reader.hpp"
 

@@ -75,7 +75,7 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
       data.pressure_Pa.push_back(side > 0 ? s.agonist_pressure_Pa : s.antagonist_pressure_Pa);
       data.angle_rad.push_back(s.angle_rad);
       data.contraction.push_back(models::rigid_contraction(muscle, joint.pulley_radius_m, side, s.angle_rad));
-      data.force_N.push_back(side > 0 ? s.agonist_force_N : s.antagonist_force_N);
+      data.force_N.push_back(side > 0 ? s.agonist_loadcell_N : s.antagonist_loadcell_N);
       data.wire_velocity_mps.push_back(models::wire_velocity_mps(joint.pulley_radius_m, side, omega));
     }
     const double excited = triangle_pressure_Pa(excitation, k * period_s);

@@ -1,4 +1,5 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/common/scenario_header.hpp"
 
 #include "peha/models/model_config.hpp"
 #include "peha/safety/limited_backend.hpp"
@@ -49,9 +50,9 @@ sim::FingerParams read_finger(config::Map map, double duration_s) {
 E1Scenario read_e1(const config::Document& doc) {
   config::Map root = doc.root();
   E1Scenario s;
-  root.choice("experiment", {"gravity_compensation_1dof"});
-  s.description = root.string("description");
-  s.seed = static_cast<std::uint64_t>(root.integer("seed", 0, 1L << 40));
+  const ScenarioHeader header = read_scenario_header(root, "gravity_compensation_1dof");
+  s.description = header.description;
+  s.seed = header.seed;
 
   config::Map run = root.map("run");
   s.period_s = run.number("control_period_s", {1e-4, 0.1});
@@ -114,10 +115,10 @@ const std::vector<std::string>& e1_log_columns() {
   static const std::vector<std::string> columns = {
       "t_s", "angle_rad", "velocity_radps", "finger_force_N", "finger_active",
       "tau_desired_Nm", "tau_pam_cmd_Nm", "tau_pam_measured_Nm", "tau_motor_cmd_Nm",
-      "f_agonist_cmd_N", "f_antagonist_cmd_N", "f_agonist_loadcell_N", "f_antagonist_loadcell_N",
-      "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "p_agonist_meas_MPa", "p_antagonist_meas_MPa",
-      "plant_angle_rad", "plant_tension_agonist_N", "plant_tension_antagonist_N",
-      "plant_force_agonist_N", "plant_force_antagonist_N", "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags"};
+      "agonist_force_cmd_N", "antagonist_force_cmd_N", "agonist_loadcell_N", "antagonist_loadcell_N",
+      "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_pressure_MPa", "antagonist_pressure_MPa",
+      "plant_angle_rad", "plant_agonist_tension_N", "plant_antagonist_tension_N",
+      "plant_agonist_force_N", "plant_antagonist_force_N", "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags"};
   return columns;
 }
 
@@ -186,14 +187,14 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     } else {
       angle_truth[k] = s.angle_rad;
       finger_force[k] = nan;
-      j = {{s.agonist_force_N, s.antagonist_force_N}, std::min(s.agonist_force_N, s.antagonist_force_N),
+      j = {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),
            {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, cmd.motor_torque_Nm, s.angle_rad};
     }
     envelope.observe(0, j);
     if (state.time_s >= 1.0) {  // after the start-up transient
       const auto& a = controller.diagnostics().allocation;
-      const double e1 = a.agonist_force_N - s.agonist_force_N;
-      const double e2 = a.antagonist_force_N - s.antagonist_force_N;
+      const double e1 = a.agonist_force_cmd_N - s.agonist_loadcell_N;
+      const double e2 = a.antagonist_force_cmd_N - s.antagonist_loadcell_N;
       tracking_sum[0] += e1 * e1;
       tracking_sum[1] += e2 * e2;
       ++tracking_count;
@@ -202,8 +203,8 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     if (log) {
       const auto& d = controller.diagnostics();
       row = {state.time_s, s.angle_rad, d.velocity_radps, t ? t->finger_force_N : nan, finger_on[k] ? 1.0 : 0.0,
-             d.torque_desired_Nm, d.allocation.torque_pam_Nm, d.allocation.torque_pam_measured_Nm, cmd.motor_torque_Nm,
-             d.allocation.agonist_force_N, d.allocation.antagonist_force_N, s.agonist_force_N, s.antagonist_force_N,
+             d.tau_desired_Nm, d.allocation.tau_pam_cmd_Nm, d.allocation.tau_pam_measured_Nm, cmd.motor_torque_Nm,
+             d.allocation.agonist_force_cmd_N, d.allocation.antagonist_force_cmd_N, s.agonist_loadcell_N, s.antagonist_loadcell_N,
              cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
              s.antagonist_pressure_Pa * 1e-6, t ? t->angle_rad : nan, t ? t->pulley_tension_min_N[0] : nan,
              t ? t->pulley_tension_min_N[1] : nan, t ? t->muscle_force_N[0] : nan, t ? t->muscle_force_N[1] : nan,

@@ -23,8 +23,8 @@ const std::vector<std::string>& arm_log_columns() {
     std::vector<std::string> c = {"t_s", "operator_active"};
     for (const char* j : {"sfe", "efe", "wfe"}) {
       for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
-                            "operator_torque_Nm", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "f_agonist_loadcell_N",
-                            "f_antagonist_loadcell_N", "plant_force_agonist_N", "plant_force_antagonist_N"}) {
+                            "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
+                            "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N"}) {
         c.push_back(fmt::format("{}_{}", j, f));
       }
     }
@@ -107,10 +107,10 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       const auto& diag = controller.diagnostics();
       for (std::size_t a = 0; a < 3; ++a) {
         const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
-        const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].torque_desired_Nm,
+        const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].tau_desired_Nm,
                                  sent.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
                                  sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
-                                 state.joints[a].agonist_force_N, state.joints[a].antagonist_force_N, j ? j->muscle_force_N[0] : nan,
+                                 state.joints[a].agonist_loadcell_N, state.joints[a].antagonist_loadcell_N, j ? j->muscle_force_N[0] : nan,
                                  j ? j->muscle_force_N[1] : nan};
         for (double v : values) row[col++] = v;
       }

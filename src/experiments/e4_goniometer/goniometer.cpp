@@ -182,8 +182,8 @@ const std::vector<std::string>& goniometer_log_columns() {
   static const std::vector<std::string> columns = {
       "t_s", "operator_active", "person_elbow_deg", "goniometer_deg", "filtered_elbow_deg", "filtered_rate_degps",
       "filtered_accel_degps2", "tau_elbow_cmd_Nm", "plant_elbow_deg", "elbow_encoder_deg", "plant_sfe_deg",
-      "tau_sfe_gravity_Nm", "tau_motor_cmd_Nm", "p_agonist_cmd_MPa", "p_antagonist_cmd_MPa", "f_agonist_loadcell_N",
-      "f_antagonist_loadcell_N", "plant_force_agonist_N", "plant_force_antagonist_N", "plant_tension_min_N"};
+      "tau_sfe_gravity_Nm", "tau_motor_cmd_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
+      "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_tension_min_N"};
   return columns;
 }
 
@@ -304,7 +304,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       row = {t, operator_active ? 1.0 : 0.0, truth[k] / kDeg, goniometer / kDeg, d.value / kDeg, d.rate / kDeg,
              d.acceleration / kDeg, tau_cmd, tr ? exo[k] / kDeg : nan, s.angle_rad / kDeg, sfe[k] / kDeg,
              diag[0].torque_gravity_Nm, c.motor_torque_Nm, c.agonist_pressure_Pa * 1e-6,
-             c.antagonist_pressure_Pa * 1e-6, s.agonist_force_N, s.antagonist_force_N,
+             c.antagonist_pressure_Pa * 1e-6, s.agonist_loadcell_N, s.antagonist_loadcell_N,
              tr ? tr->actuators[kElbow].muscle_force_N[0] : nan, tr ? tr->actuators[kElbow].muscle_force_N[1] : nan, tension_min};
       log->push_row(row);
     }

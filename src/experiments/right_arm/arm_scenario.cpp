@@ -1,4 +1,5 @@
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/common/scenario_header.hpp"
 
 #include "peha/models/anthropometry.hpp"
 #include "peha/control/butterworth.hpp"
@@ -20,26 +21,13 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr const char* kJointKeys[3] = {"shoulder", "elbow", "wrist"};
 constexpr const char* kJointNames[3] = {"R_SFE", "R_EFE", "R_WFE"};
 
-}  // namespace
+/// Pressure and rate limits of the `limits:` section (shared by every actuated joint).
+struct ArmLimits {
+  double supply_Pa = 0, rate_Pa_per_s = 0, motor_rate_Nm_per_s = 0;
+};
 
-ArmScenario read_arm_scenario(const config::Document& doc) {
-  config::Map root = doc.root();
-  ArmScenario s;
-  root.choice("experiment", {"right_arm"});
-  s.description = root.string("description");
-  s.seed = static_cast<std::uint64_t>(root.integer("seed", 0, 1L << 40));
-  const models::RightArmConfig body = models::read_right_arm(config::Document::load_file(root.path_value("body")));
-
-  config::Map run = root.map("run");
-  s.period_s = run.number("control_period_s", {1e-4, 0.1});
-  run.finish();
-  config::Map limits = root.map("limits");
-  const double supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
-  const double rate_Pa = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
-  const double motor_rate = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
-  limits.finish();
-
-  config::Map ctl = root.map("controller");
+/// `controller:`: the nominal arm, the allocation, and per actuated joint its model and limits.
+void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, const ArmLimits& l, ArmScenario& s) {
   s.controller.arm = body.controller.model();
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
   double pretension_N = 0;
@@ -55,20 +43,22 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
     const double hi = j.number("max_angle_deg", {lo / kDeg, 180.0}) * kDeg;
     if (i == 2) {
       joint.mode = control::ArmJointMode::kHoldPressure;
-      joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, supply_Pa * 1e-6}) * 1e6;
+      joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, l.supply_Pa * 1e-6}) * 1e6;
     }
-    joint.actuator = models::read_joint_model(j, kJointNames[i], supply_Pa, pretension_N);
+    joint.actuator = models::read_joint_model(j, kJointNames[i], l.supply_Pa, pretension_N);
     j.finish();
     safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(i)];
-    lim.pressure_rate_Pa_per_s = rate_Pa;
-    lim.motor_rate_Nm_per_s = motor_rate;
+    lim.pressure_rate_Pa_per_s = l.rate_Pa_per_s;
+    lim.motor_rate_Nm_per_s = l.motor_rate_Nm_per_s;
     lim.min_angle_rad = lo;
     lim.max_angle_rad = hi;
     s.controller.joints.push_back(joint);
   }
   ctl.finish();
+}
 
-  config::Map plant = root.map("plant");
+/// `plant:` and `operator:`: the simulated arm, its actuators and the operator's hands.
+void read_arm_plant(config::Map plant, config::Map op, const models::RightArmConfig& body, const ArmLimits& l, ArmScenario& s) {
   sim::RightArmPlantParams& p = s.plant;
   p.model = body.plant.model();
   p.mjcf = sim::right_arm_mjcf_options();
@@ -85,19 +75,20 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   for (int i = 0; i < 3; ++i) {
     config::Map j = plant.map(kJointKeys[i]);
     p.actuated.emplace_back(kJointNames[i]);
-    p.actuators.push_back(sim::read_peha_joint_plant(j, supply_Pa, /*has_motor=*/i < 2));
+    p.actuators.push_back(sim::read_peha_joint_plant(j, l.supply_Pa, /*has_motor=*/i < 2));
     j.finish();
   }
   plant.finish();
   p.seed = s.seed;
 
-  config::Map op = root.map("operator");
   p.operator_hands.stiffness_Nm_per_rad = op.number("stiffness_Nm_per_rad", {0.0, 1e4});
   p.operator_hands.damping_Nms_per_rad = op.number("damping_Nms_per_rad", {0.0, 1e3});
   p.operator_hands.max_torque_Nm = op.number("max_torque_Nm", {0.0, 200.0});
   op.finish();
+}
 
-  config::Map postures = root.map("postures");
+/// `postures:` (E3): the script, each posture within the joint range.
+void read_postures(config::Map postures, ArmScenario& s) {
   s.move_s = postures.number("move_s", {0.1, 60.0});
   s.hold_s = postures.number("hold_s", {0.0, 60.0});
   s.observe_s = postures.number("observe_s", {0.1, 600.0});
@@ -110,7 +101,10 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
     s.postures.push_back(a);
   }
   postures.finish();
-  config::Map bw = root.map("bandwidth");
+}
+
+/// `bandwidth:` (E6): the locked posture and the sweep.
+void read_bandwidth(config::Map bw, ArmScenario& s) {
   const std::string joint = bw.choice("joint", {"shoulder", "elbow"});
   s.bandwidth.joint = joint == "shoulder" ? 0 : 1;
   s.bandwidth.sfe_rad = bw.number("sfe_deg", {-100.0, 60.0}) * kDeg;
@@ -120,8 +114,10 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   s.bandwidth.min_cycles = bw.number("min_cycles", {2.0, 1000.0});
   s.bandwidth.min_duration_s = bw.number("min_duration_s", {0.1, 600.0});
   bw.finish();
-  if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
-  config::Map gon = root.map("goniometer");
+}
+
+/// `goniometer:` (E4): the sensor, its filter, the feedback and the movements.
+void read_goniometer(config::Map gon, ArmScenario& s) {
   ArmScenario::Goniometer& g = s.goniometer;
   const double elbow_lo = s.limits.joints[1].min_angle_rad / kDeg, elbow_hi = s.limits.joints[1].max_angle_rad / kDeg;
   g.sfe_rad = gon.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
@@ -155,6 +151,35 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
     g.movements.push_back(m);
   }
   gon.finish();
+}
+
+}  // namespace
+
+ArmScenario read_arm_scenario(const config::Document& doc) {
+  config::Map root = doc.root();
+  ArmScenario s;
+  const ScenarioHeader header = read_scenario_header(root, "right_arm");
+  s.description = header.description;
+  s.seed = header.seed;
+  const models::RightArmConfig body = models::read_right_arm(config::Document::load_file(root.path_value("body")));
+
+  config::Map run = root.map("run");
+  s.period_s = run.number("control_period_s", {1e-4, 0.1});
+  run.finish();
+  config::Map limits = root.map("limits");
+  ArmLimits l;
+  l.supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
+  l.rate_Pa_per_s = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
+  l.motor_rate_Nm_per_s = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
+  limits.finish();
+
+  read_arm_controller(root.map("controller"), body, l, s);
+  config::Map plant = root.map("plant");
+  read_arm_plant(plant, root.map("operator"), body, l, s);
+  read_postures(root.map("postures"), s);
+  read_bandwidth(root.map("bandwidth"), s);
+  if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
+  read_goniometer(root.map("goniometer"), s);
   root.finish();
   return s;
 }
@@ -170,7 +195,7 @@ safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Com
          {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm, truth->q_rad[joint]};
   } else {
     const io::JointSensors& s = state.joints[joint];
-    j = {{s.agonist_force_N, s.antagonist_force_N}, std::min(s.agonist_force_N, s.antagonist_force_N),
+    j = {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),
          {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, sent.joints[joint].motor_torque_Nm, s.angle_rad};
   }
   return j;

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Calibration excitation (SPEC §3.1, paper Fig. 8): a triangle wave of pressure on one muscle while
+/// Calibration excitation (docs/calibration.md, paper Fig. 8): a triangle wave of pressure on one muscle while
 /// the other holds a constant pressure and the joint moves; the load cell, the valve's pressure and
 /// the joint angle are logged at 250 Hz. It drives any `io::Backend` (the simulated rig by default,
 /// the I/O board later) through the limits layer like every other command.

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Experiment E1 (SPEC §7, paper Fig. 9): gravity compensation of the one-DOF PEHA rig with each
+/// Experiment E1 (docs/e1-gravity-compensation.md, paper Fig. 9): gravity compensation of the one-DOF PEHA rig with each
 /// payload of the scenario. The operator holds the link while compensation starts, then pushes it up
 /// and down with a finger and lets go; with feed-forward compensation only (no position feedback) it
 /// should stay where it was left. The scenario is entirely configuration (configs/e1_one_dof.yaml).

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// E1 on the multifunction board over UDP, in real time (SPEC §5): the same controller, limits
+/// E1 on the multifunction board over UDP, in real time (docs/runtime.md): the same controller, limits
 /// and analysis as the in-process run (`run_e1_on`), inside a RealtimeHarness (1 kHz absolute
 /// deadlines, real-time thread, lifecycle with fault and recovery, writer-thread log with fault
 /// dumps, telemetry, timing statistics).

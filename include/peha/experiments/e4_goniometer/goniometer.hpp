@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// Experiment E4 (SPEC §7, paper Section V): the exoskeleton's elbow follows a person's elbow.
+/// Experiment E4 (docs/right-arm.md, paper Section V): the exoskeleton's elbow follows a person's elbow.
 /// A goniometer on the person's elbow is sampled at 200 Hz (noise and quantisation included); its
 /// reading is low-passed by a Butterworth filter and differentiated (control::FilteredDerivative),
 /// and the inverse dynamics of the forearm + hand (the controller's own nominal arm model) turn
