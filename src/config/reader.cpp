@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
+#include <charconv>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -89,17 +91,42 @@ YAML::Node Map::required(std::string_view key) {
   return value;
 }
 
+namespace {
+
+/// A plain decimal number and nothing else: [+-]digits[.digits][(e|E)[+-]digits]. No hex (0x10),
+/// no inf/nan, no surrounding spaces, no digit separators, and nothing that overflows a double.
+bool parse_decimal(const std::string& text, double& out) noexcept {
+  std::size_t i = 0;
+  const std::size_t n = text.size();
+  if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+  std::size_t digits = 0;
+  while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+  if (i < n && text[i] == '.') {
+    ++i;
+    while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+  }
+  if (digits == 0) return false;
+  if (i < n && (text[i] == 'e' || text[i] == 'E')) {
+    ++i;
+    if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
+    std::size_t exponent = 0;
+    while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++exponent;
+    if (exponent == 0) return false;
+  }
+  if (i != n) return false;
+  const char* first = text.data() + (text[0] == '+' ? 1 : 0);
+  const auto [end, ec] = std::from_chars(first, text.data() + n, out, std::chars_format::general);
+  return ec == std::errc() && end == text.data() + n && std::isfinite(out);
+}
+
+}  // namespace
+
 double Map::to_number(const YAML::Node& value, std::string_view key, Range range) const {
   const std::string expected = fmt::format("expected a number in [{}, {}]", range.min, range.max);
   if (!value.IsScalar()) fail_at(value, key, fmt::format("{}, found {}", expected, describe(value)));
   double x = 0.0;
-  try {
-    std::size_t used = 0;
-    const std::string& s = value.Scalar();
-    x = std::stod(s, &used);
-    if (used != s.size()) throw std::invalid_argument(s);
-  } catch (const std::exception&) {
-    fail_at(value, key, fmt::format("{}, found {}", expected, describe(value)));
+  if (!parse_decimal(value.Scalar(), x)) {
+    fail_at(value, key, fmt::format("{} (decimal, e.g. 0.25 or 2.5e-3), found {}", expected, describe(value)));
   }
   if (!std::isfinite(x) || x < range.min || x > range.max) {
     fail_at(value, key, fmt::format("{}, found {}", expected, value.Scalar()));

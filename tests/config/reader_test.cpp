@@ -57,7 +57,7 @@ TEST(Config, RejectsMissingKey) {
 
 TEST(Config, RejectsWrongType) {
   EXPECT_THAT(e1_error_after("duration_s: 24.0", "duration_s: long"),
-              HasSubstr("run.duration_s: expected a number in [0.1, 3600], found 'long'"));
+              HasSubstr("run.duration_s: expected a number in [0.1, 3600] (decimal, e.g. 0.25 or 2.5e-3), found 'long'"));
   EXPECT_THAT(e1_error_after("use_motor: true", "use_motor: 1"),
               HasSubstr("controller.allocation.use_motor: expected true or false, found '1'"));
   EXPECT_THAT(e1_error_after("  pushes:\n", "  pushes: 3\n  unused:\n"), HasSubstr("finger.pushes: expected a list"));
@@ -123,6 +123,33 @@ TEST(Config, StrictReaderAcceptsOnlyWhatItReads) {
   EXPECT_NO_THROW(root.finish());
   EXPECT_THROW(root.number("gain", {3, 10}), Error);
   EXPECT_THROW(root.integer("gain", 0, 10), Error);
+}
+
+TEST(Config, NumbersAreDecimalOnly) {
+  const auto read = [](const std::string& text) {
+    Document doc = Document::load_string("x: " + text + "\n", "n.yaml");
+    Map root = doc.root();
+    return root.number("x", {-1e9, 1e9});
+  };
+  EXPECT_EQ(read("2.5"), 2.5);
+  EXPECT_EQ(read("+2"), 2.0);
+  EXPECT_EQ(read("-0.5e-3"), -0.5e-3);
+  EXPECT_EQ(read(".5"), 0.5);
+  EXPECT_EQ(read("5."), 5.0);
+  EXPECT_EQ(read("1E3"), 1000.0);
+  for (const char* bad : {"0x10", "0X1p4", "nan", ".nan", "inf", "-.inf", "1e400", "1_000", "1,5", "1e", "e3", ".",
+                          "+", "2.5.1", "'2 '", "1 2", "0b101", "12abc"}) {
+    EXPECT_THROW(read(bad), Error) << bad;
+  }
+  try {
+    read("0x10");
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("n.yaml:1:4: x: expected a number in [-1000000000, 1000000000] (decimal"));
+  }
+  Document doc = Document::load_string("n: -1\nm: 0x10\n", "i.yaml");
+  Map root = doc.root();
+  EXPECT_THROW(root.integer("n", 0, 100), Error);  // no negative where the range is unsigned
+  EXPECT_THROW(root.integer("m", 0, 100), Error);  // 0x10 is not 16
 }
 
 }  // namespace
