@@ -1,11 +1,15 @@
 #include "peha/calibration/calibration_file.hpp"
 
+#include "peha/calibration/dataset.hpp"
 #include "peha/config/reader.hpp"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
+#include <numbers>
 #include <limits>
 #include <stdexcept>
 
@@ -178,9 +182,75 @@ MuscleCalibration read_calibration(const std::filesystem::path& path) {
   return c;
 }
 
-void apply_calibration(const MuscleCalibration& c, bool with_spgp, models::MuscleModel& m) {
+void check_calibration(const MuscleCalibration& c, const std::filesystem::path& path, bool with_spgp,
+                       const models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad,
+                       const CalibrationCheckLimits& limits) {
+  const models::MuscleModel& nominal = side == 0 ? joint.agonist : joint.antagonist;
+  const std::string who = fmt::format("{}: calibration for muscle '{}' of joint {}", path.string(), nominal.name, joint.name);
+  const auto reject = [&](const std::string& why) { throw CalibrationRejected(who + " refused: " + why); };
+  if (c.muscle != nominal.name) {
+    reject(fmt::format("the file is the calibration of '{}' (swapped files?); give each muscle its own file", c.muscle));
+  }
+  if (!c.data_file.empty()) {
+    std::filesystem::path data = c.data_file;
+    if (data.is_relative() && !std::filesystem::exists(data)) data = path.parent_path() / data;
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(data, ec)) {
+      const std::string actual = sha256_file(data);
+      if (actual != c.data_sha256) {
+        reject(fmt::format("its data {} has SHA-256 {}, but the calibration was fitted to data with {}: the data "
+                           "changed after calibrating; calibrate again", data.string(), actual, c.data_sha256));
+      }
+    }
+  }
+  const models::TendonSpringParams& p = c.params;
+  for (double v : {p.a_N_per_Pa, p.b_N_per_Pa, p.c_N_per_Pa, p.k_N, p.eps0}) {
+    if (!std::isfinite(v)) reject("a Tendon-spring parameter is not finite");
+  }
+  if (!(p.k_N > 0.0)) reject(fmt::format("wire stiffness k = {} N must be > 0", p.k_N));
+
+  models::MuscleModel calibrated = nominal;
+  calibrated.pam = c.params;
+  calibrated.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
+  const double ceiling_N = models::force_ceiling_N(nominal);
+  const int n = std::max(limits.grid, 2);
+  for (int i = 0; i < n; ++i) {
+    const double angle = min_angle_rad + (max_angle_rad - min_angle_rad) * i / (n - 1);
+    const double eps = models::rigid_contraction(nominal, joint.pulley_radius_m, side == 0 ? +1 : -1, angle);
+    for (int j = 0; j < n; ++j) {
+      const double force_N = ceiling_N * j / (n - 1);
+      const double u = eps + p.eps0 + force_N / p.k_N;
+      const double g = models::gain_N_per_Pa(p, u);
+      const std::string at = fmt::format("at joint angle {:.1f} deg (contraction {:.4f}) and {:.0f} N", angle * 180.0 / std::numbers::pi, eps, force_N);
+      if (!std::isfinite(g) || g <= p.min_gain_N_per_Pa) {
+        reject(fmt::format("g(u) = {:.4g} N/Pa <= 0 {}: the model says the muscle cannot pull there, and the "
+                           "controller would command full supply", g, at));
+      }
+      if (calibrated.residual) {
+        const double r = calibrated.residual->pressure_Pa(eps, force_N);
+        if (!std::isfinite(r) || std::abs(r) > limits.max_residual_of_supply * joint.supply_pressure_Pa) {
+          reject(fmt::format("the SPGP residual is {:.4g} MPa {} (limit +-{:.3g} MPa)", r * 1e-6, at, limits.max_residual_of_supply * joint.supply_pressure_Pa * 1e-6));
+        }
+      }
+      const auto cmd = models::muscle_pressure(calibrated, force_N, eps, joint.supply_pressure_Pa);
+      const double nominal_N = models::forward_force_N(nominal.pam, cmd.pressure_Pa, eps);
+      if (!std::isfinite(cmd.pressure_Pa) || !std::isfinite(nominal_N)) reject("a model output is not finite " + at);
+      const double allowed_N = limits.nominal_force_ratio * force_N + limits.nominal_force_margin_N;
+      if (nominal_N > allowed_N) {
+        reject(fmt::format("for {:.0f} N it commands {:.3f} MPa, at which the configured model of this muscle "
+                           "predicts {:.0f} N, more than {:.1f} x the request + {:.0f} N ({}): is this the calibration of a "
+                           "weaker muscle?", force_N, cmd.pressure_Pa * 1e-6, nominal_N, limits.nominal_force_ratio, limits.nominal_force_margin_N, at));
+      }
+    }
+  }
+}
+
+void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& path, bool with_spgp,
+                       models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad) {
+  check_calibration(c, path, with_spgp, joint, side, min_angle_rad, max_angle_rad);
+  models::MuscleModel& m = side == 0 ? joint.agonist : joint.antagonist;
   m.pam = c.params;
-  m.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp) : nullptr;
+  m.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
 }
 
 }  // namespace peha::calibration

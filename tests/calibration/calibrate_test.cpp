@@ -87,10 +87,13 @@ TEST(CalibrationFile, RoundTripPreservesPredictions) {
     }
   }
   EXPECT_EQ(back.stats.rows_heldout, out.calibration.stats.rows_heldout);
-  // The controller's residual is the SPGP's mean.
-  const SpgpResidual residual(back.spgp);
-  const double x[2] = {0.1, 500.0};
-  EXPECT_EQ(residual.pressure_Pa(0.1, 500.0), back.spgp->predict_mean(x));
+  // The controller's residual is the SPGP's mean inside the data's box, and the mean at the box's
+  // nearest edge outside it (no extrapolation).
+  const SpgpResidual residual(back.spgp, back.contraction, back.force_N);
+  const double inside[2] = {0.5 * (back.contraction.min + back.contraction.max), 0.5 * (back.force_N.min + back.force_N.max)};
+  EXPECT_EQ(residual.pressure_Pa(inside[0], inside[1]), back.spgp->predict_mean(inside));
+  const double edge[2] = {back.contraction.max, back.force_N.min};
+  EXPECT_EQ(residual.pressure_Pa(back.contraction.max + 0.05, back.force_N.min - 100.0), back.spgp->predict_mean(edge));
   std::filesystem::remove(path);
 }
 

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// One muscle's calibration file (SPEC §3.4): the Tendon-spring parameters, the SPGP residual
+/// One muscle's calibration file (docs/calibration.md): the Tendon-spring parameters, the SPGP residual
 /// (pseudo-inputs, hyperparameters, alpha, the variance matrix, its scaling), the input ranges the
 /// data covered, fit statistics and the data file's hash. YAML, written at full precision and read
 /// back through the strict config reader (unknown keys, wrong shapes and out-of-range values are
@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 #include <string>
 
 namespace peha::calibration {
@@ -49,22 +50,64 @@ void write_calibration(const std::filesystem::path& path, const MuscleCalibratio
 /// Reads a calibration file; throws config::Error naming file, line, key.
 MuscleCalibration read_calibration(const std::filesystem::path& path);
 
-/// Puts calibration `c` into muscle `m` of a joint set-up: its Tendon-spring parameters, and its
-/// SPGP as the pressure residual when `with_spgp` (else no residual). The one place a calibration
-/// enters a joint model; controller and limits then both read the same muscle.
-void apply_calibration(const MuscleCalibration& c, bool with_spgp, models::MuscleModel& m);
+/// Tolerances of the checks a calibration passes before it is used.
+struct CalibrationCheckLimits {
+  /// The configured (nominal) model of the muscle, driven at the pressure the calibrated model
+  /// commands for a force F up to the ceiling, may not predict more than ratio x F + margin.
+  /// A calibration corrects the nominal model by tens of percent; a weaker muscle's calibration on
+  /// a stronger muscle (the hazard: 2849 N for a 630 N request) is off by a factor of 3 or more.
+  double nominal_force_ratio = 2.0;
+  double nominal_force_margin_N = 300.0;  ///< models differ most at low force (slack, eps0)
+  /// |SPGP residual| anywhere in the operating range, as a fraction of the supply pressure: a
+  /// residual this large means the parametric model is not this muscle's.
+  double max_residual_of_supply = 0.5;
+  int grid = 41;                    ///< points per axis of the operating-range grid
+};
 
-/// The SPGP as the controller's pressure residual: pressure_Pa(eps, F) = spgp.predict_mean({eps, F}).
+/// Why a calibration was refused: file, muscle, and the first failed check with its values.
+class CalibrationRejected : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+/// Checks calibration `c` (read from `path`) before it replaces muscle `side` (0 agonist, 1
+/// antagonist) of `joint`, over the operating range: joint angles [min_angle_rad, max_angle_rad]
+/// and forces [0, the muscle's ceiling]. Refuses (throws CalibrationRejected) when
+///  - the file's muscle is not this muscle (swapped files);
+///  - the data file is present and its SHA-256 differs from the one recorded;
+///  - any parameter, g(u) or a model output is not finite, or g(u) <= 0 where the controller works
+///    (the inverse would command full supply);
+///  - the configured model of this muscle, at the pressure the calibration commands, predicts more
+///    than nominal_force_ratio x the requested force (a calibration of a weaker muscle on a stronger one);
+///  - the SPGP residual exceeds max_residual_of_supply x supply or is not finite (with_spgp only).
+void check_calibration(const MuscleCalibration& c, const std::filesystem::path& path, bool with_spgp,
+                       const models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad,
+                       const CalibrationCheckLimits& limits = {});
+
+/// Puts calibration `c` (read from `path`) into muscle `side` of `joint` after check_calibration:
+/// its Tendon-spring parameters, and its SPGP as the pressure residual when `with_spgp` (else no
+/// residual). The one place a calibration enters a joint model; controller and limits then both
+/// read the same muscle. Throws CalibrationRejected and leaves `joint` unchanged when a check fails.
+void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& path, bool with_spgp,
+                       models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad);
+
+/// The SPGP as the controller's pressure residual: pressure_Pa(eps, F) = spgp.predict_mean({eps, F})
+/// with (eps, F) clamped to the box the calibration data covered. A GP extrapolates freely (the
+/// antagonist's residual reached -0.45 MPa at a contraction 0.01 beyond its data); clamped, the
+/// residual outside the data is the one at the nearest edge of what was measured.
 class SpgpResidual final : public models::PressureResidual {
  public:
-  explicit SpgpResidual(std::shared_ptr<const Spgp> spgp) : spgp_(std::move(spgp)) {}
+  SpgpResidual(std::shared_ptr<const Spgp> spgp, Span contraction, Span force_N)
+      : spgp_(std::move(spgp)), contraction_(contraction), force_N_(force_N) {}
   double pressure_Pa(double eps, double force_N) const noexcept override {
-    const double x[2] = {eps, force_N};
+    const double x[2] = {clamp(eps, contraction_), clamp(force_N, force_N_)};
     return spgp_->predict_mean(x);
   }
 
  private:
+  static double clamp(double v, const Span& s) noexcept { return v < s.min ? s.min : (v > s.max ? s.max : v); }
   std::shared_ptr<const Spgp> spgp_;
+  Span contraction_, force_N_;
 };
 
 }  // namespace peha::calibration

@@ -26,8 +26,9 @@ std::vector<E1Variant> e1_variants(const E1Scenario& scenario, const std::filesy
     for (int i = 0; i < 2; ++i) {
       if (calibration[i].empty()) continue;
       const calibration::MuscleCalibration c = calibration::read_calibration(calibration[i]);
-      calibration::apply_calibration(c, false, i == 0 ? parametric.controller.joint.agonist : parametric.controller.joint.antagonist);
-      calibration::apply_calibration(c, true, i == 0 ? with_spgp.controller.joint.agonist : with_spgp.controller.joint.antagonist);
+      const safety::JointLimits& range = scenario.limits.joints[0];
+      calibration::apply_calibration(c, calibration[i], false, parametric.controller.joint, i, range.min_angle_rad, range.max_angle_rad);
+      calibration::apply_calibration(c, calibration[i], true, with_spgp.controller.joint, i, range.min_angle_rad, range.max_angle_rad);
       any_spgp = any_spgp || c.spgp;
       fmt::print("  {} calibration: {} (held-out pressure RMS {:.1f} kPa parametric, {:.1f} kPa with SPGP)\n",
                  i == 0 ? "agonist" : "antagonist", calibration[i].string(),

@@ -1,0 +1,93 @@
+// A calibration is checked before it enters a joint: the muscle's name, the data's hash, g(u) > 0 over
+// the operating range, and agreement with the configured model within a factor (swapped files).
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/calibration/dataset.hpp"
+#include "peha/config/reader.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+namespace peha::calibration {
+namespace {
+
+using ::testing::HasSubstr;
+
+struct Rig {
+  experiments::E1Scenario scenario =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  models::JointModel& joint() { return scenario.controller.joint; }
+  double lo() const { return scenario.limits.joints[0].min_angle_rad; }
+  double hi() const { return scenario.limits.joints[0].max_angle_rad; }
+};
+
+/// The configured model of a muscle, written as if it had been calibrated.
+MuscleCalibration from_config(const models::MuscleModel& m) {
+  MuscleCalibration c;
+  c.muscle = m.name;
+  c.params = m.pam;
+  return c;
+}
+
+std::string refusal(const MuscleCalibration& c, Rig& rig, int side) {
+  try {
+    apply_calibration(c, "cal.yaml", true, rig.joint(), side, rig.lo(), rig.hi());
+  } catch (const CalibrationRejected& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(CalibrationCheck, TheConfiguredModelPassesAndIsApplied) {
+  Rig rig;
+  MuscleCalibration c = from_config(rig.joint().agonist);
+  c.params.c_N_per_Pa *= 1.1;  // a calibration corrects the model by some percent
+  EXPECT_EQ(refusal(c, rig, 0), "");
+  EXPECT_EQ(rig.joint().agonist.pam.c_N_per_Pa, c.params.c_N_per_Pa);
+  EXPECT_EQ(refusal(from_config(rig.joint().antagonist), rig, 1), "");
+}
+
+TEST(CalibrationCheck, RefusesAFileOfTheOtherMuscle) {
+  Rig rig;
+  const models::TendonSpringParams before = rig.joint().agonist.pam;
+  EXPECT_THAT(refusal(from_config(rig.joint().antagonist), rig, 0),
+              HasSubstr("is the calibration of 'antagonist' (swapped files?)"));
+  EXPECT_EQ(rig.joint().agonist.pam.c_N_per_Pa, before.c_N_per_Pa);  // nothing half applied
+}
+
+TEST(CalibrationCheck, RefusesAWeakMusclesModelRelabelledForAStrongMuscle) {
+  // The hazard found in review: the antagonist's (DMSP-10) parameters on the agonist (DMSP-40) held
+  // 2849 N. Renaming the file's muscle does not get past the comparison with the configured model.
+  Rig rig;
+  MuscleCalibration c = from_config(rig.joint().antagonist);
+  c.muscle = "agonist";
+  EXPECT_THAT(refusal(c, rig, 0), HasSubstr("is this the calibration of a weaker muscle?"));
+}
+
+TEST(CalibrationCheck, RefusesAModelThatCannotPullWhereTheControllerWorks) {
+  Rig rig;
+  MuscleCalibration c = from_config(rig.joint().agonist);
+  c.params.c_N_per_Pa = -c.params.c_N_per_Pa;  // g(u) <= 0: the inverse would command full supply
+  EXPECT_THAT(refusal(c, rig, 0), HasSubstr("<= 0 at joint angle"));
+  c = from_config(rig.joint().agonist);
+  c.params.k_N = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THAT(refusal(c, rig, 0), HasSubstr("not finite"));
+}
+
+TEST(CalibrationCheck, RefusesWhenTheDataChangedAfterCalibrating) {
+  Rig rig;
+  const auto data = std::filesystem::temp_directory_path() / "peha_check_data.csv";
+  { std::ofstream(data) << "pressure_MPa,contraction,force_N\n0.3,0.1,500\n"; }
+  MuscleCalibration c = from_config(rig.joint().agonist);
+  c.data_file = data.string();
+  c.data_sha256 = sha256_file(data);
+  EXPECT_EQ(refusal(c, rig, 0), "");
+  { std::ofstream(data, std::ios::app) << "0.3,0.1,501\n"; }
+  EXPECT_THAT(refusal(c, rig, 0), HasSubstr("the data changed after calibrating"));
+  std::filesystem::remove(data);
+}
+
+}  // namespace
+}  // namespace peha::calibration
