@@ -1,5 +1,6 @@
 // `peha calibrate`: the muscle model fitted to a calibration CSV, the calibration file and its report.
 #include "peha/app/calibration_report.hpp"
+#include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/experiments/run_request.hpp"
@@ -12,6 +13,7 @@ int calibrate(const CalibrateCommandOptions& options) {
   return with_exit_codes([&] {
     calibration::DatasetRules rules;
     rules.min_rows = options.min_rows;
+    refuse_output_equal_to_input(options.out, {options.data});
     const calibration::Dataset data = calibration::read_dataset(options.data, rules);
     calibration::CalibrateOptions o;
     o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;

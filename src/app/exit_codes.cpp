@@ -1,5 +1,6 @@
 #include "peha/app/commands.hpp"
 
+#include "peha/app/cli_checks.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/calibration/dataset.hpp"
 #include "peha/config/reader.hpp"
@@ -13,6 +14,9 @@ int with_exit_codes(const std::function<int()>& body) {
     return body();
   } catch (const config::Error& e) {
     fmt::print(stderr, "config error: {}\n", e.what());
+    return 2;
+  } catch (const UsageError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
     return 2;
   } catch (const calibration::CalibrationRejected& e) {
     fmt::print(stderr, "calibration refused: {}\n", e.what());

@@ -1,4 +1,5 @@
 // peha: control software for exoskeletons driven by pneumatic-electric hybrid actuators.
+#include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 
 #include <CLI/CLI.hpp>
@@ -38,11 +39,12 @@ Command add_run(CLI::App& app) {
       ->required()->check(CLI::ExistingFile);
   run_cmd->add_option("-o,--out", run.out_root, "Directory under which the run directory is created")
       ->capture_default_str();
-  run_cmd->add_option("-n,--name", run.run_name, "Run directory name (default: <config stem>-<UTC time>)");
+  run_cmd->add_option("-n,--name", run.run_name, "Run directory name under --out: letters, digits and . _ + - (default: <config stem>-<UTC time>)")
+      ->check(peha::app::run_name());
   run_cmd->add_option("--case", run.only_case,
                       "Run only the case with this name (default: all cases): E1 a payload case,\n"
                       "E4 (--experiment goniometer) a movement");
-  s->seed_opt = run_cmd->add_option("--seed", s->seed, "Override the scenario's random seed (sensor noise)");
+  s->seed_opt = run_cmd->add_option("--seed", s->seed, "Override the scenario's random seed (sensor noise)")->check(peha::app::unsigned_integer());
   run_cmd->add_flag("!--no-plot", run.plot, "Do not render plot.png (no Python needed)");
   run_cmd->add_option("--agonist-calibration", run.calibration[0],
                       "E1 only: calibration YAML (from peha calibrate) for the agonist; with a calibration, every case\n"
@@ -68,19 +70,19 @@ Command add_run(CLI::App& app) {
                       "Runs in real time at the config's control period with timing statistics (docs/runtime.md)");
   s->rt_priority_opt =
       run_cmd->add_option("--rt-priority", s->rt_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
-          ->capture_default_str()->check(CLI::Range(0, 99));
+          ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 99));
   s->cpu_opt =
-      run_cmd->add_option("--cpu", s->cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->capture_default_str();
+      run_cmd->add_option("--cpu", s->cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->check(peha::app::signed_integer())->capture_default_str();
   run_cmd->add_option("--telemetry", run.telemetry,
                       "With --backend: stream signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870");
   s->recover_opt = run_cmd->add_option(
       "--recover-after", s->recover_after,
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
-      "without it, type r + Enter on the terminal to recover")->check(CLI::Range(0.0, 3600.0));
+      "without it, type r + Enter on the terminal to recover")->check(peha::app::decimal())->check(CLI::Range(0.0, 3600.0));
   s->trim_opt = run_cmd->add_option(
       "--force-trim-rate", s->trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward);\n"
                "E1 and the right arm's experiments")
-      ->check(CLI::Range(0.0, 100.0));
+      ->check(peha::app::decimal())->check(CLI::Range(0.0, 100.0));
   return {run_cmd, [s] {
             if (*s->seed_opt) s->run.seed = s->seed;
             if (*s->trim_opt) s->run.force_trim_rate_1ps = s->trim;
@@ -110,7 +112,7 @@ Command add_record_calibration(CLI::App& app) {
   record_cmd->add_option("-m,--muscle", record.muscle, "Which muscle to excite")
       ->required()->check(CLI::IsMember({"agonist", "antagonist"}));
   record_cmd->add_option("-o,--out", record.out, "Calibration CSV to write (folders are created)")->required();
-  s->seed_opt = record_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed");
+  s->seed_opt = record_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
   return {record_cmd, [s] {
             if (*s->seed_opt) s->record.seed = s->seed;
             return peha::app::record_calibration(s->record);
@@ -133,15 +135,15 @@ Command add_calibrate(CLI::App& app) {
   cal_cmd->add_option("-o,--out", cal.out, "Calibration YAML to write")->required();
   cal_cmd->add_option("--report-dir", cal.report_dir, "Report folder (default: <out>_report)");
   cal_cmd->add_option("--muscle", cal.muscle, "Name stored in the file (default: the data file's stem)");
-  cal_cmd->add_option("--restarts", cal.restarts, "Random LM initialisations")->capture_default_str()->check(CLI::Range(1, 100000));
-  cal_cmd->add_option("--threads", cal.threads, "Threads running the restarts")->capture_default_str()->check(CLI::Range(1, 256));
-  cal_cmd->add_option("--pseudo-inputs", cal.pseudo_inputs, "SPGP pseudo-inputs M")->capture_default_str()->check(CLI::Range(1, 2000));
-  cal_cmd->add_option("--spgp-iterations", cal.spgp_iterations, "SPGP optimiser iterations")->capture_default_str()->check(CLI::Range(1, 100000));
+  cal_cmd->add_option("--restarts", cal.restarts, "Random LM initialisations")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 100000));
+  cal_cmd->add_option("--threads", cal.threads, "Threads running the restarts")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 256));
+  cal_cmd->add_option("--pseudo-inputs", cal.pseudo_inputs, "SPGP pseudo-inputs M")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 2000));
+  cal_cmd->add_option("--spgp-iterations", cal.spgp_iterations, "SPGP optimiser iterations")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 100000));
   cal_cmd->add_flag("!--no-spgp", cal.use_spgp, "Fit the parametric model only");
   cal_cmd->add_flag("!--no-holdout", cal.holdout, "Fit every row (no held-out figures; for comparisons)");
   cal_cmd->add_option("--min-rows", cal.min_rows, "Fewest rows accepted (static force maps may have fewer than 50)")
-      ->capture_default_str()->check(CLI::Range(5, 100000000));
-  cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->capture_default_str();
+      ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(5, 100000000));
+  cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->check(peha::app::unsigned_integer())->capture_default_str();
   cal_cmd->add_flag("!--no-plot", cal.plot, "Do not render report.png");
   return {cal_cmd, [options] { return peha::app::calibrate(*options); }};
 }
@@ -168,23 +170,23 @@ Command add_mfb_emulator(CLI::App& app) {
                                                "has several). Right arm: postures (E3, the default) or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
-      ->capture_default_str()->check(CLI::Range(0, 65535));
-  s->seed_opt = emu_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed");
+      ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 65535));
+  s->seed_opt = emu_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
   s->watchdog_opt = emu_cmd->add_option("--watchdog-ms", s->watchdog_ms, "Override the config's board_watchdog_ms")
-      ->check(CLI::Range(2.0, 10000.0));
-  emu_cmd->add_option("--loss", emu.loss, "Probability a state packet is dropped")->check(CLI::Range(0.0, 1.0));
-  emu_cmd->add_option("--duplicate", emu.duplicate, "Probability a state packet is sent twice")->check(CLI::Range(0.0, 1.0));
-  emu_cmd->add_option("--reorder", emu.reorder, "Probability a state packet is held back behind the next")->check(CLI::Range(0.0, 1.0));
-  emu_cmd->add_option("--corrupt", emu.corrupt, "Probability one bit of a state packet is flipped")->check(CLI::Range(0.0, 1.0));
-  emu_cmd->add_option("--delay-ms", emu.delay_ms, "Every state packet leaves this much later")->check(CLI::Range(0.0, 1000.0));
-  emu_cmd->add_option("--fault-seed", emu.fault_seed, "Seed of the injected faults")->capture_default_str();
-  emu_cmd->add_option("--estop-at", emu.estop_at_s, "Assert the e-stop input at this simulated time, s")->check(CLI::Range(0.0, 1e6));
-  emu_cmd->add_option("--estop-for", emu.estop_for_s, "... for this long, s")->capture_default_str()->check(CLI::Range(0.0, 1e6));
+      ->check(peha::app::decimal())->check(CLI::Range(2.0, 10000.0));
+  emu_cmd->add_option("--loss", emu.loss, "Probability a state packet is dropped")->check(peha::app::decimal())->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--duplicate", emu.duplicate, "Probability a state packet is sent twice")->check(peha::app::decimal())->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--reorder", emu.reorder, "Probability a state packet is held back behind the next")->check(peha::app::decimal())->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--corrupt", emu.corrupt, "Probability one bit of a state packet is flipped")->check(peha::app::decimal())->check(CLI::Range(0.0, 1.0));
+  emu_cmd->add_option("--delay-ms", emu.delay_ms, "Every state packet leaves this much later")->check(peha::app::decimal())->check(CLI::Range(0.0, 1000.0));
+  emu_cmd->add_option("--fault-seed", emu.fault_seed, "Seed of the injected faults")->check(peha::app::unsigned_integer())->capture_default_str();
+  emu_cmd->add_option("--estop-at", emu.estop_at_s, "Assert the e-stop input at this simulated time, s")->check(peha::app::decimal())->check(CLI::Range(0.0, 1e6));
+  emu_cmd->add_option("--estop-for", emu.estop_for_s, "... for this long, s")->capture_default_str()->check(peha::app::decimal())->check(CLI::Range(0.0, 1e6));
   emu_cmd->add_option("--rt-priority", emu.fifo_priority, "SCHED_FIFO priority of the board's loop (0 = don't ask)")
-      ->capture_default_str()->check(CLI::Range(0, 99));
-  emu_cmd->add_option("--max-runtime", emu.max_runtime_s, "Stop after this much wall time, s (0 = never)")->check(CLI::Range(0.0, 1e7));
+      ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 99));
+  emu_cmd->add_option("--max-runtime", emu.max_runtime_s, "Stop after this much wall time, s (0 = never)")->check(peha::app::decimal())->check(CLI::Range(0.0, 1e7));
   emu_cmd->add_option("--sessions", emu.sessions, "Stop after this many sessions ended by the watchdog (0 = never)")
-      ->check(CLI::Range(0, 1000000));
+      ->check(peha::app::signed_integer())->check(CLI::Range(0, 1000000));
   return {emu_cmd, [s] {
             if (*s->seed_opt) s->emu.seed = s->seed;
             if (*s->watchdog_opt) s->emu.watchdog_ms = s->watchdog_ms;

@@ -1,5 +1,6 @@
 // `peha record-calibration`: the triangle-wave excitation of one muscle on the simulated rig, logged
 // to a calibration CSV.
+#include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/calibration/dataset.hpp"
 #include "peha/experiments/calibration_recording/excitation.hpp"
@@ -16,6 +17,7 @@ namespace peha::app {
 
 int record_calibration(const RecordOptions& options) {
   return with_exit_codes([&] {
+    refuse_output_equal_to_input(options.out, {options.config});
     const config::Document doc = config::Document::load_file(options.config);
     experiments::E1Scenario scenario = experiments::read_e1(doc);
     const int index = options.muscle == "agonist" ? 0 : 1;

@@ -1,5 +1,7 @@
 #include "peha/app/run_dir.hpp"
 
+#include "peha/app/cli_checks.hpp"
+
 #include <fmt/chrono.h>
 #include <fmt/format.h>
 
@@ -20,6 +22,8 @@ RunDir::RunDir(std::filesystem::path config, std::filesystem::path out_root, std
 std::filesystem::path RunDir::create(std::uint64_t seed) {
   if (created()) throw std::logic_error("the run directory is created once");
   if (name_.empty()) name_ = default_run_name(config_);
+  std::string check = name_;
+  if (const std::string why = run_name()(check); !why.empty()) throw UsageError("--name: " + why);
   const std::filesystem::path dir = out_root_ / name_;
   std::filesystem::create_directories(dir);
   std::ifstream in(config_);

@@ -1,6 +1,7 @@
 #include "peha/calibration/calibration_file.hpp"
 
 #include "peha/calibration/dataset.hpp"
+#include "peha/config/atomic_file.hpp"
 #include "peha/config/reader.hpp"
 
 #include <fmt/format.h>
@@ -112,11 +113,11 @@ void write_calibration(const std::filesystem::path& path, const MuscleCalibratio
   }
   out << YAML::EndMap;
   if (!out.good()) throw std::runtime_error(fmt::format("{}: cannot emit YAML: {}", path.string(), out.GetLastError()));
-  std::ofstream file(path);
-  file << "# peha muscle calibration: Tendon-spring parameters + SPGP residual.\n"
-          "# Written by `peha calibrate`. SPGP: inputs (contraction, force_N), output pressure in Pa.\n"
-       << out.c_str() << '\n';
-  if (!file) throw std::runtime_error(fmt::format("{}: cannot write calibration file", path.string()));
+  config::write_file_atomically(path, [&](std::ostream& file) {
+    file << "# peha muscle calibration: Tendon-spring parameters + SPGP residual.\n"
+            "# Written by `peha calibrate`. SPGP: inputs (contraction, force_N), output pressure in Pa.\n"
+         << out.c_str() << '\n';
+  });
 }
 
 MuscleCalibration read_calibration(const std::filesystem::path& path) {

@@ -1,5 +1,7 @@
 #include "peha/config/reader.hpp"
 
+#include "peha/config/atomic_file.hpp"
+
 #include <fmt/format.h>
 
 #include <cctype>
@@ -91,35 +93,6 @@ YAML::Node Map::required(std::string_view key) {
   return value;
 }
 
-namespace {
-
-/// A plain decimal number and nothing else: [+-]digits[.digits][(e|E)[+-]digits]. No hex (0x10),
-/// no inf/nan, no surrounding spaces, no digit separators, and nothing that overflows a double.
-bool parse_decimal(const std::string& text, double& out) noexcept {
-  std::size_t i = 0;
-  const std::size_t n = text.size();
-  if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
-  std::size_t digits = 0;
-  while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
-  if (i < n && text[i] == '.') {
-    ++i;
-    while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
-  }
-  if (digits == 0) return false;
-  if (i < n && (text[i] == 'e' || text[i] == 'E')) {
-    ++i;
-    if (i < n && (text[i] == '+' || text[i] == '-')) ++i;
-    std::size_t exponent = 0;
-    while (i < n && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++exponent;
-    if (exponent == 0) return false;
-  }
-  if (i != n) return false;
-  const char* first = text.data() + (text[0] == '+' ? 1 : 0);
-  const auto [end, ec] = std::from_chars(first, text.data() + n, out, std::chars_format::general);
-  return ec == std::errc() && end == text.data() + n && std::isfinite(out);
-}
-
-}  // namespace
 
 double Map::to_number(const YAML::Node& value, std::string_view key, Range range) const {
   const std::string expected = fmt::format("expected a number in [{}, {}]", range.min, range.max);

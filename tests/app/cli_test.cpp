@@ -216,20 +216,20 @@ TEST(Cli, UnknownExperimentKeyNamesTheKnownOnes) {
 
 // The run directory: created once, with the config's copy, and out/latest pointing at it.
 TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_rundir";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_rundir's";  // a quote in the path: no shell between peha and the plotter either
   std::filesystem::remove_all(out);
   const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml --experiment bandwidth --no-plot"
-                       " --seed 7 --out " + out.string() + " --name \"it's\"");  // a quote in the name: no shell between peha and the plotter either
+                       " --seed 7 --out \"" + out.string() + "\" --name bw_1");
   ASSERT_EQ(r.code, 0) << r.output;
   std::vector<std::filesystem::path> entries;
   for (const auto& e : std::filesystem::directory_iterator(out)) entries.push_back(e.path().filename());
   std::sort(entries.begin(), entries.end());
   ASSERT_EQ(entries.size(), 2u);
-  EXPECT_EQ(entries[0], "it's");
+  EXPECT_EQ(entries[0], "bw_1");
   EXPECT_EQ(entries[1], "latest");
   EXPECT_TRUE(std::filesystem::is_symlink(out / "latest"));
-  EXPECT_EQ(std::filesystem::read_symlink(out / "latest"), "it's");
-  std::ifstream config(out / "it's" / "config.yaml");
+  EXPECT_EQ(std::filesystem::read_symlink(out / "latest"), "bw_1");
+  std::ifstream config(out / "bw_1" / "config.yaml");
   std::string first, second, third;
   std::getline(config, first);
   std::getline(config, second);
@@ -238,8 +238,40 @@ TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
   EXPECT_THAT(first, HasSubstr("right_arm.yaml"));
   EXPECT_THAT(second, HasSubstr("# relative paths resolve against "));
   EXPECT_EQ(third, "# seed used: 7");
-  EXPECT_TRUE(std::filesystem::exists(out / "it's" / "bode.csv"));
+  EXPECT_TRUE(std::filesystem::exists(out / "bw_1" / "bode.csv"));
   std::filesystem::remove_all(out);
+}
+
+// Bad input never hurts: numbers strictly decimal, run names inside --out, an output never its own
+// input. Each case failed before (0x10 read as 16, -1 as 2^64-1, nan through a range, ../.. escaped
+// out/, record-calibration overwrote its config, calibrate its data).
+TEST(Cli, StrictNumbersRunNamesAndOutputsThatAreNotInputs) {
+  const std::string e1 = std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_bad_input";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string run_e1 = "run --no-plot --config " + e1 + " --out " + dir.string() + " ";
+  for (const char* bad : {"--seed -1", "--seed 0x10", "--seed 1e3", "--force-trim-rate nan", "--force-trim-rate 0x1",
+                          "--force-trim-rate inf", "--name ../../escape", "--name x/y", "--name ..", "--name 'x;touch F'"}) {
+    const Result r = run(run_e1 + bad);
+    EXPECT_EQ(r.code, 105) << bad << ": " << r.output;  // CLI11's validation failure (docs: exit codes)
+    EXPECT_THAT(r.output, HasSubstr("expected")) << bad;
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(dir));  // nothing written, nothing escaped
+  // An output equal to an input is refused before any work, and the input is untouched.
+  const std::filesystem::path config_copy = dir / "rig.yaml";
+  std::filesystem::copy_file(e1, config_copy);
+  const auto before = std::filesystem::file_size(config_copy);
+  Result r = run("record-calibration --muscle agonist --config " + config_copy.string() + " --out " + config_copy.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.output, HasSubstr("refusing to overwrite it"));
+  EXPECT_EQ(std::filesystem::file_size(config_copy), before);
+  const std::filesystem::path data = dir / "data.csv";
+  { std::ofstream(data) << "pressure_MPa,contraction,force_N\n0.3,0.1,500\n"; }
+  r = run("calibrate " + data.string() + " --no-plot --out " + (dir / "." / "data.csv").string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.output, HasSubstr("is the input"));
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
