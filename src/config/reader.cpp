@@ -36,11 +36,23 @@ std::string position(const std::string& file, const YAML::Mark& mark) {
 }  // namespace
 
 Document Document::load_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw Error(fmt::format("{}: {}", path.string(),
+                            std::filesystem::exists(path, ec) ? "not a regular file (a device, pipe or folder cannot be a config file)"
+                                                              : "cannot open config file (no such file)"));
+  }
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(fmt::format("{}: cannot open config file", path.string()));
-  std::stringstream text;
-  text << in.rdbuf();
-  Document doc = load_string(text.str(), path.string());
+  // Read at most one byte past the limit: a file that grows while it is read is caught too.
+  std::string text(kMaxFileBytes + 1, '\0');
+  in.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<std::size_t>(in.gcount()));
+  if (text.size() > kMaxFileBytes) {
+    throw Error(fmt::format("{}: larger than {} MiB; a peha config or calibration file is far smaller (is this the right file?)",
+                            path.string(), kMaxFileBytes >> 20));
+  }
+  Document doc = load_string(text, path.string());
   doc.directory_ = path.parent_path();
   return doc;
 }

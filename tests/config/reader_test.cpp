@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 
 #include <algorithm>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -150,6 +151,26 @@ TEST(Config, NumbersAreDecimalOnly) {
   Map root = doc.root();
   EXPECT_THROW(root.integer("n", 0, 100), Error);  // no negative where the range is unsigned
   EXPECT_THROW(root.integer("m", 0, 100), Error);  // 0x10 is not 16
+}
+
+TEST(Config, RefusesDevicesAndHugeFilesBeforeReadingThem) {
+  // /dev/zero used to be read until bad_alloc.
+  try {
+    Document::load_file("/dev/zero");
+    ADD_FAILURE() << "/dev/zero was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("/dev/zero: not a regular file"));
+  }
+  const auto big = std::filesystem::temp_directory_path() / "peha_big.yaml";
+  std::filesystem::resize_file((std::ofstream(big), big), kMaxFileBytes + 1);
+  try {
+    Document::load_file(big);
+    ADD_FAILURE() << "a file above the limit was accepted";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("larger than 256 MiB"));
+  }
+  std::filesystem::remove(big);
+  EXPECT_THROW(Document::load_file("/nonexistent/peha.yaml"), Error);
 }
 
 }  // namespace

@@ -38,6 +38,9 @@ struct Range {
 class Map;
 
 /// A parsed YAML document with the file name kept for error messages.
+/// Largest YAML file read (a calibration with M = 2000 pseudo-inputs is about 100 MiB).
+inline constexpr std::size_t kMaxFileBytes = std::size_t{256} << 20;
+
 class Document {
  public:
   /// Reads and parses `path`; throws `Error` if the file is missing or not valid YAML.
