@@ -14,7 +14,7 @@ help:
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make bench  build and run the Google Benchmark suite (incl. 60 s of MFB round trips over UDP)"
-	@echo "make fuzz   fuzz the MFB packet parser for 10 minutes (libFuzzer, ASan, UBSan)"
+	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
 	@echo "make soak   opt-in: build and run only the long benchmark (60 s of MFB round trips at 1 kHz over UDP)"
 	@echo "make clean  remove build/ and out/"
 
@@ -62,6 +62,7 @@ soak: build
 # The MFB packet parser under libFuzzer for 10 minutes (make test runs it for 20 s).
 fuzz: deps
 	./scripts/fuzz-mfb.sh 600
+	./scripts/fuzz-readers.sh 600
 
 clean:
 	rm -rf build out

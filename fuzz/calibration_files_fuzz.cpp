@@ -1,0 +1,35 @@
+// libFuzzer target: the calibration CSV reader and the calibration YAML loader on arbitrary bytes.
+// The first byte picks the reader; the rest is the file. Every input either loads or is rejected
+// with calibration::DataError / config::Error; nothing else may escape, crash or leak.
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/calibration/dataset.hpp"
+#include "peha/config/reader.hpp"
+
+#include <unistd.h>
+
+#include <cstddef>
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  if (size < 1) return 0;
+  static const std::string path = "/tmp/peha_fuzz_calibration_" + std::to_string(::getpid());
+  const bool yaml = data[0] & 1;
+  {
+    std::ofstream f(path + (yaml ? ".yaml" : ".csv"), std::ios::binary | std::ios::trunc);
+    f.write(reinterpret_cast<const char*>(data + 1), static_cast<std::streamsize>(size - 1));
+  }
+  try {
+    if (yaml) {
+      (void)peha::calibration::read_calibration(path + ".yaml");
+    } else {
+      peha::calibration::DatasetRules rules;
+      rules.min_rows = 1;
+      (void)peha::calibration::read_dataset(path + ".csv", rules);
+    }
+  } catch (const peha::config::Error&) {
+  } catch (const peha::calibration::DataError&) {
+  }
+  return 0;
+}
