@@ -16,7 +16,7 @@
 #include <string_view>
 #include <system_error>
 
-// Calibration CSV reader/writer (SPEC §3). Set-up code: everything is checked, every problem is a
+// Calibration CSV reader/writer (docs/calibration.md). Set-up code: everything is checked, every problem is a
 // DataError whose message says where (file:line, column) and what to do about it, and nothing
 // half-read is ever returned (the result is assembled locally and only returned when complete).
 
@@ -43,12 +43,15 @@ constexpr std::array<ColumnInfo, kColumnCount> kColumns{{
     {"wire_velocity_mps", "wire_velocity", "mps", false},
 }};
 
-// Plausibility limits (SPEC §3 / dataset.hpp). Values chosen for 0..0.8 MPa muscles.
+// Plausibility limits (docs/calibration.md / dataset.hpp). Values chosen for 0..0.8 MPa muscles.
 constexpr double kMaxPressureMPa = 1.2;          ///< above: a unit mistake, not a reading
 constexpr double kKPaCeiling = 2000.0;           ///< max in (1.2, 2000] looks like kPa, above like Pa
 constexpr double kMinPressureMPa = -0.02;        ///< below: more than sensor noise
 constexpr double kMaxAbsContraction = 1.0;       ///< above: percent, not a fraction
 constexpr double kMinForceN = -50.0;             ///< below: more than load-cell noise
+constexpr double kMaxForceN = 5000.0;            ///< above: no PAM wire holds it (the wire breaks at 2250 N)
+constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t{512} << 20;  ///< 512 MiB: ~10 M rows of three numbers
+constexpr std::size_t kMaxRows = 5'000'000;      ///< 83 min at 1 kHz; more is a wrong file or needs decimation
 constexpr double kMaxAbsAngleRad = 2.0 * 3.14159265358979323846;  ///< above: degrees, not radians
 
 std::string accepted_list() {
@@ -74,7 +77,7 @@ std::string num(double v) {
   return buf;
 }
 
-// Full-precision number for the file (%.9g, as SPEC'd for peha CSVs).
+// Full-precision number for the file (%.9g, as docs/calibration.md specifies for peha CSVs).
 std::string num9(double v) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.9g", v);
@@ -250,6 +253,13 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
   const std::string file = path.string();
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw DataError(file + ": is a directory, not a calibration CSV");
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    throw DataError(file + ": not a regular file (a device or pipe cannot be a calibration CSV)");
+  }
+  if (const std::uintmax_t size = std::filesystem::file_size(path, ec); !ec && size > kMaxFileBytes) {
+    throw DataError(file + ": " + std::to_string(size >> 20) + " MiB is larger than the " + std::to_string(kMaxFileBytes >> 20) +
+                    " MiB a calibration CSV may have; decimate the log (250 Hz is plenty) or split it");
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw DataError(file + ": cannot open calibration file (does it exist and is it readable?)");
   // Read all bytes once: the hash is of exactly the bytes that were parsed.
@@ -334,7 +344,17 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
         default: throw DataError(at + "not a number '" + field + "' (expected a decimal number such as 0.25)");
       }
     }
+    if (rows.size() == kMaxRows) {
+      throw DataError(where + ": more than " + std::to_string(kMaxRows) +
+                      " data rows; decimate the log (250 Hz is plenty for a calibration) or split it");
+    }
     rows.push_back(row);
+  }
+  // A file cut off inside its last number still parses ("0.31" of "0.3124"): a CSV that peha reads
+  // ends with a line end, so a missing one is a cut, not a style.
+  if (!rows.empty() && !text.empty() && text.back() != '\n') {
+    throw DataError(file + ":" + std::to_string(line_no) + ": the last line has no line end: the file looks cut off "
+                    "(an interrupted copy or write?); if it is complete, add a newline at its end");
   }
 
   if (header_line == 0) {
@@ -367,6 +387,10 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
     throw DataError(value_prefix(file, r->line, kContraction, r->v[kContraction]) +
                     "has magnitude above 1: looks like percent (max |contraction| " + num(column_max(kContraction, true)) +
                     "); contraction is a fraction (L0 - L) / L0: divide by 100");
+  }
+  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] > kMaxForceN; })) {
+    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is above " + num(kMaxForceN) +
+                    " N: no muscle wire holds that (they break at 2250 N); a unit mistake or a load-cell glitch");
   }
   if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] < kMinForceN; })) {
     throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is below " + num(kMinForceN) +
@@ -401,7 +425,7 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
     if (!(span_Pa > rules.min_pressure_span_Pa)) {
       throw DataError(file + ": column 'pressure_MPa': no excitation: pressure spans only " + num(hi - lo) + " MPa (" +
                       num(lo) + " .. " + num(hi) + " MPa, need more than " + num(rules.min_pressure_span_Pa / 1e6) +
-                      " MPa); sweep the pressure (SPEC §3: triangle wave) while logging");
+                      " MPa); sweep the pressure (e.g. a triangle wave, as peha record-calibration does) while logging");
     }
   }
   {

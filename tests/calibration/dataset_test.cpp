@@ -1,4 +1,4 @@
-// Tests for the calibration CSV reader/writer (SPEC §3, include/peha/calibration/dataset.hpp).
+// Tests for the calibration CSV reader/writer (docs/calibration.md, include/peha/calibration/dataset.hpp).
 // Every error case checks that the message names the file, the line (and column where one applies)
 // and the reason, because the message is all a person fixing the file gets.
 
@@ -282,6 +282,31 @@ TEST_F(DatasetTest, ForceFarBelowZeroIsAnError) {
   rows[6] = "0.1,0.02,-120";  // line 10
   const auto p = write_csv("negf.csv", "pressure_MPa,contraction,force_N", rows);
   EXPECT_THAT(error_of(p), AllOf(HasSubstr(at(p, 10) + ": column 'force_N': value -120"), HasSubstr("below -50 N")));
+}
+
+// Each of these read with exit 0 before: one 1e300 N force, a file cut inside its last number,
+// a device that never ends, and a file far larger than any calibration.
+TEST_F(DatasetTest, ImpossibleForceIsAnError) {
+  auto rows = good_rows();
+  rows[7] = "0.3,0.05,1e300";  // line 11
+  const auto p = write_csv("bigf.csv", "pressure_MPa,contraction,force_N", rows);
+  EXPECT_THAT(error_of(p), AllOf(HasSubstr(at(p, 11) + ": column 'force_N': value 1e+300"), HasSubstr("above 5000 N")));
+}
+
+TEST_F(DatasetTest, FileCutInsideItsLastNumberIsAnError) {
+  std::string text = "pressure_MPa,contraction,force_N\n";
+  for (const auto& r : good_rows()) text += r + "\n";
+  text += "0.31,0.07,15";  // the last row was "0.31,0.07,152.4": the copy stopped
+  const auto p = write_file("cut.csv", text);
+  EXPECT_THAT(error_of(p), AllOf(HasSubstr(at(p, 62) + ": the last line has no line end"), HasSubstr("cut off")));
+}
+
+TEST_F(DatasetTest, DevicesAndHugeFilesAreRefusedBeforeReading) {
+  EXPECT_THAT(error_of("/dev/zero"), HasSubstr("/dev/zero: not a regular file"));
+  const auto p = dir_ / "huge.csv";
+  { std::ofstream(p) << "pressure_MPa,contraction,force_N\n"; }
+  fs::resize_file(p, (std::uintmax_t{512} << 20) + 1);  // sparse: no disk used
+  EXPECT_THAT(error_of(p), HasSubstr("MiB is larger than the 512 MiB a calibration CSV may have"));
 }
 
 TEST_F(DatasetTest, AngleInDegreesUnderRadHeaderLooksLikeDegrees) {
