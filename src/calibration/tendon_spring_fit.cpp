@@ -1,5 +1,5 @@
 /// \file
-/// Parametric calibration of the Tendon-spring model (SPEC §3.2): Ceres' Levenberg-Marquardt on the
+/// Parametric calibration of the Tendon-spring model (SPEC §3.2): Levenberg-Marquardt on the
 /// pressure error, best of N random initialisations spread over worker threads.
 ///
 /// Inside the solver everything is in well-conditioned units:
@@ -12,14 +12,15 @@
 /// the floor, (2 g_f - g) / g_f^2: finite, C1, and still growing as g falls, so LM is pushed back
 /// towards a muscle that can pull instead of stalling on a flat plateau (no inf/NaN ever).
 ///
-/// The cost is one residual block holding all N samples (ceres::AutoDiffCostFunction with a dynamic
-/// residual count). Measured before the bounds on k and eps0 were added (15000 samples, one thread):
-/// 17-21 ms per solve against 52-56 ms with one AutoDiff block per sample (Ceres' per-block
-/// bookkeeping then dominates); with the bounds a solve takes ~100 ms (see `make bench`).
-/// DENSE_QR on the N x 5 Jacobian: over 300 unbounded solves its linear algebra took 1.9 s of 6.8 s
-/// against 0.9 s for DENSE_NORMAL_CHOLESKY, with identical results; QR is kept because the Jacobian is
-/// exactly rank-deficient (below) and the normal equations square its conditioning. The AutoDiff
-/// Jacobian itself is ~55% of the time (~36 ns per sample).
+/// The solver (solve_lm) is Ceres' trust-region Levenberg-Marquardt with its settings, written out
+/// for this one 5-parameter problem: per iteration it needs only the 5 x 5 normal equations, which
+/// one fused, vectorised pass over the samples builds (analytic Jacobian, never stored). Measured on
+/// the 15000-sample benchmark data (`make bench`): Ceres with an AutoDiff cost took ~60 ms per
+/// restart - 41% AutoDiff, 18% Householder QR of the 15000 x 5 Jacobian, ~30% Ceres' per-evaluation
+/// bookkeeping on the 15000 residuals (array validation, copying and scaling the Jacobian); an
+/// analytic Ceres cost function alone did not change that (57 ms). The fused pass takes ~2.6 ms per
+/// restart. Ceres stays as the reference: the tests run the same restarts through Ceres' LM on the
+/// same cost function (DENSE_QR) and compare the best cost and fitted model.
 ///
 /// Note on identifiability: g is a free quadratic, and g(u + e) is again a quadratic in u, so eps0 is
 /// exactly redundant with (a, b, c): g(eps + eps0) is unchanged along a line in (a, b, c, eps0),
@@ -38,6 +39,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <exception>
 #include <limits>
 #include <memory>
@@ -48,6 +50,11 @@
 #include <thread>
 #include <utility>
 #include <vector>
+
+// The 32-byte vectors below (Lanes) travel only between always-inlined helpers of this file, never
+// across an ABI boundary, so GCC's note that they pass differently with and without AVX (emitted
+// where the templates are instantiated, up to the end of the file) does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
 
 namespace peha::calibration {
 
@@ -130,11 +137,14 @@ struct PressureErrorFunctor {
   }
 };
 
-/// The data of the fit in solver units (pressures in MPa), with the gain floor (N/MPa).
+/// The data of the fit in solver units (pressures in MPa), with the gain floor (N/MPa). The arrays
+/// carry zero samples up to a multiple of kLanes, so that the kernel reads whole vectors (a zero
+/// sample has r = 0 and a zero Jacobian row: F = 0, P = 0).
 struct PressureData {
   std::vector<double> eps, force_N, pressure_MPa;
+  std::size_t count = 0;
   double gain_floor_N_per_MPa = 1.0;
-  std::size_t size() const { return eps.size(); }
+  std::size_t size() const { return count; }
 };
 
 /// What the residual of every sample shares at one x: the parameters, 1/k and the vertex hold.
@@ -164,78 +174,97 @@ ResidualCoefficients residual_coefficients(const double* x, double gain_floor) {
   return k;
 }
 
+/// Four doubles (GCC/Clang vector extensions: element-wise arithmetic, comparisons give 0 / -1
+/// masks, `mask ? x : y` selects per lane): one AVX register, or two SSE2 registers.
+inline constexpr std::size_t kLanes = 4;
+using Lanes = double __attribute__((vector_size(8 * kLanes)));
+using LaneMask = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int): Lanes's masks
+
+[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+[[gnu::always_inline]] inline Lanes splat(double x) { return Lanes{x, x, x, x}; }
+
 /// Residuals r[i] (MPa) of samples [0, n) and, when J is not null, the Jacobian by columns
-/// (J[p * stride + i] = dr_i/dx_p). Values are computed exactly as predicted_pressure_MPa<double>
-/// does (same operations in the same order, so residuals are bit-identical to it); the Jacobian is
-/// the chain rule through the same guards, each guard holding its argument constant (zero
-/// derivative) where it is active:
+/// (J[p * stride + i] = dr_i/dx_p). Works on kLanes samples at a time: reads inputs and writes
+/// outputs up to n rounded up to a multiple of kLanes (see PressureData). Values are computed exactly as
+/// predicted_pressure_MPa<double> does (same operations in the same order, so residuals are
+/// bit-identical to it); the Jacobian is the chain rule through the same guards, each guard holding
+/// its argument constant (zero derivative) where it is active:
 ///   du/dx = [0, 0, 0, F d(1/k)/dlog k, 1];  at the vertex hold du/dx = [b/(2a^2), -1/(2a), 0, 0, 0]
 ///   dg/dx = [u^2, u, 1, 0, 0] + (2 a u + b) du/dx
 ///   dpred/dg = -F/g^2, or -F/g_f^2 on the tangent below the floor;  dr/dx = -dpred/dg dg/dx.
-/// Branch-free (selects) so that the compiler vectorises the loop.
+/// Branch-free: both sides of every guard are computed and a select picks one. Written with vector
+/// extensions because GCC does not vectorise the scalar form (a division under a condition is not
+/// if-converted with -ftrapping-math, and the Jacobian loop not at all).
+/// The core of residual_kernel on kLanes samples: their residuals (MPa), and their Jacobian rows by
+/// parameter (J[p]) when kJacobian. Always inlined, so the AVX2 clones below get AVX2 code.
+struct LaneKernel {
+  Lanes a, b, c, eps0, inv_k, two_a, two_f, f, inv_f2, u_vertex, zero, max_u, min_u, max_p, min_p;
+  Lanes du_vertex_da, du_vertex_db, dinv_k;
+  LaneMask hold;
+
+  explicit LaneKernel(const ResidualCoefficients& k)
+      : a(splat(k.a)), b(splat(k.b)), c(splat(k.c)), eps0(splat(k.eps0)), inv_k(splat(k.inv_k)),
+        two_a(splat(2.0 * k.a)), two_f(splat(2.0 * k.floor)), f(splat(k.floor)), inv_f2(splat(1.0 / k.floor_sq)),
+        u_vertex(splat(k.u_vertex)), zero(splat(0.0)), max_u(splat(kMaxAbsContraction)),
+        min_u(splat(-kMaxAbsContraction)), max_p(splat(kMaxAbsPrediction_MPa)), min_p(splat(-kMaxAbsPrediction_MPa)),
+        du_vertex_da(splat(k.du_vertex_da)), du_vertex_db(splat(k.du_vertex_db)), dinv_k(splat(k.dinv_k)),
+        hold(k.hold ? LaneMask{-1, -1, -1, -1} : LaneMask{0, 0, 0, 0}) {}
+
+  template <bool kJacobian>
+  [[gnu::always_inline]] Lanes operator()(Lanes eps, Lanes F, Lanes pressure, Lanes* J) const {
+    const Lanes u_raw = eps + eps0 + F * inv_k;
+    const LaneMask high = u_raw > max_u;
+    const Lanes u_clamped = high ? max_u : u_raw;
+    const LaneMask past = hold & (two_a * u_clamped + b > zero);
+    const Lanes u_held = past ? u_vertex : u_clamped;
+    const LaneMask low = u_held < min_u;
+    const Lanes u = low ? min_u : u_held;
+    const Lanes g = (a * u + b) * u + c;
+    const LaneMask below = g < f;
+    const Lanes quotient = F / g;
+    const Lanes predicted_raw = below ? F * (two_f - g) * inv_f2 : quotient;
+    const LaneMask capped_high = ~(predicted_raw < max_p);  // also NaN
+    const LaneMask capped_low = predicted_raw < min_p;
+    const Lanes predicted = capped_high ? max_p : (capped_low ? min_p : predicted_raw);
+    if constexpr (kJacobian) {
+      // Which guard u went through: free (u = u_raw: derivatives in log k and eps0), the vertex
+      // hold (derivatives in a and b), or a clamp (constant).
+      const LaneMask free = ~high & ~past & ~low;
+      const LaneMask vertex = past & ~low;
+      const Lanes slope = two_a * u + b;  // dg/du
+      const Lanes dr_dg = (capped_high | capped_low) ? zero : (below ? F * inv_f2 : quotient / g);  // -dpred/dg
+      const Lanes u2 = u * u;
+      J[0] = dr_dg * (vertex ? u2 + slope * du_vertex_da : u2);
+      J[1] = dr_dg * (vertex ? u + slope * du_vertex_db : u);
+      J[2] = dr_dg;
+      J[3] = free ? dr_dg * (slope * (F * dinv_k)) : zero;
+      J[4] = free ? dr_dg * slope : zero;
+    }
+    return pressure - predicted;
+  }
+};
+
 void residual_kernel(const ResidualCoefficients& k, const double* eps, const double* force, const double* pressure,
                      std::size_t n, double* r, double* J, std::size_t stride) {
-  const double a = k.a, b = k.b, c = k.c, f = k.floor, f2 = k.floor_sq;
-  if (J == nullptr) {
-    for (std::size_t i = 0; i < n; ++i) {
-      const double F = force[i];
-      double u = eps[i] + k.eps0 + F * k.inv_k;
-      u = u > kMaxAbsContraction ? kMaxAbsContraction : u;
-      u = k.hold && 2.0 * a * u + b > 0.0 ? k.u_vertex : u;
-      u = u < -kMaxAbsContraction ? -kMaxAbsContraction : u;
-      const double g = (a * u + b) * u + c;
-      double predicted = g < f ? F * (2.0 * f - g) / f2 : F / g;
-      predicted = predicted < kMaxAbsPrediction_MPa ? predicted : kMaxAbsPrediction_MPa;  // also NaN
-      predicted = predicted < -kMaxAbsPrediction_MPa ? -kMaxAbsPrediction_MPa : predicted;
-      r[i] = pressure[i] - predicted;
+  const LaneKernel kernel(k);
+  for (std::size_t i = 0; i < n; i += kLanes) {
+    if (J == nullptr) {
+      store_lanes(r + i, kernel.operator()<false>(load_lanes(eps + i), load_lanes(force + i), load_lanes(pressure + i),
+                                                 nullptr));
+      continue;
     }
-    return;
-  }
-  double* J0 = J;
-  double* J1 = J + stride;
-  double* J2 = J + 2 * stride;
-  double* J3 = J + 3 * stride;
-  double* J4 = J + 4 * stride;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double F = force[i];
-    double u = eps[i] + k.eps0 + F * k.inv_k;
-    double du0 = 0.0, du1 = 0.0, du3 = F * k.dinv_k, du4 = 1.0;
-    const bool high = u > kMaxAbsContraction;
-    u = high ? kMaxAbsContraction : u;
-    du3 = high ? 0.0 : du3;
-    du4 = high ? 0.0 : du4;
-    const bool past = k.hold && 2.0 * a * u + b > 0.0;
-    u = past ? k.u_vertex : u;
-    du0 = past ? k.du_vertex_da : du0;
-    du1 = past ? k.du_vertex_db : du1;
-    du3 = past ? 0.0 : du3;
-    du4 = past ? 0.0 : du4;
-    const bool low = u < -kMaxAbsContraction;
-    u = low ? -kMaxAbsContraction : u;
-    du0 = low ? 0.0 : du0;
-    du1 = low ? 0.0 : du1;
-    du3 = low ? 0.0 : du3;
-    du4 = low ? 0.0 : du4;
-    const double g = (a * u + b) * u + c;
-    const double slope = 2.0 * a * u + b;  // dg/du
-    const bool below = g < f;
-    double predicted = below ? F * (2.0 * f - g) / f2 : F / g;
-    double dr_dg = below ? F / f2 : F / (g * g);  // = -dpred/dg
-    const bool capped_high = !(predicted < kMaxAbsPrediction_MPa);  // also NaN
-    predicted = capped_high ? kMaxAbsPrediction_MPa : predicted;
-    const bool capped_low = predicted < -kMaxAbsPrediction_MPa;
-    predicted = capped_low ? -kMaxAbsPrediction_MPa : predicted;
-    dr_dg = capped_high || capped_low ? 0.0 : dr_dg;
-    r[i] = pressure[i] - predicted;
-    J0[i] = dr_dg * (u * u + slope * du0);
-    J1[i] = dr_dg * (u + slope * du1);
-    J2[i] = dr_dg;
-    J3[i] = dr_dg * (slope * du3);
-    J4[i] = dr_dg * (slope * du4);
+    Lanes row[kNumSolverParams];
+    store_lanes(r + i, kernel.operator()<true>(load_lanes(eps + i), load_lanes(force + i), load_lanes(pressure + i), row));
+    for (std::size_t p = 0; p < static_cast<std::size_t>(kNumSolverParams); ++p) store_lanes(J + p * stride + i, row[p]);
   }
 }
 
-/// Samples per chunk of the fused evaluations below: columns of 256 doubles stay in L1.
+/// Samples per chunk of the fused evaluations below: a 256 x 6 block stays in L1.
 inline constexpr std::size_t kChunk = 256;
 
 /// The same N residuals with their analytic Jacobian as a Ceres cost function (residual_kernel;
@@ -251,11 +280,13 @@ class PressureErrorCost final : public ceres::CostFunction {
     const ResidualCoefficients k = residual_coefficients(parameters[0], data_.gain_floor_N_per_MPa);
     const std::size_t n = data_.size();
     double* J = jacobians != nullptr ? jacobians[0] : nullptr;
+    std::array<double, kChunk> r;
     std::array<double, kNumSolverParams * kChunk> columns;
     for (std::size_t i0 = 0; i0 < n; i0 += kChunk) {
       const std::size_t len = std::min(kChunk, n - i0);
       residual_kernel(k, data_.eps.data() + i0, data_.force_N.data() + i0, data_.pressure_MPa.data() + i0, len,
-                      residuals + i0, J != nullptr ? columns.data() : nullptr, kChunk);
+                      r.data(), J != nullptr ? columns.data() : nullptr, kChunk);
+      std::copy_n(r.begin(), len, residuals + i0);
       if (J == nullptr) continue;
       for (std::size_t i = 0; i < len; ++i)
         for (std::size_t p = 0; p < static_cast<std::size_t>(kNumSolverParams); ++p)
@@ -268,18 +299,18 @@ class PressureErrorCost final : public ceres::CostFunction {
   PressureData data_;
 };
 
-/// 0.5 sum r^2 (MPa^2) at x: Ceres' cost, in chunks of kChunk samples summed in a fixed order.
-double pressure_cost(const PressureData& d, const double* x) {
-  const ResidualCoefficients k = residual_coefficients(x, d.gain_floor_N_per_MPa);
-  Eigen::Array<double, kChunk, 1> r;
-  double sum = 0.0;
-  for (std::size_t i0 = 0; i0 < d.size(); i0 += kChunk) {
-    const std::size_t len = std::min(kChunk, d.size() - i0);
-    residual_kernel(k, d.eps.data() + i0, d.force_N.data() + i0, d.pressure_MPa.data() + i0, len, r.data(), nullptr,
-                    0);
-    sum += r.head(static_cast<Eigen::Index>(len)).square().sum();
+/// 0.5 sum r^2 (MPa^2) at x: Ceres' cost, summed in a fixed order (per lane, lanes added at the end).
+/// Built twice, for AVX2 and for any x86-64, picked at load time (GCC target_clones); without
+/// -ffp-contract both give the same bits.
+[[gnu::target_clones("avx2", "default")]] double pressure_cost(const PressureData& d, const double* x) {
+  const LaneKernel kernel(residual_coefficients(x, d.gain_floor_N_per_MPa));
+  Lanes sum = splat(0.0);
+  for (std::size_t i = 0; i < d.size(); i += kLanes) {
+    const Lanes r = kernel.operator()<false>(load_lanes(d.eps.data() + i), load_lanes(d.force_N.data() + i),
+                                            load_lanes(d.pressure_MPa.data() + i), nullptr);
+    sum += r * r;
   }
-  return 0.5 * sum;
+  return 0.5 * ((sum[0] + sum[1]) + (sum[2] + sum[3]));
 }
 
 using Vector5 = Eigen::Matrix<double, kNumSolverParams, 1>;
@@ -293,27 +324,37 @@ struct NormalEquations {
   Matrix5 jtj = Matrix5::Zero();
 };
 
-NormalEquations pressure_normal_equations(const PressureData& d, const double* x) {
-  const ResidualCoefficients k = residual_coefficients(x, d.gain_floor_N_per_MPa);
-  Eigen::Array<double, kChunk, 1> r;
-  Eigen::Array<double, kChunk, kNumSolverParams> J;  // column-major: column p at J.data() + p * kChunk
+/// One pass: the kernel's residuals and Jacobian rows go straight into 21 accumulators (one per
+/// lane) of [J | r]^T [J | r] (the 6 x 6 upper triangle); the lanes are added at the end. Nothing
+/// of size N is stored. AVX2 and generic builds as pressure_cost.
+[[gnu::target_clones("avx2", "default")]] NormalEquations pressure_normal_equations(const PressureData& d, const double* x) {
+  const LaneKernel kernel(residual_coefficients(x, d.gain_floor_N_per_MPa));
+  constexpr int kCols = kNumSolverParams + 1;
+  Lanes acc[kCols * (kCols + 1) / 2] = {};
+  const std::size_t n = d.size();
+  for (std::size_t i = 0; i < n; i += kLanes) {
+    Lanes v[kCols];
+    v[kNumSolverParams] = kernel.operator()<true>(load_lanes(d.eps.data() + i), load_lanes(d.force_N.data() + i),
+                                                  load_lanes(d.pressure_MPa.data() + i), v);
+    int e = 0;
+    for (int p = 0; p < kCols; ++p)
+      for (int q = p; q < kCols; ++q) acc[e++] += v[p] * v[q];
+  }
   NormalEquations ne;
-  double sum = 0.0;
-  for (std::size_t i0 = 0; i0 < d.size(); i0 += kChunk) {
-    const std::size_t len = std::min(kChunk, d.size() - i0);
-    residual_kernel(k, d.eps.data() + i0, d.force_N.data() + i0, d.pressure_MPa.data() + i0, len, r.data(), J.data(),
-                    kChunk);
-    const auto n = static_cast<Eigen::Index>(len);
-    const auto rs = r.head(n);
-    sum += rs.square().sum();
-    for (int p = 0; p < kNumSolverParams; ++p) {
-      const auto Jp = J.col(p).head(n);
-      ne.gradient[p] += (Jp * rs).sum();
-      for (int q = 0; q <= p; ++q) ne.jtj(p, q) += (Jp * J.col(q).head(n)).sum();
+  int e = 0;
+  for (int p = 0; p < kCols; ++p) {
+    for (int q = p; q < kCols; ++q, ++e) {
+      const double sum = (acc[e][0] + acc[e][1]) + (acc[e][2] + acc[e][3]);
+      if (p < kNumSolverParams && q < kNumSolverParams) {
+        ne.jtj(p, q) = sum;
+        ne.jtj(q, p) = sum;
+      } else if (p < kNumSolverParams) {
+        ne.gradient[p] = sum;
+      } else {
+        ne.cost = 0.5 * sum;
+      }
     }
   }
-  ne.cost = 0.5 * sum;
-  ne.jtj.triangularView<Eigen::StrictlyUpper>() = ne.jtj.transpose();
   return ne;
 }
 
@@ -341,11 +382,16 @@ void validate(const FitData& data, std::size_t min_samples) {
 PressureData pressure_data(const FitData& data, double gain_floor_N_per_MPa) {
   validate(data, 1);
   PressureData d;
+  d.count = data.pressure_Pa.size();
   d.eps = data.contraction;
   d.force_N = data.force_N;
-  d.pressure_MPa.resize(data.pressure_Pa.size());
+  d.pressure_MPa.resize(d.count);
   std::transform(data.pressure_Pa.begin(), data.pressure_Pa.end(), d.pressure_MPa.begin(),
                  [](double p) { return p * 1e-6; });
+  const std::size_t padded = (d.count + kLanes - 1) / kLanes * kLanes;  // zero samples the kernel may read
+  d.eps.resize(padded, 0.0);
+  d.force_N.resize(padded, 0.0);
+  d.pressure_MPa.resize(padded, 0.0);
   d.gain_floor_N_per_MPa = gain_floor_N_per_MPa;
   return d;
 }
@@ -365,6 +411,9 @@ std::unique_ptr<ceres::CostFunction> make_autodiff_pressure_cost_function(const 
                                                                            double gain_floor_N_per_MPa) {
   PressureData d = pressure_data(data, gain_floor_N_per_MPa);
   auto* functor = new PressureErrorFunctor;
+  d.eps.resize(d.count);
+  d.force_N.resize(d.count);
+  d.pressure_MPa.resize(d.count);
   functor->eps = std::move(d.eps);
   functor->force_N = std::move(d.force_N);
   functor->pressure_MPa = std::move(d.pressure_MPa);
@@ -493,8 +542,9 @@ Vector5 upper_bounds() {
 /// N x 5 Jacobian:
 ///  - Jacobi scaling fixed at the start, s_p = 1 / (1 + |J_p|), the step solved in scaled variables;
 ///  - step: (S J^T J S + diag(clamp(diag(S J^T J S), 1e-6, 1e32)) / radius) z = -S J^T r, delta = S z;
-///  - the bounds by projection of x + delta onto the box (as Ceres' bounded parameter blocks), the
-///    model decrease -(g.d + 1/2 d^T J^T J d) of the projected step d;
+///  - the bounds: a parameter on a bound whose descent points outwards is held for the step (active
+///    set), the others' x + delta projected onto the box (as Ceres' bounded parameter blocks); the
+///    model decrease -(g.d + 1/2 d^T J^T J d) is that of the projected step d;
 ///  - accepted when (actual / model decrease) > 1e-3; then radius /= max(1/3, 1 - (2 rho - 1)^3),
 ///    else radius /= 2, 4, 8, ...;
 ///  - converged as Ceres: |step| <= 1e-8 (|x| + 1e-8), |cost change| <= 1e-6 cost, or the projected
@@ -521,11 +571,23 @@ RestartOutcome solve_lm(const PressureData& d, const LmSettings& lm, const Solve
     Matrix5 damped = scaled;
     damped.diagonal() +=
         (scaled.diagonal().cwiseMax(lm.min_lm_diagonal).cwiseMin(lm.max_lm_diagonal) / radius).eval();
+    // Active bounds: a parameter on its bound whose descent direction points out of the box is held
+    // (its row and column replaced by the identity, its step 0), so the step of the others is not
+    // spoilt by a projection after the fact.
+    Vector5 rhs = -scale.cwiseProduct(ne.gradient);
+    for (int p = 0; p < kNumSolverParams; ++p) {
+      if ((x[p] <= lo[p] && rhs[p] < 0.0) || (x[p] >= hi[p] && rhs[p] > 0.0)) {
+        damped.row(p).setZero();
+        damped.col(p).setZero();
+        damped(p, p) = 1.0;
+        rhs[p] = 0.0;
+      }
+    }
     const Eigen::LLT<Matrix5> llt(damped);
     Vector5 candidate = x;
     double model_decrease = 0.0;
     if (llt.info() == Eigen::Success) {
-      const Vector5 delta = scale.cwiseProduct(llt.solve(-scale.cwiseProduct(ne.gradient)));
+      const Vector5 delta = scale.cwiseProduct(llt.solve(rhs));
       candidate = (x + delta).cwiseMax(lo).cwiseMin(hi);
       const Vector5 step = candidate - x;
       model_decrease = -(ne.gradient.dot(step) + 0.5 * step.dot(ne.jtj * step));
