@@ -83,6 +83,20 @@ void BM_SpgpPredictMean(benchmark::State& state) {
 }
 BENCHMARK(BM_SpgpPredictMean);
 
+void BM_SpgpPredictMeanAndVariance(benchmark::State& state) {
+  const Spgp& model = trained_spgp();
+  const auto q = queries();
+  std::size_t k = 0;
+  for (auto _ : state) {
+    double variance = 0.0;
+    double mean_MPa = model.predict_mean_and_variance(q[k++ & (kQueries - 1)].data(), &variance);
+    benchmark::DoNotOptimize(mean_MPa);
+    benchmark::DoNotOptimize(variance);
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_SpgpPredictMeanAndVariance);
+
 /// A full GP's mean with the SPGP's kernel over all N training inputs: standardise x, then
 /// sum_n alpha_n c exp(-1/2 sum_d b_d (x_d - x_nd)^2). The weights are stand-ins (standardised
 /// targets / N): the cost does not depend on their values, and the exact (K + sigma^2 I)^-1 y at

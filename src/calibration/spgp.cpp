@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
 #include <exception>
 #include <limits>
 #include <numbers>
@@ -509,36 +510,72 @@ std::pair<double, double> mean_and_scale(const Eigen::Ref<const VectorXd>& v) {
   return {mean, scale > 0.0 && std::isfinite(scale) ? scale : 1.0};
 }
 
-/// Calls visit(m, k_m) with k_m = k(x, pseudo_m) in standardised units, for m = 0..M-1.
-/// No allocation: x is standardised into a stack buffer (D <= kMaxInputDim is a class invariant),
-/// and the kernel is evaluated in fixed-size chunks so that Eigen's SIMD exp can be used.
-template <typename Visit>
-void for_each_pseudo_kernel(const Spgp& model, const double* x, Visit&& visit) noexcept {
-  constexpr int kChunk = 8;
-  const int D = model.input_dim();
-  const int M = model.num_pseudo();
-  double xs[kMaxInputDim];
-  double b_half[kMaxInputDim];  // b_d / 2
-  for (int d = 0; d < D; ++d) {
-    xs[d] = (x[d] - model.input_mean()[d]) / model.input_scale()[d];
-    b_half[d] = 0.5 * std::exp(model.hyper().log_b[d]);
-  }
-  const double c = std::exp(model.hyper().log_c);
-  const MatrixXd& pseudo = model.pseudo_inputs();
-  Eigen::Array<double, kChunk, 1> exponent;
-  for (int m0 = 0; m0 < M; m0 += kChunk) {
-    const int len = std::min(kChunk, M - m0);
-    exponent.setZero();
+// The 32-byte vectors below (Lanes) travel only between always-inlined helpers of this file, never
+// across an ABI boundary, so GCC's note that they pass differently with and without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+/// Four doubles (GCC/Clang vector extensions): one AVX register, or two SSE2 registers.
+constexpr int kLanes = 4;
+using Lanes = double __attribute__((vector_size(8 * kLanes)));
+using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int)
+
+[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline Lanes splat(double x) { return Lanes{x, x, x, x}; }
+
+/// exp(x) for x <= 0, per lane (x < -708 gives 0; exp(-708) = 3e-308 is no weight anyway).
+/// Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, then the degree-12 Taylor polynomial of
+/// exp(r) (truncation < 2e-16 relative; Estrin's scheme) and 2^n from the exponent bits: within 2 ulp of std::exp
+/// (tests). Same operations in every clone (no FMA), so the same bits on every x86-64.
+[[gnu::always_inline]] inline Lanes exp_nonpositive(Lanes x) {
+  const Lanes clamped = x < splat(-708.0) ? splat(-708.0) : x;
+  const Lanes shifter = splat(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
+  const Lanes t = clamped * splat(1.4426950408889634) + shifter;
+  const Lanes n = t - shifter;
+  const Lanes r = (clamped - n * splat(6.93147180369123816490e-01)) - n * splat(1.90821492927058770002e-10);
+  // Estrin's scheme: the same polynomial in 4 dependent multiply-add levels instead of Horner's 12
+  // (the pass is latency-bound: each lane group waits on its own chain).
+  const Lanes r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const Lanes q0 = splat(1.0) + r;
+  const Lanes q1 = splat(1.0 / 2.0) + splat(1.0 / 6.0) * r;
+  const Lanes q2 = splat(1.0 / 24.0) + splat(1.0 / 120.0) * r;
+  const Lanes q3 = splat(1.0 / 720.0) + splat(1.0 / 5040.0) * r;
+  const Lanes q4 = splat(1.0 / 40320.0) + splat(1.0 / 362880.0) * r;
+  const Lanes q5 = splat(1.0 / 3628800.0) + splat(1.0 / 39916800.0) * r;
+  const Lanes q6 = splat(1.0 / 479001600.0);
+  const Lanes s0 = q0 + q1 * r2, s1 = q2 + q3 * r2, s2 = q4 + q5 * r2;
+  const Lanes p = (s0 + s1 * r4) + (s2 + q6 * r4) * r8;
+  LaneBits t_bits, s_bits;
+  std::memcpy(&t_bits, &t, sizeof t);
+  LaneBits shifter_bits;
+  std::memcpy(&shifter_bits, &shifter, sizeof shifter);
+  s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
+  Lanes scale;
+  std::memcpy(&scale, &s_bits, sizeof scale);
+  const Lanes result = p * scale;
+  return x < splat(-708.0) ? splat(0.0) : result;
+}
+
+/// Writes k_m / c = exp(-sum_d (x'_d - P'_dm)^2) for m in [0, padded) into k (padded, a multiple of
+/// kLanes) and returns sum_m weight_m k_m / c. AVX2 and generic builds, picked at load time.
+[[gnu::target_clones("avx2", "default")]] double pseudo_kernel_pass(const double* x_scaled, int D,
+                                                                    const double* scaled_pseudo, int padded,
+                                                                    const double* weight, double* k) {
+  Lanes sum = splat(0.0);
+  for (int m = 0; m < padded; m += kLanes) {
+    Lanes exponent = splat(0.0);
     for (int d = 0; d < D; ++d) {
-      const double* column = pseudo.col(d).data() + m0;
-      for (int i = 0; i < len; ++i) {
-        const double diff = xs[d] - column[i];
-        exponent[i] -= b_half[d] * diff * diff;
-      }
+      const Lanes diff = splat(x_scaled[d]) - load_lanes(scaled_pseudo + static_cast<std::size_t>(d) * padded + m);
+      exponent -= diff * diff;
     }
-    const Eigen::Array<double, kChunk, 1> k = c * exponent.exp();
-    for (int i = 0; i < len; ++i) visit(m0 + i, k[i]);
+    const Lanes e = exp_nonpositive(exponent);
+    if (k != nullptr) std::memcpy(k + m, &e, sizeof e);
+    sum += load_lanes(weight + m) * e;
   }
+  return (sum[0] + sum[1]) + (sum[2] + sum[3]);
 }
 
 }  // namespace
@@ -654,6 +691,7 @@ Spgp Spgp::fit(const MatrixXd& X, const VectorXd& y, const SpgpOptions& options,
   // Ceres only accepts evaluated points, so this holds unless the initial point already failed.
   if (!std::isfinite(model.final_nlml_))
     throw std::runtime_error("Spgp::fit: the FITC covariance is not positive definite at the initial point");
+  model.prepare();
   return model;
 }
 
@@ -693,22 +731,70 @@ Spgp Spgp::from_parts(const VectorXd& input_mean, const VectorXd& input_scale, d
   model.jitter_ = jitter;
   model.alpha_ = alpha;
   model.var_ = variance_matrix;
+  model.prepare();
   return model;
 }
 
+void Spgp::prepare() {
+  const int D = input_dim(), M = num_pseudo();
+  padded_pseudo_ = (M + kLanes - 1) / kLanes * kLanes;
+  const double c = std::exp(hyper_.log_c);
+  input_gain_.resize(static_cast<std::size_t>(D));
+  scaled_pseudo_.assign(static_cast<std::size_t>(D) * static_cast<std::size_t>(padded_pseudo_), 0.0);
+  for (int d = 0; d < D; ++d) {
+    const double s = std::sqrt(0.5 * std::exp(hyper_.log_b[d]));
+    input_gain_[static_cast<std::size_t>(d)] = s / input_scale_[d];
+    for (int m = 0; m < M; ++m)
+      scaled_pseudo_[static_cast<std::size_t>(d) * static_cast<std::size_t>(padded_pseudo_) +
+                     static_cast<std::size_t>(m)] = pseudo_(m, d) * s;
+  }
+  mean_weight_.assign(static_cast<std::size_t>(padded_pseudo_), 0.0);
+  for (int m = 0; m < M; ++m) mean_weight_[static_cast<std::size_t>(m)] = output_scale_ * c * alpha_[m];
+}
+
 double Spgp::predict_mean(const double* x) const noexcept {
-  double mean_std = 0.0;
-  for_each_pseudo_kernel(*this, x, [&](int m, double k) { mean_std += k * alpha_[m]; });
-  return output_mean_ + output_scale_ * mean_std;
+  if (padded_pseudo_ == 0) return output_mean_;  // default-constructed: no model, no residual
+  const int D = input_dim();
+  double x_scaled[kMaxInputDim];
+  for (int d = 0; d < D; ++d)
+    x_scaled[d] = (x[d] - input_mean_[d]) * input_gain_[static_cast<std::size_t>(d)];
+  return output_mean_ +
+         pseudo_kernel_pass(x_scaled, D, scaled_pseudo_.data(), padded_pseudo_, mean_weight_.data(), nullptr);
+}
+
+double Spgp::predict_mean_and_variance(const double* x, double* variance) const {
+  if (padded_pseudo_ == 0) {  // default-constructed: no model, no claim
+    *variance = 0.0;
+    return output_mean_;
+  }
+  const int D = input_dim(), M = num_pseudo();
+  double x_scaled[kMaxInputDim];
+  for (int d = 0; d < D; ++d)
+    x_scaled[d] = (x[d] - input_mean_[d]) * input_gain_[static_cast<std::size_t>(d)];
+  double stack[kMaxStackPseudo + kLanes];
+  std::vector<double> heap;
+  double* k = stack;
+  if (padded_pseudo_ > kMaxStackPseudo) {
+    heap.resize(static_cast<std::size_t>(padded_pseudo_));
+    k = heap.data();
+  }
+  const double mean = output_mean_ + pseudo_kernel_pass(x_scaled, D, scaled_pseudo_.data(), padded_pseudo_,
+                                                        mean_weight_.data(), k);
+  // var = c - k^T V k with k = c k' (k' from the pass): c - c^2 k'^T V k'.
+  const double c = std::exp(hyper_.log_c);
+  const Eigen::Map<const VectorXd> kv(k, M);
+  double quadratic = 0.0;  // k'^T V k' column by column (no temporary vector)
+  for (int j = 0; j < M; ++j) quadratic += k[j] * var_.col(j).dot(kv);
+  const double var_std = c - c * c * quadratic;
+  // The exact value is >= 0; round-off near the data can make it slightly negative.
+  *variance = std::max(var_std, 0.0) * output_scale_ * output_scale_;
+  return mean;
 }
 
 double Spgp::predict_variance(const double* x) const {
-  if (num_pseudo() == 0) return 0.0;  // default-constructed: no model, no claim
-  VectorXd k(num_pseudo());
-  for_each_pseudo_kernel(*this, x, [&](int m, double km) { k[m] = km; });
-  const double var_std = std::exp(hyper_.log_c) - k.dot(var_ * k);
-  // The exact value is >= 0; round-off near the data can make it slightly negative.
-  return std::max(var_std, 0.0) * output_scale_ * output_scale_;
+  double variance = 0.0;
+  predict_mean_and_variance(x, &variance);
+  return variance;
 }
 
 }  // namespace peha::calibration

@@ -426,6 +426,79 @@ TEST(Spgp, PredictMeanAllocatesNothing) {
   EXPECT_TRUE(std::isfinite(sum));
 }
 
+TEST(Spgp, PredictMeanAndVarianceAllocatesNothing) {
+  const Spgp& model = small_toy_model();
+  double sum = 0.0;
+  const std::size_t allocations = testing::allocations_during([&] {
+    for (int i = 0; i < 1000; ++i) {
+      const double x = -3.0 + 0.013 * i;
+      double variance = 0.0;
+      sum += model.predict_mean_and_variance(&x, &variance) + variance;
+    }
+  });
+  EXPECT_EQ(allocations, 0u);
+  EXPECT_TRUE(std::isfinite(sum));
+}
+
+// The vectorised predictor (prepared coefficients, its own exp) reproduces the textbook formulas
+// with std::exp from the model's stored parts: mean = m_y + s_y sum_m c exp(-1/2 sum_d b_d
+// (x_d - p_md)^2) alpha_m, variance = s_y^2 (c - k^T V k), to 1e-13 of the terms' scale, inside,
+// at the edge of and far outside the data (where every exponent is below -708 and the mean is m_y).
+// 2-D and 3-D models with M = 50 and 13 (not a multiple of the vector width).
+TEST(Spgp, FastPredictionEqualsTheReferenceFormula) {
+  for (const auto& [N, M, D] : {std::tuple{400, 50, 2}, std::tuple{200, 13, 3}}) {
+    std::mt19937_64 rng(static_cast<std::uint64_t>(M));
+    std::uniform_real_distribution<double> box(0.0, 5.0);
+    MatrixXd X(N, D);
+    VectorXd y(N);
+    for (int n = 0; n < N; ++n) {
+      double s = 0.0;
+      for (int d = 0; d < D; ++d) s += std::sin(X(n, d) = box(rng));
+      y[n] = 100.0 + 20.0 * s;
+    }
+    SpgpOptions options;
+    options.num_pseudo = M;
+    options.max_iterations = 30;
+    const Spgp model = Spgp::fit(X, y, options);
+    const VectorXd b = model.hyper().log_b.array().exp();
+    const double c = std::exp(model.hyper().log_c);
+    const double weight_scale = model.output_scale() * c * model.alpha().cwiseAbs().sum();
+    const double variance_scale = model.output_scale() * model.output_scale() * c;
+    std::uniform_real_distribution<double> wide(-3.0, 8.0);
+    for (int trial = 0; trial < 200; ++trial) {
+      std::vector<double> x(static_cast<std::size_t>(D));
+      for (double& v : x) v = trial < 190 ? wide(rng) : 1e6 * (trial - 189);
+      VectorXd k(M);
+      for (int m = 0; m < M; ++m) {
+        double e = 0.0;
+        for (int d = 0; d < D; ++d) {
+          const double xs = (x[static_cast<std::size_t>(d)] - model.input_mean()[d]) / model.input_scale()[d];
+          e += b[d] * std::pow(xs - model.pseudo_inputs()(m, d), 2);
+        }
+        k[m] = c * std::exp(-0.5 * e);
+      }
+      const double mean_ref = model.output_mean() + model.output_scale() * k.dot(model.alpha());
+      const double var_ref =
+          std::max(c - k.dot(model.variance_matrix() * k), 0.0) * model.output_scale() * model.output_scale();
+      double variance = 0.0;
+      const double mean = model.predict_mean_and_variance(x.data(), &variance);
+      EXPECT_NEAR(model.predict_mean(x.data()), mean_ref, 1e-13 * (std::abs(mean_ref) + weight_scale))
+          << "M " << M << " trial " << trial;
+      EXPECT_EQ(mean, model.predict_mean(x.data()));
+      // k^T V k cancels against c (V's entries are large: K_MM is ill-conditioned), so its round-off
+      // scales with sum |k_i V_ij k_j|, not with c: 1e-13 of that.
+      const double quadratic_scale = k.cwiseAbs().dot(model.variance_matrix().cwiseAbs() * k.cwiseAbs());
+      EXPECT_NEAR(variance, var_ref, 1e-13 * (variance_scale + quadratic_scale * model.output_scale() *
+                                                                   model.output_scale()))
+          << "M " << M << " trial " << trial;
+      EXPECT_EQ(variance, model.predict_variance(x.data()));
+      if (trial >= 190) {
+        EXPECT_EQ(mean, model.output_mean());
+      }
+    }
+  }
+}
+
 TEST(Spgp, ReportsProgressOncePerIteration) {
   SpgpOptions options;
   options.num_pseudo = 5;
