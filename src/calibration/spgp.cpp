@@ -528,8 +528,9 @@ using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(
 
 /// exp(x) for x <= 0, per lane (x < -708 gives 0; exp(-708) = 3e-308 is no weight anyway).
 /// Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, then the degree-12 Taylor polynomial of
-/// exp(r) (truncation < 2e-16 relative; Estrin's scheme) and 2^n from the exponent bits: within 2 ulp of std::exp
-/// (tests). Same operations in every clone (no FMA), so the same bits on every x86-64.
+/// exp(r) (truncation < 2e-16 relative; Estrin's scheme) and 2^n from the exponent bits
+/// (tests: the predictor against std::exp-based formulas to 1e-13). Same operations in every clone
+/// (no FMA), so the same bits on every x86-64.
 [[gnu::always_inline]] inline Lanes exp_nonpositive(Lanes x) {
   const Lanes clamped = x < splat(-708.0) ? splat(-708.0) : x;
   const Lanes shifter = splat(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
@@ -559,16 +560,20 @@ using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(
   return x < splat(-708.0) ? splat(0.0) : result;
 }
 
-/// Writes k_m / c = exp(-sum_d (x'_d - P'_dm)^2) for m in [0, padded) into k (padded, a multiple of
-/// kLanes) and returns sum_m weight_m k_m / c. AVX2 and generic builds, picked at load time.
-[[gnu::target_clones("avx2", "default")]] double pseudo_kernel_pass(const double* x_scaled, int D,
-                                                                    const double* scaled_pseudo, int padded,
-                                                                    const double* weight, double* k) {
+/// Writes k_m / c = exp(-sum_d (x'_d - P'_dm)^2) for m in [0, padded) into k (when not null; padded
+/// is a multiple of kLanes) and returns sum_m weight_m k_m / c. kDim > 0: the input dimension known
+/// at compile time (x' broadcast once, the d loop unrolled); 0: any D <= kMaxInputDim.
+template <int kDim>
+[[gnu::always_inline]] inline double pseudo_kernel_pass_impl(const double* x_scaled, int D, const double* scaled_pseudo,
+                                                             int padded, const double* weight, double* k) {
+  const int dims = kDim > 0 ? kDim : D;
+  Lanes x[kDim > 0 ? kDim : kMaxInputDim];
+  for (int d = 0; d < dims; ++d) x[d] = splat(x_scaled[d]);
   Lanes sum = splat(0.0);
   for (int m = 0; m < padded; m += kLanes) {
     Lanes exponent = splat(0.0);
-    for (int d = 0; d < D; ++d) {
-      const Lanes diff = splat(x_scaled[d]) - load_lanes(scaled_pseudo + static_cast<std::size_t>(d) * padded + m);
+    for (int d = 0; d < dims; ++d) {
+      const Lanes diff = x[d] - load_lanes(scaled_pseudo + static_cast<std::size_t>(d) * padded + m);
       exponent -= diff * diff;
     }
     const Lanes e = exp_nonpositive(exponent);
@@ -576,6 +581,19 @@ using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(
     sum += load_lanes(weight + m) * e;
   }
   return (sum[0] + sum[1]) + (sum[2] + sum[3]);
+}
+
+/// pseudo_kernel_pass_impl for the model's D (the calibration's residual has D = 2). AVX2 and
+/// generic builds, picked at load time.
+[[gnu::target_clones("avx2", "default")]] double pseudo_kernel_pass(const double* x_scaled, int D,
+                                                                    const double* scaled_pseudo, int padded,
+                                                                    const double* weight, double* k) {
+  switch (D) {
+    case 1: return pseudo_kernel_pass_impl<1>(x_scaled, D, scaled_pseudo, padded, weight, k);
+    case 2: return pseudo_kernel_pass_impl<2>(x_scaled, D, scaled_pseudo, padded, weight, k);
+    case 3: return pseudo_kernel_pass_impl<3>(x_scaled, D, scaled_pseudo, padded, weight, k);
+    default: return pseudo_kernel_pass_impl<0>(x_scaled, D, scaled_pseudo, padded, weight, k);
+  }
 }
 
 }  // namespace
