@@ -13,9 +13,10 @@ help:
 	@echo "make run    install missing packages, build Release, run E1 on the simulated one-DOF rig,"
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
-	@echo "make bench  build and run the Google Benchmark suite (incl. 60 s of MFB round trips over UDP)"
+	@echo "make bench  build, run the benchmarks and the peers (SciPy LM, sklearn dense GP); one JSON in out/bench,"
+	@echo "            the table in docs/performance.md (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
-	@echo "make soak   opt-in: build and run only the long benchmark (60 s of MFB round trips at 1 kHz over UDP)"
+	@echo "make soak   opt-in: 10 minutes of MFB round trips at 1 kHz over UDP, then 10 more with the other core busy"
 	@echo "make clean  remove build/ and out/"
 
 deps:
@@ -47,17 +48,27 @@ run: build
 test: build
 	ctest --preset $(PRESET)
 
-# Google Benchmark, then the same LM fit by scipy.optimize.least_squares(method="lm") on the same
-# 60 s of 250 Hz data in the same run (cost and time ratio).
+# Google Benchmark (out/bench/peha_bench.json), then the peers in the same run: the same LM fit by
+# scipy.optimize.least_squares(method="lm") on the same 60 s of 250 Hz data and starts (1 process, the
+# issue's baseline, and 2 processes), and sklearn's exact dense GP against the SPGP on the same rows.
+# tools/bench_report.py collects everything into out/bench/bench.json and the table of
+# docs/performance.md (with the 10-minute UDP soaks when `make soak` has left out/bench/soak.json).
 bench: build
-	./$(BUILD)/peha_bench --benchmark_counters_tabular=true
+	mkdir -p out/bench
+	./$(BUILD)/peha_bench --benchmark_counters_tabular=true --benchmark_out=out/bench/peha_bench.json --benchmark_out_format=json
 	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out out/bench/agonist.csv
 	$(PEHA) calibrate out/bench/agonist.csv --muscle agonist --out out/bench/agonist_lm.yaml --no-spgp --no-holdout --no-plot
-	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --json out/bench/scipy_vs_peha.json
+	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --processes 1 --json out/bench/scipy_vs_peha.json
+	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --processes 2 --json out/bench/scipy2_vs_peha.json
+	/usr/bin/python3 tools/compare_spgp_sklearn.py --dir out/bench/spgp_vs_gp --json out/bench/spgp_vs_gp/compare.json
+	/usr/bin/python3 tools/bench_report.py --dir out/bench --doc docs/performance.md
 
-# Opt-in soak: only the 60 s MFB loopback benchmark at 1 kHz (also part of `make bench`).
+# Opt-in soak (not part of `make bench`): the MFB loop at 1 kHz over UDP for 10 minutes with the
+# machine otherwise idle, then 10 minutes with a busy thread on the other core; then the report.
 soak: build
-	./$(BUILD)/peha_bench --benchmark_filter=BM_MfbLoopback1kHz60s --benchmark_counters_tabular=true
+	mkdir -p out/bench
+	PEHA_SOAK=1 ./$(BUILD)/peha_bench --benchmark_filter=BM_MfbSoak --benchmark_counters_tabular=true --benchmark_out=out/bench/soak.json --benchmark_out_format=json
+	[ ! -f out/bench/peha_bench.json ] || /usr/bin/python3 tools/bench_report.py --dir out/bench --doc docs/performance.md
 
 # The MFB packet parser under libFuzzer for 10 minutes (make test runs it for 20 s).
 fuzz: deps

@@ -1,10 +1,19 @@
 // The right arm's control step (J^T G over 5 joints and 9 bodies + three allocations + limits) and
 // one control period of the simulated arm (MuJoCo + three PehaJointPlants), on states recorded from
 // the simulated arm holding a loaded posture.
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/calibration/spgp.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
+
+#include "../tests/support/alloc_counter.hpp"
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <random>
 #include <vector>
 
 namespace {
@@ -76,5 +85,88 @@ void BM_SimulatedArmStep(benchmark::State& state) {
                                                          benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_SimulatedArmStep)->UseRealTime();
+
+/// An SPGP pressure residual like a calibration's (M = 50 pseudo-inputs over x = (eps, F), output
+/// in Pa): fitted once on 3000 synthetic rows, a smooth surface of +-20 kPa plus 1 kPa noise.
+std::shared_ptr<const calibration::Spgp> residual_spgp() {
+  static const std::shared_ptr<const calibration::Spgp> model = [] {
+    constexpr int kRows = 3000;
+    std::mt19937_64 rng(12);
+    std::uniform_real_distribution<double> eps(0.0, 0.25), force(0.0, 1500.0);
+    std::normal_distribution<double> noise_Pa(0.0, 1000.0);
+    Eigen::MatrixXd X(kRows, 2);
+    Eigen::VectorXd y(kRows);
+    for (int n = 0; n < kRows; ++n) {
+      X(n, 0) = eps(rng);
+      X(n, 1) = force(rng);
+      const double f = X(n, 1) / 1500.0;
+      y[n] = 2e4 * std::sin(25.0 * X(n, 0)) + 1e4 * f * f - 6e4 * X(n, 0) * f + noise_Pa(rng);
+    }
+    calibration::SpgpOptions options;
+    options.num_pseudo = 50;
+    options.max_iterations = 60;
+    return std::make_shared<const calibration::Spgp>(calibration::Spgp::fit(X, y, options));
+  }();
+  return model;
+}
+
+/// The arm controller's model with the SPGP residual on all six muscles (3 joints x 2).
+const control::ArmControllerModel& controller_with_spgp() {
+  static const control::ArmControllerModel model = [] {
+    control::ArmControllerModel m = scenario().controller;
+    const auto residual = std::make_shared<const calibration::SpgpResidual>(residual_spgp(), calibration::Span{0.0, 0.25},
+                                                                            calibration::Span{0.0, 1500.0});  // the data box
+    for (control::ArmActuatedJoint& j : m.joints) {
+      j.actuator.agonist.residual = residual;
+      j.actuator.antagonist.residual = residual;
+    }
+    return m;
+  }();
+  return model;
+}
+
+/// The full arm step as the calibrated controller runs it: J^T G over the arm, per joint the
+/// allocation (Bowden compensation, closed-form inverse + SPGP residual per muscle) and the limits
+/// stage (the pressure band again through inverse + SPGP), on the recorded states. Each step is
+/// timed on its own (steady_clock, ~20 ns of the figure is the clock itself); counters: median,
+/// p99, p99.9 and max in ns, heap allocations per step (operator new, counted over all steps).
+void BM_ArmControlStepWithSpgp(benchmark::State& state) {
+  const auto& states = recorded_states();
+  const control::ArmControllerModel& model = controller_with_spgp();
+  const safety::JointModels joints = experiments::arm_joint_models(model);
+  constexpr std::size_t kSteps = 200000;
+  std::vector<double> ns(kSteps);
+  std::size_t allocations = 0;
+  for (auto _ : state) {
+    control::ArmController controller(model);
+    safety::LimitsData limits;
+    io::Command command;
+    std::size_t k = 0;
+    for (std::size_t i = 0; i < kSteps; ++i) {
+      if (k == states.size()) {  // restart the sequence so time stamps keep increasing
+        controller = control::ArmController(model);
+        limits = safety::LimitsData{};
+        k = 0;
+      }
+      const std::size_t before = testing::allocation_count();
+      const auto t0 = std::chrono::steady_clock::now();
+      controller.update(states[k], command);
+      safety::apply_limits(scenario().limits, joints, limits, states[k], command);
+      const auto t1 = std::chrono::steady_clock::now();
+      allocations += testing::allocation_count() - before;
+      benchmark::DoNotOptimize(command);
+      ns[i] = std::chrono::duration<double, std::nano>(t1 - t0).count();
+      ++k;
+    }
+  }
+  std::sort(ns.begin(), ns.end());
+  const auto quantile = [&](double q) { return ns[static_cast<std::size_t>(q * static_cast<double>(kSteps - 1))]; };
+  state.counters["median_ns"] = quantile(0.5);
+  state.counters["p99_ns"] = quantile(0.99);
+  state.counters["p999_ns"] = quantile(0.999);
+  state.counters["max_ns"] = ns.back();
+  state.counters["allocs_per_step"] = static_cast<double>(allocations) / static_cast<double>(kSteps);
+}
+BENCHMARK(BM_ArmControlStepWithSpgp)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace

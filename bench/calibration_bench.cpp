@@ -5,6 +5,7 @@
 /// 7.3 s period (incommensurate, so (eps, P) fills the plane), force from models::forward_force_N,
 /// 1 kPa Gaussian pressure noise. Built once, outside the timed region.
 ///
+/// BM_FitTendonSpring300RestartsCeres runs the same restarts through Ceres (the reference solver).
 /// Counters of the 300-restart fit: restarts_per_s (LM solves per wall-clock second),
 /// rms_pressure_kPa (of the best fit on its data; the noise floor is 1 kPa), best_cost (0.5 sum r^2,
 /// r in MPa), converged (restarts that Ceres reported as CONVERGENCE). The single-restart benchmark
@@ -21,6 +22,12 @@
 
 #include <numbers>
 #include <random>
+
+namespace peha::calibration::detail {
+// The same fit with every restart solved by Ceres (AutoDiff-free analytic cost, DENSE_QR): the
+// solver the calibration used before the in-house LM, kept as the tests' reference.
+FitResult fit_tendon_spring_ceres(const FitData& data, const FitOptions& options);
+}  // namespace peha::calibration::detail
 
 namespace peha::bench {
 namespace {
@@ -75,6 +82,22 @@ void BM_FitTendonSpring300Restarts(benchmark::State& state) {
   report(state, r);
 }
 BENCHMARK(BM_FitTendonSpring300Restarts)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+// The same 300 restarts solved by Ceres' LM (the reference; before/after in one run).
+void BM_FitTendonSpring300RestartsCeres(benchmark::State& state) {
+  const calibration::FitData& d = data();
+  calibration::FitOptions o;
+  o.restarts = 300;
+  o.threads = 2;
+  o.seed = 1;
+  calibration::FitResult r;
+  for (auto _ : state) {
+    r = calibration::detail::fit_tendon_spring_ceres(d, o);
+    benchmark::DoNotOptimize(r);
+  }
+  report(state, r);
+}
+BENCHMARK(BM_FitTendonSpring300RestartsCeres)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 // One LM solve on one thread: the per-solve cost. Each iteration uses the next seed, so the time is
 // an average over random starts (solves differ in their number of iterations), like the 300 above.

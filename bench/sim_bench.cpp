@@ -4,10 +4,14 @@
 #include "bench_support.hpp"
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/sim/arm_mjcf.hpp"
+#include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <cstddef>
 #include <optional>
 
@@ -65,6 +69,47 @@ void BM_E1CaseFull(benchmark::State& state) {
   state.counters["loop_rtf"] = benchmark::Counter(internal_rtf, benchmark::Counter::kAvgIterations);
 }
 BENCHMARK(BM_E1CaseFull)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealTime();
+
+/// MuJoCo alone: mj_step on the same MJCF at the same timestep, substeps per control period as the
+/// plant takes them, with the bias forces fed back as applied forces (the model holds its pose, as
+/// the controlled plant roughly does) so the state stays in the same regime. Counter us_per_period:
+/// MuJoCo's own time per 1 ms control period; BM_SimulatedRigStep / BM_SimulatedArmStep minus this
+/// is peha's plant (muscles, valves, cables, motor, sensors, lifecycle) on top of it.
+void bare_mujoco_loop(benchmark::State& state, mjModel* m, double timestep_s, double period_s,
+                      const std::vector<double>& initial_q) {
+  m->opt.timestep = timestep_s;
+  const int substeps = static_cast<int>(std::lround(period_s / timestep_s));
+  sim::DataPtr data(mj_makeData(m));
+  mjData* d = data.get();
+  for (int i = 0; i < m->nq && i < static_cast<int>(initial_q.size()); ++i) d->qpos[i] = initial_q[static_cast<std::size_t>(i)];
+  mj_forward(m, d);
+  for (auto _ : state) {
+    for (int i = 0; i < substeps; ++i) {
+      mju_copy(d->qfrc_applied, d->qfrc_bias, m->nv);
+      mj_step(m, d);
+    }
+    benchmark::DoNotOptimize(d->qpos[0]);
+  }
+  state.counters["us_per_period"] = benchmark::Counter(static_cast<double>(state.iterations()) * 1e-6,
+                                                       benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["realtime_factor"] =
+      benchmark::Counter(static_cast<double>(state.iterations()) * period_s, benchmark::Counter::kIsRate);
+}
+
+void BM_BareMujocoRigStep(benchmark::State& state) {
+  const sim::OneDofRigParams params = heavy_plant_params();
+  sim::ModelPtr model = sim::load_mjcf(params.model_file);
+  bare_mujoco_loop(state, model.get(), params.timestep_s, params.control_period_s, {params.initial_angle_rad});
+}
+BENCHMARK(BM_BareMujocoRigStep)->UseRealTime();
+
+void BM_BareMujocoArmStep(benchmark::State& state) {
+  const experiments::ArmScenario s =
+      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
+  bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad);
+}
+BENCHMARK(BM_BareMujocoArmStep)->UseRealTime();
 
 }  // namespace
 }  // namespace peha::bench

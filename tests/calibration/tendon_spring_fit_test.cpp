@@ -26,7 +26,12 @@
 // x = [a, b, c (N/MPa), log(k / 1 N), eps0]; residuals are in MPa.
 namespace peha::calibration::detail {
 std::unique_ptr<ceres::CostFunction> make_pressure_cost_function(const FitData& data, double gain_floor_N_per_MPa);
+std::unique_ptr<ceres::CostFunction> make_autodiff_pressure_cost_function(const FitData& data,
+                                                                           double gain_floor_N_per_MPa);
 std::array<double, 5> to_solver_params(const models::TendonSpringParams& p);
+double pressure_normal_equations(const FitData& data, const std::array<double, 5>& x, std::array<double, 5>& gradient,
+                                 std::array<double, 25>& jtj);
+FitResult fit_tendon_spring_ceres(const FitData& data, const FitOptions& options);
 std::array<double, 5> random_initial_params(std::uint64_t seed, int restart);
 }  // namespace peha::calibration::detail
 
@@ -249,6 +254,98 @@ bool evaluate(const ceres::CostFunction& cost, const std::array<double, 5>& x, s
     jacobians[0] = jacobian->data();
   }
   return cost.Evaluate(parameters, residuals.data(), jacobian != nullptr ? jacobians : nullptr);
+}
+
+// The analytic cost the fit runs reproduces the AutoDiff reference to round-off (the Jet path
+// divides through a reciprocal, so its residual values differ in the last bits), residuals and
+// Jacobians, at the truth, at random starts, and where
+// the guards are active (g below the floor, the vertex hold, k and u clamped, absurd parameters).
+TEST(TendonSpringFit, AnalyticJacobianMatchesAutoDiff) {
+  FitData d = synthetic(200, 83);
+  d.force_N[0] = 0.0;
+  const std::unique_ptr<ceres::CostFunction> analytic = detail::make_pressure_cost_function(d, 1.0);
+  const std::unique_ptr<ceres::CostFunction> autodiff = detail::make_autodiff_pressure_cost_function(d, 1.0);
+  std::vector<std::array<double, 5>> points = {
+      detail::to_solver_params(truth()),
+      {-50000.0, -100000.0, 100.0, std::log(6e4), 0.05},  // g < 0 over the whole range
+      {54000.0, -48000.0, 10050.0, -800.0, 0.0},          // k -> 0 (log k clamped)
+      {54000.0, -48000.0, 10050.0, 800.0, 0.0},           // k -> inf
+      {1e-310, 1e5, -1e5, 0.0, 0.0},                      // vertex at -inf
+      {200000.0, -20000.0, 5000.0, std::log(6e4), 0.0},   // vertex at u = 0.05: half the samples held
+      {1e30, -1e30, 1e30, 1e3, 1e3},                      // absurd
+  };
+  for (int j = 0; j < 40; ++j) points.push_back(detail::random_initial_params(5, j));
+  for (const std::array<double, 5>& x : points) {
+    std::vector<double> r_analytic, J_analytic, r_autodiff, J_autodiff, r_only;
+    ASSERT_TRUE(evaluate(*analytic, x, r_analytic, &J_analytic));
+    ASSERT_TRUE(evaluate(*autodiff, x, r_autodiff, &J_autodiff));
+    ASSERT_TRUE(evaluate(*analytic, x, r_only, nullptr));
+    for (std::size_t i = 0; i < r_analytic.size(); ++i) {
+      EXPECT_EQ(r_analytic[i], r_only[i]) << "sample " << i;
+      EXPECT_NEAR(r_analytic[i], r_autodiff[i], 1e-12 * std::max(1.0, std::abs(r_autodiff[i]))) << "sample " << i;
+      for (std::size_t p = 0; p < 5; ++p) {
+        const double ad = J_autodiff[i * 5 + p];
+        EXPECT_NEAR(J_analytic[i * 5 + p], ad, 1e-12 * std::max(1.0, std::abs(ad)))
+            << "parameter " << p << " sample " << i << " at a=" << x[0] << " b=" << x[1] << " c=" << x[2]
+            << " log k=" << x[3] << " eps0=" << x[4];
+      }
+    }
+  }
+}
+
+// The fused pass the LM runs on (cost, J^T r, J^T J without storing J) equals the same sums formed
+// from the cost function's residuals and row-major Jacobian, to round-off of the summation order.
+TEST(TendonSpringFit, FusedNormalEquationsMatchTheJacobian) {
+  const FitData d = synthetic(1000, 85);  // > 1 chunk of 256 samples, with a partial last one
+  const std::unique_ptr<ceres::CostFunction> cost = detail::make_pressure_cost_function(d, 1.0);
+  std::vector<std::array<double, 5>> points = {detail::to_solver_params(truth())};
+  for (int j = 0; j < 10; ++j) points.push_back(detail::random_initial_params(11, j));
+  for (const std::array<double, 5>& x : points) {
+    std::vector<double> r, J;
+    ASSERT_TRUE(evaluate(*cost, x, r, &J));
+    double cost_ref = 0.0;
+    std::array<double, 5> g_ref{};
+    std::array<double, 25> h_ref{};
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      cost_ref += 0.5 * r[i] * r[i];
+      for (std::size_t p = 0; p < 5; ++p) {
+        g_ref[p] += J[i * 5 + p] * r[i];
+        for (std::size_t q = 0; q < 5; ++q) h_ref[p + 5 * q] += J[i * 5 + p] * J[i * 5 + q];
+      }
+    }
+    std::array<double, 5> g{};
+    std::array<double, 25> h{};
+    const double c = detail::pressure_normal_equations(d, x, g, h);
+    EXPECT_NEAR(c, cost_ref, 1e-12 * cost_ref);
+    for (std::size_t p = 0; p < 5; ++p) {
+      EXPECT_NEAR(g[p], g_ref[p], 1e-10 * std::sqrt(2.0 * cost_ref * h_ref[p * 6])) << "gradient " << p;
+      for (std::size_t q = 0; q < 5; ++q) {
+        EXPECT_NEAR(h[p + 5 * q], h_ref[p + 5 * q], 1e-10 * std::sqrt(h_ref[p * 6] * h_ref[q * 6]))
+            << "J^T J (" << p << ", " << q << ")";
+      }
+    }
+  }
+}
+
+// The in-house LM (5 x 5 normal equations) finds what Ceres' LM (DENSE_QR on the N x 5 Jacobian)
+// finds from the same starts with the same bounds: the same best cost to 1e-7 (both stop when a step
+// changes the cost by less than 1e-6 of it, so their last digits differ by path; measured 1.5e-9
+// here) and, through it, the same fitted model; and about as many converged starts.
+TEST(TendonSpringFit, InHouseLmFindsTheSameBestAsCeres) {
+  const FitData d = synthetic(3000, 87);
+  const FitOptions o = options(24, 2, 3);
+  const FitResult ours = fit_tendon_spring(d, o);
+  const FitResult ceres_ref = detail::fit_tendon_spring_ceres(d, o);
+  EXPECT_NEAR(ours.best_cost, ceres_ref.best_cost, 1e-7 * ceres_ref.best_cost);
+  EXPECT_NEAR(ours.rms_pressure_Pa, ceres_ref.rms_pressure_Pa, 1e-6 * ceres_ref.rms_pressure_Pa);
+  EXPECT_NEAR(ours.params.k_N, ceres_ref.params.k_N, 1e-4 * ceres_ref.params.k_N);
+  for (double eps : {0.0, 0.1, 0.2}) {
+    EXPECT_NEAR(models::gain_N_per_Pa(ours.params, eps + ours.params.eps0),
+                models::gain_N_per_Pa(ceres_ref.params, eps + ceres_ref.params.eps0),
+                1e-5 * models::gain_N_per_Pa(ceres_ref.params, eps + ceres_ref.params.eps0))
+        << "eps " << eps;
+  }
+  EXPECT_GE(ours.restarts_converged, ceres_ref.restarts_converged - 3);
 }
 
 // The AutoDiff Jacobian agrees with central differences at random starts (where g may be below the

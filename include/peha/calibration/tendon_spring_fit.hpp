@@ -1,7 +1,8 @@
 #pragma once
 /// \file
 /// Parametric calibration (SPEC §3.2, paper §V-A): the five Tendon-spring parameters
-/// lambda = (a, b, c, k, eps0) by Ceres' Levenberg-Marquardt on the PRESSURE error
+/// lambda = (a, b, c, k, eps0) by Levenberg-Marquardt (Ceres' algorithm and settings, on fused 5 x 5
+/// normal equations) on the PRESSURE error
 ///     r_i = P_i - F_i / g(eps_i + eps0 + F_i / k)
 /// keeping the best of many random initialisations (the paper: 300), spread over threads.
 
@@ -30,9 +31,9 @@ struct FitData {
 struct FitResult {
   models::TendonSpringParams params;  ///< the best restart's parameters
   double rms_pressure_Pa = 0;         ///< RMS pressure error of `params` on the fit data
-  double best_cost = 0;               ///< Ceres cost 0.5 * sum r^2 (r in MPa)
+  double best_cost = 0;               ///< cost 0.5 * sum r^2 (r in MPa), as Ceres defines it
   int restarts_run = 0;
-  int restarts_converged = 0;         ///< Ceres reported CONVERGENCE
+  int restarts_converged = 0;         ///< restarts that met a convergence test (Ceres' three tolerances)
   double seconds = 0;                 ///< wall time of all restarts
 };
 

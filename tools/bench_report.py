@@ -1,0 +1,223 @@
+#!/usr/bin/python3
+"""One JSON of every `make bench` figure, and the targets table of docs/performance.md.
+
+Reads, from --dir (default out/bench):
+  peha_bench.json         Google Benchmark's JSON of peha_bench (required)
+  scipy_vs_peha.json      tools/compare_lm_scipy.py, SciPy on 1 process (the issue's baseline)
+  scipy2_vs_peha.json     the same with SciPy on 2 processes (optional)
+  spgp_vs_gp/compare.json tools/compare_spgp_sklearn.py (optional)
+  soak.json               Google Benchmark's JSON of `make soak` (optional: the 10-minute UDP soaks)
+and writes --dir/bench.json (all of them, plus the targets with their verdicts) and replaces the
+table between the markers <!-- bench:begin --> and <!-- bench:end --> in --doc (default
+docs/performance.md).
+
+Run with /usr/bin/python3.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import sys
+import time
+from pathlib import Path
+
+BEGIN, END = "<!-- bench:begin -->", "<!-- bench:end -->"
+TO_NS = {"ns": 1.0, "us": 1e3, "ms": 1e6, "s": 1e9}
+
+
+def load(path: Path):
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def benchmarks(report) -> dict[str, dict]:
+    """Google Benchmark entries by name without the /iterations:.../real_time decorations."""
+    out = {}
+    for b in (report or {}).get("benchmarks", []):
+        name = re.sub(r"/(iterations:\d+|real_time|min_time:[^/]+)", "", b["name"])
+        out[name] = b
+    return out
+
+
+def seconds(b: dict | None, key: str = "real_time") -> float | None:
+    if b is None or key not in b:
+        return None
+    return b[key] * TO_NS[b.get("time_unit", "ns")] * 1e-9
+
+
+def fmt(value, unit="", digits=3):
+    if value is None:
+        return "-"
+    if isinstance(value, str):
+        return value
+    return f"{value:.{digits}g}{unit}"
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Collect `make bench` figures into one JSON and the docs table.")
+    parser.add_argument("--dir", type=Path, default=Path("out/bench"))
+    parser.add_argument("--doc", type=Path, default=Path("docs/performance.md"))
+    args = parser.parse_args(argv)
+
+    gb_report = load(args.dir / "peha_bench.json")
+    if gb_report is None:
+        sys.exit(f"{args.dir / 'peha_bench.json'}: missing (run peha_bench --benchmark_out=... first)")
+    gb = benchmarks(gb_report)
+    soak_report = load(args.dir / "soak.json")
+    soak = benchmarks(soak_report)
+    scipy1 = load(args.dir / "scipy_vs_peha.json")
+    scipy2 = load(args.dir / "scipy2_vs_peha.json")
+    gp = load(args.dir / "spgp_vs_gp" / "compare.json")
+
+    def counter(name, key, source=gb):
+        b = source.get(name)
+        return None if b is None else b.get(key)
+
+    rows = []  # (figure, measured, target, met)
+
+    # 1. LM restarts: peha calibrate on the recorded 15000 rows against SciPy's MINPACK LM.
+    if scipy1 is not None:
+        peha_s = scipy1.get("peha_seconds")
+        scipy_s = scipy1["scipy"]["seconds"]
+        ratio = scipy_s / peha_s if peha_s else None
+        cost_ratio = scipy1.get("cost_ratio_peha_over_scipy")
+        measured = (f"{fmt(peha_s, ' s')}; SciPy 1 process {fmt(scipy_s, ' s')} ({fmt(ratio, 'x')})"
+                    + (f", 2 processes {fmt(scipy2['scipy']['seconds'], ' s')} "
+                       f"({fmt(scipy2['scipy']['seconds'] / peha_s, 'x')})" if scipy2 and peha_s else "")
+                    + f"; cost ratio peha/SciPy {fmt(cost_ratio, '', 6)}")
+        met = peha_s is not None and peha_s <= 1.0 and ratio is not None and ratio >= 20.0 and \
+            cost_ratio is not None and cost_ratio <= 1.001
+        rows.append(("300 LM restarts, 15 000 recorded rows, 2 threads (peha calibrate)", measured,
+                     "<= 1 s, >= 20x SciPy, cost within 0.1 % of SciPy's", met))
+    fit_new = gb.get("BM_FitTendonSpring300Restarts")
+    fit_ceres = gb.get("BM_FitTendonSpring300RestartsCeres")
+    if fit_new is not None:
+        measured = f"{fmt(seconds(fit_new), ' s')}, best cost {fmt(fit_new.get('best_cost'), '', 7)}"
+        if fit_ceres is not None:
+            measured += (f"; Ceres LM (before) {fmt(seconds(fit_ceres), ' s')}, best cost "
+                         f"{fmt(fit_ceres.get('best_cost'), '', 7)} ({fmt(seconds(fit_ceres) / seconds(fit_new), 'x')})")
+        rows.append(("300 LM restarts, 15 000 synthetic rows (BM_FitTendonSpring300Restarts)", measured,
+                     "<= 1 s", seconds(fit_new) <= 1.0))
+
+    # 2. SPGP training.
+    train = gb.get("BM_SpgpTrain300")
+    ev_new, ev_ref = gb.get("BM_SpgpNlmlGradient/reference:0"), gb.get("BM_SpgpNlmlGradient/reference:1")
+    if train is not None:
+        measured = f"{fmt(seconds(train), ' s')} ({int(train.get('lbfgs_iterations', 0))} iterations)"
+        if ev_new is not None and ev_ref is not None:
+            measured += (f"; one NLML + gradient {fmt(seconds(ev_new) * 1e3, ' ms')} vs original "
+                         f"{fmt(seconds(ev_ref) * 1e3, ' ms')} ({fmt(seconds(ev_ref) / seconds(ev_new), 'x')}), "
+                         f"NLML relative difference {fmt(ev_new.get('nlml_rel_diff_vs_other'), '', 2)}")
+        met = seconds(train) <= 3.0 and (ev_new is None or ev_new.get("nlml_rel_diff_vs_other", 1) <= 1e-9)
+        rows.append(("SPGP training M = 50, N = 15 000, 300 iterations", measured,
+                     "<= 3 s, same NLML to 1e-9", met))
+
+    # 3. SPGP prediction (single-threaded: CPU time, which preemption by other processes does not inflate).
+    mean, both = gb.get("BM_SpgpPredictMean"), gb.get("BM_SpgpPredictMeanAndVariance")
+    dense_mean = gb.get("BM_DenseGpPredictMean")
+    if mean is not None:
+        mean_ns = seconds(mean, "cpu_time") * 1e9
+        both_ns = seconds(both, "cpu_time") * 1e9 if both else None
+        measured = (f"{fmt(mean_ns, ' ns')} / {fmt(both_ns, ' ns')} CPU time (wall {fmt(seconds(mean) * 1e9, ' ns')} / "
+                    f"{fmt(seconds(both) * 1e9 if both else None, ' ns')}), 0 allocations (tests)")
+        if dense_mean is not None:
+            measured += f"; dense GP mean over 15 000 rows {fmt(seconds(dense_mean, 'cpu_time') * 1e9, ' ns')}"
+        rows.append(("SPGP mean / mean + variance (M = 50, D = 2)", measured, "<= 100 ns / <= 1 us, 0 allocations",
+                     mean_ns <= 100.0 and both_ns is not None and both_ns <= 1000.0))
+
+    # 4. SPGP against sklearn's dense GP.
+    if gp is not None:
+        d, s = gp["dense_gp_sklearn"], gp["spgp"]
+        measured = (f"N = {d['train_rows']}: held-out RMSE {fmt(s['heldout_rmse_MPa'] * 1e3, ' kPa', 4)} vs "
+                    f"{fmt(d['heldout_rmse_MPa'] * 1e3, ' kPa', 4)} (ratio {fmt(gp['rmse_ratio_spgp_over_dense'], '', 4)}; "
+                    f"vs truth {fmt(gp['rmse_vs_truth_ratio_spgp_over_dense'], '', 4)}); fit {fmt(s['fit_seconds'], ' s')} vs "
+                    f"{fmt(d['fit_seconds'], ' s')} ({fmt(gp['fit_time_ratio_dense_over_spgp'], 'x')}); one prediction "
+                    f"{fmt(s['predict_ns_per_point'], ' ns')} vs {fmt(d['predict_ns_per_point_single'] / 1e3, ' us')} "
+                    f"({fmt(gp['predict_time_ratio_dense_single_over_spgp'], 'x')})")
+        rows.append(("SPGP vs sklearn exact GP (same kernel)", measured, "held-out RMSE within 5 %",
+                     gp["rmse_ratio_spgp_over_dense"] <= 1.05))
+
+    # 5. Arm step with the SPGP on six muscles.
+    arm = gb.get("BM_ArmControlStepWithSpgp")
+    arm_plain = gb.get("BM_ArmControlStep")
+    if arm is not None:
+        measured = (f"each step timed (wall): median {fmt(arm['median_ns'] / 1e3, ' us')}, p99 {fmt(arm['p99_ns'] / 1e3, ' us')}, "
+                    f"p99.9 {fmt(arm['p999_ns'] / 1e3, ' us')}, max {fmt(arm['max_ns'] / 1e3, ' us')}, "
+                    f"{fmt(arm['allocs_per_step'])} allocations/step")
+        if arm_plain is not None:
+            measured += f"; without SPGP {fmt(seconds(arm_plain, 'cpu_time') * 1e9, ' ns')} (mean, CPU time)"
+        rows.append(("Arm step: J^T G + 3 allocations + SPGP on 6 muscles + limits", measured,
+                     "median <= 2 us, p99.9 <= 10 us, 0 allocations",
+                     arm["median_ns"] <= 2000 and arm["p999_ns"] <= 10000 and arm["allocs_per_step"] == 0))
+
+    # 6. Plants over bare MuJoCo: overhead from CPU time (single-threaded), real-time factor from
+    # wall time (its definition) and, for a machine to itself, from CPU time.
+    for label, plant_name, bare_name, rtf_target in (("rig", "BM_SimulatedRigStep", "BM_BareMujocoRigStep", 500),
+                                                     ("arm", "BM_SimulatedArmStep", "BM_BareMujocoArmStep", 200)):
+        plant, bare = gb.get(plant_name), gb.get(bare_name)
+        if plant is None or bare is None:
+            continue
+        p_us, b_us = seconds(plant, "cpu_time") * 1e6, seconds(bare, "cpu_time") * 1e6
+        overhead = (p_us - b_us) / b_us
+        rtf_wall, rtf_cpu = 1e3 / (seconds(plant) * 1e6), 1e3 / p_us
+        rows.append((f"Simulated {label}: plant over bare mj_step, real-time factor",
+                     f"{fmt(p_us, ' us')} CPU per 1 ms vs MuJoCo alone {fmt(b_us, ' us')}: overhead "
+                     f"{fmt(100 * overhead, ' %')}; RTF {fmt(rtf_wall, 'x')} wall, {fmt(rtf_cpu, 'x')} by CPU time",
+                     f"overhead <= 50 %, RTF >= {rtf_target}x", overhead <= 0.5 and rtf_wall >= rtf_target))
+
+    # 7. UDP loop.
+    for name, source, label in (("BM_MfbLoopback1kHz60s", gb, "UDP loop 60 s at 1 kHz (make bench)"),
+                                ("BM_MfbSoak1kHz600s", soak, "UDP loop 10 min at 1 kHz (make soak)"),
+                                ("BM_MfbSoak1kHz600sOtherCoreBusy", soak, "UDP loop 10 min, other core busy (make soak)")):
+        b = source.get(name)
+        if b is None:
+            if source is soak:
+                rows.append((label, "not run (make soak)", "RTT p99.9 <= 200 us, misses <= 0.01 %", None))
+            continue
+        measured = (f"RTT median {fmt(b['rtt_median_us'], ' us')}, p99.9 {fmt(b['rtt_p999_us'], ' us')}, max "
+                    f"{fmt(b['rtt_max_us'], ' us')}; deadline misses {fmt(b['miss_rate_pct'], ' %', 2)}; "
+                    f"{int(b['cycles'])} cycles, SCHED_FIFO {'yes' if b.get('fifo') else 'no'}")
+        rows.append((label, measured, "RTT p99.9 <= 200 us, misses <= 0.01 %",
+                     b["rtt_p999_us"] <= 200 and b["miss_rate_pct"] <= 0.01))
+
+    context = gb_report.get("context", {})
+    load_now = os.getloadavg()
+    out = {
+        "written": time.strftime("%Y-%m-%d %H:%M:%S %Z"),
+        "host": platform.node(),
+        "machine": {"cpus": context.get("num_cpus"), "mhz_per_cpu": context.get("mhz_per_cpu"),
+                    "load_avg_at_bench_start": context.get("load_avg"), "load_avg_at_report": list(load_now)},
+        "targets": [{"figure": f, "measured": m, "target": t, "met": met} for f, m, t, met in rows],
+        "peha_bench": gb_report,
+        "soak": soak_report,
+        "lm_vs_scipy_1_process": scipy1,
+        "lm_vs_scipy_2_processes": scipy2,
+        "spgp_vs_sklearn_dense_gp": gp,
+    }
+    (args.dir / "bench.json").write_text(json.dumps(out, indent=2) + "\n")
+
+    lines = [BEGIN, "",
+             f"Measured {out['written']} on {context.get('num_cpus')} CPUs at {context.get('mhz_per_cpu')} MHz; "
+             f"load average at the start of peha_bench {', '.join(f'{v:.2f}' for v in context.get('load_avg', []))} "
+             f"(other builds on the machine inflate wall times).", "",
+             "| figure | measured | target | met |", "|---|---|---|---|"]
+    for f, m, t, met in rows:
+        lines.append(f"| {f} | {m} | {t} | {'-' if met is None else ('yes' if met else '**no**')} |")
+    lines += ["", END]
+    table = "\n".join(lines)
+    doc = args.doc.read_text() if args.doc.exists() else f"# Performance\n\n{BEGIN}\n{END}\n"
+    if BEGIN in doc and END in doc:
+        doc = doc[:doc.index(BEGIN)] + table + doc[doc.index(END) + len(END):]
+    else:
+        doc = doc.rstrip() + "\n\n" + table + "\n"
+    args.doc.write_text(doc)
+    print(table)
+    print(f"written: {args.dir / 'bench.json'} and {args.doc}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""tools/bench_report.py: collects Google Benchmark's JSON and the peers' JSON into one file and
+replaces only the table between the markers of the performance page."""
+
+import json
+import sys
+import tempfile
+import unittest
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import bench_report  # noqa: E402
+
+
+def gb_entry(name, real_time, cpu_time, unit="ns", **counters):
+    return dict(name=name, real_time=real_time, cpu_time=cpu_time, time_unit=unit, **counters)
+
+
+class BenchReportTest(unittest.TestCase):
+    def setUp(self):
+        self.tmp = tempfile.TemporaryDirectory()
+        self.dir = Path(self.tmp.name)
+        report = {
+            "context": {"num_cpus": 2, "mhz_per_cpu": 2600, "load_avg": [0.5, 0.4, 0.3]},
+            "benchmarks": [
+                gb_entry("BM_SpgpPredictMean", 150.0, 90.0),
+                gb_entry("BM_SpgpPredictMeanAndVariance", 600.0, 450.0),
+                gb_entry("BM_FitTendonSpring300Restarts/iterations:1/real_time", 0.4, 0.0, "s", best_cost=0.0075),
+                gb_entry("BM_ArmControlStepWithSpgp/iterations:1", 400.0, 400.0, "ms", median_ns=2100.0,
+                         p99_ns=2500.0, p999_ns=4000.0, max_ns=9000.0, allocs_per_step=0.0),
+            ],
+        }
+        (self.dir / "peha_bench.json").write_text(json.dumps(report))
+        self.doc = self.dir / "performance.md"
+        self.doc.write_text("# Performance\n\nbefore\n\n<!-- bench:begin -->\nold table\n<!-- bench:end -->\n\nafter\n")
+
+    def tearDown(self):
+        self.tmp.cleanup()
+
+    def test_writes_the_json_and_replaces_only_the_table(self):
+        self.assertEqual(bench_report.main(["--dir", str(self.dir), "--doc", str(self.doc)]), 0)
+        doc = self.doc.read_text()
+        self.assertIn("before", doc)
+        self.assertIn("after", doc)
+        self.assertNotIn("old table", doc)
+        self.assertIn("| SPGP mean / mean + variance (M = 50, D = 2) | 90 ns / 450 ns CPU time", doc)
+        out = json.loads((self.dir / "bench.json").read_text())
+        verdicts = {t["figure"]: t["met"] for t in out["targets"]}
+        self.assertTrue(verdicts["SPGP mean / mean + variance (M = 50, D = 2)"])
+        self.assertTrue(verdicts["300 LM restarts, 15 000 synthetic rows (BM_FitTendonSpring300Restarts)"])
+        self.assertFalse(verdicts["Arm step: J^T G + 3 allocations + SPGP on 6 muscles + limits"])  # median 2.1 us
+
+    def test_missing_benchmark_json_is_an_error(self):
+        (self.dir / "peha_bench.json").unlink()
+        with self.assertRaises(SystemExit):
+            bench_report.main(["--dir", str(self.dir), "--doc", str(self.doc)])
+
+
+if __name__ == "__main__":
+    unittest.main()
