@@ -179,7 +179,7 @@ def main(argv: list[str] | None = None) -> int:
             continue
         measured = (f"RTT median {fmt(b['rtt_median_us'], ' us')}, p99.9 {fmt(b['rtt_p999_us'], ' us')}, max "
                     f"{fmt(b['rtt_max_us'], ' us')}; deadline misses {fmt(b['miss_rate_pct'], ' %', 2)}; "
-                    f"{int(b['cycles'])} cycles, SCHED_FIFO {'yes' if b.get('fifo') else 'no'}")
+                    f"{int(b['cycles'])} cycles, {int(b.get('faults', 0))} fault(s), SCHED_FIFO {'yes' if b.get('fifo') else 'no'}")
         rows.append((label, measured, "RTT p99.9 <= 200 us, misses <= 0.01 %",
                      b["rtt_p999_us"] <= 200 and b["miss_rate_pct"] <= 0.01))
 

@@ -190,9 +190,10 @@ using LaneMask = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(
 
 /// Residuals r[i] (MPa) of samples [0, n) and, when J is not null, the Jacobian by columns
 /// (J[p * stride + i] = dr_i/dx_p). Works on kLanes samples at a time: reads inputs and writes
-/// outputs up to n rounded up to a multiple of kLanes (see PressureData). Values are computed exactly as
-/// predicted_pressure_MPa<double> does (same operations in the same order, so residuals are
-/// bit-identical to it); the Jacobian is the chain rule through the same guards, each guard holding
+/// outputs up to n rounded up to a multiple of kLanes (see PressureData). Values are computed as
+/// predicted_pressure_MPa<double> does, the same operations in the same order, except that the
+/// tangent below the floor multiplies by 1/g_f^2 (exact for the models' floor of 1 N/MPa): the
+/// residuals are bit-identical to it (tested); the Jacobian is the chain rule through the same guards, each guard holding
 /// its argument constant (zero derivative) where it is active:
 ///   du/dx = [0, 0, 0, F d(1/k)/dlog k, 1];  at the vertex hold du/dx = [b/(2a^2), -1/(2a), 0, 0, 0]
 ///   dg/dx = [u^2, u, 1, 0, 0] + (2 a u + b) du/dx

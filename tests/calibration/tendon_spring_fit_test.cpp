@@ -256,9 +256,9 @@ bool evaluate(const ceres::CostFunction& cost, const std::array<double, 5>& x, s
   return cost.Evaluate(parameters, residuals.data(), jacobian != nullptr ? jacobians : nullptr);
 }
 
-// The analytic cost the fit runs reproduces the AutoDiff reference to round-off (the Jet path
-// divides through a reciprocal, so its residual values differ in the last bits), residuals and
-// Jacobians, at the truth, at random starts, and where
+// The analytic cost the fit runs reproduces the AutoDiff reference: its residuals bit for bit those
+// of the functor's double path (predicted_pressure_MPa<double>), residuals and Jacobians to
+// round-off of the Jet path (which divides through a reciprocal), at the truth, at random starts, and where
 // the guards are active (g below the floor, the vertex hold, k and u clamped, absurd parameters).
 TEST(TendonSpringFit, AnalyticJacobianMatchesAutoDiff) {
   FitData d = synthetic(200, 83);
@@ -280,8 +280,11 @@ TEST(TendonSpringFit, AnalyticJacobianMatchesAutoDiff) {
     ASSERT_TRUE(evaluate(*analytic, x, r_analytic, &J_analytic));
     ASSERT_TRUE(evaluate(*autodiff, x, r_autodiff, &J_autodiff));
     ASSERT_TRUE(evaluate(*analytic, x, r_only, nullptr));
+    std::vector<double> r_double;  // AutoDiffCostFunction without Jacobians: predicted_pressure_MPa<double>
+    ASSERT_TRUE(evaluate(*autodiff, x, r_double, nullptr));
     for (std::size_t i = 0; i < r_analytic.size(); ++i) {
       EXPECT_EQ(r_analytic[i], r_only[i]) << "sample " << i;
+      EXPECT_EQ(r_only[i], r_double[i]) << "sample " << i;  // bit for bit (gain floor 1 N/MPa)
       EXPECT_NEAR(r_analytic[i], r_autodiff[i], 1e-12 * std::max(1.0, std::abs(r_autodiff[i]))) << "sample " << i;
       for (std::size_t p = 0; p < 5; ++p) {
         const double ad = J_autodiff[i * 5 + p];
