@@ -202,6 +202,32 @@ Command add_check_config(CLI::App& app) {
   return {check_cmd, [check_path] { return peha::app::check_config(*check_path); }};
 }
 
+Command add_robustness(CLI::App& app) {
+  struct State {
+    peha::app::RobustnessOptions options;
+    int threads = 2;
+    CLI::Option* threads_opt = nullptr;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App* cmd = app.add_subcommand(
+      "robustness", "Run the robustness matrix (docs/robustness.md): E1 (default controller; pure feed-forward after\n"
+                    "recording and calibrating on each variant) and E3 on plant variants x payloads x seeds. Variants\n"
+                    "change only the plant. Prints one line per case; writes <out>/<run>/robustness.md (table),\n"
+                    "robustness.csv, config.yaml and heatmap.png. Exit code 0 = every mode met its goal share,\n"
+                    "3 = a mode missed it, 2 = bad config.");
+  cmd->add_option("-c,--config", s->options.config, "Robustness YAML, e.g. configs/robustness.yaml")->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--out", s->options.out_root, "Directory under which the run directory is created")->capture_default_str();
+  cmd->add_option("-n,--name", s->options.run_name, "Run directory name (default: <config stem>-<UTC time>)");
+  s->threads_opt = cmd->add_option("--threads", s->threads, "Worker threads over the cases (default: the file's threads:)")
+                       ->check(CLI::Range(1, 64));
+  cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
+  cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");
+  return {cmd, [s] {
+            if (*s->threads_opt) s->options.threads = s->threads;
+            return peha::app::robustness(s->options);
+          }};
+}
+
 Command add_version(CLI::App& app) {
   return {app.add_subcommand("version", "Print peha's and MuJoCo's versions."), [] {
             fmt::print("peha 0.1.0 (MuJoCo {})\n", mj_versionString());
@@ -220,7 +246,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
   const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_mfb_emulator(app),
-                              add_check_config(app), add_version(app)};
+                              add_check_config(app), add_robustness(app), add_version(app)};
   CLI11_PARSE(app, argc, argv);
   for (const Command& command : commands) {
     if (*command.app) return command.run();

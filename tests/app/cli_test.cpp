@@ -220,7 +220,8 @@ TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
   std::filesystem::remove_all(out);
   const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml --experiment bandwidth --no-plot"
                        " --seed 7 --out " + out.string() + " --name \"it's\"");  // a quote in the name: no shell between peha and the plotter either
-  ASSERT_EQ(r.code, 0) << r.output;
+  // 3: E6 ran and its verdict failed (the wrist's wire below the tension floor, docs/right-arm.md).
+  ASSERT_TRUE(r.code == 0 || r.code == 3) << r.output;
   std::vector<std::filesystem::path> entries;
   for (const auto& e : std::filesystem::directory_iterator(out)) entries.push_back(e.path().filename());
   std::sort(entries.begin(), entries.end());

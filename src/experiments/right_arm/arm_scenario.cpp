@@ -180,6 +180,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   read_bandwidth(root.map("bandwidth"), s);
   if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
   read_goniometer(root.map("goniometer"), s);
+  s.verdict = safety::read_verdict_thresholds(root);
   root.finish();
   return s;
 }
