@@ -66,6 +66,7 @@ void read_arm_plant(config::Map plant, config::Map op, const models::RightArmCon
   p.mjcf.timestep_s = p.timestep_s;
   p.control_period_s = s.period_s;
   p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  p.unknown_hand_payload_kg = plant.number_or("unknown_hand_payload_kg", 0.0, {-20.0, 20.0});  // plant-only
   config::Map pressure = plant.map("pressure_sensor");
   p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
   p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
