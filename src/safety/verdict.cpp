@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace peha::safety {
@@ -90,11 +91,15 @@ void Envelope::observe(std::size_t joint, const JointSample& s) noexcept {
   for (int m = 0; m < 2; ++m) {
     j.peak_muscle_force_N[m] = std::isnan(s.muscle_force_N[m]) ? s.muscle_force_N[m] : std::max(j.peak_muscle_force_N[m], s.muscle_force_N[m]);
   }
-  j.min_tension_N = std::min(j.min_tension_N, s.min_tension_N);
-  j.max_pressure_Pa = std::max({j.max_pressure_Pa, s.pressure_Pa[0], s.pressure_Pa[1]});
-  j.peak_motor_torque_Nm = std::max(j.peak_motor_torque_Nm, std::abs(s.motor_torque_Nm));
-  j.min_angle_rad = std::min(j.min_angle_rad, s.angle_rad);
-  j.max_angle_rad = std::max(j.max_angle_rad, s.angle_rad);
+  // Every figure: a NaN sample makes the figure NaN for good (std::min/max would drop it).
+  auto low = [](double& figure, double v) { figure = std::isnan(v) || std::isnan(figure) ? std::numeric_limits<double>::quiet_NaN() : std::min(figure, v); };
+  auto high = [](double& figure, double v) { figure = std::isnan(v) || std::isnan(figure) ? std::numeric_limits<double>::quiet_NaN() : std::max(figure, v); };
+  low(j.min_tension_N, s.min_tension_N);
+  high(j.max_pressure_Pa, s.pressure_Pa[0]);
+  high(j.max_pressure_Pa, s.pressure_Pa[1]);
+  high(j.peak_motor_torque_Nm, std::abs(s.motor_torque_Nm));
+  low(j.min_angle_rad, s.angle_rad);
+  high(j.max_angle_rad, s.angle_rad);
   ++j.samples;
 }
 

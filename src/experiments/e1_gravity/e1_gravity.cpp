@@ -165,8 +165,9 @@ double e1_plant_gravity_torque_Nm(const sim::OneDofRigParams& plant, double angl
   }();
   mjModel* m = model.get();
   const int payload = sim::require_id(m, mjOBJ_BODY, "payload", plant.model_file.string());
-  const double scale = plant.payload_kg / m->body_mass[payload];
-  m->body_mass[payload] = plant.payload_kg;
+  const double payload_kg = plant.payload_kg + plant.unknown_payload_kg;  // what the plant really carries
+  const double scale = payload_kg / m->body_mass[payload];
+  m->body_mass[payload] = payload_kg;
   for (int i = 0; i < 3; ++i) m->body_inertia[3 * payload + i] *= scale;
   sim::DataPtr data(mj_makeData(m));
   mj_setConst(m, data.get());

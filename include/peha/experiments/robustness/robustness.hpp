@@ -59,6 +59,7 @@ struct RobustnessConfig {
   int threads = 2;                     ///< worker threads over the cases
   int calibration_restarts = 30;       ///< LM restarts per muscle in the calibrated mode
   int calibration_pseudo_inputs = 50;  ///< SPGP pseudo-inputs
+  int calibration_spgp_iterations = 300;  ///< SPGP optimiser iterations
   double e1_duration_s = 0;            ///< > 0: shorten the E1 scenario (tests); 0: the scenario's
   RobustnessGoal goal_default{5, 0.5, 1.0};
   RobustnessGoal goal_calibrated{10, 0.2, 0.9};
