@@ -73,7 +73,7 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
                        " --out " + out.string() + " --name t");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("drift/deg"));
-  EXPECT_THAT(r.output, HasSubstr("safety: peak PAM force"));
+  EXPECT_THAT(r.output, HasSubstr("safety: peak agonist force"));
   const std::filesystem::path dir = out / "t";
   EXPECT_TRUE(std::filesystem::exists(dir / "config.yaml"));
   EXPECT_TRUE(std::filesystem::exists(dir / "summary.csv"));
@@ -84,7 +84,7 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
   EXPECT_EQ(line.rfind("t_s,angle_rad,", 0), 0u) << line;  // time first, units in the names
   std::size_t rows = 0;
   while (std::getline(log, line)) ++rows;
-  EXPECT_EQ(rows, 24001u);  // 24 s at 1 kHz, both ends
+  EXPECT_EQ(rows, 34001u);  // 34 s at 1 kHz, both ends
   std::filesystem::remove_all(out);
 }
 
