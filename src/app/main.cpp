@@ -32,8 +32,10 @@ Command add_run(CLI::App& app) {
              "config.yaml (the config it ran with), summary.csv and plot.png; prints a summary table.\n"
              "The scenario's experiment: key picks the experiment (gravity_compensation_1dof = E1; right_arm =\n"
              "E3, E4 or E6 by --experiment); an option that experiment does not take is an error, never ignored.\n"
-             "Exit code 0 = ran and every safety figure held, 2 = bad config or an option the experiment does\n"
-             "not take (nothing written), 3 = a safety figure was violated.");
+             "Exit code 0 = ran and every figure of the verdict held, 2 = bad config or an option the experiment\n"
+             "does not take (nothing written), 3 = a figure failed (drift, excursion or a run to a stop after a\n"
+             "release, E1's static torque error, a muscle's force ceiling, the wire-tension floor, pressure, motor,\n"
+             "range, E4's tracking; thresholds in the scenario's verdict: section).");
   run_cmd->add_option("-c,--config", run.config, "Scenario YAML, e.g. configs/e1_one_dof.yaml")
       ->required()->check(CLI::ExistingFile);
   run_cmd->add_option("-o,--out", run.out_root, "Directory under which the run directory is created")

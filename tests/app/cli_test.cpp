@@ -110,6 +110,26 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
   EXPECT_THAT(run("record-calibration --help").output, HasSubstr("250 Hz"));
 }
 
+// `peha robustness` documents itself and rejects a bad matrix file (exit 2, file:line:column) and an
+// unknown variant before it runs anything.
+TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
+  const Result help = run("robustness --help");
+  EXPECT_EQ(help.code, 0);
+  for (const char* option : {"--config", "--threads", "--variant", "--no-plot", "robustness.md", "heatmap.png"}) {
+    EXPECT_THAT(help.output, HasSubstr(option));
+  }
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_robustness";
+  std::filesystem::create_directories(dir);
+  { std::ofstream(dir / "bad.yaml") << "experiment: robustness\ndescription: x\nseed: 1\ncolour: red\n"; }
+  const Result bad = run("robustness --no-plot --out " + dir.string() + " --config " + (dir / "bad.yaml").string());
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("bad.yaml:"));
+  const Result unknown = run("robustness --no-plot --out " + dir.string() + " --variant nope --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
+  EXPECT_EQ(unknown.code, 2) << unknown.output;
+  EXPECT_THAT(unknown.output, HasSubstr("no variant named 'nope'"));
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 
 namespace {

@@ -53,7 +53,7 @@ int mfb_emulator(const EmulatorOptions& options);
 /// `peha run`: runs the scenario's experiment (found by its `experiment:` key in the registry),
 /// writes out/<run>/ and prints a summary table. An option the experiment does not take is
 /// rejected (exit code 2, nothing written). Returns the process exit code (0 when every case ran
-/// and every safety figure held, 2 bad input, 3 a safety figure violated, 1 other errors).
+/// and every figure of the verdict held, 2 bad input, 3 a figure of the verdict failed, 1 other errors).
 int run(const RunOptions& options);
 
 struct RecordOptions {

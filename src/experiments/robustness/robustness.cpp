@@ -406,7 +406,7 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
   for (const RobustnessRow& r : result.rows) {
     auto num = [](double v, const char* f) { return std::isnan(v) ? std::string("-") : fmt::format(fmt::runtime(f), v); };
     std::string note;
-    if (r.physics_forbids) note = "plant gravity unknown to the controller: no feed-forward can hold it without position feedback";
+    if (r.physics_forbids) note = "plant gravity the controller is not told: without position feedback a target error below the mismatch is out of reach";
     if (!r.verdict) {
       std::string first = r.failures.substr(0, r.failures.find(';'));
       note += (note.empty() ? "" : "; ") + first;
