@@ -14,7 +14,7 @@ help:
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make robustness  E1 (default + calibrated pure feed-forward) and E3 over plant variants:"
-	@echo "            out/robustness/robustness.md and heatmap.png (docs/robustness.md; tens of minutes)"
+	@echo "            out/robustness/robustness.md and heatmap.png (docs/robustness.md; about 7 minutes on 2 cores)"
 	@echo "make bench  build and run the Google Benchmark suite (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser for 10 minutes (libFuzzer, ASan, UBSan)"
 	@echo "make soak   opt-in: build and run only the long benchmark (60 s of MFB round trips at 1 kHz over UDP)"

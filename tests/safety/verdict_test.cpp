@@ -57,6 +57,33 @@ TEST(Verdict, TensionFloorIsAFractionOfThePretension) {
   EXPECT_FALSE(rig.judge(500.0, 100.0, 31.0, strict).passed());
 }
 
+// Every figure of the envelope can fail on its own: a pressure above the 0.8 MPa supply, a motor
+// torque above its 2.5 Nm rating, an angle past the range (+ tolerance) - each names itself.
+TEST(Verdict, EveryEnvelopeFigureCanFail) {
+  const OneJoint rig;
+  auto judge = [&](const JointSample& s) {
+    Envelope e;
+    e.observe(0, s);
+    Verdict v;
+    add_envelope_checks(rig.limits, rig.joints, {"joint"}, e, {}, v);
+    return v;
+  };
+  const JointSample ok{{500.0, 100.0}, 50.0, {0.3e6, 0.2e6}, 1.0, 0.1};
+  EXPECT_TRUE(judge(ok).passed()) << judge(ok).failures();
+  JointSample s = ok;
+  s.pressure_Pa[1] = 0.85e6;
+  EXPECT_THAT(judge(s).failures(), HasSubstr("joint highest pressure 0.85 MPa > 0.8 MPa"));
+  s = ok;
+  s.motor_torque_Nm = -2.6;
+  EXPECT_THAT(judge(s).failures(), HasSubstr("joint peak motor torque 2.6 Nm > 2.5 Nm"));
+  s = ok;
+  s.angle_rad = -0.85;
+  EXPECT_THAT(judge(s).failures(), HasSubstr("joint lowest angle"));
+  s = ok;
+  s.angle_rad = 0.85;
+  EXPECT_THAT(judge(s).failures(), HasSubstr("joint highest angle"));
+}
+
 // A NaN figure (a broken sensor or model) fails, never passes silently.
 TEST(Verdict, NanFiguresFail) {
   const OneJoint rig;
