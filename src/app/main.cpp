@@ -198,8 +198,9 @@ Command add_check_config(CLI::App& app) {
   auto check_path = std::make_shared<std::filesystem::path>();
   CLI::App* check_cmd = app.add_subcommand(
       "check-config", "Parse and validate a scenario YAML (one-DOF rig or right arm, with its channel map if it has an\n"
-                      "mfb: section) without running it. Unknown keys, missing keys, wrong\n"
-                      "types and out-of-range values are reported with file:line:column, key path and reason.");
+                      "mfb: section; or a robustness matrix with the scenarios it names) without running it. Unknown keys,\n"
+                      "missing keys, wrong types and out-of-range values are reported with file:line:column, key path\n"
+                      "and reason.");
   check_cmd->add_option("-c,--config", *check_path, "Scenario YAML to check")->required()->check(CLI::ExistingFile);
   return {check_cmd, [check_path] { return peha::app::check_config(*check_path); }};
 }

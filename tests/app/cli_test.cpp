@@ -127,6 +127,9 @@ TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   const Result unknown = run("robustness --no-plot --out " + dir.string() + " --variant nope --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
   EXPECT_EQ(unknown.code, 2) << unknown.output;
   EXPECT_THAT(unknown.output, HasSubstr("no variant named 'nope'"));
+  const Result check = run("check-config --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
+  EXPECT_EQ(check.code, 0) << check.output;
+  EXPECT_THAT(check.output, HasSubstr("robustness matrix, 3 mode(s) x 17 variant(s)"));
   std::filesystem::remove_all(dir);
 }
 
