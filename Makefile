@@ -5,7 +5,7 @@ CONFIG ?= configs/e1_one_dof.yaml
 CAL    := out/calibration
 PEHA    = ./$(BUILD)/peha
 
-.PHONY: all deps configure build run test bench fuzz soak clean help
+.PHONY: all deps configure build run test bench fuzz soak robustness clean help
 
 all: build
 
@@ -13,6 +13,8 @@ help:
 	@echo "make run    install missing packages, build Release, run E1 on the simulated one-DOF rig,"
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
+	@echo "make robustness  E1 (default + calibrated pure feed-forward) and E3 over plant variants:"
+	@echo "            out/robustness/robustness.md and heatmap.png (docs/robustness.md; about 7 minutes on 2 cores)"
 	@echo "make bench  build, run the benchmarks and the peers (SciPy LM, sklearn dense GP); one JSON in out/bench,"
 	@echo "            the table in docs/performance.md (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
@@ -47,6 +49,12 @@ run: build
 
 test: build
 	ctest --preset $(PRESET)
+
+# The robustness matrix (docs/robustness.md). Exit code 3 = a mode missed its goal share: reported
+# in the table, not a failure of make; any other failure stops make.
+robustness: build
+	$(PEHA) robustness --config configs/robustness.yaml --name robustness; \
+	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
 
 # Google Benchmark (out/bench/peha_bench.json), then the peers in the same run: the same LM fit by
 # scipy.optimize.least_squares(method="lm") on the same 60 s of 250 Hz data and starts (1 process, the

@@ -68,6 +68,14 @@ def main():
     ax2.set_xlabel("time [s]")
     ax2.legend(loc="upper right", fontsize=8, ncol=2)
 
+    names = s.dtype.names or ()
+    limit = float(s["max_drift_deg"][0]) if "max_drift_deg" in names and len(s) else None
+    if "within_limits" in names and len(s):
+        ok = int(s["within_limits"][0]) == 1
+        fig.suptitle("verdict %s: |drift| <= %.2g deg (red dashed), lowest wire tension %.1f N (floor %.1f N)"
+                     % ("OK" if ok else "FAILED", limit, float(s["min_wire_tension_N"][0]),
+                        float(s["min_wire_tension_limit_N"][0])), color="black" if ok else "red", fontsize=11)
+
     n = len(releases)
     for i, r in enumerate(releases):
         ax = fig.add_subplot(3, max(n, 1), 2 * max(n, 1) + i + 1)
@@ -81,8 +89,14 @@ def main():
         if i == 0:
             ax.set_ylabel("drift [deg]")
             ax.legend(fontsize=7)
-        ax.set_ylim(-0.5, 0.5)
         ax.axhline(0, color="k", lw=0.5)
+        if limit is not None:  # the verdict's drift threshold (summary.csv max_drift_deg)
+            for sign in (-1, 1):
+                ax.axhline(sign * limit, color="red", ls="--", lw=0.8)
+            lo, hi = ax.get_ylim()
+            ax.set_ylim(min(lo, -1.2 * limit), max(hi, 1.2 * limit))
+        else:
+            ax.set_ylim(-0.5, 0.5)
         ax.tick_params(labelsize=7)
     fig.tight_layout()
     out = a.out or os.path.join(a.run_dir, "plot.png")

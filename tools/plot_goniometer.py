@@ -61,7 +61,8 @@ def main():
                 first = False
             label = "pure ID replay (paper)" if v == "open_loop" else "ID + impedance"
             ax.plot(t, d["plant_elbow_deg"], color=colors.get(v, "tab:green"), lw=1.1,
-                    label=f"exo elbow, {label}: RMS {row['rms_error_deg']:.1f} deg, delay {row['delay_ms']:.0f} ms")
+                    label=f"exo elbow, {label}: RMS {row['rms_error_deg']:.1f} deg, delay {row['delay_ms']:.0f} ms"
+                    + (f", verdict {'OK' if int(row['within_limits']) == 1 else 'FAIL'}" if "within_limits" in s.dtype.names else ""))
             ax_e.plot(t, d["plant_elbow_deg"] - d["person_elbow_deg"], color=colors.get(v, "tab:green"), lw=0.9, label=v)
             ax_t.plot(t, d["tau_elbow_cmd_Nm"], color=colors.get(v, "tab:green"), lw=0.7, label=f"elbow torque cmd, {v}")
         ax.set_title(f"E4 movement '{m}'")
@@ -76,7 +77,11 @@ def main():
         ax_t.set_xlabel("time (s); grey: the operator holds the arm")
         ax_t.grid(alpha=0.3)
         ax_t.legend(fontsize=8, loc="upper right")
-    fig.suptitle("E4: goniometer -> Butterworth -> derivatives -> inverse dynamics of forearm + hand -> elbow torque")
+    title = "E4: goniometer -> Butterworth -> derivatives -> inverse dynamics of forearm + hand -> elbow torque"
+    if "max_tracking_rms_deg" in s.dtype.names:  # the verdict's tracking thresholds (summary.csv)
+        title += "\nverdict: tracking RMS <= %.3g deg, max <= %.3g deg, wire tension >= %.3g N" % (
+            float(s["max_tracking_rms_deg"][0]), float(s["max_tracking_error_deg"][0]), float(s["min_wire_tension_limit_N"][0]))
+    fig.suptitle(title)
     fig.tight_layout()
     out = a.out or os.path.join(a.run_dir, "plot.png")
     fig.savefig(out, dpi=110)

@@ -208,6 +208,40 @@ def read_summary_cases(run_dir):
         return {}
 
 
+def read_verdict_lines(run_dir):
+    """Map case -> one line with the verdict's figures and thresholds from summary.csv (E1)."""
+    path = os.path.join(run_dir, SUMMARY_NAME)
+    if not os.path.isfile(path):
+        return {}
+    try:
+        with open(path, newline="", encoding="utf-8") as fh:
+            rows = list(csv.DictReader(l for l in fh if l.strip() and not l.startswith("#")))
+    except (OSError, UnicodeDecodeError, csv.Error):
+        return {}
+    needed = ("static_torque_error_pct", "max_static_torque_error_pct", "drift_deg", "max_drift_deg",
+              "min_wire_tension_N", "min_wire_tension_limit_N", "within_limits")
+    by_case = {}
+    for row in rows:
+        if not all(k in row for k in needed):
+            return {}
+        by_case.setdefault(row["case"], []).append(row)
+    lines = {}
+    for case, rs in by_case.items():
+        def worst(key):
+            vals = [abs(float(r[key])) for r in rs if r[key] not in ("", "nan")]
+            return max(vals) if vals else float("nan")
+        r0 = rs[0]
+        text = ("verdict %s: |tau err| %.1f %% (<= %s), |drift| %.3f deg (<= %s), T_min %.1f N (>= %s)"
+                % ("OK" if r0["within_limits"] == "1" else "FAIL", worst("static_torque_error_pct"),
+                   r0["max_static_torque_error_pct"], worst("drift_deg"), r0["max_drift_deg"],
+                   float(r0["min_wire_tension_N"]), r0["min_wire_tension_limit_N"]))
+        if r0.get("breakaway_static_error_pct", "nan") not in ("", "nan"):
+            text += "\nbreakaway estimate %+.1f %% (truth %+.1f %%)" % (
+                float(r0["breakaway_static_error_pct"]), float(r0["truth_static_error_at_probes_pct"]))
+        lines[case] = text
+    return lines
+
+
 def case_title(log, summary_cases):
     if log["case"]:
         return log["case"]
@@ -305,7 +339,7 @@ def plot_column(axes, log, title, draw_limit, ff_ylim):
     # --- row 1: angle + finger force ---
     n = _plot_traces(ax_ang, cols, t, ANGLE_TRACES, missing, scale=180.0 / math.pi)
     ax_ang.set_ylabel("joint angle [deg]")
-    ax_ang.set_title(title, fontsize=11, fontweight="bold")
+    ax_ang.set_title(title, fontsize=10 if "\n" in title else 11, fontweight="bold")
     handles, labels = ax_ang.get_legend_handles_labels()
     ax_ff = ax_ang.twinx()
     fname, flabel, fstyle = FINGER_FORCE
@@ -515,6 +549,12 @@ def main(argv=None):
 
     summary_cases = read_summary_cases(run_dir)
     titles = [case_title(log, summary_cases) for log in logs]
+    verdicts = read_verdict_lines(run_dir)
+    for i, log in enumerate(logs):  # E1 logs are e1_<case>.csv
+        stem = os.path.splitext(os.path.basename(log["path"]))[0]
+        case = stem[3:] if stem.startswith("e1_") else stem
+        if case in verdicts:
+            titles[i] += "\n" + verdicts[case]
     suptitle = args.title if args.title is not None else (
         "peha run: " + os.path.basename(os.path.normpath(os.path.abspath(run_dir))))
 

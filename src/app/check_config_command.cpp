@@ -2,6 +2,7 @@
 // the board's channel map for the backend's joints.
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
+#include "peha/experiments/robustness/robustness.hpp"
 
 #include <fmt/format.h>
 
@@ -10,6 +11,15 @@ namespace peha::app {
 int check_config(const std::filesystem::path& config) {
   try {
     const config::Document doc = config::Document::load_file(config);
+    if (config::Map root = doc.root(); root.has("experiment") && root.string("experiment") == "robustness") {
+      // A robustness matrix (peha robustness): its file, and the scenarios it names.
+      const experiments::RobustnessConfig matrix = experiments::read_robustness(doc);
+      if (!matrix.e1_config.empty()) experiments::read_e1(config::Document::load_file(matrix.e1_config));
+      if (!matrix.arm_config.empty()) experiments::read_arm_scenario(config::Document::load_file(matrix.arm_config));
+      fmt::print("{}: robustness matrix, {} mode(s) x {} variant(s) x {} seed(s); scenarios {} and {} read\n", doc.name(),
+                 matrix.modes.size(), matrix.variants.size(), matrix.seeds.size(), matrix.e1_config.string(), matrix.arm_config.string());
+      return 0;
+    }
     const ScenarioCheck checked = find_experiment(doc).check(config, doc);
     if (const auto& link = checked.link) {  // the board's channel map must load for the backend's joints
       const mfb::ChannelMap map = mfb::read_channel_map(config::Document::load_file(link->channel_map), checked.joints);

@@ -33,8 +33,10 @@ Command add_run(CLI::App& app) {
              "config.yaml (the config it ran with), summary.csv and plot.png; prints a summary table.\n"
              "The scenario's experiment: key picks the experiment (gravity_compensation_1dof = E1; right_arm =\n"
              "E3, E4 or E6 by --experiment); an option that experiment does not take is an error, never ignored.\n"
-             "Exit code 0 = ran and every safety figure held, 2 = bad config or an option the experiment does\n"
-             "not take (nothing written), 3 = a safety figure was violated.");
+             "Exit code 0 = ran and every figure of the verdict held, 2 = bad config or an option the experiment\n"
+             "does not take (nothing written), 3 = a figure failed (drift, excursion or a run to a stop after a\n"
+             "release, E1's static torque error, a muscle's force ceiling, the wire-tension floor, pressure, motor,\n"
+             "range, E4's tracking; thresholds in the scenario's verdict: section).");
   run_cmd->add_option("-c,--config", run.config, "Scenario YAML, e.g. configs/e1_one_dof.yaml")
       ->required()->check(CLI::ExistingFile);
   run_cmd->add_option("-o,--out", run.out_root, "Directory under which the run directory is created")
@@ -198,10 +200,37 @@ Command add_check_config(CLI::App& app) {
   auto check_path = std::make_shared<std::filesystem::path>();
   CLI::App* check_cmd = app.add_subcommand(
       "check-config", "Parse and validate a scenario YAML (one-DOF rig or right arm, with its channel map if it has an\n"
-                      "mfb: section) without running it. Unknown keys, missing keys, wrong\n"
-                      "types and out-of-range values are reported with file:line:column, key path and reason.");
+                      "mfb: section; or a robustness matrix with the scenarios it names) without running it. Unknown keys,\n"
+                      "missing keys, wrong types and out-of-range values are reported with file:line:column, key path\n"
+                      "and reason.");
   check_cmd->add_option("-c,--config", *check_path, "Scenario YAML to check")->required()->check(CLI::ExistingFile);
   return {check_cmd, [check_path] { return peha::app::check_config(*check_path); }};
+}
+
+Command add_robustness(CLI::App& app) {
+  struct State {
+    peha::app::RobustnessOptions options;
+    int threads = 2;
+    CLI::Option* threads_opt = nullptr;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App* cmd = app.add_subcommand(
+      "robustness", "Run the robustness matrix (docs/robustness.md): E1 (default controller; pure feed-forward after\n"
+                    "recording and calibrating on each variant) and E3 on plant variants x payloads x seeds. Variants\n"
+                    "change only the plant. Prints one line per case; writes <out>/<run>/robustness.md (table),\n"
+                    "robustness.csv, config.yaml and heatmap.png. Exit code 0 = every mode met its goal share,\n"
+                    "3 = a mode missed it, 2 = bad config.");
+  cmd->add_option("-c,--config", s->options.config, "Robustness YAML, e.g. configs/robustness.yaml")->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--out", s->options.out_root, "Directory under which the run directory is created")->capture_default_str();
+  cmd->add_option("-n,--name", s->options.run_name, "Run directory name (default: <config stem>-<UTC time>)");
+  s->threads_opt = cmd->add_option("--threads", s->threads, "Worker threads over the cases (default: the file's threads:)")
+                       ->check(CLI::Range(1, 64));
+  cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
+  cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");
+  return {cmd, [s] {
+            if (*s->threads_opt) s->options.threads = s->threads;
+            return peha::app::robustness(s->options);
+          }};
 }
 
 Command add_version(CLI::App& app) {
@@ -222,7 +251,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
   const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_mfb_emulator(app),
-                              add_check_config(app), add_version(app)};
+                              add_check_config(app), add_robustness(app), add_version(app)};
   CLI11_PARSE(app, argc, argv);
   for (const Command& command : commands) {
     if (*command.app) return command.run();

@@ -28,17 +28,14 @@ int record_calibration(const RecordOptions& options) {
     }
     const experiments::ExcitationParams& e = *scenario.excitation[index];
     sim::OneDofRigParams plant_params = scenario.plant;
-    plant_params.payload_kg = e.payload_kg;
-    plant_params.finger.pushes.clear();
     if (options.seed) plant_params.seed = *options.seed;
-    sim::OneDofRigBackend plant(plant_params);
     fmt::print("peha record-calibration: {} of the simulated rig ({}), {:.0f} s at {:.0f} Hz\n"
                "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
                options.muscle, doc.name(), e.duration_s, e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
                e.max_pressure_Pa * 1e-6, e.period_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
                e.payload_kg);
-    const calibration::Dataset data = experiments::record_excitation(
-        plant, scenario.controller.joint, index == 0 ? +1 : -1, e, scenario.limits,
+    const calibration::Dataset data = experiments::record_e1_muscle(
+        scenario, plant_params, index,
         [&, bar = std::make_shared<experiments::ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
     if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
     calibration::write_dataset(

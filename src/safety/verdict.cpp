@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace peha::safety {
@@ -12,6 +13,7 @@ bool Check::passed() const noexcept {
   switch (rule) {
     case Rule::kAtMost: return value <= limit;
     case Rule::kAbove: return value > limit;
+    case Rule::kAtLeast: return value >= limit;
     case Rule::kWithin: return value >= lower && value <= limit;
   }
   return false;
@@ -21,6 +23,7 @@ std::string Check::describe() const {
   switch (rule) {
     case Rule::kAtMost: return fmt::format("{} {:.4g} {} {} {:.4g} {}", figure, value, unit, passed() ? "<=" : ">", limit, unit);
     case Rule::kAbove: return fmt::format("{} {:.4g} {} {} {:.4g} {}", figure, value, unit, passed() ? ">" : "<=", limit, unit);
+    case Rule::kAtLeast: return fmt::format("{} {:.4g} {} {} {:.4g} {}", figure, value, unit, passed() ? ">=" : "<", limit, unit);
     case Rule::kWithin:
       return fmt::format("{} {:.4g} {} {} [{:.4g}, {:.4g}] {}", figure, value, unit, passed() ? "in" : "outside", lower, limit, unit);
   }
@@ -33,6 +36,38 @@ void Verdict::at_most(std::string figure, std::string unit, double value, double
 void Verdict::above(std::string figure, std::string unit, double value, double limit) {
   checks.push_back({std::move(figure), std::move(unit), value, limit, 0.0, Check::Rule::kAbove});
 }
+void Verdict::at_least(std::string figure, std::string unit, double value, double limit) {
+  checks.push_back({std::move(figure), std::move(unit), value, limit, 0.0, Check::Rule::kAtLeast});
+}
+
+const Check* Verdict::find(const std::string& figure) const noexcept {
+  for (const Check& c : checks) {
+    if (c.figure == figure) return &c;
+  }
+  return nullptr;
+}
+
+std::string Verdict::describe_all() const {
+  std::string out;
+  for (const Check& c : checks) out += fmt::format("  {} {}\n", c.passed() ? "ok  " : "FAIL", c.describe());
+  return out;
+}
+
+VerdictThresholds read_verdict_thresholds(config::Map& root) {
+  VerdictThresholds t;
+  if (!root.has("verdict")) return t;
+  config::Map v = root.map("verdict");
+  t.max_drift_deg = v.number_or("max_drift_deg", t.max_drift_deg, {0.0, 180.0});
+  t.stop_margin_deg = v.number_or("stop_margin_deg", t.stop_margin_deg, {0.0, 90.0});
+  t.max_static_torque_error_pct = v.number_or("max_static_torque_error_pct", t.max_static_torque_error_pct, {0.0, 1000.0});
+  t.min_gravity_torque_Nm = v.number_or("min_gravity_torque_Nm", t.min_gravity_torque_Nm, {0.0, 1000.0});
+  t.min_tension_fraction = v.number_or("min_tension_fraction", t.min_tension_fraction, {0.0, 10.0});
+  t.max_tracking_rms_deg = v.number_or("max_tracking_rms_deg", t.max_tracking_rms_deg, {0.0, 180.0});
+  t.max_tracking_error_deg = v.number_or("max_tracking_error_deg", t.max_tracking_error_deg, {0.0, 360.0});
+  v.finish();
+  return t;
+}
+
 void Verdict::within(std::string figure, std::string unit, double value, double lower, double upper) {
   checks.push_back({std::move(figure), std::move(unit), value, upper, lower, Check::Rule::kWithin});
 }
@@ -56,11 +91,15 @@ void Envelope::observe(std::size_t joint, const JointSample& s) noexcept {
   for (int m = 0; m < 2; ++m) {
     j.peak_muscle_force_N[m] = std::isnan(s.muscle_force_N[m]) ? s.muscle_force_N[m] : std::max(j.peak_muscle_force_N[m], s.muscle_force_N[m]);
   }
-  j.min_tension_N = std::min(j.min_tension_N, s.min_tension_N);
-  j.max_pressure_Pa = std::max({j.max_pressure_Pa, s.pressure_Pa[0], s.pressure_Pa[1]});
-  j.peak_motor_torque_Nm = std::max(j.peak_motor_torque_Nm, std::abs(s.motor_torque_Nm));
-  j.min_angle_rad = std::min(j.min_angle_rad, s.angle_rad);
-  j.max_angle_rad = std::max(j.max_angle_rad, s.angle_rad);
+  // Every figure: a NaN sample makes the figure NaN for good (std::min/max would drop it).
+  auto low = [](double& figure, double v) { figure = std::isnan(v) || std::isnan(figure) ? std::numeric_limits<double>::quiet_NaN() : std::min(figure, v); };
+  auto high = [](double& figure, double v) { figure = std::isnan(v) || std::isnan(figure) ? std::numeric_limits<double>::quiet_NaN() : std::max(figure, v); };
+  low(j.min_tension_N, s.min_tension_N);
+  high(j.max_pressure_Pa, s.pressure_Pa[0]);
+  high(j.max_pressure_Pa, s.pressure_Pa[1]);
+  high(j.peak_motor_torque_Nm, std::abs(s.motor_torque_Nm));
+  low(j.min_angle_rad, s.angle_rad);
+  high(j.max_angle_rad, s.angle_rad);
   ++j.samples;
 }
 
@@ -79,7 +118,7 @@ double Envelope::min_tension_N() const noexcept {
 }
 
 void add_envelope_checks(const LimitsModel& model, const JointModels& joints, const std::vector<std::string>& names,
-                         const Envelope& envelope, Verdict& v) {
+                         const Envelope& envelope, const VerdictThresholds& thresholds, Verdict& v) {
   constexpr double kDeg = 180.0 / std::numbers::pi;
   for (int i = 0; i < model.joint_count; ++i) {
     const auto j = static_cast<std::size_t>(i);
@@ -88,7 +127,10 @@ void add_envelope_checks(const LimitsModel& model, const JointModels& joints, co
     const std::string name = j < names.size() ? names[j] : fmt::format("joint {}", i);
     v.at_most(name + " agonist peak force", "N", e.peak_muscle_force_N[0], models::force_ceiling_N(jm.agonist));
     v.at_most(name + " antagonist peak force", "N", e.peak_muscle_force_N[1], models::force_ceiling_N(jm.antagonist));
-    v.above(name + " lowest wire tension", "N", e.min_tension_N, 0.0);
+    // Strictly above 0 as well: with a pretension of 0 a slack wire still fails.
+    const bool slack_only = (thresholds.slack_check_only_joints >> j) & 1u;
+    v.at_least(name + (slack_only ? " lowest wire tension (constant-pressure hold: slack check)" : " lowest wire tension"), "N",
+               e.min_tension_N, slack_only ? 1e-9 : std::max(thresholds.min_tension_fraction * jm.pretension_N, 1e-9));
     v.at_most(name + " highest pressure", "MPa", e.max_pressure_Pa * 1e-6, jm.supply_pressure_Pa * 1e-6);
     v.at_most(name + " peak motor torque", "Nm", e.peak_motor_torque_Nm, (jm.has_motor ? jm.motor_max_torque_Nm : 0.0) + 1e-12);
     const JointLimits& lim = model.joints[j];

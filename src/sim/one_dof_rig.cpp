@@ -26,6 +26,7 @@ OneDofRigParams read_one_dof_rig(config::Map& plant, double control_period_s, do
   p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
   pressure.finish();
   p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  p.unknown_payload_kg = plant.number_or("unknown_payload_kg", 0.0, {-20.0, 20.0});
   p.joint = read_peha_joint_plant(plant, supply_pressure_Pa, /*has_motor=*/true);
   plant.finish();
   return p;
@@ -53,9 +54,14 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
 
   m->opt.timestep = params_.timestep_s;
   substeps_ = static_cast<int>(std::lround(params_.control_period_s / params_.timestep_s));
-  // Payload: scale the weight's mass and inertia to the scenario's payload.
-  const double scale = params_.payload_kg / m->body_mass[payload];
-  m->body_mass[payload] = params_.payload_kg;
+  // Payload: scale the weight's mass and inertia to the scenario's payload plus the unknown one.
+  const double payload_kg = params_.payload_kg + params_.unknown_payload_kg;
+  if (!(payload_kg >= 0.0)) {
+    throw std::invalid_argument(fmt::format("{}: payload {} kg + unknown payload {} kg is negative", name,
+                                            params_.payload_kg, params_.unknown_payload_kg));
+  }
+  const double scale = payload_kg / m->body_mass[payload];
+  m->body_mass[payload] = payload_kg;
   for (int i = 0; i < 3; ++i) m->body_inertia[3 * payload + i] *= scale;
   // Motor: reflected rotor inertia and viscous friction belong to the joint.
   m->dof_armature[dof_] += joint_.armature_kgm2();

@@ -35,6 +35,8 @@ MusclePlantParams read_muscle(config::Map map, double supply_Pa) {
   config::Map loadcell = map.map("loadcell");
   m.loadcell_noise_N = loadcell.number("noise_N", {0.0, 100.0});
   m.loadcell_range_N = loadcell.number("range_N", {100.0, 20000.0});
+  m.loadcell_offset_N = loadcell.number_or("offset_N", 0.0, {-1000.0, 1000.0});
+  m.loadcell_gain = loadcell.number_or("gain", 1.0, {0.5, 2.0});
   loadcell.finish();
   config::Map valve = map.map("valve");
   m.valve = read_valve(valve, supply_Pa);
@@ -48,6 +50,7 @@ MusclePlantParams read_muscle(config::Map map, double supply_Pa) {
 PehaJointPlantParams read_peha_joint_plant(config::Map& map, double supply_pressure_Pa, bool has_motor) {
   PehaJointPlantParams p;
   p.pulley_radius_m = map.number("pulley_radius_m", {0.005, 0.2});
+  if (map.has("supply_cap_MPa")) p.supply_cap_Pa = map.number("supply_cap_MPa", {0.01, 1.0}) * 1e6;
   p.has_motor = has_motor;
   if (has_motor) {
     config::Map motor = map.map("motor");
@@ -88,13 +91,24 @@ double read_timestep_s(config::Map& plant, double control_period_s) {
   return timestep_s;
 }
 
+namespace {
+
+/// The valve as this joint has it: its supply cut to the plant-only cap.
+ValveParams capped(ValveParams v, double supply_cap_Pa) {
+  v.supply_pressure_Pa = std::min(v.supply_pressure_Pa, supply_cap_Pa);
+  return v;
+}
+
+}  // namespace
+
 PehaJointPlant::PehaJointPlant(const PehaJointPlantParams& params, double timestep_s, double initial_angle_rad)
     : params_(params),
       timestep_s_(timestep_s),
-      muscles_{{+1, Valve(params_.agonist.valve, timestep_s)}, {-1, Valve(params_.antagonist.valve, timestep_s)}} {
+      muscles_{{+1, Valve(capped(params_.agonist.valve, params_.supply_cap_Pa), timestep_s)},
+               {-1, Valve(capped(params_.antagonist.valve, params_.supply_cap_Pa), timestep_s)}} {
   for (Muscle& mu : muscles_) {
     const MusclePlantParams& p = muscle_params(mu);
-    mu.valve.reset(p.initial_pressure_Pa);
+    mu.valve.reset(std::min(p.initial_pressure_Pa, params_.supply_cap_Pa));
     // Twice: the first solve finds the contraction, the second starts from it at zero rate.
     solve_muscle(mu, initial_angle_rad);
     solve_muscle(mu, initial_angle_rad);
@@ -192,8 +206,12 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
 void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, std::mt19937_64& rng,
                            io::JointSensors& s) noexcept {
   const double* force = truth_.muscle_force_N;
-  s.agonist_loadcell_N = quantize_16bit(force[0] + params_.agonist.loadcell_noise_N * unit_normal_(rng), params_.agonist.loadcell_range_N);
-  s.antagonist_loadcell_N = quantize_16bit(force[1] + params_.antagonist.loadcell_noise_N * unit_normal_(rng), params_.antagonist.loadcell_range_N);
+  auto loadcell = [&](const MusclePlantParams& p, double tension_N) {
+    return quantize_16bit(p.loadcell_gain * tension_N + p.loadcell_offset_N + p.loadcell_noise_N * unit_normal_(rng),
+                          p.loadcell_range_N);
+  };
+  s.agonist_loadcell_N = loadcell(params_.agonist, force[0]);
+  s.antagonist_loadcell_N = loadcell(params_.antagonist, force[1]);
   s.agonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[0] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
   s.antagonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[1] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
 }

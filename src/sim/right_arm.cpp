@@ -8,10 +8,31 @@
 #include <stdexcept>
 
 namespace peha::sim {
+namespace {
+
+/// The plant's bodies with `unknown_kg` added to the body "payload": still a steel sphere at the
+/// hand's centre of mass (as models::build_arm_model makes it), so its inertia grows as m^(5/3).
+models::ArmModel with_unknown_payload(models::ArmModel model, double unknown_kg) {
+  if (unknown_kg == 0.0) return model;
+  const auto payload = std::find_if(model.bodies.begin(), model.bodies.end(), [](const models::ArmBody& b) { return b.name == "payload"; });
+  if (payload == model.bodies.end()) throw std::invalid_argument("right arm: an unknown hand payload needs a body \"payload\"");
+  const double mass_kg = payload->mass_kg + unknown_kg;
+  if (!(mass_kg >= 0.0)) {
+    throw std::invalid_argument(fmt::format("right arm: payload {} kg + unknown hand payload {} kg is negative",
+                                            payload->mass_kg, unknown_kg));
+  }
+  constexpr double kSteelDensity_kg_per_m3 = 7850.0;
+  const double radius_m = std::cbrt(3.0 * mass_kg / (4.0 * std::numbers::pi * kSteelDensity_kg_per_m3));
+  payload->mass_kg = mass_kg;
+  payload->inertia_kgm2 = Eigen::Matrix3d::Identity() * (0.4 * mass_kg * radius_m * radius_m);
+  return model;
+}
+
+}  // namespace
 
 RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
     : params_(params),
-      model_(load_arm_mjcf(arm_mjcf(params.model, params.mjcf))),
+      model_(load_arm_mjcf(arm_mjcf(with_unknown_payload(params.model, params.unknown_hand_payload_kg), params.mjcf))),
       rng_(params.seed),
       gate_(params.control_period_s, kSafeVent_s) {
   mjModel* m = model_.get();

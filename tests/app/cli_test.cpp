@@ -73,7 +73,7 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
                        " --out " + out.string() + " --name t");
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("drift/deg"));
-  EXPECT_THAT(r.output, HasSubstr("safety: peak PAM force"));
+  EXPECT_THAT(r.output, HasSubstr("safety: peak agonist force"));
   const std::filesystem::path dir = out / "t";
   EXPECT_TRUE(std::filesystem::exists(dir / "config.yaml"));
   EXPECT_TRUE(std::filesystem::exists(dir / "summary.csv"));
@@ -84,7 +84,7 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
   EXPECT_EQ(line.rfind("t_s,angle_rad,", 0), 0u) << line;  // time first, units in the names
   std::size_t rows = 0;
   while (std::getline(log, line)) ++rows;
-  EXPECT_EQ(rows, 24001u);  // 24 s at 1 kHz, both ends
+  EXPECT_EQ(rows, 34001u);  // 34 s at 1 kHz, both ends
   std::filesystem::remove_all(out);
 }
 
@@ -108,6 +108,29 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
   EXPECT_THAT(run("calibrate --help").output, HasSubstr("--restarts"));
   EXPECT_THAT(run("record-calibration --help").output, HasSubstr("250 Hz"));
+}
+
+// `peha robustness` documents itself and rejects a bad matrix file (exit 2, file:line:column) and an
+// unknown variant before it runs anything.
+TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
+  const Result help = run("robustness --help");
+  EXPECT_EQ(help.code, 0);
+  for (const char* option : {"--config", "--threads", "--variant", "--no-plot", "robustness.md", "heatmap.png"}) {
+    EXPECT_THAT(help.output, HasSubstr(option));
+  }
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_robustness";
+  std::filesystem::create_directories(dir);
+  { std::ofstream(dir / "bad.yaml") << "experiment: robustness\ndescription: x\nseed: 1\ncolour: red\n"; }
+  const Result bad = run("robustness --no-plot --out " + dir.string() + " --config " + (dir / "bad.yaml").string());
+  EXPECT_EQ(bad.code, 2) << bad.output;
+  EXPECT_THAT(bad.output, HasSubstr("bad.yaml:"));
+  const Result unknown = run("robustness --no-plot --out " + dir.string() + " --variant nope --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
+  EXPECT_EQ(unknown.code, 2) << unknown.output;
+  EXPECT_THAT(unknown.output, HasSubstr("no variant named 'nope'"));
+  const Result check = run("check-config --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
+  EXPECT_EQ(check.code, 0) << check.output;
+  EXPECT_THAT(check.output, HasSubstr("robustness matrix, 3 mode(s) x 17 variant(s)"));
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
@@ -220,7 +243,8 @@ TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
   std::filesystem::remove_all(out);
   const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml --experiment bandwidth --no-plot"
                        " --seed 7 --out \"" + out.string() + "\" --name bw_1");
-  ASSERT_EQ(r.code, 0) << r.output;
+  // 3: E6 ran and its verdict failed (the wrist's wire below the tension floor, docs/right-arm.md).
+  ASSERT_TRUE(r.code == 0 || r.code == 3) << r.output;
   std::vector<std::filesystem::path> entries;
   for (const auto& e : std::filesystem::directory_iterator(out)) entries.push_back(e.path().filename());
   std::sort(entries.begin(), entries.end());

@@ -57,7 +57,7 @@ TEST(Config, RejectsMissingKey) {
 }
 
 TEST(Config, RejectsWrongType) {
-  EXPECT_THAT(e1_error_after("duration_s: 24.0", "duration_s: long"),
+  EXPECT_THAT(e1_error_after("duration_s: 34.0", "duration_s: long"),
               HasSubstr("run.duration_s: expected a number in [0.1, 3600] (decimal, e.g. 0.25 or 2.5e-3), found 'long'"));
   EXPECT_THAT(e1_error_after("use_motor: true", "use_motor: 1"),
               HasSubstr("controller.allocation.use_motor: expected true or false, found '1'"));

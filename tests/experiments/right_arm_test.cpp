@@ -2,7 +2,10 @@
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
+#include "peha/experiments/robustness/robustness.hpp"
+
 #include "../support/alloc_counter.hpp"
+#include "../support/verdict_checks.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,12 +18,16 @@ ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEH
 
 // E3 on the simulated right arm (the paper's claim): released in each posture, including (0, 0) where
 // the shoulder carries the most, the arm stays - under 0.5 deg in the 10 s after release at both
-// joints, with feed-forward J^T G only. Every safety figure holds throughout.
+// joints, with feed-forward J^T G only. Every figure of the verdict holds but one: the wrist, held at a
+// constant 0.25 MPa (no allocation keeps its wires taut), lets its wire drop to ~15 N, below the
+// floor of 0.5 x the 40 N pretension; the verdict reports it (docs/right-arm.md).
 TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   const ArmScenario s = shipped();
   const PosturesResult r = run_postures(s, nullptr);
   ASSERT_EQ(r.postures.size(), s.postures.size());
-  EXPECT_TRUE(r.within_limits);
+  for (const std::string& f : testing::failed_figures(r.verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << r.verdict.failures();
+  EXPECT_TRUE(testing::judges(r.verdict, "raised_flexed R_SFE |drift|"));
+  EXPECT_TRUE(testing::judges(r.verdict, "elbow_90 R_EFE distance to a stop"));
   EXPECT_LE(r.peak_muscle_force_N, 2000.0);
   EXPECT_GT(r.min_wire_tension_N, 0.0);
   for (const PostureResult& p : r.postures) {
@@ -30,6 +37,24 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
     EXPECT_NEAR(p.released_deg[0], p.target_deg[0], 5.0) << p.name;
     EXPECT_NEAR(p.released_deg[1], p.target_deg[1], 5.0) << p.name;
   }
+}
+
+// The review's case: an unknown 1 kg in the hand (the controller is not told) and no position
+// feedback - the arm must move (physics forbids holding it), and E3's verdict now says so: the drift,
+// excursion and (at the shoulder) run-to-a-stop figures fail instead of "OK".
+TEST(E3, UnknownPayloadInTheHandFailsTheDriftFigures) {
+  ArmScenario s = shipped();
+  PlantVariant v;
+  v.extra_payload_kg = 1.0;
+  s.plant = arm_variant_plant(s, v);
+  const PosturesResult r = run_postures(s, nullptr);
+  EXPECT_FALSE(r.within_limits);
+  // raised_flexed: the shoulder falls ~97 deg to its stop after the release (it held at `horizontal`,
+  // where the stiction band still covers the extra 1 kg).
+  EXPECT_TRUE(testing::fails_on(r.verdict, "raised_flexed R_SFE |drift|")) << r.verdict.failures();
+  EXPECT_TRUE(testing::fails_on(r.verdict, "raised_flexed R_SFE max excursion")) << r.verdict.failures();
+  EXPECT_TRUE(testing::fails_on(r.verdict, "raised_flexed R_SFE distance to a stop")) << r.verdict.failures();
+  EXPECT_FALSE(testing::fails_on(r.verdict, "horizontal R_SFE |drift|"));
 }
 
 // The actuators as peha sizes them (docs/models.md): peak pulley torques at the 2000 N force limit of
@@ -86,11 +111,29 @@ TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
   EXPECT_FALSE(hybrid.reached_3dB);
   for (const BodePoint& p : hybrid.bode) EXPECT_NEAR(p.gain, 1.0, 0.1) << p.frequency_Hz << " Hz";
   for (const BandwidthResult* r : {&pam, &hybrid}) {
+    // The one verdict: every figure but the wrist's tension floor (see E3) holds.
+    for (const std::string& f : testing::failed_figures(r->verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << r->verdict.failures();
     EXPECT_LE(r->peak_muscle_force_N, 2000.0);
     EXPECT_GT(r->min_wire_tension_N, 0.0);
     EXPECT_LE(r->peak_motor_torque_Nm, 2.5);
   }
   EXPECT_EQ(pam.peak_motor_torque_Nm, 0.0);  // PAM-only really has no motor
+}
+
+// E6's verdict is the envelope with each muscle's own ceiling from the configuration (it used a
+// literal 2000 N): with the elbow antagonist's ceiling configured below what it delivers, E6 fails
+// and names it. Two frequencies keep the run short.
+TEST(E6, VerdictUsesEachMusclesConfiguredCeiling) {
+  ArmScenario s = shipped();
+  s.bandwidth.frequencies_Hz = {1.0, 5.0};
+  const BandwidthResult nominal = run_bandwidth(s, true);
+  EXPECT_FALSE(testing::fails_on(nominal.verdict, "R_EFE antagonist peak force"));
+  const safety::Check* c = nominal.verdict.find("R_EFE antagonist peak force");
+  ASSERT_NE(c, nullptr);
+  EXPECT_EQ(c->limit, 630.0);
+  s.controller.joints[1].actuator.antagonist.max_force_N = 0.5 * c->value;
+  const BandwidthResult low = run_bandwidth(s, true);
+  EXPECT_TRUE(testing::fails_on(low.verdict, "R_EFE antagonist peak force")) << low.verdict.failures();
 }
 
 }  // namespace

@@ -53,7 +53,7 @@ int mfb_emulator(const EmulatorOptions& options);
 /// `peha run`: runs the scenario's experiment (found by its `experiment:` key in the registry),
 /// writes out/<run>/ and prints a summary table. An option the experiment does not take is
 /// rejected (exit code 2, nothing written). Returns the process exit code (0 when every case ran
-/// and every safety figure held, 2 bad input, 3 a safety figure violated, 1 other errors).
+/// and every figure of the verdict held, 2 bad input, 3 a figure of the verdict failed, 1 other errors).
 int run(const RunOptions& options);
 
 struct RecordOptions {
@@ -87,6 +87,20 @@ int calibrate(const CalibrateCommandOptions& options);
 
 /// `peha check-config`: parses and validates a scenario, prints what it would run. Exit code.
 int check_config(const std::filesystem::path& config);
+
+struct RobustnessOptions {
+  std::filesystem::path config;           ///< robustness YAML (configs/robustness.yaml)
+  std::filesystem::path out_root = "out";
+  std::string run_name;                   ///< default: <config stem>-<UTC time stamp>
+  std::optional<int> threads;             ///< overrides the file's threads
+  std::string only_variant;               ///< run only this variant (empty: all)
+  bool plot = true;                       ///< render heatmap.png with tools/plot_robustness.py
+};
+
+/// `peha robustness`: E1 and E3 over plant variants x payloads x seeds (docs/robustness.md);
+/// writes robustness.md, robustness.csv and heatmap.png. Exit code 0 when every mode met its goal
+/// share, 3 when one missed it, 2 bad config.
+int robustness(const RobustnessOptions& options);
 
 /// Runs a command body and maps what it throws to the exit codes every command documents:
 /// 2 for bad input (config or data), 1 for anything else (after a message on stderr).

@@ -7,29 +7,53 @@
 /// The envelope, per actuated joint, over every observed cycle:
 /// - each muscle's peak force <= its force ceiling (models::force_ceiling_N: the muscle's
 ///   configured max_force_N, never above the 2000 N wire limit);
-/// - the lowest wire tension > 0 N (a slack wire can jump off its pulley);
+/// - the lowest wire tension >= a fraction (VerdictThresholds::min_tension_fraction) of the joint's
+///   configured pretension (a slack wire can jump off its pulley; a wire near 0 N is one bias away);
 /// - the highest chamber pressure <= the joint's supply;
 /// - the peak motor torque <= the motor's rating;
 /// - the joint angle within the limits' range, give or take kRangeTolerance_rad (the limits layer
 ///   acts once a joint is past its range, so it may overshoot by a little before it stops).
 /// Figures come from the simulator's truth in-process, from the sensors over hardware.
 
+#include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/safety/limits.hpp"
 
 #include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
 namespace peha::safety {
 
+/// The thresholds of the figures every experiment's verdict checks beyond the envelope, from the
+/// scenario's optional `verdict:` section (docs/configuration.md); each key defaults to the value
+/// here when absent. Angles in degrees, torque errors in percent of the plant's gravity torque.
+struct VerdictThresholds {
+  double max_drift_deg = 0.5;                ///< |angle drift| over the window after each release
+  double stop_margin_deg = 2.0;              ///< after a release the joint stays this far from either end of its range
+  double max_static_torque_error_pct = 5.0;  ///< |torque the friction holds at rest| / |gravity torque|
+  double min_gravity_torque_Nm = 1.0;        ///< below this gravity torque a % error is not judged (e.g. arm hanging)
+  double min_tension_fraction = 0.5;         ///< lowest wire tension >= this x the configured pretension
+  /// Joints (bit i = joint i) whose pretension nothing controls, e.g. the right arm's wrist held at a
+  /// constant pressure: no allocation keeps its wires at the pretension, so they are checked for
+  /// slack (> 0 N) only. Set by the experiment from the controller's joint modes, not configurable.
+  std::uint32_t slack_check_only_joints = 0;
+  double max_tracking_rms_deg = 5.0;         ///< E4: RMS of exoskeleton - person elbow
+  double max_tracking_error_deg = 15.0;      ///< E4: largest |exoskeleton - person elbow|
+};
+
+/// Reads the optional `verdict:` section of a scenario root (defaults when absent or per key
+/// absent); unknown keys and out-of-range values throw config::Error. Does not finish `root`.
+VerdictThresholds read_verdict_thresholds(config::Map& root);
+
 /// One figure checked against its threshold.
 struct Check {
-  enum class Rule { kAtMost, kAbove, kWithin };
+  enum class Rule { kAtMost, kAbove, kWithin, kAtLeast };
   std::string figure;  ///< e.g. "R_EFE agonist peak force"
   std::string unit;    ///< e.g. "N"
   double value = 0;
-  double limit = 0;    ///< kAtMost: value <= limit; kAbove: value > limit; kWithin: lo <= value <= limit
+  double limit = 0;    ///< kAtMost: value <= limit; kAbove: value > limit; kAtLeast: value >= limit; kWithin: lower <= value <= limit
   double lower = 0;    ///< kWithin only
   Rule rule = Rule::kAtMost;
   bool passed() const noexcept;
@@ -38,8 +62,14 @@ struct Check {
 
 struct Verdict {
   std::vector<Check> checks;
+  VerdictThresholds thresholds;  ///< what the experiment's figures were judged against (for reports)
   void at_most(std::string figure, std::string unit, double value, double limit);
   void above(std::string figure, std::string unit, double value, double limit);
+  void at_least(std::string figure, std::string unit, double value, double limit);
+  /// The check named `figure`, or nullptr.
+  const Check* find(const std::string& figure) const noexcept;
+  /// One line per check, "  ok   <describe>" / "  FAIL <describe>".
+  std::string describe_all() const;
   void within(std::string figure, std::string unit, double value, double lower, double upper);
   /// Every check passed (and there is at least one).
   bool passed() const noexcept;
@@ -48,6 +78,8 @@ struct Verdict {
 };
 
 inline constexpr double kRangeTolerance_rad = 0.02;
+
+
 
 /// One actuated joint at one cycle, as the envelope needs it.
 struct JointSample {
@@ -75,8 +107,9 @@ struct Envelope {
 };
 
 /// Adds the envelope's checks of joints 0..model.joint_count-1 (named `names`) to `verdict`, with
-/// ceilings, supply and ratings from the joint set-ups and the range from the limits.
+/// ceilings, supply, pretension and ratings from the joint set-ups, the range from the limits and the
+/// tension floor min_tension_fraction x pretension from `thresholds`.
 void add_envelope_checks(const LimitsModel& model, const JointModels& joints, const std::vector<std::string>& names,
-                         const Envelope& envelope, Verdict& verdict);
+                         const Envelope& envelope, const VerdictThresholds& thresholds, Verdict& verdict);
 
 }  // namespace peha::safety

@@ -50,7 +50,10 @@ struct OneDofRigParams {
   double timestep_s = 0.0005;          ///< MuJoCo step; must divide the control period
   double control_period_s = 0.001;
   double supply_pressure_Pa = 0.8e6;
-  double payload_kg = 2.5;
+  double payload_kg = 2.5;             ///< the case's payload at the payload lever (the controller knows it)
+  /// Plant-only: mass added to the payload body that the controller is not told (may be < 0 for
+  /// a lighter payload than believed; payload_kg + unknown_payload_kg must stay >= 0). Default 0.
+  double unknown_payload_kg = 0.0;
   double initial_angle_rad = 0.0;
   PehaJointPlantParams joint;          ///< muscles, valves, cables, motor
   double pressure_noise_Pa = 1000;     ///< standard deviation of the pressure sensors' noise

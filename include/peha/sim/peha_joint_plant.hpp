@@ -13,6 +13,7 @@
 #include "peha/sim/valve.hpp"
 
 #include <filesystem>
+#include <limits>
 #include <random>
 
 namespace peha::sim {
@@ -39,6 +40,10 @@ struct MusclePlantParams {
   CablePlantParams cable;
   double loadcell_noise_N = 1.0;      ///< standard deviation of the load-cell noise
   double loadcell_range_N = 5000.0;   ///< full scale of the load cell's 16-bit AD channel
+  /// Plant-only load-cell error (the controller is never told): the reading is
+  /// `loadcell_gain * T + loadcell_offset_N + noise`, then 16-bit quantised. Neutral: 0 N and 1.
+  double loadcell_offset_N = 0.0;
+  double loadcell_gain = 1.0;
 };
 
 struct MotorPlantParams {
@@ -51,14 +56,18 @@ struct MotorPlantParams {
 
 struct PehaJointPlantParams {
   double pulley_radius_m = 0.05;
+  /// Plant-only: the valves of this joint cannot exceed this pressure (a weaker compressor), Pa,
+  /// whatever the supply the controller and limits believe in. +inf (default): no cap.
+  double supply_cap_Pa = std::numeric_limits<double>::infinity();
   MusclePlantParams agonist;
   MusclePlantParams antagonist;
   bool has_motor = true;
   MotorPlantParams motor;  ///< ignored when has_motor is false
 };
 
-/// Reads a joint's keys from `map` (pulley_radius_m, agonist{...}, antagonist{...}, and motor{...}
-/// when `has_motor`); does not finish `map` (it may hold other keys of the caller's).
+/// Reads a joint's keys from `map` (pulley_radius_m, optional supply_cap_MPa, agonist{...},
+/// antagonist{...}, and motor{...} when `has_motor`); does not finish `map` (it may hold other keys
+/// of the caller's).
 PehaJointPlantParams read_peha_joint_plant(config::Map& map, double supply_pressure_Pa, bool has_motor);
 
 /// What really happens in the joint's actuators now (for logs, never for the controller).

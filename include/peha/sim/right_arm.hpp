@@ -41,6 +41,10 @@ struct OperatorParams {
 
 struct RightArmPlantParams {
   models::ArmModel model;                 ///< the plant's true rigid bodies (payload included)
+  /// Plant-only: mass added to the model's body "payload" (held in the hand) that the controller
+  /// is not told, kg; may be < 0 for a lighter payload than believed, but the payload's total mass
+  /// must stay >= 0. Default 0.
+  double unknown_hand_payload_kg = 0.0;
   ArmMjcfOptions mjcf;                    ///< ranges, passive damping, the R_WR clamp
   double timestep_s = 0.0005;             ///< MuJoCo step; divides the control period
   double control_period_s = 0.001;

@@ -1,8 +1,11 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/common/mujoco_lock.hpp"
+#include "peha/experiments/common/release_checks.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 
 #include "peha/models/model_config.hpp"
 #include "peha/safety/limited_backend.hpp"
+#include "peha/sim/mujoco_model.hpp"
 
 #include <fmt/format.h>
 
@@ -10,6 +13,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <numbers>
 
 namespace peha::experiments {
@@ -17,7 +21,7 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-sim::FingerParams read_finger(config::Map map, double duration_s) {
+sim::FingerParams read_finger(config::Map map, double duration_s, std::vector<int>& probe_direction) {
   sim::FingerParams f;
   f.stiffness_N_per_m = map.number("stiffness_N_per_m", {1.0, 1e5});
   f.damping_Ns_per_m = map.number("damping_Ns_per_m", {0.0, 1e4});
@@ -31,15 +35,19 @@ sim::FingerParams read_finger(config::Map map, double duration_s) {
     if (p.start_s < previous_end) push.fail("start_s", fmt::format("pushes must not overlap: the previous one ends at {} s", previous_end));
     p.duration_s = push.number("duration_s", {0.01, duration_s});
     p.hold = push.boolean_or("hold", false);
+    int probe = 0;
+    if (push.has("breakaway")) probe = push.choice("breakaway", {"up", "down"}) == "up" ? 1 : -1;
     if (p.hold) {
       p.move_s = p.duration_s;
     } else {
       p.move_s = push.number("move_s", {0.01, p.duration_s});
       p.target_angle_rad = push.number("target_angle_deg", {-90.0, 90.0}) * kDeg;
     }
+    if (probe != 0 && p.hold) push.fail("breakaway", "a breakaway probe pushes one way: it cannot be a hold");
     push.finish();
     previous_end = p.start_s + p.duration_s;
     f.pushes.push_back(p);
+    probe_direction.push_back(probe);
   }
   map.finish();
   return f;
@@ -91,7 +99,8 @@ E1Scenario read_e1(const config::Document& doc) {
   s.plant = sim::read_one_dof_rig(plant, s.period_s, supply_Pa);
   s.plant.initial_angle_rad = initial_angle;
   s.plant.seed = s.seed;
-  s.plant.finger = read_finger(root.map("finger"), s.duration_s);
+  s.plant.finger = read_finger(root.map("finger"), s.duration_s, s.probe_direction);
+  s.verdict = safety::read_verdict_thresholds(root);
 
   for (config::Map c : root.maps("cases", 1, 16)) {
     E1Case e;
@@ -134,6 +143,39 @@ sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c
   return p;
 }
 
+calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
+                                      const std::function<void(double)>& progress) {
+  const auto& e = scenario.excitation[index];
+  if (!e) throw config::Error(fmt::format("no calibration.{} section (the excitation to run)", index == 0 ? "agonist" : "antagonist"));
+  plant.payload_kg = e->payload_kg;
+  plant.finger.pushes.clear();
+  std::unique_ptr<sim::OneDofRigBackend> rig;
+  {
+    const std::lock_guard lock(mujoco_load_mutex());
+    rig = std::make_unique<sim::OneDofRigBackend>(plant);
+  }
+  return record_excitation(*rig, scenario.controller.joint, index == 0 ? +1 : -1, *e, scenario.limits, progress);
+}
+
+double e1_plant_gravity_torque_Nm(const sim::OneDofRigParams& plant, double angle_rad) {
+  // The same payload scaling as sim::OneDofRigBackend; a model is loaded per call (a few per case).
+  sim::ModelPtr model = [&] {
+    const std::lock_guard lock(mujoco_load_mutex());
+    return sim::load_mjcf(plant.model_file);
+  }();
+  mjModel* m = model.get();
+  const int payload = sim::require_id(m, mjOBJ_BODY, "payload", plant.model_file.string());
+  const double payload_kg = plant.payload_kg + plant.unknown_payload_kg;  // what the plant really carries
+  const double scale = payload_kg / m->body_mass[payload];
+  m->body_mass[payload] = payload_kg;
+  for (int i = 0; i < 3; ++i) m->body_inertia[3 * payload + i] *= scale;
+  sim::DataPtr data(mj_makeData(m));
+  mj_setConst(m, data.get());
+  data->qpos[0] = angle_rad;
+  mj_forward(m, data.get());
+  return data->qfrc_bias[0];
+}
+
 E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSink* log) {
   sim::OneDofRigBackend plant(e1_plant_params(scenario, c));
   return run_e1_on(scenario, c, plant, &plant, log);
@@ -157,6 +199,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   std::vector<double> angle_truth(steps + 1);
   std::vector<char> finger_on(steps + 1);
   std::vector<double> finger_force(steps + 1);
+  std::vector<double> constraint(steps + 1, nan);  // plant truth: torque MuJoCo's friction/limits hold
   // Without the simulator's truth, the finger is where the scenario's schedule puts it.
   for (std::size_t k = 0; k <= steps; ++k) {
     const double t = static_cast<double>(k) * scenario.period_s;
@@ -182,6 +225,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
       angle_truth[k] = t->angle_rad;
       finger_on[k] = t->finger_active;
       finger_force[k] = t->finger_force_N;
+      constraint[k] = t->constraint_torque_Nm;
       j = {{t->muscle_force_N[0], t->muscle_force_N[1]}, std::min(t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]),
            {t->pressure_Pa[0], t->pressure_Pa[1]}, t->motor_torque_Nm, t->angle_rad};
     } else {
@@ -228,13 +272,28 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   r.min_wire_tension_N = e.min_tension_N;
   r.max_pressure_MPa = e.max_pressure_Pa * 1e-6;
   r.peak_motor_torque_Nm = e.peak_motor_torque_Nm;
-  safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, r.verdict);
-  r.within_limits = r.verdict.passed();
+  const safety::VerdictThresholds& th = scenario.verdict;
+  r.verdict.thresholds = th;
+  safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, th, r.verdict);
+
+  const sim::OneDofRigParams plant = sim ? sim->params() : e1_plant_params(scenario, c);
+  const safety::JointLimits& range = scenario.limits.joints[0];
+  // Static torque error at rest: what the friction holds, averaged over the last second before k1.
+  auto static_error_Nm = [&](std::size_t k1) {
+    const auto span = static_cast<std::size_t>(std::llround(1.0 / scenario.period_s));
+    const std::size_t k0 = k1 > span ? k1 - span : 0;
+    double sum = 0;
+    for (std::size_t k = k0; k <= k1; ++k) sum += constraint[k];
+    return -sum / static_cast<double>(k1 - k0 + 1);
+  };
 
   // Releases: the instants the finger lets go; drift over the window that follows.
   const auto window = static_cast<std::size_t>(std::llround(scenario.drift_window_s / scenario.period_s));
   const auto& pushes = scenario.plant.finger.pushes;
-  for (const auto& push : pushes) {
+  auto probe_of = [&](std::size_t i) { return i < scenario.probe_direction.size() ? scenario.probe_direction[i] : 0; };
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    const auto& push = pushes[i];
+    if (probe_of(i) != 0) continue;
     const auto k0 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
     if (k0 > done) continue;
     E1Release rel;
@@ -242,20 +301,70 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     rel.time_s = k0 * scenario.period_s;
     rel.angle_deg = angle_truth[k0] / kDeg;
     const std::size_t k1 = std::min(k0 + window, done);
+    std::size_t last = k0;
     for (std::size_t k = k0; k <= k1 && !(k > k0 && finger_on[k]); ++k) {
       rel.max_excursion_deg = std::max(rel.max_excursion_deg, std::abs(angle_truth[k] - angle_truth[k0]) / kDeg);
       rel.drift_deg = (angle_truth[k] - angle_truth[k0]) / kDeg;
+      last = k;
     }
+    const StopDistance stop = stop_distance(angle_truth, k0, last, range.min_angle_rad, range.max_angle_rad);
+    rel.stop_distance_deg = stop.closest_deg;
+    rel.gravity_torque_Nm = e1_plant_gravity_torque_Nm(plant, angle_truth[last]);
+    rel.static_torque_error_Nm = r.from_truth ? static_error_Nm(last) : nan;
+    rel.static_torque_error_pct = 100.0 * rel.static_torque_error_Nm / std::abs(rel.gravity_torque_Nm);
     r.releases.push_back(rel);
+
+    add_release_checks(push.name, rel.drift_deg, rel.max_excursion_deg, stop, th, r.verdict);
+    if (r.from_truth && std::abs(rel.gravity_torque_Nm) >= th.min_gravity_torque_Nm) {
+      r.verdict.at_most(push.name + " |static torque error|", "% of gravity", std::abs(rel.static_torque_error_pct),
+                        th.max_static_torque_error_pct);
+    }
   }
-  for (const auto& push : pushes) {
-    if (push.hold) continue;
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    const auto& push = pushes[i];
+    if (push.hold || probe_of(i) != 0) continue;
     const auto k0 = static_cast<std::size_t>(std::llround(push.start_s / scenario.period_s));
     const auto k1 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
     for (std::size_t k = k0; k <= std::min(k1, done); ++k) {
       r.peak_finger_force_N = std::max(r.peak_finger_force_N, std::abs(finger_force[k]));
     }
   }
+
+  // Breakaway probes: the finger force when the link has moved kBreakaway_deg from where the probe began.
+  constexpr double kBreakaway_deg = 0.1;
+  double force[2] = {nan, nan}, gravity[2] = {nan, nan}, truth[2] = {nan, nan};
+  bool ran[2] = {false, false};
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    const int dir = probe_of(i);
+    if (dir == 0 || !r.from_truth) continue;
+    const int side = dir > 0 ? 0 : 1;
+    const auto k0 = static_cast<std::size_t>(std::llround(pushes[i].start_s / scenario.period_s));
+    const auto k1 = std::min(done, static_cast<std::size_t>(std::llround((pushes[i].start_s + pushes[i].duration_s) / scenario.period_s)));
+    if (k0 == 0 || k0 > done) continue;
+    ran[side] = true;
+    gravity[side] = e1_plant_gravity_torque_Nm(plant, angle_truth[k0 - 1]);
+    truth[side] = 100.0 * static_error_Nm(k0 - 1) / std::abs(gravity[side]);
+    double peak = 0;
+    for (std::size_t k = k0; k <= k1; ++k) {
+      peak = std::max(peak, std::abs(finger_force[k]));
+      if (std::abs(angle_truth[k] - angle_truth[k0]) / kDeg > kBreakaway_deg) {
+        force[side] = peak;
+        break;
+      }
+    }
+  }
+  if (ran[0] && ran[1]) {
+    E1Breakaway& b = r.breakaway;
+    const double lever = scenario.plant.finger.lever_m;
+    b.force_up_N = force[0];
+    b.force_down_N = force[1];
+    b.measured = !std::isnan(force[0]) && !std::isnan(force[1]);
+    b.friction_band_Nm = (force[0] + force[1]) * lever / 2.0;
+    b.torque_error_Nm = (force[1] - force[0]) * lever / 2.0;
+    b.torque_error_pct = 100.0 * b.torque_error_Nm / (0.5 * (std::abs(gravity[0]) + std::abs(gravity[1])));
+    b.truth_error_pct = 0.5 * (truth[0] + truth[1]);
+  }
+  r.within_limits = r.verdict.passed();
   if (!r.from_truth) r.peak_finger_force_N = nan;  // the finger is the simulator's secret
   return r;
 }

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <optional>
 #include <utility>
 
@@ -42,40 +43,86 @@ std::vector<E1Variant> e1_variants(const E1Scenario& scenario, const std::filesy
 
 void write_e1_summary(const std::filesystem::path& path, const std::vector<E1Result>& results) {
   std::ofstream out(path);
-  out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_excursion_deg,"
-         "peak_finger_force_N,peak_agonist_force_N,peak_antagonist_force_N,min_wire_tension_N,"
-         "max_pressure_MPa,peak_motor_torque_Nm,min_angle_deg,max_angle_deg,within_limits,"
+  out << "case,payload_kg,release,release_time_s,angle_at_release_deg,drift_deg,max_drift_deg,max_excursion_deg,"
+         "stop_distance_deg,stop_margin_deg,gravity_torque_Nm,static_torque_error_Nm,static_torque_error_pct,"
+         "max_static_torque_error_pct,peak_finger_force_N,peak_agonist_force_N,agonist_ceiling_N,"
+         "peak_antagonist_force_N,antagonist_ceiling_N,min_wire_tension_N,min_wire_tension_limit_N,"
+         "max_pressure_MPa,peak_motor_torque_Nm,min_angle_deg,max_angle_deg,breakaway_up_N,breakaway_down_N,"
+         "breakaway_static_error_pct,truth_static_error_at_probes_pct,within_limits,failed_checks,"
          "force_tracking_rms_agonist_N,force_tracking_rms_antagonist_N,realtime_factor\n";
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  auto limit_of = [](const E1Result& r, const std::string& figure) {
+    const safety::Check* c = r.verdict.find(figure);
+    return c ? c->limit : std::numeric_limits<double>::quiet_NaN();
+  };
   for (const auto& r : results) {
+    std::size_t failed = 0;
+    for (const auto& c : r.verdict.checks) failed += !c.passed();
+    const E1Breakaway& b = r.breakaway;
     for (const auto& rel : r.releases) {
-      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.2f},{:.1f},{:.1f},{:.2f},{:.4f},{:.3f},{:.2f},{:.2f},{},{:.2f},{:.2f},{:.2f}\n",
+      out << fmt::format("{},{},{},{:.3f},{:.3f},{:.4f},{:.3g},{:.4f},{:.3f},{:.3g},{:.4f},{:.4f},{:.3f},{:.3g},{:.2f},{:.1f},{:.0f},"
+                         "{:.1f},{:.0f},{:.2f},{:.2f},{:.4f},{:.3f},{:.2f},{:.2f},{:.2f},{:.2f},{:.3f},{:.3f},{},{},{:.2f},{:.2f},{:.2f}\n",
                          r.case_name, r.payload_kg, rel.push, rel.time_s, rel.angle_deg, rel.drift_deg,
-                         rel.max_excursion_deg, r.peak_finger_force_N, r.peak_muscle_force_N[0],
-                         r.peak_muscle_force_N[1], r.min_wire_tension_N, r.max_pressure_MPa,
-                         r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg, r.within_limits ? 1 : 0,
+                         r.verdict.thresholds.max_drift_deg, rel.max_excursion_deg, rel.stop_distance_deg,
+                         r.verdict.thresholds.stop_margin_deg, rel.gravity_torque_Nm, rel.static_torque_error_Nm,
+                         rel.static_torque_error_pct, r.verdict.thresholds.max_static_torque_error_pct,
+                         r.peak_finger_force_N, r.peak_muscle_force_N[0], limit_of(r, "joint agonist peak force"),
+                         r.peak_muscle_force_N[1], limit_of(r, "joint antagonist peak force"), r.min_wire_tension_N,
+                         limit_of(r, "joint lowest wire tension"), r.max_pressure_MPa, r.peak_motor_torque_Nm,
+                         r.min_angle_deg, r.max_angle_deg, b.measured || b.force_up_N > 0 ? b.force_up_N : nan,
+                         b.measured || b.force_down_N > 0 ? b.force_down_N : nan, b.measured ? b.torque_error_pct : nan,
+                         b.measured ? b.truth_error_pct : nan, r.within_limits ? 1 : 0, failed,
                          r.force_tracking_rms_N[0], r.force_tracking_rms_N[1], r.realtime_factor);
     }
   }
 }
 
 bool print_e1_table(const std::vector<E1Result>& results) {
-  fmt::print("\n{:<26} {:<10} {:>9} {:>10} {:>11} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>6}\n", "case", "release",
-             "angle/deg", "drift/deg", "excurs/deg", "finger/N", "F_ago/N", "F_ant/N", "T_min/N", "Ftrk_ago", "Ftrk_ant",
-             "RTF");
+  if (!results.empty()) {
+    const safety::VerdictThresholds& t = results.front().verdict.thresholds;
+    fmt::print("\nverdict thresholds (verdict: section): |drift| <= {} deg, >= {} deg from a stop, |static torque error| <= {} % "
+               "of the plant's gravity torque, lowest wire tension >= {} x pretension, each muscle's own force ceiling\n",
+               t.max_drift_deg, t.stop_margin_deg, t.max_static_torque_error_pct, t.min_tension_fraction);
+  }
+  fmt::print("\n{:<26} {:<10} {:>9} {:>10} {:>11} {:>9} {:>10} {:>9} {:>8} {:>8} {:>8} {:>9} {:>9} {:>6}\n", "case", "release",
+             "angle/deg", "drift/deg", "excurs/deg", "stop/deg", "tau_err/%", "finger/N", "F_ago/N", "F_ant/N", "T_min/N",
+             "Ftrk_ago", "Ftrk_ant", "RTF");
   bool safe = true;
   for (const auto& r : results) {
     for (const auto& rel : r.releases) {
-      fmt::print("{:<26} {:<10} {:>9.2f} {:>10.3f} {:>11.3f} {:>9.1f} {:>8.1f} {:>8.1f} {:>8.2f} {:>8.1f}N {:>8.1f}N {:>6.1f}\n",
-                 r.case_name, rel.push, rel.angle_deg, rel.drift_deg, rel.max_excursion_deg, r.peak_finger_force_N,
-                 r.peak_muscle_force_N[0], r.peak_muscle_force_N[1], r.min_wire_tension_N, r.force_tracking_rms_N[0],
-                 r.force_tracking_rms_N[1], r.realtime_factor);
+      fmt::print("{:<26} {:<10} {:>9.2f} {:>10.3f} {:>11.3f} {:>9.1f} {:>10.2f} {:>9.1f} {:>8.1f} {:>8.1f} {:>8.2f} {:>8.1f}N {:>8.1f}N {:>6.1f}\n",
+                 r.case_name, rel.push, rel.angle_deg, rel.drift_deg, rel.max_excursion_deg, rel.stop_distance_deg,
+                 rel.static_torque_error_pct, r.peak_finger_force_N, r.peak_muscle_force_N[0], r.peak_muscle_force_N[1],
+                 r.min_wire_tension_N, r.force_tracking_rms_N[0], r.force_tracking_rms_N[1], r.realtime_factor);
     }
     safe = safe && r.within_limits;
-    fmt::print("{:<26} safety: peak PAM force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), max pressure "
-               "{:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",
-               "", std::max(r.peak_muscle_force_N[0], r.peak_muscle_force_N[1]), r.min_wire_tension_N,
+    auto limit_of = [&](const std::string& figure) {
+      const safety::Check* c = r.verdict.find(figure);
+      return c ? c->limit : std::numeric_limits<double>::quiet_NaN();
+    };
+    if (r.breakaway.measured) {
+      const E1Breakaway& b = r.breakaway;
+      fmt::print("{:<26} breakaway (hardware figure): finger {:.1f} N up, {:.1f} N down -> friction band {:.2f} Nm, "
+                 "static torque error {:+.2f} Nm = {:+.1f} % of gravity (plant truth before the probes {:+.1f} %)\n",
+                 "", b.force_up_N, b.force_down_N, b.friction_band_Nm, b.torque_error_Nm, b.torque_error_pct, b.truth_error_pct);
+    } else if (r.breakaway.force_up_N > 0 || r.breakaway.force_down_N > 0) {
+      fmt::print("{:<26} breakaway: the link did not break away in one of the probes (up {:.1f} N, down {:.1f} N)\n", "",
+                 r.breakaway.force_up_N, r.breakaway.force_down_N);
+    }
+    fmt::print("{:<26} safety: peak agonist force {:.0f} N (limit {:.0f}), peak antagonist force {:.0f} N (limit {:.0f}), "
+               "min wire tension {:.2f} N (>= {:.1f}), max pressure {:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",
+               "", r.peak_muscle_force_N[0], limit_of("joint agonist peak force"), r.peak_muscle_force_N[1],
+               limit_of("joint antagonist peak force"), r.min_wire_tension_N, limit_of("joint lowest wire tension"),
                r.max_pressure_MPa, r.peak_motor_torque_Nm, r.min_angle_deg, r.max_angle_deg,
                r.within_limits ? "OK" : "VIOLATED");
+    if (!r.within_limits) {
+      std::string failures = r.verdict.failures();
+      for (std::size_t at = 0; (at = failures.find('\n', at)) != std::string::npos && at + 1 < failures.size(); at += 1) {
+        failures.replace(at, 1, "\n" + std::string(27, ' ') + "FAIL ");
+        at += 28;
+      }
+      fmt::print("{:<26} FAIL {}", "", failures);
+    }
     fmt::print("{:<26} limits layer shaped the command in: pressure band {} cycles, rate {}, joint range {}, "
                "motor rating {}, non-finite {}\n",
                "", r.limit_counts[2], r.limit_counts[3], r.limit_counts[1], r.limit_counts[4], r.limit_counts[0]);

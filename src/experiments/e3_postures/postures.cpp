@@ -1,4 +1,5 @@
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/common/release_checks.hpp"
 
 #include "peha/safety/limited_backend.hpp"
 
@@ -122,8 +123,8 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.peak_muscle_force_N = envelope.peak_muscle_force_N();
   r.min_wire_tension_N = envelope.min_tension_N();
-  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, r.verdict);
-  r.within_limits = r.verdict.passed();
+  r.verdict.thresholds = scenario.verdict;
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, r.verdict);
 
   const auto window = static_cast<std::size_t>(std::llround(scenario.observe_s / scenario.period_s));
   for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
@@ -139,10 +140,16 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       const std::vector<double>& a = *angles[j];
       p.released_deg[j] = a[k0] / kDeg;
       p.drift_deg[j] = (a[k1] - a[k0]) / kDeg;
+      const safety::JointLimits& range = scenario.limits.joints[static_cast<std::size_t>(j)];
       for (std::size_t k = k0; k <= k1; ++k) p.max_excursion_deg[j] = std::max(p.max_excursion_deg[j], std::abs(a[k] - a[k0]) / kDeg);
+      const StopDistance stop = stop_distance(a, k0, k1, range.min_angle_rad, range.max_angle_rad);
+      p.stop_distance_deg[j] = stop.closest_deg;
+      const std::string joint = arm_joint_names(scenario)[static_cast<std::size_t>(j)];
+      add_release_checks(p.name + " " + joint, p.drift_deg[j], p.max_excursion_deg[j], stop, scenario.verdict, r.verdict);
     }
     r.postures.push_back(p);
   }
+  r.within_limits = r.verdict.passed();
   return r;
 }
 

@@ -12,16 +12,24 @@ namespace peha::experiments {
 void write_postures_summary(const std::filesystem::path& path, const PosturesResult& r, double observe_s) {
   std::ofstream summary(path);
   summary << "posture,target_sfe_deg,target_efe_deg,released_sfe_deg,released_efe_deg,drift_sfe_deg,drift_efe_deg,"
-             "max_excursion_sfe_deg,max_excursion_efe_deg\n";
+             "max_excursion_sfe_deg,max_excursion_efe_deg,stop_distance_sfe_deg,stop_distance_efe_deg,max_drift_deg,"
+             "stop_margin_deg,min_wire_tension_N,min_wire_tension_limit_N,within_limits\n";
+  const safety::VerdictThresholds& t = r.verdict.thresholds;
+  double tension_limit = 0;
+  for (const auto& c : r.verdict.checks) {
+    if (c.figure.ends_with("lowest wire tension")) tension_limit = std::max(tension_limit, c.limit);
+  }
   fmt::print("\n{:<15} {:>15} {:>17} {:>19} {:>19}\n", "posture", "target SFE/EFE", "released SFE/EFE",
              fmt::format("drift {:.0f} s SFE/EFE", observe_s), "max excursion");
   for (const auto& p : r.postures) {
     fmt::print("{:<15} {:>7.1f} {:>7.1f} {:>8.2f} {:>8.2f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f}   deg\n", p.name, p.target_deg[0],
                p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1], p.max_excursion_deg[0],
                p.max_excursion_deg[1]);
-    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f}\n", p.name, p.target_deg[0],
-                           p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1],
-                           p.max_excursion_deg[0], p.max_excursion_deg[1]);
+    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:.3f},{:.3g},{:.3g},{:.2f},{:.2f},{}\n",
+                           p.name, p.target_deg[0], p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0],
+                           p.drift_deg[1], p.max_excursion_deg[0], p.max_excursion_deg[1], p.stop_distance_deg[0],
+                           p.stop_distance_deg[1], t.max_drift_deg, t.stop_margin_deg, r.min_wire_tension_N, tension_limit,
+                           r.within_limits ? 1 : 0);
   }
 }
 
@@ -47,10 +55,10 @@ int run_postures_experiment(const config::Document& doc, const ArmScenario& scen
                                         "plant_* columns are simulator truth the controller never sees"});
   }
   write_postures_summary(dir / "summary.csv", r, scenario.observe_s);  // closed: the plotter reads it next
-  fmt::print("safety: peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak operator torque "
-             "{:.1f} Nm: {}\nreal-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
-             r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_operator_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
-             r.realtime_factor, dir.string());
+  fmt::print("verdict (thresholds from the verdict: section):\n{}verdict: {}; peak operator torque {:.1f} Nm\n"
+             "real-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
+             r.verdict.describe_all(), r.within_limits ? "OK" : "VIOLATED", r.peak_operator_torque_Nm, r.realtime_factor,
+             dir.string());
   if (rr) print_realtime(*rr, dir / "timing");
   if (request.plot) plot_with("plot_arm.py", dir);
   return r.within_limits ? 0 : 3;

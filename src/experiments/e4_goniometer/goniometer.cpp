@@ -314,8 +314,8 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.peak_muscle_force_N = envelope.peak_muscle_force_N();
   r.min_wire_tension_N = envelope.min_tension_N();
-  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, r.verdict);
-  r.within_limits = r.verdict.passed();
+  r.verdict.thresholds = scenario.verdict;
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, r.verdict);
 
   // Tracking from the release to the end: raw error, and the lag that best aligns the two.
   const auto k0 = std::min(static_cast<std::size_t>(std::llround(release_s / period)), done);
@@ -346,6 +346,9 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     }
   }
   r.rms_error_aligned_deg = best / kDeg;
+  r.verdict.at_most("elbow tracking RMS error", "deg", r.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
+  r.verdict.at_most("elbow tracking max error", "deg", r.max_error_deg, scenario.verdict.max_tracking_error_deg);
+  r.within_limits = r.verdict.passed();
   return r;
 }
 

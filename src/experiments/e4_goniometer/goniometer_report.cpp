@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include <cstdio>
 #include <fstream>
 #include <numbers>
@@ -67,7 +69,8 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
                                             : "recording: " + request.goniometer_csv.string());
   std::ofstream summary(dir / "summary.csv");
   summary << "movement,variant,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
-             "peak_muscle_force_N,min_wire_tension_N,peak_motor_Nm,shoulder_excursion_deg,within_limits\n";
+             "peak_muscle_force_N,min_wire_tension_N,min_wire_tension_limit_N,peak_motor_Nm,shoulder_excursion_deg,"
+             "max_tracking_rms_deg,max_tracking_error_deg,within_limits\n";
   std::vector<GoniometerResult> results;
   for (const GoniometerTrace& trace : traces) {
     const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
@@ -81,10 +84,15 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
                 {fmt::format("case: E4 goniometer-driven elbow, movement {}, variant {}", trace.name, to_string(variant)),
                  fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
                  "person_* is the person's true elbow; plant_* columns are simulator truth the controller never sees"});
-      summary << fmt::format("{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.1f},{:.2f},{:.3f},{:.4f},{}\n", r.name,
+      double tension_limit = 0;
+      for (const auto& c : r.verdict.checks) {
+        if (c.figure.ends_with("lowest wire tension")) tension_limit = std::max(tension_limit, c.limit);
+      }
+      summary << fmt::format("{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.1f},{:.2f},{:.2f},{:.3f},{:.4f},{:.3g},{:.3g},{}\n", r.name,
                              to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3,
                              r.rms_error_aligned_deg, r.peak_torque_command_Nm, r.peak_muscle_force_N, r.min_wire_tension_N,
-                             r.peak_motor_torque_Nm, r.shoulder_excursion_deg, r.within_limits ? 1 : 0);
+                             tension_limit, r.peak_motor_torque_Nm, r.shoulder_excursion_deg,
+                             scenario.verdict.max_tracking_rms_deg, scenario.verdict.max_tracking_error_deg, r.within_limits ? 1 : 0);
       results.push_back(r);
     }
     if (request.goniometer_csv.empty()) write_goniometer_csv(dir / fmt::format("goniometer_{}.csv", trace.name), trace);
@@ -122,9 +130,9 @@ int run_on_board(const config::Document& doc, const ArmScenario& scenario, const
   for (const auto& rr : results) {
     const auto& r = rr.goniometer;
     safe = safe && r.within_limits && rr.faults == 0;
-    fmt::print("{:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg; safety {}, faults {}\n",
+    fmt::print("{:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg; verdict {}, faults {}\n{}",
                to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
-               r.within_limits ? "OK" : "VIOLATED", rr.faults);
+               r.within_limits ? "OK" : "VIOLATED", rr.faults, r.verdict.failures());
   }
   return safe ? 0 : 3;
 }
@@ -142,9 +150,8 @@ bool print_goniometer_tables(const std::vector<GoniometerResult>& results) {
   bool safe = true;
   for (const auto& r : results) {
     safe = safe && r.within_limits;
-    fmt::print("safety ({}, {}): peak muscle force {:.0f} N (limit 2000), min wire tension {:.2f} N (> 0), peak motor {:.2f} Nm: {}\n",
-               r.name, to_string(r.variant), r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm,
-               r.within_limits ? "OK" : "VIOLATED");
+    fmt::print("verdict ({}, {}): {}\n{}", r.name, to_string(r.variant), r.within_limits ? "OK" : "VIOLATED",
+               r.verdict.describe_all());
   }
   return safe;
 }

@@ -101,7 +101,8 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   }
   const safety::Envelope::Joint& e = envelope.joints[bench];
   r.min_wire_tension_N = e.min_tension_N;
-  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, r.verdict);
+  r.verdict.thresholds = scenario.verdict;
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, r.verdict);
   r.within_limits = r.verdict.passed();
   const double threshold = 1.0 / std::sqrt(2.0);
   r.bandwidth_3dB_Hz = r.bode.back().frequency_Hz;

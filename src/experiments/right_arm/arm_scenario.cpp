@@ -66,6 +66,7 @@ void read_arm_plant(config::Map plant, config::Map op, const models::RightArmCon
   p.mjcf.timestep_s = p.timestep_s;
   p.control_period_s = s.period_s;
   p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  p.unknown_hand_payload_kg = plant.number_or("unknown_hand_payload_kg", 0.0, {-20.0, 20.0});  // plant-only
   config::Map pressure = plant.map("pressure_sensor");
   p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
   p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
@@ -180,6 +181,11 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   read_bandwidth(root.map("bandwidth"), s);
   if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
   read_goniometer(root.map("goniometer"), s);
+  s.verdict = safety::read_verdict_thresholds(root);
+  for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
+    // A constant-pressure hold (the wrist) has no pretension control: its wires are checked for slack.
+    if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) s.verdict.slack_check_only_joints |= 1u << i;
+  }
   root.finish();
   return s;
 }

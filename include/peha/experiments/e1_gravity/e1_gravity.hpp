@@ -35,6 +35,11 @@ struct E1Scenario {
   double duration_s = 20;
   double drift_window_s = 5;
   control::OneDofControllerModel controller;  ///< payload filled in per case
+  safety::VerdictThresholds verdict;          ///< the optional `verdict:` section (defaults when absent)
+  /// Per finger push (same order as plant.finger.pushes): 0 a normal push, +1 / -1 a breakaway
+  /// probe up / down (`breakaway: up|down`): a slow force ramp that measures the finger force needed
+  /// to start the link moving; probes are not releases (no drift figure).
+  std::vector<int> probe_direction;
   safety::LimitsModel limits;
   sim::OneDofRigParams plant;                 ///< payload filled in per case
   std::vector<E1Case> cases;
@@ -54,6 +59,28 @@ struct E1Release {
   double angle_deg = 0;       ///< joint angle at release
   double drift_deg = 0;       ///< angle drift_window_s after release minus angle at release
   double max_excursion_deg = 0;  ///< largest |angle - angle at release| in the window
+  /// Closest the joint came to either end of the limits' range in the window (deg; negative: past it).
+  double stop_distance_deg = 0;
+  /// The plant's gravity torque at the angle at the end of the window (truth, Nm, what holding needs).
+  double gravity_torque_Nm = 0;
+  /// Static torque error at rest, plant truth: the torque the friction holds (minus MuJoCo's
+  /// friction and limit constraint torque) averaged over the last second of the window; + = the
+  /// actuators push up more than gravity needs. NaN without the simulator's truth.
+  double static_torque_error_Nm = 0;
+  double static_torque_error_pct = 0;  ///< 100 x static_torque_error_Nm / |gravity_torque_Nm|
+};
+
+/// What a person can measure on hardware: the finger force at the link tip needed to start the link
+/// moving up and down (breakaway probes), and the static torque error it implies. With the net
+/// torque error r (+ = up) held by a friction band f: F_up L = f - r, F_down L = f + r, so
+/// r = (F_down - F_up) L / 2 and f = (F_up + F_down) L / 2.
+struct E1Breakaway {
+  bool measured = false;              ///< both probes ran and both broke the link away
+  double force_up_N = 0, force_down_N = 0;   ///< finger force at breakaway (NaN: it never broke away)
+  double friction_band_Nm = 0;        ///< f
+  double torque_error_Nm = 0;         ///< r, the estimate
+  double torque_error_pct = 0;        ///< 100 r / |gravity torque| (plant's, at the probes' start angles)
+  double truth_error_pct = 0;         ///< the truth figure (as E1Release) at rest just before the probes, mean of both
 };
 
 struct E1Result {
@@ -65,13 +92,16 @@ struct E1Result {
   double min_wire_tension_N = 0;        ///< lowest tension on either wire anywhere (plant truth)
   double max_pressure_MPa = 0;          ///< highest chamber pressure (plant truth)
   double peak_motor_torque_Nm = 0;
+  E1Breakaway breakaway;                ///< from the probes, if the scenario has them
   /// RMS of (commanded muscle force - load cell) over the run after the first second, agonist and
   /// antagonist: how well the muscle model turns force requests into forces.
   double force_tracking_rms_N[2] = {0, 0};
   double min_angle_deg = 0;             ///< lowest joint angle reached (plant truth)
   double max_angle_deg = 0;             ///< highest joint angle reached (plant truth)
-  safety::Verdict verdict;              ///< the safety envelope's checks (safety/verdict.hpp)
-  bool within_limits = false;           ///< verdict.passed(): forces, tension, pressure, motor and joint range all held
+  /// The envelope's checks (safety/verdict.hpp) and, per release, drift, distance to a stop and the
+  /// static torque error against the scenario's `verdict:` thresholds.
+  safety::Verdict verdict;
+  bool within_limits = false;           ///< verdict.passed(): every figure held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;
   /// Where the figures come from: the simulator's truth (in-process) or, over a real backend
@@ -99,5 +129,18 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
 control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c);
 /// The simulated rig's parameters for a case (the scenario's plant with the case's payload).
 sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c);
+
+/// The calibration recording of muscle `index` (0 agonist, 1 antagonist) on the simulated rig
+/// `plant` (its finger pushes cleared, the excitation's payload set): the excitation of the
+/// scenario's `calibration:` section through the scenario's limits and the controller's joint
+/// geometry. What `peha record-calibration` and the robustness matrix record. Throws
+/// config::Error when the scenario has no such section.
+calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
+                                      const std::function<void(double)>& progress = {});
+
+/// The torque (Nm) that holds the plant's link still at `angle_rad` against gravity (MuJoCo's
+/// qfrc_bias at rest, the plant's MJCF with its payload): the truth the static torque error is a
+/// percentage of.
+double e1_plant_gravity_torque_Nm(const sim::OneDofRigParams& plant, double angle_rad);
 
 }  // namespace peha::experiments

@@ -18,6 +18,7 @@ struct PostureResult {
   double released_deg[2] = {0, 0};    ///< where the arm was at release (plant truth)
   double drift_deg[2] = {0, 0};       ///< angle observe_s after release minus at release
   double max_excursion_deg[2] = {0, 0};
+  double stop_distance_deg[2] = {0, 0};  ///< closest to either end of the joint's range after release
 };
 
 struct PosturesResult {
@@ -26,7 +27,9 @@ struct PosturesResult {
   double min_wire_tension_N = 0;      ///< any wire, plant truth
   double peak_operator_torque_Nm = 0;
   double realtime_factor = 0;
-  safety::Verdict verdict;            ///< the safety envelope's checks (safety/verdict.hpp)
+  /// The safety envelope's checks (safety/verdict.hpp) and, per posture and joint, |drift| and the
+  /// distance to a stop against the scenario's `verdict:` thresholds.
+  safety::Verdict verdict;
   bool within_limits = false;         ///< verdict.passed()
 };
 

@@ -70,7 +70,9 @@ struct GoniometerResult {
   double peak_motor_torque_Nm = 0;
   double shoulder_excursion_deg = 0;  ///< largest |SFE - SFE at release|: does the shoulder hold?
   double realtime_factor = 0;
-  safety::Verdict verdict;            ///< the safety envelope's checks (safety/verdict.hpp)
+  /// The safety envelope's checks (safety/verdict.hpp) and the tracking figures (RMS and max error)
+  /// against the scenario's `verdict:` thresholds.
+  safety::Verdict verdict;
   bool within_limits = false;         ///< verdict.passed()
 };
 

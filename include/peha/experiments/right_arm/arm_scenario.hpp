@@ -31,6 +31,7 @@ struct ArmScenario {
   std::uint64_t seed = 1;
   double period_s = 1e-3;
   control::ArmControllerModel controller;
+  safety::VerdictThresholds verdict;     ///< the optional `verdict:` section (defaults when absent)
   safety::LimitsModel limits;
   sim::RightArmPlantParams plant;
   double move_s = 2.5, hold_s = 1.0, observe_s = 10.0;

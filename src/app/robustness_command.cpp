@@ -1,0 +1,57 @@
+// `peha robustness`: the robustness matrix (plant variants x payloads x modes x seeds), its table,
+// CSV and heat map.
+#include "peha/app/commands.hpp"
+#include "peha/app/run_dir.hpp"
+#include "peha/experiments/robustness/robustness.hpp"
+#include "peha/experiments/run_request.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cstdio>
+
+namespace peha::app {
+
+int robustness(const RobustnessOptions& options) {
+  return with_exit_codes([&] {
+    const config::Document doc = config::Document::load_file(options.config);
+    experiments::RobustnessConfig config = experiments::read_robustness(doc);
+    if (options.threads) config.threads = *options.threads;
+    if (!options.only_variant.empty()) {
+      std::erase_if(config.variants, [&](const experiments::PlantVariant& v) { return v.name != options.only_variant; });
+      if (config.variants.empty()) {
+        fmt::print(stderr, "error: no variant named '{}' in {}\n", options.only_variant, doc.name());
+        return 2;
+      }
+    }
+    RunDir run_dir(options.config, options.out_root, options.run_name);
+    const std::filesystem::path dir = run_dir.create(config.seeds.front());
+    fmt::print("peha robustness: {}\n  {} variant(s) x modes {} x {} seed(s) on {} thread(s); output {}\n", doc.name(),
+               config.variants.size(), [&] {
+                 std::string m;
+                 for (auto mode : config.modes) m += (m.empty() ? "" : ", ") + std::string(experiments::to_string(mode));
+                 return m;
+               }(), config.seeds.size(), config.threads, dir.string());
+    std::fflush(stdout);
+    const experiments::RobustnessResult result = experiments::run_robustness(
+        config, [](std::size_t done, std::size_t total, const std::string& line) {
+          fmt::print("  [{}/{}] {}\n", done, total, line);
+          std::fflush(stdout);
+        });
+    experiments::write_robustness(dir, config, result);
+    bool met = true;
+    fmt::print("\n");
+    for (const auto& s : result.shares) {
+      const bool ok = s.total && static_cast<double>(s.met) >= s.required * static_cast<double>(s.total);
+      met = met && ok;
+      fmt::print("{:<17} goal met in {}/{} ({:.0f} %, required {:.0f} %): {}\n", s.mode, s.met, s.total,
+                 s.total ? 100.0 * s.met / s.total : 0.0, 100 * s.required, ok ? "OK" : "MISSED");
+    }
+    fmt::print("written: {}/robustness.md, robustness.csv, config.yaml\n", dir.string());
+    if (options.plot) experiments::plot_with("plot_robustness.py", dir);
+    run_dir.link_latest();
+    return met ? 0 : 3;
+  });
+}
+
+}  // namespace peha::app
