@@ -712,12 +712,12 @@ TEST(OutputArming, WatchdogTripLatchesUntilHostAcknowledges) {
   a.on_command(command(7, 1, 0));
   a.on_command(command(7, 2, kCommandEnable));
   ASSERT_TRUE(a.outputs_enabled());
-  a.on_watchdog();
+  a.on_watchdog();  // while armed: a host loss too
   EXPECT_FALSE(a.outputs_enabled());
-  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe);
+  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe | kStatusHostLost);
   a.on_command(command(7, 50, kCommandEnable));  // a stalled host resuming as if nothing happened
   EXPECT_FALSE(a.outputs_enabled());
-  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe);
+  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe | kStatusHostLost);
   a.on_command(command(7, 51, 0));  // acknowledgement: trip latch cleared, outputs still safe
   EXPECT_EQ(a.status(), kStatusOutputsSafe | kStatusHostLost);  // the trip came while armed
   a.on_command(command(7, 52, kCommandEnable | kCommandOperatorArm));

@@ -520,6 +520,26 @@ std::uint32_t own_non_loopback_ipv4() {
   return found;
 }
 
+// Issue 11: bound to 127.0.0.1, the host could not even send to a board beyond this machine
+// (sendto: EINVAL). Now it binds to the route's source address: a neighbour on this machine's own
+// subnet (no board there; UDP sends regardless) gets the command, from this machine's address.
+TEST(MfbEndToEnd, TheHostSendsToABoardBeyondThisMachine) {
+  const std::uint32_t address = own_non_loopback_ipv4();
+  if (address == 0) GTEST_SKIP() << "this machine has no IPv4 address other than loopback: no network to reach a board on";
+  const std::uint32_t neighbour = (address & 0xFFFFFF00u) | ((address & 0xFFu) == 0xFEu ? 0xFDu : (address & 0xFFu) + 1);
+  mfb::UdpBackendParams p;
+  p.board = {neighbour, 50999};
+  p.joint_names = {"joint"};
+  p.key = dev_key();
+  p.receive_timeout_s = 0.001;
+  mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
+  EXPECT_EQ(backend.local().address, address) << backend.local().to_string();
+  io::Command cmd;
+  cmd.joint_count = 1;
+  EXPECT_TRUE(backend.write(cmd));
+  EXPECT_EQ(backend.stats().send_failures, 0u);
+}
+
 // Issue 11: the host socket was bound to 127.0.0.1, so a board at any other address failed with
 // EINVAL (and the message blamed the board). Now the host binds to the address of the interface
 // that reaches the board: here the machine's own non-loopback address, where the emulator listens.
