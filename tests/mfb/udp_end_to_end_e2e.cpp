@@ -556,7 +556,7 @@ TEST(MfbEndToEnd, TheHostReachesABoardOnANonLoopbackAddress) {
   mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
   EXPECT_EQ(backend.local().address, address);
   EXPECT_NO_THROW(backend.connect()) << emulator.process.output();
-  EXPECT_GT(backend.stats().received.accepted, 0u);
+  EXPECT_GT(backend.last_sample_ns(), 0);  // the board's reply, from its address, accepted
 }
 
 }  // namespace
