@@ -28,7 +28,7 @@ LinkKey load_link_key(const std::filesystem::path& path) {
   const std::string name = path.string();
   struct stat st {};
   if (::stat(name.c_str(), &st) != 0) {
-    throw std::runtime_error(fmt::format("MFB key file {}: {} (the mfb: section's key_file; see docs/mfb-protocol.md#the-key)", name,
+    throw std::runtime_error(fmt::format("MFB key file {}: {} (the mfb: section's key_file; see docs/mfb-protocol.md#authentication)", name,
                                          std::strerror(errno)));
   }
   if (!S_ISREG(st.st_mode)) throw std::runtime_error(fmt::format("MFB key file {}: not a regular file", name));
