@@ -43,8 +43,8 @@ io::UdpEndpoint bind_endpoint(const UdpBackendParams& params) {
       ::getsockname(fd, reinterpret_cast<sockaddr*>(&source), &len) != 0) {
     const int err = errno;
     ::close(fd);
-    throw std::runtime_error(fmt::format("the MFB at {} cannot be reached from this machine: {} (no interface has a route to it: check "
-                                         "the board's address in --backend and this machine's network set-up, 'ip route get {}')",
+    throw std::runtime_error(fmt::format("the MFB at {} cannot be reached from this machine: {} (no interface of this machine may send "
+                                         "to it: check the board's address in --backend and the network set-up, 'ip route get {}')",
                                          params.board.to_string(), std::strerror(err),
                                          params.board.to_string().substr(0, params.board.to_string().rfind(':'))));
   }

@@ -545,6 +545,22 @@ TEST(MfbEndToEnd, TheHostSendsToABoardBeyondThisMachine) {
   EXPECT_EQ(backend.stats().send_failures, 0u);
 }
 
+// A board address no interface may send to (here the broadcast address: the kernel refuses a
+// route) fails at set-up with a message naming that address, not blaming a board that answered not.
+TEST(MfbEndToEnd, AnUnreachableBoardAddressIsNamedAtSetUp) {
+  mfb::UdpBackendParams p;
+  p.board = {0xFFFFFFFFu, 50000};
+  p.joint_names = {"joint"};
+  p.key = dev_key();
+  try {
+    mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
+    ADD_FAILURE() << "a backend was made for 255.255.255.255, bound to " << backend.local().to_string();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("the MFB at 255.255.255.255:50000 cannot be reached from this machine"), std::string::npos)
+        << e.what();
+  }
+}
+
 // Issue 11: the host socket was bound to 127.0.0.1, so a board at any other address failed with
 // EINVAL (and the message blamed the board). Now the host binds to the address of the interface
 // that reaches the board: here the machine's own non-loopback address, where the emulator listens.
