@@ -511,6 +511,41 @@ TEST(MfbEndToEnd, ANewSessionAfterAHostLossIsNotArmedUntilTheOperatorArms) {
   EXPECT_EQ(second->board_status() & (mfb::kStatusHostLost | mfb::kStatusOutputsSafe), 0) << int(second->board_status());
 }
 
+// The same through the whole run path: after the host loss a new E1 run faults at once, holds the
+// outputs safe, and runs on only after the operator's recover (here --recover-after 0.3 s, the
+// operator's decision made in advance); the recovery arms the board.
+TEST(MfbEndToEnd, ARunAfterAHostLossStartsInFaultAndRunsOnAfterTheOperatorsRecover) {
+  Emulator emulator({"--watchdog-ms", "50"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const experiments::E1Scenario s = scenario(2.0);
+  RealtimeRunOptions o = options(emulator.port, "after_host_loss");
+  {
+    const auto lost = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+    lost->connect();
+    lost->activate();
+    io::Command cmd;
+    cmd.joint_count = 1;
+    for (int i = 0; i < 50; ++i) {
+      lost->write(cmd);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_TRUE(lost->status().active);
+  }  // killed while armed
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  o.recover_after_s = 0.3;
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
+  EXPECT_EQ(r.faults, 1u) << lifecycle_text(r);
+  EXPECT_EQ(r.recoveries, 1u) << lifecycle_text(r);
+  const std::string path = lifecycle_text(r);
+  EXPECT_NE(path.find("active -> fault (backend watchdog tripped)"), std::string::npos) << path;
+  EXPECT_NE(path.find("recovering -> inactive"), std::string::npos) << path;
+  double fault_at = -1;
+  for (const auto& e : r.lifecycle) {
+    if (e.find("-> fault") != std::string::npos) fault_at = std::stod(e);
+  }
+  EXPECT_LT(fault_at, 0.05);  // at the run's first cycles, before any enabled command armed the board
+}
+
 /// This machine's first IPv4 address that is up and not loopback (0 if none).
 std::uint32_t own_non_loopback_ipv4() {
   ifaddrs* list = nullptr;
