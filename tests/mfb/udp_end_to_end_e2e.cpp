@@ -21,6 +21,7 @@
 #include <arpa/inet.h>
 #include <ifaddrs.h>
 #include <netinet/in.h>
+#include <unistd.h>
 
 namespace peha::runtime {
 namespace {
@@ -109,7 +110,8 @@ RealtimeRunOptions options(int port, const std::string& name) {
   o.realtime.fifo_priority = 0;  // tests share the machine: no SCHED_FIFO
   o.realtime.lock_memory = false;
   o.quiet = true;
-  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_" + name);
+  // Per process: other checkouts on this machine run the same tests at the same time.
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(o.dir);
   std::filesystem::create_directories(o.dir);
   return o;
@@ -662,7 +664,7 @@ std::filesystem::path short_arm_config(const std::filesystem::path& dir) {
 // (-90, 90) deg, released, and stays - as in-process (same scenario, same seed): release angles
 // within 0.2 deg, drift within 0.1 deg of the in-process run's.
 TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_mfb_arm_config";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_arm_config_" + std::to_string(::getpid()));
   const std::filesystem::path config = short_arm_config(dir);
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   ASSERT_EQ(s.postures.size(), 1u);
@@ -699,7 +701,7 @@ namespace {
 TEST(MfbEndToEnd, CtrlCEndsARunOnTheBoardCleanly) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_mfb_ctrl_c";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_mfb_ctrl_c_" + std::to_string(::getpid()));
   std::filesystem::remove_all(out);
   testing::ChildProcess host({PEHA_BINARY, "run", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--case", "payload_2.5kg",
                               "--backend", "udp://127.0.0.1:" + std::to_string(emulator.port), "--rt-priority", "0", "--no-plot",
@@ -726,7 +728,7 @@ namespace {
 // knows the person only by the goniometer, so its error is against the reading; it agrees with the
 // in-process run (against the truth) within 1.5 deg RMS and 25 ms of delay.
 TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
-  const std::filesystem::path config = short_arm_config(std::filesystem::temp_directory_path() / "peha_mfb_arm_config_e4");
+  const std::filesystem::path config = short_arm_config(std::filesystem::temp_directory_path() / ("peha_mfb_arm_config_e4_" + std::to_string(::getpid())));
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   s.link->host_watchdog_s = kTestWatchdog_s;
   ASSERT_EQ(s.goniometer.movements.size(), 1u);
