@@ -1,9 +1,10 @@
 // Writes the seed corpus of fuzz/mfb_packet_fuzz.cpp: a few valid packets of each type (the fuzzer
 // mutates from there) and one hand-made script. The committed files in fuzz/corpus/mfb_packet/
 // were made with
-//   g++ -std=c++20 -I include src/mfb/protocol.cpp fuzz/make_mfb_corpus.cpp -o /tmp/make_mfb_corpus
+//   g++ -std=c++20 -I include src/mfb/protocol.cpp fuzz/make_mfb_corpus.cpp -lsodium -o /tmp/make_mfb_corpus
 //   /tmp/make_mfb_corpus fuzz/corpus/mfb_packet
 #include "peha/mfb/protocol.hpp"
+#include "fuzz_key.hpp"
 
 #include <cstdio>
 #include <fstream>
@@ -23,7 +24,7 @@ void write(const std::string& dir, const std::string& name, const std::uint8_t* 
 template <typename Packet>
 void write_packet(const std::string& dir, const std::string& name, const Packet& p) {
   std::uint8_t buf[kMaxPacketSize];
-  write(dir, name, buf, encode(p, buf));
+  write(dir, name, buf, encode(p, fuzz_key(), buf));
 }
 
 }  // namespace

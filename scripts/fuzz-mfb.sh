@@ -15,9 +15,9 @@ fi
 mkdir -p build/fuzz/corpus
 bin=build/fuzz/mfb_packet_fuzz
 if [ ! -x "$bin" ] || [ src/mfb/protocol.cpp -nt "$bin" ] || [ include/peha/mfb/protocol.hpp -nt "$bin" ] ||
-   [ fuzz/mfb_packet_fuzz.cpp -nt "$bin" ]; then
+   [ fuzz/mfb_packet_fuzz.cpp -nt "$bin" ] || [ fuzz/fuzz_key.hpp -nt "$bin" ]; then
   "$CXX" -std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -Wall -Wextra \
-    -I include src/mfb/protocol.cpp fuzz/mfb_packet_fuzz.cpp -o "$bin"
+    -I include src/mfb/protocol.cpp fuzz/mfb_packet_fuzz.cpp -lsodium -o "$bin"
 fi
 exec "$bin" -max_total_time="$seconds" -print_final_stats=1 -artifact_prefix=build/fuzz/ \
   build/fuzz/corpus fuzz/corpus/mfb_packet

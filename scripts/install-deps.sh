@@ -11,6 +11,7 @@ packages=(
   libqhull-dev           # Debian's mujoco CMake config lists /usr/include/libqhull_r as an include dir
   libyaml-cpp-dev        # configuration files
   libssl-dev             # SHA-256 of calibration data files (libcrypto)
+  libsodium-dev          # MFB link: packet MAC (keyed BLAKE2b), random session ids and arm tokens
   libcli11-dev           # command line
   libspdlog-dev libfmt-dev
   libgtest-dev libgmock-dev libbenchmark-dev

@@ -23,6 +23,7 @@ mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double perio
   p.period_s = period_s;
   p.watchdog_s = options.watchdog_ms ? *options.watchdog_ms * 1e-3 : link.board_watchdog_s;
   p.vent_s = link.vent_s;
+  p.key = mfb::load_link_key(link.key_file);
   p.max_runtime_s = options.max_runtime_s;
   p.sessions = options.sessions;
   p.faults = {options.loss, options.duplicate, options.reorder, options.corrupt, options.delay_ms * 1e-3, options.fault_seed,

@@ -1,6 +1,7 @@
 #include "peha/mfb/board_emulator.hpp"
 
 #include <fmt/format.h>
+#include <sodium.h>
 
 #include <algorithm>
 #include <array>
@@ -17,20 +18,23 @@ constexpr std::size_t kMaxPending = 4096;
 
 std::string EmulatorStats::table() const {
   return fmt::format(
-      "commands: accepted {}, foreign session {}, duplicate {}, stale {}, malformed {}, gaps {}, oversized {}\n"
+      "commands: accepted {}, foreign source {}, foreign session {}, duplicate {}, stale {}, malformed {}, unauthenticated {}, gaps {}, "
+      "oversized {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
       "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}",
-      received.accepted, received.foreign_session, received.duplicate, received.stale, received.malformed, received.gaps, oversized,
+      received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
+      received.unauthenticated, received.gaps, oversized,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
       injected_reorder, injected_corrupt, injected_delay);
 }
 
 BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant)
-    : params_(params), map_(std::move(map)), make_plant_(std::move(make_plant)), socket_(params.bind), rng_state_(params.faults.seed * 0x9E3779B97F4A7C15ull + 1) {
+    : params_(params), map_(std::move(map)), make_plant_(std::move(make_plant)), socket_(params.bind), filter_(params.key), rng_state_(params.faults.seed * 0x9E3779B97F4A7C15ull + 1) {
   if (!(params.period_s > 0) || !(params.watchdog_s > params.period_s) || !(params.vent_s >= 0)) {
     throw std::invalid_argument(fmt::format("mfb-emulator: need period > 0, watchdog > period, vent >= 0 (got {}, {}, {} s)",
                                             params.period_s, params.watchdog_s, params.vent_s));
   }
+  if (sodium_init() < 0) throw std::runtime_error("mfb-emulator: libsodium failed to initialise (no entropy source?)");
   pending_.reserve(kMaxPending);
   plant_ = make_plant_();
   plant_->activate();  // the plant is the world behind the board's outputs: always driven
@@ -128,8 +132,9 @@ void BoardEmulator::send_state(std::int64_t now) noexcept {
   s.encoder = in.encoder;
   s.digital_in = in.digital_in;
   s.status = static_cast<std::uint8_t>(arming_.status() | (filter_.has_session() ? 0 : kStatusNoSession));
+  s.arm_token = arming_.token();
   std::array<std::uint8_t, kMaxPacketSize> bytes;
-  const std::size_t n = encode(s, bytes);
+  const std::size_t n = encode(s, params_.key, bytes);
   const FaultInjection& f = params_.faults;
   const std::int64_t at = now + static_cast<std::int64_t>(f.delay_s * 1e9);
   if (f.delay_s > 0) ++stats_.injected_delay;
@@ -185,9 +190,15 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       CommandPacket c;
       const bool had_session = filter_.has_session();
       const std::uint32_t previous = filter_.session_id();
-      const Verdict v = filter_.accept(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), c);
+      const Verdict v =
+          filter_.accept(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), Source{from.address, from.port}, c);
       stats_.received = filter_.counters();
       if (v != Verdict::kAccept) continue;
+      if (!had_session) {  // adopted (or re-adopted): a fresh token, so no recorded edge can arm this session
+        std::uint32_t token = 0;
+        while (token == 0) token = randombytes_random();
+        arming_.set_token(token);
+      }
       host_ = from;
       have_host_ = true;
       last_command_ns_ = io::monotonic_ns();
@@ -196,7 +207,7 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       if (!had_session && (c.session_id != previous || !have_session_)) {
         // A new session: the exoskeleton back to its initial state, answered without a step.
         plant_ = make_plant_();
-  plant_->activate();  // the plant is the world behind the board's outputs: always driven
+        plant_->activate();  // the plant is the world behind the board's outputs: always driven
         plant_->read(state_);
         armed_ = venting_ = false;
         applied_ = map_.safe_outputs();

@@ -1,7 +1,13 @@
 #include "peha/mfb/protocol.hpp"
 
+#include <sodium.h>
+
 namespace peha::mfb {
 namespace {
+
+// libsodium picks its fastest implementations in sodium_init(); everything here works before it
+// too, so a static initialiser is enough (it is idempotent and thread-safe).
+[[maybe_unused]] const int kSodiumReady = sodium_init();
 
 // ---- CRC-32C ------------------------------------------------------------------------------------
 
@@ -59,14 +65,18 @@ void put_header(std::uint8_t* p, PacketType type, std::size_t payload_size, std:
   put_u32(p, kSequenceOffset, sequence);
 }
 
-/// Writes the CRC of the first `size - kCrcSize` bytes into the last four.
-void put_crc(std::uint8_t* p, std::size_t size) {
-  put_u32(p, size - kCrcSize, crc32c(p, size - kCrcSize));
+/// Writes the trailer of a `size`-byte packet: the CRC of everything before it, then the MAC of
+/// everything before that.
+void put_trailer(std::uint8_t* p, std::size_t size, const LinkKey& key) {
+  const std::size_t crc_at = size - kTrailerSize;
+  put_u32(p, crc_at, crc32c(p, crc_at));
+  const std::array<std::uint8_t, kMacSize> mac = packet_mac(key, p, size - kMacSize);
+  for (std::size_t i = 0; i < kMacSize; ++i) p[size - kMacSize + i] = mac[i];
 }
 
 /// Every check that does not depend on the payload's content, in `ParseError`'s order.
-ParseError check_frame(std::span<const std::uint8_t> in, PacketType type, std::size_t payload_size) {
-  const std::size_t packet_size = kHeaderSize + payload_size + kCrcSize;
+ParseError check_frame(std::span<const std::uint8_t> in, PacketType type, std::size_t payload_size, const LinkKey& key) {
+  const std::size_t packet_size = kHeaderSize + payload_size + kTrailerSize;
   if (in.size() < kHeaderSize) return ParseError::kTooShort;
   const std::uint8_t* p = in.data();
   if (get_u32(p, kMagicOffset) != kMagic) return ParseError::kBadMagic;
@@ -75,7 +85,10 @@ ParseError check_frame(std::span<const std::uint8_t> in, PacketType type, std::s
   if (get_u16(p, kPayloadLengthOffset) != payload_size) return ParseError::kBadLength;
   if (in.size() < packet_size) return ParseError::kTooShort;
   if (in.size() > packet_size) return ParseError::kTooLong;
-  if (get_u32(p, packet_size - kCrcSize) != crc32c(p, packet_size - kCrcSize)) return ParseError::kBadCrc;
+  const std::size_t crc_at = packet_size - kTrailerSize;
+  if (get_u32(p, crc_at) != crc32c(p, crc_at)) return ParseError::kBadCrc;
+  const std::array<std::uint8_t, kMacSize> mac = packet_mac(key, p, packet_size - kMacSize);
+  if (sodium_memcmp(mac.data(), p + packet_size - kMacSize, kMacSize) != 0) return ParseError::kBadMac;
   return ParseError::kOk;
 }
 
@@ -89,6 +102,7 @@ Verdict count(ReceiveCounters& c, Verdict v) {
     case Verdict::kDuplicate: ++c.duplicate; break;
     case Verdict::kStale: ++c.stale; break;
     case Verdict::kMalformed: ++c.malformed; break;
+    case Verdict::kUnauthenticated: ++c.unauthenticated; break;
   }
   return v;
 }
@@ -119,6 +133,7 @@ const char* to_string(ParseError e) noexcept {
     case ParseError::kWrongType: return "wrong type";
     case ParseError::kBadLength: return "bad length";
     case ParseError::kBadCrc: return "bad crc";
+    case ParseError::kBadMac: return "bad mac";
     case ParseError::kBadFlags: return "bad flags";
     case ParseError::kZeroSession: return "zero session";
   }
@@ -133,6 +148,7 @@ const char* to_string(Verdict v) noexcept {
     case Verdict::kDuplicate: return "duplicate";
     case Verdict::kStale: return "stale";
     case Verdict::kMalformed: return "malformed";
+    case Verdict::kUnauthenticated: return "unauthenticated";
   }
   return "unknown verdict";
 }
@@ -143,7 +159,13 @@ std::uint32_t crc32c(const std::uint8_t* data, std::size_t size) noexcept {
   return crc ^ 0xFFFFFFFFu;
 }
 
-std::size_t encode(const CommandPacket& packet, std::span<std::uint8_t> out) noexcept {
+std::array<std::uint8_t, kMacSize> packet_mac(const LinkKey& key, const std::uint8_t* data, std::size_t size) noexcept {
+  std::array<std::uint8_t, kMacSize> mac{};
+  crypto_generichash(mac.data(), mac.size(), data, size, key.bytes.data(), key.bytes.size());
+  return mac;
+}
+
+std::size_t encode(const CommandPacket& packet, const LinkKey& key, std::span<std::uint8_t> out) noexcept {
   if (out.size() < kCommandPacketSize) return 0;
   std::uint8_t* p = out.data();
   put_header(p, PacketType::kCommand, kCommandPayloadSize, packet.session_id, packet.sequence);
@@ -151,11 +173,12 @@ std::size_t encode(const CommandPacket& packet, std::span<std::uint8_t> out) noe
   for (std::size_t i = 0; i < packet.da.size(); ++i) put_u16(p, kCommandDaOffset + 2 * i, packet.da[i]);
   put_u8(p, kCommandDigitalOutOffset, packet.digital_out);
   put_u8(p, kCommandFlagsOffset, packet.flags);
-  put_crc(p, kCommandPacketSize);
+  put_u32(p, kCommandArmTokenOffset, packet.arm_token);
+  put_trailer(p, kCommandPacketSize, key);
   return kCommandPacketSize;
 }
 
-std::size_t encode(const StatePacket& packet, std::span<std::uint8_t> out) noexcept {
+std::size_t encode(const StatePacket& packet, const LinkKey& key, std::span<std::uint8_t> out) noexcept {
   if (out.size() < kStatePacketSize) return 0;
   std::uint8_t* p = out.data();
   put_header(p, PacketType::kState, kStatePayloadSize, packet.session_id, packet.sequence);
@@ -168,12 +191,13 @@ std::size_t encode(const StatePacket& packet, std::span<std::uint8_t> out) noexc
   }
   put_u8(p, kStateDigitalInOffset, packet.digital_in);
   put_u8(p, kStateStatusOffset, packet.status);
-  put_crc(p, kStatePacketSize);
+  put_u32(p, kStateArmTokenOffset, packet.arm_token);
+  put_trailer(p, kStatePacketSize, key);
   return kStatePacketSize;
 }
 
-ParseError decode(std::span<const std::uint8_t> in, CommandPacket& out) noexcept {
-  if (const ParseError e = check_frame(in, PacketType::kCommand, kCommandPayloadSize); e != ParseError::kOk) {
+ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, CommandPacket& out) noexcept {
+  if (const ParseError e = check_frame(in, PacketType::kCommand, kCommandPayloadSize, key); e != ParseError::kOk) {
     return e;
   }
   const std::uint8_t* p = in.data();
@@ -184,14 +208,15 @@ ParseError decode(std::span<const std::uint8_t> in, CommandPacket& out) noexcept
   for (std::size_t i = 0; i < c.da.size(); ++i) c.da[i] = get_u16(p, kCommandDaOffset + 2 * i);
   c.digital_out = p[kCommandDigitalOutOffset];
   c.flags = p[kCommandFlagsOffset];
+  c.arm_token = get_u32(p, kCommandArmTokenOffset);
   if ((c.flags & ~kCommandKnownFlags) != 0) return ParseError::kBadFlags;
   if (c.session_id == 0) return ParseError::kZeroSession;
   out = c;
   return ParseError::kOk;
 }
 
-ParseError decode(std::span<const std::uint8_t> in, StatePacket& out) noexcept {
-  if (const ParseError e = check_frame(in, PacketType::kState, kStatePayloadSize); e != ParseError::kOk) {
+ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, StatePacket& out) noexcept {
+  if (const ParseError e = check_frame(in, PacketType::kState, kStatePayloadSize, key); e != ParseError::kOk) {
     return e;
   }
   const std::uint8_t* p = in.data();
@@ -207,6 +232,7 @@ ParseError decode(std::span<const std::uint8_t> in, StatePacket& out) noexcept {
   }
   s.digital_in = p[kStateDigitalInOffset];
   s.status = p[kStateStatusOffset];
+  s.arm_token = get_u32(p, kStateArmTokenOffset);
   if ((s.status & ~kStatusKnownBits) != 0) return ParseError::kBadFlags;
   if (s.session_id == 0) return ParseError::kZeroSession;
   out = s;
@@ -215,17 +241,22 @@ ParseError decode(std::span<const std::uint8_t> in, StatePacket& out) noexcept {
 
 // ---- StateFilter --------------------------------------------------------------------------------
 
-StateFilter::StateFilter(std::uint32_t session_id) noexcept : session_id_(session_id) {}
+StateFilter::StateFilter(std::uint32_t session_id, const LinkKey& key) noexcept : key_(key), session_id_(session_id) {}
 
-void StateFilter::reset(std::uint32_t session_id) noexcept { *this = StateFilter(session_id); }
+void StateFilter::reset(std::uint32_t session_id) noexcept { *this = StateFilter(session_id, key_); }
+
+namespace {
+/// The verdict for a datagram `decode` rejected.
+Verdict rejected(ParseError e) { return e == ParseError::kBadMac ? Verdict::kUnauthenticated : Verdict::kMalformed; }
+}  // namespace
 
 Verdict StateFilter::accept(std::span<const std::uint8_t> datagram, bool from_board_address,
                             StatePacket& out) noexcept {
   if (!from_board_address) return count(counters_, Verdict::kForeignSource);
   StatePacket packet;
-  if (const ParseError e = decode(datagram, packet); e != ParseError::kOk) {
+  if (const ParseError e = decode(datagram, key_, packet); e != ParseError::kOk) {
     last_error_ = e;
-    return count(counters_, Verdict::kMalformed);
+    return count(counters_, rejected(e));
   }
   if (packet.session_id != session_id_) return count(counters_, Verdict::kForeignSession);
   const Verdict v = judge_sequence(have_last_, last_sequence_, packet.sequence, counters_);
@@ -235,12 +266,14 @@ Verdict StateFilter::accept(std::span<const std::uint8_t> datagram, bool from_bo
 
 // ---- CommandFilter ------------------------------------------------------------------------------
 
-Verdict CommandFilter::accept(std::span<const std::uint8_t> datagram, CommandPacket& out) noexcept {
+Verdict CommandFilter::accept(std::span<const std::uint8_t> datagram, const Source& from, CommandPacket& out) noexcept {
   CommandPacket packet;
-  if (const ParseError e = decode(datagram, packet); e != ParseError::kOk) {
+  if (const ParseError e = decode(datagram, key_, packet); e != ParseError::kOk) {
     last_error_ = e;
-    return count(counters_, Verdict::kMalformed);
+    return count(counters_, rejected(e));
   }
+  // The session belongs to the endpoint that opened it: nobody else is obeyed or answered.
+  if (has_session_ && !(from == peer_)) return count(counters_, Verdict::kForeignSource);
   if (packet.session_id != session_id_) {
     if (has_session_) return count(counters_, Verdict::kForeignSession);
     // Adoption of a new session: its sequence starts a fresh baseline. (Re-adopting the released
@@ -251,6 +284,7 @@ Verdict CommandFilter::accept(std::span<const std::uint8_t> datagram, CommandPac
   if (v == Verdict::kAccept) {
     session_id_ = packet.session_id;
     has_session_ = true;
+    peer_ = from;
     out = packet;
   }
   return v;
@@ -268,12 +302,15 @@ void OutputArming::on_command(const CommandPacket& command) noexcept {
     armed_ = false;
     seen_disable_ = !estop_;  // the edge must start after the e-stop is released
     tripped_ = false;  // the host has acknowledged the trip
-  } else if (seen_disable_ && !estop_) {
+  } else if (!armed_ && seen_disable_ && !estop_ && command.arm_token == token_ &&
+             (!host_lost_ || (command.flags & kCommandOperatorArm) != 0)) {
     armed_ = true;
+    host_lost_ = false;  // the operator armed the board again
   }
 }
 
 void OutputArming::on_watchdog() noexcept {
+  if (armed_) host_lost_ = true;  // outputs were live and their host fell silent
   tripped_ = true;
   armed_ = false;
   seen_disable_ = false;
@@ -292,6 +329,7 @@ std::uint8_t OutputArming::status() const noexcept {
   if (tripped_) s |= kStatusWatchdogTripped;
   if (!outputs_enabled()) s |= kStatusOutputsSafe;
   if (estop_) s |= kStatusEstop;
+  if (host_lost_) s |= kStatusHostLost;
   return s;
 }
 

@@ -1,22 +1,55 @@
 #include "peha/mfb/udp_backend.hpp"
 
 #include <fmt/format.h>
+#include <sodium.h>
+#include <spdlog/spdlog.h>
 
+#include <arpa/inet.h>
 #include <array>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <limits>
-#include <random>
+#include <netinet/in.h>
 #include <stdexcept>
+#include <sys/socket.h>
 #include <time.h>
+#include <unistd.h>
 
 namespace peha::mfb {
 namespace {
 
 std::uint32_t random_session(std::uint32_t previous) {
-  std::random_device rd;
+  if (sodium_init() < 0) throw std::runtime_error("libsodium failed to initialise (no entropy source?)");
   std::uint32_t s = 0;
-  while (s == 0 || s == previous) s = rd();
+  while (s == 0 || s == previous) s = randombytes_random();
   return s;
+}
+
+/// Where the host binds: `params.local`, or with address 0 the address of the interface the
+/// kernel routes to the board through (connect() on a UDP socket sends nothing; it only picks the
+/// route and the source address).
+io::UdpEndpoint bind_endpoint(const UdpBackendParams& params) {
+  if (params.local.address != 0) return params.local;
+  const int fd = ::socket(AF_INET, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) throw std::runtime_error(fmt::format("UDP socket: {}", std::strerror(errno)));
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_addr.s_addr = htonl(params.board.address);
+  to.sin_port = htons(params.board.port);
+  sockaddr_in source{};
+  socklen_t len = sizeof source;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&to), sizeof to) != 0 ||
+      ::getsockname(fd, reinterpret_cast<sockaddr*>(&source), &len) != 0) {
+    const int err = errno;
+    ::close(fd);
+    throw std::runtime_error(fmt::format("the MFB at {} cannot be reached from this machine: {} (no interface of this machine may send "
+                                         "to it: check the board's address in --backend and the network set-up, 'ip route get {}')",
+                                         params.board.to_string(), std::strerror(err),
+                                         params.board.to_string().substr(0, params.board.to_string().rfind(':'))));
+  }
+  ::close(fd);
+  return {ntohl(source.sin_addr.s_addr), params.local.port};
 }
 
 }  // namespace
@@ -24,9 +57,9 @@ std::uint32_t random_session(std::uint32_t previous) {
 UdpBackend::UdpBackend(const UdpBackendParams& params, ChannelMap map)
     : params_(params),
       map_(std::move(map)),
-      socket_(params.local),
+      socket_(bind_endpoint(params)),
       session_(params.session_id ? params.session_id : random_session(0)),
-      filter_(session_),
+      filter_(session_, params.key),
       last_rtt_s_(std::numeric_limits<double>::quiet_NaN()) {
   if (static_cast<int>(params.joint_names.size()) != map_.joint_count()) {
     throw std::invalid_argument(fmt::format("UdpBackend: {} joint names for a channel map of {} joints", params.joint_names.size(),
@@ -41,7 +74,7 @@ io::BackendStatus UdpBackend::status() const noexcept {
   io::BackendStatus s;
   s.active = enable_ && !(last_.status & kStatusOutputsSafe);
   s.estop = (last_.status & kStatusEstop) || estop_input() || estop_latched_;
-  s.watchdog_tripped = (last_.status & kStatusWatchdogTripped) != 0;
+  s.watchdog_tripped = (last_.status & (kStatusWatchdogTripped | kStatusHostLost)) != 0;
   s.ready_to_arm = acked_disable_;
   s.last_sample_ns = last_sample_ns_;
   s.last_rtt_s = last_rtt_s_;
@@ -59,7 +92,15 @@ void UdpBackend::connect() {
     // Only the reply to this very command counts: state packets the board sent while the host was
     // busy (free-running, perhaps with a watchdog trip the command has since acknowledged) do not.
     if (!last_was_reply_) drain(io::monotonic_ns() + 20'000'000);  // 20 ms per attempt
-    if (last_was_reply_) return;
+    if (last_was_reply_) {
+      if (last_.status & kStatusHostLost) {
+        host_lost_latched_ = true;
+        spdlog::warn("the MFB at {} lost its previous host while its outputs were armed: it stays disarmed until the operator "
+                     "arms it (type 'r' + Enter after the fault, or run with --recover-after S); see docs/mfb-protocol.md",
+                     params_.board.to_string());
+      }
+      return;
+    }
   }
   throw std::runtime_error(fmt::format("no MFB answered at {} within {} s (session {:08x}): is the board (or peha mfb-emulator "
                                        "--port {}) running?",
@@ -138,10 +179,14 @@ bool UdpBackend::send_and_wait(const io::Command& command) noexcept {
   if (clamped > 0) stats_.clamped_outputs += static_cast<std::uint64_t>(clamped);
   packet.da = out.da;
   packet.digital_out = out.digital_out;
-  packet.flags = enable_ ? kCommandEnable : 0;
+  // While the board reports a host loss, enabled commands carry the operator's arming: activate()
+  // lets them through only after connect()'s latch was cleared by deactivate(), i.e. on the
+  // supervisor's recover path, which only the operator starts.
+  packet.flags = enable_ ? static_cast<std::uint8_t>(kCommandEnable | ((last_.status & kStatusHostLost) ? kCommandOperatorArm : 0)) : 0;
+  packet.arm_token = last_.arm_token;
   if (!enable_) disable_sequence_ = packet.sequence;
   std::array<std::uint8_t, kMaxPacketSize> bytes;
-  const std::size_t n = encode(packet, bytes);
+  const std::size_t n = encode(packet, params_.key, bytes);
   ++stats_.commands_sent;
   if (n == 0 || !socket_.send_to(params_.board, std::span<const std::uint8_t>(bytes.data(), n))) {
     ++stats_.send_failures;

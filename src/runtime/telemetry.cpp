@@ -58,11 +58,17 @@ char* write_number(char* p, double v) noexcept {
   return fmt::format_to(p, FMT_COMPILE("{:.9g}"), v);
 }
 
-std::array<unsigned char, 16> checked_address(const std::string& host, int port) {
+std::array<unsigned char, 16> checked_address(const std::string& host, int port, bool allow_non_loopback) {
   sockaddr_in addr{};
   addr.sin_family = AF_INET;
   if (inet_pton(AF_INET, host.c_str(), &addr.sin_addr) != 1) {
     throw std::invalid_argument(fmt::format("Telemetry: host '{}' is not an IPv4 address like 127.0.0.1", host));
+  }
+  if ((ntohl(addr.sin_addr.s_addr) >> 24) != 127 && !allow_non_loopback) {
+    throw std::invalid_argument(fmt::format("Telemetry: refusing to stream to {}, which is not a loopback address: the stream is "
+                                            "unencrypted and unauthenticated (the wearer's forces and angles). Run PlotJuggler on "
+                                            "this machine (udp://127.0.0.1:{}), or allow a remote destination explicitly",
+                                            host, port));
   }
   if (port < 1 || port > 65535) throw std::invalid_argument(fmt::format("Telemetry: port {} is not in 1..65535", port));
   addr.sin_port = htons(static_cast<std::uint16_t>(port));
@@ -102,9 +108,9 @@ Telemetry::Socket::~Socket() {
 
 // Everything the sender touches is built in the initialiser list, before the sender (last) starts.
 Telemetry::Telemetry(const std::string& host, int port, double rate_Hz, std::string group,
-                     std::vector<std::string> signals, std::size_t queue_capacity)
+                     std::vector<std::string> signals, std::size_t queue_capacity, bool allow_non_loopback)
     : destination_(fmt::format("{}:{}", host, port)),
-      address_(checked_address(host, port)),
+      address_(checked_address(host, port, allow_non_loopback)),
       head_("{\"timestamp\":"),
       group_open_(fmt::format(",{}:{{", checked_name("group", group))),
       keys_(checked_keys(signals)),

@@ -1,5 +1,5 @@
 // The MFB protocol runs inside the control loop (STYLE.md principle 3): encoding, decoding and both
-// filters allocate nothing, for valid and malformed datagrams alike.
+// filters allocate nothing (the MAC included), for valid, malformed and forged datagrams alike.
 #include "peha/mfb/protocol.hpp"
 
 #include "../support/alloc_counter.hpp"
@@ -12,8 +12,11 @@ namespace {
 TEST(MfbProtocol, EncodeDecodeAndFiltersAllocateNothing) {
   std::array<std::uint8_t, kMaxPacketSize> command_bytes{};
   std::array<std::uint8_t, kMaxPacketSize> state_bytes{};
-  StateFilter state_filter(42);
-  CommandFilter command_filter;
+  LinkKey key;
+  key.bytes.fill(0x5A);
+  StateFilter state_filter(42, key);
+  CommandFilter command_filter(key);
+  const Source host{0x7F000001u, 5000};
   OutputArming arming;
   CommandPacket command;
   command.session_id = 42;
@@ -24,11 +27,11 @@ TEST(MfbProtocol, EncodeDecodeAndFiltersAllocateNothing) {
       command.sequence = k;
       command.flags = k % 2 ? kCommandEnable : 0;
       state.sequence = k;
-      const std::size_t cn = encode(command, command_bytes);
-      const std::size_t sn = encode(state, state_bytes);
-      if (k % 7 == 0) state_bytes[k % sn] ^= 0x01;  // some malformed ones too
+      const std::size_t cn = encode(command, key, command_bytes);
+      const std::size_t sn = encode(state, key, state_bytes);
+      if (k % 7 == 0) state_bytes[k % sn] ^= 0x01;  // some malformed ones too (and forged: a flip in the MAC)
       CommandPacket c;
-      if (command_filter.accept(std::span(command_bytes).first(cn), c) == Verdict::kAccept) {
+      if (command_filter.accept(std::span(command_bytes).first(cn), host, c) == Verdict::kAccept) {
         arming.on_command(c);
       }
       StatePacket s;

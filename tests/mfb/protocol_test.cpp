@@ -16,24 +16,42 @@ namespace {
 
 using Bytes = std::vector<std::uint8_t>;
 
+/// The key of the golden packets: bytes 0x00..0x1F.
+LinkKey test_key() {
+  LinkKey k;
+  for (std::size_t i = 0; i < kKeySize; ++i) k.bytes[i] = static_cast<std::uint8_t>(i);
+  return k;
+}
+const LinkKey kKey = test_key();
+/// The endpoint the board's tests open their sessions from.
+constexpr Source kHost{0x7F000001u, 40000};
+
 // ---- helpers ------------------------------------------------------------------------------------
 
 Bytes encoded(const CommandPacket& c) {
   Bytes b(kCommandPacketSize);
-  EXPECT_EQ(encode(c, b), kCommandPacketSize);
+  EXPECT_EQ(encode(c, kKey, b), kCommandPacketSize);
   return b;
 }
 
 Bytes encoded(const StatePacket& s) {
   Bytes b(kStatePacketSize);
-  EXPECT_EQ(encode(s, b), kStatePacketSize);
+  EXPECT_EQ(encode(s, kKey, b), kStatePacketSize);
   return b;
 }
 
-/// Recomputes the trailing CRC, so that a test can reach the checks that come after it.
+/// Recomputes the CRC only (what a forger without the key can do).
 void fix_crc(Bytes& b) {
-  const std::uint32_t crc = crc32c(b.data(), b.size() - kCrcSize);
-  for (std::size_t i = 0; i < 4; ++i) b[b.size() - kCrcSize + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+  const std::size_t at = b.size() - kTrailerSize;
+  const std::uint32_t crc = crc32c(b.data(), at);
+  for (std::size_t i = 0; i < 4; ++i) b[at + i] = static_cast<std::uint8_t>(crc >> (8 * i));
+}
+
+/// Recomputes CRC and MAC under `key`, so that a test can reach the checks that come after them.
+void fix_trailer(Bytes& b, const LinkKey& key = kKey) {
+  fix_crc(b);
+  const auto mac = packet_mac(key, b.data(), b.size() - kMacSize);
+  std::copy(mac.begin(), mac.end(), b.end() - static_cast<std::ptrdiff_t>(kMacSize));
 }
 
 CommandPacket random_command(std::mt19937_64& rng) {
@@ -44,6 +62,7 @@ CommandPacket random_command(std::mt19937_64& rng) {
   for (auto& d : c.da) d = static_cast<std::uint16_t>(rng());
   c.digital_out = static_cast<std::uint8_t>(rng());
   c.flags = static_cast<std::uint8_t>(rng() & kCommandKnownFlags);
+  c.arm_token = static_cast<std::uint32_t>(rng());
   return c;
 }
 
@@ -58,6 +77,7 @@ StatePacket random_state(std::mt19937_64& rng) {
   for (auto& e : s.encoder) e = static_cast<std::int32_t>(static_cast<std::uint32_t>(rng()));
   s.digital_in = static_cast<std::uint8_t>(rng());
   s.status = static_cast<std::uint8_t>(rng() & kStatusKnownBits);
+  s.arm_token = static_cast<std::uint32_t>(rng());
   return s;
 }
 
@@ -98,6 +118,7 @@ CommandPacket golden_command() {
   for (std::size_t i = 0; i < c.da.size(); ++i) c.da[i] = static_cast<std::uint16_t>(0xA0B0 + 0x0101 * i);
   c.digital_out = 0xC3;
   c.flags = kCommandEnable;
+  c.arm_token = 0xF1F2F3F4;
   return c;
 }
 
@@ -113,16 +134,18 @@ StatePacket golden_state() {
                -123456789, 0x01020304, 0, -2};
   s.digital_in = 0x5A;
   s.status = kStatusOutputsSafe | kStatusNoSession;
+  s.arm_token = 0x21222324;
   return s;
 }
 
 // Written by hand from the byte table in docs/mfb-protocol.md, not produced by `encode`. The CRC
-// bytes come from an independent bit-at-a-time CRC-32C (Python) over the preceding bytes.
+// bytes come from an independent bit-at-a-time CRC-32C (Python) over the preceding bytes, the MAC
+// from Python's hashlib.blake2b(digest_size=16, key=bytes(range(32))) over everything before it.
 const Bytes kGoldenCommand = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x01,                                            // version
+    0x02,                                            // version
     0x01,                                            // type: command
-    0x1A, 0x00,                                      // payload length 26
+    0x1E, 0x00,                                      // payload length 30
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
     0x88, 0x77, 0x66, 0x55,                          // sequence 0x55667788
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,  // host_time_ns
@@ -130,14 +153,17 @@ const Bytes kGoldenCommand = {
     0xB4, 0xA4, 0xB5, 0xA5, 0xB6, 0xA6, 0xB7, 0xA7,  // da[4..7]
     0xC3,                                            // digital_out
     0x01,                                            // flags: enable
-    0x9D, 0x3B, 0x2E, 0xA2,                          // CRC-32C of bytes 0..41
+    0xF4, 0xF3, 0xF2, 0xF1,                          // arm_token 0xF1F2F3F4
+    0x6B, 0x74, 0xAC, 0xA9,                          // CRC-32C of bytes 0..45
+    0xA8, 0x3C, 0x6D, 0x74, 0x80, 0x52, 0x7F, 0xC9,  // MAC (keyed BLAKE2b-128) of bytes 0..49
+    0x9F, 0xD4, 0xE6, 0xDA, 0x84, 0xD2, 0x9F, 0x89,
 };
 
 const Bytes kGoldenState = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x01,                                            // version
+    0x02,                                            // version
     0x02,                                            // type: state
-    0x56, 0x00,                                      // payload length 86
+    0x5A, 0x00,                                      // payload length 90
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
     0x0D, 0x0C, 0x0B, 0x0A,                          // sequence 0x0A0B0C0D
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,  // echo_host_time_ns
@@ -153,7 +179,10 @@ const Bytes kGoldenState = {
     0x00, 0x00, 0x00, 0x00, 0xFE, 0xFF, 0xFF, 0xFF,  // encoder[6] = 0, [7] = -2
     0x5A,                                            // digital_in
     0x0A,                                            // status: outputs safe | no session
-    0xD1, 0x93, 0xBC, 0xD9,                          // CRC-32C of bytes 0..101
+    0x24, 0x23, 0x22, 0x21,                          // arm_token 0x21222324
+    0xCD, 0xBF, 0xB0, 0x72,                          // CRC-32C of bytes 0..105
+    0x99, 0xA4, 0x75, 0xD5, 0x80, 0x83, 0x81, 0x72,  // MAC (keyed BLAKE2b-128) of bytes 0..109
+    0x3D, 0x8F, 0x4B, 0x86, 0x37, 0x47, 0x4B, 0x11,
 };
 
 // ---- CRC and layout -----------------------------------------------------------------------------
@@ -174,12 +203,13 @@ TEST(MfbProtocol, Crc32cTableAgreesWithBitwiseDefinition) {
 }
 
 TEST(MfbProtocol, WireSizesMatchTheLayoutTable) {
-  // 16 header + 8 time + 8x2 DA + 1 + 1 + 4 CRC; 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 4.
-  EXPECT_EQ(kCommandPacketSize, 46u);
-  EXPECT_EQ(kStatePacketSize, 106u);
-  EXPECT_EQ(kMaxPacketSize, 106u);
-  EXPECT_EQ(kCommandFlagsOffset + 1, kHeaderSize + kCommandPayloadSize);
-  EXPECT_EQ(kStateStatusOffset + 1, kHeaderSize + kStatePayloadSize);
+  // 16 header + 8 time + 8x2 DA + 1 + 1 + 4 token + 4 CRC + 16 MAC;
+  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 4 token + 4 CRC + 16 MAC.
+  EXPECT_EQ(kCommandPacketSize, 66u);
+  EXPECT_EQ(kStatePacketSize, 126u);
+  EXPECT_EQ(kMaxPacketSize, 126u);
+  EXPECT_EQ(kCommandArmTokenOffset + 4, kHeaderSize + kCommandPayloadSize);
+  EXPECT_EQ(kStateArmTokenOffset + 4, kHeaderSize + kStatePayloadSize);
   EXPECT_EQ(kGoldenCommand.size(), kCommandPacketSize);
   EXPECT_EQ(kGoldenState.size(), kStatePacketSize);
 }
@@ -187,14 +217,14 @@ TEST(MfbProtocol, WireSizesMatchTheLayoutTable) {
 TEST(MfbProtocol, EncodesCommandToGoldenBytes) {
   EXPECT_EQ(encoded(golden_command()), kGoldenCommand);
   CommandPacket c;
-  ASSERT_EQ(decode(kGoldenCommand, c), ParseError::kOk);
+  ASSERT_EQ(decode(kGoldenCommand, kKey, c), ParseError::kOk);
   EXPECT_EQ(c, golden_command());
 }
 
 TEST(MfbProtocol, EncodesStateToGoldenBytes) {
   EXPECT_EQ(encoded(golden_state()), kGoldenState);
   StatePacket s;
-  ASSERT_EQ(decode(kGoldenState, s), ParseError::kOk);
+  ASSERT_EQ(decode(kGoldenState, kKey, s), ParseError::kOk);
   EXPECT_EQ(s, golden_state());
 }
 
@@ -204,14 +234,14 @@ TEST(MfbProtocol, RandomPacketsRoundTripBitExact) {
     const CommandPacket c = random_command(rng);
     const Bytes cb = encoded(c);
     CommandPacket c2;
-    ASSERT_EQ(decode(cb, c2), ParseError::kOk);
+    ASSERT_EQ(decode(cb, kKey, c2), ParseError::kOk);
     ASSERT_EQ(c2, c);
     ASSERT_EQ(encoded(c2), cb);
 
     const StatePacket s = random_state(rng);
     const Bytes sb = encoded(s);
     StatePacket s2;
-    ASSERT_EQ(decode(sb, s2), ParseError::kOk);
+    ASSERT_EQ(decode(sb, kKey, s2), ParseError::kOk);
     ASSERT_EQ(s2, s);
     ASSERT_EQ(encoded(s2), sb);
   }
@@ -219,14 +249,14 @@ TEST(MfbProtocol, RandomPacketsRoundTripBitExact) {
 
 TEST(MfbProtocol, EncodeWritesNothingIntoTooSmallBuffer) {
   Bytes b(kCommandPacketSize - 1, 0xEE);
-  EXPECT_EQ(encode(golden_command(), b), 0u);
+  EXPECT_EQ(encode(golden_command(), kKey, b), 0u);
   EXPECT_EQ(b, Bytes(kCommandPacketSize - 1, 0xEE));
   Bytes s(kStatePacketSize - 1, 0xEE);
-  EXPECT_EQ(encode(golden_state(), s), 0u);
+  EXPECT_EQ(encode(golden_state(), kKey, s), 0u);
   EXPECT_EQ(s, Bytes(kStatePacketSize - 1, 0xEE));
   // A larger buffer is fine: only the packet's bytes are written.
   Bytes big(kMaxPacketSize + 10, 0xEE);
-  EXPECT_EQ(encode(golden_command(), big), kCommandPacketSize);
+  EXPECT_EQ(encode(golden_command(), kKey, big), kCommandPacketSize);
   EXPECT_EQ(big[kCommandPacketSize], 0xEE);
 }
 
@@ -235,11 +265,11 @@ TEST(MfbProtocol, EncodeWritesNothingIntoTooSmallBuffer) {
 TEST(MfbProtocol, RejectsEveryTruncation) {
   for (std::size_t n = 0; n < kCommandPacketSize; ++n) {
     CommandPacket c;
-    ASSERT_EQ(decode(std::span(kGoldenCommand).first(n), c), ParseError::kTooShort) << n << " bytes";
+    ASSERT_EQ(decode(std::span(kGoldenCommand).first(n), kKey, c), ParseError::kTooShort) << n << " bytes";
   }
   for (std::size_t n = 0; n < kStatePacketSize; ++n) {
     StatePacket s;
-    ASSERT_EQ(decode(std::span(kGoldenState).first(n), s), ParseError::kTooShort) << n << " bytes";
+    ASSERT_EQ(decode(std::span(kGoldenState).first(n), kKey, s), ParseError::kTooShort) << n << " bytes";
   }
 }
 
@@ -247,21 +277,22 @@ TEST(MfbProtocol, RejectsPacketOneByteTooLong) {
   Bytes c = kGoldenCommand;
   c.push_back(0);
   CommandPacket cp;
-  EXPECT_EQ(decode(c, cp), ParseError::kTooLong);
+  EXPECT_EQ(decode(c, kKey, cp), ParseError::kTooLong);
   Bytes s = kGoldenState;
   s.push_back(0);
   StatePacket sp;
-  EXPECT_EQ(decode(s, sp), ParseError::kTooLong);
+  EXPECT_EQ(decode(s, kKey, sp), ParseError::kTooLong);
 }
 
-/// What a single flipped bit at `byte` must be rejected as: the header checks catch their own
-/// fields first, the CRC everything else (CRC-32C detects every single-bit error).
-ParseError expected_for_flip_at(std::size_t byte) {
+/// What a single flipped bit at `byte` of a `size`-byte packet must be rejected as: the header
+/// checks catch their own fields first, the CRC everything up to itself (CRC-32C detects every
+/// single-bit error), the MAC a flip in the MAC.
+ParseError expected_for_flip_at(std::size_t byte, std::size_t size) {
   if (byte < kVersionOffset) return ParseError::kBadMagic;
   if (byte == kVersionOffset) return ParseError::kBadVersion;
   if (byte == kTypeOffset) return ParseError::kWrongType;
   if (byte < kSessionOffset) return ParseError::kBadLength;
-  return ParseError::kBadCrc;
+  return byte < size - kMacSize ? ParseError::kBadCrc : ParseError::kBadMac;
 }
 
 TEST(MfbProtocol, RejectsPacketWithOneFlippedBit) {
@@ -269,13 +300,13 @@ TEST(MfbProtocol, RejectsPacketWithOneFlippedBit) {
     Bytes b = kGoldenCommand;
     b[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
     CommandPacket c;
-    ASSERT_EQ(decode(b, c), expected_for_flip_at(bit / 8)) << "command bit " << bit;
+    ASSERT_EQ(decode(b, kKey, c), expected_for_flip_at(bit / 8, kCommandPacketSize)) << "command bit " << bit;
   }
   for (std::size_t bit = 0; bit < 8 * kStatePacketSize; ++bit) {
     Bytes b = kGoldenState;
     b[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
     StatePacket s;
-    ASSERT_EQ(decode(b, s), expected_for_flip_at(bit / 8)) << "state bit " << bit;
+    ASSERT_EQ(decode(b, kKey, s), expected_for_flip_at(bit / 8, kStatePacketSize)) << "state bit " << bit;
   }
 }
 
@@ -287,7 +318,7 @@ TEST(MfbProtocol, RejectsPacketWithTwoFlippedBits) {
       b[i / 8] ^= static_cast<std::uint8_t>(1u << (i % 8));
       b[j / 8] ^= static_cast<std::uint8_t>(1u << (j % 8));
       StatePacket s;
-      ASSERT_NE(decode(b, s), ParseError::kOk) << "bits " << i << ", " << j;
+      ASSERT_NE(decode(b, kKey, s), ParseError::kOk) << "bits " << i << ", " << j;
     }
   }
 }
@@ -295,36 +326,36 @@ TEST(MfbProtocol, RejectsPacketWithTwoFlippedBits) {
 TEST(MfbProtocol, RejectsWrongMagic) {
   Bytes b = kGoldenCommand;
   std::memcpy(b.data(), "MFB2", 4);
-  fix_crc(b);
+  fix_trailer(b);
   CommandPacket c;
-  EXPECT_EQ(decode(b, c), ParseError::kBadMagic);
+  EXPECT_EQ(decode(b, kKey, c), ParseError::kBadMagic);
   b = kGoldenCommand;
   std::memcpy(b.data(), "1BFM", 4);  // big-endian magic
-  EXPECT_EQ(decode(b, c), ParseError::kBadMagic);
+  EXPECT_EQ(decode(b, kKey, c), ParseError::kBadMagic);
 }
 
 TEST(MfbProtocol, RejectsOtherVersionsEvenWithValidCrc) {
-  for (int version : {0, 2, 255}) {
+  for (int version : {0, 1, 3, 255}) {
     Bytes b = kGoldenState;
     b[kVersionOffset] = static_cast<std::uint8_t>(version);
-    fix_crc(b);
+    fix_trailer(b);
     StatePacket s;
-    EXPECT_EQ(decode(b, s), ParseError::kBadVersion) << version;
+    EXPECT_EQ(decode(b, kKey, s), ParseError::kBadVersion) << version;
     b.resize(30);  // another version may have another size: the version is still what is reported
-    EXPECT_EQ(decode(b, s), ParseError::kBadVersion) << version;
+    EXPECT_EQ(decode(b, kKey, s), ParseError::kBadVersion) << version;
   }
 }
 
 TEST(MfbProtocol, RejectsPacketOfTheOtherType) {
   CommandPacket c;
   StatePacket s;
-  EXPECT_EQ(decode(kGoldenState, c), ParseError::kWrongType);
-  EXPECT_EQ(decode(kGoldenCommand, s), ParseError::kWrongType);
+  EXPECT_EQ(decode(kGoldenState, kKey, c), ParseError::kWrongType);
+  EXPECT_EQ(decode(kGoldenCommand, kKey, s), ParseError::kWrongType);
   for (int type : {0, 3, 255}) {
     Bytes b = kGoldenCommand;
     b[kTypeOffset] = static_cast<std::uint8_t>(type);
-    fix_crc(b);
-    EXPECT_EQ(decode(b, c), ParseError::kWrongType) << type;
+    fix_trailer(b);
+    EXPECT_EQ(decode(b, kKey, c), ParseError::kWrongType) << type;
   }
 }
 
@@ -333,24 +364,24 @@ TEST(MfbProtocol, RejectsLengthFieldThatDisagreesWithType) {
     Bytes b = kGoldenCommand;
     b[kPayloadLengthOffset] = static_cast<std::uint8_t>(length);
     b[kPayloadLengthOffset + 1] = static_cast<std::uint8_t>(length >> 8);
-    fix_crc(b);
+    fix_trailer(b);
     CommandPacket c;
-    EXPECT_EQ(decode(b, c), ParseError::kBadLength) << length;
+    EXPECT_EQ(decode(b, kKey, c), ParseError::kBadLength) << length;
   }
 }
 
 TEST(MfbProtocol, RejectsUnknownFlagBits) {
-  for (int bit = 1; bit < 8; ++bit) {
+  for (int bit = 2; bit < 8; ++bit) {
     CommandPacket c = golden_command();
     c.flags = static_cast<std::uint8_t>(kCommandEnable | (1u << bit));
     CommandPacket out;
-    EXPECT_EQ(decode(encoded(c), out), ParseError::kBadFlags) << "flag bit " << bit;
+    EXPECT_EQ(decode(encoded(c), kKey, out), ParseError::kBadFlags) << "flag bit " << bit;
   }
-  for (int bit = 4; bit < 8; ++bit) {
+  for (int bit = 5; bit < 8; ++bit) {
     StatePacket s = golden_state();
     s.status = static_cast<std::uint8_t>(1u << bit);
     StatePacket out;
-    EXPECT_EQ(decode(encoded(s), out), ParseError::kBadFlags) << "status bit " << bit;
+    EXPECT_EQ(decode(encoded(s), kKey, out), ParseError::kBadFlags) << "status bit " << bit;
   }
 }
 
@@ -358,21 +389,21 @@ TEST(MfbProtocol, RejectsZeroSession) {
   CommandPacket c = golden_command();
   c.session_id = 0;
   CommandPacket cout;
-  EXPECT_EQ(decode(encoded(c), cout), ParseError::kZeroSession);
+  EXPECT_EQ(decode(encoded(c), kKey, cout), ParseError::kZeroSession);
   StatePacket s = golden_state();
   s.session_id = 0;
   StatePacket sout;
-  EXPECT_EQ(decode(encoded(s), sout), ParseError::kZeroSession);
+  EXPECT_EQ(decode(encoded(s), kKey, sout), ParseError::kZeroSession);
 }
 
 TEST(MfbProtocol, LeavesOutputUntouchedOnRejection) {
   Bytes b = kGoldenCommand;
   b[20] ^= 0x10;
   CommandPacket c = command(99, 98);
-  EXPECT_EQ(decode(b, c), ParseError::kBadCrc);
+  EXPECT_EQ(decode(b, kKey, c), ParseError::kBadCrc);
   EXPECT_EQ(c, command(99, 98));
   StatePacket s = state(99, 98);
-  EXPECT_EQ(decode(std::span(kGoldenState).first(50), s), ParseError::kTooShort);
+  EXPECT_EQ(decode(std::span(kGoldenState).first(50), kKey, s), ParseError::kTooShort);
   EXPECT_EQ(s, state(99, 98));
 }
 
@@ -381,12 +412,12 @@ TEST(MfbProtocol, NamesEveryErrorAndVerdictDistinctly) {
   for (int e = 0; e <= static_cast<int>(ParseError::kZeroSession); ++e) {
     names.insert(to_string(static_cast<ParseError>(e)));
   }
-  EXPECT_EQ(names.size(), 10u);
+  EXPECT_EQ(names.size(), 11u);
   names.clear();
-  for (int v = 0; v <= static_cast<int>(Verdict::kMalformed); ++v) {
+  for (int v = 0; v <= static_cast<int>(Verdict::kUnauthenticated); ++v) {
     names.insert(to_string(static_cast<Verdict>(v)));
   }
-  EXPECT_EQ(names.size(), 6u);
+  EXPECT_EQ(names.size(), 7u);
 }
 
 TEST(MfbProtocol, OrdersSequenceNumbersAcrossTheWrap) {
@@ -405,7 +436,7 @@ TEST(MfbProtocol, OrdersSequenceNumbersAcrossTheWrap) {
 constexpr std::uint32_t kSession = 0xC0FFEE01;
 
 TEST(StateFilter, AcceptsInOrderPacketsOfItsSession) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   for (std::uint32_t seq = 100; seq < 110; ++seq) {
     StatePacket out;
     ASSERT_EQ(f.accept(encoded(state(kSession, seq)), true, out), Verdict::kAccept);
@@ -416,7 +447,7 @@ TEST(StateFilter, AcceptsInOrderPacketsOfItsSession) {
 }
 
 TEST(StateFilter, DropsValidPacketFromForeignSource) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out = state(1, 1);
   EXPECT_EQ(f.accept(encoded(state(kSession, 5)), false, out), Verdict::kForeignSource);
   EXPECT_EQ(out, state(1, 1));
@@ -426,7 +457,7 @@ TEST(StateFilter, DropsValidPacketFromForeignSource) {
 }
 
 TEST(StateFilter, DropsPacketOfAnotherSession) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   EXPECT_EQ(f.accept(encoded(state(kSession + 1, 5)), true, out), Verdict::kForeignSession);
   EXPECT_EQ(f.counters().foreign_session, 1u);
@@ -434,7 +465,7 @@ TEST(StateFilter, DropsPacketOfAnotherSession) {
 }
 
 TEST(StateFilter, DropsDuplicate) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   ASSERT_EQ(f.accept(encoded(state(kSession, 5)), true, out), Verdict::kAccept);
   EXPECT_EQ(f.accept(encoded(state(kSession, 5)), true, out), Verdict::kDuplicate);
@@ -442,7 +473,7 @@ TEST(StateFilter, DropsDuplicate) {
 }
 
 TEST(StateFilter, DropsReorderedOlderPacketAndKeepsItsGapCounted) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   ASSERT_EQ(f.accept(encoded(state(kSession, 10)), true, out), Verdict::kAccept);
   ASSERT_EQ(f.accept(encoded(state(kSession, 12)), true, out), Verdict::kAccept);  // 11 overtaken
@@ -453,7 +484,7 @@ TEST(StateFilter, DropsReorderedOlderPacketAndKeepsItsGapCounted) {
 }
 
 TEST(StateFilter, AcceptsAcrossSequenceWrapAround) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   for (std::uint32_t seq : {0xFFFFFFFEu, 0xFFFFFFFFu, 0u, 1u}) {
     ASSERT_EQ(f.accept(encoded(state(kSession, seq)), true, out), Verdict::kAccept) << seq;
@@ -463,7 +494,7 @@ TEST(StateFilter, AcceptsAcrossSequenceWrapAround) {
 }
 
 TEST(StateFilter, CountsSkippedSequencesAsGapsAcrossTheWrap) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   ASSERT_EQ(f.accept(encoded(state(kSession, 0xFFFFFFFDu)), true, out), Verdict::kAccept);
   ASSERT_EQ(f.accept(encoded(state(kSession, 2u)), true, out), Verdict::kAccept);  // skips FE, FF, 0, 1
@@ -473,7 +504,7 @@ TEST(StateFilter, CountsSkippedSequencesAsGapsAcrossTheWrap) {
 }
 
 TEST(StateFilter, CountsMalformedAndRemembersWhy) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   Bytes b = encoded(state(kSession, 1));
   b[50] ^= 0x01;
@@ -485,7 +516,7 @@ TEST(StateFilter, CountsMalformedAndRemembersWhy) {
 }
 
 TEST(StateFilter, CountsEveryDatagramExactlyOnce) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   std::mt19937_64 rng(3);
   StatePacket out;
   const int n = 5000;
@@ -496,12 +527,12 @@ TEST(StateFilter, CountsEveryDatagramExactlyOnce) {
     f.accept(b, rng() % 16 != 0, out);
   }
   const ReceiveCounters& c = f.counters();
-  EXPECT_EQ(c.accepted + c.foreign_source + c.foreign_session + c.duplicate + c.stale + c.malformed,
+  EXPECT_EQ(c.accepted + c.foreign_source + c.foreign_session + c.duplicate + c.stale + c.malformed + c.unauthenticated,
             static_cast<std::uint64_t>(n));
 }
 
 TEST(StateFilter, ResetStartsNewSessionFromScratch) {
-  StateFilter f(kSession);
+  StateFilter f(kSession, kKey);
   StatePacket out;
   ASSERT_EQ(f.accept(encoded(state(kSession, 100)), true, out), Verdict::kAccept);
   f.reset(kSession + 1);
@@ -513,75 +544,150 @@ TEST(StateFilter, ResetStartsNewSessionFromScratch) {
 // ---- CommandFilter (board) ----------------------------------------------------------------------
 
 TEST(CommandFilter, AdoptsSessionOfFirstValidCommand) {
-  CommandFilter f;
+  CommandFilter f(kKey);
   EXPECT_FALSE(f.has_session());
   CommandPacket out;
   Bytes corrupt = encoded(command(7, 1));
   corrupt[30] ^= 0x80;
-  EXPECT_EQ(f.accept(corrupt, out), Verdict::kMalformed);  // a corrupt command adopts nothing
+  EXPECT_EQ(f.accept(corrupt, kHost, out), Verdict::kMalformed);  // a corrupt command adopts nothing
   EXPECT_FALSE(f.has_session());
-  ASSERT_EQ(f.accept(encoded(command(7, 1000)), out), Verdict::kAccept);
+  ASSERT_EQ(f.accept(encoded(command(7, 1000)), kHost, out), Verdict::kAccept);
   EXPECT_TRUE(f.has_session());
   EXPECT_EQ(f.session_id(), 7u);
   EXPECT_EQ(out, command(7, 1000));
 }
 
 TEST(CommandFilter, IgnoresOtherHostWhileHoldingSession) {
-  CommandFilter f;
+  CommandFilter f(kKey);
   CommandPacket out;
-  ASSERT_EQ(f.accept(encoded(command(7, 1)), out), Verdict::kAccept);
-  EXPECT_EQ(f.accept(encoded(command(8, 1)), out), Verdict::kForeignSession);
-  EXPECT_EQ(f.accept(encoded(command(8, 2)), out), Verdict::kForeignSession);
+  ASSERT_EQ(f.accept(encoded(command(7, 1)), kHost, out), Verdict::kAccept);
+  EXPECT_EQ(f.accept(encoded(command(8, 1)), kHost, out), Verdict::kForeignSession);
+  EXPECT_EQ(f.accept(encoded(command(8, 2)), kHost, out), Verdict::kForeignSession);
   EXPECT_EQ(out, command(7, 1));
   EXPECT_EQ(f.session_id(), 7u);
   EXPECT_EQ(f.counters().foreign_session, 2u);
 }
 
 TEST(CommandFilter, AppliesNewestOnlyWithinSession) {
-  CommandFilter f;
+  CommandFilter f(kKey);
   CommandPacket out;
-  ASSERT_EQ(f.accept(encoded(command(7, 0xFFFFFFFF)), out), Verdict::kAccept);
-  EXPECT_EQ(f.accept(encoded(command(7, 0xFFFFFFFF)), out), Verdict::kDuplicate);
-  EXPECT_EQ(f.accept(encoded(command(7, 2)), out), Verdict::kAccept);  // across the wrap, skips 0, 1
-  EXPECT_EQ(f.accept(encoded(command(7, 1)), out), Verdict::kStale);
+  ASSERT_EQ(f.accept(encoded(command(7, 0xFFFFFFFF)), kHost, out), Verdict::kAccept);
+  EXPECT_EQ(f.accept(encoded(command(7, 0xFFFFFFFF)), kHost, out), Verdict::kDuplicate);
+  EXPECT_EQ(f.accept(encoded(command(7, 2)), kHost, out), Verdict::kAccept);  // across the wrap, skips 0, 1
+  EXPECT_EQ(f.accept(encoded(command(7, 1)), kHost, out), Verdict::kStale);
   EXPECT_EQ(f.counters().gaps, 2u);
   EXPECT_EQ(f.counters().foreign_source, 0u);
 }
 
 TEST(CommandFilter, AdoptsNewHostAfterWatchdogRelease) {
-  CommandFilter f;
+  CommandFilter f(kKey);
   CommandPacket out;
-  ASSERT_EQ(f.accept(encoded(command(7, 500)), out), Verdict::kAccept);
+  ASSERT_EQ(f.accept(encoded(command(7, 500)), kHost, out), Verdict::kAccept);
   f.release();
   EXPECT_FALSE(f.has_session());
   EXPECT_EQ(f.session_id(), 7u);  // still reported in the state packets
-  ASSERT_EQ(f.accept(encoded(command(8, 3)), out), Verdict::kAccept);  // new baseline: 3 < 500 is fine
+  ASSERT_EQ(f.accept(encoded(command(8, 3)), kHost, out), Verdict::kAccept);  // new baseline: 3 < 500 is fine
   EXPECT_TRUE(f.has_session());
   EXPECT_EQ(f.session_id(), 8u);
-  EXPECT_EQ(f.accept(encoded(command(7, 501)), out), Verdict::kForeignSession);
+  EXPECT_EQ(f.accept(encoded(command(7, 501)), kHost, out), Verdict::kForeignSession);
   EXPECT_EQ(f.counters().gaps, 0u);
 }
 
 TEST(CommandFilter, LateCommandCannotReviveReleasedSession) {
-  CommandFilter f;
+  CommandFilter f(kKey);
   CommandPacket out;
-  ASSERT_EQ(f.accept(encoded(command(7, 500)), out), Verdict::kAccept);
+  ASSERT_EQ(f.accept(encoded(command(7, 500)), kHost, out), Verdict::kAccept);
   f.release();
-  EXPECT_EQ(f.accept(encoded(command(7, 499)), out), Verdict::kStale);  // delayed in a switch queue
+  EXPECT_EQ(f.accept(encoded(command(7, 499)), kHost, out), Verdict::kStale);  // delayed in a switch queue
   EXPECT_FALSE(f.has_session());
-  ASSERT_EQ(f.accept(encoded(command(7, 520)), out), Verdict::kAccept);  // the host resumes
+  ASSERT_EQ(f.accept(encoded(command(7, 520)), kHost, out), Verdict::kAccept);  // the host resumes
   EXPECT_TRUE(f.has_session());
   EXPECT_EQ(f.counters().gaps, 19u);
 }
 
-TEST(CommandFilter, ResetReturnsToPowerOnState) {
-  CommandFilter f;
+// Issue 11: a process on the link copies the host's session id and sends commands with a higher
+// sequence from another port. Even with the key (an insider), it is neither obeyed nor answered
+// while the session is held, and the real host's next command is still accepted (before: the
+// stranger's commands were applied and the host's dropped as stale).
+TEST(CommandFilter, ObeysOnlyTheEndpointThatOpenedTheSession) {
+  CommandFilter f(kKey);
   CommandPacket out;
-  ASSERT_EQ(f.accept(encoded(command(7, 500)), out), Verdict::kAccept);
+  ASSERT_EQ(f.accept(encoded(command(7, 10)), kHost, out), Verdict::kAccept);
+  const Source stranger{kHost.address, static_cast<std::uint16_t>(kHost.port + 1)};
+  for (std::uint32_t seq = 1000; seq < 1010; ++seq) {
+    EXPECT_EQ(f.accept(encoded(command(7, seq, kCommandEnable)), stranger, out), Verdict::kForeignSource);
+  }
+  EXPECT_EQ(f.accept(encoded(command(7, 1)), Source{0x0A000002u, kHost.port}, out), Verdict::kForeignSource);  // other address
+  EXPECT_EQ(out, command(7, 10));
+  EXPECT_EQ(f.counters().foreign_source, 11u);
+  EXPECT_EQ(f.accept(encoded(command(7, 11)), kHost, out), Verdict::kAccept);
+  EXPECT_EQ(f.peer(), kHost);
+}
+
+// Without the key, a copied command with a higher sequence (CRC recomputed) is rejected as
+// unauthenticated and counted; so is every packet under another key.
+TEST(CommandFilter, RejectsAndCountsACommandWithABadMac) {
+  CommandFilter f(kKey);
+  CommandPacket out;
+  ASSERT_EQ(f.accept(encoded(command(7, 10)), kHost, out), Verdict::kAccept);
+  Bytes forged = encoded(command(7, 10));
+  forged[kSequenceOffset] = 0xFF;  // sequence 0x000000FF
+  forged[kCommandFlagsOffset] = kCommandEnable;
+  fix_crc(forged);
+  EXPECT_EQ(f.accept(forged, kHost, out), Verdict::kUnauthenticated);
+  EXPECT_EQ(f.last_error(), ParseError::kBadMac);
+  LinkKey other = kKey;
+  other.bytes[0] ^= 1;
+  Bytes wrong_key = encoded(command(7, 20));
+  fix_trailer(wrong_key, other);
+  EXPECT_EQ(f.accept(wrong_key, kHost, out), Verdict::kUnauthenticated);
+  EXPECT_EQ(f.counters().unauthenticated, 2u);
+  EXPECT_EQ(f.counters().malformed, 0u);
+  EXPECT_EQ(out, command(7, 10));
+  // Without a session, a forgery is not adopted either.
+  f.release();
+  EXPECT_EQ(f.accept(forged, kHost, out), Verdict::kUnauthenticated);
+  EXPECT_FALSE(f.has_session());
+}
+
+// A recorded command sent again - the same bytes, MAC and all - is rejected: newest-only within the
+// session (a window of one), from the right endpoint or not.
+TEST(CommandFilter, RejectsReplayedCommands) {
+  CommandFilter f(kKey);
+  CommandPacket out;
+  const Bytes first = encoded(command(7, 10, 0));
+  const Bytes second = encoded(command(7, 11, kCommandEnable));
+  ASSERT_EQ(f.accept(first, kHost, out), Verdict::kAccept);
+  ASSERT_EQ(f.accept(second, kHost, out), Verdict::kAccept);
+  EXPECT_EQ(f.accept(second, kHost, out), Verdict::kDuplicate);
+  EXPECT_EQ(f.accept(first, kHost, out), Verdict::kStale);
+  f.release();  // the watchdog fired: the released session cannot be revived by its own recording
+  EXPECT_EQ(f.accept(first, kHost, out), Verdict::kStale);
+  EXPECT_EQ(f.accept(second, kHost, out), Verdict::kDuplicate);
+  EXPECT_FALSE(f.has_session());
+}
+
+// MAC under the key and an independent implementation (Python hashlib's keyed BLAKE2b): the golden
+// packets' last 16 bytes.
+TEST(MfbProtocol, MacIsKeyedBlake2bOfEverythingBeforeIt) {
+  const auto mac = packet_mac(kKey, kGoldenCommand.data(), kCommandPacketSize - kMacSize);
+  EXPECT_TRUE(std::equal(mac.begin(), mac.end(), kGoldenCommand.end() - static_cast<std::ptrdiff_t>(kMacSize)));
+  LinkKey other = kKey;
+  other.bytes[31] ^= 0x80;
+  CommandPacket c;
+  EXPECT_EQ(decode(kGoldenCommand, other, c), ParseError::kBadMac);
+  StatePacket s;
+  EXPECT_EQ(decode(kGoldenState, other, s), ParseError::kBadMac);
+}
+
+TEST(CommandFilter, ResetReturnsToPowerOnState) {
+  CommandFilter f(kKey);
+  CommandPacket out;
+  ASSERT_EQ(f.accept(encoded(command(7, 500)), kHost, out), Verdict::kAccept);
   f.reset();
   EXPECT_FALSE(f.has_session());
   EXPECT_EQ(f.counters().accepted, 0u);
-  EXPECT_EQ(f.accept(encoded(command(7, 1)), out), Verdict::kAccept);
+  EXPECT_EQ(f.accept(encoded(command(7, 1)), kHost, out), Verdict::kAccept);
 }
 
 // ---- OutputArming (board) -----------------------------------------------------------------------
@@ -606,17 +712,77 @@ TEST(OutputArming, WatchdogTripLatchesUntilHostAcknowledges) {
   a.on_command(command(7, 1, 0));
   a.on_command(command(7, 2, kCommandEnable));
   ASSERT_TRUE(a.outputs_enabled());
-  a.on_watchdog();
+  a.on_watchdog();  // while armed: a host loss too
   EXPECT_FALSE(a.outputs_enabled());
-  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe);
+  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe | kStatusHostLost);
   a.on_command(command(7, 50, kCommandEnable));  // a stalled host resuming as if nothing happened
   EXPECT_FALSE(a.outputs_enabled());
-  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe);
-  a.on_command(command(7, 51, 0));  // acknowledgement: latch cleared, outputs still safe
-  EXPECT_EQ(a.status(), kStatusOutputsSafe);
-  a.on_command(command(7, 52, kCommandEnable));
+  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe | kStatusHostLost);
+  a.on_command(command(7, 51, 0));  // acknowledgement: trip latch cleared, outputs still safe
+  EXPECT_EQ(a.status(), kStatusOutputsSafe | kStatusHostLost);  // the trip came while armed
+  a.on_command(command(7, 52, kCommandEnable | kCommandOperatorArm));
   EXPECT_TRUE(a.outputs_enabled());
   EXPECT_EQ(a.status(), 0);
+}
+
+// A trip while disarmed (the host had disabled its outputs and ended) loses nobody's outputs: the
+// next host arms with an ordinary edge.
+TEST(OutputArming, TripWhileDisarmedIsNoHostLoss) {
+  OutputArming a;
+  a.on_command(command(7, 1, 0));
+  a.on_watchdog();
+  EXPECT_EQ(a.status(), kStatusWatchdogTripped | kStatusOutputsSafe);
+  a.on_command(command(8, 1, 0));
+  a.on_command(command(8, 2, kCommandEnable));
+  EXPECT_TRUE(a.outputs_enabled());
+}
+
+// The host is killed while the outputs are armed; a new host session is adopted and makes the
+// usual enable edge - once, twice, with the board's token: the outputs stay safe until the
+// operator's arming (the edge with kCommandOperatorArm). Before, the edge alone re-armed them
+// within 4 ms of the new session (issue 11: 2505 N).
+TEST(OutputArming, NewSessionAfterHostLossStaysSafeUntilTheOperatorArms) {
+  OutputArming a;
+  a.set_token(0xA1);
+  CommandPacket c = command(7, 1, 0);
+  c.arm_token = 0xA1;
+  a.on_command(c);
+  c = command(7, 2, kCommandEnable);
+  c.arm_token = 0xA1;
+  a.on_command(c);
+  ASSERT_TRUE(a.outputs_enabled());
+  a.on_watchdog();  // the host is gone
+  a.set_token(0xB2);  // the board adopts a new session
+  for (std::uint32_t seq = 1; seq <= 6; seq += 2) {
+    CommandPacket off = command(8, seq, 0), on = command(8, seq + 1, kCommandEnable);
+    off.arm_token = on.arm_token = 0xB2;
+    a.on_command(off);
+    a.on_command(on);
+    EXPECT_FALSE(a.outputs_enabled()) << "edge " << seq;
+    EXPECT_EQ(a.status(), kStatusOutputsSafe | kStatusHostLost);
+  }
+  CommandPacket off = command(8, 7, 0), arm = command(8, 8, kCommandEnable | kCommandOperatorArm);
+  off.arm_token = arm.arm_token = 0xB2;
+  a.on_command(off);
+  a.on_command(arm);
+  EXPECT_TRUE(a.outputs_enabled());
+  EXPECT_EQ(a.status(), 0);
+}
+
+// A session recorded and replayed later (its disable, its enable edge, even its operator's arming)
+// is adopted again by a board without a session, but cannot arm it: the board drew a new token.
+TEST(OutputArming, ReplayedEdgeWithAnOldTokenDoesNotArm) {
+  OutputArming a;
+  a.set_token(0xC3);
+  CommandPacket off = command(9, 1, 0), on = command(9, 2, kCommandEnable | kCommandOperatorArm);
+  off.arm_token = on.arm_token = 0xA1;  // the token of the session it was recorded in
+  a.on_command(off);
+  a.on_command(on);
+  EXPECT_FALSE(a.outputs_enabled());
+  on.arm_token = 0xC3;
+  on.sequence = 3;
+  a.on_command(on);
+  EXPECT_TRUE(a.outputs_enabled());
 }
 
 TEST(OutputArming, EstopForcesSafeOutputsAndNeedsEdgeAfterRelease) {

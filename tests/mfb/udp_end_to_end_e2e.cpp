@@ -1,6 +1,7 @@
 // The whole hardware path on one machine: `peha mfb-emulator` in its own process, the host's
 // real-time loop talking real UDP to it over loopback. Each test runs a few seconds of real time.
 #include "peha/mfb/udp_backend.hpp"
+#include "peha/mfb/link_config.hpp"
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
 #include "../support/child_process.hpp"
@@ -16,6 +17,11 @@
 #include <functional>
 #include <sstream>
 #include <thread>
+
+#include <arpa/inet.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
+#include <unistd.h>
 
 namespace peha::runtime {
 namespace {
@@ -33,6 +39,54 @@ experiments::E1Scenario scenario(double duration_s) {
   s.link->host_watchdog_s = kTestWatchdog_s;
   return s;
 }
+
+/// The development key both sides read (configs/mfb/dev_link.key, as the shipped scenarios name it).
+const mfb::LinkKey& dev_key() {
+  static const mfb::LinkKey key = mfb::load_link_key(PEHA_SOURCE_DIR "/configs/mfb/dev_link.key");
+  return key;
+}
+
+/// A host speaking the protocol from a raw socket: one session, its own sequence, the board's
+/// newest arm token echoed (as UdpBackend does).
+struct RawHost {
+  io::UdpSocket socket{{0x7F000001u, 0}};
+  io::UdpEndpoint board;
+  mfb::LinkKey key = dev_key();
+  std::uint32_t session;
+  std::uint32_t sequence = 0;
+  std::uint32_t token = 0;
+  mfb::StateFilter filter;
+  RawHost(int port, std::uint32_t session_id)
+      : board{0x7F000001u, static_cast<std::uint16_t>(port)}, session(session_id), filter(session_id, dev_key()) {}
+  /// Sends the next command of the session (`sequence` + 1 unless given).
+  void send(std::uint8_t flags, std::uint32_t seq = 0, std::uint8_t digital_out = 1) {
+    mfb::CommandPacket c;
+    c.session_id = session;
+    c.sequence = seq ? seq : ++sequence;
+    c.flags = flags;
+    c.digital_out = digital_out;  // the enable line
+    c.arm_token = token;
+    std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
+    socket.send_to(board, std::span<const std::uint8_t>(bytes.data(), mfb::encode(c, key, bytes)));
+  }
+  /// The newest state packet of the session received within `wait_s` (zeroed if none).
+  mfb::StatePacket newest(double wait_s) {
+    mfb::StatePacket last{}, p;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+    while (std::chrono::steady_clock::now() < end) {
+      if (!socket.wait_readable(5'000'000)) continue;
+      std::array<std::uint8_t, 512> buf;
+      io::UdpEndpoint from;
+      const long n = socket.receive(buf, from);
+      if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
+                       mfb::Verdict::kAccept) {
+        last = p;
+        token = p.arm_token;
+      }
+    }
+    return last;
+  }
+};
 
 struct Emulator {
   testing::ChildProcess process;
@@ -56,7 +110,8 @@ RealtimeRunOptions options(int port, const std::string& name) {
   o.realtime.fifo_priority = 0;  // tests share the machine: no SCHED_FIFO
   o.realtime.lock_memory = false;
   o.quiet = true;
-  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_" + name);
+  // Per process: other checkouts on this machine run the same tests at the same time.
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_" + name + "_" + std::to_string(::getpid()));
   std::filesystem::remove_all(o.dir);
   std::filesystem::create_directories(o.dir);
   return o;
@@ -203,45 +258,23 @@ TEST(MfbEndToEnd, DelayedPacketsAreCountedAsLateAndTheLoopRunsOnOlderSamples) {
 TEST(MfbEndToEnd, BoardWatchdogFiresWhenTheHostStops) {
   Emulator emulator({"--watchdog-ms", "30"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  io::UdpSocket host({0x7F000001u, 0});
-  const io::UdpEndpoint board{0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
-  std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
-  auto send = [&](std::uint32_t seq, bool enable) {
-    mfb::CommandPacket c;
-    c.session_id = 0xC0FFEEu;
-    c.sequence = seq;
-    c.flags = enable ? mfb::kCommandEnable : 0;
-    c.digital_out = 1;  // the enable line
-    host.send_to(board, std::span<const std::uint8_t>(bytes.data(), mfb::encode(c, bytes)));
-  };
-  mfb::StateFilter filter(0xC0FFEEu);
-  auto newest = [&](double wait_s) {
-    mfb::StatePacket last{}, p;
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
-    while (std::chrono::steady_clock::now() < end) {
-      if (!host.wait_readable(5'000'000)) continue;
-      std::array<std::uint8_t, 512> buf;
-      io::UdpEndpoint from;
-      const long n = host.receive(buf, from);
-      if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
-                       mfb::Verdict::kAccept) {
-        last = p;
-      }
-    }
-    return last;
-  };
-  std::uint32_t seq = 0;
-  send(++seq, false);  // adopt the session, outputs disabled
+  RawHost host(emulator.port, 0xC0FFEEu);
+  for (int i = 0; i < 100 && host.token == 0; ++i) {  // adopt the session, outputs disabled
+    host.send(0);
+    host.newest(0.005);
+  }
+  ASSERT_NE(host.token, 0u);  // the replies carry the session's arm token
   for (int i = 0; i < 20; ++i) {
-    send(++seq, true);  // the enable edge: armed
+    host.send(mfb::kCommandEnable);  // the enable edge: armed
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  const mfb::StatePacket armed = newest(0.005);
+  const mfb::StatePacket armed = host.newest(0.005);
   EXPECT_EQ(armed.status & (mfb::kStatusOutputsSafe | mfb::kStatusWatchdogTripped), 0) << int(armed.status);
   // Silence: within 30 ms the board trips; it keeps sending state every period.
-  const mfb::StatePacket tripped = newest(0.2);
+  const mfb::StatePacket tripped = host.newest(0.2);
   EXPECT_TRUE(tripped.status & mfb::kStatusWatchdogTripped) << int(tripped.status);
   EXPECT_TRUE(tripped.status & mfb::kStatusOutputsSafe);
+  EXPECT_TRUE(tripped.status & mfb::kStatusHostLost);  // it tripped while armed
   EXPECT_GT(tripped.board_time_ns, armed.board_time_ns + 50'000'000u);  // the plant ran on by itself (>= 50 of 200 ms on a loaded machine)
   const int code = emulator.process.stop(SIGTERM);
   EXPECT_EQ(code, 0);
@@ -377,6 +410,7 @@ TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
   mfb::UdpBackendParams p;
   p.board = {0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
   p.joint_names = {"joint"};
+  p.key = dev_key();
   mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(s.link->channel_map), p.joint_names));
   backend.connect();
   io::UdpSocket stranger({0x7F000001u, 0});
@@ -385,7 +419,7 @@ TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
   fake.sequence = 0x7FFFFFF0u;
   fake.encoder[0] = 12345;  // would be a wild angle if applied
   std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
-  const std::size_t n = mfb::encode(fake, bytes);
+  const std::size_t n = mfb::encode(fake, dev_key(), bytes);
   io::SensorState state;
   io::Command cmd;
   cmd.joint_count = 1;
@@ -398,6 +432,196 @@ TEST(MfbEndToEnd, ForeignPacketsAreCountedAndNeverApplied) {
   }
   EXPECT_EQ(backend.stats().received.foreign_source, 50u);
   EXPECT_GT(backend.stats().received.accepted, 40u);
+}
+
+// Issue 11: a process on the link copies the host's session id and, from another port, sends
+// enabled commands with a higher sequence number. Before, the board obeyed it (2211 N) and dropped
+// the real host's disable commands as stale. Now - even with the key, an insider - it is neither
+// obeyed nor answered, and counted; the host's disable is applied at once. Packets with a bad MAC
+// (a forger without the key) are rejected and counted as well.
+TEST(MfbEndToEnd, ASpoofingSenderOnAnotherPortIsIgnoredAndCounted) {
+  Emulator emulator({});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  RawHost host(emulator.port, 0xA11CE5u);
+  for (int i = 0; i < 100 && host.token == 0; ++i) {
+    host.send(0);
+    host.newest(0.005);
+  }
+  for (int i = 0; i < 20; ++i) {
+    host.send(mfb::kCommandEnable);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const mfb::StatePacket armed = host.newest(0.005);
+  ASSERT_EQ(armed.status & mfb::kStatusOutputsSafe, 0) << int(armed.status);
+
+  RawHost stranger(emulator.port, host.session);  // the same session id, the key, another port
+  stranger.sequence = host.sequence + 1000;
+  stranger.token = host.token;
+  RawHost forger(emulator.port, host.session);  // no key: its MACs are wrong
+  forger.key.bytes[0] ^= 0xFF;
+  forger.sequence = host.sequence + 2000;
+  for (int i = 0; i < 50; ++i) {
+    stranger.send(mfb::kCommandEnable);
+    if (i < 10) forger.send(mfb::kCommandEnable);
+    host.send(0);  // the real host disables its outputs
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  const mfb::StatePacket after = host.newest(0.01);
+  EXPECT_EQ(after.ack_sequence, host.sequence);  // the host's commands are the ones applied
+  EXPECT_TRUE(after.status & mfb::kStatusOutputsSafe) << int(after.status);  // its disable was obeyed
+  stranger.newest(0.01);
+  const mfb::ReceiveCounters& seen = stranger.filter.counters();
+  EXPECT_EQ(seen.accepted + seen.foreign_session + seen.stale + seen.duplicate, 0u);  // never answered
+  ASSERT_EQ(emulator.process.stop(SIGTERM), 0);
+  EXPECT_NE(emulator.process.output().find("foreign source 50,"), std::string::npos) << emulator.process.output();
+  EXPECT_NE(emulator.process.output().find("unauthenticated 10,"), std::string::npos) << emulator.process.output();
+}
+
+// Issue 11: the host is killed while the outputs are armed; a new host session starts. Before,
+// it was adopted and armed within 4 ms (2505 N). Now the board reports the host loss, stays
+// disarmed through the new host's activate() and its commands, and arms only on the operator's
+// arming: the supervisor's fault (deactivate) and the operator's recover (activate).
+TEST(MfbEndToEnd, ANewSessionAfterAHostLossIsNotArmedUntilTheOperatorArms) {
+  Emulator emulator({"--watchdog-ms", "50"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const experiments::E1Scenario s = scenario(1.0);
+  const io::UdpEndpoint board{0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
+  io::Command cmd;
+  cmd.joint_count = 1;
+  io::SensorState state;
+  auto cycles = [&](mfb::UdpBackend& b, int n) {
+    for (int i = 0; i < n; ++i) {
+      b.write(cmd);
+      b.read(state);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  };
+  {
+    const auto first = mfb::make_board_backend(*s.link, board, s.period_s, sim::one_dof_rig_joint_names());
+    first->connect();
+    first->activate();
+    cycles(*first, 100);
+    ASSERT_TRUE(first->status().active);
+  }  // the host dies: no more commands
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  const auto second = mfb::make_board_backend(*s.link, board, s.period_s, sim::one_dof_rig_joint_names());
+  second->connect();
+  EXPECT_TRUE(second->board_status() & mfb::kStatusHostLost) << int(second->board_status());
+  second->activate();  // what the supervisor's start() does
+  cycles(*second, 200);
+  EXPECT_FALSE(second->status().active);
+  EXPECT_TRUE(second->board_status() & mfb::kStatusOutputsSafe) << int(second->board_status());
+  EXPECT_TRUE(second->status().watchdog_tripped);  // so the supervisor faults and waits for the operator
+  second->deactivate();  // the fault
+  cycles(*second, 5);
+  second->activate();  // the operator's recover
+  cycles(*second, 50);
+  EXPECT_TRUE(second->status().active);
+  EXPECT_EQ(second->board_status() & (mfb::kStatusHostLost | mfb::kStatusOutputsSafe), 0) << int(second->board_status());
+}
+
+// The same through the whole run path: after the host loss a new E1 run faults at once, holds the
+// outputs safe, and runs on only after the operator's recover (here --recover-after 0.3 s, the
+// operator's decision made in advance); the recovery arms the board.
+TEST(MfbEndToEnd, ARunAfterAHostLossStartsInFaultAndRunsOnAfterTheOperatorsRecover) {
+  Emulator emulator({"--watchdog-ms", "50"});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  const experiments::E1Scenario s = scenario(2.0);
+  RealtimeRunOptions o = options(emulator.port, "after_host_loss");
+  {
+    const auto lost = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+    lost->connect();
+    lost->activate();
+    io::Command cmd;
+    cmd.joint_count = 1;
+    for (int i = 0; i < 50; ++i) {
+      lost->write(cmd);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_TRUE(lost->status().active);
+  }  // killed while armed
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  o.recover_after_s = 0.3;
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
+  EXPECT_EQ(r.faults, 1u) << lifecycle_text(r);
+  EXPECT_EQ(r.recoveries, 1u) << lifecycle_text(r);
+  const std::string path = lifecycle_text(r);
+  EXPECT_NE(path.find("active -> fault (backend watchdog tripped)"), std::string::npos) << path;
+  EXPECT_NE(path.find("recovering -> inactive"), std::string::npos) << path;
+  double fault_at = -1;
+  for (const auto& e : r.lifecycle) {
+    if (e.find("-> fault") != std::string::npos) fault_at = std::stod(e);
+  }
+  EXPECT_LT(fault_at, 0.05);  // at the run's first cycles, before any enabled command armed the board
+}
+
+/// This machine's first IPv4 address that is up and not loopback (0 if none).
+std::uint32_t own_non_loopback_ipv4() {
+  ifaddrs* list = nullptr;
+  if (::getifaddrs(&list) != 0) return 0;
+  std::uint32_t found = 0;
+  for (ifaddrs* a = list; a && !found; a = a->ifa_next) {
+    if (!a->ifa_addr || a->ifa_addr->sa_family != AF_INET) continue;
+    const std::uint32_t address = ntohl(reinterpret_cast<const sockaddr_in*>(a->ifa_addr)->sin_addr.s_addr);
+    if ((address >> 24) != 127) found = address;
+  }
+  ::freeifaddrs(list);
+  return found;
+}
+
+// Issue 11: bound to 127.0.0.1, the host could not even send to a board beyond this machine
+// (sendto: EINVAL). Now it binds to the route's source address: a neighbour on this machine's own
+// subnet (no board there; UDP sends regardless) gets the command, from this machine's address.
+TEST(MfbEndToEnd, TheHostSendsToABoardBeyondThisMachine) {
+  const std::uint32_t address = own_non_loopback_ipv4();
+  if (address == 0) GTEST_SKIP() << "this machine has no IPv4 address other than loopback: no network to reach a board on";
+  const std::uint32_t neighbour = (address & 0xFFFFFF00u) | ((address & 0xFFu) == 0xFEu ? 0xFDu : (address & 0xFFu) + 1);
+  mfb::UdpBackendParams p;
+  p.board = {neighbour, 50999};
+  p.joint_names = {"joint"};
+  p.key = dev_key();
+  p.receive_timeout_s = 0.001;
+  mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
+  EXPECT_EQ(backend.local().address, address) << backend.local().to_string();
+  io::Command cmd;
+  cmd.joint_count = 1;
+  EXPECT_TRUE(backend.write(cmd));
+  EXPECT_EQ(backend.stats().send_failures, 0u);
+}
+
+// A board address no interface may send to (here the broadcast address: the kernel refuses a
+// route) fails at set-up with a message naming that address, not blaming a board that answered not.
+TEST(MfbEndToEnd, AnUnreachableBoardAddressIsNamedAtSetUp) {
+  mfb::UdpBackendParams p;
+  p.board = {0xFFFFFFFFu, 50000};
+  p.joint_names = {"joint"};
+  p.key = dev_key();
+  try {
+    mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
+    ADD_FAILURE() << "a backend was made for 255.255.255.255, bound to " << backend.local().to_string();
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("the MFB at 255.255.255.255:50000 cannot be reached from this machine"), std::string::npos)
+        << e.what();
+  }
+}
+
+// Issue 11: the host socket was bound to 127.0.0.1, so a board at any other address failed with
+// EINVAL (and the message blamed the board). Now the host binds to the address of the interface
+// that reaches the board: here the machine's own non-loopback address, where the emulator listens.
+TEST(MfbEndToEnd, TheHostReachesABoardOnANonLoopbackAddress) {
+  const std::uint32_t address = own_non_loopback_ipv4();
+  if (address == 0) GTEST_SKIP() << "this machine has no IPv4 address other than loopback: nothing to test the binding with";
+  const std::string ip = io::UdpEndpoint{address, 0}.to_string();
+  Emulator emulator({"--bind", ip.substr(0, ip.rfind(':'))});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  mfb::UdpBackendParams p;
+  p.board = {address, static_cast<std::uint16_t>(emulator.port)};
+  p.joint_names = {"joint"};
+  p.key = dev_key();
+  mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
+  EXPECT_EQ(backend.local().address, address);
+  EXPECT_NO_THROW(backend.connect()) << emulator.process.output();
+  EXPECT_GT(backend.last_sample_ns(), 0);  // the board's reply, from its address, accepted
 }
 
 }  // namespace
@@ -419,6 +643,7 @@ std::filesystem::path short_arm_config(const std::filesystem::path& dir) {
   const std::string configs = PEHA_SOURCE_DIR "/configs/";
   root["body"] = configs + root["body"].as<std::string>();
   root["mfb"]["channel_map"] = configs + root["mfb"]["channel_map"].as<std::string>();
+  root["mfb"]["key_file"] = configs + root["mfb"]["key_file"].as<std::string>();
   for (const char* joint : {"shoulder", "elbow", "wrist"}) {
     for (const char* muscle : {"agonist", "antagonist"}) {
       YAML::Node law = root["plant"][joint][muscle]["law"];
@@ -446,7 +671,7 @@ std::filesystem::path short_arm_config(const std::filesystem::path& dir) {
 // (-90, 90) deg, released, and stays - as in-process (same scenario, same seed): release angles
 // within 0.2 deg, drift within 0.1 deg of the in-process run's.
 TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_mfb_arm_config";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_arm_config_" + std::to_string(::getpid()));
   const std::filesystem::path config = short_arm_config(dir);
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   ASSERT_EQ(s.postures.size(), 1u);
@@ -484,7 +709,7 @@ namespace {
 TEST(MfbEndToEnd, CtrlCEndsARunOnTheBoardCleanly) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_mfb_ctrl_c";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_mfb_ctrl_c_" + std::to_string(::getpid()));
   std::filesystem::remove_all(out);
   testing::ChildProcess host({PEHA_BINARY, "run", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--case", "payload_2.5kg",
                               "--backend", "udp://127.0.0.1:" + std::to_string(emulator.port), "--rt-priority", "0", "--no-plot",
@@ -511,7 +736,7 @@ namespace {
 // knows the person only by the goniometer, so its error is against the reading; it agrees with the
 // in-process run (against the truth) within 1.5 deg RMS and 25 ms of delay.
 TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
-  const std::filesystem::path config = short_arm_config(std::filesystem::temp_directory_path() / "peha_mfb_arm_config_e4");
+  const std::filesystem::path config = short_arm_config(std::filesystem::temp_directory_path() / ("peha_mfb_arm_config_e4_" + std::to_string(::getpid())));
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   s.link->host_watchdog_s = kTestWatchdog_s;
   ASSERT_EQ(s.goniometer.movements.size(), 1u);

@@ -166,5 +166,19 @@ TEST(Telemetry, RejectsBadArguments) {
   EXPECT_THROW(Telemetry("127.0.0.1", 9870, 100, "g", {std::string(300, 'x')}), std::invalid_argument);
 }
 
+// Issue 11: telemetry (the wearer's forces and angles, unencrypted) stays on this machine unless
+// a remote destination is allowed explicitly.
+TEST(Telemetry, StaysOnLoopbackUnlessARemoteDestinationIsAllowed) {
+  try {
+    Telemetry("192.0.2.7", 9870, 100, "g", {"a"});
+    ADD_FAILURE() << "a non-loopback destination was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("not a loopback address"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Telemetry("0.0.0.0", 9870, 100, "g", {"a"}), std::invalid_argument);
+  EXPECT_NO_THROW(Telemetry("127.0.0.2", 9870, 100, "g", {"a"}));
+  EXPECT_NO_THROW(Telemetry("192.0.2.7", 9870, 100, "g", {"a"}, 256, /*allow_non_loopback=*/true));
+}
+
 }  // namespace
 }  // namespace peha::runtime

@@ -15,7 +15,10 @@
 /// command; an enable edge re-arms it (mfb::OutputArming). Whenever the outputs disarm (watchdog,
 /// e-stop, the host's disable) the safe state is reached as docs/runtime.md describes: motor torque cut at once,
 /// valve setpoints ramped linearly to 0 Pa over `vent_s`, so the arm descends slowly, not drops.
-/// A new session puts the simulated exoskeleton back into its initial state.
+/// A new session puts the simulated exoskeleton back into its initial state. Only commands with
+/// the link key's MAC from the endpoint that opened the session are obeyed (mfb::CommandFilter);
+/// each adoption draws a fresh arm token, and after a host loss only the operator's arming
+/// re-arms the outputs (mfb::OutputArming).
 ///
 /// Fault injection on the state packets it sends: loss, duplication, reordering, delay and
 /// corruption (a flipped bit after the CRC), each with its probability, drawn from a seed; and an
@@ -49,6 +52,7 @@ struct FaultInjection {
 
 struct EmulatorParams {
   io::UdpEndpoint bind{0x7F000001u, 0};  ///< where the board listens (port 0 = any)
+  LinkKey key;                           ///< the link's pre-shared key (mfb::load_link_key)
   double period_s = 1e-3;                ///< the simulation's step per command
   double watchdog_s = 0.05;              ///< no accepted command this long -> safe outputs
   double vent_s = 2.0;                   ///< valve setpoints ramp to 0 Pa over this after a trip

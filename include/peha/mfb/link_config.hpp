@@ -16,6 +16,9 @@ namespace peha::mfb {
 
 struct LinkConfig {
   std::filesystem::path channel_map;   ///< resolved against the scenario's folder
+  /// The link's pre-shared key file (`key_file:`, resolved against the scenario's folder): 64 hex
+  /// digits, readable by its owner only. Host and board read the same file (`load_link_key`).
+  std::filesystem::path key_file;
   double board_watchdog_s = 0.05;      ///< the board's: no command this long -> safe outputs
   double host_watchdog_s = 0.02;       ///< the host's: no sample this long -> fault
   double receive_timeout_s = 0.0008;   ///< how long a cycle waits for the board's reply
@@ -26,8 +29,15 @@ struct LinkConfig {
 /// Reads an `mfb:` mapping (finishes it).
 LinkConfig read_link_config(config::Map map);
 
-/// The host's UdpBackend for the board at `board`, for joints `joint_names` (channel map from
-/// `link`), not yet connected. Throws config::Error on a bad channel map.
+/// Reads a link key file: 64 hex digits (the 32 key bytes), optionally surrounded by whitespace,
+/// and `#` comment lines. Throws std::runtime_error naming the file and what is wrong: missing,
+/// not a regular file, readable or writable by group or others (the fix: `chmod 600 <file>`),
+/// not exactly 64 hex digits, or all zero.
+LinkKey load_link_key(const std::filesystem::path& path);
+
+/// The host's UdpBackend for the board at `board`, for joints `joint_names` (channel map and key
+/// from `link`), not yet connected. Throws config::Error on a bad channel map, std::runtime_error
+/// on a bad key file or a board no interface of this machine reaches.
 std::unique_ptr<UdpBackend> make_board_backend(const LinkConfig& link, const io::UdpEndpoint& board, double period_s,
                                                const std::vector<std::string>& joint_names);
 

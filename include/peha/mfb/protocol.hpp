@@ -6,14 +6,18 @@
 /// Pure code, no sockets. Packets are serialised byte by byte in little-endian order (never by
 /// copying structs), so the layout does not depend on the compiler or the CPU. Every packet is
 ///
-///     header (16 bytes) | type-specific payload | CRC-32C (4 bytes) over everything before it
+///     header (16 bytes) | type-specific payload | CRC-32C (4 bytes) | MAC (16 bytes)
+///
+/// The CRC covers everything before it and tells a noisy link; the MAC (keyed BLAKE2b from
+/// libsodium, 16 bytes, with the 32-byte pre-shared `LinkKey`) covers everything before it, CRC
+/// included, and tells who may speak: without the key no packet is accepted.
 ///
 /// The byte tables, the session, sequence, timing and watchdog rules are in `docs/mfb-protocol.md`;
 /// the offsets below (`kCommand...Offset`, `kState...Offset`) are the same table in code.
 ///
 /// Receiving is two steps: `decode` checks one datagram on its own (size, magic, version, type,
-/// length, CRC, flag bits, session != 0); `StateFilter` (host) and `CommandFilter` (board) then
-/// judge it against the stream (source, session, newest-only) and count what they drop.
+/// length, CRC, MAC, flag bits, session != 0); `StateFilter` (host) and `CommandFilter` (board)
+/// then judge it against the stream (source, session, newest-only) and count what they drop.
 ///
 /// Everything here is `noexcept` and allocates nothing: it runs inside the control loop.
 
@@ -31,7 +35,16 @@ namespace peha::mfb {
 inline constexpr std::uint32_t kMagic = 0x3142464D;
 /// Layout version. Any change to a layout or to the meaning of a field or bit bumps it; receivers
 /// accept exactly this version and reject every other (`ParseError::kBadVersion`).
-inline constexpr std::uint8_t kProtocolVersion = 1;
+inline constexpr std::uint8_t kProtocolVersion = 2;
+
+inline constexpr std::size_t kKeySize = 32;  ///< bytes of the pre-shared link key
+inline constexpr std::size_t kMacSize = 16;  ///< bytes of the MAC that ends every packet
+
+/// The pre-shared key of one host-board link (docs/mfb-protocol.md#authentication): 32 secret
+/// bytes, read from the key file the `mfb:` section names (`mfb::load_link_key`), never from YAML.
+struct LinkKey {
+  std::array<std::uint8_t, kKeySize> bytes{};
+};
 
 inline constexpr int kAdChannels = 16;       ///< 16-bit analogue inputs
 inline constexpr int kDaChannels = 8;        ///< 16-bit analogue outputs
@@ -40,8 +53,11 @@ inline constexpr int kEncoderChannels = 8;   ///< quadrature decoders, 32-bit si
 /// `CommandPacket::flags` bit 0: outputs enabled. Outputs follow the command only while this is
 /// set and the board is armed (see `OutputArming`); otherwise the board holds its safe outputs.
 inline constexpr std::uint8_t kCommandEnable = 0x01;
-/// Every flag bit version 1 defines; a command with any other bit set is rejected (`kBadFlags`).
-inline constexpr std::uint8_t kCommandKnownFlags = kCommandEnable;
+/// `CommandPacket::flags` bit 1: the operator arms the board after a host loss. While the board
+/// reports `kStatusHostLost`, an enable edge arms it only with this bit set (see `OutputArming`).
+inline constexpr std::uint8_t kCommandOperatorArm = 0x02;
+/// Every flag bit this version defines; a command with any other bit set is rejected (`kBadFlags`).
+inline constexpr std::uint8_t kCommandKnownFlags = kCommandEnable | kCommandOperatorArm;
 
 /// `StatePacket::status` bits.
 /// The watchdog fired (no accepted command for `watchdog_ms`). Latched until the host acknowledges
@@ -54,9 +70,13 @@ inline constexpr std::uint8_t kStatusOutputsSafe = 0x02;
 inline constexpr std::uint8_t kStatusEstop = 0x04;
 /// The board holds no session: the next valid command of any session will be adopted.
 inline constexpr std::uint8_t kStatusNoSession = 0x08;
-/// Every status bit version 1 defines; a state packet with any other bit set is rejected.
+/// The board's watchdog fired while its outputs were armed: the host that drove them is gone.
+/// Latched until an enable edge with `kCommandOperatorArm` arms the board again; until then no
+/// session, new or old, can arm it without that bit.
+inline constexpr std::uint8_t kStatusHostLost = 0x10;
+/// Every status bit this version defines; a state packet with any other bit set is rejected.
 inline constexpr std::uint8_t kStatusKnownBits =
-    kStatusWatchdogTripped | kStatusOutputsSafe | kStatusEstop | kStatusNoSession;
+    kStatusWatchdogTripped | kStatusOutputsSafe | kStatusEstop | kStatusNoSession | kStatusHostLost;
 
 /// `PacketType` on the wire (header byte 5).
 enum class PacketType : std::uint8_t {
@@ -81,8 +101,12 @@ struct CommandPacket {
   std::array<std::uint16_t, kDaChannels> da{};
   /// Digital output lines, bit i = line i, 1 = high.
   std::uint8_t digital_out = 0;
-  /// `kCommandEnable`; every other bit must be 0.
+  /// `kCommandEnable`, `kCommandOperatorArm`; every other bit must be 0.
   std::uint8_t flags = 0;
+  /// The `StatePacket::arm_token` of the board's newest state the host accepted. An enable edge
+  /// arms the board only if this is the board's current token, fresh per adopted session: a
+  /// recorded session replayed later cannot arm the outputs.
+  std::uint32_t arm_token = 0;
 
   bool operator==(const CommandPacket&) const = default;
 };
@@ -107,6 +131,9 @@ struct StatePacket {
   std::uint8_t digital_in = 0;
   /// `kStatus...` bits; every other bit must be 0.
   std::uint8_t status = 0;
+  /// The board's arm token for the session it holds (random, drawn at each adoption): the host
+  /// echoes it in `CommandPacket::arm_token`.
+  std::uint32_t arm_token = 0;
 
   bool operator==(const StatePacket&) const = default;
 };
@@ -115,7 +142,8 @@ struct StatePacket {
 // Layout (byte offsets from the start of the datagram; all fields little-endian)
 
 inline constexpr std::size_t kHeaderSize = 16;  ///< magic, version, type, length, session, sequence
-inline constexpr std::size_t kCrcSize = 4;      ///< trailing CRC-32C
+inline constexpr std::size_t kCrcSize = 4;      ///< CRC-32C after the payload
+inline constexpr std::size_t kTrailerSize = kCrcSize + kMacSize;  ///< CRC then MAC
 
 inline constexpr std::size_t kMagicOffset = 0;          ///< u32
 inline constexpr std::size_t kVersionOffset = 4;        ///< u8
@@ -128,10 +156,11 @@ inline constexpr std::size_t kCommandHostTimeOffset = 16;    ///< u64
 inline constexpr std::size_t kCommandDaOffset = 24;          ///< u16 x 8
 inline constexpr std::size_t kCommandDigitalOutOffset = 40;  ///< u8
 inline constexpr std::size_t kCommandFlagsOffset = 41;       ///< u8
+inline constexpr std::size_t kCommandArmTokenOffset = 42;    ///< u32
 /// Bytes between the command's header and its CRC (the header's length field).
-inline constexpr std::size_t kCommandPayloadSize = 26;
+inline constexpr std::size_t kCommandPayloadSize = 30;
 /// Exact size of a command datagram.
-inline constexpr std::size_t kCommandPacketSize = kHeaderSize + kCommandPayloadSize + kCrcSize;  // 46
+inline constexpr std::size_t kCommandPacketSize = kHeaderSize + kCommandPayloadSize + kTrailerSize;  // 66
 
 inline constexpr std::size_t kStateEchoHostTimeOffset = 16;  ///< u64
 inline constexpr std::size_t kStateBoardTimeOffset = 24;     ///< u64
@@ -140,10 +169,11 @@ inline constexpr std::size_t kStateAdOffset = 36;            ///< u16 x 16
 inline constexpr std::size_t kStateEncoderOffset = 68;       ///< i32 x 8
 inline constexpr std::size_t kStateDigitalInOffset = 100;    ///< u8
 inline constexpr std::size_t kStateStatusOffset = 101;       ///< u8
+inline constexpr std::size_t kStateArmTokenOffset = 102;     ///< u32
 /// Bytes between the state's header and its CRC (the header's length field).
-inline constexpr std::size_t kStatePayloadSize = 86;
+inline constexpr std::size_t kStatePayloadSize = 90;
 /// Exact size of a state datagram.
-inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kCrcSize;  // 106
+inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 126
 
 /// Largest datagram of this version: a receive buffer of this size holds any valid packet (use one
 /// byte more to tell "too long" from "exactly the largest").
@@ -163,7 +193,8 @@ enum class ParseError : std::uint8_t {
   kBadVersion,  ///< version byte != `kProtocolVersion`
   kWrongType,   ///< type byte is not the type the caller decodes
   kBadLength,   ///< header length field != the type's payload size
-  kBadCrc,      ///< CRC-32C does not match
+  kBadCrc,      ///< CRC-32C does not match (a noisy link)
+  kBadMac,      ///< intact, but the MAC does not match: another key, or a forgery
   kBadFlags,    ///< unknown bits in `CommandPacket::flags` or `StatePacket::status`
   kZeroSession, ///< session id 0 (never valid; 0 means "none")
 };
@@ -175,17 +206,21 @@ const char* to_string(ParseError e) noexcept;
 /// table-driven. The check value of the ASCII bytes "123456789" is 0xE3069283.
 std::uint32_t crc32c(const std::uint8_t* data, std::size_t size) noexcept;
 
-/// Serialises `packet` into the first `kCommandPacketSize` bytes of `out`, CRC included.
-/// Returns the bytes written, or 0 (writing nothing) if `out` is too small. Does not validate:
-/// fields the receiver rejects (session 0, unknown flags) are written as they are.
-std::size_t encode(const CommandPacket& packet, std::span<std::uint8_t> out) noexcept;
-/// Same for a state packet (`kStatePacketSize` bytes).
-std::size_t encode(const StatePacket& packet, std::span<std::uint8_t> out) noexcept;
+/// The 16-byte MAC of `data` under `key`: keyed BLAKE2b (libsodium `crypto_generichash`).
+std::array<std::uint8_t, kMacSize> packet_mac(const LinkKey& key, const std::uint8_t* data, std::size_t size) noexcept;
 
-/// Parses one whole datagram as a command. `out` is written only when the result is `kOk`.
-ParseError decode(std::span<const std::uint8_t> in, CommandPacket& out) noexcept;
+/// Serialises `packet` into the first `kCommandPacketSize` bytes of `out`, CRC and MAC (under
+/// `key`) included. Returns the bytes written, or 0 (writing nothing) if `out` is too small. Does
+/// not validate: fields the receiver rejects (session 0, unknown flags) are written as they are.
+std::size_t encode(const CommandPacket& packet, const LinkKey& key, std::span<std::uint8_t> out) noexcept;
+/// Same for a state packet (`kStatePacketSize` bytes).
+std::size_t encode(const StatePacket& packet, const LinkKey& key, std::span<std::uint8_t> out) noexcept;
+
+/// Parses one whole datagram as a command, its MAC checked under `key` (in constant time).
+/// `out` is written only when the result is `kOk`.
+ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, CommandPacket& out) noexcept;
 /// Parses one whole datagram as a state packet. `out` is written only when the result is `kOk`.
-ParseError decode(std::span<const std::uint8_t> in, StatePacket& out) noexcept;
+ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, StatePacket& out) noexcept;
 
 /// Serial-number order of 32-bit sequence numbers (RFC 1982): true if `a` comes after `b`, i.e.
 /// `a - b` modulo 2^32 is in [1, 2^31 - 1]. So 0 is newer than 0xFFFFFFFF, and a number exactly
@@ -201,11 +236,13 @@ constexpr bool sequence_newer(std::uint32_t a, std::uint32_t b) noexcept {
 /// What a filter decided about one datagram. Everything but `kAccept` is dropped and counted.
 enum class Verdict : std::uint8_t {
   kAccept,          ///< newest packet of the current session from the right peer
-  kForeignSource,   ///< came from an address other than the configured board (not parsed)
+  kForeignSource,   ///< came from another address and port than the board (host) or than the
+                    ///< endpoint that opened the session (board)
   kForeignSession,  ///< valid, but another session
   kDuplicate,       ///< same sequence as the last accepted packet
   kStale,           ///< older than the last accepted packet (reordered or late)
-  kMalformed,       ///< `decode` rejected it (`last_error()` says why)
+  kMalformed,       ///< `decode` rejected it (`last_error()` says why), except for its MAC
+  kUnauthenticated, ///< intact but its MAC is wrong (`ParseError::kBadMac`): another key or a forgery
 };
 
 /// Short lower-case name of `v` ("foreign session"); never null.
@@ -220,22 +257,31 @@ struct ReceiveCounters {
   std::uint64_t duplicate = 0;
   std::uint64_t stale = 0;
   std::uint64_t malformed = 0;
+  std::uint64_t unauthenticated = 0;
   /// Sequence numbers skipped between consecutive accepted packets (accepting 7 after 4 adds 2).
   /// A skipped packet that arrives later is dropped as stale and stays counted here.
   std::uint64_t gaps = 0;
 };
 
+/// Where a datagram came from: IPv4 address and UDP port, host byte order.
+struct Source {
+  std::uint32_t address = 0;
+  std::uint16_t port = 0;
+  bool operator==(const Source&) const = default;
+};
+
 /// Host side: accepts the state packets of one session, newest only.
 ///
-/// A datagram is accepted only if it came from the configured board address, decodes, carries the
-/// filter's session and its sequence is newer (`sequence_newer`) than the last accepted one. The
-/// first valid packet of the session is accepted whatever its sequence: the board's counter runs
-/// across sessions. No allocation, no exceptions.
+/// A datagram is accepted only if it came from the configured board address, decodes with an
+/// intact MAC under the link key, carries the filter's session and its sequence is newer
+/// (`sequence_newer`) than the last accepted one. The first valid packet of the session is
+/// accepted whatever its sequence: the board's counter runs across sessions. No allocation, no
+/// exceptions.
 class StateFilter {
  public:
   /// Filters for `session_id`, the session the host puts in its commands (nonzero; with 0 every
-  /// valid packet is judged `kForeignSession`).
-  explicit StateFilter(std::uint32_t session_id) noexcept;
+  /// valid packet is judged `kForeignSession`), with the link's `key`.
+  StateFilter(std::uint32_t session_id, const LinkKey& key) noexcept;
 
   /// Parses `datagram` and judges it. `from_board_address` is whether the datagram's source
   /// address and port are the configured board's (if not, it is not even parsed). On `kAccept`
@@ -252,6 +298,7 @@ class StateFilter {
   void reset(std::uint32_t session_id) noexcept;
 
  private:
+  LinkKey key_;
   std::uint32_t session_id_;
   bool have_last_ = false;
   std::uint32_t last_sequence_ = 0;
@@ -268,16 +315,19 @@ class StateFilter {
 /// command). While holding a session, commands of any other session are dropped as
 /// `kForeignSession`; so a second host can take over only after the first has been silent for the
 /// watchdog time. Within the session the rules are `StateFilter`'s: duplicates and older sequences
-/// are dropped, skipped sequences counted as gaps. The board replies to the source address of the
-/// last accepted command; it has no address check of its own (`foreign_source` stays 0).
+/// are dropped, skipped sequences counted as gaps. Only commands with an intact MAC under the link
+/// key count at all (others: `kMalformed` / `kUnauthenticated`, never adopted, never feeding the
+/// watchdog). The session belongs to the endpoint (address and port) whose command opened it:
+/// while it is held, commands from any other endpoint are dropped as `kForeignSource`, whatever
+/// their session and sequence. The board replies to that endpoint.
 class CommandFilter {
  public:
-  /// Power-on state: no session.
-  CommandFilter() noexcept = default;
+  /// Power-on state: no session; commands are checked under `key`.
+  explicit CommandFilter(const LinkKey& key) noexcept : key_(key) {}
 
-  /// Parses `datagram` and judges it. On `kAccept` fills `out` (and holds `out.session_id`);
-  /// otherwise `out` is untouched.
-  Verdict accept(std::span<const std::uint8_t> datagram, CommandPacket& out) noexcept;
+  /// Parses `datagram`, which came from `from`, and judges it. On `kAccept` fills `out` (and holds
+  /// `out.session_id` for `from`); otherwise `out` is untouched.
+  Verdict accept(std::span<const std::uint8_t> datagram, const Source& from, CommandPacket& out) noexcept;
 
   /// The board's watchdog fired: let go of the session, so that the next valid command of any
   /// session is adopted. `session_id()` keeps the released session for the state packets.
@@ -287,14 +337,18 @@ class CommandFilter {
   bool has_session() const noexcept { return has_session_; }
   /// The session held or last held (0 before the first adoption).
   std::uint32_t session_id() const noexcept { return session_id_; }
+  /// The endpoint that opened the session held or last held.
+  const Source& peer() const noexcept { return peer_; }
   const ReceiveCounters& counters() const noexcept { return counters_; }
   /// Why the last `kMalformed` datagram was rejected (`kOk` if none was).
   ParseError last_error() const noexcept { return last_error_; }
 
   /// Back to the power-on state: no session, no last sequence, counters zeroed.
-  void reset() noexcept { *this = CommandFilter(); }
+  void reset() noexcept { *this = CommandFilter(key_); }
 
  private:
+  LinkKey key_;
+  Source peer_{};
   bool has_session_ = false;
   std::uint32_t session_id_ = 0;
   bool have_last_ = false;
@@ -306,24 +360,30 @@ class CommandFilter {
 /// Board side: when the outputs may follow the commands (the re-arm rule), and the status bits
 /// that report it.
 ///
-/// Outputs are armed only by an enable edge: an accepted command with `kCommandEnable` set that
-/// follows an accepted command of the same session with it clear. Power-on, a new session, the
-/// watchdog and the emergency stop all disarm and need a new edge; while disarmed the board holds
-/// its safe outputs (`kStatusOutputsSafe`). A watchdog trip also latches `kStatusWatchdogTripped`
-/// until the host acknowledges it with a command whose enable flag is clear; so a host that was
-/// only stalled cannot resume driving the outputs without first noticing the trip.
+/// Outputs are armed only by an enable edge: an accepted command with `kCommandEnable` set and the
+/// board's current `arm_token` that follows an accepted command of the same session with enable
+/// clear. Power-on, a new session, the watchdog and the emergency stop all disarm and need a new
+/// edge; while disarmed the board holds its safe outputs (`kStatusOutputsSafe`). A watchdog trip
+/// also latches `kStatusWatchdogTripped` until the host acknowledges it with a command whose enable
+/// flag is clear; so a host that was only stalled cannot resume driving the outputs without first
+/// noticing the trip. A trip while armed is a host loss: `kStatusHostLost` latches, and only an
+/// edge that also carries `kCommandOperatorArm` (the operator's arming) arms again and clears it.
 class OutputArming {
  public:
   /// Call with every command `CommandFilter` accepted, before applying its outputs.
   void on_command(const CommandPacket& command) noexcept;
   /// Call when the watchdog fires (no accepted command for `watchdog_ms`).
   void on_watchdog() noexcept;
+  /// The token an enable edge must carry from now on; the board draws a fresh random one each time
+  /// it adopts a session (0, the power-on value, is for tests of the rules alone).
+  void set_token(std::uint32_t token) noexcept { token_ = token; }
+  std::uint32_t token() const noexcept { return token_; }
   /// Call every board period with the level of the emergency-stop input.
   void set_estop(bool active) noexcept;
 
   /// True if the outputs follow the last accepted command; false: safe outputs.
   bool outputs_enabled() const noexcept { return armed_ && !estop_; }
-  /// `kStatusWatchdogTripped`, `kStatusOutputsSafe`, `kStatusEstop` as they apply now.
+  /// `kStatusWatchdogTripped`, `kStatusOutputsSafe`, `kStatusEstop`, `kStatusHostLost` as they apply now.
   /// (`kStatusNoSession` comes from `CommandFilter::has_session`.)
   std::uint8_t status() const noexcept;
 
@@ -333,6 +393,8 @@ class OutputArming {
   bool armed_ = false;
   bool tripped_ = false;
   bool estop_ = false;
+  bool host_lost_ = false;
+  std::uint32_t token_ = 0;
 };
 
 }  // namespace peha::mfb

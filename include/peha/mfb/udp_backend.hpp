@@ -7,7 +7,7 @@
 /// board's reply, which the next read() returns).
 ///
 /// Only state packets from the configured board address and the host's session, newer than the
-/// last accepted one and intact (CRC) are applied; every other datagram is counted and dropped
+/// last accepted one, intact (CRC) and authentic (MAC under the link key) are applied; every other datagram is counted and dropped
 /// (mfb::StateFilter). A sample whose AD codes are implausible (a sensor at its rail) is dropped too.
 /// read()/write() are noexcept and allocation-free; construction and connect() throw.
 
@@ -24,8 +24,11 @@ namespace peha::mfb {
 
 struct UdpBackendParams {
   io::UdpEndpoint board;                     ///< where the board listens
-  io::UdpEndpoint local{0x7F000001u, 0};     ///< host's bind address (port 0 = any)
-  std::uint32_t session_id = 0;              ///< 0 = random nonzero
+  /// Host's bind address (port 0 = any). Address 0: the address of the interface that reaches the
+  /// board (the kernel's route to it), so a board on any network this machine is on works.
+  io::UdpEndpoint local{0, 0};
+  LinkKey key;                               ///< the link's pre-shared key (mfb::load_link_key)
+  std::uint32_t session_id = 0;              ///< 0 = random nonzero (libsodium's randombytes)
   double period_s = 1e-3;                    ///< control period
   double receive_timeout_s = 0.0008;         ///< how long read() waits for the reply to the last command
   double connect_timeout_s = 2.0;            ///< connect() gives up after this
@@ -54,18 +57,25 @@ class UdpBackend final : public io::Backend {
   /// meanwhile, so the reply carries the board's status as of now, not a stale one. Calling it
   /// again re-confirms the session (same id). Until an enabled command follows, the board holds
   /// its safe outputs: send the enable edge right after.
-  /// Throws std::runtime_error after connect_timeout_s.
+  /// If the board reports `kStatusHostLost` (its previous host fell silent while the outputs were
+  /// armed), the operator must arm it: activate() is refused until deactivate(), exactly like an
+  /// e-stop, and status() reports the board's watchdog as tripped, so the run faults at once and
+  /// the operator's recover (`r` + Enter, or --recover-after) sends the arming edge with
+  /// `kCommandOperatorArm`. Throws std::runtime_error after connect_timeout_s.
   void connect();
 
   const io::BackendInfo& info() const override { return info_; }
   /// The lifecycle on the board: configure() = connect(); activate() = the enable edge (the board
-  /// arms on clear -> set, once it has seen a disabled command); deactivate() = enable clear (the
-  /// board holds its safe outputs and vents); estop() = enable clear, latched until deactivate().
+  /// arms on clear -> set, once it has seen a disabled command; with the operator's arm bit while
+  /// it reports a host loss); deactivate() = enable clear (the board holds its safe outputs and
+  /// vents); estop() = enable clear, latched until deactivate(). A host loss found by connect()
+  /// latches like estop().
   void configure() override { connect(); }
-  void activate() noexcept override { enable_ = !estop_latched_; }
+  void activate() noexcept override { enable_ = !estop_latched_ && !host_lost_latched_; }
   void deactivate() noexcept override {
     enable_ = false;
     estop_latched_ = false;
+    host_lost_latched_ = false;
   }
   void estop() noexcept override {
     enable_ = false;
@@ -118,6 +128,7 @@ class UdpBackend final : public io::Backend {
   bool have_new_ = false;
   bool last_was_reply_ = false;
   bool estop_latched_ = false;
+  bool host_lost_latched_ = false;           ///< connect() found the board's kStatusHostLost
   std::uint64_t rtt_samples_ = 0;            ///< round trips measured
   std::uint32_t disable_sequence_ = 0;       ///< a command sent with enable clear
   StatePacket last_{};

@@ -38,10 +38,13 @@ class Telemetry {
   /// Sends to `host` (IPv4 dotted quad, e.g. "127.0.0.1") : `port` (PlotJuggler's default is 9870).
   /// `rate_Hz` > 0: samples per second sent (~100 is plenty for a plot). `group`: the JSON object
   /// holding the signals; `signals`: 1..kMaxSignals names (escaped for JSON here). `queue_capacity`
-  /// (rounded up to a power of two): samples waiting for the sender. Throws std::invalid_argument
-  /// for bad arguments, std::system_error if the socket cannot be created.
+  /// (rounded up to a power of two): samples waiting for the sender. The stream is unencrypted and
+  /// unauthenticated (the wearer's forces and angles), so it stays on this machine: `host` must be
+  /// a loopback address (127.x.x.x) unless `allow_non_loopback` says otherwise. Throws
+  /// std::invalid_argument for bad arguments or a refused destination, std::system_error if the
+  /// socket cannot be created.
   Telemetry(const std::string& host, int port, double rate_Hz, std::string group, std::vector<std::string> signals,
-            std::size_t queue_capacity = 256);
+            std::size_t queue_capacity = 256, bool allow_non_loopback = false);
   ~Telemetry();
   Telemetry(const Telemetry&) = delete;
   Telemetry& operator=(const Telemetry&) = delete;

@@ -1,0 +1,69 @@
+// The link's key file (mfb::load_link_key, docs/mfb-protocol.md#authentication): 64 hex digits,
+// owner-only, never all zero; every refusal names the file and the fix.
+#include "peha/mfb/link_config.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace peha::mfb {
+namespace {
+
+using ::testing::HasSubstr;
+
+class LinkKeyFile : public ::testing::Test {
+ protected:
+  std::filesystem::path dir_ = std::filesystem::temp_directory_path() / "peha_link_key_test";
+  void SetUp() override { std::filesystem::create_directories(dir_); }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path write(const std::string& name, const std::string& text,
+                              std::filesystem::perms mode = std::filesystem::perms::owner_read | std::filesystem::perms::owner_write) {
+    const std::filesystem::path p = dir_ / name;
+    std::ofstream(p) << text;
+    std::filesystem::permissions(p, mode);
+    return p;
+  }
+  std::string refusal(const std::filesystem::path& p) {
+    try {
+      load_link_key(p);
+    } catch (const std::runtime_error& e) {
+      return e.what();
+    }
+    return "(accepted)";
+  }
+};
+
+TEST_F(LinkKeyFile, ReadsSixtyFourHexDigitsWithCommentsAndWhitespace) {
+  const LinkKey k = load_link_key(write("k", "# a comment\n  000102030405060708090a0b0c0d0e0f\n101112131415161718191A1B1C1D1E1F  \n"));
+  for (std::size_t i = 0; i < kKeySize; ++i) EXPECT_EQ(k.bytes[i], i) << i;
+}
+
+TEST_F(LinkKeyFile, RefusesAFileGroupOrOthersMayRead) {
+  const std::string hex(64, 'a');
+  using std::filesystem::perms;
+  const std::string why = refusal(write("k", hex, perms::owner_read | perms::owner_write | perms::group_read));
+  EXPECT_THAT(why, HasSubstr("accessible by group or others"));
+  EXPECT_THAT(why, HasSubstr("chmod 600"));
+  EXPECT_THAT(why, HasSubstr((dir_ / "k").string()));
+  EXPECT_THAT(refusal(write("w", hex, perms::owner_read | perms::others_read)), HasSubstr("(mode 0404)"));
+}
+
+TEST_F(LinkKeyFile, RefusesAWrongLengthNonHexAZeroKeyAndAMissingFile) {
+  EXPECT_THAT(refusal(write("short", std::string(62, 'a'))), HasSubstr("expected exactly 64 hex digits"));
+  EXPECT_THAT(refusal(write("long", std::string(66, 'a'))), HasSubstr("found 66 characters"));
+  EXPECT_THAT(refusal(write("nonhex", std::string(63, 'a') + "g")), HasSubstr("hex digits"));
+  EXPECT_THAT(refusal(write("zero", std::string(64, '0'))), HasSubstr("all zero"));
+  EXPECT_THAT(refusal(dir_ / "missing"), HasSubstr("No such file"));
+}
+
+// The shipped development key (what the scenarios and the tests use) is valid and owner-only
+// (CMake's configure step sets its mode: git keeps none).
+TEST_F(LinkKeyFile, TheShippedDevelopmentKeyLoads) {
+  EXPECT_NO_THROW(load_link_key(PEHA_SOURCE_DIR "/configs/mfb/dev_link.key"));
+}
+
+}  // namespace
+}  // namespace peha::mfb
