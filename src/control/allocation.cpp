@@ -18,15 +18,15 @@ struct MuscleCommand {
 };
 
 /// Checks one load cell against the pressure model (docs/models.md, "Load cells checked, not
-/// trusted"): the low-passed disagreement against a tolerance that grows with the model's force,
-/// with hysteresis. Returns whether the load cell is trusted now.
-bool check_loadcell(const LoadcellCheck& c, double loadcell_N, double model_force_N, double dt_s, bool first,
+/// trusted"): the disagreement, low-passed with `blend` (the filter's step weight), against a
+/// tolerance that grows with the model's force, with hysteresis. Returns whether it is trusted now.
+bool check_loadcell(const LoadcellCheck& c, double loadcell_N, double model_force_N, double blend, bool first,
                     double& disagreement_N, bool& ok) {
   const double d = loadcell_N - model_force_N;
   if (first) {
     disagreement_N = d;
   } else {
-    disagreement_N += (1.0 - std::exp(-2.0 * std::numbers::pi * c.filter_Hz * dt_s)) * (d - disagreement_N);
+    disagreement_N += blend * (d - disagreement_N);
   }
   const double tolerance_N = c.tolerance_N + c.tolerance_fraction * std::max(model_force_N, 0.0);
   if (ok && std::abs(disagreement_N) > tolerance_N) ok = false;
@@ -154,9 +154,10 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   // Each load cell against the pressure model at the measured pressure (after this step's trim,
   // so a disagreement freezes the trim from the next step on).
   if (valid) {
-    check_loadcell(params.loadcell_check, agonist_loadcell_N, agonist.model_force_N, in.dt_s, first, data.disagreement_N[0],
+    const double check_blend = 1.0 - std::exp(-2.0 * std::numbers::pi * params.loadcell_check.filter_Hz * in.dt_s);
+    check_loadcell(params.loadcell_check, agonist_loadcell_N, agonist.model_force_N, check_blend, first, data.disagreement_N[0],
                    data.loadcell_ok[0]);
-    check_loadcell(params.loadcell_check, antagonist_loadcell_N, antagonist.model_force_N, in.dt_s, first,
+    check_loadcell(params.loadcell_check, antagonist_loadcell_N, antagonist.model_force_N, check_blend, first,
                    data.disagreement_N[1], data.loadcell_ok[1]);
   }
   out.model_force_N[0] = agonist.model_force_N;
