@@ -1,5 +1,6 @@
 #include "peha/models/bowden.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace peha::models {
@@ -16,6 +17,12 @@ double muscle_force_for_joint_N(const BowdenParams& p, double joint_force_N, dou
 
 double joint_force_from_loadcell_N(const BowdenParams& p, double loadcell_N, double v) noexcept {
   return loadcell_N / muscle_to_joint_ratio(p, v);
+}
+
+BowdenParams sure_friction(const BowdenParams& p, double sure_fraction) noexcept {
+  BowdenParams sure = p;
+  sure.friction_coefficient = p.friction_coefficient * (std::isnan(sure_fraction) ? 0.0 : std::clamp(sure_fraction, 0.0, 1.0));
+  return sure;
 }
 
 }  // namespace peha::models

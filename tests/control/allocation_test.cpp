@@ -69,7 +69,14 @@ TEST(Allocation, SteadyTorqueSplitsIntoAgonistPullAndAntagonistPretension) {
   in.tau_desired_Nm = 15.0;
   in.agonist_loadcell_N = 40.0 + 15.0 / joint.pulley_radius_m;
   in.antagonist_loadcell_N = 40.0;
+  // The measured pressures are the model's for those forces: the load cells agree with the model
+  // and are used (a load cell without a pressure that explains it would be dropped).
+  in.agonist_pressure_Pa = models::inverse_pressure(joint.agonist.pam, in.agonist_loadcell_N,
+                                                    joint.agonist.contraction_at_zero_angle, joint.supply_pressure_Pa).pressure_Pa;
+  in.antagonist_pressure_Pa = models::inverse_pressure(joint.antagonist.pam, in.antagonist_loadcell_N,
+                                                       joint.antagonist.contraction_at_zero_angle, joint.supply_pressure_Pa).pressure_Pa;
   for (int i = 0; i < 3000; ++i) allocate(joint, params, data, in, out);
+  EXPECT_FALSE(out.flags & kLoadcellDisagrees);
   EXPECT_NEAR(out.tau_pam_cmd_Nm, 15.0, 1e-9);
   EXPECT_NEAR(out.agonist_force_cmd_N, 40.0 + 15.0 / 0.05, 1e-9);  // 340 N at v = 0 (no Bowden factor)
   EXPECT_NEAR(out.antagonist_force_cmd_N, 40.0, 1e-12);
@@ -109,6 +116,85 @@ TEST(Allocation, NegativeTorqueLoadsTheAntagonistUpToItsCeiling) {
   EXPECT_EQ(out.antagonist_force_cmd_N, 630.0);
   EXPECT_EQ(out.agonist_force_cmd_N, joint.pretension_N);
   EXPECT_TRUE(out.flags & kForceClampedHigh);
+}
+
+}  // namespace
+}  // namespace peha::control
+
+namespace peha::control {
+namespace {
+
+/// Steps the allocation `n` times on an ideal plant whose chamber pressure is the last command and
+/// whose agonist load cell reads the model's force; the antagonist's reading is `antagonist(k)`.
+template <class Reading>
+void run_ideal(const models::JointModel& joint, const AllocationParams& params, AllocationData& data, AllocationOutput& out,
+               int n, Reading antagonist) {
+  for (int k = 0; k < n; ++k) {
+    AllocationInput in;
+    in.tau_desired_Nm = 5.0;
+    in.agonist_pressure_Pa = out.agonist_pressure_Pa;
+    in.antagonist_pressure_Pa = out.antagonist_pressure_Pa;
+    in.agonist_loadcell_N = models::forward_force_N(joint.agonist.pam, out.agonist_pressure_Pa, out.agonist_contraction);
+    in.antagonist_loadcell_N = antagonist(out);
+    allocate(joint, params, data, in, out);
+  }
+}
+
+// A load cell that reads far from what the pressure model says the muscle makes at the measured
+// pressure (here a shorted antagonist cell reading 900 N at about 60 N) is dropped for that muscle
+// within 0.2 s: the flag is raised, its trim is frozen, and the motor's PAM torque uses the
+// model's force for it. Once it reads plausibly again it is trusted again.
+TEST(Allocation, LoadcellThatDisagreesWithTheModelIsDropped) {
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 60.0;
+  AllocationParams params;
+  params.force_trim_rate_1ps = 4.0;
+  params.force_trim_max_N = 600.0;
+  AllocationData data;
+  AllocationOutput out;
+  auto agrees = [&](const AllocationOutput& o) {
+    return models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction);
+  };
+  run_ideal(joint, params, data, out, 500, agrees);
+  EXPECT_FALSE(out.flags & kLoadcellDisagrees);
+  EXPECT_TRUE(out.loadcell_ok[1]);
+  run_ideal(joint, params, data, out, 200, [](const AllocationOutput&) { return 900.0; });
+  EXPECT_TRUE(out.flags & kLoadcellDisagrees);
+  EXPECT_FALSE(out.loadcell_ok[1]);
+  EXPECT_TRUE(out.loadcell_ok[0]);
+  const double frozen_trim = out.antagonist_trim_N;
+  run_ideal(joint, params, data, out, 500, [](const AllocationOutput&) { return 900.0; });
+  EXPECT_EQ(out.antagonist_trim_N, frozen_trim);
+  // The motor sees the model's antagonist force, not 900 N: the measured PAM torque stays near the
+  // commanded one (a 900 N reading would make it about (F1 - 900) r0, 29 Nm lower).
+  EXPECT_NEAR(out.tau_pam_measured_Nm, out.tau_pam_cmd_Nm, 1.0);
+  run_ideal(joint, params, data, out, 1000, agrees);
+  EXPECT_TRUE(out.loadcell_ok[1]);
+  EXPECT_FALSE(out.flags & kLoadcellDisagrees);
+}
+
+// The tension floor by the model: an antagonist load cell reading 100 N high (within the check's
+// tolerance at 60 N, so it is trusted) would trim the command down until the reading is 60 N, i.e.
+// the wire at 0 N. The trim stops where the model's force (force + trim) is the pretension.
+TEST(Allocation, TrimCannotTakeTheModelForceBelowThePretension) {
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 60.0;
+  AllocationParams params;
+  params.force_trim_rate_1ps = 4.0;
+  params.force_trim_max_N = 600.0;
+  AllocationData data;
+  AllocationOutput out;
+  bool floor_flag = false;
+  for (int k = 0; k < 3000; ++k) {
+    run_ideal(joint, params, data, out, 1, [&](const AllocationOutput& o) {
+      return models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction) + 100.0;
+    });
+    floor_flag |= (out.flags & kTensionFloorByModel) != 0;
+    ASSERT_GE(out.antagonist_force_cmd_N + out.antagonist_trim_N, joint.pretension_N - 1e-9) << k;
+  }
+  EXPECT_TRUE(out.loadcell_ok[1]);
+  EXPECT_TRUE(floor_flag);
+  EXPECT_NEAR(out.antagonist_trim_N, 0.0, 1e-9);
 }
 
 }  // namespace

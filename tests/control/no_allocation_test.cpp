@@ -34,6 +34,38 @@ TEST(ControlStep, AllocatesNothing) {
   EXPECT_EQ(control_allocations, 0u);
 }
 
+// The new paths of the step allocate nothing either: the start-up tare (vent, average), and a load
+// cell the controller stops trusting (an antagonist cell 300 N high, beyond what the tare believes,
+// with twice the gain: trim frozen, motor on the model's force). The phase and the flag show that
+// both paths really ran.
+TEST(ControlStep, AllocatesNothingWhileTaringOrDistrustingALoadcell) {
+  experiments::E1Scenario scenario =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  scenario.controller.allocation.loadcell_check.tare_s = 0.3;
+  scenario.plant.joint.antagonist.loadcell_gain = 2.0;
+  scenario.plant.joint.antagonist.loadcell_offset_N = 300.0;
+  sim::OneDofRigBackend plant(scenario.plant);
+  control::OneDofGravityController controller(scenario.controller);
+  safety::LimitedBackend limited(plant, scenario.limits, {&scenario.controller.joint});
+  limited.activate();
+  io::SensorState state;
+  io::Command command;
+  std::size_t control_allocations = 0;
+  bool tared = false, distrusted = false;
+  for (int k = 0; k < 3000; ++k) {
+    control_allocations += testing::allocations_during([&] {
+      limited.read(state);
+      controller.update(state, command);
+      limited.write(command);
+    });
+    tared |= controller.diagnostics().phase == control::StartupPhase::kTaring;
+    distrusted |= (controller.diagnostics().allocation.flags & control::kLoadcellDisagrees) != 0;
+  }
+  EXPECT_TRUE(tared);
+  EXPECT_TRUE(distrusted);
+  EXPECT_EQ(control_allocations, 0u);
+}
+
 // The simulated plant steps without allocating too (MuJoCo works in its preallocated arena).
 TEST(SimulatedRig, StepsWithoutAllocating) {
   const experiments::E1Scenario scenario =

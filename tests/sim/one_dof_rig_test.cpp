@@ -8,6 +8,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <utility>
 
 namespace peha::sim {
 namespace {
@@ -29,7 +30,14 @@ OneDofRigParams rig_with(const std::string& from, const std::string& to) {
   const auto at = text.find(from);
   EXPECT_NE(at, std::string::npos) << from;
   text.replace(at, from.size(), to);
-  return experiments::read_e1(config::Document::load_string(text, PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")).plant;
+  // The file's relative paths made absolute: a string document resolves them against ".".
+  for (const auto& [relative, absolute] : {std::pair<std::string, std::string>{"law: plant/", "law: " PEHA_SOURCE_DIR "/configs/plant/"},
+                                           {"model: ../models/", "model: " PEHA_SOURCE_DIR "/models/"}}) {
+    for (auto at = text.find(relative); at != std::string::npos; at = text.find(relative, at + absolute.size())) {
+      text.replace(at, relative.size(), absolute);
+    }
+  }
+  return experiments::read_e1(config::Document::load_string(text, "e1_one_dof.yaml")).plant;
 }
 
 /// The finger force (N, along the link's normal) a hand needs to hold the vented rig still at

@@ -31,18 +31,47 @@
 
 namespace peha::control {
 
+/// How far a load cell is trusted (docs/models.md, "Load cells checked, not trusted").
+struct LoadcellCheck {
+  /// A load cell agrees with the pressure model while |reading - F_model(P_measured, eps)|, low-pass
+  /// filtered at `filter_Hz`, stays within `tolerance_N + tolerance_fraction * F_model`. It counts
+  /// as agreeing again once that falls below `rejoin_fraction` of the tolerance.
+  double tolerance_N = 150.0;
+  double tolerance_fraction = 0.6;
+  double filter_Hz = 5.0;
+  double rejoin_fraction = 0.7;
+  /// Start-up tare (one-DOF controller): command both muscles vented for `vent_s` (the limits
+  /// layer holds them at the model's pretension pressure, below the real muscles' pressure
+  /// threshold), then average the load cells over `tare_s` (0 = no tare) and subtract that from
+  /// every later reading. An offset beyond `max_tare_N` is not believed (kept 0).
+  double tare_s = 0.0;
+  double vent_s = 0.4;
+  double max_tare_N = 200.0;
+};
+
 struct AllocationParams {
   double pam_cutoff_Hz = 5.0;       ///< cut-off of the PAM share's first-order low-pass, Hz
   bool use_motor = true;            ///< false: PAM-only joint (the motor command is 0)
   double force_trim_rate_1ps = 0.0;  ///< integral gain of the force trim, 1/s (0 = off)
   double force_trim_max_N = 200.0;   ///< bound of the trim's force correction, N
+  /// Fraction of the controller's cable friction (models::BowdenParams::friction_coefficient) the
+  /// plant's cables are sure to have, in [0, 1]. The velocity-dependent Bowden compensation (the
+  /// muscle command and the motor's estimate of the PAM torque) uses only this much
+  /// (models::sure_friction), so it can never act as positive velocity feedback on a cable with
+  /// less friction than the model. 1 is the old, full compensation; 0 (default) none.
+  double sure_cable_friction_fraction = 0.0;
+  /// Viscous damping the motor adds at the joint, Nm s/rad: tau_motor -= b * omega_hat. Passive
+  /// (it only ever takes energy out), so it damps what the plant's friction would otherwise have to:
+  /// a cable with no friction leaves the link with almost no damping (docs/models.md). 0 = none.
+  double motor_damping_Nms_per_rad = 0.0;
+  LoadcellCheck loadcell_check;
   /// The control period, s (the scenario's run.control_period_s): the step the controllers use
   /// when the sample time stamps give none (first sample, or a bad stamp).
   double period_s = 1e-3;
 };
 
 /// Reads an `allocation:` mapping (pam_cutoff_Hz, pretension_N, use_motor, force_trim_rate_1ps,
-/// force_trim_max_N) and finishes it. The pretension belongs to the joints (models::JointModel::
+/// force_trim_max_N; optional sure_cable_friction_fraction and loadcell_check{...}) and finishes it. The pretension belongs to the joints (models::JointModel::
 /// pretension_N): it is returned in `pretension_N` for the scenario to put there.
 AllocationParams read_allocation(config::Map map, double& pretension_N);
 
@@ -52,6 +81,11 @@ enum AllocationFlag : std::uint32_t {
   kPressureSaturated = 1u << 1,  ///< the inverse model asked for more than the supply
   kMotorSaturated = 1u << 2,     ///< the motor share was cut to its rating
   kNonFiniteInput = 1u << 3,     ///< an input was NaN/inf; the command holds safe values
+  /// A load cell disagrees with the pressure model beyond LoadcellCheck's tolerance: that muscle's
+  /// trim is frozen and the motor uses the model's force for it (AllocationOutput::loadcell_ok).
+  kLoadcellDisagrees = 1u << 4,
+  /// The trim was held so that the model's force (force + trim) stays at least the pretension.
+  kTensionFloorByModel = 1u << 5,
 };
 
 struct AllocationInput {
@@ -77,6 +111,10 @@ struct AllocationOutput {
   double antagonist_contraction = 0;
   double agonist_trim_N = 0;         ///< force trim added to the agonist's model request
   double antagonist_trim_N = 0;
+  /// Pressure model's force at the measured pressure and contraction, N (agonist, antagonist):
+  /// what the load cells are checked against.
+  double model_force_N[2] = {0, 0};
+  bool loadcell_ok[2] = {true, true};  ///< each load cell agrees with the model (agonist, antagonist)
   std::uint32_t flags = 0;
 };
 
@@ -85,6 +123,12 @@ struct AllocationData {
   double tau_pam_filtered_Nm = 0;
   double force_trim_N[2] = {0, 0};  ///< integral force corrections, agonist and antagonist
   bool initialized = false;
+  /// On the first step the trim starts so that the command equals the measured pressure. A
+  /// controller that vented the muscles for a tare clears this: the trim then starts at 0.
+  bool bumpless_start = true;
+  double loadcell_offset_N[2] = {0, 0};   ///< tare, subtracted from each reading (agonist, antagonist)
+  double disagreement_N[2] = {0, 0};      ///< low-passed reading - model force
+  bool loadcell_ok[2] = {true, true};     ///< each load cell currently trusted
 };
 
 /// One allocation step. Never throws, never allocates; every output is finite and within limits.

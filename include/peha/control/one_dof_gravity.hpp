@@ -43,8 +43,14 @@ struct OneDofControllerModel {
   double velocity_cutoff_Hz = 20.0;
 };
 
+/// The controller's start-up (AllocationParams::loadcell_check.tare_s > 0): vent, tare the load
+/// cells, then compensate. Without a tare it compensates from the first step.
+enum class StartupPhase { kVenting, kTaring, kCompensating };
+
 /// What one step computed (for logs and plots).
 struct OneDofDiagnostics {
+  StartupPhase phase = StartupPhase::kCompensating;
+  double loadcell_offset_N[2] = {0, 0};  ///< the tare (agonist, antagonist), once done
   double velocity_radps = 0;
   double tau_desired_Nm = 0;
   AllocationInput allocation_input;  ///< what the allocation was given this step
@@ -66,6 +72,9 @@ class OneDofGravityController {
   OneDofDiagnostics diag_;
   double last_time_s_ = 0.0;
   bool started_ = false;
+  double phase_start_s_ = 0.0;
+  double tare_sum_N_[2] = {0, 0};
+  long tare_samples_ = 0;
 };
 
 }  // namespace peha::control

@@ -32,4 +32,10 @@ double muscle_force_for_joint_N(const BowdenParams& p, double joint_force_N,
 double joint_force_from_loadcell_N(const BowdenParams& p, double loadcell_N,
                                    double wire_velocity_mps) noexcept;
 
+/// The cable with only the friction the plant is sure to have: `friction_coefficient` times
+/// `sure_fraction` (clamped to [0, 1]; NaN counts as 0). Compensating this much cannot inject
+/// energy into the joint as long as the real cable has at least this friction (docs/models.md,
+/// "Compensation that cannot destabilise"); 0 turns the velocity-dependent compensation off.
+BowdenParams sure_friction(const BowdenParams& p, double sure_fraction) noexcept;
+
 }  // namespace peha::models
