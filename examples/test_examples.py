@@ -35,10 +35,11 @@ def test_python_controller_reproduces_e1_hold(runs):
     for case in peha.Rig(str(E1)).cases:
         r = e1_python_gravity.run_hold(E1, case)
         ref = summary[(case, "hold")]
-        # The C++ run writes these with 9 significant digits; the loop is the same arithmetic.
-        assert abs(r["angle_at_release_deg"] - float(ref["angle_at_release_deg"])) < 1e-6
-        assert abs(r["drift_deg"] - float(ref["drift_deg"])) < 1e-6
-        assert abs(r["max_excursion_deg"] - float(ref["max_excursion_deg"])) < 1e-6
+        # summary.csv rounds the angle to 0.001 deg and the drift to 0.0001 deg: equal to that rounding
+        # (the per-cycle trace is compared to the log's 9 digits in the next test).
+        assert abs(r["angle_at_release_deg"] - float(ref["angle_at_release_deg"])) <= 0.5e-3 + 1e-12
+        assert abs(r["drift_deg"] - float(ref["drift_deg"])) <= 0.5e-4 + 1e-12
+        assert abs(r["max_excursion_deg"] - float(ref["max_excursion_deg"])) <= 0.5e-4 + 1e-12
         assert abs(r["drift_deg"]) < 0.5  # E1's own bound (E1.LinkStaysWhereReleasedForBothPayloads)
 
 
