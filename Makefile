@@ -5,7 +5,7 @@ CONFIG ?= configs/e1_one_dof.yaml
 CAL    := out/calibration
 PEHA    = ./$(BUILD)/peha
 
-.PHONY: all deps configure build run test bench fuzz soak clean help
+.PHONY: all deps configure build run test bench fuzz soak video clean help
 
 all: build
 
@@ -15,6 +15,7 @@ help:
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make bench  build and run the Google Benchmark suite (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser for 10 minutes (libFuzzer, ASan, UBSan)"
+	@echo "make video  render MP4s of E1 (both payloads), E3 and E4 (brisk movement) into out/video_*/ (docs/video.md)"
 	@echo "make soak   opt-in: build and run only the long benchmark (60 s of MFB round trips at 1 kHz over UDP)"
 	@echo "make clean  remove build/ and out/"
 
@@ -54,6 +55,12 @@ bench: build
 	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out out/bench/agonist.csv
 	$(PEHA) calibrate out/bench/agonist.csv --muscle agonist --out out/bench/agonist_lm.yaml --no-spgp --no-holdout --no-plot
 	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --json out/bench/scipy_vs_peha.json
+
+# Videos (docs/video.md): E1, E3 and E4 with an MP4 per case beside each CSV (offscreen MuJoCo + ffmpeg).
+video: build
+	$(PEHA) run --config $(CONFIG) --name video_e1 --video
+	$(PEHA) run --config configs/right_arm.yaml --experiment postures --name video_e3 --video
+	$(PEHA) run --config configs/right_arm.yaml --experiment goniometer --case brisk --name video_e4 --video
 
 # Opt-in soak: only the 60 s MFB loopback benchmark at 1 kHz (also part of `make bench`).
 soak: build

@@ -1,4 +1,5 @@
 """The examples run and say what they should (ctest python.pytest runs this file too)."""
+import csv
 import os
 import pathlib
 import subprocess
@@ -30,13 +31,15 @@ def runs(tmp_path_factory):
 
 
 def test_python_controller_reproduces_e1_hold(runs):
-    """The hold of E1 under the Python controller: the same angle at release and drift as `peha run`."""
-    summary = e1_python_gravity.read_summary(runs[0] / "summary.csv")
+    """The hold of E1 under the Python controller: the same figures as the C++ run's summary and log."""
+    with open(runs[0] / "summary.csv", newline="") as f:
+        summary = {(r["case"], r["release"]): r for r in csv.DictReader(f)}
     for case in peha.Rig(str(E1)).cases:
         r = e1_python_gravity.run_hold(E1, case)
-        ref = summary[(case, "hold")]
-        # summary.csv rounds the angle to 0.001 deg and the drift to 0.0001 deg: equal to that rounding
-        # (the per-cycle trace is compared to the log's 9 digits in the next test).
+        c = e1_python_gravity.cpp_hold_figures(runs[0], r)
+        for k in ("angle_at_release_deg", "drift_deg", "max_excursion_deg"):
+            assert abs(r[k] - c[k]) < 1e-6, k  # the log's 9 digits
+        ref = summary[(case, "hold")]  # rounded to 0.001 deg (angle) and 0.0001 deg (drift, excursion)
         assert abs(r["angle_at_release_deg"] - float(ref["angle_at_release_deg"])) <= 0.5e-3 + 1e-12
         assert abs(r["drift_deg"] - float(ref["drift_deg"])) <= 0.5e-4 + 1e-12
         assert abs(r["max_excursion_deg"] - float(ref["max_excursion_deg"])) <= 0.5e-4 + 1e-12
@@ -54,7 +57,7 @@ def test_python_controller_log_matches_the_cpp_log(runs):
 
 def test_e1_example_prints_and_plots(runs, tmp_path, capsys):
     png = tmp_path / "e1.png"
-    assert e1_python_gravity.main(["--case", "payload_2.5kg", "--compare", str(runs[0] / "summary.csv"),
+    assert e1_python_gravity.main(["--case", "payload_2.5kg", "--compare", str(runs[0]),
                                    "--plot", str(png)]) == 0
     out = capsys.readouterr().out
     assert "payload_2.5kg" in out and "largest difference to the C++ run" in out

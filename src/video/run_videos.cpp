@@ -143,9 +143,12 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
         const double* p = d->site_xpos + 3 * tip;
         const double* R = d->site_xmat + 9 * tip;
         const double n[3] = {R[2], R[5], R[8]};
-        // 1 cm per N (at least 5 cm, at most 40 cm), signed: the arrow ends at the tip.
+        // 1 cm per N (at least 5 cm, at most 40 cm), signed: the arrow points at the tip.
         const double length = std::copysign(std::clamp(0.01 * std::abs(finger), 0.05, 0.4), finger);
-        f.arrows.push_back({{p[0] - n[0] * length, p[1] - n[1] * length, p[2] - n[2] * length}, {p[0], p[1], p[2]}});
+        // It stops 6 cm short of the tip, outside the payload's weight (5 cm radius).
+        const double gap = std::copysign(0.06, finger), from = gap + length;
+        f.arrows.push_back({{p[0] - n[0] * from, p[1] - n[1] * from, p[2] - n[2] * from},
+                            {p[0] - n[0] * gap, p[1] - n[1] * gap, p[2] - n[2] * gap}});
       }
     };
   }
