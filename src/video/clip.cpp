@@ -38,7 +38,7 @@ class Renderer {
     camera_.azimuth = o.azimuth_deg;
     camera_.elevation = o.elevation_deg;
     mjr_defaultContext(&context_);
-    mjr_makeContext(model_, &context_, mjFONTSCALE_150);
+    mjr_makeContext(model_, &context_, mjFONTSCALE_100);
     mjr_setBuffer(mjFB_OFFSCREEN, &context_);
     if (context_.currentBuffer != mjFB_OFFSCREEN) throw std::runtime_error("MuJoCo: no offscreen framebuffer in this context");
     figure_ = std::make_unique<mjvFigure>();

@@ -49,15 +49,21 @@ std::vector<double>& derived(LogTable& log, const std::string& name, const std::
   return out;
 }
 
-/// Points the free camera at the model's bodies at their initial pose, from the side.
-void frame_model(mjModel* m, ClipOptions& o) {
+/// Points the free camera at everything the clip will show: the bounding box of the geoms over
+/// poses sampled through the clip (once per second), seen across its thinnest horizontal side.
+void frame_model(mjModel* m, const FrameSetter& set, double duration_s, ClipOptions& o) {
   mjData* d = mj_makeData(m);
-  mj_kinematics(m, d);
   double lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
-  for (int b = 1; b < m->nbody; ++b) {
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], d->xpos[3 * b + k]);
-      hi[k] = std::max(hi[k], d->xpos[3 * b + k]);
+  Frame scratch;
+  for (double t = 0; t <= duration_s + 1e-9; t += std::max(1.0, duration_s / 200)) {
+    set(t, d, scratch);
+    mj_kinematics(m, d);
+    for (int g = 0; g < m->ngeom; ++g) {
+      const double r = m->geom_rbound[g] > 0 ? std::min(m->geom_rbound[g], 0.1) : 0.0;
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], d->geom_xpos[3 * g + k] - r);
+        hi[k] = std::max(hi[k], d->geom_xpos[3 * g + k] + r);
+      }
     }
   }
   mj_deleteData(d);
@@ -66,7 +72,8 @@ void frame_model(mjModel* m, ClipOptions& o) {
     o.lookat[static_cast<std::size_t>(k)] = 0.5 * (lo[k] + hi[k]);
     extent = std::max(extent, hi[k] - lo[k]);
   }
-  o.distance_m = std::max(1.0, 2.6 * extent);
+  o.azimuth_deg = (hi[1] - lo[1]) <= (hi[0] - lo[0]) ? 90.0 : 0.0;  // look along the thinner of x and y
+  o.distance_m = std::max(0.8, 1.7 * extent);
 }
 
 std::string muscle_lines(double f1, double f2, double p1, double p2) {
@@ -212,7 +219,6 @@ RunVideoReport render_run_videos(const std::filesystem::path& dir, mjModel* mode
   for (const auto& csv : logs) {
     LogTable log = read_log_table(csv);
     ClipOptions clip = options.clip;
-    if (options.auto_frame) frame_model(model, clip);
     FrameSetter set;
     try {
       set = log_frame_setter(log, model, clip, csv.stem().string());
@@ -223,6 +229,7 @@ RunVideoReport render_run_videos(const std::filesystem::path& dir, mjModel* mode
     const auto& t = log.at("t_s");
     double duration = t.empty() ? 0.0 : t.back();
     if (options.max_seconds > 0) duration = std::min(duration, options.max_seconds);
+    if (options.auto_frame) frame_model(model, set, duration, clip);
     RunVideo v{csv, std::filesystem::path(csv).replace_extension(".mp4"), {}};
     v.stats = render_clip(model, duration, set, clip, v.mp4, gl);
     report.videos.push_back(v);

@@ -29,7 +29,7 @@ LogTable read_log_table(const std::filesystem::path& csv);
 
 struct RunVideoOptions {
   ClipOptions clip;            ///< size, fps, speed (camera framed from the model when auto_frame)
-  bool auto_frame = true;      ///< point the camera at the model's bodies at their initial pose
+  bool auto_frame = true;      ///< point the camera at the geoms over the poses the clip shows
   std::string gl = "auto";     ///< OffscreenContext backend: auto, egl or glfw
   double max_seconds = 0;      ///< > 0: only the first this many simulated seconds of each log
 };
