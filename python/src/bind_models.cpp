@@ -174,8 +174,13 @@ void bind_models(py::module_& m) {
 
   // --- The arm ---
   py::class_<models::ArmJoint>(m, "ArmJoint", "A revolute joint of the arm's serial chain.")
-      .def(py::init([](std::string name, Eigen::Vector3d offset, Eigen::Vector3d axis, bool active) {
-             return models::ArmJoint{std::move(name), offset, axis, active};
+      .def(py::init([](std::string name, const Eigen::Vector3d& offset, const Eigen::Vector3d& axis, bool active) {
+             models::ArmJoint j;
+             j.name = std::move(name);
+             j.offset_m = offset;
+             j.axis = axis;
+             j.active = active;
+             return j;
            }),
            py::arg("name"), py::arg("offset_m"), py::arg("axis"), py::arg("active") = true)
       .def_readwrite("name", &models::ArmJoint::name)
@@ -183,8 +188,14 @@ void bind_models(py::module_& m) {
       .def_readwrite("axis", &models::ArmJoint::axis, "unit rotation axis in the joint frame")
       .def_readwrite("active", &models::ArmJoint::active);
   py::class_<models::ArmBody>(m, "ArmBody", "A rigid body attached to a joint frame.")
-      .def(py::init([](std::string name, int joint, double mass, Eigen::Vector3d com, Eigen::Matrix3d inertia) {
-             return models::ArmBody{std::move(name), joint, mass, com, inertia};
+      .def(py::init([](std::string name, int joint, double mass, const Eigen::Vector3d& com, const Eigen::Matrix3d& inertia) {
+             models::ArmBody b;
+             b.name = std::move(name);
+             b.joint = joint;
+             b.mass_kg = mass;
+             b.com_m = com;
+             b.inertia_kgm2 = inertia;
+             return b;
            }),
            py::arg("name"), py::arg("joint"), py::arg("mass_kg"), py::arg("com_m"),
            py::arg("inertia_kgm2") = Eigen::Matrix3d::Zero().eval())

@@ -134,7 +134,9 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
     return [=](double time, mjData* d, Frame& f) {
       sample->seek(time);
       const Sampler& s = *sample;
-      const double angle = s(L->at("plant_angle_rad"));
+      // Over the board the plant's truth is unknown (NaN): the encoder's angle then.
+      const double plant = s(L->at("plant_angle_rad"));
+      const double angle = std::isfinite(plant) || !L->has("angle_rad") ? plant : s(L->at("angle_rad"));
       d->qpos[q] = angle;
       const double finger = s(L->at("finger_force_N"));
       const bool active = s.nearest(L->at("finger_active")) > 0.5;
@@ -172,9 +174,10 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
       const char* joints[3] = {"sfe", "efe", "wfe"};
       for (int j = 0; j < 3; ++j) {
         auto c = [&](const char* what) { return s(L->at(fmt::format("{}_{}", joints[j], what))); };
-        d->qpos[q[j]] = c("plant_angle_rad");
+        const double angle = std::isfinite(c("plant_angle_rad")) ? c("plant_angle_rad") : c("angle_rad");  // board: encoder
+        d->qpos[q[j]] = angle;
         names += fmt::format("\n{} angle\n  F agonist / antagonist\n  p cmd", j == 0 ? "SFE" : j == 1 ? "EFE" : "WFE");
-        values += fmt::format("\n{:.1f} deg\n{:.0f} N / {:.0f} N\n{:.3f} / {:.3f} MPa", c("plant_angle_rad") / kDeg,
+        values += fmt::format("\n{:.1f} deg\n{:.0f} N / {:.0f} N\n{:.3f} / {:.3f} MPa", angle / kDeg,
                               c("plant_agonist_force_N"), c("plant_antagonist_force_N"), c("agonist_pressure_cmd_MPa"),
                               c("antagonist_pressure_cmd_MPa"));
       }
@@ -189,8 +192,9 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
     return [=](double time, mjData* d, Frame& f) {
       sample->seek(time);
       const Sampler& s = *sample;
-      d->qpos[sfe] = s(L->at("plant_sfe_deg")) * kDeg;
-      d->qpos[efe] = s(L->at("plant_elbow_deg")) * kDeg;
+      if (const double shoulder = s(L->at("plant_sfe_deg")); std::isfinite(shoulder)) d->qpos[sfe] = shoulder * kDeg;
+      const double elbow = s(L->at("plant_elbow_deg"));
+      d->qpos[efe] = (std::isfinite(elbow) ? elbow : s(L->at("elbow_encoder_deg"))) * kDeg;  // board: encoder
       f.overlay_names = "time\nperson's elbow\nexo elbow\nshoulder\nF agonist / antagonist\np cmd\nmotor";
       f.overlay_values = fmt::format("{:.2f} s\n{:.1f} deg\n{:.1f} deg\n{:.1f} deg\n{}\n{:.2f} Nm", time,
                                      s(L->at("person_elbow_deg")), s(L->at("plant_elbow_deg")), s(L->at("plant_sfe_deg")),

@@ -14,6 +14,8 @@ class FfmpegEncoder {
  public:
   /// Starts `ffmpeg` writing `path`; frames are `width` x `height` RGB24, top row first. Throws
   /// std::runtime_error when ffmpeg cannot be started (not installed: apt-get install ffmpeg).
+  /// Sets SIGPIPE to ignored in the process, so that a write to an ffmpeg that exited throws
+  /// instead of killing peha.
   FfmpegEncoder(const std::filesystem::path& path, int width, int height, int fps);
   ~FfmpegEncoder();
   FfmpegEncoder(const FfmpegEncoder&) = delete;
