@@ -1,4 +1,4 @@
-"""The examples run and say what they should (ctest python.pytest runs this file too)."""
+"""The examples run and say what they should (ctest python.examples)."""
 import csv
 import os
 import pathlib
@@ -22,7 +22,7 @@ E1 = HERE.parent / "configs" / "e1_one_dof.yaml"
 def runs(tmp_path_factory):
     peha_bin = os.environ.get("PEHA_BINARY")
     if not peha_bin:
-        pytest.skip("PEHA_BINARY not set: run through ctest (test python.pytest)")
+        pytest.skip("PEHA_BINARY not set: run through ctest (test python.examples)")
     out = tmp_path_factory.mktemp("runs")
     for name, extra in (("a", []), ("b", ["--seed", "7"])):
         subprocess.run([peha_bin, "run", "--config", str(E1), "--no-plot", "--out", str(out), "--name", name, *extra],

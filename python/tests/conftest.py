@@ -1,6 +1,6 @@
 """Fixtures of the Python binding tests: the C++ reference results and a small calibration.
 
-Run through ctest (test python.pytest), which sets PYTHONPATH to the built package, PEHA_BINARY
+Run through ctest (test python.bindings), which sets PYTHONPATH to the built package, PEHA_BINARY
 and PEHA_PY_REFERENCE (python/tests/reference.cpp) to the built executables.
 """
 import json
@@ -20,7 +20,7 @@ CAL_OPTIONS = dict(restarts=8, threads=2, pseudo_inputs=12, spgp_iterations=40, 
 def _exe(var):
     path = os.environ.get(var)
     if not path or not pathlib.Path(path).exists():
-        pytest.skip(f"{var} not set: run through ctest (test python.pytest)")
+        pytest.skip(f"{var} not set: run through ctest (test python.bindings)")
     return path
 
 

@@ -1,4 +1,4 @@
-"""`peha run --video` end to end (run by ctest's python.pytest): an MP4 beside the CSV, and a clear
+"""`peha run --video` end to end (ctest video.cli): an MP4 beside the CSV, and a clear
 message, exit code 0 and every other output when no OpenGL context can be made."""
 import json
 import os
@@ -14,7 +14,7 @@ E1 = ROOT / "configs" / "e1_one_dof.yaml"
 def peha_binary():
     path = os.environ.get("PEHA_BINARY")
     if not path:
-        pytest.skip("PEHA_BINARY not set: run through ctest (test python.pytest)")
+        pytest.skip("PEHA_BINARY not set: run through ctest (test video.cli)")
     return path
 
 
