@@ -14,6 +14,8 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 namespace peha::video {
 namespace {
 
@@ -46,11 +48,18 @@ std::filesystem::path write_log(const std::filesystem::path& dir) {
   return path;
 }
 
+/// A fresh directory of this process (worktrees may run their tests at the same time).
+std::filesystem::path fresh_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
 std::filesystem::path rig_model_file() { return std::filesystem::path(PEHA_SOURCE_DIR) / "models" / "one_dof_rig.xml"; }
 
 TEST(VideoClip, TwoSecondClipHasItsDurationSizeFramesAndAPicture) {
-  const auto dir = std::filesystem::temp_directory_path() / "peha_video_clip_test";
-  std::filesystem::remove_all(dir);
+  const auto dir = fresh_dir("peha_video_clip_test");
   const auto csv = write_log(dir);
   sim::ModelPtr model = sim::load_mjcf(rig_model_file());
   RunVideoOptions options;
@@ -102,18 +111,18 @@ TEST(VideoClip, TwoSecondClipHasItsDurationSizeFramesAndAPicture) {
               mp4.c_str(), static_cast<std::uintmax_t>(std::filesystem::file_size(mp4)), report.videos[0].stats.render_s,
               stddev, 100 * off_mode, levels);
   std::printf("gl: %s\n", report.gl.c_str());
+  std::filesystem::remove_all(dir);
 }
 
 TEST(VideoClip, AnUnknownLogIsSkippedWithTheReason) {
-  const auto dir = std::filesystem::temp_directory_path() / "peha_video_skip_test";
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
+  const auto dir = fresh_dir("peha_video_skip_test");
   std::ofstream(dir / "e1_other.csv") << "t_s,x\n0,1\n0.001,2\n";
   sim::ModelPtr model = sim::load_mjcf(rig_model_file());
   const RunVideoReport report = render_run_videos(dir, model.get(), {});
   EXPECT_TRUE(report.videos.empty());
   ASSERT_EQ(report.skipped.size(), 1u);
   EXPECT_NE(report.skipped[0].find("not a log the video knows"), std::string::npos);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
