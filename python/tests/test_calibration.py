@@ -57,3 +57,22 @@ def test_calibrate_in_python_equals_peha_calibrate(calibration_files, tmp_path):
     report = tmp_path / "report"
     result.write_report(report, plot=False)
     assert (report / "predictions.csv").exists() and (report / "summary.txt").exists()
+
+
+def test_result_rows_and_muscle_model_agree_with_predict(calibration_files):
+    result = peha.calibrate(calibration_files[0], muscle="agonist", **CAL_OPTIONS)
+    cal, data = result.calibration, result.data
+    eps, F = data.contraction, data.force_N
+    mean, _ = cal.predict(eps, F)
+    # The SPGP's share of each row is the same in the per-row outcome and in predict().
+    inverse = peha.inverse_pressure(cal.params, F, eps)
+    ok = (peha.inverse_status(cal.params, F, eps) == int(peha.InverseStatus.OK)) & (mean > 0)
+    assert ok.mean() > 0.9
+    np.testing.assert_allclose((mean - inverse)[ok], (result.pressure_spgp_Pa - result.pressure_parametric_Pa)[ok],
+                               rtol=0, atol=1e-6)
+    # The parametric rows are F / g(u), the inverse model's value (the fit's own arithmetic, in MPa).
+    np.testing.assert_allclose(result.pressure_parametric_Pa[ok], inverse[ok], rtol=1e-12, atol=1e-6)
+    # A MuscleModel with the calibration applied is the same pressure model.
+    m = cal.muscle_model()
+    assert m.has_residual and not cal.muscle_model(with_spgp=False).has_residual
+    np.testing.assert_array_equal(peha.muscle_pressure(m, F, eps, 0.8e6), cal.predict(eps, F, 0.8e6)[0])
