@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -111,6 +112,25 @@ TEST(VideoClip, TwoSecondClipHasItsDurationSizeFramesAndAPicture) {
               mp4.c_str(), static_cast<std::uintmax_t>(std::filesystem::file_size(mp4)), report.videos[0].stats.render_s,
               stddev, 100 * off_mode, levels);
   std::printf("gl: %s\n", report.gl.c_str());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(VideoClip, RendersInAHiddenWindowOnAnXvfbItStartsWhenThereIsNoDisplay) {
+  const auto dir = fresh_dir("peha_video_xvfb_test");
+  write_log(dir);
+  unsetenv("DISPLAY");  // this test's own process (ctest runs each test alone)
+  sim::ModelPtr model = sim::load_mjcf(rig_model_file());
+  RunVideoOptions options;
+  options.gl = "glfw";
+  options.clip.width = 320;
+  options.clip.height = 180;
+  options.max_seconds = 1.0;
+  const RunVideoReport report = render_run_videos(dir, model.get(), options);
+  ASSERT_EQ(report.videos.size(), 1u);
+  EXPECT_NE(report.gl.find("GLFW hidden window (Xvfb :"), std::string::npos) << report.gl;
+  EXPECT_EQ(report.videos[0].stats.frames, 30);
+  EXPECT_GT(std::filesystem::file_size(dir / "e1_payload_test.mp4"), 1000u);
+  EXPECT_EQ(std::getenv("DISPLAY"), nullptr) << "the Xvfb peha started is stopped and forgotten again";
   std::filesystem::remove_all(dir);
 }
 
