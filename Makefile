@@ -5,7 +5,7 @@ CONFIG ?= configs/e1_one_dof.yaml
 CAL    := out/calibration
 PEHA    = ./$(BUILD)/peha
 
-.PHONY: all deps configure build run test bench fuzz soak robustness clean help
+.PHONY: all deps configure build run test bench fuzz soak robustness video clean help
 
 all: build
 
@@ -19,6 +19,7 @@ help:
 	@echo "            the table in docs/performance.md (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
 	@echo "make soak   opt-in: 10 minutes of MFB round trips at 1 kHz over UDP, then 10 more with the other core busy"
+	@echo "make video  render MP4s of E1 (both payloads), E3 and E4 (brisk movement) into out/video_*/ (docs/video.md)"
 	@echo "make clean  remove build/ and out/"
 
 deps:
@@ -70,6 +71,12 @@ bench: build
 	/usr/bin/python3 tools/compare_lm_scipy.py out/bench/agonist.csv --peha-yaml out/bench/agonist_lm.yaml --processes 2 --json out/bench/scipy2_vs_peha.json
 	/usr/bin/python3 tools/compare_spgp_sklearn.py --dir out/bench/spgp_vs_gp --json out/bench/spgp_vs_gp/compare.json
 	/usr/bin/python3 tools/bench_report.py --dir out/bench --doc docs/performance.md
+
+# Videos (docs/video.md): E1, E3 and E4 with an MP4 per case beside each CSV (offscreen MuJoCo + ffmpeg).
+video: build
+	$(PEHA) run --config $(CONFIG) --name video_e1 --video
+	$(PEHA) run --config configs/right_arm.yaml --experiment postures --name video_e3 --video
+	$(PEHA) run --config configs/right_arm.yaml --experiment goniometer --case brisk --name video_e4 --video
 
 # Opt-in soak (not part of `make bench`): the MFB loop at 1 kHz over UDP for 10 minutes with the
 # machine otherwise idle, then 10 minutes with a busy thread on the other core; then the report.

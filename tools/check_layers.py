@@ -34,6 +34,8 @@ RULES = {
     "runtime": ({"io", "safety", "models", "config"}, "the real-time loop and telemetry: drives a backend under safety"),
     "experiments": ({"runtime", "mfb", "sim", "safety", "io", "control", "calibration", "models", "config"},
                     "experiment procedures composed from every layer below the app"),
+    "video": ({"sim", "io", "models", "config"},
+              "offscreen MuJoCo rendering of a run's logs and ffmpeg encoding (peha run --video)"),
     "app": (ALL, "the command-line front end: wires everything together"),
 }
 

@@ -163,8 +163,9 @@ class CheckLayersTest(unittest.TestCase):
     def test_rule_table_is_as_specified_and_acyclic(self):
         rules = {k: v[0] for k, v in check_layers.RULES.items()}
         self.assertEqual(list(rules), ["config", "models", "calibration", "control", "io", "safety", "sim",
-                                       "mfb", "runtime", "experiments", "app"])
+                                       "mfb", "runtime", "experiments", "video", "app"])
         self.assertEqual(rules["config"], set())
+        self.assertEqual(rules["video"], {"sim", "io", "models", "config"})
         self.assertEqual(rules["runtime"], {"io", "safety", "models", "config"})
         self.assertEqual(rules["app"], check_layers.ALL)
         for layer, deps in rules.items():

@@ -48,6 +48,7 @@ Command add_run(CLI::App& app) {
                       "E4 (--experiment goniometer) a movement");
   s->seed_opt = run_cmd->add_option("--seed", s->seed, "Override the scenario's random seed (sensor noise)")->check(peha::app::unsigned_integer());
   run_cmd->add_flag("!--no-plot", run.plot, "Do not render plot.png (no Python needed)");
+  run_cmd->add_flag("--video", run.video, "Also write an MP4 per case beside its CSV (MuJoCo offscreen + ffmpeg; docs/video.md)");
   run_cmd->add_option("--agonist-calibration", run.calibration[0],
                       "E1 only: calibration YAML (from peha calibrate) for the agonist; with a calibration, every case\n"
                       "runs twice: calibrated parametric model alone, and with its SPGP residual")

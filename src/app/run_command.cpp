@@ -3,6 +3,7 @@
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
 #include "peha/app/run_dir.hpp"
+#include "peha/app/video_option.hpp"
 
 #include <fmt/format.h>
 
@@ -134,6 +135,7 @@ int run(const RunOptions& options) {
     experiments::RunRequest request = make_request(options);
     request.open_run_dir = [&run_dir](std::uint64_t seed) { return run_dir.create(seed); };
     const int code = variant->run(doc, request);
+    if (run_dir.created() && options.video) write_run_videos(doc, entry.key, run_dir.path());
     if (run_dir.created()) run_dir.link_latest();
     return code;
   });

@@ -210,9 +210,7 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
   }
   if (!(p.k_N > 0.0)) reject(fmt::format("wire stiffness k = {} N must be > 0", p.k_N));
 
-  models::MuscleModel calibrated = nominal;
-  calibrated.pam = c.params;
-  calibrated.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
+  const models::MuscleModel calibrated = calibrated_muscle(c, with_spgp, nominal);
   const double ceiling_N = models::force_ceiling_N(nominal);
   const int n = std::max(limits.grid, 2);
   for (int i = 0; i < n; ++i) {
@@ -250,8 +248,13 @@ void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& 
                        models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad) {
   check_calibration(c, path, with_spgp, joint, side, min_angle_rad, max_angle_rad);
   models::MuscleModel& m = side == 0 ? joint.agonist : joint.antagonist;
-  m.pam = c.params;
-  m.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
+  m = calibrated_muscle(c, with_spgp, m);
+}
+
+models::MuscleModel calibrated_muscle(const MuscleCalibration& c, bool with_spgp, models::MuscleModel muscle) {
+  muscle.pam = c.params;
+  muscle.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
+  return muscle;
 }
 
 }  // namespace peha::calibration

@@ -17,6 +17,7 @@ struct RunOptions {
   std::optional<std::uint64_t> seed;      ///< overrides the scenario's seed
   std::string only_case;                  ///< run only this case (empty: all)
   bool plot = true;                       ///< render plot.png with tools/plot_run.py
+  bool video = false;                     ///< an MP4 per case beside its CSV (docs/video.md)
   /// Calibration files for the agonist [0] and antagonist [1] (empty: the config's model). With
   /// any, each case runs with the calibrated parametric model and with parametric + SPGP.
   std::filesystem::path calibration[2];

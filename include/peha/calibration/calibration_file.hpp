@@ -84,6 +84,11 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
                        const models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad,
                        const CalibrationCheckLimits& limits = {});
 
+/// `muscle` with calibration `c`'s Tendon-spring parameters and (when `with_spgp`) its SPGP residual,
+/// unchecked: for evaluating a calibration's model (reports, plots, the Python module). A joint the
+/// controller and the limits use takes a calibration only through apply_calibration.
+models::MuscleModel calibrated_muscle(const MuscleCalibration& c, bool with_spgp, models::MuscleModel muscle);
+
 /// Puts calibration `c` (read from `path`) into muscle `side` of `joint` after check_calibration:
 /// its Tendon-spring parameters, and its SPGP as the pressure residual when `with_spgp` (else no
 /// residual). The one place a calibration enters a joint model; controller and limits then both

@@ -1,0 +1,82 @@
+"""The examples run and say what they should (ctest python.examples)."""
+import csv
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import peha
+
+HERE = pathlib.Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE))
+import analyse_runs  # noqa: E402
+import e1_python_gravity  # noqa: E402
+
+E1 = HERE.parent / "configs" / "e1_one_dof.yaml"
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    peha_bin = os.environ.get("PEHA_BINARY")
+    if not peha_bin:
+        pytest.skip("PEHA_BINARY not set: run through ctest (test python.examples)")
+    out = tmp_path_factory.mktemp("runs")
+    for name, extra in (("a", []), ("b", ["--seed", "7"])):
+        subprocess.run([peha_bin, "run", "--config", str(E1), "--no-plot", "--out", str(out), "--name", name, *extra],
+                       check=True, capture_output=True)
+    return out / "a", out / "b"
+
+
+def test_python_controller_reproduces_e1_hold(runs):
+    """The hold of E1 under the Python controller: the same figures as the C++ run's summary and log."""
+    with open(runs[0] / "summary.csv", newline="") as f:
+        summary = {(r["case"], r["release"]): r for r in csv.DictReader(f)}
+    for case in peha.Rig(str(E1)).cases:
+        r = e1_python_gravity.run_hold(E1, case)
+        c = e1_python_gravity.cpp_hold_figures(runs[0], r)
+        for k in ("angle_at_release_deg", "drift_deg", "max_excursion_deg"):
+            assert abs(r[k] - c[k]) < 1e-6, k  # the log's 9 digits
+        ref = summary[(case, "hold")]  # rounded to 0.001 deg (angle) and 0.0001 deg (drift, excursion)
+        assert abs(r["angle_at_release_deg"] - float(ref["angle_at_release_deg"])) <= 0.5e-3 + 1e-12
+        assert abs(r["drift_deg"] - float(ref["drift_deg"])) <= 0.5e-4 + 1e-12
+        assert abs(r["max_excursion_deg"] - float(ref["max_excursion_deg"])) <= 0.5e-4 + 1e-12
+        assert abs(r["drift_deg"]) < 0.5  # E1's own bound (E1.LinkStaysWhereReleasedForBothPayloads)
+
+
+def test_python_controller_log_matches_the_cpp_log(runs):
+    log = peha.read_log(runs[0] / "e1_payload_5.0kg.csv")
+    r = e1_python_gravity.run_hold(E1, "payload_5.0kg")
+    n = r["t_s"].size
+    np.testing.assert_allclose(r["t_s"], log["t_s"][:n], atol=1e-9)
+    np.testing.assert_allclose(r["angle_deg"], np.degrees(log["plant_angle_rad"][:n]), rtol=1e-7, atol=1e-7)
+    np.testing.assert_allclose(r["tau_motor_Nm"], log["tau_motor_cmd_Nm"][:n], rtol=1e-7, atol=1e-7)
+
+
+def test_e1_example_prints_and_plots(runs, tmp_path, capsys):
+    png = tmp_path / "e1.png"
+    assert e1_python_gravity.main(["--case", "payload_2.5kg", "--compare", str(runs[0]),
+                                   "--plot", str(png)]) == 0
+    out = capsys.readouterr().out
+    assert "payload_2.5kg" in out and "largest difference to the C++ run" in out
+    assert png.stat().st_size > 10_000
+
+
+def test_analyse_runs_fig9_fig8_and_comparison(runs, tmp_path):
+    peha_bin = os.environ["PEHA_BINARY"]
+    csv = tmp_path / "agonist.csv"
+    subprocess.run([peha_bin, "record-calibration", "--config", str(E1), "--muscle", "agonist", "--out", str(csv)],
+                   check=True, capture_output=True)
+    peha.calibrate(csv, muscle="agonist", restarts=4, pseudo_inputs=10, spgp_iterations=30).save(tmp_path / "agonist.yaml")
+    out = tmp_path / "analysis"
+    assert analyse_runs.main([str(runs[0]), "--compare", str(runs[1]), "--calibration", str(csv),
+                              str(tmp_path / "agonist.yaml"), "--out", str(out)]) == 0
+    for png in ("fig9_a.png", "fig8_agonist.png", "compare.png"):
+        assert (out / png).stat().st_size > 10_000, png
+    rms = analyse_runs.fig8(csv, tmp_path / "agonist.yaml", out / "again.png")
+    assert rms["rms_spgp_Pa"] <= rms["rms_parametric_Pa"]
+    rows = analyse_runs.compare(runs[0], runs[1], out / "compare2.png")
+    assert {r[0] for r in rows} == {"payload_2.5kg", "payload_5.0kg"}
+    assert len(rows) == 2 * 3 * 4  # cases x releases x figures

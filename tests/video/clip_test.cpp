@@ -1,0 +1,149 @@
+// The video layer: a 2 s clip of the one-DOF rig from a log, checked with ffprobe (duration, size,
+// frame count) and by the pixels of a decoded frame (not blank: the link and the overlay are there).
+#include "peha/sim/mujoco_model.hpp"
+#include "peha/video/clip.hpp"
+#include "peha/video/run_videos.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <numeric>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace peha::video {
+namespace {
+
+/// stdout of a command line (test helper; the product never uses a shell).
+std::string output_of(const std::string& command) {
+  std::string out;
+  FILE* p = popen(command.c_str(), "r");
+  if (!p) return out;
+  char buf[4096];
+  std::size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
+  pclose(p);
+  return out;
+}
+
+/// A 2 s E1-like log: the link swings from -10 to +20 deg, the finger pushes for the first second.
+std::filesystem::path write_log(const std::filesystem::path& dir) {
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "e1_payload_test.csv";
+  std::ofstream f(path);
+  f << "# synthetic log for the video test\n";
+  f << "t_s,plant_angle_rad,finger_force_N,finger_active,plant_agonist_force_N,plant_antagonist_force_N,"
+       "agonist_pressure_MPa,antagonist_pressure_MPa,tau_motor_cmd_Nm\n";
+  for (int k = 0; k <= 2000; ++k) {
+    const double t = k * 1e-3;
+    const double angle = (-10.0 + 30.0 * 0.5 * (1 - std::cos(M_PI * t / 2))) * M_PI / 180;
+    f << t << ',' << angle << ',' << (t < 1 ? 20.0 : 0.0) << ',' << (t < 1 ? 1 : 0) << ',' << 400 + 50 * t << ",100,"
+      << 0.25 << ',' << 0.26 << ',' << 0.5 << '\n';
+  }
+  return path;
+}
+
+/// A fresh directory of this process (worktrees may run their tests at the same time).
+std::filesystem::path fresh_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / (name + "_" + std::to_string(getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+std::filesystem::path rig_model_file() { return std::filesystem::path(PEHA_SOURCE_DIR) / "models" / "one_dof_rig.xml"; }
+
+TEST(VideoClip, TwoSecondClipHasItsDurationSizeFramesAndAPicture) {
+  const auto dir = fresh_dir("peha_video_clip_test");
+  const auto csv = write_log(dir);
+  sim::ModelPtr model = sim::load_mjcf(rig_model_file());
+  RunVideoOptions options;
+  options.clip.width = 640;
+  options.clip.height = 360;
+  const RunVideoReport report = render_run_videos(dir, model.get(), options);
+  ASSERT_EQ(report.videos.size(), 1u) << "skipped: " << (report.skipped.empty() ? "" : report.skipped.front());
+  const auto mp4 = dir / "e1_payload_test.mp4";
+  ASSERT_TRUE(std::filesystem::exists(mp4));
+  EXPECT_EQ(report.videos[0].stats.frames, 60);  // 2 s at 30 fps, 1x
+  EXPECT_GT(std::filesystem::file_size(mp4), 10'000u);
+  EXPECT_LT(std::filesystem::file_size(mp4), 5'000'000u);
+
+  // ffprobe: width,height,frames,duration of the video stream.
+  const std::string probe = output_of("ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                                      "stream=width,height,nb_read_frames,avg_frame_rate:format=duration -of "
+                                      "default=noprint_wrappers=1 '" + mp4.string() + "'");
+  EXPECT_NE(probe.find("width=640"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("height=360"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("nb_read_frames=60"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("avg_frame_rate=30/1"), std::string::npos) << probe;
+  const auto d = probe.find("duration=");
+  ASSERT_NE(d, std::string::npos) << probe;
+  EXPECT_NEAR(std::stod(probe.substr(d + 9)), 2.0, 0.05) << probe;
+
+  // A decoded frame at 0.5 s (finger pushing): not blank. The background is uniform; the link,
+  // payload, arrow and overlay text make a spread of colours and a share of pixels off the mode.
+  const std::string raw = output_of("ffmpeg -v error -ss 0.5 -i '" + mp4.string() +
+                                    "' -frames:v 1 -f rawvideo -pix_fmt gray -");
+  ASSERT_EQ(raw.size(), 640u * 360u);
+  std::vector<int> histogram(256, 0);
+  double sum = 0, sum_sq = 0;
+  for (unsigned char c : raw) {
+    ++histogram[c];
+    sum += c;
+    sum_sq += double(c) * c;
+  }
+  const double n = static_cast<double>(raw.size());
+  const double stddev = std::sqrt(sum_sq / n - (sum / n) * (sum / n));
+  const int mode_count = *std::max_element(histogram.begin(), histogram.end());
+  const double off_mode = 1.0 - mode_count / n;
+  const int levels = static_cast<int>(std::count_if(histogram.begin(), histogram.end(), [](int h) { return h > 20; }));
+  RecordProperty("gray_stddev", std::to_string(stddev));
+  RecordProperty("off_background_share", std::to_string(off_mode));
+  EXPECT_GT(stddev, 8.0);
+  EXPECT_GT(off_mode, 0.02);
+  EXPECT_GT(levels, 20);
+  std::printf("clip: %s, %ju bytes, render %.2f s for 2 s, gray std %.1f, %.1f %% off the background, %d levels\n",
+              mp4.c_str(), static_cast<std::uintmax_t>(std::filesystem::file_size(mp4)), report.videos[0].stats.render_s,
+              stddev, 100 * off_mode, levels);
+  std::printf("gl: %s\n", report.gl.c_str());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(VideoClip, RendersInAHiddenWindowOnAnXvfbItStartsWhenThereIsNoDisplay) {
+  const auto dir = fresh_dir("peha_video_xvfb_test");
+  write_log(dir);
+  unsetenv("DISPLAY");  // this test's own process (ctest runs each test alone)
+  sim::ModelPtr model = sim::load_mjcf(rig_model_file());
+  RunVideoOptions options;
+  options.gl = "glfw";
+  options.clip.width = 320;
+  options.clip.height = 180;
+  options.max_seconds = 1.0;
+  const RunVideoReport report = render_run_videos(dir, model.get(), options);
+  ASSERT_EQ(report.videos.size(), 1u);
+  EXPECT_NE(report.gl.find("GLFW hidden window (Xvfb :"), std::string::npos) << report.gl;
+  EXPECT_EQ(report.videos[0].stats.frames, 30);
+  EXPECT_GT(std::filesystem::file_size(dir / "e1_payload_test.mp4"), 1000u);
+  EXPECT_EQ(std::getenv("DISPLAY"), nullptr) << "the Xvfb peha started is stopped and forgotten again";
+  std::filesystem::remove_all(dir);
+}
+
+TEST(VideoClip, AnUnknownLogIsSkippedWithTheReason) {
+  const auto dir = fresh_dir("peha_video_skip_test");
+  std::ofstream(dir / "e1_other.csv") << "t_s,x\n0,1\n0.001,2\n";
+  sim::ModelPtr model = sim::load_mjcf(rig_model_file());
+  const RunVideoReport report = render_run_videos(dir, model.get(), {});
+  EXPECT_TRUE(report.videos.empty());
+  ASSERT_EQ(report.skipped.size(), 1u);
+  EXPECT_NE(report.skipped[0].find("not a log the video knows"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace peha::video
