@@ -86,6 +86,31 @@ struct FitcWorkspace {
   Eigen::ArrayXd r2;
 };
 
+/// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
+/// NLML (non-finite: the caller returns inf), gamma = B^-1 V Lambda^-1 y, and alpha and the
+/// predictive variance matrix when `request` asks for them.
+template <class LowerFactor, class UpperFactor>
+double nlml_and_outputs(const Eigen::LLT<MatrixXd>& llt_b, const VectorXd& beta, const VectorXd& y,
+                        const VectorXd& y_over_lambda, const VectorXd& lambda, const LowerFactor& L, const UpperFactor& Lt,
+                        const FitcRequest& request, VectorXd& gamma) {
+  const Eigen::Index N = y.size(), M = beta.size();
+  const double quad = y.dot(y_over_lambda) - beta.squaredNorm();
+  const double log_det =
+      lambda.array().log().sum() + 2.0 * llt_b.matrixLLT().diagonal().array().log().sum();
+  const double nlml = 0.5 * (log_det + quad + static_cast<double>(N) * std::log(2.0 * std::numbers::pi));
+  if (!std::isfinite(nlml)) return nlml;
+
+  gamma = llt_b.matrixU().solve(beta);  // B^-1 V Lambda^-1 y
+  if (request.alpha != nullptr) *request.alpha = Lt.solve(gamma);
+  if (request.variance_matrix != nullptr) {
+    const MatrixXd L_inv = L.solve(MatrixXd::Identity(M, M));
+    const MatrixXd I_minus_B_inv = MatrixXd::Identity(M, M) - llt_b.solve(MatrixXd::Identity(M, M));
+    MatrixXd var = L_inv.transpose() * I_minus_B_inv * L_inv;
+    *request.variance_matrix = 0.5 * (var + var.transpose());  // symmetric up to round-off
+  }
+  return nlml;
+}
+
 /// The FITC NLML as first written (one thread, S = Z V^T by a full product): the reference the
 /// tests hold fitc_evaluate to (spgp_nlml_reference). Otherwise unchanged.
 /// Returns +inf when K_MM, Lambda or B is not positive definite (numerically).
@@ -139,20 +164,9 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
 
   const VectorXd y_over_lambda = y.cwiseQuotient(lambda);
   const VectorXd beta = llt_b.matrixL().solve(V * y_over_lambda);
-  const double quad = y.dot(y_over_lambda) - beta.squaredNorm();
-  const double log_det =
-      lambda.array().log().sum() + 2.0 * llt_b.matrixLLT().diagonal().array().log().sum();
-  const double nlml = 0.5 * (log_det + quad + static_cast<double>(N) * std::log(2.0 * std::numbers::pi));
+  VectorXd gamma;
+  const double nlml = nlml_and_outputs(llt_b, beta, y, y_over_lambda, lambda, L, Lt, request, gamma);
   if (!std::isfinite(nlml)) return kInf;
-
-  const VectorXd gamma = llt_b.matrixU().solve(beta);  // B^-1 V Lambda^-1 y
-  if (request.alpha != nullptr) *request.alpha = Lt.solve(gamma);
-  if (request.variance_matrix != nullptr) {
-    const MatrixXd L_inv = L.solve(MatrixXd::Identity(M, M));
-    const MatrixXd I_minus_B_inv = MatrixXd::Identity(M, M) - llt_b.solve(MatrixXd::Identity(M, M));
-    MatrixXd var = L_inv.transpose() * I_minus_B_inv * L_inv;
-    *request.variance_matrix = 0.5 * (var + var.transpose());  // symmetric up to round-off
-  }
   if (request.gradient == nullptr) return nlml;
 
   MatrixXd& R = ws.R;  // B^-1 U
@@ -317,20 +331,9 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
 
   const VectorXd Vy = sum_halves(Vy_half);
   const VectorXd beta = llt_b.matrixL().solve(Vy);
-  const double quad = y.dot(y_over_lambda) - beta.squaredNorm();
-  const double log_det =
-      lambda.array().log().sum() + 2.0 * llt_b.matrixLLT().diagonal().array().log().sum();
-  const double nlml = 0.5 * (log_det + quad + static_cast<double>(N) * std::log(2.0 * std::numbers::pi));
+  VectorXd gamma;
+  const double nlml = nlml_and_outputs(llt_b, beta, y, y_over_lambda, lambda, L, Lt, request, gamma);
   if (!std::isfinite(nlml)) return kInf;
-
-  const VectorXd gamma = llt_b.matrixU().solve(beta);  // B^-1 V Lambda^-1 y
-  if (request.alpha != nullptr) *request.alpha = Lt.solve(gamma);
-  if (request.variance_matrix != nullptr) {
-    const MatrixXd L_inv = L.solve(MatrixXd::Identity(M, M));
-    const MatrixXd I_minus_B_inv = MatrixXd::Identity(M, M) - llt_b.solve(MatrixXd::Identity(M, M));
-    MatrixXd var = L_inv.transpose() * I_minus_B_inv * L_inv;
-    *request.variance_matrix = 0.5 * (var + var.transpose());  // symmetric up to round-off
-  }
   if (request.gradient == nullptr) return nlml;
 
   // Per sample: a = C^-1 y, R = B^-1 U, and V a (summed from the halves).
