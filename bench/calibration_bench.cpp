@@ -67,35 +67,30 @@ void report(benchmark::State& state, const calibration::FitResult& r) {
   state.counters["converged"] = r.restarts_converged;
 }
 
-// The paper's calibration: best of 300 random initialisations, on 2 threads.
-void BM_FitTendonSpring300Restarts(benchmark::State& state) {
-  const calibration::FitData& d = data();
+/// Best of 300 random initialisations on 2 threads, solved by `fit`.
+template <typename Fit>
+void fit_300_restarts(benchmark::State& state, Fit fit) {
   calibration::FitOptions o;
   o.restarts = 300;
   o.threads = 2;
   o.seed = 1;
   calibration::FitResult r;
   for (auto _ : state) {
-    r = calibration::fit_tendon_spring(d, o);
+    r = fit(data(), o);
     benchmark::DoNotOptimize(r);
   }
   report(state, r);
+}
+
+// The paper's calibration: best of 300 random initialisations, on 2 threads.
+void BM_FitTendonSpring300Restarts(benchmark::State& state) {
+  fit_300_restarts(state, [](const auto& d, const auto& o) { return calibration::fit_tendon_spring(d, o); });
 }
 BENCHMARK(BM_FitTendonSpring300Restarts)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 
 // The same 300 restarts solved by Ceres' LM (the reference; before/after in one run).
 void BM_FitTendonSpring300RestartsCeres(benchmark::State& state) {
-  const calibration::FitData& d = data();
-  calibration::FitOptions o;
-  o.restarts = 300;
-  o.threads = 2;
-  o.seed = 1;
-  calibration::FitResult r;
-  for (auto _ : state) {
-    r = calibration::detail::fit_tendon_spring_ceres(d, o);
-    benchmark::DoNotOptimize(r);
-  }
-  report(state, r);
+  fit_300_restarts(state, [](const auto& d, const auto& o) { return calibration::detail::fit_tendon_spring_ceres(d, o); });
 }
 BENCHMARK(BM_FitTendonSpring300RestartsCeres)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 

@@ -112,22 +112,9 @@ double nlml_and_outputs(const Eigen::LLT<MatrixXd>& llt_b, const VectorXd& beta,
 }
 
 /// The FITC NLML as first written (one thread, S = Z V^T by a full product): the reference the
-/// tests hold fitc_evaluate to (spgp_nlml_reference). Otherwise unchanged.
-/// Returns +inf when K_MM, Lambda or B is not positive definite (numerically).
-///
-/// Notation (Snelson's spgp_lik, with L L^T = K_MM):
-///   V = L^-1 K_MN,  Lambda_n = c - |V_n|^2 + sigma^2,  U = V Lambda^-1/2,
-///   B = I + U U^T = L^-1 A L^-T with A = K_MM + K_MN Lambda^-1 K_NM,  L_B L_B^T = B,
-///   log|C| = log|B| + sum log Lambda_n,  y^T C^-1 y = y^T Lambda^-1 y - |L_B^-1 V Lambda^-1 y|^2.
-/// B's eigenvalues are >= 1, so its Cholesky is far better conditioned than A's.
-///
-/// Gradient: dNLML = 1/2 tr(W dC) with W = C^-1 - a a^T, a = C^-1 y. Since
-/// dC = dQ - diag(dQ) + diag(dK_NN) + d(sigma^2) I and dQ = dK_NM P + P^T dK_MN - P^T dK_MM P with
-/// P = K_MM^-1 K_MN, everything reduces to G = P (W - diag(W)) (M x N), the coefficient of dK_NM^T,
-/// and H = G P^T (M x M), whose -1/2 multiple is the coefficient of dK_MM. Using
-/// P C^-1 = A^-1 K_MN Lambda^-1:  G = L^-T Z,  Z = B^-1 V Lambda^-1 - (V a) a^T - V diag(w),
-/// w = diag(W) = diag(C^-1) - a^2 with diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n,
-/// H = L^-T (Z V^T) L^-1. Cost: about 7 N M^2 flops, mostly matrix products.
+/// tests hold fitc_evaluate to (spgp_nlml_reference). Otherwise unchanged. Returns +inf when K_MM,
+/// Lambda or B is not positive definite (numerically). Notation and the gradient's derivation: at
+/// fitc_evaluate, which computes the same formulas in another order.
 double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
                      double jitter, const FitcRequest& request, FitcWorkspace& ws) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
