@@ -234,11 +234,11 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
       const auto cmd = models::muscle_pressure(calibrated, force_N, eps, joint.supply_pressure_Pa);
       const double nominal_N = models::forward_force_N(nominal.pam, cmd.pressure_Pa, eps);
       if (!std::isfinite(cmd.pressure_Pa) || !std::isfinite(nominal_N)) reject("a model output is not finite " + at);
-      const double allowed_N = limits.nominal_force_ratio * force_N + limits.nominal_force_margin_N;
-      if (nominal_N > allowed_N) {
+      if (nominal_N > limits.nominal_force_ratio * ceiling_N) {
         reject(fmt::format("for {:.0f} N it commands {:.3f} MPa, at which the configured model of this muscle "
-                           "predicts {:.0f} N, more than {:.1f} x the request + {:.0f} N ({}): is this the calibration of a "
-                           "weaker muscle?", force_N, cmd.pressure_Pa * 1e-6, nominal_N, limits.nominal_force_ratio, limits.nominal_force_margin_N, at));
+                           "predicts {:.0f} N, more than {:.2f} x its {:.0f} N ceiling ({}): is this the calibration of "
+                           "a weaker muscle?", force_N, cmd.pressure_Pa * 1e-6, nominal_N, limits.nominal_force_ratio,
+                           ceiling_N, at));
       }
     }
   }
