@@ -123,8 +123,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.peak_muscle_force_N = envelope.peak_muscle_force_N();
   r.min_wire_tension_N = envelope.min_tension_N();
-  r.verdict.thresholds = scenario.verdict;
-  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, r.verdict);
+  add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
 
   const auto window = static_cast<std::size_t>(std::llround(scenario.observe_s / scenario.period_s));
   for (std::size_t i = 0; i < scenario.postures.size(); ++i) {

@@ -314,8 +314,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.peak_muscle_force_N = envelope.peak_muscle_force_N();
   r.min_wire_tension_N = envelope.min_tension_N();
-  r.verdict.thresholds = scenario.verdict;
-  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, r.verdict);
+  add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
 
   // Tracking from the release to the end: raw error, and the lag that best aligns the two.
   const auto k0 = std::min(static_cast<std::size_t>(std::llround(release_s / period)), done);

@@ -101,8 +101,7 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   }
   const safety::Envelope::Joint& e = envelope.joints[bench];
   r.min_wire_tension_N = e.min_tension_N;
-  r.verdict.thresholds = scenario.verdict;
-  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, r.verdict);
+  add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
   r.within_limits = r.verdict.passed();
   const double threshold = 1.0 / std::sqrt(2.0);
   r.bandwidth_3dB_Hz = r.bode.back().frequency_Hz;

@@ -192,6 +192,12 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
 
 const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario) { return scenario.plant.actuated; }
 
+void add_arm_envelope_checks(const ArmScenario& scenario, const safety::JointModels& joints,
+                             const safety::Envelope& envelope, safety::Verdict& verdict) {
+  verdict.thresholds = scenario.verdict;
+  safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, verdict);
+}
+
 safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::RightArmTruth* truth,
                                      std::size_t joint) noexcept {
   safety::JointSample j;

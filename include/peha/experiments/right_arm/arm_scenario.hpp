@@ -86,5 +86,9 @@ safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Com
 /// The joint set-ups of `model`'s actuated joints, for the limits stage and the envelope (pointers
 /// into `model`, which must outlive their use).
 safety::JointModels arm_joint_models(const control::ArmControllerModel& model) noexcept;
+/// The start of every right-arm experiment's verdict (E3, E4, E6): the scenario's thresholds and the
+/// envelope's checks of the arm's joints (own ceilings, tension floor, supply, motor rating, range).
+void add_arm_envelope_checks(const ArmScenario& scenario, const safety::JointModels& joints,
+                             const safety::Envelope& envelope, safety::Verdict& verdict);
 
 }  // namespace peha::experiments
