@@ -9,6 +9,8 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
 namespace peha::mfb {
 namespace {
 
@@ -16,7 +18,11 @@ using ::testing::HasSubstr;
 
 class LinkKeyFile : public ::testing::Test {
  protected:
-  std::filesystem::path dir_ = std::filesystem::temp_directory_path() / "peha_link_key_test";
+  // One folder per test and process: ctest runs these tests in parallel, and one test's TearDown
+  // must not remove the folder another is writing into.
+  std::filesystem::path dir_ = std::filesystem::temp_directory_path() /
+                               ("peha_link_key_test_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()) +
+                                "_" + std::to_string(::getpid()));
   void SetUp() override { std::filesystem::create_directories(dir_); }
   void TearDown() override { std::filesystem::remove_all(dir_); }
   std::filesystem::path write(const std::string& name, const std::string& text,
