@@ -1,9 +1,11 @@
 #!/usr/bin/python3
 """Bode plot of an E6 run (`peha run --config configs/right_arm.yaml --experiment bandwidth`).
 
-Reads RUN_DIR/bode.csv (variant, frequency_Hz, gain, gain_dB, phase_deg) and writes RUN_DIR/bode.png:
-magnitude (dB) and phase (deg) of delivered / desired joint torque for each variant (PAM-only,
-hybrid), with the -3 dB line and each variant's -3 dB frequency marked. Run with /usr/bin/python3.
+Reads RUN_DIR/bode.csv (variant, frequency_Hz, gain, gain_dB, phase_deg and, when present,
+gain_at_joint_dB, phase_at_joint_deg) and writes RUN_DIR/bode.png: magnitude (dB) and phase (deg) of
+delivered / desired joint torque for each variant (PAM-only, hybrid), solid as the actuator produces
+it (muscle-side tensions + motor), dashed at the joint after the cables; with the -3 dB line and each
+variant's -3 dB frequency marked. Run with /usr/bin/python3.
 """
 import argparse
 import csv
@@ -39,8 +41,13 @@ def main():
         g = np.array([float(x["gain_dB"]) for x in r])
         ph = np.array([float(x["phase_deg"]) for x in r])
         label = "PAM only" if variant == "pam_only" else "hybrid (PAMs + motor)"
-        ax_m.semilogx(f, g, "o-", color=colour, label=label)
-        ax_p.semilogx(f, ph, "o-", color=colour, label=label)
+        ax_m.semilogx(f, g, "o-", color=colour, label=label + ", actuator")
+        ax_p.semilogx(f, ph, "o-", color=colour, label=label + ", actuator")
+        if "gain_at_joint_dB" in r[0]:
+            gj = np.array([max(float(x["gain_at_joint_dB"]), -60.0) for x in r])  # -inf at zero gain
+            pj = np.array([float(x["phase_at_joint_deg"]) for x in r])
+            ax_m.semilogx(f, gj, "s--", color=colour, alpha=0.7, label=label + ", at the joint after the cables")
+            ax_p.semilogx(f, pj, "s--", color=colour, alpha=0.7, label=label + ", at the joint after the cables")
         lin = np.array([float(x["gain"]) for x in r])
         threshold = 1.0 / np.sqrt(2.0)
         below = np.flatnonzero(lin < threshold)

@@ -115,6 +115,7 @@ PehaJointPlant::PehaJointPlant(const PehaJointPlantParams& params, double timest
     const int i = mu.side > 0 ? 0 : 1;
     // At rest the friction is static: the lowest tension along the wire is T*exp(-mu_s*psi).
     truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-p.cable.static_friction * p.cable.wrap_angle_rad);
+    truth_.joint_side_tension_N[i] = mu.tension_N;  // settled: no friction stored in the wire yet
     truth_.muscle_force_N[i] = mu.tension_N;
     truth_.pressure_Pa[i] = mu.valve.pressure_Pa();
     truth_.muscle_contraction[i] = mu.contraction;
@@ -190,6 +191,7 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
     friction_Nm += r0 * (weight * toward + (1.0 - weight) * away);
     const int i = mu.side > 0 ? 0 : 1;
     truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-x);
+    truth_.joint_side_tension_N[i] = std::clamp(truth_.joint_side_tension_N[i], mu.tension_N * std::exp(-x), mu.tension_N * std::exp(x));
     truth_.muscle_force_N[i] = mu.tension_N;
     truth_.pressure_Pa[i] = mu.valve.pressure_Pa();
     truth_.muscle_contraction[i] = mu.contraction;
@@ -200,6 +202,7 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
                                          : 0.0;
   truth_.motor_torque_Nm = motor;
   truth_.cable_friction_Nm = friction_Nm;
+  truth_.joint_torque_after_cable_Nm = r0 * (truth_.joint_side_tension_N[0] - truth_.joint_side_tension_N[1]) + motor;
   return {r0 * (muscles_[0].tension_N - muscles_[1].tension_N) + motor, friction_Nm};
 }
 

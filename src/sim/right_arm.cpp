@@ -65,6 +65,9 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
   truth_.q_rad.resize(static_cast<std::size_t>(m->nq));
   truth_.qd_radps.resize(static_cast<std::size_t>(m->nv));
   truth_.operator_torque_Nm.assign(params_.actuated.size(), 0.0);
+  truth_.actuator_torque_Nm.assign(params_.actuated.size(), 0.0);
+  truth_.constraint_torque_Nm.assign(params_.actuated.size(), 0.0);
+  truth_.bias_torque_Nm.assign(params_.actuated.size(), 0.0);
   truth_.actuators.resize(params_.actuated.size());
   info_.name = "sim:right_arm";
   info_.period_s = params_.control_period_s;
@@ -99,6 +102,7 @@ void RightArmBackend::substep(const io::Command& command) noexcept {
     m->dof_frictionloss[dof] = base_frictionloss_[a] + f.friction_bound_Nm;
     m->dof_damping[dof] = base_damping_[a];
     d->qfrc_applied[dof] += f.torque_Nm;
+    truth_.actuator_torque_Nm[a] = f.torque_Nm;
     double hands = 0.0;
     if (move >= 0) {
       const OperatorMove& mv = params_.operator_hands.moves[static_cast<std::size_t>(move)];
@@ -125,6 +129,9 @@ void RightArmBackend::sample() noexcept {
   for (int i = 0; i < m->nv; ++i) truth_.qd_radps[static_cast<std::size_t>(i)] = d->qvel[i];
   for (std::size_t a = 0; a < joints_.size(); ++a) {
     truth_.actuators[a] = joints_[a].truth();
+    const int dof = dof_[a];
+    truth_.constraint_torque_Nm[a] = d->qfrc_constraint[dof];
+    truth_.bias_torque_Nm[a] = d->qfrc_bias[dof];
     io::JointSensors& s = state_.joints[a];
     const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
     s.angle_rad = encoder_angle_rad(angle, params_.encoder_counts_per_rev);

@@ -18,14 +18,19 @@ ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEH
 
 // E3 on the simulated right arm (the paper's claim): released in each posture, including (0, 0) where
 // the shoulder carries the most, the arm stays - under 0.5 deg in the 10 s after release at both
-// joints, with feed-forward J^T G only. Every figure of the verdict holds but one: the wrist, held at a
-// constant 0.25 MPa (no allocation keeps its wires taut), lets its wire drop to ~15 N, below the
-// floor of 0.5 x the 40 N pretension; the verdict reports it (docs/right-arm.md).
+// joints, with feed-forward J^T G only. The verdict fails two kinds of figure, both real: the wrist,
+// held at a constant 0.25 MPa (no allocation keeps its wires taut), lets its wire drop to ~15 N, below
+// the floor of 0.5 x the 40 N pretension; and the static torque error, because the shipped plant is
+// 8-12 % heavier than the controller's model and the cable friction holds the difference
+// (docs/right-arm.md).
 TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   const ArmScenario s = shipped();
   const PosturesResult r = run_postures(s, nullptr);
   ASSERT_EQ(r.postures.size(), s.postures.size());
-  for (const std::string& f : testing::failed_figures(r.verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << r.verdict.failures();
+  for (const std::string& f : testing::failed_figures(r.verdict)) {
+    if (f.ends_with("|static torque error|")) continue;
+    EXPECT_EQ(f, "R_WFE lowest wire tension") << r.verdict.failures();
+  }
   EXPECT_TRUE(testing::judges(r.verdict, "raised_flexed R_SFE |drift|"));
   EXPECT_TRUE(testing::judges(r.verdict, "elbow_90 R_EFE distance to a stop"));
   EXPECT_LE(r.peak_muscle_force_N, 2000.0);
@@ -37,6 +42,36 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
     EXPECT_NEAR(p.released_deg[0], p.target_deg[0], 5.0) << p.name;
     EXPECT_NEAR(p.released_deg[1], p.target_deg[1], 5.0) << p.name;
   }
+}
+
+// The static torque error at rest is what the friction holds (plant truth): on the shipped arm it is the
+// controller's gravity model error (the plant's bodies are 8-12 % heavier), posture by posture, and it
+// fails the 5 % threshold at the elbow; a controller given the plant's own bodies passes it everywhere
+// (what is left: the pulleys' 1 % and the allocation's rounding).
+TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
+  ArmScenario s = shipped();
+  const PosturesResult nominal = run_postures(s, nullptr);
+  int judged = 0;
+  for (const PostureResult& p : nominal.postures) {
+    for (int j = 0; j < 2; ++j) {
+      if (std::abs(p.gravity_torque_Nm[j]) < s.verdict.min_gravity_torque_Nm) continue;
+      ++judged;
+      EXPECT_NEAR(p.static_torque_error_pct[j], p.model_gravity_error_pct[j], 1.5) << p.name << " joint " << j;
+      EXPECT_LT(p.static_torque_error_pct[j], -5.0) << p.name << " joint " << j;  // the plant is heavier
+    }
+  }
+  EXPECT_GE(judged, 8);
+  EXPECT_TRUE(testing::fails_on(nominal.verdict, "elbow_90 R_EFE |static torque error|")) << nominal.verdict.failures();
+
+  s.controller.arm = s.plant.model;  // the controller told the truth about the bodies
+  const PosturesResult told = run_postures(s, nullptr);
+  for (const PostureResult& p : told.postures) {
+    for (int j = 0; j < 2; ++j) {
+      if (std::abs(p.gravity_torque_Nm[j]) < s.verdict.min_gravity_torque_Nm) continue;
+      EXPECT_LT(std::abs(p.static_torque_error_pct[j]), 3.0) << p.name << " joint " << j;
+    }
+  }
+  for (const std::string& f : testing::failed_figures(told.verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << told.verdict.failures();
 }
 
 // The review's case: an unknown 1 kg in the hand (the controller is not told) and no position
@@ -118,6 +153,32 @@ TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
     EXPECT_LE(r->peak_motor_torque_Nm, 2.5);
   }
   EXPECT_EQ(pam.peak_motor_torque_Nm, 0.0);  // PAM-only really has no motor
+}
+
+// E6 measured after the cable (at the joint): the wires' stick band (capstan static friction, about
+// e^+-0.25 of the tension on the elbow) swallows the muscles' small 2 Nm sine on a locked joint, so
+// below 1 Hz neither variant delivers it there; what passes at high frequency is the hybrid's motor.
+// With no cable friction in the plant the torque after the cable is the muscle-side torque.
+TEST(E6, TorqueAfterTheCableLosesWhatTheCablesStictionHolds) {
+  ArmScenario s = shipped();
+  s.bandwidth.frequencies_Hz = {0.2, 1.0, 30.0};
+  const BandwidthResult pam = run_bandwidth(s, /*hybrid=*/false);
+  const BandwidthResult hybrid = run_bandwidth(s, /*hybrid=*/true);
+  ASSERT_EQ(pam.bode_at_joint.size(), 3u);
+  EXPECT_LT(pam.bode_at_joint[0].gain, 0.2);
+  EXPECT_LT(hybrid.bode_at_joint[0].gain, 0.2);
+  EXPECT_NEAR(hybrid.bode_at_joint[2].gain, 1.0, 0.15);  // the motor, at the joint
+  EXPECT_LT(pam.bode_at_joint[2].gain, 0.1);
+  EXPECT_FALSE(pam.reached_3dB_at_joint);
+  EXPECT_DOUBLE_EQ(pam.bandwidth_3dB_at_joint_Hz, 0.2);  // "< 0.2 Hz"
+
+  for (sim::MusclePlantParams* m : {&s.plant.actuators[1].agonist, &s.plant.actuators[1].antagonist}) {
+    m->cable.static_friction = m->cable.kinetic_friction = 0.0;
+  }
+  const BandwidthResult frictionless = run_bandwidth(s, /*hybrid=*/false);
+  for (std::size_t i = 0; i < frictionless.bode.size(); ++i) {
+    EXPECT_NEAR(frictionless.bode_at_joint[i].gain, frictionless.bode[i].gain, 1e-6) << frictionless.bode[i].frequency_Hz << " Hz";
+  }
 }
 
 // E6's verdict is the envelope with each muscle's own ceiling from the configuration (it used a

@@ -74,11 +74,18 @@ PehaJointPlantParams read_peha_joint_plant(config::Map& map, double supply_press
 struct PehaJointTruth {
   double muscle_force_N[2] = {0, 0};        ///< muscle-side wire tension = muscle force (agonist, antagonist)
   double pulley_tension_min_N[2] = {0, 0};  ///< lowest tension anywhere along each wire
+  /// Tension where each wire leaves its housing at the joint's pulley: the capstan's stick band
+  /// T e^-x <= T_joint <= T e^x (x = mu psi) with memory - while the wire does not slip the joint end
+  /// keeps its tension, and when the muscle's tension leaves the band the wire slips and the joint end
+  /// follows the band's edge. What a torque sensor behind the pulley would see of the muscles.
+  double joint_side_tension_N[2] = {0, 0};
   double pressure_Pa[2] = {0, 0};
   double muscle_contraction[2] = {0, 0};
   double creep_m[2] = {0, 0};
   double motor_torque_Nm = 0;
   double cable_friction_Nm = 0;             ///< friction bound the cables put on the joint now
+  /// r (T_joint agonist - T_joint antagonist) + motor: the torque at the joint after the cables.
+  double joint_torque_after_cable_Nm = 0;
 };
 
 class PehaJointPlant {

@@ -25,7 +25,8 @@ const std::vector<std::string>& arm_log_columns() {
     for (const char* j : {"sfe", "efe", "wfe"}) {
       for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
                             "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
-                            "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N"}) {
+                            "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_gravity_Nm",
+                            "plant_constraint_Nm"}) {
         c.push_back(fmt::format("{}_{}", j, f));
       }
     }
@@ -78,6 +79,10 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   PosturesResult r;
   const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
   std::vector<double> sfe(steps + 1), efe(steps + 1);
+  // Plant truth per cycle (SFE, EFE): the constraint torque (friction, stops) and the gravity torque.
+  std::vector<double> held[2] = {std::vector<double>(steps + 1, nan), std::vector<double>(steps + 1, nan)};
+  std::vector<double> gravity[2] = {std::vector<double>(steps + 1, nan), std::vector<double>(steps + 1, nan)};
+  std::vector<double> model_gravity[2] = {std::vector<double>(steps + 1, nan), std::vector<double>(steps + 1, nan)};
   io::SensorState state;
   io::Command command;
   std::vector<double> row(arm_log_columns().size());
@@ -94,6 +99,13 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       operator_active = truth->operator_active;
     } else {
       for (const auto& m : script.operator_hands.moves) operator_active |= state.time_s >= m.start_s && state.time_s < m.start_s + m.duration_s;
+    }
+    if (truth) {
+      for (std::size_t j = 0; j < 2; ++j) {
+        held[j][k] = truth->constraint_torque_Nm[j];
+        gravity[j][k] = truth->bias_torque_Nm[j];
+        model_gravity[j][k] = controller.diagnostics()[j].torque_gravity_Nm;
+      }
     }
     sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
     efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
@@ -112,7 +124,8 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
                                  sent.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
                                  sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
                                  state.joints[a].agonist_loadcell_N, state.joints[a].antagonist_loadcell_N, j ? j->muscle_force_N[0] : nan,
-                                 j ? j->muscle_force_N[1] : nan};
+                                 j ? j->muscle_force_N[1] : nan, truth ? truth->bias_torque_Nm[a] : nan,
+                                 truth ? truth->constraint_torque_Nm[a] : nan};
         for (double v : values) row[col++] = v;
       }
       log->push_row(row);
@@ -145,6 +158,23 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       p.stop_distance_deg[j] = stop.closest_deg;
       const std::string joint = arm_joint_names(scenario)[static_cast<std::size_t>(j)];
       add_release_checks(p.name + " " + joint, p.drift_deg[j], p.max_excursion_deg[j], stop, scenario.verdict, r.verdict);
+      // Static torque error at rest (truth): what the friction and stops hold over the window's last
+      // second; the controller's torque error is its negative (M qdd = tau + constraint - bias).
+      const auto span = std::min(k1 - k0, static_cast<std::size_t>(std::llround(1.0 / scenario.period_s)));
+      double held_sum = 0, gravity_sum = 0, model_sum = 0;
+      for (std::size_t k = k1 - span; k <= k1; ++k) {
+        held_sum += held[j][k];
+        gravity_sum += gravity[j][k];
+        model_sum += model_gravity[j][k];
+      }
+      const double n = static_cast<double>(span + 1);
+      p.gravity_torque_Nm[j] = gravity_sum / n;
+      p.static_torque_error_pct[j] = 100.0 * (-held_sum / n) / std::abs(p.gravity_torque_Nm[j]);
+      p.model_gravity_error_pct[j] = 100.0 * (model_sum - gravity_sum) / n / std::abs(p.gravity_torque_Nm[j]);
+      if (sim && std::abs(p.gravity_torque_Nm[j]) >= scenario.verdict.min_gravity_torque_Nm) {
+        r.verdict.at_most(p.name + " " + joint + " |static torque error|", "% of gravity", std::abs(p.static_torque_error_pct[j]),
+                          scenario.verdict.max_static_torque_error_pct);
+      }
     }
     r.postures.push_back(p);
   }

@@ -13,23 +13,28 @@ void write_postures_summary(const std::filesystem::path& path, const PosturesRes
   std::ofstream summary(path);
   summary << "posture,target_sfe_deg,target_efe_deg,released_sfe_deg,released_efe_deg,drift_sfe_deg,drift_efe_deg,"
              "max_excursion_sfe_deg,max_excursion_efe_deg,stop_distance_sfe_deg,stop_distance_efe_deg,max_drift_deg,"
-             "stop_margin_deg,min_wire_tension_N,min_wire_tension_limit_N,within_limits\n";
+             "stop_margin_deg,static_torque_error_sfe_pct,static_torque_error_efe_pct,gravity_torque_sfe_Nm,gravity_torque_efe_Nm,"
+             "model_gravity_error_sfe_pct,model_gravity_error_efe_pct,max_static_torque_error_pct,min_wire_tension_N,min_wire_tension_limit_N,within_limits\n";
   const safety::VerdictThresholds& t = r.verdict.thresholds;
   double tension_limit = 0;
   for (const auto& c : r.verdict.checks) {
     if (c.figure.ends_with("lowest wire tension")) tension_limit = std::max(tension_limit, c.limit);
   }
-  fmt::print("\n{:<15} {:>15} {:>17} {:>19} {:>19}\n", "posture", "target SFE/EFE", "released SFE/EFE",
-             fmt::format("drift {:.0f} s SFE/EFE", observe_s), "max excursion");
+  fmt::print("\n{:<15} {:>15} {:>17} {:>19} {:>19} {:>21} {:>15}\n", "posture", "target SFE/EFE", "released SFE/EFE",
+             fmt::format("drift {:.0f} s SFE/EFE", observe_s), "max excursion", "static error SFE/EFE", "model G error");
   for (const auto& p : r.postures) {
-    fmt::print("{:<15} {:>7.1f} {:>7.1f} {:>8.2f} {:>8.2f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f}   deg\n", p.name, p.target_deg[0],
-               p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1], p.max_excursion_deg[0],
-               p.max_excursion_deg[1]);
-    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:.3f},{:.3g},{:.3g},{:.2f},{:.2f},{}\n",
+    fmt::print("{:<15} {:>7.1f} {:>7.1f} {:>8.2f} {:>8.2f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} deg {:>7.1f} {:>7.1f} {:>7.1f} {:>7.1f} % of gravity\n",
+               p.name, p.target_deg[0], p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1],
+               p.max_excursion_deg[0], p.max_excursion_deg[1], p.static_torque_error_pct[0], p.static_torque_error_pct[1],
+               p.model_gravity_error_pct[0], p.model_gravity_error_pct[1]);
+    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:.3f},{:.3g},{:.3g},{:.2f},{:.2f},{:.3f},{:.3f},"
+                           "{:.2f},{:.2f},{:.3g},{:.2f},{:.2f},{}\n",
                            p.name, p.target_deg[0], p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0],
                            p.drift_deg[1], p.max_excursion_deg[0], p.max_excursion_deg[1], p.stop_distance_deg[0],
-                           p.stop_distance_deg[1], t.max_drift_deg, t.stop_margin_deg, r.min_wire_tension_N, tension_limit,
-                           r.within_limits ? 1 : 0);
+                           p.stop_distance_deg[1], t.max_drift_deg, t.stop_margin_deg, p.static_torque_error_pct[0],
+                           p.static_torque_error_pct[1], p.gravity_torque_Nm[0], p.gravity_torque_Nm[1], p.model_gravity_error_pct[0],
+                           p.model_gravity_error_pct[1], t.max_static_torque_error_pct,
+                           r.min_wire_tension_N, tension_limit, r.within_limits ? 1 : 0);
   }
 }
 

@@ -11,11 +11,28 @@
 #include <complex>
 #include <limits>
 #include <numbers>
+#include <tuple>
+#include <utility>
 
 namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
+
+/// Where the gain first falls below 1/sqrt(2), log-interpolated; the highest frequency if it never
+/// does, the lowest if it is below already there (both with reached = false).
+std::pair<double, bool> bandwidth_3dB_Hz(const std::vector<BodePoint>& bode) {
+  const double threshold = 1.0 / std::sqrt(2.0);
+  if (bode.front().gain < threshold) return {bode.front().frequency_Hz, false};
+  for (std::size_t i = 1; i < bode.size(); ++i) {
+    if (bode[i].gain < threshold && bode[i - 1].gain >= threshold) {
+      const double l0 = std::log(bode[i - 1].frequency_Hz), l1 = std::log(bode[i].frequency_Hz);
+      const double w = (bode[i - 1].gain - threshold) / (bode[i - 1].gain - bode[i].gain);
+      return {std::exp(l0 + w * (l1 - l0)), true};
+    }
+  }
+  return {bode.back().frequency_Hz, false};
+}
 
 }  // namespace
 
@@ -49,7 +66,7 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   struct Segment {
     double frequency_Hz;
     std::size_t start, total, n_cycle;
-    std::complex<double> U = 0, Y = 0;
+    std::complex<double> U = 0, Y = 0, Y_joint = 0;
   };
   const auto settle = static_cast<std::size_t>(2.0 / scenario.period_s);
   std::vector<Segment> segments;
@@ -88,32 +105,28 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
     if (k < settle) return;
     Segment& sg = segments[segment];
     const double y = r0 * (j.muscle_force_N[0] - j.muscle_force_N[1]) + j.motor_torque_Nm - bias;  // delivered, Nm
+    // After the cable: the wires' joint-side tensions (capstan stick band with memory) + motor.
+    const double y_joint = j.joint_torque_after_cable_Nm - bias;
     if (k >= sg.start + sg.n_cycle) {  // whole cycles after the first (transient)
       const std::complex<double> e = std::polar(1.0, -phase);
       sg.U += u * e;
       sg.Y += y * e;
+      sg.Y_joint += y_joint * e;
     }
   };
   runtime::run_cycles(limited, {}, end - 1, state, command, step, hold, observe);
   for (const Segment& sg : segments) {
     const std::complex<double> H = sg.Y / sg.U;
     r.bode.push_back({sg.frequency_Hz, std::abs(H), std::arg(H) * 180.0 / std::numbers::pi});
+    const std::complex<double> H_joint = sg.Y_joint / sg.U;
+    r.bode_at_joint.push_back({sg.frequency_Hz, std::abs(H_joint), std::arg(H_joint) * 180.0 / std::numbers::pi});
   }
   const safety::Envelope::Joint& e = envelope.joints[bench];
   r.min_wire_tension_N = e.min_tension_N;
   add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
   r.within_limits = r.verdict.passed();
-  const double threshold = 1.0 / std::sqrt(2.0);
-  r.bandwidth_3dB_Hz = r.bode.back().frequency_Hz;
-  for (std::size_t i = 1; i < r.bode.size(); ++i) {
-    if (r.bode[i].gain < threshold && r.bode[i - 1].gain >= threshold) {
-      const double l0 = std::log(r.bode[i - 1].frequency_Hz), l1 = std::log(r.bode[i].frequency_Hz);
-      const double w = (r.bode[i - 1].gain - threshold) / (r.bode[i - 1].gain - r.bode[i].gain);
-      r.bandwidth_3dB_Hz = std::exp(l0 + w * (l1 - l0));
-      r.reached_3dB = true;
-      break;
-    }
-  }
+  std::tie(r.bandwidth_3dB_Hz, r.reached_3dB) = bandwidth_3dB_Hz(r.bode);
+  std::tie(r.bandwidth_3dB_at_joint_Hz, r.reached_3dB_at_joint) = bandwidth_3dB_Hz(r.bode_at_joint);
   return r;
 }
 

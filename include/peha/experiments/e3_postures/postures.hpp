@@ -19,6 +19,13 @@ struct PostureResult {
   double drift_deg[2] = {0, 0};       ///< angle observe_s after release minus at release
   double max_excursion_deg[2] = {0, 0};
   double stop_distance_deg[2] = {0, 0};  ///< closest to either end of the joint's range after release
+  /// In simulation (plant truth): the torque the friction and stops hold at rest, averaged over the
+  /// last second of the window, as % of the gravity torque the joint carries there (NaN without truth).
+  double static_torque_error_pct[2] = {0, 0};
+  double gravity_torque_Nm[2] = {0, 0};
+  /// The controller's gravity torque (its J^T G) minus the plant's, as % of the plant's, over the same
+  /// second: the part of the static error no feed-forward can remove (NaN without truth).
+  double model_gravity_error_pct[2] = {0, 0};
 };
 
 struct PosturesResult {

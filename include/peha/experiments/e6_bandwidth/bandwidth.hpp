@@ -19,10 +19,20 @@ struct BodePoint {
 
 struct BandwidthResult {
   std::string variant;                 ///< "pam_only" or "hybrid"
+  /// Delivered = the actuator's torque as the muscles and motor produce it: muscle-side wire
+  /// tensions x pulley radius + motor (what load cells at the muscles and the motor current tell).
   std::vector<BodePoint> bode;
   double bandwidth_3dB_Hz = 0;         ///< where the gain first falls below 1/sqrt(2) (log-interpolated);
-                                       ///< the highest frequency tested if it never does
+                                       ///< the highest frequency tested if it never does, the lowest if
+                                       ///< the gain is below it already there (reached_3dB false both times)
   bool reached_3dB = false;
+  /// Delivered at the joint, after the cable: the wires' tensions where they leave the housing at the
+  /// pulley (the capstan's stick band with memory, sim::PehaJointTruth) x pulley radius + motor - what
+  /// a torque sensor between the joint and the lock reads. Below the first frequency's gain of
+  /// 1/sqrt(2) the bandwidth is reported as that frequency with reached = false ("< f").
+  std::vector<BodePoint> bode_at_joint;
+  double bandwidth_3dB_at_joint_Hz = 0;
+  bool reached_3dB_at_joint = false;
   double peak_muscle_force_N = 0;
   double min_wire_tension_N = 0;
   double peak_motor_torque_Nm = 0;

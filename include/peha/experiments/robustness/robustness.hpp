@@ -13,6 +13,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -75,12 +76,15 @@ struct RobustnessRow {
   std::uint64_t seed = 1;
   double static_error_pct = 0;   ///< worst |static torque error| over the releases, % of gravity (NaN: not measured)
   double breakaway_error_pct = 0;///< E1: the hardware estimate from the breakaway probes (NaN: none)
+  /// E3: worst |controller's gravity torque - plant's| at rest, % of the plant's (truth): the static
+  /// error no feed-forward can remove (NaN: not measured)
+  double model_gravity_error_pct = std::numeric_limits<double>::quiet_NaN();
   double drift_deg = 0;          ///< worst |drift| over the releases (and joints)
   double min_tension_N = 0;
   double tension_fraction = 0;   ///< min_tension_N / the joint's pretension (worst joint)
   bool verdict = false;          ///< the experiment's verdict
   bool goal = false;             ///< the goal of this mode (static error and tension)
-  bool physics_forbids = false;  ///< the variant changes gravity the controller is not told about
+  bool physics_forbids = false;  ///< plant gravity the controller is not told about (the variant's, or a model error above the goal)
   std::string failures;          ///< the verdict's failed figures, "; "-separated
   double seconds = 0;            ///< wall time of the case
 };
