@@ -99,6 +99,7 @@ AllocationParams read_allocation(config::Map map, double& pretension_N) {
     l.tare_s = c.number_or("tare_s", l.tare_s, {0.0, 10.0});
     l.vent_s = c.number_or("vent_s", l.vent_s, {0.0, 10.0});
     l.max_tare_N = c.number_or("max_tare_N", l.max_tare_N, {0.0, 2000.0});
+    l.refill_s = c.number_or("refill_s", l.refill_s, {0.0, 10.0});
     c.finish();
   }
   map.finish();

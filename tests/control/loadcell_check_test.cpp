@@ -61,11 +61,13 @@ INSTANTIATE_TEST_SUITE_P(
       return name;
     });
 
-// Without the tare an antagonist load cell reading 60 N high makes the trim take its wire nearly
-// slack (the reading is what the trim drives to the pretension): the tare is what fixes an offset.
+// Without the tare (the shipped scenario tares; tare_s: 0 switches it off) an antagonist load cell
+// reading 60 N high makes the trim take its wire nearly slack (the reading is what the trim drives to
+// the pretension): the tare is what fixes an offset.
 TEST(LoadcellCheck, UntaredAntagonistBiasSlackensItsWire) {
   experiments::E1Scenario s = testing::e1_scenario();
   apply(s, {"antagonist_plus60N", 1, 60.0, 1.0});
+  s.controller.allocation.loadcell_check.tare_s = 0.0;
   const testing::E1Figures f = testing::run_e1_figures(s, s.cases.front());
   std::cout << "antagonist +60 N, no tare, " << s.cases.front().name << ": " << testing::describe(f) << "\n";
   EXPECT_LT(f.min_tension_after_start_N, 0.5 * kPretension_N);

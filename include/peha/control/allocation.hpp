@@ -47,6 +47,9 @@ struct LoadcellCheck {
   double tare_s = 0.0;
   double vent_s = 0.4;
   double max_tare_N = 200.0;
+  /// After the tare the muscles fill again from vented: the wires are taut to the pretension floor
+  /// about this long after compensation starts (what the experiments' tension figure allows for).
+  double refill_s = 0.8;
 };
 
 struct AllocationParams {

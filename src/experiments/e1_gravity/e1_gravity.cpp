@@ -207,6 +207,9 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   }
   io::SensorState state;
   io::Command command;
+  const control::LoadcellCheck& check = model.allocation.loadcell_check;
+  const bool tare_runs = check.tare_s > 0.0;
+  double compensating_since_s = -1.0;
   double tracking_sum[2] = {0, 0};
   std::size_t tracking_count = 0;
   std::array<double, 25> row{};
@@ -234,6 +237,17 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
       j = {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),
            {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, cmd.motor_torque_Nm, s.angle_rad};
     }
+    // The start-up tare vents both muscles on purpose (the hand holds the link): the wires are slack
+    // until the tare is done and the muscles have filled again (refill_s). Their tension is not judged
+    // then; every other figure is.
+    const control::OneDofDiagnostics& startup = controller.diagnostics();
+    if (startup.phase == control::StartupPhase::kCompensating && compensating_since_s < 0) compensating_since_s = state.time_s;
+    if (tare_runs && (compensating_since_s < 0 || state.time_s < compensating_since_s + check.refill_s)) {
+      j.min_tension_N = std::numeric_limits<double>::infinity();
+      r.tare_slack_s = state.time_s;
+    }
+    r.loadcell_tare_N[0] = startup.loadcell_offset_N[0];
+    r.loadcell_tare_N[1] = startup.loadcell_offset_N[1];
     envelope.observe(0, j);
     if (state.time_s >= 1.0) {  // after the start-up transient
       const auto& a = controller.diagnostics().allocation;

@@ -109,6 +109,11 @@ bool print_e1_table(const std::vector<E1Result>& results) {
       fmt::print("{:<26} breakaway: the link did not break away in one of the probes (up {:.1f} N, down {:.1f} N)\n", "",
                  r.breakaway.force_up_N, r.breakaway.force_down_N);
     }
+    if (r.tare_slack_s > 0) {
+      fmt::print("{:<26} start-up tare: load-cell offsets {:+.1f} N (agonist), {:+.1f} N (antagonist) subtracted; wires slack on purpose "
+                 "(vented, the hand holds the link) until {:.2f} s, their tension judged from then on\n",
+                 "", r.loadcell_tare_N[0], r.loadcell_tare_N[1], r.tare_slack_s);
+    }
     fmt::print("{:<26} safety: peak agonist force {:.0f} N (limit {:.0f}), peak antagonist force {:.0f} N (limit {:.0f}), "
                "min wire tension {:.2f} N (>= {:.1f}), max pressure {:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",
                "", r.peak_muscle_force_N[0], limit_of("joint agonist peak force"), r.peak_muscle_force_N[1],

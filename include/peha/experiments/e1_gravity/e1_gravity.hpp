@@ -110,6 +110,11 @@ struct E1Result {
   bool from_truth = true;
   std::uint64_t missed_samples = 0;     ///< cycles the backend had no new sample (command held)
   std::uint64_t limit_counts[5] = {0, 0, 0, 0, 0};  ///< by safety::LimitFlag bit
+  /// Start-up tare (loadcell_check.tare_s > 0): the offsets subtracted from the load cells
+  /// (agonist, antagonist), and until when the wires were slack on purpose (vent, tare, refill;
+  /// their tension is not judged before this instant). 0 without a tare.
+  double loadcell_tare_N[2] = {0, 0};
+  double tare_slack_s = 0;
 };
 
 /// Column names of the per-cycle log.
