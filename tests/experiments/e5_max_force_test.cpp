@@ -49,9 +49,9 @@ TEST(E5, TheForceCeilingStopsTheRampAndTheForceHolds) {
 TEST(E5, AModelWeakerThanTheMuscleFailsTheVerdict) {
   E5Scenario s = fast_scenario();
   auto& pam = s.joint.agonist.pam;
-  pam.a *= 0.75;
-  pam.b *= 0.75;
-  pam.c *= 0.75;
+  pam.a_N_per_Pa *= 0.75;
+  pam.b_N_per_Pa *= 0.75;
+  pam.c_N_per_Pa *= 0.75;
   const E5Result r = run_e5_case(s, s.cases.front(), nullptr);
   EXPECT_FALSE(r.passed);
   EXPECT_GT(r.peak_force_N, 2050.0);
@@ -68,9 +68,9 @@ TEST(E5, AModelWeakerThanTheMuscleFailsTheVerdict) {
 TEST(E5, ARampStoppedByTheSupplyInsteadOfTheCeilingFails) {
   E5Scenario s = fast_scenario();
   auto& pam = s.joint.agonist.pam;
-  pam.a *= 0.3;
-  pam.b *= 0.3;
-  pam.c *= 0.3;
+  pam.a_N_per_Pa *= 0.3;
+  pam.b_N_per_Pa *= 0.3;
+  pam.c_N_per_Pa *= 0.3;
   const E5Result r = run_e5_case(s, s.cases.front(), nullptr);
   EXPECT_FALSE(r.passed);
   EXPECT_EQ(r.stop, E5Stop::kSupply);
