@@ -31,12 +31,12 @@ Command add_run(CLI::App& app) {
       "run", "Run a scenario (an experiment described in a YAML config) on the simulated exoskeleton.\n"
              "Writes <out>/<run>/: one per-cycle CSV log per case (time first, units in column names),\n"
              "config.yaml (the config it ran with), summary.csv and plot.png; prints a summary table.\n"
-             "The scenario's experiment: key picks the experiment (gravity_compensation_1dof = E1; right_arm =\n"
-             "E3, E4 or E6 by --experiment); an option that experiment does not take is an error, never ignored.\n"
+             "The scenario's experiment: key picks the experiment (gravity_compensation_1dof = E1; max_force_ramp =\n"
+             "E5; right_arm = E3, E4 or E6 by --experiment); an option that experiment does not take is an error, never ignored.\n"
              "Exit code 0 = ran and every figure of the verdict held, 2 = bad config or an option the experiment\n"
              "does not take (nothing written), 3 = a figure failed (drift, excursion or a run to a stop after a\n"
              "release, E1's static torque error, a muscle's force ceiling, the wire-tension floor, pressure, motor,\n"
-             "range, E4's tracking; thresholds in the scenario's verdict: section).");
+             "range, E4's tracking, E5's overshoot, time to hold and time at the force ceiling; thresholds in the scenario's verdict: section).");
   run_cmd->add_option("-c,--config", run.config, "Scenario YAML, e.g. configs/e1_one_dof.yaml")
       ->required()->check(CLI::ExistingFile);
   run_cmd->add_option("-o,--out", run.out_root, "Directory under which the run directory is created")
@@ -45,7 +45,7 @@ Command add_run(CLI::App& app) {
       ->check(peha::app::run_name());
   run_cmd->add_option("--case", run.only_case,
                       "Run only the case with this name (default: all cases): E1 a payload case,\n"
-                      "E4 (--experiment goniometer) a movement");
+                      "E5 a clamp angle, E4 (--experiment goniometer) a movement");
   s->seed_opt = run_cmd->add_option("--seed", s->seed, "Override the scenario's random seed (sensor noise)")->check(peha::app::unsigned_integer());
   run_cmd->add_flag("!--no-plot", run.plot, "Do not render plot.png (no Python needed)");
   run_cmd->add_flag("--video", run.video, "Also write an MP4 per case beside its CSV (MuJoCo offscreen + ffmpeg; docs/video.md)");
@@ -69,7 +69,7 @@ Command add_run(CLI::App& app) {
   run_cmd->add_option("--backend", run.backend,
                       "Run on a multifunction board over UDP instead of the in-process simulator, e.g.\n"
                       "udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
-                      "E1 (one case: --case), E3 postures, E4 goniometer (one movement: --case slow|brisk); not E6.\n"
+                      "E1 and E5 (one case: --case), E3 postures, E4 goniometer (one movement: --case slow|brisk); not E6.\n"
                       "Runs in real time at the config's control period with timing statistics (docs/runtime.md)");
   s->rt_priority_opt =
       run_cmd->add_option("--rt-priority", s->rt_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
@@ -169,7 +169,7 @@ Command add_mfb_emulator(CLI::App& app) {
       "arrives. Faults can be injected into the state packets it sends. Runs until Ctrl-C, --max-runtime\n"
       "or --sessions.");
   emu_cmd->add_option("-c,--config", emu.config, "Scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
-  emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (payload) to simulate (needed when the config\n"
+  emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (E1 payload, E5 clamp angle) to simulate (needed when the config\n"
                                                "has several). Right arm: postures (E3, the default) or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")

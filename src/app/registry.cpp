@@ -3,6 +3,7 @@
 #include "peha/experiments/e1_gravity/e1_report.hpp"
 #include "peha/experiments/e3_postures/postures_report.hpp"
 #include "peha/experiments/e4_goniometer/goniometer_report.hpp"
+#include "peha/experiments/e5_max_force/max_force_report.hpp"
 #include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/one_dof_rig.hpp"
@@ -50,6 +51,44 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOp
                     mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names()),
                     [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
                     fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg)};
+}
+
+// --- max_force_ramp: E5 on the clamped one-DOF rig ---
+
+ScenarioCheck check_e5(const std::filesystem::path& config, const config::Document& doc) {
+  const experiments::E5Scenario s = experiments::read_e5(doc);
+  sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
+  fmt::print("{}: OK\n  experiment max_force_ramp: {}\n  {} case(s), {} ramped at {} MPa/s, {} s at {} Hz, plant model {}\n",
+             config.string(), s.description, s.cases.size(), s.ramp.muscle == 0 ? "agonist" : "antagonist", s.ramp.rate_Pa_per_s * 1e-6,
+             s.duration_s, 1.0 / s.period_s, s.plant.model_file.string());
+  return {sim::one_dof_rig_joint_names(), s.link};
+}
+
+std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorOptions& options) {
+  experiments::E5Scenario scenario = experiments::read_e5(doc);
+  if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+  if (!scenario.link) {
+    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+    return std::nullopt;
+  }
+  if (options.case_name.empty() && scenario.cases.size() > 1) {
+    fmt::print(stderr, "error: {} has {} cases: give --case NAME (the clamp's angle; the host's peha run --backend needs the same "
+                       "--case)\n", doc.name(), scenario.cases.size());
+    return std::nullopt;
+  }
+  const experiments::E5Case* chosen = &scenario.cases.front();
+  for (const auto& c : scenario.cases) {
+    if (c.name == options.case_name) chosen = &c;
+  }
+  if (!options.case_name.empty() && chosen->name != options.case_name) {
+    fmt::print(stderr, "error: no case named '{}' in {}\n", options.case_name, doc.name());
+    return std::nullopt;
+  }
+  const sim::OneDofRigParams plant = experiments::e5_plant_params(scenario, *chosen);
+  return BoardPlant{scenario.period_s, *scenario.link,
+                    mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names()),
+                    [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
+                    fmt::format("one-DOF rig clamped, case {} ({} deg)", chosen->name, plant.initial_angle_rad * 57.29577951308232)};
 }
 
 // --- right_arm: E3 postures, E4 goniometer, E6 bandwidth ---
@@ -153,6 +192,17 @@ std::vector<ExperimentEntry> make_registry() {
                  {},
                  experiments::run_e1_experiment}},
                check_e1, e1_board});
+  r.push_back({"max_force_ramp", "one-DOF rig",
+               "E5: the maximum-force test, one muscle ramped against the clamped rig (configs/e5_max_force.yaml)",
+               {{"", "E5 maximum force",
+                 {"--case", "--backend"},
+                 {{"--agonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
+                  {"--antagonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
+                  {"--force-trim-rate", "E5 has no force controller: its input is a pressure ramp"},
+                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"}},
+                 {},
+                 experiments::run_e5_experiment}},
+               check_e5, e5_board});
   r.push_back({"right_arm", "right-arm",
                "the right arm (configs/right_arm.yaml): E3 postures, E4 goniometer, E6 bandwidth (--experiment)",
                {{"postures", "E3 postures", {"--force-trim-rate", "--backend"},

@@ -7,26 +7,6 @@
 namespace peha::safety {
 namespace {
 
-/// The pressure band a muscle may be commanded at contraction `eps`, by the controller's model.
-struct Band {
-  double floor_Pa;
-  double ceiling_Pa;
-};
-
-Band pressure_band(const models::MuscleModel& m, const models::JointModel& joint, double eps) {
-  const double force_ceiling = models::force_ceiling_N(m);
-  // The ceiling is the pressure at which the model makes exactly the force ceiling. When the model
-  // cannot reach it at all (kUnreachable/kSaturated), the supply is the ceiling.
-  const auto top = models::muscle_pressure(m, force_ceiling, eps, joint.supply_pressure_Pa);
-  double ceiling = joint.supply_pressure_Pa;
-  if (top.status == models::InverseStatus::kOk) ceiling = std::min(ceiling, top.pressure_Pa);
-  // The floor keeps the pretension; where the model says the muscle cannot make it (unreachable),
-  // forcing the supply would be the wrong guess, so there is no floor.
-  const auto bottom = models::muscle_pressure(m, joint.pretension_N, eps, joint.supply_pressure_Pa);
-  const double floor = bottom.status == models::InverseStatus::kOk ? std::min(bottom.pressure_Pa, ceiling) : 0.0;
-  return {floor, ceiling};
-}
-
 double step_toward(double previous, double wanted, double max_step, bool& limited) {
   const double next = std::clamp(wanted, previous - max_step, previous + max_step);
   limited = limited || next != wanted;
@@ -34,6 +14,23 @@ double step_toward(double previous, double wanted, double max_step, bool& limite
 }
 
 }  // namespace
+
+PressureBand pressure_band(const models::MuscleModel& m, const models::JointModel& joint, double eps) noexcept {
+  const double force_ceiling = models::force_ceiling_N(m);
+  // The ceiling is the pressure at which the model makes exactly the force ceiling. When the model
+  // cannot reach it at all (kUnreachable/kSaturated), the supply is the ceiling.
+  const auto top = models::muscle_pressure(m, force_ceiling, eps, joint.supply_pressure_Pa);
+  PressureBand band{0.0, joint.supply_pressure_Pa, true};
+  if (top.status == models::InverseStatus::kOk && top.pressure_Pa < joint.supply_pressure_Pa) {
+    band.ceiling_Pa = top.pressure_Pa;
+    band.ceiling_is_supply = false;
+  }
+  // The floor keeps the pretension; where the model says the muscle cannot make it (unreachable),
+  // forcing the supply would be the wrong guess, so there is no floor.
+  const auto bottom = models::muscle_pressure(m, joint.pretension_N, eps, joint.supply_pressure_Pa);
+  band.floor_Pa = bottom.status == models::InverseStatus::kOk ? std::min(bottom.pressure_Pa, band.ceiling_Pa) : 0.0;
+  return band;
+}
 
 std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, LimitsData& data, const io::SensorState& state,
                            io::Command& command) noexcept {
@@ -63,8 +60,8 @@ std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, 
     }
 
     const double r0 = jm.pulley_radius_m;
-    const Band b1 = pressure_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle));
-    const Band b2 = pressure_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle));
+    const PressureBand b1 = pressure_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle));
+    const PressureBand b2 = pressure_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle));
     const double p1 = std::clamp(c.agonist_pressure_Pa, b1.floor_Pa, b1.ceiling_Pa);
     const double p2 = std::clamp(c.antagonist_pressure_Pa, b2.floor_Pa, b2.ceiling_Pa);
     if (p1 != c.agonist_pressure_Pa || p2 != c.antagonist_pressure_Pa) flags |= kPressureLimited;

@@ -64,6 +64,12 @@ VerdictThresholds read_verdict_thresholds(config::Map& root) {
   t.min_tension_fraction = v.number_or("min_tension_fraction", t.min_tension_fraction, {0.0, 10.0});
   t.max_tracking_rms_deg = v.number_or("max_tracking_rms_deg", t.max_tracking_rms_deg, {0.0, 180.0});
   t.max_tracking_error_deg = v.number_or("max_tracking_error_deg", t.max_tracking_error_deg, {0.0, 360.0});
+  t.at_limit_band_N = v.number_or("at_limit_band_N", t.at_limit_band_N, {0.0, 1000.0});
+  t.max_force_overshoot_N = v.number_or("max_force_overshoot_N", t.max_force_overshoot_N, {0.0, 1000.0});
+  t.max_force_shortfall_N = v.number_or("max_force_shortfall_N", t.max_force_shortfall_N, {0.0, 2000.0});
+  t.max_settle_s = v.number_or("max_settle_s", t.max_settle_s, {0.0, 3600.0});
+  t.min_time_at_limit_s = v.number_or("min_time_at_limit_s", t.min_time_at_limit_s, {0.0, 3600.0});
+  t.min_ceiling_share_pct = v.number_or("min_ceiling_share_pct", t.min_ceiling_share_pct, {0.0, 100.0});
   v.finish();
   return t;
 }

@@ -68,6 +68,16 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
   base_damping_ = m->dof_damping[dof_] + joint_.viscous_friction_Nms_per_rad();
   base_frictionloss_ = m->dof_frictionloss[dof_] + joint_.coulomb_friction_Nm();
 
+  // A joint clamp (E5's locked rig): an equality constraint named "lock" on the joint holds it at
+  // the initial angle (MuJoCo's joint equality q - qpos0 = polycoef[0]; qpos0 is 0 for this hinge).
+  const int lock = mj_name2id(m, mjOBJ_EQUALITY, "lock");
+  if (lock >= 0) {
+    if (m->eq_type[lock] != mjEQ_JOINT || m->eq_obj1id[lock] != joint || m->eq_obj2id[lock] >= 0 || m->qpos0[m->jnt_qposadr[joint]] != 0.0) {
+      throw std::runtime_error(fmt::format("{}: equality 'lock' must be a joint equality on 'joint' alone, with the joint's reference at 0", name));
+    }
+    m->eq_data[mjNEQDATA * lock] = params_.initial_angle_rad;
+  }
+
   data_.reset(mj_makeData(m));
   mj_setConst(m, data_.get());
   data_->qpos[m->jnt_qposadr[joint]] = params_.initial_angle_rad;

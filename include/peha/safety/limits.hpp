@@ -60,6 +60,14 @@ struct LimitsData {
   std::array<std::uint64_t, 5> counts{};              ///< how often each flag fired, by bit index
 };
 
+/// The pressure band of step 3 for muscle `m` of `joint` at rigid-wire contraction `eps`.
+struct PressureBand {
+  double floor_Pa = 0;    ///< keeps the pretension by the model (0 where the model cannot make it)
+  double ceiling_Pa = 0;  ///< min(supply, the pressure at which the model makes the force ceiling)
+  bool ceiling_is_supply = true;  ///< the supply is the ceiling (the model reaches the force ceiling only above it, or never)
+};
+PressureBand pressure_band(const models::MuscleModel& m, const models::JointModel& joint, double eps) noexcept;
+
 /// Limits `command` in place against `state`. Returns the or of all joints' flags. `joints[j]` must
 /// be set for every j < model.joint_count.
 std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, LimitsData& data, const io::SensorState& state,

@@ -41,6 +41,14 @@ struct VerdictThresholds {
   std::uint32_t slack_check_only_joints = 0;
   double max_tracking_rms_deg = 5.0;         ///< E4: RMS of exoskeleton - person elbow
   double max_tracking_error_deg = 15.0;      ///< E4: largest |exoskeleton - person elbow|
+  /// E5 (the maximum-force ramp): the force holds at the limit while it stays within this band of
+  /// where it stopped (the mean of the last second).
+  double at_limit_band_N = 20.0;
+  double max_force_overshoot_N = 0.0;        ///< E5: peak measured force - force ceiling
+  double max_force_shortfall_N = 200.0;      ///< E5: force ceiling - held force (the model stops the force early)
+  double max_settle_s = 1.0;                 ///< E5: from the limits' first cap to holding in the band
+  double min_time_at_limit_s = 2.0;          ///< E5: time the measured force held at the limit
+  double min_ceiling_share_pct = 95.0;       ///< E5: share of the held cycles the limits' force ceiling capped the ramp
 };
 
 /// Reads the optional `verdict:` section of a scenario root (defaults when absent or per key
