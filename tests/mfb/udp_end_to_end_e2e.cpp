@@ -765,3 +765,49 @@ TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
 }  // namespace
 }  // namespace peha::runtime
 
+
+namespace peha::runtime {
+namespace {
+
+// E5 over the board (two processes, the whole CLI): the clamped rig in the emulator, the ramp and the
+// limits on the host. A faster ramp (0.5 MPa/s) and 4 s keep it short; the force ceiling stops the
+// load cell without overshoot, as in process, and the run exits 0 with its summary written.
+TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_e5_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/e5_max_force.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const std::size_t at = yaml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    yaml.replace(at, from.size(), to);
+  };
+  replace("duration_s: 10.0", "duration_s: 4.0");
+  replace("rate_MPa_per_s: 0.10", "rate_MPa_per_s: 0.50");
+  // The scenario names its files relative to itself: keep it beside the shipped one's folder.
+  const std::filesystem::path config = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e5_test_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(config) << yaml;
+  testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--case", "angle_0deg", "--port", "0",
+                                  "--rt-priority", "0", "--watchdog-ms", "250"});
+  const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
+  ASSERT_GT(port, 0) << emulator.output();
+  testing::ChildProcess host({PEHA_BINARY, "run", "--config", config.string(), "--case", "angle_0deg", "--backend",
+                              "udp://127.0.0.1:" + std::to_string(port), "--rt-priority", "0", "--no-plot", "--out", dir.string(),
+                              "--name", "r"});
+  const int code = host.wait(30.0);
+  std::filesystem::remove(config);
+  EXPECT_EQ(code, 0) << host.output();
+  const std::vector<double> peak = column(dir / "r" / "summary.csv", "peak_force_N");
+  const std::vector<double> overshoot = column(dir / "r" / "summary.csv", "overshoot_N");
+  ASSERT_EQ(peak.size(), 1u) << host.output();
+  EXPECT_LE(peak[0], 2000.0);
+  EXPECT_GT(peak[0], 1800.0);
+  EXPECT_LE(overshoot[0], 5.0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace peha::runtime
