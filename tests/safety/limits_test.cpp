@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <limits>
+#include <cstdio>
+#include <cstdlib>
 #include <random>
 
 namespace peha::safety {
@@ -38,9 +40,18 @@ io::SensorState at_angle(double angle) {
   return s;
 }
 
+// How many random commands the property tests draw: 10^5 in `make test`; `make property` sets
+// PEHA_PROPERTY_STEPS=10000000.
+int property_steps() {
+  const char* env = std::getenv("PEHA_PROPERTY_STEPS");
+  if (env == nullptr) return 100000;
+  const long n = std::strtol(env, nullptr, 10);
+  return n > 0 && n <= 1'000'000'000L ? static_cast<int>(n) : 100000;
+}
+
 // No command leaving the limits layer makes the controller's model exceed a muscle's ceiling, go
 // below the pretension, exceed the supply, the motor rating, or the pressure rate - for random and
-// non-finite commands at random angles.
+// non-finite commands at random angles (a property test: property_steps() draws).
 TEST(Limits, EveryCommandLeavesWithinAllLimits) {
   const LimitsModel model = rig_limits();
   LimitsData data;
@@ -48,7 +59,9 @@ TEST(Limits, EveryCommandLeavesWithinAllLimits) {
   std::uniform_real_distribution<double> p(-2e6, 3e6), tau(-50.0, 50.0), angle(-0.7, 0.7);
   const double nan = std::numeric_limits<double>::quiet_NaN();
   io::Command prev{};
-  for (int i = 0; i < 100000; ++i) {
+  const int steps = property_steps();
+  std::printf("Limits property: %d random commands\n", steps);
+  for (int i = 0; i < steps; ++i) {
     const io::SensorState s = at_angle(angle(rng));
     io::Command c;
     c.joint_count = 1;
