@@ -1,8 +1,9 @@
 // `peha check-config`: the scenario through its experiment's reader (found in the registry), then
-// the board's channel map for the backend's joints.
+// the board's channel map for the backend's joints and the link's key file.
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
+#include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
 
@@ -23,8 +24,9 @@ int check_config(const std::filesystem::path& config) {
     const ScenarioCheck checked = find_experiment(doc).check(config, doc);
     if (const auto& link = checked.link) {  // the board's channel map must load for the backend's joints
       const mfb::ChannelMap map = mfb::read_channel_map(config::Document::load_file(link->channel_map), checked.joints);
-      fmt::print("  mfb: channel map {} ({} joints), watchdogs board {} ms / host {} ms\n", link->channel_map.string(), map.joint_count(),
-                 link->board_watchdog_s * 1e3, link->host_watchdog_s * 1e3);
+      mfb::load_link_key(link->key_file);  // the pre-shared key both ends authenticate with: present, private, 32 bytes
+      fmt::print("  mfb: channel map {} ({} joints), watchdogs board {} ms / host {} ms, key file {} read\n", link->channel_map.string(),
+                 map.joint_count(), link->board_watchdog_s * 1e3, link->host_watchdog_s * 1e3, link->key_file.string());
     }
     return 0;
   } catch (const std::exception& e) {

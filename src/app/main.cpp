@@ -77,7 +77,12 @@ Command add_run(CLI::App& app) {
   s->cpu_opt =
       run_cmd->add_option("--cpu", s->cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->check(peha::app::signed_integer())->capture_default_str();
   run_cmd->add_option("--telemetry", run.telemetry,
-                      "With --backend: stream signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870");
+                      "With --backend: stream signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870\n"
+                      "(loopback only unless --telemetry-remote)");
+  run_cmd->add_flag("--telemetry-remote", run.telemetry_remote,
+                    "With --telemetry: allow a destination beyond this machine. The stream is unencrypted and\n"
+                    "unauthenticated (the wearer's forces and angles): use it only on a network you trust")
+      ->needs("--telemetry");
   s->recover_opt = run_cmd->add_option(
       "--recover-after", s->recover_after,
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
@@ -253,7 +258,13 @@ int main(int argc, char** argv) {
 
   const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_mfb_emulator(app),
                               add_check_config(app), add_robustness(app), add_version(app)};
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    // --help and --version exit 0; every usage error exits 2, as a bad file does (docs/architecture.md).
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
   for (const Command& command : commands) {
     if (*command.app) return command.run();
   }

@@ -35,6 +35,7 @@ std::vector<std::string> realtime_options_given(const RunOptions& o) {
   if (o.fifo_priority) given.emplace_back("--rt-priority");
   if (o.cpu) given.emplace_back("--cpu");
   if (!o.telemetry.empty()) given.emplace_back("--telemetry");
+  if (o.telemetry_remote) given.emplace_back("--telemetry-remote");
   if (o.recover_after_s) given.emplace_back("--recover-after");
   return given;
 }
@@ -111,6 +112,7 @@ experiments::RunRequest make_request(const RunOptions& o) {
   r.plot = o.plot;
   r.backend = o.backend;
   r.telemetry = o.telemetry;
+  r.telemetry_remote = o.telemetry_remote;
   r.fifo_priority = o.fifo_priority.value_or(80);
   r.cpu = o.cpu.value_or(-1);
   r.recover_after_s = o.recover_after_s;

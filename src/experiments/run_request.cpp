@@ -20,6 +20,7 @@ std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& re
   try {
     o.board = io::parse_udp_endpoint(request.backend);
     if (!request.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(request.telemetry);
+    o.telemetry_remote = request.telemetry_remote;
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return std::nullopt;
@@ -35,10 +36,10 @@ void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timin
   fmt::print("{}\n", rr.timing.table());
   const auto& l = rr.link;
   fmt::print("  link: {} commands sent ({} send failures), states accepted {}, dropped: foreign source {}, foreign "
-             "session {}, duplicate {}, stale {}, malformed {}; gaps {}; replies later than receive_timeout {}; cycles without a "
+             "session {}, duplicate {}, stale {}, malformed {}, unauthenticated {}; gaps {}; replies later than receive_timeout {}; cycles without a "
              "new sample {}; implausible samples {}; clamped DA codes {}\n",
              l.commands_sent, l.send_failures, l.received.accepted, l.received.foreign_source, l.received.foreign_session,
-             l.received.duplicate, l.received.stale, l.received.malformed, l.received.gaps, l.late_replies, l.replies_missing,
+             l.received.duplicate, l.received.stale, l.received.malformed, l.received.unauthenticated, l.received.gaps, l.late_replies, l.replies_missing,
              l.implausible_samples, l.clamped_outputs);
   fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
              rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);

@@ -48,7 +48,7 @@ RealtimeHarness::RealtimeHarness(io::Backend& backend, const SupervisorParams& s
     telemetry_values_.resize(signals.size());
     const std::string dest = options.telemetry->to_string();
     telemetry_ = std::make_unique<Telemetry>(dest.substr(0, dest.rfind(':')), options.telemetry->port, options.telemetry_rate_Hz,
-                                             "peha", signals);
+                                             "peha", signals, 256, options.telemetry_remote);
   }
   // The operator's terminal: 'r' + Enter asks for a recovery (polled off the real-time thread).
   if (::isatty(STDIN_FILENO)) {

@@ -278,10 +278,12 @@ TEST(Cli, StrictNumbersRunNamesAndOutputsThatAreNotInputs) {
   for (const char* bad : {"--seed -1", "--seed 0x10", "--seed 1e3", "--force-trim-rate nan", "--force-trim-rate 0x1",
                           "--force-trim-rate inf", "--name ../../escape", "--name x/y", "--name ..", "--name 'x;touch F'"}) {
     const Result r = run(run_e1 + bad);
-    EXPECT_EQ(r.code, 105) << bad << ": " << r.output;  // CLI11's validation failure (docs: exit codes)
+    EXPECT_EQ(r.code, 2) << bad << ": " << r.output;  // a usage error (docs: exit codes)
     EXPECT_THAT(r.output, HasSubstr("expected")) << bad;
   }
   EXPECT_TRUE(std::filesystem::is_empty(dir));  // nothing written, nothing escaped
+  // The telemetry stays on this machine unless told otherwise, and the permission needs a stream.
+  EXPECT_EQ(run(run_e1 + "--telemetry-remote").code, 2);
   // An output equal to an input is refused before any work, and the input is untouched.
   const std::filesystem::path config_copy = dir / "rig.yaml";
   std::filesystem::copy_file(e1, config_copy);

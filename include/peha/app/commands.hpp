@@ -29,6 +29,7 @@ struct RunOptions {
   std::optional<int> fifo_priority;           ///< real-time loop: SCHED_FIFO priority (0 = don't ask; unset: 80)
   std::optional<int> cpu;                     ///< real-time loop: pin to this CPU (-1 = don't; unset: -1)
   std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
+  bool telemetry_remote = false;              ///< --telemetry-remote: the telemetry may leave this machine
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
 };
 

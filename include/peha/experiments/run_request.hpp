@@ -28,6 +28,7 @@ struct RunRequest {
   /// The real-time run on the board: "udp://A.B.C.D:PORT" (empty: in-process) and its options.
   std::string backend;
   std::string telemetry;                        ///< "udp://A.B.C.D:PORT" of a PlotJuggler server (empty: off)
+  bool telemetry_remote = false;                ///< allow a non-loopback telemetry destination
   int fifo_priority = 80;                       ///< SCHED_FIFO priority of the loop (0 = don't ask)
   int cpu = -1;                                 ///< pin the loop to this CPU (-1 = don't)
   std::optional<double> recover_after_s;        ///< unattended operator: recover this long after a fault

@@ -33,6 +33,9 @@ struct RealtimeRunOptions {
   RealtimeOptions realtime;                    ///< SCHED_FIFO priority, CPU, mlockall
   std::optional<io::UdpEndpoint> telemetry;    ///< PlotJuggler UDP server, if streaming
   double telemetry_rate_Hz = 100;
+  /// The stream is unencrypted and unauthenticated: without this only a loopback destination is
+  /// accepted (--telemetry-remote).
+  bool telemetry_remote = false;
   double recover_after_s = -1;                 ///< unattended operator: recover this long after a fault (< 0: only 'r' on stdin)
   std::filesystem::path dir;                   ///< run directory: log, fault dumps, timing
   bool quiet = false;                          ///< no progress line
