@@ -86,14 +86,7 @@ E1Scenario read_e1(const config::Document& doc) {
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
   ctl.finish();
 
-  safety::JointLimits& jl = s.limits.joints[0];
-  s.limits.joint_count = 1;
-  s.limits.period_s = s.period_s;
-  jl.pressure_rate_Pa_per_s = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
-  jl.motor_rate_Nm_per_s = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
-  jl.min_angle_rad = limits.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
-  jl.max_angle_rad = limits.number("max_angle_deg", {jl.min_angle_rad / kDeg, 180.0}) * kDeg;
-  limits.finish();
+  s.limits = read_one_joint_limits(limits, s.period_s);
 
   config::Map plant = root.map("plant");
   s.plant = sim::read_one_dof_rig(plant, s.period_s, supply_Pa);

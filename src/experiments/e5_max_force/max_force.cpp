@@ -55,14 +55,8 @@ E5Scenario read_e5(const config::Document& doc) {
 
   config::Map limits = root.map("limits");
   const double supply_Pa = limits.number("supply_pressure_MPa", {0.1, 1.0}) * 1e6;
-  safety::JointLimits& jl = s.limits.joints[0];
-  s.limits.joint_count = 1;
-  s.limits.period_s = s.period_s;
-  jl.pressure_rate_Pa_per_s = limits.number("pressure_rate_MPa_per_s", {0.01, 100.0}) * 1e6;
-  jl.motor_rate_Nm_per_s = limits.number("motor_rate_Nm_per_s", {0.1, 1e5});
-  jl.min_angle_rad = limits.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
-  jl.max_angle_rad = limits.number("max_angle_deg", {jl.min_angle_rad / kDeg, 180.0}) * kDeg;
-  limits.finish();
+  s.limits = read_one_joint_limits(limits, s.period_s);
+  const safety::JointLimits& jl = s.limits.joints[0];
   if (s.ramp.rate_Pa_per_s >= jl.pressure_rate_Pa_per_s) {
     throw config::Error(fmt::format("{}: ramp.rate_MPa_per_s {} must be below limits.pressure_rate_MPa_per_s {}: the rate limit "
                                     "would shape the ramp", doc.name(), s.ramp.rate_Pa_per_s * 1e-6, jl.pressure_rate_Pa_per_s * 1e-6));
@@ -143,7 +137,6 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
   // The test's input, as the paper's: the ramped muscle's pressure rises without end, the other
   // muscle is held at a constant pressure (its wire taut), the motor is off.
   auto step = [&](std::size_t) {
-    const io::JointSensors& s = state.joints[0];
     const double t = state.time_s;
     requested_Pa = scenario.ramp.start_pressure_Pa + scenario.ramp.rate_Pa_per_s * std::max(0.0, t - scenario.ramp.start_s);
     const double other_Pa = scenario.ramp.other_pressure_Pa;
