@@ -27,6 +27,19 @@ Band pressure_band(const models::MuscleModel& m, const models::JointModel& joint
   return {floor, ceiling};
 }
 
+/// The band of muscle `m` of `joint` at `eps`, from `memo` when it holds the band of the same joint
+/// set-up at the same contraction (bit for bit), else computed and kept there.
+Band memoized_band(const models::MuscleModel& m, const models::JointModel& joint, double eps, PressureBandMemo& memo,
+                   std::uint64_t& evaluations) {
+  const auto bits = std::bit_cast<std::uint64_t>(eps);
+  if (memo.joint != &joint || memo.contraction_bits != bits) {
+    const Band b = pressure_band(m, joint, eps);
+    memo = {&joint, bits, b.floor_Pa, b.ceiling_Pa};
+    ++evaluations;
+  }
+  return {memo.floor_Pa, memo.ceiling_Pa};
+}
+
 double step_toward(double previous, double wanted, double max_step, bool& limited) {
   const double next = std::clamp(wanted, previous - max_step, previous + max_step);
   limited = limited || next != wanted;
@@ -63,8 +76,11 @@ std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, 
     }
 
     const double r0 = jm.pulley_radius_m;
-    const Band b1 = pressure_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle));
-    const Band b2 = pressure_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle));
+    auto& memo = data.bands[static_cast<std::size_t>(j)];
+    const Band b1 = memoized_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle), memo[0],
+                                  data.band_evaluations);
+    const Band b2 = memoized_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle), memo[1],
+                                  data.band_evaluations);
     const double p1 = std::clamp(c.agonist_pressure_Pa, b1.floor_Pa, b1.ceiling_Pa);
     const double p2 = std::clamp(c.antagonist_pressure_Pa, b2.floor_Pa, b2.ceiling_Pa);
     if (p1 != c.agonist_pressure_Pa || p2 != c.antagonist_pressure_Pa) flags |= kPressureLimited;
