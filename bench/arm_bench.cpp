@@ -129,14 +129,19 @@ const control::ArmControllerModel& controller_with_spgp() {
 /// allocation (Bowden compensation, closed-form inverse + SPGP residual per muscle) and the limits
 /// stage (the pressure band again through inverse + SPGP), on the recorded states. Each step is
 /// timed on its own (steady_clock, ~20 ns of the figure is the clock itself); counters: median,
-/// p99, p99.9 and max in ns, heap allocations per step (operator new, counted over all steps).
+/// p99, p99.9 and max in ns, heap allocations per step (operator new, counted over all steps),
+/// band_reuse: the fraction of the six pressure bands per step the limits stage reused (the joint
+/// had not moved by an encoder count). Argument 1 forgets the bands before every step (untimed):
+/// every band computed, the step of an arm that moves every period.
 void BM_ArmControlStepWithSpgp(benchmark::State& state) {
+  const bool forget_bands = state.range(0) != 0;
   const auto& states = recorded_states();
   const control::ArmControllerModel& model = controller_with_spgp();
   const safety::JointModels joints = experiments::arm_joint_models(model);
   constexpr std::size_t kSteps = 200000;
   std::vector<double> ns(kSteps);
   std::size_t allocations = 0;
+  std::uint64_t band_evaluations = 0;
   for (auto _ : state) {
     control::ArmController controller(model);
     safety::LimitsData limits;
@@ -145,9 +150,11 @@ void BM_ArmControlStepWithSpgp(benchmark::State& state) {
     for (std::size_t i = 0; i < kSteps; ++i) {
       if (k == states.size()) {  // restart the sequence so time stamps keep increasing
         controller = control::ArmController(model);
+        band_evaluations += limits.band_evaluations;
         limits = safety::LimitsData{};
         k = 0;
       }
+      if (forget_bands) limits.bands = {};
       const std::size_t before = testing::allocation_count();
       const auto t0 = std::chrono::steady_clock::now();
       controller.update(states[k], command);
@@ -158,6 +165,7 @@ void BM_ArmControlStepWithSpgp(benchmark::State& state) {
       ns[i] = std::chrono::duration<double, std::nano>(t1 - t0).count();
       ++k;
     }
+    band_evaluations += limits.band_evaluations;
   }
   std::sort(ns.begin(), ns.end());
   const auto quantile = [&](double q) { return ns[static_cast<std::size_t>(q * static_cast<double>(kSteps - 1))]; };
@@ -166,7 +174,9 @@ void BM_ArmControlStepWithSpgp(benchmark::State& state) {
   state.counters["p999_ns"] = quantile(0.999);
   state.counters["max_ns"] = ns.back();
   state.counters["allocs_per_step"] = static_cast<double>(allocations) / static_cast<double>(kSteps);
+  const double bands = 2.0 * static_cast<double>(scenario().limits.joint_count) * static_cast<double>(kSteps);
+  state.counters["band_reuse"] = 1.0 - static_cast<double>(band_evaluations) / bands;
 }
-BENCHMARK(BM_ArmControlStepWithSpgp)->Iterations(1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ArmControlStepWithSpgp)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace

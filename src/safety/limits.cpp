@@ -7,6 +7,19 @@
 namespace peha::safety {
 namespace {
 
+/// The band of muscle `m` of `joint` at `eps`, from `memo` when it holds the band of the same joint
+/// set-up at the same contraction (bit for bit), else computed and kept there.
+PressureBand memoized_band(const models::MuscleModel& m, const models::JointModel& joint, double eps, PressureBandMemo& memo,
+                           std::uint64_t& evaluations) noexcept {
+  const auto bits = std::bit_cast<std::uint64_t>(eps);
+  if (memo.joint != &joint || memo.contraction_bits != bits) {
+    const PressureBand b = pressure_band(m, joint, eps);
+    memo = {&joint, bits, b.floor_Pa, b.ceiling_Pa, b.ceiling_is_supply};
+    ++evaluations;
+  }
+  return {memo.floor_Pa, memo.ceiling_Pa, memo.ceiling_is_supply};
+}
+
 double step_toward(double previous, double wanted, double max_step, bool& limited) {
   const double next = std::clamp(wanted, previous - max_step, previous + max_step);
   limited = limited || next != wanted;
@@ -60,8 +73,11 @@ std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, 
     }
 
     const double r0 = jm.pulley_radius_m;
-    const PressureBand b1 = pressure_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle));
-    const PressureBand b2 = pressure_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle));
+    auto& memo = data.bands[static_cast<std::size_t>(j)];
+    const PressureBand b1 = memoized_band(jm.agonist, jm, models::rigid_contraction(jm.agonist, r0, +1, angle), memo[0],
+                                          data.band_evaluations);
+    const PressureBand b2 = memoized_band(jm.antagonist, jm, models::rigid_contraction(jm.antagonist, r0, -1, angle), memo[1],
+                                          data.band_evaluations);
     const double p1 = std::clamp(c.agonist_pressure_Pa, b1.floor_Pa, b1.ceiling_Pa);
     const double p2 = std::clamp(c.antagonist_pressure_Pa, b2.floor_Pa, b2.ceiling_Pa);
     if (p1 != c.agonist_pressure_Pa || p2 != c.antagonist_pressure_Pa) flags |= kPressureLimited;

@@ -185,13 +185,15 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
     const double mu_eff = c.kinetic_friction + (c.static_friction - c.kinetic_friction) *
                                                    std::exp(-(v / c.stribeck_velocity_mps) * (v / c.stribeck_velocity_mps));
     const double x = mu_eff * c.wrap_angle_rad;
-    const double toward = mu.tension_N * (1.0 - std::exp(-x));
-    const double away = mu.tension_N * (std::exp(x) - 1.0);
+    const double exp_minus_x = std::exp(-x);
+    const double toward = mu.tension_N * (1.0 - exp_minus_x);
+    const double exp_x = std::exp(x);
+    const double away = mu.tension_N * (exp_x - 1.0);
     const double weight = 0.5 * (1.0 + std::tanh(v / c.stribeck_velocity_mps));  // which way it slides
     friction_Nm += r0 * (weight * toward + (1.0 - weight) * away);
     const int i = mu.side > 0 ? 0 : 1;
-    truth_.pulley_tension_min_N[i] = mu.tension_N * std::exp(-x);
-    truth_.joint_side_tension_N[i] = std::clamp(truth_.joint_side_tension_N[i], mu.tension_N * std::exp(-x), mu.tension_N * std::exp(x));
+    truth_.pulley_tension_min_N[i] = mu.tension_N * exp_minus_x;
+    truth_.joint_side_tension_N[i] = std::clamp(truth_.joint_side_tension_N[i], mu.tension_N * exp_minus_x, mu.tension_N * exp_x);
     truth_.muscle_force_N[i] = mu.tension_N;
     truth_.pressure_Pa[i] = mu.valve.pressure_Pa();
     truth_.muscle_contraction[i] = mu.contraction;

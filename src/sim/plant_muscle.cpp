@@ -25,9 +25,12 @@ double sigmoid(double x) noexcept {
 /// z(P, u) and dz/du at clamped inputs.
 struct Inner {
   double z_N;
-  double dz_du_N;
+  double dz_du_N;  ///< 0 unless asked for
 };
 
+/// z(P, u), and dz/du when kDerivative (the force alone, per Newton evaluation of the plant's wire
+/// equilibrium, skips the derivative's sigmoid: libm calls cannot be dropped by the compiler).
+template <bool kDerivative>
 Inner inner(const PlantMuscleParams& p, double pressure_Pa, double u) noexcept {
   const double P = std::clamp(pressure_Pa, 0.0, std::max(p.max_pressure_Pa, 0.0));
   const double q_Pa = P * (1.0 + p.pressure_curvature_per_MPa * P / kPressureUnit_Pa);
@@ -38,20 +41,17 @@ Inner inner(const PlantMuscleParams& p, double pressure_Pa, double u) noexcept {
   const double w = std::max(p.gain_smoothing_contraction, kTiny);
   const double x = (um - u) / w;
   const double d = w * softplus(x) / um;
-  const double dd_du = -sigmoid(x) / um;
   const double c = std::clamp(p.gain_quadratic_fraction, 0.0, 1.0);
   const double s = ((1.0 - c) + c * d) * d;
-  const double ds_dd = (1.0 - c) + 2.0 * c * d;
   const double kappa = std::max(p.gain_saturation, 0.0);
   const double den = 1.0 + kappa * s;
   const double g = p.gain_N_per_Pa * (1.0 + kappa) * s / den;
-  const double dg_ds = p.gain_N_per_Pa * (1.0 + kappa) / (den * den);
 
   // Rubber: exponential, continued along its tangent below the knee to keep the stiffness bounded.
   const double ue = std::max(p.elastic_contraction_scale, kTiny);
   const double uk = p.elastic_knee_contraction;
   double E = 0.0;
-  double dE_du = 0.0;
+  [[maybe_unused]] double dE_du = 0.0;
   if (u >= uk) {
     E = std::exp(-u / ue);
     dE_du = -E / ue;
@@ -61,9 +61,15 @@ Inner inner(const PlantMuscleParams& p, double pressure_Pa, double u) noexcept {
     dE_du = -Ek / ue;
   }
   const double f_el = p.elastic_force_N * (E - 1.0) - p.elastic_stiffness_N * u;
-  const double df_el_du = p.elastic_force_N * dE_du - p.elastic_stiffness_N;
-
-  return {g * q_Pa + f_el, dg_ds * ds_dd * dd_du * q_Pa + df_el_du};
+  if constexpr (!kDerivative) {
+    return {g * q_Pa + f_el, 0.0};
+  } else {
+    const double dd_du = -sigmoid(x) / um;
+    const double ds_dd = (1.0 - c) + 2.0 * c * d;
+    const double dg_ds = p.gain_N_per_Pa * (1.0 + kappa) / (den * den);
+    const double df_el_du = p.elastic_force_N * dE_du - p.elastic_stiffness_N;
+    return {g * q_Pa + f_el, dg_ds * ds_dd * dd_du * q_Pa + df_el_du};
+  }
 }
 
 }  // namespace
@@ -108,7 +114,7 @@ double static_force_N(const PlantMuscleParams& p, double pressure_Pa, double con
   if (std::isnan(pressure_Pa) || std::isnan(contraction)) return 0.0;
   const double u = std::clamp(contraction, kMinContraction, kMaxContraction);
   const double delta = std::max(p.threshold_smoothing_N, kTiny);
-  return delta * softplus(inner(p, pressure_Pa, u).z_N / delta);
+  return delta * softplus(inner<false>(p, pressure_Pa, u).z_N / delta);
 }
 
 double static_force_dcontraction_N(const PlantMuscleParams& p, double pressure_Pa,
@@ -116,7 +122,7 @@ double static_force_dcontraction_N(const PlantMuscleParams& p, double pressure_P
   if (std::isnan(pressure_Pa) || std::isnan(contraction)) return 0.0;
   if (contraction < kMinContraction || contraction > kMaxContraction) return 0.0;
   const double delta = std::max(p.threshold_smoothing_N, kTiny);
-  const Inner in = inner(p, pressure_Pa, contraction);
+  const Inner in = inner<true>(p, pressure_Pa, contraction);
   return sigmoid(in.z_N / delta) * in.dz_du_N;
 }
 

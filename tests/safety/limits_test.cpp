@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <cstdio>
 #include <cstdlib>
+#include <memory>
 #include <random>
 
 namespace peha::safety {
@@ -123,6 +125,47 @@ TEST(Limits, BeyondRangeNothingPushesFurtherOut) {
   EXPECT_LE(push.joints[0].agonist_pressure_Pa, before);
   EXPECT_LE(push.joints[0].motor_torque_Nm, 0.0);
   EXPECT_TRUE(data.flags[0] & kJointRange);
+}
+
+// A pressure residual that varies with contraction and force (a stand-in for the SPGP).
+class WavyResidual final : public models::PressureResidual {
+ public:
+  double pressure_Pa(double eps, double force_N) const noexcept override {
+    return 2e4 * std::sin(40.0 * eps) + 10.0 * force_N;
+  }
+};
+
+// The band a joint reuses while its angle repeats (encoder counts) gives the same commands, bit for
+// bit, as computing it every step - also when the joint set-up is swapped for another - and is
+// computed only when the contraction or the set-up changes.
+TEST(Limits, ReusedPressureBandGivesTheSameCommandsAsComputingItEveryStep) {
+  const LimitsModel model = rig_limits();
+  models::JointModel with_residual = rig();
+  with_residual.agonist.residual = with_residual.antagonist.residual = std::make_shared<WavyResidual>();
+  models::JointModel other = with_residual;
+  other.pretension_N = 80.0;
+  LimitsData reused, fresh;
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> p(-0.5e6, 1.2e6), tau(-5.0, 5.0), angle(-0.7, 0.7);
+  constexpr int kSteps = 3000, kRepeat = 4;  // each angle held for 4 steps
+  double a = 0.0;
+  for (int i = 0; i < kSteps; ++i) {
+    if (i % kRepeat == 0) a = std::round(angle(rng) * 1e4) / 1e4;
+    const JointModels joints{i < kSteps / 2 || i % 2 == 1 ? &with_residual : &other};
+    io::Command c;
+    c.joint_count = 1;
+    c.joints[0] = {p(rng), p(rng), tau(rng)};
+    io::Command d = c;
+    fresh.bands = {};
+    apply_limits(model, joints, reused, at_angle(a), c);
+    apply_limits(model, joints, fresh, at_angle(a), d);
+    ASSERT_EQ(std::memcmp(&c.joints[0], &d.joints[0], sizeof c.joints[0]), 0) << "step " << i;
+    ASSERT_EQ(reused.flags[0], fresh.flags[0]) << "step " << i;
+  }
+  EXPECT_EQ(fresh.band_evaluations, 2u * kSteps);
+  // First half: one new angle per 4 steps (2 bands each); second half: the set-up alternates every step.
+  EXPECT_EQ(reused.band_evaluations, 2u * (kSteps / 2 / kRepeat) + 2u * (kSteps / 2));
+  EXPECT_GT(fresh.counts[2], 100u);  // the band did clamp (kPressureLimited), so the test compares real bands
 }
 
 }  // namespace

@@ -14,7 +14,10 @@
 ///    pretension by that model, or 0 where the model says the muscle cannot make it (flag
 ///    kPressureLimited). The pressure model is models::muscle_pressure - the same one the allocation
 ///    uses, learned residual (SPGP) included - and supply, pretension and force ceilings are the
-///    joint set-up's (models::JointModel), the very object the controller was built from;
+///    joint set-up's (models::JointModel), the very object the controller was built from. The band
+///    depends only on the joint set-up and the muscle's contraction, so it is computed once per
+///    muscle and contraction and reused (LimitsData::bands) while the encoder reads the same angle:
+///    the same inputs, the same bits;
 /// 4. rate limits on pressures and motor torque (flag kRateLimited);
 /// 5. motor torque within its rating (flag kMotorLimited).
 /// noexcept and allocation-free.
@@ -53,11 +56,24 @@ struct LimitsModel {
 /// rating): pointers to the models the controller runs with, per io joint; non-owning.
 using JointModels = std::array<const models::JointModel*, io::kMaxJoints>;
 
+/// A muscle's pressure band as last computed: for which joint set-up and contraction (bit pattern).
+struct PressureBandMemo {
+  const models::JointModel* joint = nullptr;  ///< null: nothing computed yet
+  std::uint64_t contraction_bits = 0;
+  double floor_Pa = 0;
+  double ceiling_Pa = 0;
+  bool ceiling_is_supply = true;
+};
+
 struct LimitsData {
   io::Command previous{};
   bool has_previous = false;
   std::array<std::uint32_t, io::kMaxJoints> flags{};  ///< flags of the last call, per joint
   std::array<std::uint64_t, 5> counts{};              ///< how often each flag fired, by bit index
+  /// Per joint, agonist [0] and antagonist [1]: the last band (the joint set-ups must not change
+  /// while a LimitsData is in use; they are immutable once built).
+  std::array<std::array<PressureBandMemo, 2>, io::kMaxJoints> bands{};
+  std::uint64_t band_evaluations = 0;  ///< bands computed (two pressure-model evaluations each), not reused
 };
 
 /// The pressure band of step 3 for muscle `m` of `joint` at rigid-wire contraction `eps`.

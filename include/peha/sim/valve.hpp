@@ -33,6 +33,7 @@ class Valve {
  private:
   ValveParams params_;
   double dt_s_;
+  double lag_blend_;           ///< 1 - exp(-dt/lag): the first-order lag's step weight, once
   std::vector<double> delay_;  ///< ring buffer of past commands
   std::size_t head_ = 0;
   double setpoint_Pa_ = 0.0;
