@@ -75,7 +75,9 @@ TEST(E4, ExoskeletonElbowFollowsThePersonWithFeedbackButNotOnPureReplay) {
     EXPECT_TRUE(testing::fails_on(open.verdict, "elbow tracking RMS error")) << name;
     EXPECT_TRUE(testing::fails_on(open.verdict, "elbow tracking max error")) << name;
     EXPECT_FALSE(open.within_limits) << name;
-    if (std::string(name) == "slow") EXPECT_FALSE(testing::fails_on(fb.verdict, "elbow tracking")) << fb.verdict.failures();
+    if (std::string(name) == "slow") {
+      EXPECT_FALSE(testing::fails_on(fb.verdict, "elbow tracking")) << fb.verdict.failures();
+    }
     for (const GoniometerResult* r : {&open, &fb}) {
       // Beyond tracking, only tension floors may fail (the wrist's, see E3; the elbow's at the brisk pace).
       for (const std::string& f : testing::failed_figures(r->verdict)) {
