@@ -106,8 +106,9 @@ Command add_record_calibration(CLI::App& app) {
   peha::app::RecordOptions& record = s->record;
   CLI::App* record_cmd = app.add_subcommand(
       "record-calibration",
-      "Drive the paper's triangle-wave pressure excitation on one muscle (the other held at a constant\n"
-      "pressure, the link moving with its payload) and log t_s, pressure_MPa, angle_rad, contraction,\n"
+      "Drive the paper's triangle-wave pressure excitation on one muscle (the other constant or in\n"
+      "antiphase, the link moving with its payload), then the section's operating_points segments (further\n"
+      "triangles that visit where the controller works), and log t_s, pressure_MPa, angle_rad, contraction,\n"
       "force_N, wire_velocity_mps at 250 Hz to a calibration CSV. Runs on the simulated rig; the\n"
       "excitation is the config's calibration.<muscle> section.");
   record_cmd->add_option("-c,--config", record.config, "Rig scenario YAML with a calibration: section")
