@@ -8,6 +8,9 @@ and writes REPORT_DIR/report.png with four panels:
   3. the pressure residual before and after the SPGP (held-out blocks shaded);
   4. the SPGP's predictive standard deviation over (contraction, force) with the data and the
      pseudo-inputs: where it is large, the calibration data did not reach.
+With operating_points.csv (`peha calibrate --scenario`), panels 2 and 4 also mark where the
+controller worked in the closed-loop check (force request at each hold), labelled with the SPGP's
+std there.
 """
 import argparse
 import csv
@@ -58,6 +61,24 @@ def main():
     if os.path.exists(summary):
         title = open(summary).readline().strip()
 
+    ops_path = os.path.join(args.report_dir, "operating_points.csv")
+    ops = None
+    if os.path.exists(ops_path):
+        with open(ops_path) as f:
+            rows = [line for line in f if not line.startswith("#")]
+        reader = csv.DictReader(rows)
+        ops = [{k: (v if k == "case" else float(v)) for k, v in r.items()} for r in reader]
+
+    def mark_ops(ax, with_std):
+        if not ops:
+            return
+        ax.plot([o["contraction"] for o in ops], [o["force_cmd_N"] for o in ops], "D", mfc="none", mec="C1", ms=9, mew=2,
+                label="E1 operating points (check)")
+        if with_std:
+            for o in ops:
+                ax.annotate(f"{1e3 * o['spgp_std_MPa']:.0f} kPa", (o["contraction"], o["force_cmd_N"]), fontsize=7, color="C1",
+                            xytext=(4, 4), textcoords="offset points")
+
     fig, axes = plt.subplots(2, 2, figsize=(14, 9))
     ax = axes[0, 0]
     shade(ax, t, held)
@@ -76,6 +97,9 @@ def main():
     ax.set_title("calibration data (colour: pressure [MPa])")
     sm = plt.cm.ScalarMappable(cmap="viridis", norm=plt.Normalize(d["pressure_MPa"].min(), d["pressure_MPa"].max()))
     fig.colorbar(sm, ax=ax, label="pressure [MPa]")
+    mark_ops(ax, False)
+    if ops:
+        ax.legend(loc="upper right", fontsize=8)
 
     ax = axes[1, 0]
     shade(ax, t, held)
@@ -105,6 +129,7 @@ def main():
         if os.path.exists(pseudo_path):
             z = read_csv(pseudo_path)
             ax.plot(z["contraction"], z["force_N"], "c+", ms=8, mew=1.5, label="pseudo-inputs")
+        mark_ops(ax, True)
         ax.legend(loc="upper right", fontsize=8)
         ax.set_title("SPGP predictive band over ($\\epsilon$, F)")
     else:

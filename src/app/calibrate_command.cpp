@@ -3,9 +3,12 @@
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/calibration/calibration_file.hpp"
+#include "peha/experiments/calibration_recording/acceptance.hpp"
 #include "peha/experiments/run_request.hpp"
 
 #include <fmt/format.h>
+
+#include <optional>
 
 namespace peha::app {
 
@@ -32,12 +35,52 @@ int calibrate(const CalibrateCommandOptions& options) {
     progress.spgp = [&](int iteration, double nlml) {
       gp.update(iteration, options.spgp_iterations, fmt::format("NLML {:.1f}", nlml));
     };
+    // With a scenario: the muscle it calibrates, checked before anything runs.
+    std::optional<experiments::E1Scenario> scenario;
+    int index = 0;
+    if (!options.scenario.empty()) {
+      if (o.muscle != "agonist" && o.muscle != "antagonist") {
+        fmt::print(stderr, "error: --scenario needs --muscle agonist or antagonist (the muscle of the rig), found '{}'\n", o.muscle);
+        return 2;
+      }
+      index = o.muscle == "agonist" ? 0 : 1;
+      scenario = experiments::read_e1(config::Document::load_file(options.scenario));
+      if (!scenario->acceptance) {
+        fmt::print(stderr, "config error: {}: no calibration.acceptance section (the closed-loop check to run)\n",
+                   options.scenario.string());
+        return 2;
+      }
+    }
     const calibration::CalibrationOutcome outcome = calibration::calibrate(data, o, progress);
-    if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
-    calibration::write_calibration(options.out, outcome.calibration);
     std::filesystem::path report = options.report_dir;
     if (report.empty()) report = std::filesystem::path(options.out).replace_extension().string() + "_report";
-    write_calibration_report(report, data, outcome, options.plot);
+    std::optional<experiments::AcceptanceResult> check;
+    if (scenario) {
+      // The file's checks first (as peha run applies it), then the closed loop on the scenario's rig;
+      // the other muscle keeps the scenario's model (the link is clamped: each muscle's force
+      // follows its own pressure).
+      experiments::E1Scenario s = *scenario;
+      const safety::JointLimits& range = s.limits.joints[0];
+      calibration::apply_calibration(outcome.calibration, options.out, options.use_spgp, s.controller.joint, index,
+                                     range.min_angle_rad, range.max_angle_rad);
+      fmt::print("closed-loop check on the rig ({}): holds at", options.scenario.string());
+      for (double a : s.acceptance->angles_rad) fmt::print(" {:.0f}", a * 180.0 / 3.14159265358979323846);
+      fmt::print(" deg x {} payload(s), {:.1f} s each, pure feed-forward\n", s.cases.size(), s.acceptance->hold_s);
+      check = experiments::run_acceptance_check(s, *s.acceptance, [](const experiments::E1Scenario& sc, const experiments::E1Case& c) {
+        return experiments::e1_plant_params(sc, c);
+      });
+      fmt::print("  {}: force tracking RMS {:.1f} N (<= {:.1f}), lowest load-cell force {:.1f} N (>= {:.1f}): {}\n", o.muscle,
+                 check->force_tracking_rms_N[index], check->max_rms_N, check->min_loadcell_N[index], check->min_tension_N,
+                 check->passed(index) ? "accepted" : "REFUSED");
+    }
+    write_calibration_report(report, data, outcome, options.plot, {check ? &*check : nullptr, index});
+    if (check && !check->passed(index)) {
+      fmt::print(stderr, "calibration refused: closed-loop check on the rig: {}; {} not written (report: {}/)\n",
+                 check->failure(index), options.out.string(), report.string());
+      return 2;
+    }
+    if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
+    calibration::write_calibration(options.out, outcome.calibration);
     fmt::print("written: {} and {}/\n", options.out.string(), report.string());
     return 0;
   });

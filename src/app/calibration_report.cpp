@@ -11,7 +11,7 @@
 namespace peha::app {
 
 void write_calibration_report(const std::filesystem::path& dir, const calibration::Dataset& data,
-                              const calibration::CalibrationOutcome& outcome, bool plot) {
+                              const calibration::CalibrationOutcome& outcome, bool plot, const ReportOperatingPoints& points) {
   std::filesystem::create_directories(dir);
   const calibration::MuscleCalibration& c = outcome.calibration;
   const calibration::CalibrationStats& s = c.stats;
@@ -47,6 +47,19 @@ void write_calibration_report(const std::filesystem::path& dir, const calibratio
     for (Eigen::Index m = 0; m < z.rows(); ++m) {
       pseudo << fmt::format("{:.9g},{:.9g}\n", c.spgp->input_mean()[0] + c.spgp->input_scale()[0] * z(m, 0),
                             c.spgp->input_mean()[1] + c.spgp->input_scale()[1] * z(m, 1));
+    }
+  }
+  if (points.check) {
+    const int m = points.index;
+    std::ofstream csv(dir / "operating_points.csv");
+    csv << "# the closed-loop check's holds (calibration.acceptance of the scenario): where the controller worked\n";
+    csv << "case,angle_deg,contraction,force_cmd_N,loadcell_N,min_loadcell_N,pressure_cmd_MPa,spgp_mean_MPa,spgp_std_MPa\n";
+    for (const experiments::AcceptancePoint& p : points.check->points) {
+      const double x[2] = {p.contraction[m], p.force_cmd_N[m]};
+      const double mean = c.spgp ? c.spgp->predict_mean(x) : 0.0;
+      const double sd = c.spgp ? std::sqrt(std::max(c.spgp->predict_variance(x), 0.0)) : 0.0;
+      csv << fmt::format("{},{:.3f},{:.6g},{:.4g},{:.4g},{:.4g},{:.6g},{:.6g},{:.6g}\n", p.case_name, p.angle_deg, p.contraction[m],
+                         p.force_cmd_N[m], p.loadcell_N[m], p.min_loadcell_N[m], p.pressure_cmd_Pa[m] * 1e-6, mean * 1e-6, sd * 1e-6);
     }
   }
   std::ofstream txt(dir / "summary.txt");

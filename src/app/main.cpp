@@ -111,8 +111,9 @@ Command add_record_calibration(CLI::App& app) {
   peha::app::RecordOptions& record = s->record;
   CLI::App* record_cmd = app.add_subcommand(
       "record-calibration",
-      "Drive the paper's triangle-wave pressure excitation on one muscle (the other held at a constant\n"
-      "pressure, the link moving with its payload) and log t_s, pressure_MPa, angle_rad, contraction,\n"
+      "Drive the paper's triangle-wave pressure excitation on one muscle (the other constant or in\n"
+      "antiphase, the link moving with its payload), then the section's operating_points segments (further\n"
+      "triangles that visit where the controller works), and log t_s, pressure_MPa, angle_rad, contraction,\n"
       "force_N, wire_velocity_mps at 250 Hz to a calibration CSV. Runs on the simulated rig; the\n"
       "excitation is the config's calibration.<muscle> section.");
   record_cmd->add_option("-c,--config", record.config, "Rig scenario YAML with a calibration: section")
@@ -138,7 +139,8 @@ Command add_calibrate(CLI::App& app) {
       "(FITC, ARD) on the residual. Two time-contiguous blocks of ten are held out and the held-out\n"
       "pressure RMS error is reported for the parametric model alone and with the SPGP. Writes the\n"
       "calibration YAML and a report folder (summary.txt, predictions.csv, report.png).\n"
-      "Exit code 0 = written, 2 = bad data (nothing written), 1 = other error.");
+      "Exit code 0 = written, 2 = bad data (nothing written) or a calibration refused by the --scenario's\n"
+      "closed-loop check, 1 = other error.");
   cal_cmd->add_option("data", cal.data, "Calibration CSV")->required()->check(CLI::ExistingFile);
   cal_cmd->add_option("-o,--out", cal.out, "Calibration YAML to write")->required();
   cal_cmd->add_option("--report-dir", cal.report_dir, "Report folder (default: <out>_report)");
@@ -153,6 +155,12 @@ Command add_calibrate(CLI::App& app) {
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(5, 100000000));
   cal_cmd->add_option("--seed", cal.seed, "Seed of the random initialisations and pseudo-inputs")->check(peha::app::unsigned_integer())->capture_default_str();
   cal_cmd->add_flag("!--no-plot", cal.plot, "Do not render report.png");
+  cal_cmd->add_option("--scenario", cal.scenario,
+                      "E1 scenario (e.g. configs/e1_one_dof.yaml; --muscle agonist|antagonist): the report adds where E1\n"
+                      "works (operating_points.csv, the SPGP's std there), and its calibration.acceptance check runs on\n"
+                      "its rig: the link clamped at E1's angles on pure feed-forward with this calibration; a failed check refuses the\n"
+                      "calibration (exit 2, no calibration YAML written, the report is)")
+      ->check(CLI::ExistingFile);
   return {cal_cmd, [options] { return peha::app::calibrate(*options); }};
 }
 
@@ -232,6 +240,8 @@ Command add_robustness(CLI::App& app) {
   s->threads_opt = cmd->add_option("--threads", s->threads, "Worker threads over the cases (default: the file's threads:)")
                        ->check(CLI::Range(1, 64));
   cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
+  cmd->add_option("--mode", s->options.only_mode, "Run only this mode (it must be on in the file)")
+      ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures"}));
   cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");
   return {cmd, [s] {
             if (*s->threads_opt) s->options.threads = s->threads;

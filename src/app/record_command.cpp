@@ -30,10 +30,15 @@ int record_calibration(const RecordOptions& options) {
     sim::OneDofRigParams plant_params = scenario.plant;
     if (options.seed) plant_params.seed = *options.seed;
     fmt::print("peha record-calibration: {} of the simulated rig ({}), {:.0f} s at {:.0f} Hz\n"
-               "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
-               options.muscle, doc.name(), e.duration_s, e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
-               e.max_pressure_Pa * 1e-6, e.period_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
+               "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
+               options.muscle, doc.name(), e.total_duration_s(), e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
+               e.max_pressure_Pa * 1e-6, e.period_s, e.duration_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
                e.payload_kg);
+    for (const experiments::ExcitationSegment& g : e.segments) {
+      fmt::print("  then operating points: triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa\n",
+                 g.min_pressure_Pa * 1e-6, g.max_pressure_Pa * 1e-6, g.period_s, g.duration_s, g.other_pressure_at_min_Pa * 1e-6,
+                 g.other_pressure_Pa * 1e-6);
+    }
     const calibration::Dataset data = experiments::record_e1_muscle(
         scenario, plant_params, index,
         [&, bar = std::make_shared<experiments::ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });

@@ -24,6 +24,14 @@ int robustness(const RobustnessOptions& options) {
         return 2;
       }
     }
+    if (!options.only_mode.empty()) {
+      std::erase_if(config.modes, [&](experiments::RobustnessMode m) { return experiments::to_string(m) != options.only_mode; });
+      if (config.modes.empty()) {
+        fmt::print(stderr, "error: mode '{}' is not on in {} (modes: e1_default, e1_calibrated_ff, e3_postures)\n", options.only_mode,
+                   doc.name());
+        return 2;
+      }
+    }
     RunDir run_dir(options.config, options.out_root, options.run_name);
     const std::filesystem::path dir = run_dir.create(config.seeds.front());
     fmt::print("peha robustness: {}\n  {} variant(s) x modes {} x {} seed(s) on {} thread(s); output {}\n", doc.name(),

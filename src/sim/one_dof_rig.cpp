@@ -103,7 +103,7 @@ double OneDofRigBackend::finger_force(double t, double angle, double omega) noex
     const double target = start + (goal - start) * blend;
     double force = f.stiffness_N_per_m * f.lever_m * (target - angle) - f.damping_Ns_per_m * f.lever_m * omega;
     force = std::clamp(force, -f.max_force_N, f.max_force_N);
-    if (!push.hold) force = goal >= start ? std::max(force, 0.0) : std::min(force, 0.0);  // a finger only pushes
+    if (!push.hold && !push.clamp) force = goal >= start ? std::max(force, 0.0) : std::min(force, 0.0);  // a finger only pushes
     truth_.finger_active = true;
     return force;
   }

@@ -107,6 +107,7 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
   EXPECT_THAT(r.output, HasSubstr("looks like kPa"));
   EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
   EXPECT_THAT(run("calibrate --help").output, HasSubstr("--restarts"));
+  EXPECT_THAT(run("calibrate --help").output, HasSubstr("--scenario"));
   EXPECT_THAT(run("record-calibration --help").output, HasSubstr("250 Hz"));
 }
 
@@ -115,7 +116,7 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
 TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   const Result help = run("robustness --help");
   EXPECT_EQ(help.code, 0);
-  for (const char* option : {"--config", "--threads", "--variant", "--no-plot", "robustness.md", "heatmap.png"}) {
+  for (const char* option : {"--config", "--threads", "--variant", "--mode", "--no-plot", "robustness.md", "heatmap.png"}) {
     EXPECT_THAT(help.output, HasSubstr(option));
   }
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_robustness";
@@ -127,6 +128,9 @@ TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   const Result unknown = run("robustness --no-plot --out " + dir.string() + " --variant nope --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
   EXPECT_EQ(unknown.code, 2) << unknown.output;
   EXPECT_THAT(unknown.output, HasSubstr("no variant named 'nope'"));
+  const Result mode = run("robustness --no-plot --out " + dir.string() + " --mode nope --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
+  EXPECT_NE(mode.code, 0) << mode.output;
+  EXPECT_THAT(mode.output, HasSubstr("--mode"));
   const Result check = run("check-config --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
   EXPECT_EQ(check.code, 0) << check.output;
   EXPECT_THAT(check.output, HasSubstr("robustness matrix, 3 mode(s) x 17 variant(s)"));

@@ -82,6 +82,9 @@ struct CalibrateCommandOptions {
   std::size_t min_rows = 50;         ///< fewer rows is an error (static maps may have fewer)
   std::uint64_t seed = 1;
   bool plot = true;
+  /// E1 scenario (with calibration.acceptance): operating points in the report, and the
+  /// closed-loop check on its rig that may refuse the calibration (empty: neither).
+  std::filesystem::path scenario;
 };
 
 /// `peha calibrate`: fits the muscle model to a calibration CSV, writes the file and a report.
@@ -96,6 +99,7 @@ struct RobustnessOptions {
   std::string run_name;                   ///< default: <config stem>-<UTC time stamp>
   std::optional<int> threads;             ///< overrides the file's threads
   std::string only_variant;               ///< run only this variant (empty: all)
+  std::string only_mode;                  ///< run only this mode (empty: the file's modes)
   bool plot = true;                       ///< render heatmap.png with tools/plot_robustness.py
 };
 

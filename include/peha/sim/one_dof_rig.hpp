@@ -35,6 +35,9 @@ struct FingerPush {
   double move_s = 1;
   double target_angle_rad = 0;
   bool hold = false;  ///< hold at the start angle instead of moving
+  /// Pulls as well as pushes (a clamp guided to the target, as the calibration's acceptance check
+  /// uses), instead of a finger that only pushes toward its target.
+  bool clamp = false;
 };
 
 struct FingerParams {

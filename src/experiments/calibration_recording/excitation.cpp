@@ -4,7 +4,9 @@
 #include "peha/runtime/control_loop.hpp"
 
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
+#include <utility>
 
 namespace peha::experiments {
 
@@ -18,26 +20,71 @@ ExcitationParams read_excitation(config::Map map) {
   e.other_pressure_at_min_Pa = map.number_or("other_pressure_at_min_MPa", e.other_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
   e.sample_rate_Hz = map.number("sample_rate_Hz", {1.0, 10000.0});
   e.payload_kg = map.number("payload_kg", {0.0, 20.0});
+  if (map.has("operating_points")) {
+    for (config::Map m : map.maps("operating_points", 1, 32)) {
+      ExcitationSegment g;
+      g.min_pressure_Pa = m.number("min_pressure_MPa", {0.0, 1.0}) * 1e6;
+      g.max_pressure_Pa = m.number("max_pressure_MPa", {g.min_pressure_Pa * 1e-6 + 0.01, 1.0}) * 1e6;
+      g.period_s = m.number("period_s", {0.5, 600.0});
+      g.duration_s = m.number("duration_s", {g.period_s, 3600.0});
+      g.other_pressure_Pa = m.number("other_pressure_MPa", {0.0, 1.0}) * 1e6;
+      g.other_pressure_at_min_Pa = m.number_or("other_pressure_at_min_MPa", g.other_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
+      m.finish();
+      e.segments.push_back(g);
+    }
+  }
   map.finish();
   return e;
+}
+
+double ExcitationParams::total_duration_s() const noexcept {
+  double t = duration_s;
+  for (const ExcitationSegment& g : segments) t += g.duration_s;
+  return t;
+}
+
+CalibrationAcceptance read_calibration_acceptance(config::Map map) {
+  CalibrationAcceptance a;
+  for (double deg : map.numbers("angles_deg", {-90.0, 90.0}, 1, 16)) a.angles_rad.push_back(deg * std::numbers::pi / 180.0);
+  a.hold_s = map.number("hold_s", {0.5, 60.0});
+  a.settle_s = map.number("settle_s", {0.0, a.hold_s - 0.1});
+  a.max_force_tracking_rms_N = map.number("max_force_tracking_rms_N", {0.1, 2000.0});
+  a.min_tension_fraction = map.number("min_tension_fraction", {0.0, 10.0});
+  map.finish();
+  return a;
 }
 
 namespace {
 
 /// 0 at t = 0, 1 at half a period, 0 again at a full period.
-double triangle_unit(const ExcitationParams& e, double t_s) noexcept {
-  const double phase = std::fmod(std::max(t_s, 0.0), e.period_s) / e.period_s;
+double triangle_unit(double period_s, double t_s) noexcept {
+  const double phase = std::fmod(std::max(t_s, 0.0), period_s) / period_s;
   return phase < 0.5 ? 2.0 * phase : 2.0 - 2.0 * phase;
+}
+
+/// The segment running at t (the main triangle as a segment) and t relative to its start.
+std::pair<ExcitationSegment, double> segment_at(const ExcitationParams& e, double t_s) noexcept {
+  ExcitationSegment current{e.min_pressure_Pa, e.max_pressure_Pa, e.period_s, e.duration_s, e.other_pressure_Pa,
+                            e.other_pressure_at_min_Pa};
+  double start = 0.0;
+  for (const ExcitationSegment& g : e.segments) {
+    if (t_s < start + current.duration_s) break;
+    start += current.duration_s;
+    current = g;
+  }
+  return {current, t_s - start};
 }
 
 }  // namespace
 
 double triangle_pressure_Pa(const ExcitationParams& e, double t_s) noexcept {
-  return e.min_pressure_Pa + (e.max_pressure_Pa - e.min_pressure_Pa) * triangle_unit(e, t_s);
+  const auto [g, t] = segment_at(e, t_s);
+  return g.min_pressure_Pa + (g.max_pressure_Pa - g.min_pressure_Pa) * triangle_unit(g.period_s, t);
 }
 
 double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept {
-  return e.other_pressure_at_min_Pa + (e.other_pressure_Pa - e.other_pressure_at_min_Pa) * triangle_unit(e, t_s);
+  const auto [g, t] = segment_at(e, t_s);
+  return g.other_pressure_at_min_Pa + (g.other_pressure_Pa - g.other_pressure_at_min_Pa) * triangle_unit(g.period_s, t);
 }
 
 calibration::Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
@@ -50,7 +97,7 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
     throw std::invalid_argument("calibration sample rate must divide the control rate");
   }
   const models::MuscleModel& muscle = side > 0 ? joint.agonist : joint.antagonist;
-  const auto steps = static_cast<long>(std::llround(excitation.duration_s / period_s));
+  const auto steps = static_cast<long>(std::llround(excitation.total_duration_s() / period_s));
 
   calibration::Dataset data;
   const auto rows = static_cast<std::size_t>(steps / every + 1);

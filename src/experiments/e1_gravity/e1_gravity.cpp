@@ -107,6 +107,7 @@ E1Scenario read_e1(const config::Document& doc) {
     config::Map cal = root.map("calibration");
     s.excitation[0] = experiments::read_excitation(cal.map("agonist"));
     s.excitation[1] = experiments::read_excitation(cal.map("antagonist"));
+    if (cal.has("acceptance")) s.acceptance = experiments::read_calibration_acceptance(cal.map("acceptance"));
     cal.finish();
   }
   root.finish();

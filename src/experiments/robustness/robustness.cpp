@@ -2,6 +2,7 @@
 
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
+#include "peha/experiments/calibration_recording/acceptance.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
@@ -118,6 +119,19 @@ E1Scenario calibrated_on(const E1Scenario& nominal, const PlantVariant& v, std::
                                    s.controller.joint, i, range.min_angle_rad, range.max_angle_rad);
   }
   s.controller.allocation.force_trim_rate_1ps = 0.0;  // the paper's pure feed-forward
+  if (s.acceptance) {
+    // The closed-loop check on the variant's rig (as `peha calibrate --scenario` runs it on the rig).
+    const AcceptanceResult check = run_acceptance_check(s, *s.acceptance, [&](const E1Scenario& sc, const E1Case& c) {
+      sim::OneDofRigParams p = e1_variant_plant(sc, c, v);
+      p.seed = seed;
+      return p;
+    });
+    std::string failed;
+    for (int i = 0; i < 2; ++i) {
+      if (!check.passed(i)) failed += (failed.empty() ? "" : "; ") + check.failure(i);
+    }
+    if (!failed.empty()) throw calibration::CalibrationRejected("closed-loop check on the rig: " + failed);
+  }
   return s;
 }
 

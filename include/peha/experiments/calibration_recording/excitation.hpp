@@ -1,8 +1,10 @@
 #pragma once
 /// \file
 /// Calibration excitation (docs/calibration.md, paper Fig. 8): a triangle wave of pressure on one muscle while
-/// the other holds a constant pressure and the joint moves; the load cell, the valve's pressure and
-/// the joint angle are logged at 250 Hz. It drives any `io::Backend` (the simulated rig by default,
+/// the other holds a constant pressure (or moves in antiphase) and the joint moves; then, optionally,
+/// operating-point segments: further triangles with their own pressure ranges that visit where the
+/// controller works (e.g. the antagonist near its pretension at low pressure, the link held at
+/// several angles). The load cell, the valve's pressure and the joint angle are logged at 250 Hz. It drives any `io::Backend` (the simulated rig by default,
 /// the I/O board later) through the limits layer like every other command.
 
 #include "peha/calibration/dataset.hpp"
@@ -13,8 +15,20 @@
 
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace peha::experiments {
+
+/// One operating-point segment: a triangle of the excited muscle's pressure with the partner in
+/// antiphase (or constant), run after the main triangle.
+struct ExcitationSegment {
+  double min_pressure_Pa = 0.1e6;
+  double max_pressure_Pa = 0.3e6;
+  double period_s = 8.0;
+  double duration_s = 16.0;
+  double other_pressure_Pa = 0.1e6;         ///< partner while the excited muscle is at its top
+  double other_pressure_at_min_Pa = 0.1e6;  ///< partner while the excited muscle is at its bottom
+};
 
 /// The excitation of one muscle.
 struct ExcitationParams {
@@ -29,12 +43,33 @@ struct ExcitationParams {
   double other_pressure_at_min_Pa = 0.25e6;
   double sample_rate_Hz = 250.0;      ///< logging rate (a divisor of the control rate)
   double payload_kg = 2.5;            ///< weight on the link while recording (simulated rig)
+  /// Operating-point segments, run in order after the main triangle (`operating_points:`).
+  std::vector<ExcitationSegment> segments;
+  /// The main triangle plus every segment.
+  double total_duration_s() const noexcept;
 };
+
+/// The closed-loop check a calibration passes before it is used (`calibration.acceptance`): on the
+/// rig, with the calibration on the paper's pure feed-forward (no force trim), the link is clamped
+/// at each angle in turn for hold_s with each of the scenario's payloads;
+/// over the last (hold_s - settle_s) of each hold, what the rig's sensors give is judged: the RMS
+/// of (force request - load cell) per muscle and the lowest load-cell force.
+struct CalibrationAcceptance {
+  std::vector<double> angles_rad;        ///< hold angles, in order
+  double hold_s = 3.0;                   ///< per angle
+  double settle_s = 1.5;                 ///< the start of each hold (moving, settling) is not judged
+  double max_force_tracking_rms_N = 25.0;  ///< per muscle, over every judged sample
+  double min_tension_fraction = 0.5;     ///< lowest load-cell force >= this x the controller's pretension
+};
+
+/// Reads `calibration.acceptance` (angles in degrees) and finishes it.
+CalibrationAcceptance read_calibration_acceptance(config::Map map);
 
 /// Reads one muscle's `calibration.<muscle>` mapping (pressures in MPa) and finishes it.
 ExcitationParams read_excitation(config::Map map);
 
-/// Triangle wave value at time t: min at t = 0, max at period/2.
+/// Triangle wave value at time t: min at t = 0, max at period/2; after duration_s, the segment that
+/// t falls in (each starting at its own minimum); after the last segment, its last value's wave.
 double triangle_pressure_Pa(const ExcitationParams& e, double t_s) noexcept;
 /// The other muscle's pressure at time t (antiphase between its two values).
 double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept;

@@ -46,6 +46,9 @@ struct E1Scenario {
   /// Optional `calibration:` section: the excitation of each muscle for `peha record-calibration`
   /// (index 0 agonist, 1 antagonist).
   std::optional<experiments::ExcitationParams> excitation[2];
+  /// Optional `calibration.acceptance`: the closed-loop check a calibration must pass
+  /// (experiments/calibration_recording/acceptance.hpp).
+  std::optional<experiments::CalibrationAcceptance> acceptance;
   /// Optional `mfb:` section: how the scenario runs on the multifunction board over UDP.
   std::optional<mfb::LinkConfig> link;
 };

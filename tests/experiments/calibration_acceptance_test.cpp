@@ -1,0 +1,112 @@
+// The calibration covers where the controller works: the excitation's operating-point segments
+// reach the antagonist's E1 hold point, and the closed-loop check on the rig accepts a fitted
+// calibration and refuses a wrong one (docs/calibration.md, "Operating points" and "Acceptance").
+#include "peha/calibration/calibrate.hpp"
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/experiments/calibration_recording/acceptance.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+namespace peha::experiments {
+namespace {
+
+using ::testing::HasSubstr;
+
+E1Scenario shipped() { return read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")); }
+
+/// Rows of the recording in E1's antagonist hold region: contraction of the link between -15 and
+/// +25 deg (nominal geometry) and force within 30..100 N around the 60 N pretension.
+std::size_t rows_at_hold_point(const calibration::Dataset& d, double t_from_s, double t_to_s) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    if (d.t_s[i] < t_from_s || d.t_s[i] >= t_to_s) continue;
+    n += d.contraction[i] >= 0.0045 && d.contraction[i] <= 0.045 && d.force_N[i] >= 30.0 && d.force_N[i] <= 100.0;
+  }
+  return n;
+}
+
+// The main triangle never brings the antagonist near its pretension after the start-up transient;
+// the operating-point segment does, for seconds, without a slack wire.
+TEST(CalibrationCoverage, AntagonistRecordingVisitsTheE1HoldPointWithATautWire) {
+  const E1Scenario s = shipped();
+  ASSERT_TRUE(s.excitation[1]);
+  ASSERT_EQ(s.excitation[1]->segments.size(), 1u);
+  const double main_s = s.excitation[1]->duration_s;
+  const calibration::Dataset d = record_e1_muscle(s, s.plant, 1);
+  EXPECT_NEAR(d.t_s.back(), s.excitation[1]->total_duration_s(), 0.01);
+  EXPECT_EQ(rows_at_hold_point(d, 1.0, main_s), 0u);
+  const std::size_t in_segment = rows_at_hold_point(d, main_s, 1e9);
+  EXPECT_GT(in_segment, 2500u);  // > 10 s at 250 Hz
+  double lowest = 1e9;
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    if (d.t_s[i] >= main_s + 1.0) lowest = std::min(lowest, d.force_N[i]);
+  }
+  EXPECT_GT(lowest, 20.0);  // never slack in the segment
+}
+
+// The segment's pressures: each segment starts at its own minimum with the partner at its
+// other_pressure_at_min, and reaches its top at half its period.
+TEST(CalibrationCoverage, SegmentsFollowTheMainTriangle) {
+  ExcitationParams e;
+  e.min_pressure_Pa = 0.1e6;
+  e.max_pressure_Pa = 0.5e6;
+  e.period_s = 10.0;
+  e.duration_s = 20.0;
+  e.other_pressure_Pa = e.other_pressure_at_min_Pa = 0.3e6;
+  e.segments.push_back({0.12e6, 0.30e6, 8.0, 16.0, 0.10e6, 0.16e6});
+  EXPECT_DOUBLE_EQ(e.total_duration_s(), 36.0);
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 15.0), 0.5e6);   // main
+  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 15.0), 0.3e6);
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 20.0), 0.12e6);  // segment start
+  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 20.0), 0.16e6);
+  EXPECT_DOUBLE_EQ(triangle_pressure_Pa(e, 24.0), 0.30e6);  // its top
+  EXPECT_DOUBLE_EQ(other_pressure_Pa(e, 24.0), 0.10e6);
+}
+
+calibration::CalibrationOutcome fitted_antagonist(const E1Scenario& s) {
+  const calibration::Dataset d = record_e1_muscle(s, s.plant, 1);
+  calibration::CalibrateOptions o;
+  o.muscle = "antagonist";
+  o.fit.restarts = 8;
+  o.spgp.num_pseudo = 30;
+  o.spgp.max_iterations = 100;
+  o.max_spgp_rows = 4000;
+  return calibration::calibrate(d, o);
+}
+
+AcceptanceResult check_with(E1Scenario s, const calibration::MuscleCalibration& c) {
+  const safety::JointLimits& range = s.limits.joints[0];
+  calibration::apply_calibration(c, "test.yaml", true, s.controller.joint, 1, range.min_angle_rad, range.max_angle_rad);
+  return run_acceptance_check(s, *s.acceptance, [](const E1Scenario& sc, const E1Case& c) { return e1_plant_params(sc, c); });
+}
+
+// The check judges what the rig's sensors give at E1's holds: the antagonist calibrated on the
+// shipped excitation tracks its force request; the same calibration with its gain scaled by 1.5
+// (a model that believes the muscle 50 % stronger) under-delivers and is refused, saying why.
+TEST(CalibrationAcceptance, AcceptsTheFittedCalibrationAndRefusesAGainScaledOne) {
+  E1Scenario s = shipped();
+  ASSERT_TRUE(s.acceptance);
+  s.cases = {s.cases.back()};  // one payload keeps the test short
+  const calibration::CalibrationOutcome fit = fitted_antagonist(s);
+  const AcceptanceResult good = check_with(s, fit.calibration);
+  ASSERT_EQ(good.points.size(), s.acceptance->angles_rad.size());
+  EXPECT_TRUE(good.passed(1)) << good.failure(1);
+  EXPECT_LT(good.force_tracking_rms_N[1], s.acceptance->max_force_tracking_rms_N);
+  EXPECT_GE(good.min_loadcell_N[1], 30.0);
+  for (const AcceptancePoint& p : good.points) EXPECT_NEAR(p.force_cmd_N[1], 60.0, 1.0);  // the pretension request
+
+  calibration::MuscleCalibration wrong = fit.calibration;
+  wrong.params.a_N_per_Pa *= 1.5;
+  wrong.params.b_N_per_Pa *= 1.5;
+  wrong.params.c_N_per_Pa *= 1.5;
+  const AcceptanceResult bad = check_with(s, wrong);
+  EXPECT_FALSE(bad.passed(1));
+  EXPECT_GT(bad.force_tracking_rms_N[1], s.acceptance->max_force_tracking_rms_N);
+  EXPECT_THAT(bad.failure(1), HasSubstr("antagonist force tracking RMS"));
+}
+
+}  // namespace
+}  // namespace peha::experiments
