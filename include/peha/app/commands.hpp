@@ -30,6 +30,7 @@ struct RunOptions {
   std::optional<int> cpu;                     ///< real-time loop: pin to this CPU (-1 = don't; unset: -1)
   std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
+  std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1
 };
 
 struct EmulatorOptions {
