@@ -31,7 +31,10 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 
 
 class GravityCompensation:
-    """E1's controller (control/one_dof_gravity.cpp) in Python: sensors in, command out."""
+    """E1's controller (control/one_dof_gravity.cpp) in Python: sensors in, command out.
+
+    Without the shipped controller's start-up tare (vent, average the load cells, refill: it needs the
+    limits stage, which this loop does not run); it matches the C++ controller with tare_s: 0."""
 
     def __init__(self, rig: peha.Rig):
         self.allocator = peha.Allocator(rig.joint, rig.allocation)

@@ -142,7 +142,9 @@ int main(int argc, char** argv) {
     sim::OneDofRigBackend rig(experiments::e1_plant_params(e1, c));
     rig.configure();
     rig.activate();
-    control::OneDofGravityController controller(experiments::e1_controller_model(e1, c));
+    control::OneDofControllerModel model = experiments::e1_controller_model(e1, c);
+    model.allocation.loadcell_check.tare_s = 0.0;  // the Python example has no start-up tare (docs/python.md)
+    control::OneDofGravityController controller(model);
     io::SensorState s;
     io::Command cmd;
     std::vector<double> t, a, p1, p2, mt, truth_angle;

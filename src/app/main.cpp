@@ -1,4 +1,5 @@
 // peha: control software for exoskeletons driven by pneumatic-electric hybrid actuators.
+#include "peha/sim/plant_faults.hpp"
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 
@@ -87,6 +88,10 @@ Command add_run(CLI::App& app) {
       "--recover-after", s->recover_after,
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
       "without it, type r + Enter on the terminal to recover")->check(peha::app::decimal())->check(CLI::Range(0.0, 3600.0));
+  run_cmd->add_option("--fault", run.faults,
+                      "E1 in-process only (repeatable): inject a plant fault KIND@T[:TARGET[=VALUE]] at T s, TARGET\n"
+                      "[JOINT.]agonist|antagonist for muscle faults, VALUE for loadcell_bias (N), encoder_jump (deg),\n"
+                      "wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
   s->trim_opt = run_cmd->add_option(
       "--force-trim-rate", s->trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward);\n"
                "E1 and the right arm's experiments")

@@ -187,9 +187,9 @@ std::vector<ExperimentEntry> make_registry() {
   r.push_back({"gravity_compensation_1dof", "one-DOF rig",
                "E1: gravity compensation of the one-DOF PEHA rig with each payload (configs/e1_one_dof.yaml)",
                {{"", "E1 gravity compensation",
-                 {"--case", "--agonist-calibration", "--antagonist-calibration", "--force-trim-rate", "--backend"},
+                 {"--case", "--agonist-calibration", "--antagonist-calibration", "--force-trim-rate", "--backend", "--fault"},
                  {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"}},
-                 {},
+                 {{"--fault", "over the board the plant is the emulator's: give the faults in the scenario's faults: list"}},
                  experiments::run_e1_experiment}},
                check_e1, e1_board});
   r.push_back({"max_force_ramp", "one-DOF rig",

@@ -22,6 +22,7 @@ std::vector<std::string> checked_options_given(const RunOptions& o) {
       {"--goniometer-csv", !o.goniometer_csv.empty()},
       {"--backend", !o.backend.empty()},
       {"--force-trim-rate", o.force_trim_rate_1ps.has_value()},
+      {"--fault", !o.faults.empty()},
   };
   for (const auto& [name, set] : options) {
     if (set) given.emplace_back(name);
@@ -116,6 +117,7 @@ experiments::RunRequest make_request(const RunOptions& o) {
   r.fifo_priority = o.fifo_priority.value_or(80);
   r.cpu = o.cpu.value_or(-1);
   r.recover_after_s = o.recover_after_s;
+  r.faults = o.faults;
   return r;
 }
 

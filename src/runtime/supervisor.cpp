@@ -24,6 +24,15 @@ void Supervisor::fault(double t_s, const char* why) noexcept {
   if (on_fault) on_fault(why);
 }
 
+void Supervisor::raise(double t_s, const char* reason) noexcept {
+  if (lifecycle_.state() != LifecycleState::kActive) return;
+  lifecycle_.apply(Transition::kFault, t_s, reason);
+  ++faults_;
+  fault_t_ = t_s;
+  ramp_t_ = -1.0;
+  if (on_fault) on_fault(reason);
+}
+
 void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state, io::Command& cmd) noexcept {
   const io::BackendStatus status = backend_.status();
   if (!fresh) ++missed_;

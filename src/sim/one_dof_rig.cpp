@@ -43,7 +43,8 @@ OneDofRigBackend::OneDofRigBackend(const OneDofRigParams& params)
       joint_(params_.joint, params.timestep_s, params.initial_angle_rad),
       rng_(params.seed),
       push_start_angle_(params.finger.pushes.size(), std::numeric_limits<double>::quiet_NaN()),
-      gate_(params.control_period_s, kSafeVent_s) {
+      gate_(params.control_period_s, kSafeVent_s),
+      fault_applied_(params.faults.size(), 0) {
   const std::string name = params_.model_file.string();
   mjModel* m = model_.get();
   const int joint = require_id(m, mjOBJ_JOINT, "joint", name);
@@ -146,7 +147,7 @@ void OneDofRigBackend::sample() noexcept {
   truth_.velocity_radps = d->qvel[dof_];
   static_cast<PehaJointTruth&>(truth_) = joint_.truth();
   io::JointSensors& s = state_.joints[0];
-  s.angle_rad = encoder_angle_rad(angle, params_.encoder_counts_per_rev);
+  if (!encoder_frozen_) s.angle_rad = encoder_angle_rad(angle + encoder_offset_rad_, params_.encoder_counts_per_rev);
   joint_.sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   state_.time_s = d->time;
   ++state_.sequence;
@@ -158,8 +159,25 @@ bool OneDofRigBackend::read(io::SensorState& state) noexcept {
   return true;
 }
 
+void OneDofRigBackend::apply_faults(double t_s) noexcept {
+  for (std::size_t i = 0; i < params_.faults.size(); ++i) {
+    const PlantFault& f = params_.faults[i];
+    if (fault_applied_[i] || t_s + 1e-9 < f.time_s) continue;
+    fault_applied_[i] = 1;
+    apply_joint_fault(f, joint_.faults());
+    switch (f.kind) {
+      case FaultKind::kEncoderJump: encoder_offset_rad_ += f.value * kDegToRad; break;
+      case FaultKind::kEncoderFrozen: encoder_frozen_ = true; break;
+      case FaultKind::kEstop: gate_.estop(); break;
+      default: break;
+    }
+  }
+}
+
 bool OneDofRigBackend::write(const io::Command& command) noexcept {
   if (command.joint_count != 1) return false;
+  apply_faults(data_->time);
+  joint_.faults().dump = !gate_.status().active;
   const io::Command& applied = gate_.apply(command);
   for (int i = 0; i < substeps_; ++i) substep(applied.joints[0]);
   sample();

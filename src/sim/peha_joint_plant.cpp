@@ -136,7 +136,12 @@ void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
   const double dt_s = timestep_s_;
   const double pressure = mu.valve.pressure_Pa();
   const double eps = p.contraction_at_zero_angle + mu.side * r0 * angle / p.rest_length_m;
-  const double base = eps + (p.cable.initial_slack_m + mu.creep_m) / p.rest_length_m;
+  const int index = mu.side > 0 ? 0 : 1;
+  const double base = eps + (p.cable.initial_slack_m + mu.creep_m + faults_.wire_slip_m[index]) / p.rest_length_m;
+  if (faults_.wire_broken[index]) {  // nothing pulls on the muscle: it contracts freely, the wire carries nothing
+    mu.tension_N = 0.0;
+    return;
+  }
   const double per_N = 1.0 / (p.cable.wire_stiffness_N_per_m * p.rest_length_m);
   // Equilibrium of a massless muscle on an elastic wire: T = F(P, u(T), du/dt(T)) with
   // u(T) = base + T*per_N. The contraction rate is taken implicitly, (u(T) - u_previous)/dt: with an
@@ -172,8 +177,15 @@ void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
 PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double angle, double omega) noexcept {
   const double dt = timestep_s_;
   const double r0 = params_.pulley_radius_m;
-  muscles_[0].valve.step(cmd.agonist_pressure_Pa);
-  muscles_[1].valve.step(cmd.antagonist_pressure_Pa);
+  const double wanted[2] = {cmd.agonist_pressure_Pa, cmd.antagonist_pressure_Pa};
+  for (int i = 0; i < 2; ++i) {
+    Valve& valve = muscles_[i].valve;
+    valve.set_supply_Pa(faults_.supply_scale * std::min(muscle_params(muscles_[i]).valve.supply_pressure_Pa, params_.supply_cap_Pa));
+    double command = wanted[i];
+    if (!faults_.dump && faults_.valve_stuck_open[i]) command = std::numeric_limits<double>::max();  // fills to supply
+    if (!faults_.dump && faults_.valve_stuck_closed[i]) command = valve.pressure_Pa();             // holds its air
+    valve.step(command);
+  }
   double friction_Nm = 0.0;
   for (Muscle& mu : muscles_) {
     solve_muscle(mu, angle);
@@ -199,7 +211,7 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
     truth_.muscle_contraction[i] = mu.contraction;
     truth_.creep_m[i] = mu.creep_m;
   }
-  const double motor = params_.has_motor ? std::clamp(std::isfinite(cmd.motor_torque_Nm) ? cmd.motor_torque_Nm : 0.0,
+  const double motor = params_.has_motor && !faults_.motor_failed ? std::clamp(std::isfinite(cmd.motor_torque_Nm) ? cmd.motor_torque_Nm : 0.0,
                                                       -params_.motor.max_torque_Nm, params_.motor.max_torque_Nm)
                                          : 0.0;
   truth_.motor_torque_Nm = motor;
@@ -215,10 +227,23 @@ void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, s
     return quantize_16bit(p.loadcell_gain * tension_N + p.loadcell_offset_N + p.loadcell_noise_N * unit_normal_(rng),
                           p.loadcell_range_N);
   };
-  s.agonist_loadcell_N = loadcell(params_.agonist, force[0]);
-  s.antagonist_loadcell_N = loadcell(params_.antagonist, force[1]);
-  s.agonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[0] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
-  s.antagonist_pressure_Pa = quantize_16bit(truth_.pressure_Pa[1] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
+  const MusclePlantParams* p[2] = {&params_.agonist, &params_.antagonist};
+  double cell[2], pressure[2];
+  for (int i = 0; i < 2; ++i) {
+    cell[i] = loadcell(*p[i], force[i] + faults_.loadcell_bias_N[i]);
+    if (faults_.loadcell_stuck[i]) cell[i] = last_loadcell_N_[i];
+    if (faults_.loadcell_disconnected[i]) cell[i] = 0.0;
+    if (faults_.loadcell_saturated[i]) cell[i] = p[i]->loadcell_range_N;
+    last_loadcell_N_[i] = cell[i];
+  }
+  for (int i = 0; i < 2; ++i) {
+    pressure[i] = quantize_16bit(truth_.pressure_Pa[i] + pressure_noise_Pa * unit_normal_(rng), pressure_range_Pa);
+    if (faults_.pressure_sensor_failed[i]) pressure[i] = 0.0;
+  }
+  s.agonist_loadcell_N = cell[0];
+  s.antagonist_loadcell_N = cell[1];
+  s.agonist_pressure_Pa = pressure[0];
+  s.antagonist_pressure_Pa = pressure[1];
 }
 
 }  // namespace peha::sim

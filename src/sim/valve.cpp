@@ -19,7 +19,8 @@ Valve::Valve(const ValveParams& params, double dt_s)
     : params_(params),
       dt_s_(dt_s),
       lag_blend_(1.0 - std::exp(-dt_s / params.lag_s)),
-      delay_(static_cast<std::size_t>(std::lround(params.dead_time_s / dt_s)) + 1, 0.0) {}
+      delay_(static_cast<std::size_t>(std::lround(params.dead_time_s / dt_s)) + 1, 0.0),
+      supply_now_Pa_(params.supply_pressure_Pa) {}
 
 void Valve::reset(double pressure_Pa) noexcept {
   std::fill(delay_.begin(), delay_.end(), pressure_Pa);
@@ -34,8 +35,11 @@ double Valve::step(double command_Pa) noexcept {
   const double delayed = delay_[head_];  // oldest entry: written delay_.size()-1 steps ago
   const double max_step = params_.rate_limit_Pa_per_s * dt_s_;
   setpoint_Pa_ += std::clamp(delayed - setpoint_Pa_, -max_step, max_step);
+  const double before = pressure_Pa_;
   pressure_Pa_ += lag_blend_ * (setpoint_Pa_ - pressure_Pa_);
-  pressure_Pa_ = std::clamp(pressure_Pa_, 0.0, params_.supply_pressure_Pa);
+  // Filling stops at the supply line's pressure; above it a check valve keeps the chamber's air.
+  const double ceiling = std::min(params_.supply_pressure_Pa, std::max(before, supply_now_Pa_));
+  pressure_Pa_ = std::clamp(pressure_Pa_, 0.0, ceiling);
   return pressure_Pa_;
 }
 

@@ -32,6 +32,7 @@ struct RunRequest {
   int fifo_priority = 80;                       ///< SCHED_FIFO priority of the loop (0 = don't ask)
   int cpu = -1;                                 ///< pin the loop to this CPU (-1 = don't)
   std::optional<double> recover_after_s;        ///< unattended operator: recover this long after a fault
+  std::vector<std::string> faults;              ///< --fault specs (sim/plant_faults.hpp), parsed by the experiment
   /// Creates the run directory (with the copy of the config and `seed`, the seed used) and returns
   /// it. Called once, when everything is loaded and checked.
   std::function<std::filesystem::path(std::uint64_t seed)> open_run_dir;

@@ -56,7 +56,12 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
     } else {
       hold(k);
     }
-    supervisor.supervise(static_cast<double>(k) * period_s, fresh, state, command);
+    const double t_s = static_cast<double>(k) * period_s;
+    supervisor.supervise(t_s, fresh, state, command);
+    // The plausibility stage's faults (in LimitedBackend: the outputs already safe) fault the run;
+    // the operator's recovery clears its latch.
+    if (backend.monitor().flags() != 0) supervisor.raise(t_s, backend.monitor().reason());
+    if (supervisor.lifecycle().state() == LifecycleState::kRecovering && backend.monitor().flags() != 0) backend.clear_faults();
     backend.write(command);
     if (fresh) observe(k, backend.sent(), backend.flags());
     if (hooks.after && !hooks.after(state, backend.sent())) break;

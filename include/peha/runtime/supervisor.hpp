@@ -47,6 +47,10 @@ class Supervisor {
   void start(double t_s);
   /// One cycle's supervision; `fresh`: this cycle read a new sample. May replace `command` (ramp).
   void supervise(double t_s, bool fresh, const io::SensorState& state, io::Command& command) noexcept;
+  /// A fault the plausibility stage latched (safety::FaultMonitor): -> fault with `reason`; the
+  /// outputs are already in their designed safe state (hold / descend / vent), so they are left as
+  /// they are. Only while active.
+  void raise(double t_s, const char* reason) noexcept;
   /// deactivate -> inactive -> finalized, with `reason`.
   void finish(double t_s, const char* reason) noexcept;
   /// The operator's recover command (any thread).

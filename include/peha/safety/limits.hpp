@@ -24,6 +24,7 @@
 
 #include "peha/io/backend.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/safety/fault_monitor.hpp"
 
 #include <array>
 #include <cstdint>
@@ -50,6 +51,7 @@ struct LimitsModel {
   int joint_count = 0;
   std::array<JointLimits, io::kMaxJoints> joints{};
   double period_s = 1e-3;
+  MonitorParams monitor;  ///< the supervisor's plausibility checks at the same boundary (fault_monitor.hpp)
 };
 
 /// The joint set-ups a limits pass reads (force ceilings, supply, pretension, pressure model, motor

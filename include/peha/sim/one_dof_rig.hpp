@@ -15,6 +15,7 @@
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/output_gate.hpp"
 #include "peha/sim/peha_joint_plant.hpp"
+#include "peha/sim/plant_faults.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -64,6 +65,8 @@ struct OneDofRigParams {
   double encoder_counts_per_rev = 70000;  ///< joint counts per revolution (motor encoder x gear)
   FingerParams finger;
   std::uint64_t seed = 1;
+  /// Plant-only: faults injected at their time (sim/plant_faults.hpp); never told to the controller.
+  std::vector<PlantFault> faults;
 };
 
 /// The rig's io joints (one, named "joint"): what its channel map names and its backend reports.
@@ -106,6 +109,7 @@ class OneDofRigBackend final : public io::Backend {
   void substep(const io::JointCommand& cmd) noexcept;
   double finger_force(double t, double angle, double omega) noexcept;
   void sample() noexcept;
+  void apply_faults(double t_s) noexcept;
 
   OneDofRigParams params_;
   io::BackendInfo info_;
@@ -122,6 +126,9 @@ class OneDofRigBackend final : public io::Backend {
   io::SensorState state_;
   OneDofRigTruth truth_, sampled_truth_;
   OutputGate gate_;
+  std::vector<char> fault_applied_;  ///< per params_.faults: already in effect
+  double encoder_offset_rad_ = 0;    ///< an injected encoder jump
+  bool encoder_frozen_ = false;
 };
 
 }  // namespace peha::sim

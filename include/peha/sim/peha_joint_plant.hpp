@@ -88,6 +88,24 @@ struct PehaJointTruth {
   double joint_torque_after_cable_Nm = 0;
 };
 
+/// Faults injected into one joint (plant-only, sim/plant_faults.hpp; the controller never sees this).
+/// Arrays: index 0 agonist, 1 antagonist.
+struct JointFaultState {
+  bool loadcell_stuck[2] = {false, false};
+  bool loadcell_disconnected[2] = {false, false};  ///< reads AD code 0
+  bool loadcell_saturated[2] = {false, false};     ///< reads full scale
+  double loadcell_bias_N[2] = {0, 0};
+  bool pressure_sensor_failed[2] = {false, false}; ///< reads AD code 0
+  bool valve_stuck_open[2] = {false, false};
+  bool valve_stuck_closed[2] = {false, false};
+  bool wire_broken[2] = {false, false};
+  double wire_slip_m[2] = {0, 0};                  ///< extra slack from a wire slipping in its clamp
+  double supply_scale = 1.0;                       ///< supply line pressure / nominal
+  bool motor_failed = false;
+  /// The outputs are in their safe state: the board's dump valve vents the chambers past a stuck valve.
+  bool dump = false;
+};
+
 class PehaJointPlant {
  public:
   PehaJointPlant(const PehaJointPlantParams& params, double timestep_s, double initial_angle_rad);
@@ -111,6 +129,8 @@ class PehaJointPlant {
   void sense(double pressure_noise_Pa, double pressure_range_Pa, std::mt19937_64& rng, io::JointSensors& out) noexcept;
 
   const PehaJointTruth& truth() const { return truth_; }
+  /// The injected faults of this joint (the rig applies them at their time).
+  JointFaultState& faults() noexcept { return faults_; }
   const PehaJointPlantParams& params() const { return params_; }
 
  private:
@@ -132,6 +152,8 @@ class PehaJointPlant {
   Muscle muscles_[2];
   std::normal_distribution<double> unit_normal_{0.0, 1.0};
   PehaJointTruth truth_;
+  JointFaultState faults_;
+  double last_loadcell_N_[2] = {0, 0};
 };
 
 /// 16-bit AD quantisation of `value` over [0, range].

@@ -29,6 +29,9 @@ class Valve {
   double pressure_Pa() const { return pressure_Pa_; }
   /// Sets the chamber pressure and the whole delay line to `pressure_Pa` (for initial conditions).
   void reset(double pressure_Pa) noexcept;
+  /// What the supply line holds now (an injected supply fault; the valve's own supply by default).
+  /// Behind a check valve: the chamber cannot fill above it, but does not empty into a dead line.
+  void set_supply_Pa(double supply_Pa) noexcept { supply_now_Pa_ = supply_Pa; }
 
  private:
   ValveParams params_;
@@ -38,6 +41,7 @@ class Valve {
   std::size_t head_ = 0;
   double setpoint_Pa_ = 0.0;
   double pressure_Pa_ = 0.0;
+  double supply_now_Pa_;
 };
 
 }  // namespace peha::sim

@@ -94,6 +94,8 @@ E1Scenario read_e1(const config::Document& doc) {
   s.plant.seed = s.seed;
   s.plant.finger = read_finger(root.map("finger"), s.duration_s, s.probe_direction);
   s.verdict = safety::read_verdict_thresholds(root);
+  safety::read_monitor_params(root, s.limits.monitor);
+  s.plant.faults = sim::read_plant_faults(root, sim::one_dof_rig_joint_names(), s.duration_s);
 
   for (config::Map c : root.maps("cases", 1, 16)) {
     E1Case e;
@@ -121,7 +123,7 @@ const std::vector<std::string>& e1_log_columns() {
       "agonist_force_cmd_N", "antagonist_force_cmd_N", "agonist_loadcell_N", "antagonist_loadcell_N",
       "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_pressure_MPa", "antagonist_pressure_MPa",
       "plant_angle_rad", "plant_agonist_tension_N", "plant_antagonist_tension_N",
-      "plant_agonist_force_N", "plant_antagonist_force_N", "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags"};
+      "plant_agonist_force_N", "plant_antagonist_force_N", "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags", "fault_flags"};
   return columns;
 }
 
@@ -148,7 +150,11 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
     const std::lock_guard lock(mujoco_load_mutex());
     rig = std::make_unique<sim::OneDofRigBackend>(plant);
   }
-  return record_excitation(*rig, scenario.controller.joint, index == 0 ? +1 : -1, *e, scenario.limits, progress);
+  // The excitation sweeps one muscle's pressure far from the controller's model on purpose: the
+  // plausibility stage (tuned for control) would stop it; off for the recording until tuned for it.
+  safety::LimitsModel limits = scenario.limits;
+  limits.monitor.enabled = false;
+  return record_excitation(*rig, scenario.controller.joint, index == 0 ? +1 : -1, *e, limits, progress);
 }
 
 double e1_plant_gravity_torque_Nm(const sim::OneDofRigParams& plant, double angle_rad) {
@@ -206,13 +212,22 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   double compensating_since_s = -1.0;
   double tracking_sum[2] = {0, 0};
   std::size_t tracking_count = 0;
-  std::array<double, 25> row{};
+  std::array<double, 26> row{};
   const auto wall_start = std::chrono::steady_clock::now();
   auto hold = [&](std::size_t k) {  // no new sample: the command is held
     ++r.missed_samples;
     angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
   };
-  auto step = [&](std::size_t) { controller.update(state, command); };
+  // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command here,
+  // before the supervisor: the test driver's part of the plant's fault injection.
+  double nan_from_s = std::numeric_limits<double>::infinity();
+  for (const auto& f : scenario.plant.faults) {
+    if (f.kind == sim::FaultKind::kControllerNan) nan_from_s = std::min(nan_from_s, f.time_s);
+  }
+  auto step = [&](std::size_t) {
+    controller.update(state, command);
+    if (state.time_s + 1e-9 >= nan_from_s) command.joints[0].agonist_pressure_Pa = nan;
+  };
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t flags) {
     const io::JointSensors& s = state.joints[0];
     const io::JointCommand& cmd = sent.joints[0];
@@ -260,7 +275,8 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
              cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
              s.antagonist_pressure_Pa * 1e-6, t ? t->angle_rad : nan, t ? t->pulley_tension_min_N[0] : nan,
              t ? t->pulley_tension_min_N[1] : nan, t ? t->muscle_force_N[0] : nan, t ? t->muscle_force_N[1] : nan,
-             t ? t->cable_friction_Nm : nan, t ? t->constraint_torque_Nm : nan, static_cast<double>(flags)};
+             t ? t->cable_friction_Nm : nan, t ? t->constraint_torque_Nm : nan, static_cast<double>(flags),
+             static_cast<double>(limited.monitor().flags())};
       log->push_row(row);
     }
   };
@@ -283,6 +299,11 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   const safety::VerdictThresholds& th = scenario.verdict;
   r.verdict.thresholds = th;
   safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, th, r.verdict);
+  r.fault_flags = limited.monitor().flags();
+  r.faults = limited.monitor().count();
+  r.fault_reason = limited.monitor().reason();
+  r.verdict.at_most(r.faults ? "supervisor faults (first: " + r.fault_reason + ")" : std::string("supervisor faults"), "",
+                    static_cast<double>(r.faults), 0.0);
 
   const sim::OneDofRigParams plant = sim ? sim->params() : e1_plant_params(scenario, c);
   const safety::JointLimits& range = scenario.limits.joints[0];

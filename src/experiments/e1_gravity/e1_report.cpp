@@ -185,6 +185,14 @@ int run_e1_experiment(const config::Document& doc, const RunRequest& request) {
     return 2;
   }
   if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;
+  for (const std::string& spec : request.faults) {
+    try {
+      scenario.plant.faults.push_back(sim::parse_fault_spec(spec, sim::one_dof_rig_joint_names(), scenario.duration_s));
+    } catch (const std::invalid_argument& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return 2;
+    }
+  }
   const std::vector<E1Variant> variants = e1_variants(scenario, request.calibration);
   std::optional<runtime::RealtimeRunOptions> realtime;
   if (!check_board(doc, scenario, cases.size(), request, realtime)) return 2;
@@ -211,6 +219,7 @@ int run_e1_experiment(const config::Document& doc, const RunRequest& request) {
     std::fflush(stdout);
     if (!realtime) {
       results.push_back(run_in_process(variant->scenario, c, request, dir));
+      if (results.back().faults) fmt::print("    SUPERVISOR FAULT: {}\n", results.back().fault_reason);
       continue;
     }
     realtime->dir = dir;

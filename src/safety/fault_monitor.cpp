@@ -1,0 +1,275 @@
+#include "peha/safety/fault_monitor.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstdio>
+
+namespace peha::safety {
+namespace {
+
+constexpr const char* kFlagNames[kFaultFlagCount] = {
+    "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
+    "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
+    "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
+    "joint_range"};
+
+constexpr SafeAction kActions[kFaultFlagCount] = {
+    SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
+    SafeAction::kVent,    // nonfinite_sample: nothing to govern a descent with
+    SafeAction::kVent,    // force_ceiling: relieve the wire now
+    SafeAction::kDescend, // load-cell faults: the encoder still governs a slow descent
+    SafeAction::kDescend,
+    SafeAction::kDescend,
+    SafeAction::kDescend,
+    SafeAction::kDescend, // tension_floor: a broken or slipped wire
+    SafeAction::kVent,    // pressure_high: a valve fills by itself; the dump valve vents past it
+    SafeAction::kDescend, // pressure_low: a valve or sensor that does not follow
+    SafeAction::kDescend, // supply_loss: the check valves hold the air; lower the arm on it
+    SafeAction::kVent,    // pressure_over_supply
+    SafeAction::kVent,    // encoder faults: no speed to govern a descent; the slow vent lowers the arm
+    SafeAction::kVent,
+    SafeAction::kHold,    // joint_speed: stop the motion where it is
+    SafeAction::kHold,    // joint_range
+};
+
+int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
+
+}  // namespace
+
+const char* fault_flag_name(std::uint32_t flag) noexcept {
+  return flag && index_of(flag) < kFaultFlagCount ? kFlagNames[index_of(flag)] : "none";
+}
+
+SafeAction safe_action(std::uint32_t flag) noexcept {
+  return flag && index_of(flag) < kFaultFlagCount ? kActions[index_of(flag)] : SafeAction::kNone;
+}
+
+const char* safe_action_name(SafeAction a) noexcept {
+  switch (a) {
+    case SafeAction::kHold: return "hold";
+    case SafeAction::kDescend: return "descend";
+    case SafeAction::kVent: return "vent";
+    default: return "none";
+  }
+}
+
+void read_monitor_params(config::Map& root, MonitorParams& p) {
+  if (!root.has("supervisor")) return;
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  config::Map m = root.map("supervisor");
+  p.enabled = m.boolean_or("enabled", p.enabled);
+  p.confirm_cycles = static_cast<int>(m.number_or("confirm_cycles", p.confirm_cycles, {1, 100}));
+  p.loadcell_stuck_cycles = static_cast<int>(m.number_or("loadcell_stuck_cycles", p.loadcell_stuck_cycles, {2, 1000}));
+  p.loadcell_saturated_N = m.number_or("loadcell_saturated_N", p.loadcell_saturated_N, {100, 20000});
+  p.loadcell_tolerance_N = m.number_or("loadcell_tolerance_N", p.loadcell_tolerance_N, {0, 5000});
+  p.loadcell_tolerance_fraction = m.number_or("loadcell_tolerance_fraction", p.loadcell_tolerance_fraction, {0, 10});
+  p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
+  p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 1}) * 1e6;
+  p.valve_dead_time_s = m.number_or("valve_dead_time_s", p.valve_dead_time_s, {0, 0.05});
+  p.valve_lag_s = m.number_or("valve_lag_s", p.valve_lag_s, {1e-4, 2});
+  p.valve_rate_Pa_per_s = m.number_or("valve_rate_MPa_per_s", p.valve_rate_Pa_per_s * 1e-6, {0.01, 100}) * 1e6;
+  p.encoder_max_step_rad = m.number_or("encoder_max_step_deg", p.encoder_max_step_rad / kDeg, {0.01, 90}) * kDeg;
+  p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 1000}));
+  p.encoder_frozen_speed_radps = m.number_or("encoder_frozen_speed_degps", p.encoder_frozen_speed_radps / kDeg, {0.1, 1000}) * kDeg;
+  p.max_joint_speed_radps = m.number_or("max_joint_speed_degps", p.max_joint_speed_radps / kDeg, {1, 2000}) * kDeg;
+  p.range_margin_rad = m.number_or("range_margin_deg", p.range_margin_rad / kDeg, {0, 45}) * kDeg;
+  p.descent_speed_radps = m.number_or("descent_speed_degps", p.descent_speed_radps / kDeg, {0.5, 180}) * kDeg;
+  p.descent_rate_Pa_per_s = m.number_or("descent_rate_MPa_per_s", p.descent_rate_Pa_per_s * 1e-6, {0.001, 10}) * 1e6;
+  m.finish();
+}
+
+void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept {
+  if (!on(flag) || (flags_ & flag)) return;
+  if (flags_ == 0) {
+    first_ = {flag, joint, muscle, value, threshold, t_s_, sequence_};
+    ++count_;
+    held_ = last_sent_;
+    for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
+  }
+  flags_ |= flag;
+  const SafeAction a = safe_action(flag);
+  if (a > action_) action_ = a;
+  if (first_.flag == flag) {
+    std::snprintf(reason_, sizeof reason_, "%s joint %d%s: %.4g (threshold %.4g) at %.3f s -> %s", fault_flag_name(flag), joint,
+                  muscle == 0 ? " agonist" : muscle == 1 ? " antagonist" : "", value, threshold, t_s_, safe_action_name(action_));
+  }
+}
+
+void FaultMonitor::clear() noexcept {
+  flags_ = 0;
+  action_ = SafeAction::kNone;
+  first_ = {};
+  reason_[0] = '\0';
+  synced_ = false;
+  for (auto& j : joints_) {
+    for (auto& m : j.muscle) m.taut = false, m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = 0;
+    j.same_angle = 0;
+  }
+}
+
+void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
+                                const std::array<double, io::kMaxJoints>& min_angle_rad,
+                                const std::array<double, io::kMaxJoints>& max_angle_rad, bool outputs_follow) noexcept {
+  t_s_ = s.time_s;
+  sequence_ = s.sequence;
+  const MonitorParams& p = params_;
+  if (!p.enabled) return;
+  const int delay_cycles = std::clamp(static_cast<int>(std::lround(p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
+  int low_muscles = 0;
+  for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
+    const auto ji = static_cast<std::size_t>(j);
+    const io::JointSensors& in = s.joints[ji];
+    JointState& js = joints_[ji];
+    const models::JointModel* model = models[ji];
+    const double cells[2] = {in.agonist_loadcell_N, in.antagonist_loadcell_N};
+    const double pressures[2] = {in.agonist_pressure_Pa, in.antagonist_pressure_Pa};
+    if (!std::isfinite(in.angle_rad) || !std::isfinite(cells[0]) || !std::isfinite(cells[1]) || !std::isfinite(pressures[0]) ||
+        !std::isfinite(pressures[1])) {
+      raise(kFaultNonFiniteSample, j, -1, 0.0, 0.0);
+      continue;
+    }
+    // Encoder: jump, speed, frozen, range.
+    if (js.has_previous) {
+      const double dt = std::max(s.time_s - js.last_t_s, period_s_);
+      const double step = in.angle_rad - js.last_angle_rad;
+      if (std::abs(step) > p.encoder_max_step_rad) raise(kFaultEncoderJump, j, -1, std::abs(step), p.encoder_max_step_rad);
+      js.speed_radps = step / dt;
+      if (std::abs(js.speed_radps) > p.max_joint_speed_radps && std::abs(step) <= p.encoder_max_step_rad) {
+        raise(kFaultJointSpeed, j, -1, std::abs(js.speed_radps), p.max_joint_speed_radps);
+      }
+      if (step == 0.0) {
+        ++js.same_angle;
+        if (js.same_angle >= p.encoder_frozen_cycles && std::abs(js.last_change_speed_radps) > p.encoder_frozen_speed_radps) {
+          raise(kFaultEncoderFrozen, j, -1, js.last_change_speed_radps, p.encoder_frozen_speed_radps);
+        }
+      } else {
+        js.last_change_speed_radps = step / std::max(s.time_s - js.last_change_t_s, dt);
+        js.last_change_t_s = s.time_s;
+        js.same_angle = 0;
+      }
+    } else {
+      js.last_change_t_s = s.time_s;
+    }
+    js.last_angle_rad = in.angle_rad;
+    js.last_t_s = s.time_s;
+    js.has_previous = true;
+    if (in.angle_rad < min_angle_rad[ji] - p.range_margin_rad) raise(kFaultJointRange, j, -1, in.angle_rad, min_angle_rad[ji] - p.range_margin_rad);
+    if (in.angle_rad > max_angle_rad[ji] + p.range_margin_rad) raise(kFaultJointRange, j, -1, in.angle_rad, max_angle_rad[ji] + p.range_margin_rad);
+    if (!model) continue;
+    for (int m = 0; m < 2; ++m) {
+      MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];
+      const models::MuscleModel& mm = m == 0 ? model->agonist : model->antagonist;
+      const double cell = cells[m], pressure = pressures[m];
+      // Load cell.
+      const double ceiling = models::force_ceiling_N(mm);
+      if (cell > ceiling) raise(kFaultForceCeiling, j, m, cell, ceiling);
+      // A wire is checked for slack (and its cell for a disconnect) once it has been taut since the
+      // outputs began to follow: after a vent or at start-up the wires are slack by design.
+      const double floor_N = p.tension_floor_fraction * model->pretension_N;
+      if (!outputs_follow) ms.taut = false;
+      if (outputs_follow && cell >= floor_N) ms.taut = true;
+      ms.disconnected = ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
+      ms.saturated = cell >= p.loadcell_saturated_N ? ms.saturated + 1 : 0;
+      if (ms.disconnected >= p.confirm_cycles) raise(kFaultLoadcellDisconnected, j, m, cell, p.loadcell_disconnected_N);
+      if (ms.saturated >= p.confirm_cycles) raise(kFaultLoadcellSaturated, j, m, cell, p.loadcell_saturated_N);
+      // Stuck: a taut wire's live cell never repeats itself (noise); a slack wire's cell may sit at code 0.
+      ms.same_loadcell = ms.taut && cell > p.loadcell_disconnected_N && cell == ms.last_loadcell_N ? ms.same_loadcell + 1 : 0;
+      ms.last_loadcell_N = cell;
+      if (ms.same_loadcell + 1 >= p.loadcell_stuck_cycles) raise(kFaultLoadcellStuck, j, m, cell, p.loadcell_stuck_cycles);
+      const double eps = models::rigid_contraction(mm, model->pulley_radius_m, m == 0 ? +1 : -1, in.angle_rad);
+      const double model_N = models::forward_force_N(mm.pam, pressure, eps);
+      const double tolerance = p.loadcell_tolerance_N + p.loadcell_tolerance_fraction * std::abs(model_N);
+      ms.disagree = std::abs(cell - model_N) > tolerance ? ms.disagree + 1 : 0;
+      if (ms.disagree >= p.confirm_cycles) raise(kFaultLoadcellDisagrees, j, m, cell - model_N, tolerance);
+      ms.low_tension = p.tension_checked[ji] && ms.taut && cell < floor_N ? ms.low_tension + 1 : 0;
+      if (ms.low_tension >= p.confirm_cycles) raise(kFaultTensionFloor, j, m, cell, floor_N);
+      // Pressure sensor against the valve's dynamics.
+      if (pressure > model->supply_pressure_Pa + p.pressure_over_supply_Pa) {
+        raise(kFaultPressureOverSupply, j, m, pressure, model->supply_pressure_Pa + p.pressure_over_supply_Pa);
+      }
+      if (!outputs_follow || !synced_) {  // the valve model restarts from what is measured
+        ms.delay.fill(pressure);
+        ms.setpoint_Pa = ms.predicted_Pa = pressure;
+        ms.pressure_low = ms.pressure_high = 0;
+        continue;
+      }
+      // Advance the valve model by one period with the delayed command (written by sent()).
+      const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - delay_cycles) % kMaxDelay)];
+      const double max_step = p.valve_rate_Pa_per_s * period_s_;
+      ms.setpoint_Pa += std::clamp(delayed - ms.setpoint_Pa, -max_step, max_step);
+      ms.predicted_Pa += (1.0 - std::exp(-period_s_ / p.valve_lag_s)) * (ms.setpoint_Pa - ms.predicted_Pa);
+      const double error = pressure - ms.predicted_Pa;
+      ms.pressure_high = error > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+      ms.pressure_low = error < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
+      if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, j, m, error, p.pressure_tolerance_Pa);
+      if (ms.pressure_low >= p.confirm_cycles) ++low_muscles;
+    }
+  }
+  if (low_muscles >= 2) {
+    raise(kFaultSupplyLoss, -1, -1, low_muscles, 2);
+  } else if (low_muscles == 1) {
+    for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
+      for (int m = 0; m < 2; ++m) {
+        const MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
+        if (ms.pressure_low >= p.confirm_cycles) raise(kFaultPressureLow, j, m, ms.predicted_Pa, p.pressure_tolerance_Pa);
+      }
+    }
+  }
+  synced_ = outputs_follow;
+}
+
+bool FaultMonitor::check_command(const io::Command& c, double t_s) noexcept {
+  bool ok = true;
+  for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
+    const io::JointCommand& jc = c.joints[static_cast<std::size_t>(j)];
+    if (!std::isfinite(jc.agonist_pressure_Pa) || !std::isfinite(jc.antagonist_pressure_Pa) || !std::isfinite(jc.motor_torque_Nm)) {
+      if (on(kFaultNonFiniteCommand)) t_s_ = std::max(t_s_, t_s);
+      raise(kFaultNonFiniteCommand, j, -1, 0.0, 0.0);
+      ok = false;
+    }
+  }
+  return ok;
+}
+
+void FaultMonitor::sent(const io::Command& c) noexcept {
+  last_sent_ = c;
+  for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
+    JointState& js = joints_[static_cast<std::size_t>(j)];
+    const double p[2] = {c.joints[static_cast<std::size_t>(j)].agonist_pressure_Pa, c.joints[static_cast<std::size_t>(j)].antagonist_pressure_Pa};
+    for (int m = 0; m < 2; ++m) {
+      MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];
+      ms.head = (ms.head + 1) % kMaxDelay;
+      ms.delay[static_cast<std::size_t>(ms.head)] = std::isfinite(p[m]) ? p[m] : 0.0;
+    }
+  }
+}
+
+void FaultMonitor::shape(const io::SensorState& s, io::Command& c) const noexcept {
+  if (action_ == SafeAction::kHold) {
+    c = held_;
+    return;
+  }
+  if (action_ != SafeAction::kDescend) return;
+  // Descend: bleed both muscles while the joint is slower than descent_speed; faster, the muscle that
+  // opposes the motion gains pressure and the other keeps bleeding. Motor off.
+  c = last_sent_;
+  const double bleed = params_.descent_rate_Pa_per_s * period_s_;
+  for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
+    const auto ji = static_cast<std::size_t>(j);
+    io::JointCommand& o = c.joints[ji];
+    const double w = joints_[ji].speed_radps;
+    const double over = std::abs(w) - params_.descent_speed_radps;
+    double d_ag = -bleed, d_an = -bleed;
+    if (over > 0) {
+      const double push = 2.0 * bleed * std::min(over / params_.descent_speed_radps, 5.0);
+      if (w < 0) d_ag = push; else d_an = push;  // the agonist lifts (positive angles)
+    }
+    o.agonist_pressure_Pa = std::max(0.0, o.agonist_pressure_Pa + d_ag);
+    o.antagonist_pressure_Pa = std::max(0.0, o.antagonist_pressure_Pa + d_an);
+    o.motor_torque_Nm = 0.0;
+  }
+  (void)s;
+}
+
+}  // namespace peha::safety
