@@ -254,6 +254,23 @@ Command add_robustness(CLI::App& app) {
           }};
 }
 
+Command add_faults(CLI::App& app) {
+  auto o = std::make_shared<peha::app::FaultsOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "faults", "Run the fault matrix (docs/safety.md): every fault the simulated plant can inject, at several moments\n"
+                "of E1 (holding, during a push, after a release), in process with the supervisor's plausibility stage on.\n"
+                "Prints one line per fault; writes <out>/<run>/faults.md, faults.csv and faults.png. Exit code 0 = no\n"
+                "false alarm, every fault detected within 5 cycles, no limit exceeded; 3 otherwise; 2 = bad input.");
+  cmd->add_option("-c,--config", o->config, "E1 scenario YAML, e.g. configs/e1_one_dof.yaml")->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--out", o->out_root, "Directory under which the run directory is created")->capture_default_str();
+  cmd->add_option("-n,--name", o->run_name, "Run directory name (default: <config stem>-<UTC time>)")->check(peha::app::run_name());
+  cmd->add_option("--case", o->case_name, "E1 case (default: the first)");
+  cmd->add_option("--fault-kind", o->kinds, "Only these fault kinds (repeatable)");
+  cmd->add_option("--moment", o->moments, "Only these moments (repeatable)")->check(CLI::IsMember({"holding", "push", "after_release"}));
+  cmd->add_flag("!--no-plot", o->plot, "Do not render faults.png (no Python needed)");
+  return {cmd, [o] { return peha::app::faults(*o); }};
+}
+
 Command add_version(CLI::App& app) {
   return {app.add_subcommand("version", "Print peha's and MuJoCo's versions."), [] {
             fmt::print("peha 0.1.0 (MuJoCo {})\n", mj_versionString());
@@ -272,7 +289,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
   const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_mfb_emulator(app),
-                              add_check_config(app), add_robustness(app), add_version(app)};
+                              add_check_config(app), add_robustness(app), add_faults(app), add_version(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

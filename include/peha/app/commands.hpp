@@ -109,6 +109,20 @@ struct RobustnessOptions {
 /// share, 3 when one missed it, 2 bad config.
 int robustness(const RobustnessOptions& options);
 
+struct FaultsOptions {
+  std::filesystem::path config;           ///< E1 scenario (configs/e1_one_dof.yaml)
+  std::filesystem::path out_root = "out";
+  std::string run_name;                   ///< default: <config stem>-<UTC time stamp>
+  std::string case_name;                  ///< E1 case (default: the first)
+  std::vector<std::string> kinds;         ///< only these fault kinds (default: all)
+  std::vector<std::string> moments;       ///< only these moments (default: holding, push, after_release)
+  bool plot = true;                       ///< render faults.png with tools/plot_faults.py
+};
+
+/// `peha faults`: the fault matrix on E1 in process (docs/safety.md). Exit 0 when the nominal run
+/// raised nothing and every fault was detected within 5 cycles with no limit exceeded, else 3.
+int faults(const FaultsOptions& options);
+
 /// Runs a command body and maps what it throws to the exit codes every command documents:
 /// 2 for bad input (config or data), 1 for anything else (after a message on stderr).
 int with_exit_codes(const std::function<int()>& body);
