@@ -12,6 +12,7 @@
 #include "peha/models/arm.hpp"
 #include "peha/models/joint.hpp"
 
+#include <array>
 #include <vector>
 
 namespace peha::control {
@@ -55,7 +56,25 @@ class ArmController {
   const std::vector<ArmJointDiagnostics>& diagnostics() const { return diag_; }
   const ArmControllerModel& model() const { return model_; }
 
+  /// The start-up (AllocationParams::loadcell_check.tare_s > 0), as E1's controller has it: every
+  /// allocated joint vented for vent_s (hold-pressure joints keep their pressure), their load cells
+  /// averaged over tare_s and subtracted from then on, then compensation (trims from 0).
+  StartupPhase startup_phase() const noexcept { return phase_; }
+  /// When compensation began, s (< 0 before); the wires are slack on purpose until refill_s later.
+  double compensating_since_s() const noexcept { return compensating_since_s_; }
+  /// True while the wires are slack on purpose (vent, tare and refill_s after): tension not judged.
+  bool wires_slack_on_purpose(double t_s) const noexcept {
+    return model_.allocation.loadcell_check.tare_s > 0.0 &&
+           (compensating_since_s_ < 0.0 || t_s < compensating_since_s_ + model_.allocation.loadcell_check.refill_s);
+  }
+  /// The tare of allocated joint i (agonist, antagonist), N; 0 before it is done.
+  double loadcell_offset_N(std::size_t joint, int muscle) const noexcept {
+    return allocation_data_[joint].loadcell_offset_N[muscle];
+  }
+
  private:
+  bool startup(const io::SensorState& state, io::Command& command) noexcept;
+
   ArmControllerModel model_;
   models::ArmData data_;
   Eigen::VectorXd q_;
@@ -65,6 +84,11 @@ class ArmController {
   std::vector<ArmJointDiagnostics> diag_;
   double last_time_s_ = 0;
   bool started_ = false;
+  StartupPhase phase_ = StartupPhase::kCompensating;
+  double phase_start_s_ = 0;
+  double compensating_since_s_ = -1.0;
+  std::vector<std::array<double, 2>> tare_sum_N_;
+  long tare_samples_ = 0;
 };
 
 }  // namespace peha::control

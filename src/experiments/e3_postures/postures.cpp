@@ -110,7 +110,10 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
     efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
-      envelope.observe(a, arm_joint_sample(state, sent, truth, a));
+      safety::JointSample j = arm_joint_sample(state, sent, truth, a);
+      // The start-up tare vents the muscles on purpose (the operator holds the arm): tension not judged.
+      if (controller.wires_slack_on_purpose(state.time_s)) j.min_tension_N = std::numeric_limits<double>::infinity();
+      envelope.observe(a, j);
       if (truth) r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
     }
     if (log) {

@@ -291,7 +291,8 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     truth[k] = person ? person(t) : goniometer;
     double tension_min = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
-      const safety::JointSample j = arm_joint_sample(state, sent, tr, a);
+      safety::JointSample j = arm_joint_sample(state, sent, tr, a);
+      if (controller.wires_slack_on_purpose(state.time_s)) j.min_tension_N = std::numeric_limits<double>::infinity();  // start-up tare
       envelope.observe(a, j);
       tension_min = std::min(tension_min, j.min_tension_N);
       r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));

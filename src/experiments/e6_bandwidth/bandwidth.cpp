@@ -98,7 +98,11 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
     // A torque bench measures what the actuator delivers in answer to the command just sent: the
     // plant's truth after this cycle's write.
     const sim::RightArmTruth& truth = plant.truth();
-    for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) envelope.observe(a, arm_joint_sample(state, sent, &truth, a));
+    for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
+      safety::JointSample j = arm_joint_sample(state, sent, &truth, a);
+      if (controller.wires_slack_on_purpose(state.time_s)) j.min_tension_N = std::numeric_limits<double>::infinity();  // start-up tare
+      envelope.observe(a, j);
+    }
     const sim::PehaJointTruth& j = truth.actuators[bench];
     r.peak_muscle_force_N = std::max({r.peak_muscle_force_N, j.muscle_force_N[0], j.muscle_force_N[1]});
     r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
