@@ -70,7 +70,7 @@ int calibrate(const CalibrateCommandOptions& options) {
         return experiments::e1_plant_params(sc, c);
       });
       fmt::print("  {}: force tracking RMS {:.1f} N (<= {:.1f}), lowest load-cell force {:.1f} N (>= {:.1f}): {}\n", o.muscle,
-                 check->force_tracking_rms_N[index], check->max_rms_N, check->min_loadcell_N[index], check->min_tension_N,
+                 check->force_tracking_rms_N[index], check->max_rms_N[index], check->min_loadcell_N[index], check->min_tension_N,
                  check->passed(index) ? "accepted" : "REFUSED");
     }
     write_calibration_report(report, data, outcome, options.plot, {check ? &*check : nullptr, index});

@@ -213,6 +213,8 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
   const models::MuscleModel calibrated = calibrated_muscle(c, with_spgp, nominal);
   const double ceiling_N = models::force_ceiling_N(nominal);
   const int n = std::max(limits.grid, 2);
+  const double supported_std_Pa = limits.max_supported_std_of_supply * joint.supply_pressure_Pa;
+  int supported = 0;
   for (int i = 0; i < n; ++i) {
     const double angle = min_angle_rad + (max_angle_rad - min_angle_rad) * i / (n - 1);
     const double eps = models::rigid_contraction(nominal, joint.pulley_radius_m, side == 0 ? +1 : -1, angle);
@@ -227,8 +229,17 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
       }
       if (calibrated.residual) {
         const double r = calibrated.residual->pressure_Pa(eps, force_N);
-        if (!std::isfinite(r) || std::abs(r) > limits.max_residual_of_supply * joint.supply_pressure_Pa) {
-          reject(fmt::format("the SPGP residual is {:.4g} MPa {} (limit +-{:.3g} MPa)", r * 1e-6, at, limits.max_residual_of_supply * joint.supply_pressure_Pa * 1e-6));
+        if (!std::isfinite(r)) reject(fmt::format("the SPGP residual is not finite {}", at));
+        // Where the controller evaluates it: inputs clamped to the data's box (SpgpResidual).
+        const double x[2] = {std::clamp(eps, c.contraction.min, c.contraction.max), std::clamp(force_N, c.force_N.min, c.force_N.max)};
+        const double std_Pa = std::sqrt(std::max(0.0, c.spgp->predict_variance(x)));
+        if (!std::isfinite(std_Pa)) reject(fmt::format("the SPGP's variance is not finite {}", at));
+        if (std_Pa <= supported_std_Pa) {
+          ++supported;
+          if (std::abs(r) > limits.max_residual_of_supply * joint.supply_pressure_Pa) {
+            reject(fmt::format("the SPGP residual is {:.4g} MPa {}, where it has data (std {:.3g} MPa) (limit +-{:.3g} MPa)",
+                               r * 1e-6, at, std_Pa * 1e-6, limits.max_residual_of_supply * joint.supply_pressure_Pa * 1e-6));
+          }
         }
       }
       const auto cmd = models::muscle_pressure(calibrated, force_N, eps, joint.supply_pressure_Pa);
@@ -241,6 +252,10 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
                            ceiling_N, at));
       }
     }
+  }
+  if (calibrated.residual && supported == 0) {
+    reject(fmt::format("the SPGP has data nowhere in the operating range (its std is above {:.3g} MPa at every grid "
+                       "point): not this muscle's data", supported_std_Pa * 1e-6));
   }
 }
 

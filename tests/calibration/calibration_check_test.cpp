@@ -2,12 +2,14 @@
 // the operating range, and agreement with the configured model within a factor (swapped files).
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/calibration/dataset.hpp"
+#include "peha/calibration/spgp.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 
 namespace peha::calibration {
@@ -87,6 +89,57 @@ TEST(CalibrationCheck, RefusesWhenTheDataChangedAfterCalibrating) {
   { std::ofstream(data, std::ios::app) << "0.3,0.1,501\n"; }
   EXPECT_THAT(refusal(c, rig, 0), HasSubstr("the data changed after calibrating"));
   std::filesystem::remove(data);
+}
+
+/// An agonist calibration whose SPGP was trained on a band of (contraction, force), as a recording
+/// gives (force rises with contraction as the link moves): residual a few kPa along the band.
+MuscleCalibration with_band_spgp(Rig& rig) {
+  MuscleCalibration c = from_config(rig.joint().agonist);
+  const int n = 400;
+  Eigen::MatrixXd x(n, 2);
+  Eigen::VectorXd y(n);
+  for (int i = 0; i < n; ++i) {
+    const double t = static_cast<double>(i) / (n - 1);
+    x(i, 0) = 0.06 + 0.10 * t;                          // contraction
+    x(i, 1) = 200.0 + 500.0 * t + 20.0 * std::sin(37.0 * t);  // N, a band about 40 N wide
+    y(i) = 5000.0 * std::cos(6.0 * t);                  // Pa
+  }
+  SpgpOptions o;
+  o.num_pseudo = 10;
+  o.max_iterations = 60;
+  c.spgp = std::make_shared<const Spgp>(Spgp::fit(x, y, o));
+  c.contraction = {x.col(0).minCoeff(), x.col(0).maxCoeff()};
+  c.force_N = {x.col(1).minCoeff(), x.col(1).maxCoeff()};
+  return c;
+}
+
+/// `g` with its mean x `mean_scale` and, when `vague`, its std at the prior (variance matrix 0: the
+/// pseudo-inputs carry no data) x 100 (mean unchanged).
+Spgp rescaled(const Spgp& g, double mean_scale, bool vague) {
+  const double s = vague ? 100.0 : 1.0;
+  const Eigen::MatrixXd var = vague ? Eigen::MatrixXd::Zero(g.num_pseudo(), g.num_pseudo()) : g.variance_matrix();
+  return Spgp::from_parts(g.input_mean(), g.input_scale(), g.output_mean(), g.output_scale() * s, g.hyper(),
+                          g.pseudo_inputs(), 1e-6, g.alpha() * mean_scale / s, var);
+}
+
+// The residual is judged where the SPGP has data (its std at most 5 % of the supply): a fitted
+// residual passes; the same SPGP with its weights x 1000 (residual about 5 MPa on the band) is
+// refused there; one whose std is its prior x 100 everywhere (no data behind its pseudo-inputs)
+// has data nowhere and is refused too.
+TEST(CalibrationCheck, JudgesTheSpgpResidualWhereItHasData) {
+  Rig rig;
+  const MuscleCalibration fitted = with_band_spgp(rig);
+  EXPECT_EQ(refusal(fitted, rig, 0), "");
+
+  Rig rig2;
+  MuscleCalibration scaled = fitted;
+  scaled.spgp = std::make_shared<const Spgp>(rescaled(*fitted.spgp, 1000.0, false));
+  EXPECT_THAT(refusal(scaled, rig2, 0), HasSubstr("where it has data"));
+
+  Rig rig3;
+  MuscleCalibration vague = fitted;
+  vague.spgp = std::make_shared<const Spgp>(rescaled(*fitted.spgp, 1.0, true));
+  EXPECT_THAT(refusal(vague, rig3, 0), HasSubstr("has data nowhere"));
 }
 
 }  // namespace

@@ -95,6 +95,11 @@ TEST(CalibrationAcceptance, AcceptsTheFittedCalibrationAndRefusesAGainScaledOne)
   ASSERT_EQ(good.points.size(), s.acceptance->angles_rad.size());
   EXPECT_TRUE(good.passed(1)) << good.failure(1);
   EXPECT_LT(good.force_tracking_rms_N[1], s.acceptance->max_force_tracking_rms_N);
+  // Per muscle: the antagonist at 60 N is judged by the floor, the agonist (5 kg: ~650 N) by the
+  // fraction of its request.
+  EXPECT_DOUBLE_EQ(good.max_rms_N[1], s.acceptance->max_force_tracking_rms_N);
+  EXPECT_GT(good.force_request_rms_N[0], 500.0);
+  EXPECT_DOUBLE_EQ(good.max_rms_N[0], s.acceptance->max_force_tracking_rms_fraction * good.force_request_rms_N[0]);
   EXPECT_GE(good.min_loadcell_N[1], 30.0);
   for (const AcceptancePoint& p : good.points) EXPECT_NEAR(p.force_cmd_N[1], 60.0, 1.0);  // the pretension request
 

@@ -49,6 +49,7 @@ CalibrationAcceptance read_calibration_acceptance(config::Map map) {
   a.hold_s = map.number("hold_s", {0.5, 60.0});
   a.settle_s = map.number("settle_s", {0.0, a.hold_s - 0.1});
   a.max_force_tracking_rms_N = map.number("max_force_tracking_rms_N", {0.1, 2000.0});
+  a.max_force_tracking_rms_fraction = map.number("max_force_tracking_rms_fraction", {0.0, 1.0});
   a.min_tension_fraction = map.number("min_tension_fraction", {0.0, 10.0});
   map.finish();
   return a;

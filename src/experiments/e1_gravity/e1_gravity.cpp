@@ -127,6 +127,8 @@ const std::vector<std::string>& e1_log_columns() {
   return columns;
 }
 
+void use_calibration_loadcell_zero(E1Scenario& scenario) { scenario.controller.allocation.loadcell_check.tare_s = 0.0; }
+
 control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c) {
   control::OneDofControllerModel m = scenario.controller;
   m.gravity.payload_mass_kg = c.payload_kg;

@@ -22,7 +22,8 @@ std::vector<E1Variant> e1_variants(const E1Scenario& scenario, const std::filesy
     variants.push_back({"", scenario});
   } else {
     E1Scenario parametric = scenario;
-    E1Scenario with_spgp = scenario;
+    use_calibration_loadcell_zero(parametric);
+    E1Scenario with_spgp = parametric;
     bool any_spgp = false;
     for (int i = 0; i < 2; ++i) {
       if (calibration[i].empty()) continue;
@@ -34,6 +35,9 @@ std::vector<E1Variant> e1_variants(const E1Scenario& scenario, const std::filesy
       fmt::print("  {} calibration: {} (held-out pressure RMS {:.1f} kPa parametric, {:.1f} kPa with SPGP)\n",
                  i == 0 ? "agonist" : "antagonist", calibration[i].string(),
                  c.stats.heldout_rms_parametric_Pa * 1e-3, c.stats.heldout_rms_spgp_Pa * 1e-3);
+    }
+    if (scenario.controller.allocation.loadcell_check.tare_s > 0.0) {
+      fmt::print("  start-up tare off: the calibrations fix the load cells' zero (their forces are raw load-cell readings)\n");
     }
     variants.push_back({"parametric", parametric});
     if (any_spgp) variants.push_back({"spgp", with_spgp});

@@ -119,6 +119,7 @@ E1Scenario calibrated_on(const E1Scenario& nominal, const PlantVariant& v, std::
                                    s.controller.joint, i, range.min_angle_rad, range.max_angle_rad);
   }
   s.controller.allocation.force_trim_rate_1ps = 0.0;  // the paper's pure feed-forward
+  use_calibration_loadcell_zero(s);
   if (s.acceptance) {
     // The closed-loop check on the variant's rig (as `peha calibrate --scenario` runs it on the rig).
     const AcceptanceResult check = run_acceptance_check(s, *s.acceptance, [&](const E1Scenario& sc, const E1Case& c) {

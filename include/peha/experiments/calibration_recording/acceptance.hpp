@@ -29,11 +29,14 @@ struct AcceptanceResult {
   std::vector<AcceptancePoint> points;       ///< cases x angles, in order
   double force_tracking_rms_N[2] = {0, 0};   ///< RMS(force request - load cell) over every judged sample
   double min_loadcell_N[2] = {0, 0};         ///< lowest load-cell force over every judged sample
-  double max_rms_N = 0;                      ///< the thresholds it was judged against
+  double force_request_rms_N[2] = {0, 0};    ///< RMS of the force request over the same samples
+  /// The thresholds it was judged against: max(max_force_tracking_rms_N,
+  /// max_force_tracking_rms_fraction x force_request_rms_N[i]) per muscle.
+  double max_rms_N[2] = {0, 0};
   double min_tension_N = 0;                  ///< min_tension_fraction x pretension
   /// Muscle i (0 agonist, 1 antagonist) passed both figures.
   bool passed(int i) const noexcept {
-    return force_tracking_rms_N[i] <= max_rms_N && min_loadcell_N[i] >= min_tension_N;
+    return force_tracking_rms_N[i] <= max_rms_N[i] && min_loadcell_N[i] >= min_tension_N;
   }
   /// "" when muscle i passed, else what failed with the numbers.
   std::string failure(int i) const;

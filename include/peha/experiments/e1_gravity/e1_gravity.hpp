@@ -141,6 +141,15 @@ control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, c
 /// The simulated rig's parameters for a case (the scenario's plant with the case's payload).
 sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c);
 
+/// Switches the start-up load-cell tare off in a scenario whose controller carries calibrated
+/// muscle models. The tare assumes the vented muscles make no force: the limits layer keeps each
+/// muscle at its model's pretension pressure, which in the configured (nominal) model lies below the
+/// real muscle's pressure threshold. A calibrated model is right there: it holds the real pretension
+/// during the "vent" (nominal rig: +61 N antagonist, +7 N agonist), and the tare would subtract it as
+/// an offset. A calibration's forces are raw load-cell readings, so the calibration already fixes
+/// each load cell's zero (a load-cell bias is part of the fitted model).
+void use_calibration_loadcell_zero(E1Scenario& scenario);
+
 /// The calibration recording of muscle `index` (0 agonist, 1 antagonist) on the simulated rig
 /// `plant` (its finger pushes cleared, the excitation's payload set): the excitation of the
 /// scenario's `calibration:` section through the scenario's limits and the controller's joint
