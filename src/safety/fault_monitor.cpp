@@ -27,8 +27,8 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kDescend, // pressure_low: a valve or sensor that does not follow
     SafeAction::kDescend, // supply_loss: the check valves hold the air; lower the arm on it
     SafeAction::kVent,    // pressure_over_supply
-    SafeAction::kVent,    // encoder faults: no speed to govern a descent; the slow vent lowers the arm
-    SafeAction::kVent,
+    SafeAction::kHold,    // encoder faults: no angle or speed to govern a descent with, and venting drops a
+    SafeAction::kHold,    // loaded arm (the fault matrix: 115-414 deg/s): keep what the muscles hold, motor off
     SafeAction::kHold,    // joint_speed: stop the motion where it is
     SafeAction::kHold,    // joint_range
 };
@@ -161,9 +161,20 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];
       const models::MuscleModel& mm = m == 0 ? model->agonist : model->antagonist;
       const double cell = cells[m], pressure = pressures[m];
-      // Load cell.
+      // Load cell. Above the ceiling: a real over-force (the pressure model agrees, within the
+      // disagreement tolerance) is relieved at once (vent); a reading the pressure model cannot
+      // explain is a load-cell fault (descend on the model) - venting a loaded arm drops it.
       const double ceiling = models::force_ceiling_N(mm);
-      if (cell > ceiling) raise(kFaultForceCeiling, j, m, cell, ceiling);
+      const double eps = models::rigid_contraction(mm, model->pulley_radius_m, m == 0 ? +1 : -1, in.angle_rad);
+      const double model_N = models::forward_force_N(mm.pam, pressure, eps);
+      const double tolerance = p.loadcell_tolerance_N + p.loadcell_tolerance_fraction * std::abs(model_N);
+      if (cell > ceiling) {
+        if (model_N >= ceiling - tolerance) {
+          raise(kFaultForceCeiling, j, m, cell, ceiling);
+        } else {
+          raise(kFaultLoadcellDisagrees, j, m, cell - model_N, tolerance);
+        }
+      }
       // A wire is checked for slack (and its cell for a disconnect) once it has been taut since the
       // outputs began to follow: after a vent or at start-up the wires are slack by design.
       const double floor_N = p.tension_floor_fraction * model->pretension_N;
@@ -177,9 +188,6 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       ms.same_loadcell = ms.taut && cell > p.loadcell_disconnected_N && cell == ms.last_loadcell_N ? ms.same_loadcell + 1 : 0;
       ms.last_loadcell_N = cell;
       if (ms.same_loadcell + 1 >= p.loadcell_stuck_cycles) raise(kFaultLoadcellStuck, j, m, cell, p.loadcell_stuck_cycles);
-      const double eps = models::rigid_contraction(mm, model->pulley_radius_m, m == 0 ? +1 : -1, in.angle_rad);
-      const double model_N = models::forward_force_N(mm.pam, pressure, eps);
-      const double tolerance = p.loadcell_tolerance_N + p.loadcell_tolerance_fraction * std::abs(model_N);
       ms.disagree = std::abs(cell - model_N) > tolerance ? ms.disagree + 1 : 0;
       if (ms.disagree >= p.confirm_cycles) raise(kFaultLoadcellDisagrees, j, m, cell - model_N, tolerance);
       ms.low_tension = p.tension_checked[ji] && ms.taut && cell < floor_N ? ms.low_tension + 1 : 0;

@@ -82,7 +82,7 @@ FaultRow analyse(const E1Scenario& s, const E1Result& r, const Columns& log, con
     row.min_tension_N = std::min({row.min_tension_N, log.tension(0)[k], log.tension(1)[k]});
     if (row.detected && k >= detected_at && std::isnan(row.rest_after_s)) {
       quiet_s = speed < 5.0 ? quiet_s + s.period_s : 0.0;
-      if (quiet_s >= 0.5) row.rest_after_s = static_cast<double>(k - detected_at) * s.period_s - 0.5;
+      if (quiet_s >= 0.5) row.rest_after_s = std::max(0.0, static_cast<double>(k - detected_at) * s.period_s - 0.5);
     }
   }
   for (const safety::Check& c : r.verdict.checks) {
