@@ -27,9 +27,6 @@ class RowsKept final : public runtime::RowSink {
   std::size_t dropped = 0;
 };
 
-constexpr double kClampStiffness_N_per_m = 50000.0;
-constexpr double kClampDamping_Ns_per_m = 500.0;
-constexpr double kClampMaxForce_N = 1000.0;
 
 std::size_t column(const char* name) {
   const auto& c = e1_log_columns();

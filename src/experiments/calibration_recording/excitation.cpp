@@ -29,6 +29,7 @@ ExcitationParams read_excitation(config::Map map) {
       g.duration_s = m.number("duration_s", {g.period_s, 3600.0});
       g.other_pressure_Pa = m.number("other_pressure_MPa", {0.0, 1.0}) * 1e6;
       g.other_pressure_at_min_Pa = m.number_or("other_pressure_at_min_MPa", g.other_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
+      if (m.has("clamp_angle_deg")) g.clamp_angle_rad = m.number("clamp_angle_deg", {-90.0, 90.0}) * 3.14159265358979323846 / 180.0;
       m.finish();
       e.segments.push_back(g);
     }

@@ -147,6 +147,24 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
   if (!e) throw config::Error(fmt::format("no calibration.{} section (the excitation to run)", index == 0 ? "agonist" : "antagonist"));
   plant.payload_kg = e->payload_kg;
   plant.finger.pushes.clear();
+  // Clamped operating-point segments: the link pinned at the segment's angle while it runs.
+  double segment_start_s = e->duration_s;
+  for (const ExcitationSegment& g : e->segments) {
+    if (std::isfinite(g.clamp_angle_rad)) {
+      sim::FingerPush p;
+      p.name = fmt::format("clamp_{:.0f}deg", g.clamp_angle_rad * 180.0 / 3.14159265358979323846);
+      p.start_s = segment_start_s;
+      p.duration_s = g.duration_s;
+      p.move_s = std::min(1.0, 0.5 * g.duration_s);
+      p.target_angle_rad = g.clamp_angle_rad;
+      p.clamp = true;
+      plant.finger.pushes.push_back(p);
+      plant.finger.stiffness_N_per_m = kClampStiffness_N_per_m;
+      plant.finger.damping_Ns_per_m = kClampDamping_Ns_per_m;
+      plant.finger.max_force_N = kClampMaxForce_N;
+    }
+    segment_start_s += g.duration_s;
+  }
   std::unique_ptr<sim::OneDofRigBackend> rig;
   {
     const std::lock_guard lock(mujoco_load_mutex());

@@ -14,6 +14,7 @@
 #include "peha/safety/limits.hpp"
 
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,7 +29,17 @@ struct ExcitationSegment {
   double duration_s = 16.0;
   double other_pressure_Pa = 0.1e6;         ///< partner while the excited muscle is at its top
   double other_pressure_at_min_Pa = 0.1e6;  ///< partner while the excited muscle is at its bottom
+  /// The link clamped at this angle for the segment (a pin through the link on the rig), so the
+  /// excited muscle's force sweeps a known contraction - E1's hold points whatever the plant's
+  /// friction (`clamp_angle_deg`; NaN: free).
+  double clamp_angle_rad = std::numeric_limits<double>::quiet_NaN();
 };
+
+/// The clamp the recording's clamped segments and the acceptance check use: a stiff, strong finger
+/// at the link tip (50 kN/m at 0.4 m is 8 kNm/rad: a 20 Nm torque moves the link 0.14 deg).
+inline constexpr double kClampStiffness_N_per_m = 50000.0;
+inline constexpr double kClampDamping_Ns_per_m = 500.0;
+inline constexpr double kClampMaxForce_N = 1000.0;
 
 /// The excitation of one muscle.
 struct ExcitationParams {
