@@ -26,9 +26,9 @@ double VelocityEstimator::update(double angle_rad, double dt_s) noexcept {
 }
 
 OneDofGravityController::OneDofGravityController(OneDofControllerModel model)
-    : model_(std::move(model)) {
+    : model_(std::move(model)), tare_(start_tare(model_.allocation.loadcell_check)) {
   velocity_.cutoff_Hz = model_.velocity_cutoff_Hz;
-  if (model_.allocation.loadcell_check.tare_s > 0.0) diag_.phase = StartupPhase::kVenting;
+  diag_.phase = tare_.phase;
 }
 
 void OneDofGravityController::update(const io::SensorState& state, io::Command& command) noexcept {
@@ -42,37 +42,23 @@ void OneDofGravityController::update(const io::SensorState& state, io::Command& 
   diag_.tau_desired_Nm = gravity_torque_Nm(model_.gravity, s.angle_rad);
   command.joint_count = 1;
 
-  // Start-up tare: both muscles are commanded vented. The limits layer keeps the model's
-  // pretension pressure, which in the rig's muscles is below their pressure threshold, so they make
-  // (almost) no force and what the load cells read is their offset. The hand holds the link
-  // meanwhile (E1's initial hold); the motor is off.
-  if (diag_.phase != StartupPhase::kCompensating) {
-    const LoadcellCheck& check = model_.allocation.loadcell_check;
-    if (first) phase_start_s_ = state.time_s;
-    const double elapsed_s = state.time_s - phase_start_s_;
-    if (diag_.phase == StartupPhase::kVenting && elapsed_s >= check.vent_s) {
-      diag_.phase = StartupPhase::kTaring;
-      phase_start_s_ = state.time_s;
-    } else if (diag_.phase == StartupPhase::kTaring && std::isfinite(s.agonist_loadcell_N) &&
-               std::isfinite(s.antagonist_loadcell_N)) {
-      tare_sum_N_[0] += s.agonist_loadcell_N;
-      tare_sum_N_[1] += s.antagonist_loadcell_N;
-      ++tare_samples_;
-      if (elapsed_s >= check.tare_s) {
-        for (int i = 0; i < 2; ++i) {
-          const double offset_N = tare_sum_N_[i] / static_cast<double>(tare_samples_);
-          allocation_data_.loadcell_offset_N[i] = std::abs(offset_N) <= check.max_tare_N ? offset_N : 0.0;
-          diag_.loadcell_offset_N[i] = allocation_data_.loadcell_offset_N[i];
-        }
-        allocation_data_.bumpless_start = false;  // the valves start from vented, the trim from 0
-        diag_.phase = StartupPhase::kCompensating;
-      }
+  // Start-up tare (control/startup_tare.hpp): both muscles commanded vented, the motor off, while
+  // the hand holds the link (E1's initial hold); then the load cells' offsets are subtracted.
+  const LoadcellCheck& check = model_.allocation.loadcell_check;
+  const bool was_starting = tare_.phase != StartupPhase::kCompensating;
+  const bool venting = step_startup_tare(check, state, tare_);
+  diag_.phase = tare_.phase;
+  if (venting) {
+    diag_.allocation = AllocationOutput{};
+    command.joints[0] = {0.0, 0.0, 0.0};
+    return;
+  }
+  if (was_starting) {
+    for (int i = 0; i < 2; ++i) {
+      allocation_data_.loadcell_offset_N[i] = tare_offset_N(check, tare_, 0, i);
+      diag_.loadcell_offset_N[i] = allocation_data_.loadcell_offset_N[i];
     }
-    if (diag_.phase != StartupPhase::kCompensating) {
-      diag_.allocation = AllocationOutput{};
-      command.joints[0] = {0.0, 0.0, 0.0};
-      return;
-    }
+    allocation_data_.bumpless_start = false;  // the valves start from vented, the trim from 0
   }
 
   AllocationInput& in = diag_.allocation_input;

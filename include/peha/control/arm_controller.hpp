@@ -12,7 +12,6 @@
 #include "peha/models/arm.hpp"
 #include "peha/models/joint.hpp"
 
-#include <array>
 #include <vector>
 
 namespace peha::control {
@@ -59,13 +58,12 @@ class ArmController {
   /// The start-up (AllocationParams::loadcell_check.tare_s > 0), as E1's controller has it: every
   /// allocated joint vented for vent_s (hold-pressure joints keep their pressure), their load cells
   /// averaged over tare_s and subtracted from then on, then compensation (trims from 0).
-  StartupPhase startup_phase() const noexcept { return phase_; }
+  StartupPhase startup_phase() const noexcept { return tare_.phase; }
   /// When compensation began, s (< 0 before); the wires are slack on purpose until refill_s later.
-  double compensating_since_s() const noexcept { return compensating_since_s_; }
+  double compensating_since_s() const noexcept { return tare_.compensating_since_s; }
   /// True while the wires are slack on purpose (vent, tare and refill_s after): tension not judged.
   bool wires_slack_on_purpose(double t_s) const noexcept {
-    return model_.allocation.loadcell_check.tare_s > 0.0 &&
-           (compensating_since_s_ < 0.0 || t_s < compensating_since_s_ + model_.allocation.loadcell_check.refill_s);
+    return control::wires_slack_on_purpose(model_.allocation.loadcell_check, tare_, t_s);
   }
   /// The tare of allocated joint i (agonist, antagonist), N; 0 before it is done.
   double loadcell_offset_N(std::size_t joint, int muscle) const noexcept {
@@ -73,7 +71,6 @@ class ArmController {
   }
 
  private:
-  bool startup(const io::SensorState& state, io::Command& command) noexcept;
 
   ArmControllerModel model_;
   models::ArmData data_;
@@ -84,11 +81,7 @@ class ArmController {
   std::vector<ArmJointDiagnostics> diag_;
   double last_time_s_ = 0;
   bool started_ = false;
-  StartupPhase phase_ = StartupPhase::kCompensating;
-  double phase_start_s_ = 0;
-  double compensating_since_s_ = -1.0;
-  std::vector<std::array<double, 2>> tare_sum_N_;
-  long tare_samples_ = 0;
+  StartupTare tare_;
 };
 
 }  // namespace peha::control

@@ -9,6 +9,7 @@
 /// theta = 0 is the link horizontal, positive up (the agonist lifts).
 
 #include "peha/control/allocation.hpp"
+#include "peha/control/startup_tare.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/models/joint.hpp"
 
@@ -43,10 +44,6 @@ struct OneDofControllerModel {
   double velocity_cutoff_Hz = 20.0;
 };
 
-/// The controller's start-up (AllocationParams::loadcell_check.tare_s > 0): vent, tare the load
-/// cells, then compensate. Without a tare it compensates from the first step.
-enum class StartupPhase { kVenting, kTaring, kCompensating };
-
 /// What one step computed (for logs and plots).
 struct OneDofDiagnostics {
   StartupPhase phase = StartupPhase::kCompensating;
@@ -64,6 +61,11 @@ class OneDofGravityController {
   void update(const io::SensorState& state, io::Command& command) noexcept;
   const OneDofDiagnostics& diagnostics() const { return diag_; }
   const OneDofControllerModel& model() const { return model_; }
+  /// The start-up (control/startup_tare.hpp): vent, tare the load cells, then compensate; without
+  /// a tare it compensates from the first step. True while the wires are slack on purpose.
+  bool wires_slack_on_purpose(double t_s) const noexcept {
+    return control::wires_slack_on_purpose(model_.allocation.loadcell_check, tare_, t_s);
+  }
 
  private:
   const OneDofControllerModel model_;
@@ -72,9 +74,7 @@ class OneDofGravityController {
   OneDofDiagnostics diag_;
   double last_time_s_ = 0.0;
   bool started_ = false;
-  double phase_start_s_ = 0.0;
-  double tare_sum_N_[2] = {0, 0};
-  long tare_samples_ = 0;
+  StartupTare tare_;
 };
 
 }  // namespace peha::control

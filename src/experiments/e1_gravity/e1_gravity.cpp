@@ -227,9 +227,6 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   }
   io::SensorState state;
   io::Command command;
-  const control::LoadcellCheck& check = model.allocation.loadcell_check;
-  const bool tare_runs = check.tare_s > 0.0;
-  double compensating_since_s = -1.0;
   double tracking_sum[2] = {0, 0};
   std::size_t tracking_count = 0;
   std::array<double, 26> row{};
@@ -270,8 +267,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     // until the tare is done and the muscles have filled again (refill_s). Their tension is not judged
     // then; every other figure is.
     const control::OneDofDiagnostics& startup = controller.diagnostics();
-    if (startup.phase == control::StartupPhase::kCompensating && compensating_since_s < 0) compensating_since_s = state.time_s;
-    if (tare_runs && (compensating_since_s < 0 || state.time_s < compensating_since_s + check.refill_s)) {
+    if (controller.wires_slack_on_purpose(state.time_s)) {
       j.min_tension_N = std::numeric_limits<double>::infinity();
       r.tare_slack_s = state.time_s;
     }
