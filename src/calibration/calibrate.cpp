@@ -79,6 +79,7 @@ CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& option
   c.muscle = options.muscle;
   c.data_file = data.source;
   c.data_sha256 = data.sha256;
+  c.loadcell_zero_N = data.loadcell_zero_N;
   c.params = fit.params;
   c.contraction = span_of(data.contraction, out.heldout);
   c.force_N = span_of(data.force_N, out.heldout);

@@ -63,6 +63,7 @@ void write_calibration(const std::filesystem::path& path, const MuscleCalibratio
   out << YAML::Key << "data" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "file" << YAML::Value << c.data_file;
   out << YAML::Key << "sha256" << YAML::Value << c.data_sha256;
+  out << YAML::Key << "loadcell_zero_N" << YAML::Value << c.loadcell_zero_N;
   out << YAML::EndMap;
   out << YAML::Key << "tendon_spring" << YAML::Value << YAML::BeginMap;
   out << YAML::Key << "a_N_per_MPa" << YAML::Value << c.params.a_N_per_Pa * 1e6;
@@ -128,6 +129,8 @@ MuscleCalibration read_calibration(const std::filesystem::path& path) {
   config::Map data = root.map("data");
   c.data_file = data.string("file");
   c.data_sha256 = data.string("sha256");
+  // Files written before the recording tared its load cell have none: their forces are raw readings.
+  c.loadcell_zero_N = data.number_or("loadcell_zero_N", 0.0, {-1000.0, 1000.0});
   data.finish();
   config::Map ts = root.map("tendon_spring");
   c.params.a_N_per_Pa = ts.number("a_N_per_MPa", {-1e7, 1e7}) * 1e-6;
@@ -268,6 +271,7 @@ void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& 
 
 models::MuscleModel calibrated_muscle(const MuscleCalibration& c, bool with_spgp, models::MuscleModel muscle) {
   muscle.pam = c.params;
+  muscle.loadcell_zero_N = c.loadcell_zero_N;
   muscle.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
   return muscle;
 }

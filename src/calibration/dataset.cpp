@@ -50,6 +50,7 @@ constexpr double kMinPressureMPa = -0.02;        ///< below: more than sensor no
 constexpr double kMaxAbsContraction = 1.0;       ///< above: percent, not a fraction
 constexpr double kMinForceN = -50.0;             ///< below: more than load-cell noise
 constexpr double kMaxForceN = 5000.0;            ///< above: no PAM wire holds it (the wire breaks at 2250 N)
+constexpr double kMaxLoadcellZeroN = 1000.0;     ///< a vented reading beyond this is a broken cell, not a zero
 constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t{512} << 20;  ///< 512 MiB: ~10 M rows of three numbers
 constexpr std::size_t kMaxRows = 5'000'000;      ///< 83 min at 1 kHz; more is a wrong file or needs decimation
 constexpr double kMaxAbsAngleRad = 2.0 * 3.14159265358979323846;  ///< above: degrees, not radians
@@ -276,13 +277,35 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
 
   std::size_t line_no = 0;
   std::size_t pos = 0;
+  std::size_t zero_line = 0;      // the `# loadcell_zero_N:` comment, 0 = none
+  double loadcell_zero_N = 0.0;
   while (pos < text.size()) {
     const auto nl = text.find('\n', pos);
     const std::string_view raw = text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
     pos = nl == std::string_view::npos ? text.size() : nl + 1;
     ++line_no;
     const std::string_view line = trim(raw);
-    if (line.empty() || line.front() == '#') continue;
+    if (!line.empty() && line.front() == '#') {
+      constexpr std::string_view kZeroKey = "loadcell_zero_N:";
+      const std::string_view body = trim(line.substr(1));
+      if (body.substr(0, kZeroKey.size()) == kZeroKey) {
+        double v = 0.0;
+        const std::string_view value = trim(body.substr(kZeroKey.size()));
+        if (parse_double(value, v) != ParseStatus::kOk || std::abs(v) > kMaxLoadcellZeroN) {
+          throw DataError(file + ":" + std::to_string(line_no) + ": loadcell_zero_N: expected a number of newtons within +-" +
+                          num(kMaxLoadcellZeroN) + " (the load cell's reading with the muscle vented), found '" +
+                          std::string(value) + "'");
+        }
+        if (zero_line != 0) {
+          throw DataError(file + ":" + std::to_string(line_no) + ": loadcell_zero_N given twice (first on line " +
+                          std::to_string(zero_line) + ")");
+        }
+        zero_line = line_no;
+        loadcell_zero_N = v;
+      }
+      continue;
+    }
+    if (line.empty()) continue;
     const std::string where = file + ":" + std::to_string(line_no);
 
     if (header_line == 0) {
@@ -458,6 +481,7 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
   fill_optional(kAngle, d.angle_rad);
   fill_optional(kWireVelocity, d.wire_velocity_mps);
   d.source = file;
+  d.loadcell_zero_N = loadcell_zero_N;
   Sha256 sha;
   sha.update(bytes.data(), bytes.size());
   d.sha256 = sha.hex();
@@ -508,6 +532,8 @@ void write_dataset(const std::filesystem::path& path, const Dataset& data, const
         start = nl + 1;
       }
     }
+    out << "# the load cell's reading with the muscle vented, already subtracted from force_N:\n"
+        << "# loadcell_zero_N: " << num9(data.loadcell_zero_N) << '\n';
     std::string line;
     for (std::size_t c = 0; c < cols.size(); ++c) {
       if (c) line += ',';

@@ -13,6 +13,11 @@ ArmController::ArmController(ArmControllerModel model)
       diag_(model_.joints.size()),
       tare_(start_tare(model_.allocation.loadcell_check)) {
   for (auto& v : velocity_) v.cutoff_Hz = model_.velocity_cutoff_Hz;
+  // Each load cell's zero from its muscle model until a start-up tare (if any) measures it.
+  for (std::size_t i = 0; i < model_.joints.size(); ++i) {
+    allocation_data_[i].loadcell_offset_N[0] = model_.joints[i].actuator.agonist.loadcell_zero_N;
+    allocation_data_[i].loadcell_offset_N[1] = model_.joints[i].actuator.antagonist.loadcell_zero_N;
+  }
 }
 
 void ArmController::update(const io::SensorState& state, io::Command& command) noexcept {

@@ -29,6 +29,10 @@ OneDofGravityController::OneDofGravityController(OneDofControllerModel model)
     : model_(std::move(model)), tare_(start_tare(model_.allocation.loadcell_check)) {
   velocity_.cutoff_Hz = model_.velocity_cutoff_Hz;
   diag_.phase = tare_.phase;
+  // Without a start-up tare, each load cell's zero is what its muscle model knows (a calibration's
+  // recording measured it; 0 otherwise). A tare, when it runs, measures it again.
+  allocation_data_.loadcell_offset_N[0] = diag_.loadcell_offset_N[0] = model_.joint.agonist.loadcell_zero_N;
+  allocation_data_.loadcell_offset_N[1] = diag_.loadcell_offset_N[1] = model_.joint.antagonist.loadcell_zero_N;
 }
 
 void OneDofGravityController::update(const io::SensorState& state, io::Command& command) noexcept {

@@ -372,10 +372,12 @@ TEST_F(DatasetTest, WriteThenReadRoundTripsExactly) {
     d.t_s.push_back(0.004 * i);
     d.wire_velocity_mps.push_back(0.001 * (i % 7) - 0.003);
   }
+  d.loadcell_zero_N = 40.125;
   const auto a = dir_ / "a.csv";
   write_dataset(a, d, {"written by dataset_test", "two\nlines"});
   const Dataset r1 = read_dataset(a);
   ASSERT_EQ(r1.size(), d.size());
+  EXPECT_EQ(r1.loadcell_zero_N, 40.125);
   EXPECT_TRUE(r1.angle_rad.empty());
   for (std::size_t i = 0; i < d.size(); ++i) {
     EXPECT_NEAR(r1.pressure_Pa[i], d.pressure_Pa[i], 1e-8 * d.pressure_Pa[i]);
@@ -395,16 +397,45 @@ TEST_F(DatasetTest, WriteThenReadRoundTripsExactly) {
   EXPECT_EQ(r2.sha256, sha256_file(b));
 
   std::ifstream in(a);
-  std::string l1, l2, l3, header;
+  std::string l1, l2, l3, l4, l5, header;
   std::getline(in, l1);
   std::getline(in, l2);
   std::getline(in, l3);
+  std::getline(in, l4);
+  std::getline(in, l5);
   std::getline(in, header);
   EXPECT_EQ(l1, "# written by dataset_test");
   EXPECT_EQ(l2, "# two");
   EXPECT_EQ(l3, "# lines");
+  EXPECT_EQ(l4, "# the load cell's reading with the muscle vented, already subtracted from force_N:");
+  EXPECT_EQ(l5, "# loadcell_zero_N: 40.125");
   EXPECT_EQ(header, "pressure_MPa,contraction,force_N,t_s,wire_velocity_mps");
   EXPECT_FALSE(fs::exists(dir_ / "a.csv.tmp"));
+}
+
+// The recording's load-cell zero travels in one comment line; a bad or repeated one is refused
+// with its line, an ordinary comment that mentions it is not read.
+TEST_F(DatasetTest, LoadcellZeroCommentIsReadStrictly) {
+  std::string rows = "pressure_MPa,contraction,force_N\n";
+  for (int i = 0; i < 60; ++i) rows += std::to_string(0.1 + 0.005 * i) + ",0.05," + std::to_string(10.0 + 5.0 * i) + "\n";
+  EXPECT_EQ(read_dataset(write_file("none.csv", rows)).loadcell_zero_N, 0.0);
+  EXPECT_EQ(read_dataset(write_file("zero.csv", "# loadcell_zero_N: -12.5\n" + rows)).loadcell_zero_N, -12.5);
+  EXPECT_EQ(read_dataset(write_file("mention.csv", "# see loadcell_zero_N: none here\n" + rows)).loadcell_zero_N, 0.0);
+  for (const char* bad : {"# loadcell_zero_N: 40 N\n", "# loadcell_zero_N: nan\n", "# loadcell_zero_N: 5000\n",
+                          "# loadcell_zero_N:\n"}) {
+    try {
+      (void)read_dataset(write_file("bad.csv", std::string(bad) + rows));
+      ADD_FAILURE() << "accepted " << bad;
+    } catch (const DataError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("bad.csv:1: loadcell_zero_N: expected a number of newtons"));
+    }
+  }
+  try {
+    (void)read_dataset(write_file("twice.csv", "# loadcell_zero_N: 1\n# loadcell_zero_N: 2\n" + rows));
+    ADD_FAILURE() << "accepted twice";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("twice.csv:2: loadcell_zero_N given twice (first on line 1)"));
+  }
 }
 
 TEST_F(DatasetTest, WriteRejectsRaggedOrNonFiniteColumns) {

@@ -33,18 +33,48 @@ std::size_t rows_at_hold_point(const calibration::Dataset& d, double t_from_s, d
 TEST(CalibrationCoverage, AntagonistRecordingVisitsTheE1HoldPointWithATautWire) {
   const E1Scenario s = shipped();
   ASSERT_TRUE(s.excitation[1]);
-  ASSERT_EQ(s.excitation[1]->segments.size(), 1u);
-  const double main_s = s.excitation[1]->duration_s;
+  ASSERT_FALSE(s.excitation[1]->segments.empty());
+  const double start_s = s.excitation[1]->excitation_start_s();
+  const double main_end_s = start_s + s.excitation[1]->duration_s;
+  const double free_end_s = main_end_s + s.excitation[1]->segments[0].duration_s;  // the free segment
   const calibration::Dataset d = record_e1_muscle(s, s.plant, 1);
+  EXPECT_NEAR(d.t_s.front(), start_s, 0.01);  // nothing recorded during the tare
   EXPECT_NEAR(d.t_s.back(), s.excitation[1]->total_duration_s(), 0.01);
-  EXPECT_EQ(rows_at_hold_point(d, 1.0, main_s), 0u);
-  const std::size_t in_segment = rows_at_hold_point(d, main_s, 1e9);
-  EXPECT_GT(in_segment, 2500u);  // > 10 s at 250 Hz
+  EXPECT_EQ(rows_at_hold_point(d, start_s + 1.0, main_end_s), 0u);
+  const std::size_t in_segment = rows_at_hold_point(d, main_end_s, free_end_s);
+  EXPECT_GT(in_segment, 1250u);  // > 5 s at 250 Hz
   double lowest = 1e9;
   for (std::size_t i = 0; i < d.size(); ++i) {
-    if (d.t_s[i] >= main_s + 1.0) lowest = std::min(lowest, d.force_N[i]);
+    if (d.t_s[i] >= main_end_s + 1.0 && d.t_s[i] < free_end_s) lowest = std::min(lowest, d.force_N[i]);
   }
   EXPECT_GT(lowest, 20.0);  // never slack in the segment
+}
+
+// The recording tares its load cell first (both muscles vented, the link clamped): a load cell
+// reading 40 N high on the plant gives a zero of 40 N (plus what the vented muscle still pulls,
+// a few N), and the recorded forces are the true ones, so the fitted model never sees the bias.
+TEST(CalibrationCoverage, RecordingTaresTheLoadCellSoABiasDoesNotEnterTheData) {
+  const E1Scenario s = shipped();
+  ASSERT_TRUE(s.excitation[1]);
+  ASSERT_GT(s.excitation[1]->tare_s, 0.0);
+  sim::OneDofRigParams plain = s.plant, biased = s.plant;
+  biased.joint.antagonist.loadcell_offset_N += 40.0;
+  const calibration::Dataset a = record_e1_muscle(s, plain, 1);
+  const calibration::Dataset b = record_e1_muscle(s, biased, 1);
+  EXPECT_NEAR(a.loadcell_zero_N, 0.0, 5.0);
+  EXPECT_NEAR(b.loadcell_zero_N - a.loadcell_zero_N, 40.0, 0.5);
+  ASSERT_EQ(a.size(), b.size());
+  // The same plant, the same forces: only the 16-bit quantisation differs - except where the
+  // unbiased cell reads near zero and its noise is clipped at the bottom of its range.
+  double worst = 0;
+  std::size_t compared = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a.force_N[i] < 5.0) continue;
+    worst = std::max(worst, std::abs(b.force_N[i] - a.force_N[i]));
+    ++compared;
+  }
+  EXPECT_GT(compared, a.size() * 9 / 10);
+  EXPECT_LT(worst, 0.5);
 }
 
 // The segment's pressures: each segment starts at its own minimum with the partner at its

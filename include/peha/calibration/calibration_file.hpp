@@ -38,6 +38,9 @@ struct MuscleCalibration {
   std::string muscle;                       ///< e.g. "agonist"
   std::string data_file;
   std::string data_sha256;
+  /// The load cell's reading with the muscle vented when the data were recorded (subtracted from the
+  /// data's forces, so the fitted model is in true force), N; 0 for untared data.
+  double loadcell_zero_N = 0.0;
   models::TendonSpringParams params;        ///< the fitted Tendon-spring parameters
   std::shared_ptr<const Spgp> spgp;         ///< residual in Pa over x = (eps, force_N); may be null
   Span contraction, force_N, pressure_Pa;   ///< ranges the training data covered

@@ -2,7 +2,8 @@
 /// \file
 /// Calibration data (SPEC §3): a CSV with a header row of named columns with units.
 /// Required: `pressure_MPa`, `contraction`, `force_N`; optional: `t_s`, `angle_rad`,
-/// `wire_velocity_mps`. Lines starting with `#` are comments. Anything else is an error that names
+/// `wire_velocity_mps`. Lines starting with `#` are comments; the one `# loadcell_zero_N: <N>` carries
+/// the load-cell zero the recording subtracted. Anything else is an error that names
 /// the file, line and column. The reader also rejects data that cannot be a calibration: NaN/inf,
 /// unit mistakes (pressure in kPa or Pa under a `pressure_MPa` header, contraction in percent,
 /// negative pressures beyond noise), too few rows, no excitation. Nothing half-read is returned.
@@ -29,6 +30,10 @@ struct Dataset {
   std::vector<double> t_s;               ///< time, s (empty if absent)
   std::vector<double> angle_rad;         ///< joint angle, rad (empty if absent)
   std::vector<double> wire_velocity_mps; ///< wire velocity, m/s (empty if absent)
+  /// The load cell's reading with its muscle vented (zero force), N, which the recording has
+  /// already subtracted from force_N (its start-up tare); 0 when no tare ran. In the file: the
+  /// comment line `# loadcell_zero_N: <number>`.
+  double loadcell_zero_N = 0.0;
   std::string source;                    ///< file it came from
   std::string sha256;                    ///< hex SHA-256 of the file's bytes
   std::size_t size() const { return pressure_Pa.size(); }

@@ -37,6 +37,10 @@ struct MuscleModel {
   double max_force_N = kMaxPamForce_N;  ///< this muscle's own ceiling (<= kMaxPamForce_N), N
   /// Optional calibrated residual (the SPGP); null = parametric model only.
   std::shared_ptr<const PressureResidual> residual;
+  /// Its load cell's reading at zero force, N: the zero a calibration's recording measured with the
+  /// muscle vented (its forces are true forces, not raw readings). The controllers subtract it from
+  /// every reading when no start-up tare runs; 0 = the reading is the force.
+  double loadcell_zero_N = 0.0;
 };
 
 /// Immutable model of a PEHA joint: the one joint set-up the controller and the limits layer share,

@@ -97,6 +97,8 @@ AcceptanceResult run_acceptance_check(const E1Scenario& scenario, const Calibrat
     // No simulator truth: the figures are what the rig's sensors give.
     run_e1_on(s, c, *rig, nullptr, &rows);
     const models::JointModel& joint = s.controller.joint;
+    // The load cells as the controller reads them: less the zero the calibration's recording measured.
+    const double zero_N[2] = {joint.agonist.loadcell_zero_N, joint.antagonist.loadcell_zero_N};
     for (std::size_t i = 0; i < holds; ++i) {
       const double t0 = static_cast<double>(i) * a.hold_s + a.settle_s, t1 = static_cast<double>(i + 1) * a.hold_s;
       AcceptancePoint p;
@@ -108,13 +110,14 @@ AcceptanceResult run_acceptance_check(const E1Scenario& scenario, const Calibrat
         ++n;
         p.angle_deg += row[angle_col];
         for (int m = 0; m < 2; ++m) {
-          const double e = row[cmd_col[m]] - row[lc_col[m]];
+          const double loadcell_N = row[lc_col[m]] - zero_N[m];
+          const double e = row[cmd_col[m]] - loadcell_N;
           sum[m] += e * e;
           request_sum[m] += row[cmd_col[m]] * row[cmd_col[m]];
           p.force_cmd_N[m] += row[cmd_col[m]];
-          p.loadcell_N[m] += row[lc_col[m]];
+          p.loadcell_N[m] += loadcell_N;
           p.pressure_cmd_Pa[m] += row[p_col[m]] * 1e6;
-          p.min_loadcell_N[m] = std::min(p.min_loadcell_N[m], row[lc_col[m]]);
+          p.min_loadcell_N[m] = std::min(p.min_loadcell_N[m], loadcell_N);
         }
       }
       if (n == 0) continue;

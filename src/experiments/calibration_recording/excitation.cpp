@@ -20,6 +20,10 @@ ExcitationParams read_excitation(config::Map map) {
   e.other_pressure_at_min_Pa = map.number_or("other_pressure_at_min_MPa", e.other_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
   e.sample_rate_Hz = map.number("sample_rate_Hz", {1.0, 10000.0});
   e.payload_kg = map.number("payload_kg", {0.0, 20.0});
+  if (map.has("tare_s")) {
+    e.tare_s = map.number("tare_s", {0.05, 10.0});
+    e.vent_s = map.number("vent_s", {0.0, 10.0});
+  }
   if (map.has("operating_points")) {
     for (config::Map m : map.maps("operating_points", 1, 32)) {
       ExcitationSegment g;
@@ -39,7 +43,7 @@ ExcitationParams read_excitation(config::Map map) {
 }
 
 double ExcitationParams::total_duration_s() const noexcept {
-  double t = duration_s;
+  double t = excitation_start_s() + duration_s;
   for (const ExcitationSegment& g : segments) t += g.duration_s;
   return t;
 }
@@ -114,24 +118,40 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
   io::Command command;
   command.joint_count = 1;
   const double t0 = [&] { backend.read(state); return state.time_s; }();
+  // The tare: vented for vent_s, then the recorded muscle's load cell averaged over tare_s.
+  const auto start_steps = static_cast<long>(std::llround(excitation.excitation_start_s() / period_s));
+  const auto vent_steps = static_cast<long>(std::llround(excitation.vent_s / period_s));
+  double zero_sum_N = 0.0;
+  long zero_samples = 0;
   long next_report = 0;
   auto step = [&](std::size_t kk) {
     const auto k = static_cast<long>(kk);
     const io::JointSensors& s = state.joints[0];
     const double omega = velocity.update(s.angle_rad, k == 0 ? 0.0 : period_s);
-    if (k % every == 0) {
-      data.t_s.push_back(state.time_s - t0);
-      data.pressure_Pa.push_back(side > 0 ? s.agonist_pressure_Pa : s.antagonist_pressure_Pa);
-      data.angle_rad.push_back(s.angle_rad);
-      data.contraction.push_back(models::rigid_contraction(muscle, joint.pulley_radius_m, side, s.angle_rad));
-      data.force_N.push_back(side > 0 ? s.agonist_loadcell_N : s.antagonist_loadcell_N);
-      data.wire_velocity_mps.push_back(models::wire_velocity_mps(joint.pulley_radius_m, side, omega));
+    const double reading_N = side > 0 ? s.agonist_loadcell_N : s.antagonist_loadcell_N;
+    if (k < start_steps) {
+      if (k >= vent_steps) {
+        zero_sum_N += reading_N;
+        ++zero_samples;
+      }
+      command.joints[0] = {0.0, 0.0, 0.0};  // vented (the limits keep the pretension floor's pressure)
+    } else {
+      if (k == start_steps && zero_samples > 0) data.loadcell_zero_N = zero_sum_N / static_cast<double>(zero_samples);
+      const long j = k - start_steps;  // the excitation's own step
+      if (j % every == 0) {
+        data.t_s.push_back(state.time_s - t0);
+        data.pressure_Pa.push_back(side > 0 ? s.agonist_pressure_Pa : s.antagonist_pressure_Pa);
+        data.angle_rad.push_back(s.angle_rad);
+        data.contraction.push_back(models::rigid_contraction(muscle, joint.pulley_radius_m, side, s.angle_rad));
+        data.force_N.push_back(reading_N - data.loadcell_zero_N);
+        data.wire_velocity_mps.push_back(models::wire_velocity_mps(joint.pulley_radius_m, side, omega));
+      }
+      const double excited = triangle_pressure_Pa(excitation, static_cast<double>(j) * period_s);
+      const double other = other_pressure_Pa(excitation, static_cast<double>(j) * period_s);
+      command.joints[0].agonist_pressure_Pa = side > 0 ? excited : other;
+      command.joints[0].antagonist_pressure_Pa = side > 0 ? other : excited;
+      command.joints[0].motor_torque_Nm = 0.0;
     }
-    const double excited = triangle_pressure_Pa(excitation, k * period_s);
-    const double other = other_pressure_Pa(excitation, k * period_s);
-    command.joints[0].agonist_pressure_Pa = side > 0 ? excited : other;
-    command.joints[0].antagonist_pressure_Pa = side > 0 ? other : excited;
-    command.joints[0].motor_torque_Nm = 0.0;
     if (progress && k >= next_report) {
       progress(static_cast<double>(k) / steps);
       next_report += std::max(1L, steps / 10);

@@ -147,8 +147,25 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
   if (!e) throw config::Error(fmt::format("no calibration.{} section (the excitation to run)", index == 0 ? "agonist" : "antagonist"));
   plant.payload_kg = e->payload_kg;
   plant.finger.pushes.clear();
+  auto use_clamp = [&plant] {
+    plant.finger.stiffness_N_per_m = kClampStiffness_N_per_m;
+    plant.finger.damping_Ns_per_m = kClampDamping_Ns_per_m;
+    plant.finger.max_force_N = kClampMaxForce_N;
+  };
+  // The load-cell tare: the link pinned at 0 while both muscles are vented (nobody holds it).
+  if (e->excitation_start_s() > 0.0) {
+    sim::FingerPush p;
+    p.name = "clamp_tare";
+    p.start_s = 0.0;
+    p.duration_s = e->excitation_start_s();
+    p.move_s = std::min(0.2, 0.5 * p.duration_s);
+    p.target_angle_rad = 0.0;
+    p.clamp = true;
+    plant.finger.pushes.push_back(p);
+    use_clamp();
+  }
   // Clamped operating-point segments: the link pinned at the segment's angle while it runs.
-  double segment_start_s = e->duration_s;
+  double segment_start_s = e->excitation_start_s() + e->duration_s;
   for (const ExcitationSegment& g : e->segments) {
     if (std::isfinite(g.clamp_angle_rad)) {
       sim::FingerPush p;
@@ -159,9 +176,7 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
       p.target_angle_rad = g.clamp_angle_rad;
       p.clamp = true;
       plant.finger.pushes.push_back(p);
-      plant.finger.stiffness_N_per_m = kClampStiffness_N_per_m;
-      plant.finger.damping_Ns_per_m = kClampDamping_Ns_per_m;
-      plant.finger.max_force_N = kClampMaxForce_N;
+      use_clamp();
     }
     segment_start_s += g.duration_s;
   }

@@ -56,7 +56,16 @@ struct ExcitationParams {
   double payload_kg = 2.5;            ///< weight on the link while recording (simulated rig)
   /// Operating-point segments, run in order after the main triangle (`operating_points:`).
   std::vector<ExcitationSegment> segments;
-  /// The main triangle plus every segment.
+  /// Load-cell tare before the excitation (`tare_s`, `vent_s`; tare_s 0 = none): both muscles
+  /// commanded vented for vent_s + tare_s with the link clamped at 0 (the recording's clamp), the
+  /// recorded muscle's load cell averaged over the last tare_s. That zero is subtracted from every
+  /// recorded force and kept in the data (Dataset::loadcell_zero_N), so the calibration fits true
+  /// force and a load-cell offset cannot enter the model.
+  double tare_s = 0.0;
+  double vent_s = 0.0;
+  /// When the triangle starts: after the tare (0 without one).
+  double excitation_start_s() const noexcept { return tare_s > 0.0 ? vent_s + tare_s : 0.0; }
+  /// The tare, the main triangle and every segment.
   double total_duration_s() const noexcept;
 };
 
@@ -84,7 +93,7 @@ CalibrationAcceptance read_calibration_acceptance(config::Map map);
 /// Reads one muscle's `calibration.<muscle>` mapping (pressures in MPa) and finishes it.
 ExcitationParams read_excitation(config::Map map);
 
-/// Triangle wave value at time t: min at t = 0, max at period/2; after duration_s, the segment that
+/// Triangle wave value at time t after the excitation's start (excitation_start_s()): min at t = 0, max at period/2; after duration_s, the segment that
 /// t falls in (each starting at its own minimum); after the last segment, its last value's wave.
 double triangle_pressure_Pa(const ExcitationParams& e, double t_s) noexcept;
 /// The other muscle's pressure at time t (antiphase between its two values).
@@ -92,7 +101,7 @@ double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept;
 
 /// Runs the excitation of muscle `side` (+1 agonist, -1 antagonist) of joint 0 on `backend` and
 /// returns the logged data (contraction from the controller's rigid-wire geometry, wire velocity
-/// from a filtered encoder difference). `progress(fraction)` is called about once per second of data.
+/// from a filtered encoder difference, forces less the tare's zero; no rows during the tare). `progress(fraction)` is called about once per second of data.
 calibration::Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
                           const ExcitationParams& excitation, const safety::LimitsModel& limits,
                           const std::function<void(double)>& progress = {});
