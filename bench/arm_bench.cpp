@@ -115,7 +115,8 @@ const control::ArmControllerModel& controller_with_spgp() {
   static const control::ArmControllerModel model = [] {
     control::ArmControllerModel m = scenario().controller;
     const auto residual = std::make_shared<const calibration::SpgpResidual>(residual_spgp(), calibration::Span{0.0, 0.25},
-                                                                            calibration::Span{0.0, 1500.0});  // the data box
+                                                                            calibration::Span{0.0, 1500.0},  // the data box
+                                                                            calibration::Span{-0.2e6, 0.2e6});  // its residual range
     for (control::ArmActuatedJoint& j : m.joints) {
       j.actuator.agonist.residual = residual;
       j.actuator.antagonist.residual = residual;

@@ -143,7 +143,7 @@ void bind_calibration(py::module_& m) {
     o.spgp.max_iterations = spgp_iterations;
     o.spgp.seed = seed;
     o.use_spgp = use_spgp;
-    if (!holdout) o.heldout_blocks.clear();
+    o.holdout = holdout;
     {
       py::gil_scoped_release release;
       f.outcome = calibration::calibrate(f.data, o);

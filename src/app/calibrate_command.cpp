@@ -27,7 +27,7 @@ int calibrate(const CalibrateCommandOptions& options) {
     o.spgp.max_iterations = options.spgp_iterations;
     o.spgp.seed = options.seed;
     o.use_spgp = options.use_spgp;
-    if (!options.holdout) o.heldout_blocks.clear();
+    o.holdout = options.holdout;
     fmt::print("peha calibrate: {} ({} rows, sha256 {}...)\n", options.data.string(), data.size(), data.sha256.substr(0, 12));
     experiments::ProgressPrinter lm("LM restarts"), gp("SPGP training");
     calibration::CalibrateProgress progress;

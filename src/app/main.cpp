@@ -247,6 +247,8 @@ Command add_robustness(CLI::App& app) {
   cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
   cmd->add_option("--mode", s->options.only_mode, "Run only this mode (it must be on in the file)")
       ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures"}));
+  cmd->add_flag("--keep-calibrations", s->options.keep_calibrations,
+                "e1_calibrated_ff: write each variant's recordings and calibrations (refused ones too) to <run>/calibrations/");
   cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");
   return {cmd, [s] {
             if (*s->threads_opt) s->options.threads = s->threads;

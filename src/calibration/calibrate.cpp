@@ -35,26 +35,28 @@ Span span_of(const std::vector<double>& v, const std::vector<char>& mask) {
 
 CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& options, const CalibrateProgress& progress) {
   const std::size_t n = data.size();
-  if (options.blocks < 2) throw std::invalid_argument("calibrate: need at least 2 blocks");
-  for (int b : options.heldout_blocks) {
-    if (b < 0 || b >= options.blocks) {
-      throw std::invalid_argument(fmt::format("calibrate: held-out block {} outside [0, {})", b, options.blocks));
+  const CalibrateOptions::Split& split = data.t_s.empty() ? options.row_split : options.time_split;
+  static const std::vector<int> kNone;
+  const std::vector<int>& heldout_blocks = options.holdout ? split.heldout_blocks : kNone;
+  if (split.blocks < 2) throw std::invalid_argument("calibrate: need at least 2 blocks");
+  for (int b : heldout_blocks) {
+    if (b < 0 || b >= split.blocks) {
+      throw std::invalid_argument(fmt::format("calibrate: held-out block {} outside [0, {})", b, split.blocks));
     }
   }
-  if (static_cast<int>(options.heldout_blocks.size()) >= options.blocks) {
+  if (static_cast<int>(heldout_blocks.size()) >= split.blocks) {
     throw std::invalid_argument("calibrate: every block is held out; nothing left to fit");
   }
 
   CalibrationOutcome out;
   const char* order = data.t_s.empty() ? "row-order" : "time-contiguous";
-  out.split = options.heldout_blocks.empty()
+  out.split = heldout_blocks.empty()
                   ? std::string("nothing held out")
-                  : fmt::format("{} blocks {} of {}", order, fmt::join(options.heldout_blocks, ","), options.blocks);
+                  : fmt::format("{} blocks {} of {}", order, fmt::join(heldout_blocks, ","), split.blocks);
   out.heldout.assign(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
-    const int block = static_cast<int>(i * static_cast<std::size_t>(options.blocks) / n);
-    out.heldout[i] = std::find(options.heldout_blocks.begin(), options.heldout_blocks.end(), block) !=
-                     options.heldout_blocks.end();
+    const int block = static_cast<int>(i * static_cast<std::size_t>(split.blocks) / n);
+    out.heldout[i] = std::find(heldout_blocks.begin(), heldout_blocks.end(), block) != heldout_blocks.end();
   }
 
   FitData train;
@@ -84,6 +86,7 @@ CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& option
   c.contraction = span_of(data.contraction, out.heldout);
   c.force_N = span_of(data.force_N, out.heldout);
   c.pressure_Pa = span_of(data.pressure_Pa, out.heldout);
+  c.residual_Pa = span_of(residual, out.heldout);
   CalibrationStats& s = c.stats;
   s.rows_train = train.pressure_Pa.size();
   s.rows_heldout = n - s.rows_train;
@@ -112,9 +115,12 @@ CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& option
     const auto start = std::chrono::steady_clock::now();
     auto spgp = std::make_shared<const Spgp>(Spgp::fit(X, y, options.spgp, progress.spgp));
     s.spgp_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const SpgpResidual as_controller(spgp, c.contraction, c.force_N, c.residual_Pa);
     for (std::size_t i = 0; i < n; ++i) {
       const double x[2] = {data.contraction[i], data.force_N[i]};
-      const double mean = spgp->predict_mean(x);
+      // As the controller evaluates it: inputs clamped to the training box, the correction to the
+      // training residuals' range.
+      const double mean = as_controller.pressure_Pa(x[0], x[1]);
       out.pressure_spgp_Pa[i] += mean;
       out.spgp_std_Pa[i] = std::sqrt(std::max(spgp->predict_variance(x), 0.0));
       after[i] = residual[i] - mean;

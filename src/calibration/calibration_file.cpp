@@ -76,6 +76,7 @@ void write_calibration(const std::filesystem::path& path, const MuscleCalibratio
   emit_span(out, "contraction", c.contraction);
   emit_span(out, "force_N", c.force_N);
   emit_span(out, "pressure_Pa", c.pressure_Pa);
+  emit_span(out, "residual_Pa", c.residual_Pa);
   out << YAML::EndMap;
   const CalibrationStats& s = c.stats;
   out << YAML::Key << "fit" << YAML::Value << YAML::BeginMap;
@@ -143,6 +144,9 @@ MuscleCalibration read_calibration(const std::filesystem::path& path) {
   c.contraction = read_span(ranges, "contraction");
   c.force_N = read_span(ranges, "force_N");
   c.pressure_Pa = read_span(ranges, "pressure_Pa");
+  // Files written before the residual range was kept: the SPGP may correct by up to the largest
+  // pressure the data held, either way.
+  c.residual_Pa = ranges.has("residual_Pa") ? read_span(ranges, "residual_Pa") : Span{-c.pressure_Pa.max, c.pressure_Pa.max};
   ranges.finish();
   config::Map fit = root.map("fit");
   CalibrationStats& s = c.stats;
@@ -272,7 +276,7 @@ void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& 
 models::MuscleModel calibrated_muscle(const MuscleCalibration& c, bool with_spgp, models::MuscleModel muscle) {
   muscle.pam = c.params;
   muscle.loadcell_zero_N = c.loadcell_zero_N;
-  muscle.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N) : nullptr;
+  muscle.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N, c.residual_Pa) : nullptr;
   return muscle;
 }
 

@@ -58,15 +58,16 @@ CalibrateOptions fast_options() {
 TEST(Calibrate, SpgpRemovesTheThresholdTheParametricModelMisses) {
   const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
   const CalibrationStats& s = out.calibration.stats;
-  EXPECT_EQ(s.rows_heldout, 3000u);  // blocks 2 and 7 of 10
+  EXPECT_EQ(s.rows_heldout, 3000u);  // every fifth of 50 blocks
   EXPECT_EQ(s.rows_train + s.rows_heldout, 15001u);
   EXPECT_GT(s.heldout_rms_parametric_Pa, 3e3);
   EXPECT_LT(s.heldout_rms_spgp_Pa, 0.5 * s.heldout_rms_parametric_Pa);
   EXPECT_LT(s.heldout_rms_spgp_Pa, 4e3);
-  // Held-out rows are two time-contiguous runs.
+  // Held-out rows are ten time-contiguous runs of 300 rows, spread over the whole recording (so no
+  // segment of an excitation is held out whole).
   int runs = 0;
   for (std::size_t i = 0; i < out.heldout.size(); ++i) runs += out.heldout[i] && (i == 0 || !out.heldout[i - 1]);
-  EXPECT_EQ(runs, 2);
+  EXPECT_EQ(runs, 10);
 }
 
 // A calibration file written and read back predicts exactly what the fitted model predicts.
@@ -89,13 +90,22 @@ TEST(CalibrationFile, RoundTripPreservesPredictions) {
     }
   }
   EXPECT_EQ(back.stats.rows_heldout, out.calibration.stats.rows_heldout);
+  EXPECT_EQ(back.residual_Pa.min, out.calibration.residual_Pa.min);
+  EXPECT_EQ(back.residual_Pa.max, out.calibration.residual_Pa.max);
+  EXPECT_LT(back.residual_Pa.min, 0.0);
+  EXPECT_GT(back.residual_Pa.max, 0.0);
   // The controller's residual is the SPGP's mean inside the data's box, and the mean at the box's
   // nearest edge outside it (no extrapolation).
-  const SpgpResidual residual(back.spgp, back.contraction, back.force_N);
+  const SpgpResidual residual(back.spgp, back.contraction, back.force_N, back.residual_Pa);
   const double inside[2] = {0.5 * (back.contraction.min + back.contraction.max), 0.5 * (back.force_N.min + back.force_N.max)};
   EXPECT_EQ(residual.pressure_Pa(inside[0], inside[1]), back.spgp->predict_mean(inside));
   const double edge[2] = {back.contraction.max, back.force_N.min};
   EXPECT_EQ(residual.pressure_Pa(back.contraction.max + 0.05, back.force_N.min - 100.0), back.spgp->predict_mean(edge));
+  // ... and never a correction larger than the data's residual range: with the range narrowed to
+  // +-1 Pa the same SPGP is held at it.
+  const SpgpResidual narrow(back.spgp, back.contraction, back.force_N, Span{-1.0, 1.0});
+  EXPECT_LE(std::abs(narrow.pressure_Pa(inside[0], inside[1])), 1.0);
+  EXPECT_GT(std::abs(back.spgp->predict_mean(inside)), 1.0);
   std::filesystem::remove(path);
 }
 
@@ -122,7 +132,8 @@ TEST(CalibrationFile, RejectsEditedFilesWithFileLineAndKey) {
 
 TEST(Calibrate, RejectsABadSplit) {
   CalibrateOptions o = fast_options();
-  o.heldout_blocks = {12};
+  o.time_split.heldout_blocks = {o.time_split.blocks};
+  o.row_split.heldout_blocks = {o.row_split.blocks};
   EXPECT_THROW(calibrate(synthetic_threshold_muscle(), o), std::invalid_argument);
 }
 

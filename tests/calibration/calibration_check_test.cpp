@@ -134,6 +134,11 @@ TEST(CalibrationCheck, JudgesTheSpgpResidualWhereItHasData) {
   Rig rig2;
   MuscleCalibration scaled = fitted;
   scaled.spgp = std::make_shared<const Spgp>(rescaled(*fitted.spgp, 1000.0, false));
+  // The controller clamps the residual to the range the data had: within it the scaled SPGP is
+  // harmless; a file that also claims a residual range of +-10 MPa is refused.
+  Rig rig2a;
+  EXPECT_EQ(refusal(scaled, rig2a, 0), "");
+  scaled.residual_Pa = {-1e7, 1e7};
   EXPECT_THAT(refusal(scaled, rig2, 0), HasSubstr("where it has data"));
 
   Rig rig3;

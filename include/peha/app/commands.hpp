@@ -101,6 +101,7 @@ struct RobustnessOptions {
   std::optional<int> threads;             ///< overrides the file's threads
   std::string only_variant;               ///< run only this variant (empty: all)
   std::string only_mode;                  ///< run only this mode (empty: the file's modes)
+  bool keep_calibrations = false;         ///< write the calibrated mode's recordings and calibrations
   bool plot = true;                       ///< render heatmap.png with tools/plot_robustness.py
 };
 

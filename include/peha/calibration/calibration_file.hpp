@@ -44,6 +44,9 @@ struct MuscleCalibration {
   models::TendonSpringParams params;        ///< the fitted Tendon-spring parameters
   std::shared_ptr<const Spgp> spgp;         ///< residual in Pa over x = (eps, force_N); may be null
   Span contraction, force_N, pressure_Pa;   ///< ranges the training data covered
+  /// The parametric model's pressure residual P - g^-1(F; eps) over the training data, Pa: the SPGP
+  /// (fitted to it) never corrects by more than the data ever needed (SpgpResidual clamps to it).
+  Span residual_Pa;
   CalibrationStats stats;
 };
 
@@ -110,22 +113,26 @@ void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& 
                        models::JointModel& joint, int side, double min_angle_rad, double max_angle_rad);
 
 /// The SPGP as the controller's pressure residual: pressure_Pa(eps, F) = spgp.predict_mean({eps, F})
-/// with (eps, F) clamped to the box the calibration data covered. A GP extrapolates freely (the
-/// antagonist's residual reached -0.45 MPa at a contraction 0.01 beyond its data); clamped, the
-/// residual outside the data is the one at the nearest edge of what was measured.
+/// with (eps, F) clamped to the box the calibration data covered, and the result clamped to the
+/// residual range the training data had. A GP extrapolates freely (the antagonist's residual reached
+/// -0.45 MPa at a contraction 0.01 beyond its data); clamped, the residual outside the data is the
+/// one at the nearest edge of what was measured. The box's corners can still be far from any row
+/// (the agonist's data at its least contraction carry little force): there the SPGP's mean asked
+/// +0.5 MPa at 1200 N, four times the pressure the muscle needs, and the output clamp holds it to
+/// the largest correction the data ever needed.
 class SpgpResidual final : public models::PressureResidual {
  public:
-  SpgpResidual(std::shared_ptr<const Spgp> spgp, Span contraction, Span force_N)
-      : spgp_(std::move(spgp)), contraction_(contraction), force_N_(force_N) {}
+  SpgpResidual(std::shared_ptr<const Spgp> spgp, Span contraction, Span force_N, Span residual_Pa)
+      : spgp_(std::move(spgp)), contraction_(contraction), force_N_(force_N), residual_Pa_(residual_Pa) {}
   double pressure_Pa(double eps, double force_N) const noexcept override {
     const double x[2] = {clamp(eps, contraction_), clamp(force_N, force_N_)};
-    return spgp_->predict_mean(x);
+    return clamp(spgp_->predict_mean(x), residual_Pa_);
   }
 
  private:
   static double clamp(double v, const Span& s) noexcept { return v < s.min ? s.min : (v > s.max ? s.max : v); }
   std::shared_ptr<const Spgp> spgp_;
-  Span contraction_, force_N_;
+  Span contraction_, force_N_, residual_Pa_;
 };
 
 }  // namespace peha::calibration

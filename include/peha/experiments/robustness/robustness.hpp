@@ -62,6 +62,9 @@ struct RobustnessConfig {
   int calibration_pseudo_inputs = 50;  ///< SPGP pseudo-inputs
   int calibration_spgp_iterations = 300;  ///< SPGP optimiser iterations
   double e1_duration_s = 0;            ///< > 0: shorten the E1 scenario (tests); 0: the scenario's
+  /// Not empty: the calibrated mode writes each variant's recordings and calibrations here
+  /// (<variant>-seed<N>-<muscle>.csv/.yaml), refused ones included, to be inspected or replotted.
+  std::filesystem::path keep_calibrations_dir;
   RobustnessGoal goal_default{5, 0.5, 1.0};
   RobustnessGoal goal_calibrated{10, 0.2, 0.9};
   RobustnessGoal goal_e3{5, 0.5, 1.0};
@@ -92,7 +95,16 @@ struct RobustnessRow {
 struct RobustnessResult {
   std::vector<RobustnessRow> rows;
   /// Per mode: variants x payloads x seeds that met the goal, and how many ran.
-  struct Share { std::string mode; std::size_t met = 0, total = 0; double required = 1; };
+  /// The share is judged over the cases physics allows: a case marked physics_forbids that misses
+  /// the goal is reported (table, note, verdict FAIL) but not counted against the required share.
+  struct Share {
+    std::string mode;
+    std::size_t met = 0, total = 0;
+    std::size_t forbidden = 0;  ///< physics_forbids and the goal missed
+    double required = 1;
+    std::size_t judged() const noexcept { return total - forbidden; }
+    bool ok() const noexcept { return judged() && static_cast<double>(met) >= required * static_cast<double>(judged()); }
+  };
   std::vector<Share> shares;
 };
 
