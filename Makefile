@@ -14,7 +14,7 @@ help:
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make robustness  E1 (default + calibrated pure feed-forward) and E3 over plant variants:"
-	@echo "            out/robustness/robustness.md and heatmap.png (docs/robustness.md; about 7 minutes on 2 cores)"
+	@echo "            out/robustness/robustness.md and heatmap.png (docs/robustness.md; about 10 minutes on 2 cores)"
 	@echo "make bench  build, run the benchmarks and the peers (SciPy LM, sklearn dense GP); one JSON in out/bench,"
 	@echo "            the table in docs/performance.md (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
