@@ -40,9 +40,9 @@ int identify_gravity(const IdentifyGravityOptions& options) {
                  m.tau_mean_Nm[1], f.predicted_Nm(k, 0), f.predicted_Nm(k, 1), f.prior_Nm(k, 0), f.prior_Nm(k, 1), m.tau_Nm[0][0],
                  m.tau_Nm[1][0]);
     }
-    fmt::print("fit: {} rows, {} identified directions, residual RMS {:.3f} Nm (max {:.3f}); the nominal model's RMS {:.3f} Nm; "
-               "largest change vs nominal {:.1f} %\n",
-               f.rows, f.rank, f.residual_rms_Nm, f.residual_max_Nm, f.prior_rms_Nm, 100 * f.max_change_fraction);
+    fmt::print("fit: {} rows, {} identified directions, residual RMS {:.3f} Nm (max {:.3f}; the friction band's half-width "
+               "RMS {:.3f} Nm); the nominal model's RMS {:.3f} Nm; largest change vs nominal {:.1f} %\n",
+               f.rows, f.rank, f.residual_rms_Nm, f.residual_max_Nm, f.uncertainty_rms_Nm, f.prior_rms_Nm, 100 * f.max_change_fraction);
     std::string sv;
     for (Eigen::Index i = 0; i < f.singular_values.size(); ++i) sv += fmt::format(" {:.3g}", f.singular_values[i]);
     fmt::print("  singular values of the scaled regressor:{} (identified: >= {:.3g} x the largest)\n", sv,

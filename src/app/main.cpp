@@ -280,7 +280,7 @@ Command add_robustness(CLI::App& app) {
                        ->check(CLI::Range(1, 64));
   cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
   cmd->add_option("--mode", s->options.only_mode, "Run only this mode (it must be on in the file)")
-      ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures"}));
+      ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures", "e3_identified"}));
   cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");
   return {cmd, [s] {
             if (*s->threads_opt) s->options.threads = s->threads;

@@ -122,10 +122,15 @@ GravityIdentification identify_gravity(const models::ArmModel& nominal, const st
                           samples[static_cast<std::size_t>(r / nj)].name, predicted[r], prior[r], tau[r]);
     }
   }
-  if (!(fit.residual_rms_Nm <= options.max_residual_rms_Nm)) {
-    throw GravityIdentificationRejected(fmt::format("gravity identification refused: residual RMS {:.3f} Nm > {:.3f} Nm (largest {:.3f} Nm): "
-                                                    "the torques are not those of a rigid arm under gravity",
-                                                    fit.residual_rms_Nm, options.max_residual_rms_Nm, fit.residual_max_Nm));
+  double uncertainty2 = 0;
+  for (const GravitySample& g : samples) uncertainty2 += g.uncertainty_Nm.squaredNorm();
+  fit.uncertainty_rms_Nm = std::sqrt(uncertainty2 / static_cast<double>(n));
+  const double allowed_Nm = std::max(options.max_residual_rms_Nm, options.max_residual_uncertainty_fraction * fit.uncertainty_rms_Nm);
+  if (!(fit.residual_rms_Nm <= allowed_Nm)) {
+    throw GravityIdentificationRejected(fmt::format("gravity identification refused: residual RMS {:.3f} Nm > {:.3f} Nm (largest {:.3f} Nm; "
+                                                    "the measurements' uncertainty RMS {:.3f} Nm): the torques are not those of a rigid "
+                                                    "arm under gravity",
+                                                    fit.residual_rms_Nm, allowed_Nm, fit.residual_max_Nm, fit.uncertainty_rms_Nm));
   }
   if (fit.max_change_fraction > options.max_change_fraction) {
     throw GravityIdentificationRejected(fmt::format("gravity identification refused: the identified gravity torque differs from the nominal "
@@ -154,9 +159,10 @@ void write_gravity_identification(const std::filesystem::path& path, const model
     std::replace(quoted.begin(), quoted.end(), '"', '\'');
     out << fmt::format("provenance: \"{}\"\n", quoted);
     out << fmt::format("arm_joints: {}\n", joined(joints));
-    out << fmt::format("fit: {{rank: {}, rows: {}, residual_rms_Nm: {:.6g}, residual_max_Nm: {:.6g}, nominal_rms_Nm: {:.6g}, "
-                       "max_change_fraction: {:.6g}}}\n",
-                       fit.rank, fit.rows, fit.residual_rms_Nm, fit.residual_max_Nm, fit.prior_rms_Nm, fit.max_change_fraction);
+    out << fmt::format("fit: {{rank: {}, rows: {}, residual_rms_Nm: {:.6g}, residual_max_Nm: {:.6g}, uncertainty_rms_Nm: {:.6g}, "
+                       "nominal_rms_Nm: {:.6g}, max_change_fraction: {:.6g}}}\n",
+                       fit.rank, fit.rows, fit.residual_rms_Nm, fit.residual_max_Nm, fit.uncertainty_rms_Nm, fit.prior_rms_Nm,
+                       fit.max_change_fraction);
     out << "parameters:\n";
     for (std::size_t k = 0; k < fit.names.size(); ++k) {
       const auto i = static_cast<Eigen::Index>(k);
@@ -184,7 +190,7 @@ models::ArmModel read_gravity_identification(const config::Document& doc, const 
   config::Map f = root.map("fit");
   (void)f.integer("rank", 0, 10000);
   (void)f.integer("rows", 0, 1000000);
-  for (const char* k : {"residual_rms_Nm", "residual_max_Nm", "nominal_rms_Nm", "max_change_fraction"}) (void)f.number(k, {0.0, kBig});
+  for (const char* k : {"residual_rms_Nm", "residual_max_Nm", "uncertainty_rms_Nm", "nominal_rms_Nm", "max_change_fraction"}) (void)f.number(k, {0.0, kBig});
   f.finish();
   const int p = models::gravity_parameter_count(nominal);
   Eigen::VectorXd theta = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());

@@ -12,7 +12,7 @@
 /// sharing an origin, as the wrist's three joints do, would otherwise share one body's mass).
 ///
 /// An identification is refused (GravityIdentificationRejected) when the fit cannot be trusted: a
-/// residual above max_residual_rms_Nm, or an identified gravity torque that differs from the prior's
+/// residual above max_residual_rms_Nm and above a fraction of the measurements' own uncertainty, or an identified gravity torque that differs from the prior's
 /// by more than max_change_fraction at a sample where the prior's exceeds min_torque_Nm (a wrong
 /// lever, sign or channel), or a frame whose mass is not positive.
 
@@ -45,9 +45,12 @@ struct GravityIdentificationOptions {
   /// them (e.g. how the forearm's and the hand's first moments split when the wrist hardly moves),
   /// and fitting them would fit the measurement's noise.
   double rank_tolerance = 1e-6;
-  double max_residual_rms_Nm = 0.5;     ///< refuse a fit whose RMS residual is larger
+  double max_residual_rms_Nm = 0.5;     ///< refuse a fit whose RMS residual is larger than this ...
+  /// ... and larger than this x the RMS of the samples' uncertainty_Nm (a rig with more friction
+  /// measures each torque less precisely; its residual is judged against that).
+  double max_residual_uncertainty_fraction = 0.25;
   double max_change_fraction = 0.3;     ///< refuse a fit that moves a torque by more than this vs the prior
-  double min_torque_Nm = 1.0;           ///< ... at samples where the prior's |torque| is at least this
+  double min_torque_Nm = 2.0;           ///< ... at samples where the prior's |torque| is at least this
 };
 
 struct GravityIdentification {
@@ -60,6 +63,7 @@ struct GravityIdentification {
   int rows = 0;                   ///< torque equations (samples x joints)
   double residual_rms_Nm = 0;     ///< RMS of tau - Y theta over every row
   double residual_max_Nm = 0;
+  double uncertainty_rms_Nm = 0;  ///< RMS of the samples' uncertainty_Nm (0: none given)
   double prior_rms_Nm = 0;        ///< RMS of tau - Y theta0: how far the nominal model was
   double max_change_fraction = 0; ///< largest |Y theta - Y theta0| / |Y theta0| over rows with |Y theta0| >= min_torque_Nm
   Eigen::MatrixXd predicted_Nm;   ///< samples x joints: Y theta
