@@ -1,5 +1,6 @@
 // The gravity regressor tau_g(q) = Y(q) theta (models/gravity_parameters.hpp) cross-checked against
 // the controller's J^T G and against MuJoCo's gravity (qfrc_bias at zero velocity) of the same arm.
+#include "../support/alloc_counter.hpp"
 #include "peha/models/anthropometry.hpp"
 #include "peha/models/gravity_parameters.hpp"
 #include "peha/sim/arm_mjcf.hpp"
@@ -60,6 +61,18 @@ TEST(GravityRegressor, MatchesMujocosGravityOfThePlantArm) {
     const Eigen::VectorXd tau = Y * theta;
     for (int i = 0; i < plant.dof(); ++i) EXPECT_NEAR(tau[i], d->qfrc_bias[i], 1e-9) << "joint " << i << " at q " << q.transpose() / kDeg;
   }
+}
+
+// The regressor runs in the loop's style: sized once, then no heap allocation per evaluation.
+TEST(GravityRegressor, EvaluationDoesNotAllocate) {
+  const ArmModel arm = shipped_arm().controller.model();
+  ArmData data(arm);
+  Eigen::MatrixXd Y(arm.dof(), gravity_parameter_count(arm));
+  const std::vector<Eigen::VectorXd> qs = postures();
+  const std::size_t n = peha::testing::allocations_during([&] {
+    for (const Eigen::VectorXd& q : qs) gravity_regressor(arm, data, q, Y);
+  });
+  EXPECT_EQ(n, 0u);
 }
 
 // The arm rebuilt from parameters (one body per frame) has exactly those parameters' gravity, and a
