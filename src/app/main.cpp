@@ -92,6 +92,10 @@ Command add_run(CLI::App& app) {
                       "E1 in-process only (repeatable): inject a plant fault KIND@T[:TARGET[=VALUE]] at T s, TARGET\n"
                       "[JOINT.]agonist|antagonist for muscle faults, VALUE for loadcell_bias (N), encoder_jump (deg),\n"
                       "wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
+  run_cmd->add_option("--gravity-identification", run.gravity_identification,
+                      "Right-arm scenarios only: the controller's gravity parameters identified on the rig (a file from\n"
+                      "peha identify-gravity) instead of the nominal arm model (docs/identification.md)")
+      ->check(CLI::ExistingFile);
   s->trim_opt = run_cmd->add_option(
       "--force-trim-rate", s->trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward);\n"
                "E1 and the right arm's experiments")
@@ -167,6 +171,36 @@ Command add_calibrate(CLI::App& app) {
                       "calibration (exit 2, no calibration YAML written, the report is)")
       ->check(CLI::ExistingFile);
   return {cal_cmd, [options] { return peha::app::calibrate(*options); }};
+}
+
+Command add_identify_gravity(CLI::App& app) {
+  struct State {
+    peha::app::IdentifyGravityOptions id;
+    std::uint64_t seed = 0;
+    CLI::Option* seed_opt;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App* cmd = app.add_subcommand(
+      "identify-gravity",
+      "Identify the right arm's gravity parameters on the rig (docs/identification.md): the arm's own\n"
+      "controller plus a PD on the encoders drives the arm to each posture of the config's identification:\n"
+      "section, once from above and once from below; at rest the load cells (minus their zero) through the\n"
+      "pulley radius plus the motor command give each joint's holding torque; the mean of both approaches\n"
+      "cancels the cables' friction. A linear least squares on the gravity regressor tau = Y(q) theta, from the\n"
+      "nominal model, gives theta, its std and the residual. Runs on the simulated arm (only what the rig\n"
+      "measures is read). Use the file with peha run --gravity-identification FILE or the arm config's\n"
+      "controller.gravity_identification key.\n"
+      "Exit code 0 = written, 2 = bad config or an identification the fit's checks refuse (residual, a torque\n"
+      "far from the nominal model's: a wrong lever, sign or channel; nothing written), 1 = other error.");
+  cmd->add_option("-c,--config", s->id.config, "Right-arm scenario YAML with an identification: section, e.g. configs/right_arm.yaml")
+      ->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--out", s->id.out, "Identification YAML to write (folders are created), e.g. out/identification/gravity.yaml")
+      ->required();
+  s->seed_opt = cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
+  return {cmd, [s] {
+            if (*s->seed_opt) s->id.seed = s->seed;
+            return peha::app::identify_gravity(s->id);
+          }};
 }
 
 Command add_mfb_emulator(CLI::App& app) {
@@ -246,7 +280,7 @@ Command add_robustness(CLI::App& app) {
                        ->check(CLI::Range(1, 64));
   cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
   cmd->add_option("--mode", s->options.only_mode, "Run only this mode (it must be on in the file)")
-      ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures"}));
+      ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures", "e3_identified"}));
   cmd->add_flag("--keep-calibrations", s->options.keep_calibrations,
                 "e1_calibrated_ff: write each variant's recordings and calibrations (refused ones too) to <run>/calibrations/");
   cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");
@@ -290,7 +324,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
-  const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_mfb_emulator(app),
+  const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_identify_gravity(app), add_mfb_emulator(app),
                               add_check_config(app), add_robustness(app), add_faults(app), add_version(app)};
   try {
     app.parse(argc, argv);

@@ -111,6 +111,7 @@ int run_arm(const config::Document& doc, const experiments::RunRequest& request,
   experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
   if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
   if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;
+  if (!request.gravity_identification.empty()) experiments::use_gravity_identification(scenario, request.gravity_identification);
   std::optional<runtime::RealtimeRunOptions> realtime;
   if (!request.backend.empty()) {
     if (!scenario.link) {
@@ -175,6 +176,8 @@ const Refusal kNoArmCalibration[] = {
     {"--agonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
     {"--antagonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
 };
+const std::string kIdentificationElsewhere =
+    "gravity identification files are for the right arm (a right_arm scenario; peha identify-gravity)";
 const std::string kCsvElsewhere = "a recorded goniometer drives the right arm's E4 only (--experiment goniometer)";
 
 std::vector<Refusal> arm_refusals(std::vector<Refusal> more) {
@@ -188,7 +191,8 @@ std::vector<ExperimentEntry> make_registry() {
                "E1: gravity compensation of the one-DOF PEHA rig with each payload (configs/e1_one_dof.yaml)",
                {{"", "E1 gravity compensation",
                  {"--case", "--agonist-calibration", "--antagonist-calibration", "--force-trim-rate", "--backend", "--fault"},
-                 {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"}},
+                 {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"},
+                  {"--gravity-identification", kIdentificationElsewhere}},
                  {{"--fault", "over the board the plant is the emulator's: give the faults in the scenario's faults: list"}},
                  experiments::run_e1_experiment}},
                check_e1, e1_board});
@@ -199,26 +203,27 @@ std::vector<ExperimentEntry> make_registry() {
                  {{"--agonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
                   {"--antagonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
                   {"--force-trim-rate", "E5 has no force controller: its input is a pressure ramp"},
-                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"}},
+                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"},
+                  {"--gravity-identification", kIdentificationElsewhere}},
                  {},
                  experiments::run_e5_experiment}},
                check_e5, e5_board});
   r.push_back({"right_arm", "right-arm",
                "the right arm (configs/right_arm.yaml): E3 postures, E4 goniometer, E6 bandwidth (--experiment)",
-               {{"postures", "E3 postures", {"--force-trim-rate", "--backend"},
+               {{"postures", "E3 postures", {"--force-trim-rate", "--backend", "--gravity-identification"},
                  arm_refusals({{"--case", "E3 runs every posture in one script (--case picks a movement of --experiment goniometer)"},
                                {"--goniometer-csv", kCsvElsewhere}}),
                  {},
                  [](const config::Document& doc, const experiments::RunRequest& request) {
                    return run_arm(doc, request, experiments::run_postures_experiment);
                  }},
-                {"goniometer", "E4 goniometer", {"--case", "--goniometer-csv", "--force-trim-rate", "--backend"},
+                {"goniometer", "E4 goniometer", {"--case", "--goniometer-csv", "--force-trim-rate", "--backend", "--gravity-identification"},
                  arm_refusals({}),
                  {{"--goniometer-csv", "over the board the goniometer is the board's AD channel; --goniometer-csv is for in-process runs"}},
                  [](const config::Document& doc, const experiments::RunRequest& request) {
                    return run_arm(doc, request, experiments::run_goniometer_experiment);
                  }},
-                {"bandwidth", "E6 bandwidth", {"--force-trim-rate"},
+                {"bandwidth", "E6 bandwidth", {"--force-trim-rate", "--gravity-identification"},
                  arm_refusals({{"--case", "E6 sweeps every frequency of the scenario (--case picks a movement of --experiment goniometer)"},
                                {"--goniometer-csv", kCsvElsewhere},
                                {"--backend", "E6 (--experiment bandwidth) runs in-process only: it needs the joint's true delivered "

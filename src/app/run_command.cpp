@@ -23,6 +23,7 @@ std::vector<std::string> checked_options_given(const RunOptions& o) {
       {"--backend", !o.backend.empty()},
       {"--force-trim-rate", o.force_trim_rate_1ps.has_value()},
       {"--fault", !o.faults.empty()},
+      {"--gravity-identification", !o.gravity_identification.empty()},
   };
   for (const auto& [name, set] : options) {
     if (set) given.emplace_back(name);
@@ -110,6 +111,7 @@ experiments::RunRequest make_request(const RunOptions& o) {
   r.calibration[1] = o.calibration[1];
   r.force_trim_rate_1ps = o.force_trim_rate_1ps;
   r.goniometer_csv = o.goniometer_csv;
+  r.gravity_identification = o.gravity_identification;
   r.plot = o.plot;
   r.backend = o.backend;
   r.telemetry = o.telemetry;

@@ -133,7 +133,7 @@ TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   EXPECT_THAT(mode.output, HasSubstr("--mode"));
   const Result check = run("check-config --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
   EXPECT_EQ(check.code, 0) << check.output;
-  EXPECT_THAT(check.output, HasSubstr("robustness matrix, 3 mode(s) x 17 variant(s)"));
+  EXPECT_THAT(check.output, HasSubstr("robustness matrix, 4 mode(s) x 18 variant(s)"));
   std::filesystem::remove_all(dir);
 }
 
@@ -273,6 +273,34 @@ TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
 // Bad input never hurts: numbers strictly decimal, run names inside --out, an output never its own
 // input. Each case failed before (0x10 read as 16, -1 as 2^64-1, nan through a range, ../.. escaped
 // out/, record-calibration overwrote its config, calibrate its data).
+// peha identify-gravity documents itself, refuses to write over its config, writes an identification
+// (through a temporary: no leftover), and peha run's E3 takes it (exit 0: every figure of the verdict
+// holds with it, the static torque errors included); E1 refuses the option.
+TEST(Cli, IdentifyGravityWritesAFileE3Takes) {
+  const Result help = run("identify-gravity --help");
+  EXPECT_EQ(help.code, 0);
+  for (const char* word : {"--config", "--out", "--seed", "Exit code", "above and once from below"}) EXPECT_THAT(help.output, HasSubstr(word));
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_identify";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  const std::string arm = PEHA_SOURCE_DIR "/configs/right_arm.yaml";
+  Result r = run("identify-gravity --config " + arm + " --out " + arm);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.output, HasSubstr("refusing to overwrite it"));
+  const std::filesystem::path file = dir / "gravity.yaml";
+  r = run("identify-gravity --config " + arm + " --out " + file.string());
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("posture 14/14"));
+  EXPECT_THAT(r.output, HasSubstr("residual RMS"));
+  EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir), std::filesystem::directory_iterator{}), 1);
+  r = run("run --no-plot --experiment postures --config " + arm + " --out " + dir.string() + " --name e3 --gravity-identification " + file.string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  r = run("run --no-plot --config " PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml --out " + dir.string() + " --gravity-identification " + file.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.output, HasSubstr("gravity identification files are for the right arm"));
+  std::filesystem::remove_all(dir);
+}
+
 TEST(Cli, StrictNumbersRunNamesAndOutputsThatAreNotInputs) {
   const std::string e1 = std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml";
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_bad_input";

@@ -15,13 +15,14 @@ using ::testing::HasSubstr;
 // The shipped matrix reads: every variant of issue 10 is there, as plant-only knobs.
 TEST(Robustness, ShippedMatrixHasEveryVariantOfTheIssue) {
   const RobustnessConfig c = read_robustness(config::Document::load_file(PEHA_SOURCE_DIR "/configs/robustness.yaml"));
-  EXPECT_EQ(c.modes.size(), 3u);
+  EXPECT_EQ(c.modes.size(), 4u);
+  EXPECT_EQ(c.modes.back(), RobustnessMode::kE3Identified);
   std::vector<std::string> names;
   for (const PlantVariant& v : c.variants) names.push_back(v.name);
   for (const char* name : {"nominal", "cable_friction_x0", "cable_friction_x0.25", "cable_friction_x0.5", "cable_friction_x1.5",
                            "cable_friction_x2", "valve_slow_x2", "muscle_strength_+15%", "muscle_strength_-15%", "wire_stiffness_x0.5",
                            "loadcell_bias_+40N", "loadcell_bias_-40N", "sensor_noise_x3", "link_mass_+20%", "link_mass_-20%",
-                           "unknown_payload_+20%", "unknown_payload_-20%"}) {
+                           "unknown_payload_+20%", "unknown_payload_-20%", "hand_payload_+1kg"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
   }
   EXPECT_EQ(c.goal_calibrated.min_share, 0.9);

@@ -32,6 +32,7 @@ struct RunOptions {
   bool telemetry_remote = false;              ///< --telemetry-remote: the telemetry may leave this machine
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
   std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1
+  std::filesystem::path gravity_identification;  ///< right arm: the controller's gravity parameters from peha identify-gravity
 };
 
 struct EmulatorOptions {
@@ -90,6 +91,16 @@ struct CalibrateCommandOptions {
 
 /// `peha calibrate`: fits the muscle model to a calibration CSV, writes the file and a report.
 int calibrate(const CalibrateCommandOptions& options);
+
+struct IdentifyGravityOptions {
+  std::filesystem::path config;  ///< right-arm scenario with an identification: section
+  std::filesystem::path out;     ///< identification YAML to write
+  std::optional<std::uint64_t> seed;
+};
+
+/// `peha identify-gravity`: the rig procedure on the simulated arm, the fit, the file (docs/identification.md).
+/// Exit code 0 = written, 2 = bad config or an identification the fit's checks refuse (nothing written).
+int identify_gravity(const IdentifyGravityOptions& options);
 
 /// `peha check-config`: parses and validates a scenario, prints what it would run. Exit code.
 int check_config(const std::filesystem::path& config);

@@ -24,6 +24,7 @@ struct RunRequest {
   std::filesystem::path calibration[2];         ///< E1: agonist [0] and antagonist [1] calibration files (empty: none)
   std::optional<double> force_trim_rate_1ps;    ///< overrides the controller's force trim rate (0 = off)
   std::filesystem::path goniometer_csv;         ///< E4: a recorded goniometer CSV instead of the synthetic movements
+  std::filesystem::path gravity_identification; ///< right arm: identified gravity parameters (peha identify-gravity)
   bool plot = true;                             ///< render the figures with tools/*.py
   /// The real-time run on the board: "udp://A.B.C.D:PORT" (empty: in-process) and its options.
   std::string backend;

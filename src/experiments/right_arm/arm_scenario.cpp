@@ -1,6 +1,8 @@
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 
+#include "peha/calibration/gravity_identification.hpp"
+
 #include "peha/models/anthropometry.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/models/model_config.hpp"
@@ -28,7 +30,9 @@ struct ArmLimits {
 
 /// `controller:`: the nominal arm, the allocation, and per actuated joint its model and limits.
 void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, const ArmLimits& l, ArmScenario& s) {
-  s.controller.arm = body.controller.model();
+  s.controller.arm = s.nominal_arm = body.controller.model();
+  // Optional: the arm's gravity parameters identified on the rig (peha identify-gravity).
+  if (ctl.has("gravity_identification")) s.gravity_identification_file = ctl.path_value("gravity_identification");
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
   double pretension_N = 0;
   s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
@@ -157,7 +161,45 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   gon.finish();
 }
 
+/// `identification:` (peha identify-gravity): the postures, the approach and the fit's checks.
+void read_identification(config::Map id, ArmScenario& s) {
+  ArmScenario::Identification& d = s.identification.emplace();
+  d.approach_rad = id.number("approach_deg", {0.5, 30.0}) * kDeg;
+  d.move_s = id.number("move_s", {0.2, 60.0});
+  d.approach_s = id.number("approach_s", {0.2, 60.0});
+  d.settle_s = id.number("settle_s", {0.0, 60.0});
+  d.average_s = id.number("average_s", {0.05, 60.0});
+  const std::vector<double> k = id.numbers("stiffness_Nm_per_rad", {0.0, 1e4}, 2, 2);
+  const std::vector<double> c = id.numbers("damping_Nms_per_rad", {0.0, 1e3}, 2, 2);
+  for (int j = 0; j < 2; ++j) {
+    d.stiffness_Nm_per_rad[j] = k[static_cast<std::size_t>(j)];
+    d.damping_Nms_per_rad[j] = c[static_cast<std::size_t>(j)];
+  }
+  d.max_residual_rms_Nm = id.number("max_residual_rms_Nm", {0.001, 100.0});
+  d.max_change_fraction = id.number("max_change_fraction", {0.001, 10.0});
+  d.rank_tolerance = id.number_or("rank_tolerance", d.rank_tolerance, {1e-12, 1.0});
+  for (config::Map item : id.maps("postures", 3, 64)) {
+    ArmPosture a;
+    a.name = item.string("name");
+    // Every approach point inside the joint's range: a stop would hold part of the torque.
+    for (int j = 0; j < 2; ++j) {
+      const safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(j)];
+      const char* key = j == 0 ? "sfe_deg" : "efe_deg";
+      const double v = item.number(key, {(lim.min_angle_rad + d.approach_rad) / kDeg + 1.0, (lim.max_angle_rad - d.approach_rad) / kDeg - 1.0});
+      (j == 0 ? a.sfe_rad : a.efe_rad) = v * kDeg;
+    }
+    item.finish();
+    d.postures.push_back(a);
+  }
+  id.finish();
+}
+
 }  // namespace
+
+void use_gravity_identification(ArmScenario& scenario, const std::filesystem::path& path) {
+  scenario.controller.arm = calibration::read_gravity_identification(config::Document::load_file(path), scenario.nominal_arm);
+  scenario.gravity_identification_file = path;
+}
 
 ArmScenario read_arm_scenario(const config::Document& doc) {
   config::Map root = doc.root();
@@ -184,12 +226,14 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   read_bandwidth(root.map("bandwidth"), s);
   if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
   read_goniometer(root.map("goniometer"), s);
+  if (root.has("identification")) read_identification(root.map("identification"), s);
   s.verdict = safety::read_verdict_thresholds(root);
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
     // A constant-pressure hold (the wrist) has no pretension control: its wires are checked for slack.
     if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) s.verdict.slack_check_only_joints |= 1u << i;
   }
   root.finish();
+  if (!s.gravity_identification_file.empty()) use_gravity_identification(s, s.gravity_identification_file);
   return s;
 }
 

@@ -3,6 +3,8 @@
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/experiments/calibration_recording/acceptance.hpp"
+#include "peha/calibration/gravity_identification.hpp"
+#include "peha/experiments/arm_identification/arm_identification.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
@@ -195,6 +197,23 @@ std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const Job& job,
 
 RobustnessRow run_e3_job(const ArmScenario& nominal, const Job& job) {
   ArmScenario scenario = nominal;
+  if (job.mode == RobustnessMode::kE3Identified) {
+    // Identified on this variant's arm as the user would on the rig - before picking up the hand's
+    // unknown payload, which the identification therefore does not see.
+    PlantVariant before_payload = *job.variant;
+    before_payload.extra_payload_kg = 0.0;
+    sim::RightArmPlantParams rig = arm_variant_plant(nominal, before_payload);
+    rig.seed = job.seed;
+    try {
+      scenario.controller.arm = identify_arm_gravity(scenario, rig).identified;
+    } catch (const calibration::GravityIdentificationRejected& e) {
+      RobustnessRow row;
+      row.payload = "mannequin";
+      row.static_error_pct = row.breakaway_error_pct = row.drift_deg = row.min_tension_N = row.tension_fraction = kNaN;
+      row.failures = std::string("identification refused: ") + e.what();
+      return row;
+    }
+  }
   scenario.plant = arm_variant_plant(nominal, *job.variant);
   scenario.plant.seed = scenario.seed = job.seed;
   std::unique_ptr<sim::RightArmBackend> plant;
@@ -229,6 +248,7 @@ const RobustnessGoal& goal_of(const RobustnessConfig& c, RobustnessMode m) {
     case RobustnessMode::kE1Default: return c.goal_default;
     case RobustnessMode::kE1CalibratedFF: return c.goal_calibrated;
     case RobustnessMode::kE3: return c.goal_e3;
+    case RobustnessMode::kE3Identified: return c.goal_e3_identified;
   }
   return c.goal_default;
 }
@@ -240,6 +260,7 @@ const char* to_string(RobustnessMode m) {
     case RobustnessMode::kE1Default: return "e1_default";
     case RobustnessMode::kE1CalibratedFF: return "e1_calibrated_ff";
     case RobustnessMode::kE3: return "e3_postures";
+    case RobustnessMode::kE3Identified: return "e3_identified";
   }
   return "?";
 }
@@ -251,11 +272,11 @@ RobustnessConfig read_robustness(const config::Document& doc) {
   c.e1_config = root.path_value("e1_scenario");
   c.arm_config = root.path_value("arm_scenario");
   config::Map modes = root.map("modes");
-  for (RobustnessMode m : {RobustnessMode::kE1Default, RobustnessMode::kE1CalibratedFF, RobustnessMode::kE3}) {
+  for (RobustnessMode m : {RobustnessMode::kE1Default, RobustnessMode::kE1CalibratedFF, RobustnessMode::kE3, RobustnessMode::kE3Identified}) {
     if (modes.boolean_or(to_string(m), false)) c.modes.push_back(m);
   }
   modes.finish();
-  if (c.modes.empty()) root.fail("modes", "no mode is on: set e1_default, e1_calibrated_ff or e3_postures to true");
+  if (c.modes.empty()) root.fail("modes", "no mode is on: set e1_default, e1_calibrated_ff, e3_postures or e3_identified to true");
   if (root.has("seeds")) {
     for (double s : root.numbers("seeds", {0.0, 1e9}, 1, 16)) c.seeds.push_back(static_cast<std::uint64_t>(s));
   } else {
@@ -272,6 +293,7 @@ RobustnessConfig read_robustness(const config::Document& doc) {
     if (goals.has("e1_default")) c.goal_default = read_goal(goals.map("e1_default"), c.goal_default);
     if (goals.has("e1_calibrated_ff")) c.goal_calibrated = read_goal(goals.map("e1_calibrated_ff"), c.goal_calibrated);
     if (goals.has("e3_postures")) c.goal_e3 = read_goal(goals.map("e3_postures"), c.goal_e3);
+    if (goals.has("e3_identified")) c.goal_e3_identified = read_goal(goals.map("e3_identified"), c.goal_e3_identified);
     goals.finish();
   }
   for (config::Map v : root.maps("variants", 1, 256)) c.variants.push_back(read_variant(v));
@@ -316,8 +338,9 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
                                 const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
   E1Scenario e1;
   ArmScenario arm;
-  const bool any_e1 = std::any_of(config.modes.begin(), config.modes.end(), [](RobustnessMode m) { return m != RobustnessMode::kE3; });
-  const bool any_e3 = std::find(config.modes.begin(), config.modes.end(), RobustnessMode::kE3) != config.modes.end();
+  auto is_e3 = [](RobustnessMode m) { return m == RobustnessMode::kE3 || m == RobustnessMode::kE3Identified; };
+  const bool any_e1 = !std::all_of(config.modes.begin(), config.modes.end(), is_e3);
+  const bool any_e3 = std::any_of(config.modes.begin(), config.modes.end(), is_e3);
   std::vector<std::size_t> cases;
   if (any_e1) {
     e1 = read_e1(config::Document::load_file(config.e1_config));
@@ -343,7 +366,7 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
   });
   const std::size_t total = [&] {
     std::size_t n = 0;
-    for (const Job& j : jobs) n += j.mode == RobustnessMode::kE3 ? 1 : cases.size();
+    for (const Job& j : jobs) n += is_e3(j.mode) ? 1 : cases.size();
     return n;
   }();
   RobustnessResult result;
@@ -357,7 +380,7 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
       const auto start = std::chrono::steady_clock::now();
       std::vector<RobustnessRow> rows;
       try {
-        if (job.mode == RobustnessMode::kE3) {
+        if (is_e3(job.mode)) {
           rows.push_back(run_e3_job(arm, job));
         } else {
           rows = run_e1_job(e1, job, cases, config);
@@ -376,7 +399,9 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
         row.seed = job.seed;
         // A gravity the controller cannot know: the variant's unknown payload or mass. Its own model's
         // error (E3's arm model) is not physics: identification on the rig removes it, so it counts.
-        row.physics_forbids = job.variant->changes_gravity();
+        // After an identification on the variant, only the payload picked up afterwards is unknown.
+        row.physics_forbids = job.mode == RobustnessMode::kE3Identified ? job.variant->extra_payload_kg != 0
+                                                                         : job.variant->changes_gravity();
         row.seconds = seconds / static_cast<double>(rows.size());
         const bool error_ok = row.static_error_pct <= g.max_static_error_pct;
         row.goal = error_ok && row.tension_fraction >= g.min_tension_fraction;

@@ -13,6 +13,7 @@
 #include "peha/safety/verdict.hpp"
 #include "peha/sim/right_arm.hpp"
 
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -70,7 +71,32 @@ struct ArmScenario {
     };
     std::vector<Movement> movements;
   } goniometer;
+  /// `peha identify-gravity` (docs/identification.md): the rig drives the arm with its own controller
+  /// plus a PD on the encoders to each posture, approached from above and from below, and measures the
+  /// holding torques from the load cells. Optional section `identification:`.
+  struct Identification {
+    std::vector<ArmPosture> postures;
+    double approach_rad = 0.105;     ///< the approach points lie this far above and below each posture (both joints)
+    double move_s = 2.5;             ///< to an approach point
+    double approach_s = 2.0;         ///< from an approach point to the posture
+    double settle_s = 2.0;           ///< at rest before averaging
+    double average_s = 1.0;          ///< averaging window
+    double stiffness_Nm_per_rad[2] = {100, 40};  ///< PD while the rig drives the arm (SFE, EFE)
+    double damping_Nms_per_rad[2] = {12, 3};
+    double max_residual_rms_Nm = 0.5;   ///< refuse a fit with a larger residual
+    double max_change_fraction = 0.3;   ///< refuse a fit that moves a torque by more than this vs the nominal model
+    double rank_tolerance = 0.05;       ///< directions with a singular value below this x the largest keep the nominal model
+  };
+  std::optional<Identification> identification;
+  /// The controller's arm before a gravity identification replaced its bodies (the identification's prior).
+  models::ArmModel nominal_arm;
+  /// The identification file `controller.gravity_identification` named (empty: none).
+  std::filesystem::path gravity_identification_file;
 };
+
+/// `scenario` with the controller's arm from the identification file `path` (its bodies replaced by the
+/// identified gravity parameters, nominal_arm kept). Throws config::Error.
+void use_gravity_identification(ArmScenario& scenario, const std::filesystem::path& path);
 
 /// Reads configs/right_arm.yaml (and the body file it names); throws config::Error.
 ArmScenario read_arm_scenario(const config::Document& doc);

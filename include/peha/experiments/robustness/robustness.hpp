@@ -42,6 +42,7 @@ enum class RobustnessMode {
   kE1Default,       ///< E1 with the scenario's controller (force trim on)
   kE1CalibratedFF,  ///< E1 on the paper's pure feed-forward after calibrating both muscles on the variant
   kE3,              ///< E3 postures with the right arm's controller
+  kE3Identified,    ///< E3 after identifying the arm's gravity parameters on the variant (peha identify-gravity)
 };
 const char* to_string(RobustnessMode m);
 
@@ -68,6 +69,7 @@ struct RobustnessConfig {
   RobustnessGoal goal_default{5, 0.5, 1.0};
   RobustnessGoal goal_calibrated{10, 0.2, 0.9};
   RobustnessGoal goal_e3{5, 0.5, 1.0};
+  RobustnessGoal goal_e3_identified{5, 0.5, 1.0};
 };
 
 /// Reads a robustness file (configs/robustness.yaml); throws config::Error.

@@ -1,0 +1,65 @@
+// `peha identify-gravity`: the right arm's gravity parameters identified by the rig procedure.
+#include "peha/app/cli_checks.hpp"
+#include "peha/app/commands.hpp"
+#include "peha/calibration/gravity_identification.hpp"
+#include "peha/experiments/arm_identification/arm_identification.hpp"
+
+#include <fmt/format.h>
+
+namespace peha::app {
+
+int identify_gravity(const IdentifyGravityOptions& options) {
+  return with_exit_codes([&] {
+    const config::Document doc = config::Document::load_file(options.config);
+    experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
+    refuse_output_equal_to_input(options.out, {options.config, scenario.gravity_identification_file});
+    if (!scenario.identification) {
+      fmt::print(stderr, "config error: {}: no identification: section (the postures to identify on)\n", options.config.string());
+      return 2;
+    }
+    if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
+    const auto& id = *scenario.identification;
+    fmt::print("peha identify-gravity: {} ({} postures, each approached from {:.1f} deg above and below; prior: {})\n",
+               options.config.string(), id.postures.size(), id.approach_rad * 180.0 / 3.14159265358979323846,
+               scenario.gravity_identification_file.empty() ? std::string("the nominal arm model")
+                                                            : scenario.gravity_identification_file.string());
+    experiments::ArmIdentificationResult r;
+    try {
+      r = experiments::identify_arm_gravity(scenario, scenario.plant, [](const std::string& line) { fmt::print("  {}\n", line); });
+    } catch (const calibration::GravityIdentificationRejected& e) {
+      fmt::print(stderr, "{}; {} not written\n", e.what(), options.out.string());
+      return 2;
+    }
+    const calibration::GravityIdentification& f = r.fit;
+    fmt::print("  {:<16} {:>22} {:>22} {:>18} {:>18}\n", "posture", "measured SFE/EFE Nm", "identified SFE/EFE", "nominal SFE/EFE",
+               "above/below SFE");
+    for (std::size_t i = 0; i < r.measurements.size(); ++i) {
+      const auto& m = r.measurements[i];
+      const auto k = static_cast<Eigen::Index>(i);
+      fmt::print("  {:<16} {:>10.3f} {:>10.3f}  {:>10.3f} {:>10.3f}  {:>8.3f} {:>8.3f}  {:>8.3f} {:>8.3f}\n", m.name, m.tau_mean_Nm[0],
+                 m.tau_mean_Nm[1], f.predicted_Nm(k, 0), f.predicted_Nm(k, 1), f.prior_Nm(k, 0), f.prior_Nm(k, 1), m.tau_Nm[0][0],
+                 m.tau_Nm[1][0]);
+    }
+    fmt::print("fit: {} rows, {} identified directions, residual RMS {:.3f} Nm (max {:.3f}; the friction band's half-width "
+               "RMS {:.3f} Nm); the nominal model's RMS {:.3f} Nm; largest change vs nominal {:.1f} %\n",
+               f.rows, f.rank, f.residual_rms_Nm, f.residual_max_Nm, f.uncertainty_rms_Nm, f.prior_rms_Nm, 100 * f.max_change_fraction);
+    std::string sv;
+    for (Eigen::Index i = 0; i < f.singular_values.size(); ++i) sv += fmt::format(" {:.3g}", f.singular_values[i]);
+    fmt::print("  singular values of the scaled regressor:{} (identified: >= {:.3g} x the largest)\n", sv,
+               scenario.identification->rank_tolerance);
+    for (std::size_t k = 0; k < f.names.size(); ++k) {
+      const auto i = static_cast<Eigen::Index>(k);
+      if (f.std[i] <= 0 && f.theta[i] == f.prior[i]) continue;  // not seen by the data: the nominal value stays
+      fmt::print("  {:<16} {:>9.4f} +- {:.4f} (nominal {:.4f})\n", f.names[k], f.theta[i], f.std[i], f.prior[i]);
+    }
+    if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
+    calibration::write_gravity_identification(
+        options.out, scenario.controller.arm, r.samples, f,
+        fmt::format("peha identify-gravity --config {} seed {} ({:.0f} s on the rig)", options.config.string(), scenario.seed, r.duration_s));
+    fmt::print("written: {} (use: peha run --config {} --gravity-identification {})\n", options.out.string(), options.config.string(),
+               options.out.string());
+    return 0;
+  });
+}
+
+}  // namespace peha::app
