@@ -143,7 +143,7 @@ void BM_SupervisorStep(benchmark::State& state) {
     command = rec.commands[k];
     monitor->check_sample(x, joints, min_angle, max_angle, true);
     monitor->check_command(command, x.time_s);
-    monitor->shape(x, command);
+    monitor->shape(command);
     monitor->sent(command);
     benchmark::DoNotOptimize(command);
     if (++k == rec.states.size()) {

@@ -30,6 +30,8 @@ TEST(E5, TheForceCeilingStopsTheRampAndTheForceHolds) {
   const E5Scenario s = fast_scenario();
   const E5Result r = run_e5_case(s, s.cases.front(), nullptr);
   EXPECT_TRUE(r.passed) << r.verdict.failures();
+  // The supervisor's stage is on: the force held at the ceiling is what the limits shape, not a fault.
+  EXPECT_NE(r.verdict.find("supervisor faults"), nullptr);
   EXPECT_DOUBLE_EQ(r.limit_N, 2000.0);
   EXPECT_LE(r.peak_force_N, 2005.0);
   EXPECT_LE(r.peak_truth_force_N, 2000.0);

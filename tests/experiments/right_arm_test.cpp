@@ -32,6 +32,7 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
     EXPECT_EQ(f, "R_WFE lowest wire tension") << r.verdict.failures();
   }
   EXPECT_TRUE(testing::judges(r.verdict, "raised_flexed R_SFE |drift|"));
+  EXPECT_TRUE(testing::judges(r.verdict, "supervisor faults"));  // on, and no false alarm (it would fail above)
   EXPECT_TRUE(testing::judges(r.verdict, "elbow_90 R_EFE distance to a stop"));
   EXPECT_LE(r.peak_muscle_force_N, 2000.0);
   EXPECT_GT(r.min_wire_tension_N, 0.0);
@@ -148,6 +149,7 @@ TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
   for (const BandwidthResult* r : {&pam, &hybrid}) {
     // The one verdict: every figure but the wrist's tension floor (see E3) holds.
     for (const std::string& f : testing::failed_figures(r->verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << r->verdict.failures();
+    EXPECT_TRUE(testing::judges(r->verdict, "supervisor faults"));  // on, and no false alarm
     EXPECT_LE(r->peak_muscle_force_N, 2000.0);
     EXPECT_GT(r->min_wire_tension_N, 0.0);
     EXPECT_LE(r->peak_motor_torque_Nm, 2.5);
