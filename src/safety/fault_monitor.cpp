@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 namespace peha::safety {
 namespace {
@@ -99,6 +100,7 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
   if (first_.flag == flag) {
     std::snprintf(reason_, sizeof reason_, "%s joint %d%s: %.4g (threshold %.4g) at %.3f s -> %s", fault_flag_name(flag), joint,
                   muscle == 0 ? " agonist" : muscle == 1 ? " antagonist" : "", value, threshold, t_s_, safe_action_name(action_));
+    if (count_ == 1) std::memcpy(run_reason_, reason_, sizeof reason_);
   }
 }
 

@@ -143,6 +143,8 @@ class FaultMonitor {
   /// "loadcell_stuck joint 0 agonist: 812.3 (threshold 5) at 3.004 s -> descend" (fixed buffer).
   const char* reason() const noexcept { return reason_; }
   std::uint64_t count() const noexcept { return count_; }  ///< faults latched over the run
+  /// The run's first fault as reason() gave it (kept across recoveries; empty before any fault).
+  const char* run_reason() const noexcept { return run_reason_; }
   /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
   void clear() noexcept;
   const MonitorParams& params() const noexcept { return params_; }
@@ -194,6 +196,7 @@ class FaultMonitor {
   io::Command held_{};       ///< the last command sent before the fault (hold)
   io::Command last_sent_{};
   char reason_[160] = {};
+  char run_reason_[160] = {};
 };
 
 }  // namespace peha::safety

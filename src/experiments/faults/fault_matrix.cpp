@@ -102,6 +102,9 @@ std::string physics_forbids(sim::FaultKind kind) {
     case sim::FaultKind::kValveStuckOpen:
       return "the stuck valve fills the muscle toward supply; only the on/off dump valve empties it: kept, the force passes the ceiling; "
              "dumped, the link falls";
+    case sim::FaultKind::kValveStuckClosed:
+      return "the carrying muscle's valve is stuck on the air it had (less during a push, when the finger helps): the antagonist pulls "
+             "down and the 2.5 Nm motor cannot make up the difference, so the link sinks to its stop";
     case sim::FaultKind::kEstop:
       return "the e-stop cuts valves and motor in hardware (stop category 0): no output is left to govern a descent";
     default: return {};
