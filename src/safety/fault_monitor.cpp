@@ -61,6 +61,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   config::Map m = root.map("supervisor");
   p.enabled = m.boolean_or("enabled", p.enabled);
   p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 60});
+  p.tension_taut_fraction = m.number_or("tension_taut_fraction", p.tension_taut_fraction, {0, 2});
   p.confirm_cycles = static_cast<int>(m.number_or("confirm_cycles", p.confirm_cycles, {1, 100}));
   p.loadcell_stuck_cycles = static_cast<int>(m.number_or("loadcell_stuck_cycles", p.loadcell_stuck_cycles, {2, 1000}));
   p.loadcell_saturated_N = m.number_or("loadcell_saturated_N", p.loadcell_saturated_N, {100, 20000});
@@ -196,7 +197,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       // outputs began to follow: after a vent or at start-up the wires are slack by design.
       const double floor_N = p.tension_floor_fraction * model->pretension_N;
       if (!outputs_follow) ms.taut = false;
-      if (outputs_follow && s.time_s - js.follow_since_s >= p.tension_arm_s && cell >= floor_N) ms.taut = true;
+      if (outputs_follow && s.time_s - js.follow_since_s >= p.tension_arm_s &&
+          cell >= std::max(floor_N, p.tension_taut_fraction * model->pretension_N)) {
+        ms.taut = true;
+      }
       ms.disconnected = ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
       ms.saturated = cell >= p.loadcell_saturated_N ? ms.saturated + 1 : 0;
       if (ms.disconnected >= p.confirm_cycles) raise(kFaultLoadcellDisconnected, j, m, cell, p.loadcell_disconnected_N);

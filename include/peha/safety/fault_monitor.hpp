@@ -13,7 +13,8 @@
 ///   sample: acted on within the cycle), disagreeing with the pressure model (|reading -
 ///   F_model(P_measured, eps)| > tolerance_N + tolerance_fraction F_model for confirm_cycles);
 /// - wire tension: the load cell below tension_floor_fraction x pretension for confirm_cycles, once
-///   the wire has been taut since the outputs began to follow (slack after a vent is by design);
+///   armed: the outputs have followed for tension_arm_s and the wire has been taut since (the
+///   start-up tare's vent and a recovery ramp slacken the wires by design);
 /// - pressure sensor against what the valve makes of the commands sent (dead time, rate limit,
 ///   first-order lag: the valve's dynamics), beyond pressure_tolerance_Pa for confirm_cycles: high
 ///   (a valve filling by itself), low (a valve or sensor that does not follow; on two or more
@@ -24,6 +25,9 @@
 /// - a non-finite sample.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
+/// While descending, check_sample also runs the governor (govern): the carrying muscle's force by
+/// the pressure model, a PI law on the filtered joint speed toward descent_speed_radps, tapering to
+/// a stop inside the range; the other muscle keeps its held force; the motor damps. shape() copies it.
 /// noexcept and allocation-free after construction.
 
 #include "peha/config/reader.hpp"
@@ -75,6 +79,10 @@ struct MonitorParams {
   /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
   /// this long and the wire was taut since: start-up vents and recovery ramps slacken wires on purpose.
   double tension_arm_s = 1.0;
+  /// A wire counts as taut (arming its slack checks) at this x pretension, above the floor: the
+  /// hysteresis keeps a wire that refills slowly through the floor, with sensor noise, from arming
+  /// and faulting at once (robustness sensor_noise_x3: the antagonist at 16-18 N around 1.03 s).
+  double tension_taut_fraction = 0.5;
   int confirm_cycles = 3;                     ///< consecutive samples a noisy check must fail
   double loadcell_disconnected_N = 0.01;      ///< at or below: AD code 0
   double loadcell_saturated_N = 4990.0;       ///< at or above: the channel's full scale
