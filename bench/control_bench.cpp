@@ -120,14 +120,22 @@ BENCHMARK(BM_ControlStep);
 
 // The supervisor's plausibility stage per control step, as LimitedBackend runs it (check the sample,
 // check the command, shape it to the safe state, note what was sent), on: the recorded closed-loop
-// samples and commands of the 5.0 kg E1 run from 2.5 s on (before, the shipped controller's start-up
-// tare vents the muscles, which the stage does not know yet and would latch: docs/safety.md). The
-// stage is restarted (untimed) at the end of the recording. Goal: < 200 ns per step.
-void BM_SupervisorStep(benchmark::State& state) {
+// samples and commands of the 5.0 kg E1 run from 2.5 s on (the shipped controller's start-up tare
+// before). The stage is restarted (untimed) at the end of the recording. Goal: < 200 ns per step.
+// `descending`: the same samples with the agonist's load cell stuck at 500 N, so loadcell_stuck latches
+// after 5 cycles and every later step runs the descend governor (two pressure-model inversions).
+void supervisor_step(benchmark::State& state, bool descending) {
   const experiments::E1Scenario& s = e1_scenario();
   const E1Recording& rec = e1_recording();
+  std::vector<io::SensorState> samples = rec.states;
+  if (descending) {
+    for (io::SensorState& x : samples) x.joints[0].agonist_loadcell_N = 500.0;
+  }
   safety::MonitorParams params = s.limits.monitor;
   params.enabled = true;
+  // The recording does not follow the governor's commands (open loop): the checks that compare the
+  // pressures with the commands would escalate to vent, which is not what is timed here.
+  if (descending) params.disabled_checks = safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss;
   std::optional<safety::FaultMonitor> monitor(std::in_place, params, s.period_s);
   std::array<const models::JointModel*, io::kMaxJoints> joints{};
   joints[0] = &s.controller.joint;
@@ -135,18 +143,20 @@ void BM_SupervisorStep(benchmark::State& state) {
   min_angle[0] = s.limits.joints[0].min_angle_rad;
   max_angle[0] = s.limits.joints[0].max_angle_rad;
   std::size_t first = 0;
-  while (first + 1 < rec.states.size() && rec.states[first].time_s < 2.5) ++first;
+  while (first + 1 < samples.size() && samples[first].time_s < 2.5) ++first;
   std::size_t k = first;
   io::Command command;
+  double descend_steps = 0;
   for (auto _ : state) {
-    const io::SensorState& x = rec.states[k];
+    const io::SensorState& x = samples[k];
     command = rec.commands[k];
     monitor->check_sample(x, joints, min_angle, max_angle, true);
     monitor->check_command(command, x.time_s);
-    monitor->shape(x, command);
+    monitor->shape(command);
     monitor->sent(command);
+    descend_steps += monitor->action() == safety::SafeAction::kDescend ? 1.0 : 0.0;
     benchmark::DoNotOptimize(command);
-    if (++k == rec.states.size()) {
+    if (++k == samples.size()) {
       state.PauseTiming();
       k = first;
       monitor.emplace(params, s.period_s);
@@ -154,10 +164,14 @@ void BM_SupervisorStep(benchmark::State& state) {
     }
   }
   state.counters["faults_latched"] = static_cast<double>(monitor->count());
+  state.counters["descend_share"] = descend_steps / static_cast<double>(state.iterations());  // steps timed in the descend state
   state.SetItemsProcessed(state.iterations());
   state.counters["us_per_step"] = us_per_iteration(state);
 }
+void BM_SupervisorStep(benchmark::State& state) { supervisor_step(state, false); }
 BENCHMARK(BM_SupervisorStep);
+void BM_SupervisorStepDescending(benchmark::State& state) { supervisor_step(state, true); }
+BENCHMARK(BM_SupervisorStepDescending);
 
 }  // namespace
 }  // namespace peha::bench

@@ -47,7 +47,11 @@ def main():
             text = f"{r['flag']} {c:.0f} cyc, {r['safe_state']}"
         ax.add_patch(Rectangle((x, y), 1, 1, facecolor=colour, edgecolor="white"))
         if r["limits_exceeded"] != "0":
-            ax.add_patch(Rectangle((x + 0.03, y + 0.06), 0.94, 0.88, fill=False, edgecolor="black", lw=2))
+            # Dotted: physics forbids any safe state to keep the limit (reason in faults.md); solid: a miss.
+            forbidden = r.get("physics_forbids", "") not in ("", "-")
+            ax.add_patch(Rectangle((x + 0.03, y + 0.06), 0.94, 0.88, fill=False, edgecolor="black", lw=2, ls=":" if forbidden else "-"))
+            if forbidden:
+                text += "\n(physics forbids)"
         if r["log_complete"] != "1":
             ax.add_patch(Rectangle((x + 0.06, y + 0.12), 0.88, 0.76, fill=False, edgecolor="black", ls="--"))
         ax.text(x + 0.5, y + 0.5, text, ha="center", va="center", fontsize=7)
@@ -55,7 +59,7 @@ def main():
     ax.set_ylim(len(faults), 0)
     ax.set_xticks([i + 0.5 for i in range(len(moments))], moments)
     ax.set_yticks([i + 0.5 for i in range(len(faults))], faults)
-    title = "Fault matrix, E1 in process: detection (green <= 5 cycles, amber later, red none); frame = limit exceeded"
+    title = "Fault matrix, E1 in process: detection (green <= 5 cycles, amber later, red none); frame = limit exceeded\n(dotted where physics forbids any safe state to keep it, solid = a miss of the designed outcome)"
     if nominal:
         title += "\nnominal run without a fault: " + ("faulted by " + nominal[0]["flag"] if nominal[0]["detected"] == "1" else "no fault")
     ax.set_title(title, fontsize=9)

@@ -4,6 +4,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 
 namespace peha::safety {
 namespace {
@@ -29,8 +30,8 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kVent,    // pressure_over_supply
     SafeAction::kHold,    // encoder faults: no angle or speed to govern a descent with, and venting drops a
     SafeAction::kHold,    // loaded arm (the fault matrix: 115-414 deg/s): keep what the muscles hold, motor off
-    SafeAction::kHold,    // joint_speed: stop the motion where it is
-    SafeAction::kHold,    // joint_range
+    SafeAction::kDescend, // joint_speed: the governor brakes the motion and lowers the joint slowly
+    SafeAction::kDescend, // joint_range: back inside the range, then down to its end, slowly
 };
 
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
@@ -59,6 +60,8 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   constexpr double kDeg = 3.14159265358979323846 / 180.0;
   config::Map m = root.map("supervisor");
   p.enabled = m.boolean_or("enabled", p.enabled);
+  p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 60});
+  p.tension_taut_fraction = m.number_or("tension_taut_fraction", p.tension_taut_fraction, {0, 2});
   p.confirm_cycles = static_cast<int>(m.number_or("confirm_cycles", p.confirm_cycles, {1, 100}));
   p.loadcell_stuck_cycles = static_cast<int>(m.number_or("loadcell_stuck_cycles", p.loadcell_stuck_cycles, {2, 1000}));
   p.loadcell_saturated_N = m.number_or("loadcell_saturated_N", p.loadcell_saturated_N, {100, 20000});
@@ -75,7 +78,12 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.max_joint_speed_radps = m.number_or("max_joint_speed_degps", p.max_joint_speed_radps / kDeg, {1, 2000}) * kDeg;
   p.range_margin_rad = m.number_or("range_margin_deg", p.range_margin_rad / kDeg, {0, 45}) * kDeg;
   p.descent_speed_radps = m.number_or("descent_speed_degps", p.descent_speed_radps / kDeg, {0.5, 180}) * kDeg;
-  p.descent_rate_Pa_per_s = m.number_or("descent_rate_MPa_per_s", p.descent_rate_Pa_per_s * 1e-6, {0.001, 10}) * 1e6;
+  p.descent_force_rate_N_per_s = m.number_or("descent_force_rate_N_per_s", p.descent_force_rate_N_per_s, {1, 5000});
+  p.descent_gain_N_per_radps = m.number_or("descent_gain_N_per_radps", p.descent_gain_N_per_radps, {0, 20000});
+  p.descent_floor_fraction = m.number_or("descent_floor_fraction", p.descent_floor_fraction, {0, 1});
+  p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
+  p.descent_stop_margin_rad = m.number_or("descent_stop_margin_deg", p.descent_stop_margin_rad / kDeg, {0.5, 45}) * kDeg;
+  p.speed_filter_Hz = m.number_or("speed_filter_Hz", p.speed_filter_Hz, {0.5, 200});
   m.finish();
 }
 
@@ -88,11 +96,12 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
     for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
   }
   flags_ |= flag;
-  const SafeAction a = safe_action(flag);
+  const SafeAction a = (params_.vent_instead & flag) ? SafeAction::kVent : safe_action(flag);
   if (a > action_) action_ = a;
   if (first_.flag == flag) {
     std::snprintf(reason_, sizeof reason_, "%s joint %d%s: %.4g (threshold %.4g) at %.3f s -> %s", fault_flag_name(flag), joint,
                   muscle == 0 ? " agonist" : muscle == 1 ? " antagonist" : "", value, threshold, t_s_, safe_action_name(action_));
+    if (count_ == 1) std::memcpy(run_reason_, reason_, sizeof reason_);
   }
 }
 
@@ -105,6 +114,8 @@ void FaultMonitor::clear() noexcept {
   for (auto& j : joints_) {
     for (auto& m : j.muscle) m.taut = false, m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = 0;
     j.same_angle = 0;
+    j.follow_since_s = -1;
+    j.governor = {};
   }
 }
 
@@ -135,6 +146,8 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       const double step = in.angle_rad - js.last_angle_rad;
       if (std::abs(step) > p.encoder_max_step_rad) raise(kFaultEncoderJump, j, -1, std::abs(step), p.encoder_max_step_rad);
       js.speed_radps = step / dt;
+      const double a = 1.0 - std::exp(-dt * 2.0 * 3.14159265358979323846 * p.speed_filter_Hz);
+      if (std::abs(step) <= p.encoder_max_step_rad) js.filtered_speed_radps += a * (js.speed_radps - js.filtered_speed_radps);
       if (std::abs(js.speed_radps) > p.max_joint_speed_radps && std::abs(step) <= p.encoder_max_step_rad) {
         raise(kFaultJointSpeed, j, -1, std::abs(js.speed_radps), p.max_joint_speed_radps);
       }
@@ -156,6 +169,11 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     js.has_previous = true;
     if (in.angle_rad < min_angle_rad[ji] - p.range_margin_rad) raise(kFaultJointRange, j, -1, in.angle_rad, min_angle_rad[ji] - p.range_margin_rad);
     if (in.angle_rad > max_angle_rad[ji] + p.range_margin_rad) raise(kFaultJointRange, j, -1, in.angle_rad, max_angle_rad[ji] + p.range_margin_rad);
+    if (!outputs_follow) {
+      js.follow_since_s = -1;
+    } else if (js.follow_since_s < 0) {
+      js.follow_since_s = s.time_s;
+    }
     if (!model) continue;
     for (int m = 0; m < 2; ++m) {
       MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];
@@ -179,7 +197,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       // outputs began to follow: after a vent or at start-up the wires are slack by design.
       const double floor_N = p.tension_floor_fraction * model->pretension_N;
       if (!outputs_follow) ms.taut = false;
-      if (outputs_follow && cell >= floor_N) ms.taut = true;
+      if (outputs_follow && s.time_s - js.follow_since_s >= p.tension_arm_s &&
+          cell >= std::max(floor_N, p.tension_taut_fraction * model->pretension_N)) {
+        ms.taut = true;
+      }
       ms.disconnected = ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
       ms.saturated = cell >= p.loadcell_saturated_N ? ms.saturated + 1 : 0;
       if (ms.disconnected >= p.confirm_cycles) raise(kFaultLoadcellDisconnected, j, m, cell, p.loadcell_disconnected_N);
@@ -225,6 +246,12 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     }
   }
   synced_ = outputs_follow;
+  if (action_ == SafeAction::kDescend) {
+    for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
+      const auto ji = static_cast<std::size_t>(j);
+      if (models[ji] && std::isfinite(s.joints[ji].angle_rad)) govern(joints_[ji], *models[ji], s.joints[ji].angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
+    }
+  }
 }
 
 bool FaultMonitor::check_command(const io::Command& c, double t_s) noexcept {
@@ -253,31 +280,65 @@ void FaultMonitor::sent(const io::Command& c) noexcept {
   }
 }
 
-void FaultMonitor::shape(const io::SensorState& s, io::Command& c) const noexcept {
+void FaultMonitor::shape(io::Command& c) const noexcept {
   if (action_ == SafeAction::kHold) {
     c = held_;
     return;
   }
   if (action_ != SafeAction::kDescend) return;
-  // Descend: bleed both muscles while the joint is slower than descent_speed; faster, the muscle that
-  // opposes the motion gains pressure and the other keeps bleeding. Motor off.
-  c = last_sent_;
-  const double bleed = params_.descent_rate_Pa_per_s * period_s_;
+  c = held_;
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
-    const auto ji = static_cast<std::size_t>(j);
-    io::JointCommand& o = c.joints[ji];
-    const double w = joints_[ji].speed_radps;
-    const double over = std::abs(w) - params_.descent_speed_radps;
-    double d_ag = -bleed, d_an = -bleed;
-    if (over > 0) {
-      const double push = 2.0 * bleed * std::min(over / params_.descent_speed_radps, 5.0);
-      if (w < 0) d_ag = push; else d_an = push;  // the agonist lifts (positive angles)
-    }
-    o.agonist_pressure_Pa = std::max(0.0, o.agonist_pressure_Pa + d_ag);
-    o.antagonist_pressure_Pa = std::max(0.0, o.antagonist_pressure_Pa + d_an);
-    o.motor_torque_Nm = 0.0;
+    const Governor& g = joints_[static_cast<std::size_t>(j)].governor;
+    if (!g.started) continue;  // no joint model: hold
+    io::JointCommand& o = c.joints[static_cast<std::size_t>(j)];
+    o.agonist_pressure_Pa = g.pressure_Pa[0];
+    o.antagonist_pressure_Pa = g.pressure_Pa[1];
+    o.motor_torque_Nm = g.motor_Nm;
   }
-  (void)s;
+}
+
+void FaultMonitor::govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad,
+                          double max_angle_rad) noexcept {
+  const MonitorParams& p = params_;
+  Governor& g = js.governor;
+  const auto ji = static_cast<std::size_t>(&js - joints_.data());
+  const io::JointCommand& held = held_.joints[ji];
+  const double held_Pa[2] = {held.agonist_pressure_Pa, held.antagonist_pressure_Pa};
+  const models::MuscleModel* mm[2] = {&model.agonist, &model.antagonist};
+  double eps[2];
+  for (int m = 0; m < 2; ++m) eps[m] = models::rigid_contraction(*mm[m], model.pulley_radius_m, m == 0 ? +1 : -1, angle_rad);
+  if (!g.started) {
+    // The carrying muscle is the one whose force (by the pressure model, at the pressures held) wins:
+    // it holds the load, so the joint descends when it relaxes. It starts from what it held.
+    double held_N[2];
+    for (int m = 0; m < 2; ++m) held_N[m] = models::forward_force_N(mm[m]->pam, std::max(0.0, held_Pa[m]), eps[m]);
+    g.carrying = held_N[0] >= held_N[1] ? 0 : 1;
+    g.force_N = held_N[g.carrying];
+    g.other_force_N = std::max(model.pretension_N, held_N[1 - g.carrying]);
+    g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
+    g.floor_N = std::min(g.ceiling_N, std::max(model.pretension_N, p.descent_floor_fraction * g.force_N));
+    g.started = true;
+  }
+  // Descending = toward the range's end the carrying muscle lets go to (the agonist lifts toward +).
+  const double down = g.carrying == 0 ? -1.0 : +1.0;
+  const double room_rad = g.carrying == 0 ? angle_rad - (min_angle_rad + p.descent_stop_margin_rad)
+                                          : (max_angle_rad - p.descent_stop_margin_rad) - angle_rad;
+  const double taper = std::clamp(room_rad / (2.0 * p.descent_stop_margin_rad), 0.0, 1.0);  // slows to a stop near the end
+  const double wanted_radps = down * p.descent_speed_radps * taper;
+  // > 0: descending faster than wanted (more force); < 0: slower or held (bleed).
+  const double excess_radps = down * (js.filtered_speed_radps - wanted_radps);
+  // Integral: bleeds at most descent_force_rate (while held, or pushed the other way), gains while too fast.
+  const double ki = p.descent_force_rate_N_per_s / p.descent_speed_radps;
+  g.force_N = std::clamp(g.force_N + ki * std::max(excess_radps, -p.descent_speed_radps) * period_s_, g.floor_N, g.ceiling_N);
+  const double force_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
+  const auto c = static_cast<std::size_t>(g.carrying);
+  const models::InverseResult r = models::muscle_pressure(*mm[c], force_N, eps[c], model.supply_pressure_Pa);
+  g.pressure_Pa[c] = r.pressure_Pa;
+  // The other muscle keeps the force it held (by the model at the new angle): its wire stays taut.
+  const auto o = 1 - c;
+  g.pressure_Pa[o] = models::muscle_pressure(*mm[o], g.other_force_N, eps[o], model.supply_pressure_Pa).pressure_Pa;
+  const double motor_max = model.has_motor ? model.motor_max_torque_Nm : 0.0;
+  g.motor_Nm = std::clamp(-p.descent_damping_Nms_per_rad * js.filtered_speed_radps, -motor_max, motor_max);
 }
 
 }  // namespace peha::safety

@@ -147,4 +147,10 @@ void add_envelope_checks(const LimitsModel& model, const JointModels& joints, co
   }
 }
 
+void add_supervisor_check(const FaultMonitor& monitor, Verdict& v) {
+  const std::string reason = monitor.run_reason();
+  v.at_most(monitor.count() ? "supervisor faults (first: " + reason + ")" : std::string("supervisor faults"), "",
+            static_cast<double>(monitor.count()), 0.0);
+}
+
 }  // namespace peha::safety

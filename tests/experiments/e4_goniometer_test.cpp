@@ -83,6 +83,9 @@ TEST(E4, ExoskeletonElbowFollowsThePersonWithFeedbackButNotOnPureReplay) {
       for (const std::string& f : testing::failed_figures(r->verdict)) {
         EXPECT_TRUE(f.ends_with("lowest wire tension") || f.starts_with("elbow tracking")) << name << ": " << f;
       }
+      // The supervisor's plausibility stage is on and raises nothing on the person's movement (its
+      // figure is judged; a false alarm would fail it above).
+      EXPECT_TRUE(testing::judges(r->verdict, "supervisor faults")) << name;
       EXPECT_LE(r->peak_muscle_force_N, 2000.0);
       EXPECT_GT(r->min_wire_tension_N, 0.0);
       EXPECT_LE(r->peak_motor_torque_Nm, 2.5 + 1e-9);

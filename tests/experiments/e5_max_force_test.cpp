@@ -1,5 +1,7 @@
 #include "peha/experiments/e5_max_force/max_force.hpp"
 
+#include "../support/verdict_checks.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -30,6 +32,8 @@ TEST(E5, TheForceCeilingStopsTheRampAndTheForceHolds) {
   const E5Scenario s = fast_scenario();
   const E5Result r = run_e5_case(s, s.cases.front(), nullptr);
   EXPECT_TRUE(r.passed) << r.verdict.failures();
+  // The supervisor's stage is on: the force held at the ceiling is what the limits shape, not a fault.
+  EXPECT_NE(r.verdict.find("supervisor faults"), nullptr);
   EXPECT_DOUBLE_EQ(r.limit_N, 2000.0);
   EXPECT_LE(r.peak_force_N, 2005.0);
   EXPECT_LE(r.peak_truth_force_N, 2000.0);
@@ -71,6 +75,14 @@ TEST(E5, ARampStoppedByTheSupplyInsteadOfTheCeilingFails) {
   pam.a_N_per_Pa *= 0.3;
   pam.b_N_per_Pa *= 0.3;
   pam.c_N_per_Pa *= 0.3;
+  // A model 3x weaker than the muscle is itself a fault the supervisor catches (the load cell
+  // disagrees with the pressure model): with the stage on, it stops the ramp.
+  const E5Result supervised = run_e5_case(s, s.cases.front(), nullptr);
+  EXPECT_FALSE(supervised.passed);
+  EXPECT_EQ(supervised.stop, E5Stop::kSupervisor);
+  EXPECT_TRUE(testing::fails_on(supervised.verdict, "supervisor faults")) << supervised.verdict.failures();
+  // Without it (this test measures which limit stops a ramp the model cannot cap), the supply does.
+  s.limits.monitor.enabled = false;
   const E5Result r = run_e5_case(s, s.cases.front(), nullptr);
   EXPECT_FALSE(r.passed);
   EXPECT_EQ(r.stop, E5Stop::kSupply);

@@ -32,6 +32,7 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
     EXPECT_EQ(f, "R_WFE lowest wire tension") << r.verdict.failures();
   }
   EXPECT_TRUE(testing::judges(r.verdict, "raised_flexed R_SFE |drift|"));
+  EXPECT_TRUE(testing::judges(r.verdict, "supervisor faults"));  // on, and no false alarm (it would fail above)
   EXPECT_TRUE(testing::judges(r.verdict, "elbow_90 R_EFE distance to a stop"));
   EXPECT_LE(r.peak_muscle_force_N, 2000.0);
   EXPECT_GT(r.min_wire_tension_N, 0.0);
@@ -75,8 +76,8 @@ TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
 }
 
 // The review's case: an unknown 1 kg in the hand (the controller is not told) and no position
-// feedback - the arm must move (physics forbids holding it), and E3's verdict now says so: the drift,
-// excursion and (at the shoulder) run-to-a-stop figures fail instead of "OK".
+// feedback - the arm must move (physics forbids holding it), and E3's verdict says so: the drift,
+// excursion and supervisor figures fail instead of "OK".
 TEST(E3, UnknownPayloadInTheHandFailsTheDriftFigures) {
   ArmScenario s = shipped();
   PlantVariant v;
@@ -88,8 +89,12 @@ TEST(E3, UnknownPayloadInTheHandFailsTheDriftFigures) {
   // where the stiction band still covers the extra 1 kg).
   EXPECT_TRUE(testing::fails_on(r.verdict, "raised_flexed R_SFE |drift|")) << r.verdict.failures();
   EXPECT_TRUE(testing::fails_on(r.verdict, "raised_flexed R_SFE max excursion")) << r.verdict.failures();
-  EXPECT_TRUE(testing::fails_on(r.verdict, "raised_flexed R_SFE distance to a stop")) << r.verdict.failures();
   EXPECT_FALSE(testing::fails_on(r.verdict, "horizontal R_SFE |drift|"));
+  // The supervisor sees the falling shoulder (its agonist's wire goes below the tension floor at
+  // 58.6 s), latches and descends: the governor stops the shoulder inside its range instead of letting
+  // it run to the stop (that figure failed before the stage was on by default).
+  EXPECT_TRUE(testing::fails_on(r.verdict, "supervisor faults (first: tension_floor joint 0")) << r.verdict.failures();
+  EXPECT_FALSE(testing::fails_on(r.verdict, "raised_flexed R_SFE distance to a stop")) << r.verdict.failures();
 }
 
 // The actuators as peha sizes them (docs/models.md): peak pulley torques at the 2000 N force limit of
@@ -148,6 +153,7 @@ TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
   for (const BandwidthResult* r : {&pam, &hybrid}) {
     // The one verdict: every figure but the wrist's tension floor (see E3) holds.
     for (const std::string& f : testing::failed_figures(r->verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << r->verdict.failures();
+    EXPECT_TRUE(testing::judges(r->verdict, "supervisor faults"));  // on, and no false alarm
     EXPECT_LE(r->peak_muscle_force_N, 2000.0);
     EXPECT_GT(r->min_wire_tension_N, 0.0);
     EXPECT_LE(r->peak_motor_torque_Nm, 2.5);

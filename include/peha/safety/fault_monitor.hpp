@@ -13,7 +13,8 @@
 ///   sample: acted on within the cycle), disagreeing with the pressure model (|reading -
 ///   F_model(P_measured, eps)| > tolerance_N + tolerance_fraction F_model for confirm_cycles);
 /// - wire tension: the load cell below tension_floor_fraction x pretension for confirm_cycles, once
-///   the wire has been taut since the outputs began to follow (slack after a vent is by design);
+///   armed: the outputs have followed for tension_arm_s and the wire has been taut since (the
+///   start-up tare's vent and a recovery ramp slacken the wires by design);
 /// - pressure sensor against what the valve makes of the commands sent (dead time, rate limit,
 ///   first-order lag: the valve's dynamics), beyond pressure_tolerance_Pa for confirm_cycles: high
 ///   (a valve filling by itself), low (a valve or sensor that does not follow; on two or more
@@ -24,6 +25,9 @@
 /// - a non-finite sample.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
+/// While descending, check_sample also runs the governor (govern): the carrying muscle's force by
+/// the pressure model, a PI law on the filtered joint speed toward descent_speed_radps, tapering to
+/// a stop inside the range; the other muscle keeps its held force; the motor damps. shape() copies it.
 /// noexcept and allocation-free after construction.
 
 #include "peha/config/reader.hpp"
@@ -64,20 +68,28 @@ const char* safe_action_name(SafeAction a) noexcept;                ///< "hold",
 
 /// Thresholds (the scenario's optional `supervisor:` section; docs/safety.md).
 struct MonitorParams {
-  /// Off by default for now (docs/safety.md, "Known shortcomings"): with these thresholds it still
-  /// faults nominal runs (tared E1, board start-up, the right arm). `supervisor: {enabled: true}`.
-  bool enabled = false;
-  /// FaultFlag bits not checked. Default: tension_floor, which faults board runs during the start-up
-  /// vent and the recovery ramp (the wires dip below the floor by the controller's own design there);
-  /// a broken wire is still caught as loadcell_disconnected. Tests of a broken supervisor add more.
-  std::uint32_t disabled_checks = 1u << 7;
+  /// On by default: every scenario runs with the stage (docs/safety.md); `supervisor: {enabled:
+  /// false}` exists for measuring an unprotected controller, and a run that uses it says why.
+  bool enabled = true;
+  /// FaultFlag bits not checked (tests of a broken supervisor set some; none by default).
+  std::uint32_t disabled_checks = 0;
+  /// FaultFlag bits whose safe state is vent instead of the designed one. Only for tests that show a
+  /// wrong safe state failing its row of the fault matrix; never set by a scenario.
+  std::uint32_t vent_instead = 0;
+  /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
+  /// this long and the wire was taut since: start-up vents and recovery ramps slacken wires on purpose.
+  double tension_arm_s = 1.0;
+  /// A wire counts as taut (arming its slack checks) at this x pretension, above the floor: the
+  /// hysteresis keeps a wire that refills slowly through the floor, with sensor noise, from arming
+  /// and faulting at once (robustness sensor_noise_x3: the antagonist at 16-18 N around 1.03 s).
+  double tension_taut_fraction = 0.5;
   int confirm_cycles = 3;                     ///< consecutive samples a noisy check must fail
   double loadcell_disconnected_N = 0.01;      ///< at or below: AD code 0
   double loadcell_saturated_N = 4990.0;       ///< at or above: the channel's full scale
   int loadcell_stuck_cycles = 5;              ///< the same reading this often: stuck (a live cell has noise)
   double loadcell_tolerance_N = 300.0;
   double loadcell_tolerance_fraction = 0.6;
-  double tension_floor_fraction = 0.5;        ///< of the joint's pretension
+  double tension_floor_fraction = 0.3;        ///< of the joint's pretension: a wire near slack (the verdict judges 0.5)
   double pressure_tolerance_Pa = 0.06e6;
   double pressure_over_supply_Pa = 0.05e6;    ///< measured above supply by more than this
   double valve_dead_time_s = 0.005;           ///< the valve's dynamics as the supervisor models them
@@ -86,10 +98,17 @@ struct MonitorParams {
   double encoder_max_step_rad = 0.02;
   int encoder_frozen_cycles = 5;
   double encoder_frozen_speed_radps = 0.2;
-  double max_joint_speed_radps = 4.0;
+  double max_joint_speed_radps = 1.57;        ///< 90 deg/s: a falling link (nominal runs peak below 40)
   double range_margin_rad = 0.08;
-  double descent_speed_radps = 0.2;           ///< the descend safe state keeps |speed| below this
-  double descent_rate_Pa_per_s = 0.1e6;       ///< how fast it bleeds the pressures while slower
+  // The descend safe state (docs/safety.md): a speed governor on the carrying muscle's force (the
+  // pressure model turns it into a pressure), the motor a damper, the other muscle held.
+  double descent_speed_radps = 0.2;           ///< the joint descends at this speed, never much faster
+  double descent_force_rate_N_per_s = 150.0;  ///< how fast the carrying force is bled while the joint does not descend
+  double descent_gain_N_per_radps = 600.0;    ///< force added per rad/s the joint descends too fast (proportional)
+  double descent_floor_fraction = 0.5;        ///< the bled force never below this x the force held at the fault
+  double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
+  double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
+  double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
   std::array<bool, io::kMaxJoints> tension_checked{true, true, true, true, true, true, true, true};  ///< per joint
 };
 
@@ -122,8 +141,9 @@ class FaultMonitor {
   bool check_command(const io::Command& c, double t_s) noexcept;
   /// The command sent (after limits): the valve model's input for the next samples.
   void sent(const io::Command& c) noexcept;
-  /// The safe state's command from the last sent one and the newest sample (hold / descend).
-  void shape(const io::SensorState& s, io::Command& c) const noexcept;
+  /// The safe state's command (hold: the last command before the fault, motor off; descend: the
+  /// governor's, computed on the newest sample by check_sample). Leaves `c` alone otherwise.
+  void shape(io::Command& c) const noexcept;
 
   SafeAction action() const noexcept { return action_; }
   std::uint32_t flags() const noexcept { return flags_; }  ///< every latched FaultFlag
@@ -131,6 +151,8 @@ class FaultMonitor {
   /// "loadcell_stuck joint 0 agonist: 812.3 (threshold 5) at 3.004 s -> descend" (fixed buffer).
   const char* reason() const noexcept { return reason_; }
   std::uint64_t count() const noexcept { return count_; }  ///< faults latched over the run
+  /// The run's first fault as reason() gave it (kept across recoveries; empty before any fault).
+  const char* run_reason() const noexcept { return run_reason_; }
   /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
   void clear() noexcept;
   const MonitorParams& params() const noexcept { return params_; }
@@ -149,12 +171,26 @@ class FaultMonitor {
     int head = 0;
     double setpoint_Pa = 0, predicted_Pa = 0;
   };
+  /// The descend governor of one joint (docs/safety.md): state from the fault on, output per sample.
+  struct Governor {
+    bool started = false;
+    int carrying = 0;             ///< 0 agonist (descends toward negative angles), 1 antagonist
+    double force_N = 0;           ///< the bled (integral) part of the carrying force
+    double floor_N = 0, ceiling_N = 0;
+    double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
+    std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)
+    double motor_Nm = 0;
+  };
   struct JointState {
     std::array<MuscleState, 2> muscle{};
     double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
+    double filtered_speed_radps = 0;
+    double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
     bool has_previous = false;
+    Governor governor{};
   };
+  void govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
 
   MonitorParams params_;
   double period_s_;
@@ -168,6 +204,7 @@ class FaultMonitor {
   io::Command held_{};       ///< the last command sent before the fault (hold)
   io::Command last_sent_{};
   char reason_[160] = {};
+  char run_reason_[160] = {};
 };
 
 }  // namespace peha::safety

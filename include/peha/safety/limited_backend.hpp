@@ -48,7 +48,7 @@ class LimitedBackend final : public io::Backend {
     sent_ = command;
     monitor_.check_command(command, last_state_.time_s);
     const SafeAction before = vented_ ? SafeAction::kVent : SafeAction::kNone;
-    monitor_.shape(last_state_, sent_);
+    monitor_.shape(sent_);
     if (monitor_.action() == SafeAction::kVent && before != SafeAction::kVent) {
       inner_.deactivate();  // outputs safe: motor off, valves (and the dump valve) vent slowly
       vented_ = true;

@@ -17,6 +17,7 @@
 
 #include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
+#include "peha/safety/fault_monitor.hpp"
 #include "peha/safety/limits.hpp"
 
 #include <array>
@@ -119,5 +120,9 @@ struct Envelope {
 /// tension floor min_tension_fraction x pretension from `thresholds`.
 void add_envelope_checks(const LimitsModel& model, const JointModels& joints, const std::vector<std::string>& names,
                          const Envelope& envelope, const VerdictThresholds& thresholds, Verdict& verdict);
+
+/// The supervisor's figure every experiment reports: faults the plausibility stage latched over the
+/// run, at most 0 (a faulted run never passes), the first fault's text in the figure's name.
+void add_supervisor_check(const FaultMonitor& monitor, Verdict& v);
 
 }  // namespace peha::safety

@@ -332,9 +332,8 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, th, r.verdict);
   r.fault_flags = limited.monitor().flags();
   r.faults = limited.monitor().count();
-  r.fault_reason = limited.monitor().reason();
-  r.verdict.at_most(r.faults ? "supervisor faults (first: " + r.fault_reason + ")" : std::string("supervisor faults"), "",
-                    static_cast<double>(r.faults), 0.0);
+  r.fault_reason = limited.monitor().run_reason();
+  safety::add_supervisor_check(limited.monitor(), r.verdict);
 
   const sim::OneDofRigParams plant = sim ? sim->params() : e1_plant_params(scenario, c);
   const safety::JointLimits& range = scenario.limits.joints[0];

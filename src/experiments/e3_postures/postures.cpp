@@ -181,6 +181,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     }
     r.postures.push_back(p);
   }
+  safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.within_limits = r.verdict.passed();
   return r;
 }

@@ -348,6 +348,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   r.rms_error_aligned_deg = best / kDeg;
   r.verdict.at_most("elbow tracking RMS error", "deg", r.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
   r.verdict.at_most("elbow tracking max error", "deg", r.max_error_deg, scenario.verdict.max_tracking_error_deg);
+  safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.within_limits = r.verdict.passed();
   return r;
 }

@@ -72,6 +72,7 @@ E5Scenario read_e5(const config::Document& doc) {
   s.plant.payload_kg = 0.0;  // the clamp holds the link: no payload
   s.plant.seed = s.seed;
   s.verdict = safety::read_verdict_thresholds(root);
+  safety::read_monitor_params(root, s.limits.monitor);  // the supervisor's plausibility stage (docs/safety.md)
 
   for (config::Map c : root.maps("cases", 1, 16)) {
     E5Case e;
@@ -245,6 +246,7 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
   r.verdict.at_least(m + " time at the limit", "s", r.time_at_limit_s, th.min_time_at_limit_s);
   r.verdict.at_least(m + " held cycles capped by the force ceiling", "%", r.ceiling_share_pct, th.min_ceiling_share_pct);
   safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, th, r.verdict);
+  safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.passed = r.verdict.passed();
   return r;
 }

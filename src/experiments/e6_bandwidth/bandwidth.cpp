@@ -128,6 +128,7 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   const safety::Envelope::Joint& e = envelope.joints[bench];
   r.min_wire_tension_N = e.min_tension_N;
   add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
+  safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.within_limits = r.verdict.passed();
   std::tie(r.bandwidth_3dB_Hz, r.reached_3dB) = bandwidth_3dB_Hz(r.bode);
   std::tie(r.bandwidth_3dB_at_joint_Hz, r.reached_3dB_at_joint) = bandwidth_3dB_Hz(r.bode_at_joint);

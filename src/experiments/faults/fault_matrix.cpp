@@ -95,6 +95,22 @@ FaultRow analyse(const E1Scenario& s, const E1Result& r, const Columns& log, con
 
 }  // namespace
 
+std::string physics_forbids(sim::FaultKind kind) {
+  switch (kind) {
+    case sim::FaultKind::kWireBreak:
+      return "the broken wire carries 0 N whatever is commanded; the other muscle pulls the other way and the 2.5 Nm motor cannot hold the payload";
+    case sim::FaultKind::kValveStuckOpen:
+      return "the stuck valve fills the muscle toward supply; only the on/off dump valve empties it: kept, the force passes the ceiling; "
+             "dumped, the link falls";
+    case sim::FaultKind::kValveStuckClosed:
+      return "the carrying muscle's valve is stuck on the air it had (less during a push, when the finger helps): the antagonist pulls "
+             "down and the 2.5 Nm motor cannot make up the difference, so the link sinks to its stop";
+    case sim::FaultKind::kEstop:
+      return "the e-stop cuts valves and motor in hardware (stop category 0): no output is left to govern a descent";
+    default: return {};
+  }
+}
+
 std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario) {
   std::vector<FaultMoment> m = {{"holding", 4.0}};
   const auto& pushes = scenario.plant.finger.pushes;
@@ -108,7 +124,6 @@ std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario) {
 
 std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& options, const std::function<void(const FaultRow&)>& progress) {
   s.limits.monitor.enabled = true;
-  s.controller.allocation.loadcell_check.tare_s = 0.0;  // the stage does not know the start-up vent yet (docs/safety.md)
   E1Case c = s.cases.front();
   if (!options.case_name.empty()) {
     const auto it = std::find_if(s.cases.begin(), s.cases.end(), [&](const E1Case& e) { return e.name == options.case_name; });
@@ -146,7 +161,9 @@ std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& o
       f.muscle = 0;  // muscle faults on the agonist, which carries the payload
       f.value = sim::fault_default_value(kind);
       const std::string target = sim::fault_targets_muscle(kind) ? "joint.agonist" : "joint";
-      out.push_back(run_one({f}, moment, sim::fault_kind_name(kind), target));
+      FaultRow row = run_one({f}, moment, sim::fault_kind_name(kind), target);
+      if (row.limits_exceeded > 0) row.physics_forbids = physics_forbids(kind);
+      out.push_back(std::move(row));
     }
   }
   return out;
@@ -156,33 +173,37 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   auto num = [](double v, const char* f) { return std::isfinite(v) ? fmt::format(fmt::runtime(f), v) : std::string("-"); };
   std::ofstream csv(dir / "faults.csv");
   csv << "fault,target,moment,fault_time_s,detected,flag,detection_cycles,safe_state,rest_after_s,peak_force_N,peak_speed_degps,"
-         "min_tension_N,limits_exceeded,log_complete,verdict_passed\n";
+         "min_tension_N,limits_exceeded,physics_forbids,log_complete,verdict_passed\n";
   for (const FaultRow& r : rows) {
-    csv << fmt::format("{},{},{},{:.3f},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},{},{}\n", r.fault, r.target, r.moment, r.fault_time_s,
+    csv << fmt::format("{},{},{},{:.3f},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{}\n", r.fault, r.target, r.moment, r.fault_time_s,
                        r.detected ? 1 : 0, r.flag, num(r.detection_cycles, "{:.0f}"), r.safe_state, num(r.rest_after_s, "{:.3f}"),
-                       r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.log_complete ? 1 : 0, r.passed ? 1 : 0);
+                       r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids, r.log_complete ? 1 : 0,
+                       r.passed ? 1 : 0);
   }
-  std::size_t faults = 0, detected = 0, within5 = 0, clean = 0, complete = 0;
+  std::size_t faults = 0, detected = 0, within5 = 0, clean = 0, complete = 0, forbidden = 0;
   for (const FaultRow& r : rows) {
     if (r.fault == "none") continue;
     ++faults;
     detected += r.detected;
     within5 += r.detected && r.detection_cycles <= 5;
     clean += r.limits_exceeded == 0;
+    forbidden += !r.physics_forbids.empty();
     complete += r.log_complete;
   }
   std::ofstream md(dir / "faults.md");
   md << "# Fault matrix\n\n";
-  md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare off. Each fault starts at "
-                    "its moment and stays; the run ends 5 s later.\n\n", scenario_name);
-  md << fmt::format("Faults injected: {}; detected: {}; within 5 control cycles: {}; no limit exceeded: {}; log complete: {}.\n\n", faults,
-                    detected, within5, clean, complete);
+  md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare as configured. Each fault "
+                    "starts at its moment and stays; the run ends 5 s later.\n\n", scenario_name);
+  md << fmt::format("Faults injected: {}; detected: {}; within 5 control cycles: {}; no limit exceeded: {}; a limit exceeded where physics "
+                    "forbids any safe state to avoid it: {}; a limit exceeded otherwise (a miss of the designed outcome): {}; log complete: {}.\n\n",
+                    faults, detected, within5, clean, forbidden, faults - clean - forbidden, complete);
   md << "| fault | target | moment | detected by | cycles | safe state | at rest after s | peak force N | peak speed deg/s | min tension N "
-        "| limits exceeded | log complete |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+        "| limits exceeded | physics forbids | log complete |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const FaultRow& r : rows) {
-    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {:.0f} | {:.1f} | {:.1f} | {} | {} |\n", r.fault, r.target, r.moment,
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {:.0f} | {:.1f} | {:.1f} | {} | {} | {} |\n", r.fault, r.target, r.moment,
                       r.detected ? r.flag : "**not detected**", num(r.detection_cycles, "{:.0f}"), r.safe_state, num(r.rest_after_s, "{:.2f}"),
-                      r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.log_complete ? "yes" : "**no**");
+                      r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids.empty() ? "-" : r.physics_forbids,
+                      r.log_complete ? "yes" : "**no**");
   }
 }
 

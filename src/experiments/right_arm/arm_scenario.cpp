@@ -39,9 +39,6 @@ void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, co
   s.controller.allocation.period_s = s.period_s;
   s.limits.joint_count = 3;
   s.limits.period_s = s.period_s;
-  // The plausibility stage (docs/safety.md) is not yet tuned for the arm: with the E1 defaults it
-  // faults nominal E3/E4/E6 runs, so it is off here until the arm's thresholds are measured.
-  s.limits.monitor.enabled = false;
   for (int i = 0; i < 3; ++i) {
     config::Map j = ctl.map(kJointKeys[i]);
     control::ArmActuatedJoint joint;
@@ -231,6 +228,12 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
     // A constant-pressure hold (the wrist) has no pretension control: its wires are checked for slack.
     if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) s.verdict.slack_check_only_joints |= 1u << i;
+  }
+  // The supervisor's plausibility stage (docs/safety.md), on unless the scenario says otherwise. A
+  // constant-pressure hold keeps no pretension by design: its wires are not held to the tension floor.
+  safety::read_monitor_params(root, s.limits.monitor);
+  for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
+    if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) s.limits.monitor.tension_checked[i] = false;
   }
   root.finish();
   if (!s.gravity_identification_file.empty()) use_gravity_identification(s, s.gravity_identification_file);

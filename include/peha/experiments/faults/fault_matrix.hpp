@@ -40,6 +40,9 @@ struct FaultRow {
   double peak_speed_degps = 0;  ///< |joint speed| after the fault (plant truth)
   double min_tension_N = 0;  ///< lowest wire tension after the fault (plant truth)
   int limits_exceeded = 0;   ///< failed envelope checks: force ceilings, pressure, motor rating, joint range
+  /// Why no safe state can keep this fault within the limits (a limit was exceeded and the kind is one
+  /// physics_forbids names); empty otherwise - then an exceeded limit is a miss of the designed outcome.
+  std::string physics_forbids;
   bool log_complete = false; ///< one log row per control cycle to the end
   bool passed = false;       ///< the run's verdict (a faulted run never passes)
 };
@@ -51,9 +54,12 @@ struct FaultMatrixOptions {
   std::vector<std::string> moments;   ///< default: every moment
 };
 
+/// The reason no safe state can avoid a limit after fault `kind` (a wire break, a valve stuck open,
+/// the e-stop), or empty when a designed safe state must avoid every limit.
+std::string physics_forbids(sim::FaultKind kind);
+
 /// Runs the matrix (the nominal row first). The scenario is run with the plausibility stage on
-/// (limits.monitor.enabled) and without the start-up tare (the stage does not know the vent yet,
-/// docs/safety.md). `progress` (optional) gets each row as it finishes.
+/// (limits.monitor.enabled) and its start-up tare as configured. `progress` (optional) gets each row as it finishes.
 std::vector<FaultRow> run_fault_matrix(E1Scenario scenario, const FaultMatrixOptions& options,
                                        const std::function<void(const FaultRow&)>& progress = {});
 
