@@ -201,7 +201,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
           cell >= std::max(floor_N, p.tension_taut_fraction * model->pretension_N)) {
         ms.taut = true;
       }
-      ms.disconnected = ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
+      // On a joint whose wires may go slack by design (tension not checked: the constant-pressure
+      // wrist) a slack wire reads code 0 as a disconnected cell does: not observable, not raised
+      // (the arm's identification moved the wrist slack and latched it on muscles -15 %).
+      ms.disconnected = p.tension_checked[ji] && ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
       ms.saturated = cell >= p.loadcell_saturated_N ? ms.saturated + 1 : 0;
       if (ms.disconnected >= p.confirm_cycles) raise(kFaultLoadcellDisconnected, j, m, cell, p.loadcell_disconnected_N);
       if (ms.saturated >= p.confirm_cycles) raise(kFaultLoadcellSaturated, j, m, cell, p.loadcell_saturated_N);

@@ -142,6 +142,14 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
   };
   const auto wall_start = std::chrono::steady_clock::now();
   runtime::run_cycles(limited, {}, steps, state, command, step, hold, observe);
+  // A fault the supervisor latched changed the outputs (hold, descend or vent): the torques measured
+  // after it are not the controller's, and a fit to them would be wrong without saying why.
+  if (limited.monitor().count()) {
+    throw calibration::GravityIdentificationRejected(
+        fmt::format("the supervisor latched {} fault(s) during the identification run (first: {}); the measurements after it are "
+                    "not the controller's. Find the fault (docs/safety.md) and run again",
+                    limited.monitor().count(), limited.monitor().run_reason()));
+  }
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
 
   ArmIdentificationResult r;
