@@ -201,3 +201,43 @@ TEST(FaultMatrix, AWireBreakUnderLoadIsMarkedPhysicsForbids) {
 
 }  // namespace
 }  // namespace peha
+
+namespace peha {
+namespace {
+
+// A wire that reads code 0 after it was taut: on a joint whose tension is checked that is a
+// disconnected cell (descend); on a joint whose wires may go slack by design (tension not checked:
+// the constant-pressure wrist) a slack wire reads the same 0, so nothing is raised (the arm's
+// identification latched it on the wrist before, refusing muscles -15 %).
+std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
+  safety::MonitorParams p;
+  p.enabled = true;
+  p.tension_checked[0] = tension_checked;
+  safety::FaultMonitor monitor(p, 1e-3);
+  const experiments::E1Scenario s = short_e1();
+  std::array<const models::JointModel*, io::kMaxJoints> joints{};
+  joints[0] = &s.controller.joint;
+  std::array<double, io::kMaxJoints> lo{}, hi{};
+  lo[0] = -1.0;
+  hi[0] = 1.0;
+  io::SensorState state;
+  state.joint_count = 1;
+  state.joints[0].agonist_pressure_Pa = 0.1e6;
+  state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  for (int k = 0; k < 2000; ++k) {  // 1.5 s taut at the pretension, then the antagonist's cell at 0
+    state.time_s = 1e-3 * k;
+    const double noise_N = 0.01 * (k % 7);  // a live cell never repeats its code
+    state.joints[0].agonist_loadcell_N = 60.0 + noise_N;
+    state.joints[0].antagonist_loadcell_N = k < 1500 ? 60.0 + noise_N : 0.0;
+    monitor.check_sample(state, joints, lo, hi, true);
+  }
+  return monitor.flags();
+}
+
+TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {
+  EXPECT_TRUE(flags_after_a_taut_wire_reads_zero(true) & safety::kFaultLoadcellDisconnected);
+  EXPECT_FALSE(flags_after_a_taut_wire_reads_zero(false) & safety::kFaultLoadcellDisconnected);
+}
+
+}  // namespace
+}  // namespace peha
