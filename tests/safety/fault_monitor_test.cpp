@@ -110,27 +110,66 @@ namespace {
 // A real over-force (the load cell and the pressure model agree: the muscle is driven past its
 // ceiling, here by a valve stuck open with the plausibility stage on) is relieved by venting; the
 // force_ceiling flag is kept for that case only.
+/// What the monitor is given for E1's one joint (its model, a +-1 rad range) and a one-joint sample.
+struct E1JointView {
+  experiments::E1Scenario scenario = short_e1();
+  std::array<const models::JointModel*, io::kMaxJoints> joints{};
+  std::array<double, io::kMaxJoints> lo{}, hi{};
+  io::SensorState state;
+  E1JointView() {
+    joints[0] = &scenario.controller.joint;
+    lo[0] = -1.0;
+    hi[0] = 1.0;
+    state.joint_count = 1;
+  }
+  E1JointView(const E1JointView&) = delete;  // joints points into scenario
+  E1JointView& operator=(const E1JointView&) = delete;
+  void check(safety::FaultMonitor& monitor, bool outputs_follow) const { monitor.check_sample(state, joints, lo, hi, outputs_follow); }
+};
+
 TEST(FaultMonitor, AnOverForceThePressureModelConfirmsIsVented) {
   safety::MonitorParams p;
   p.enabled = true;
   safety::FaultMonitor monitor(p, 1e-3);
-  const experiments::E1Scenario s = short_e1();
-  std::array<const models::JointModel*, io::kMaxJoints> joints{};
-  joints[0] = &s.controller.joint;
-  std::array<double, io::kMaxJoints> lo{}, hi{};
-  lo[0] = -1.0;
-  hi[0] = 1.0;
-  io::SensorState state;
-  state.joint_count = 1;
+  E1JointView view;
+  io::SensorState& state = view.state;
   state.time_s = 1.0;
   state.joints[0].angle_rad = 0.0;
   state.joints[0].agonist_pressure_Pa = 0.8e6;  // the supply: the model's force is far above 2000 N here
   state.joints[0].agonist_loadcell_N = 2400.0;
   state.joints[0].antagonist_pressure_Pa = 0.2e6;
   state.joints[0].antagonist_loadcell_N = 60.0;
-  monitor.check_sample(state, joints, lo, hi, false);
+  view.check(monitor, false);
   EXPECT_TRUE(monitor.flags() & safety::kFaultForceCeiling) << monitor.reason();
   EXPECT_EQ(monitor.action(), safety::SafeAction::kVent);
+}
+
+// A wire that reads code 0 after it was taut: on a joint whose tension is checked that is a
+// disconnected cell (descend); on a joint whose wires may go slack by design (tension not checked:
+// the constant-pressure wrist) a slack wire reads the same 0, so nothing is raised (the arm's
+// identification latched it on the wrist before, refusing muscles -15 %).
+std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
+  safety::MonitorParams p;
+  p.enabled = true;
+  p.tension_checked[0] = tension_checked;
+  safety::FaultMonitor monitor(p, 1e-3);
+  E1JointView view;
+  io::SensorState& state = view.state;
+  state.joints[0].agonist_pressure_Pa = 0.1e6;
+  state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  for (int k = 0; k < 2000; ++k) {  // 1.5 s taut at the pretension, then the antagonist's cell at 0
+    state.time_s = 1e-3 * k;
+    const double noise_N = 0.01 * (k % 7);  // a live cell never repeats its code
+    state.joints[0].agonist_loadcell_N = 60.0 + noise_N;
+    state.joints[0].antagonist_loadcell_N = k < 1500 ? 60.0 + noise_N : 0.0;
+    view.check(monitor, true);
+  }
+  return monitor.flags();
+}
+
+TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {
+  EXPECT_TRUE(flags_after_a_taut_wire_reads_zero(true) & safety::kFaultLoadcellDisconnected);
+  EXPECT_FALSE(flags_after_a_taut_wire_reads_zero(false) & safety::kFaultLoadcellDisconnected);
 }
 
 }  // namespace
@@ -197,46 +236,6 @@ TEST(FaultMatrix, AWireBreakUnderLoadIsMarkedPhysicsForbids) {
   EXPECT_GE(r.limits_exceeded, 1);
   EXPECT_NE(r.physics_forbids.find("0 N"), std::string::npos) << r.physics_forbids;
   EXPECT_TRUE(experiments::physics_forbids(sim::FaultKind::kLoadcellStuck).empty());
-}
-
-}  // namespace
-}  // namespace peha
-
-namespace peha {
-namespace {
-
-// A wire that reads code 0 after it was taut: on a joint whose tension is checked that is a
-// disconnected cell (descend); on a joint whose wires may go slack by design (tension not checked:
-// the constant-pressure wrist) a slack wire reads the same 0, so nothing is raised (the arm's
-// identification latched it on the wrist before, refusing muscles -15 %).
-std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
-  safety::MonitorParams p;
-  p.enabled = true;
-  p.tension_checked[0] = tension_checked;
-  safety::FaultMonitor monitor(p, 1e-3);
-  const experiments::E1Scenario s = short_e1();
-  std::array<const models::JointModel*, io::kMaxJoints> joints{};
-  joints[0] = &s.controller.joint;
-  std::array<double, io::kMaxJoints> lo{}, hi{};
-  lo[0] = -1.0;
-  hi[0] = 1.0;
-  io::SensorState state;
-  state.joint_count = 1;
-  state.joints[0].agonist_pressure_Pa = 0.1e6;
-  state.joints[0].antagonist_pressure_Pa = 0.1e6;
-  for (int k = 0; k < 2000; ++k) {  // 1.5 s taut at the pretension, then the antagonist's cell at 0
-    state.time_s = 1e-3 * k;
-    const double noise_N = 0.01 * (k % 7);  // a live cell never repeats its code
-    state.joints[0].agonist_loadcell_N = 60.0 + noise_N;
-    state.joints[0].antagonist_loadcell_N = k < 1500 ? 60.0 + noise_N : 0.0;
-    monitor.check_sample(state, joints, lo, hi, true);
-  }
-  return monitor.flags();
-}
-
-TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {
-  EXPECT_TRUE(flags_after_a_taut_wire_reads_zero(true) & safety::kFaultLoadcellDisconnected);
-  EXPECT_FALSE(flags_after_a_taut_wire_reads_zero(false) & safety::kFaultLoadcellDisconnected);
 }
 
 }  // namespace
