@@ -2,6 +2,7 @@
 #include "peha/sim/plant_faults.hpp"
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
+#include "peha/experiments/robustness/robustness.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -280,7 +281,11 @@ Command add_robustness(CLI::App& app) {
                        ->check(CLI::Range(1, 64));
   cmd->add_option("--variant", s->options.only_variant, "Run only the variant with this name");
   cmd->add_option("--mode", s->options.only_mode, "Run only this mode (it must be on in the file)")
-      ->check(CLI::IsMember({"e1_default", "e1_calibrated_ff", "e3_postures", "e3_identified"}));
+      ->check(CLI::IsMember([] {
+        std::vector<std::string> names;
+        for (auto m : peha::experiments::kRobustnessModes) names.emplace_back(peha::experiments::to_string(m));
+        return names;
+      }()));
   cmd->add_flag("--keep-calibrations", s->options.keep_calibrations,
                 "e1_calibrated_ff: write each variant's recordings and calibrations (refused ones too) to <run>/calibrations/");
   cmd->add_flag("!--no-plot", s->options.plot, "Do not render heatmap.png (no Python needed)");

@@ -27,8 +27,8 @@ int robustness(const RobustnessOptions& options) {
     if (!options.only_mode.empty()) {
       std::erase_if(config.modes, [&](experiments::RobustnessMode m) { return experiments::to_string(m) != options.only_mode; });
       if (config.modes.empty()) {
-        fmt::print(stderr, "error: mode '{}' is not on in {} (modes: e1_default, e1_calibrated_ff, e3_postures, e3_identified)\n", options.only_mode,
-                   doc.name());
+        fmt::print(stderr, "error: mode '{}' is not on in {} (modes: {})\n", options.only_mode, doc.name(),
+                   experiments::robustness_mode_names());
         return 2;
       }
     }

@@ -265,6 +265,12 @@ const char* to_string(RobustnessMode m) {
   return "?";
 }
 
+std::string robustness_mode_names() {
+  std::string names;
+  for (RobustnessMode m : kRobustnessModes) names += (names.empty() ? "" : ", ") + std::string(to_string(m));
+  return names;
+}
+
 RobustnessConfig read_robustness(const config::Document& doc) {
   config::Map root = doc.root();
   RobustnessConfig c;
@@ -272,11 +278,11 @@ RobustnessConfig read_robustness(const config::Document& doc) {
   c.e1_config = root.path_value("e1_scenario");
   c.arm_config = root.path_value("arm_scenario");
   config::Map modes = root.map("modes");
-  for (RobustnessMode m : {RobustnessMode::kE1Default, RobustnessMode::kE1CalibratedFF, RobustnessMode::kE3, RobustnessMode::kE3Identified}) {
+  for (RobustnessMode m : kRobustnessModes) {
     if (modes.boolean_or(to_string(m), false)) c.modes.push_back(m);
   }
   modes.finish();
-  if (c.modes.empty()) root.fail("modes", "no mode is on: set e1_default, e1_calibrated_ff, e3_postures or e3_identified to true");
+  if (c.modes.empty()) root.fail("modes", "no mode is on: set one of " + robustness_mode_names() + " to true");
   if (root.has("seeds")) {
     for (double s : root.numbers("seeds", {0.0, 1e9}, 1, 16)) c.seeds.push_back(static_cast<std::uint64_t>(s));
   } else {

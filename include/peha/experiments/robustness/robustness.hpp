@@ -44,7 +44,12 @@ enum class RobustnessMode {
   kE3,              ///< E3 postures with the right arm's controller
   kE3Identified,    ///< E3 after identifying the arm's gravity parameters on the variant (peha identify-gravity)
 };
+/// Every mode, in the order the file's `modes:` and the table list them.
+inline constexpr RobustnessMode kRobustnessModes[] = {RobustnessMode::kE1Default, RobustnessMode::kE1CalibratedFF,
+                                                      RobustnessMode::kE3, RobustnessMode::kE3Identified};
 const char* to_string(RobustnessMode m);
+/// The modes' names, ", "-separated (for messages).
+std::string robustness_mode_names();
 
 struct RobustnessGoal {
   double max_static_error_pct = 5;   ///< |static torque error| at every release
