@@ -3,7 +3,7 @@
 
 Reads an identification file written by `peha identify-gravity` (docs/identification.md) and writes a
 PNG beside it (or --out): per measured joint (R_SFE, R_EFE) and posture, the torque the rig measured
-(mean of the approaches from above and below), the identified model's Y(q) theta and the nominal
+(from the sweeps up and down through each posture), the identified model's Y(q) theta and the nominal
 model's, and below them the two models' errors against the measurement. Run with /usr/bin/python3
 (PyYAML, numpy, matplotlib).
 """

@@ -6,6 +6,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace peha::app {
 
 int identify_gravity(const IdentifyGravityOptions& options) {
@@ -19,8 +21,9 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     }
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     const auto& id = *scenario.identification;
-    fmt::print("peha identify-gravity: {} ({} postures, each approached from {:.1f} deg above and below; prior: {})\n",
-               options.config.string(), id.postures.size(), id.approach_rad * 180.0 / 3.14159265358979323846,
+    constexpr double kDeg = 180.0 / 3.14159265358979323846;
+    fmt::print("peha identify-gravity: {} ({} postures, each swept up and down over +-{:.1f} deg at {:.1f} deg/s; prior: {})\n",
+               options.config.string(), id.postures.size(), id.sweep_rad * kDeg, id.sweep_speed_radps * kDeg,
                scenario.gravity_identification_file.empty() ? std::string("the nominal arm model")
                                                             : scenario.gravity_identification_file.string());
     experiments::ArmIdentificationResult r;
@@ -31,18 +34,20 @@ int identify_gravity(const IdentifyGravityOptions& options) {
       return 2;
     }
     const calibration::GravityIdentification& f = r.fit;
-    fmt::print("  {:<16} {:>22} {:>22} {:>18} {:>18}\n", "posture", "measured SFE/EFE Nm", "identified SFE/EFE", "nominal SFE/EFE",
-               "above/below SFE");
+    fmt::print("  {:<16} {:>22} {:>22} {:>18} {:>18} {:>14}\n", "posture", "measured SFE/EFE Nm", "identified SFE/EFE", "nominal SFE/EFE",
+               "up/down SFE *", "capstan k", "slowest");
     for (std::size_t i = 0; i < r.measurements.size(); ++i) {
       const auto& m = r.measurements[i];
       const auto k = static_cast<Eigen::Index>(i);
-      fmt::print("  {:<16} {:>10.3f} {:>10.3f}  {:>10.3f} {:>10.3f}  {:>8.3f} {:>8.3f}  {:>8.3f} {:>8.3f}\n", m.name, m.tau_mean_Nm[0],
-                 m.tau_mean_Nm[1], f.predicted_Nm(k, 0), f.predicted_Nm(k, 1), f.prior_Nm(k, 0), f.prior_Nm(k, 1), m.tau_Nm[0][0],
-                 m.tau_Nm[1][0]);
+      fmt::print("  {:<16} {:>10.3f} {:>10.3f}  {:>10.3f} {:>10.3f}  {:>8.3f} {:>8.3f}  {:>8.3f} {:>8.3f}  {:>6.3f} {:>6.3f}  {:>5.0f} %\n", m.name,
+                 m.tau_mean_Nm[0], m.tau_mean_Nm[1], f.predicted_Nm(k, 0), f.predicted_Nm(k, 1), f.prior_Nm(k, 0), f.prior_Nm(k, 1),
+                 m.tau_Nm[0][0], m.tau_Nm[1][0], m.friction_ratio[0], m.friction_ratio[1],
+                 100 * std::min({m.speed_fraction[0][0], m.speed_fraction[0][1], m.speed_fraction[1][0], m.speed_fraction[1][1]}));
     }
-    fmt::print("fit: {} rows, {} identified directions, residual RMS {:.3f} Nm (max {:.3f}; the friction band's half-width "
-               "RMS {:.3f} Nm); the nominal model's RMS {:.3f} Nm; largest change vs nominal {:.1f} %\n",
-               f.rows, f.rank, f.residual_rms_Nm, f.residual_max_Nm, f.uncertainty_rms_Nm, f.prior_rms_Nm, 100 * f.max_change_fraction);
+    fmt::print("  * muscle side: r0 (F_agonist - F_antagonist) + motor while sweeping up / down; their difference is the cables' friction\n");
+    fmt::print("fit: {} rows, {} identified directions, residual RMS {:.3f} Nm (max {:.3f}); the nominal model's RMS {:.3f} Nm; "
+               "largest change vs nominal {:.1f} %\n",
+               f.rows, f.rank, f.residual_rms_Nm, f.residual_max_Nm, f.prior_rms_Nm, 100 * f.max_change_fraction);
     std::string sv;
     for (Eigen::Index i = 0; i < f.singular_values.size(); ++i) sv += fmt::format(" {:.3g}", f.singular_values[i]);
     fmt::print("  singular values of the scaled regressor:{} (identified: >= {:.3g} x the largest)\n", sv,

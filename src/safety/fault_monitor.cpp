@@ -72,6 +72,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.valve_dead_time_s = m.number_or("valve_dead_time_s", p.valve_dead_time_s, {0, 0.05});
   p.valve_lag_s = m.number_or("valve_lag_s", p.valve_lag_s, {1e-4, 2});
   p.valve_rate_Pa_per_s = m.number_or("valve_rate_MPa_per_s", p.valve_rate_Pa_per_s * 1e-6, {0.01, 100}) * 1e6;
+  p.valve_slow_factor = m.number_or("valve_slow_factor", p.valve_slow_factor, {1.0, 10.0});
   p.encoder_max_step_rad = m.number_or("encoder_max_step_deg", p.encoder_max_step_rad / kDeg, {0.01, 90}) * kDeg;
   p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 1000}));
   p.encoder_frozen_speed_radps = m.number_or("encoder_frozen_speed_degps", p.encoder_frozen_speed_radps / kDeg, {0.1, 1000}) * kDeg;
@@ -127,6 +128,8 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
   const MonitorParams& p = params_;
   if (!p.enabled) return;
   const int delay_cycles = std::clamp(static_cast<int>(std::lround(p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
+  const int slow_delay_cycles =
+      std::clamp(static_cast<int>(std::lround(p.valve_slow_factor * p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
   int low_muscles = 0;
   for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
     const auto ji = static_cast<std::size_t>(j);
@@ -222,7 +225,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       }
       if (!outputs_follow || !synced_) {  // the valve model restarts from what is measured
         ms.delay.fill(pressure);
-        ms.setpoint_Pa = ms.predicted_Pa = pressure;
+        ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
         ms.pressure_low = ms.pressure_high = 0;
         continue;
       }
@@ -231,10 +234,16 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       const double max_step = p.valve_rate_Pa_per_s * period_s_;
       ms.setpoint_Pa += std::clamp(delayed - ms.setpoint_Pa, -max_step, max_step);
       ms.predicted_Pa += (1.0 - std::exp(-period_s_ / p.valve_lag_s)) * (ms.setpoint_Pa - ms.predicted_Pa);
-      const double error = pressure - ms.predicted_Pa;
-      ms.pressure_high = error > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
-      ms.pressure_low = error < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
-      if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, j, m, error, p.pressure_tolerance_Pa);
+      // The envelope's slow valve: the same command, later, slower, lagging more.
+      const double slow_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - slow_delay_cycles) % kMaxDelay)];
+      const double slow_step = max_step / p.valve_slow_factor;
+      ms.slow_setpoint_Pa += std::clamp(slow_delayed - ms.slow_setpoint_Pa, -slow_step, slow_step);
+      ms.slow_predicted_Pa += (1.0 - std::exp(-period_s_ / (p.valve_slow_factor * p.valve_lag_s))) * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
+      const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
+      const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
+      ms.pressure_high = above > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+      ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
+      if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, j, m, above, p.pressure_tolerance_Pa);
       if (ms.pressure_low >= p.confirm_cycles) ++low_muscles;
     }
   }

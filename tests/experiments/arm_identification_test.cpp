@@ -26,18 +26,27 @@ double worst_pct(const PosturesResult& r, double min_gravity_Nm, bool model = fa
   return worst;
 }
 
-// Identified on the shipped arm from what the rig measures (encoders, load cells, motor command), with a
-// residual under 0.45 Nm (measured 0.36 Nm: the cables hold each posture in a band of +-2..6 Nm). Then
-// E3 with the identified model, judged by the plant's truth at rest: the controller's gravity torque is
-// within 4 % of the plant's at every judged posture and joint (measured <= 3.1 %; the nominal model is
-// 6-12 % light) and every static torque error <= 5 % (measured <= 2.8 %; nominal 6-11 %), and the
-// arm still stays where it is left (drift < 0.5 deg).
+// Identified on the shipped arm from what the rig measures (encoders, load cells, motor command) while
+// the wires slide: a residual under 0.3 Nm (measured 0.17 Nm; the static two-approach procedure gave
+// 0.36 Nm), and per posture a capstan ratio within 10 % of the plant's e^(mu_k psi) = 1.233 (measured
+// 1.233-1.285). Then E3 with the identified model, judged by the plant's truth at rest: the
+// controller's gravity torque within 2.5 % of the plant's at every judged posture and joint (measured
+// <= 1.5 %; the nominal model is 6-12 % light) and every static torque error <= 5 % (measured <= 1.7 %;
+// nominal 6-11 %), and the arm stays where it is left (drift < 0.5 deg).
 TEST(ArmIdentification, IdentifiedModelHoldsE3WhereTheNominalDoesNot) {
   ArmScenario s = shipped();
   ASSERT_TRUE(s.identification);
   const ArmIdentificationResult id = identify_arm_gravity(s, s.plant);
-  EXPECT_LT(id.fit.residual_rms_Nm, 0.45);
+  EXPECT_LT(id.fit.residual_rms_Nm, 0.3);
   EXPECT_EQ(id.fit.rank, 4);  // rank_tolerance 0.1: the two directions the data barely see keep the nominal model
+  for (int j = 0; j < 2; ++j) {
+    const sim::CablePlantParams& cable = s.plant.actuators[static_cast<std::size_t>(j)].agonist.cable;
+    const double k_plant = std::exp(cable.kinetic_friction * cable.wrap_angle_rad);
+    for (const IdentificationMeasurement& m : id.measurements) {
+      EXPECT_NEAR(m.friction_ratio[j], k_plant, 0.1 * k_plant) << m.name << " joint " << j;
+      EXPECT_GE(std::min(m.speed_fraction[0][j], m.speed_fraction[1][j]), s.identification->min_speed_fraction) << m.name;
+    }
+  }
 
   const double min_gravity = s.verdict.min_gravity_torque_Nm;
   const PosturesResult nominal = run_postures(s, nullptr);
@@ -46,10 +55,25 @@ TEST(ArmIdentification, IdentifiedModelHoldsE3WhereTheNominalDoesNot) {
   s.controller.arm = id.identified;
   const PosturesResult identified = run_postures(s, nullptr);
   EXPECT_LE(worst_pct(identified, min_gravity), 5.0);
-  EXPECT_LT(worst_pct(identified, min_gravity, true), 4.0);
+  EXPECT_LT(worst_pct(identified, min_gravity, true), 2.5);
   for (const PostureResult& p : identified.postures) {
     EXPECT_LT(std::abs(p.drift_deg[0]), 0.5) << p.name;
     EXPECT_LT(std::abs(p.drift_deg[1]), 0.5) << p.name;
+  }
+}
+
+// The speed check can fail: without the rig's friction feed-forward the PD alone lags the shoulder by
+// 5-6 deg and it sticks and slips through a window (measured: 8 % of the reference's speed at
+// mid_75), and the identification is refused with the posture, joint and sweep named.
+TEST(ArmIdentification, RefusesWhenAJointSticksInAWindow) {
+  ArmScenario s = shipped();
+  ASSERT_TRUE(s.identification);
+  s.identification->friction_learning_gain = 0.0;
+  try {
+    (void)identify_arm_gravity(s, s.plant);
+    FAIL() << "a sticking joint was accepted";
+  } catch (const calibration::GravityIdentificationRejected& e) {
+    EXPECT_NE(std::string(e.what()).find("of the reference's speed"), std::string::npos) << e.what();
   }
 }
 

@@ -16,7 +16,9 @@
 ///   armed: the outputs have followed for tension_arm_s and the wire has been taut since (the
 ///   start-up tare's vent and a recovery ramp slacken the wires by design);
 /// - pressure sensor against what the valve makes of the commands sent (dead time, rate limit,
-///   first-order lag: the valve's dynamics), beyond pressure_tolerance_Pa for confirm_cycles: high
+///   first-order lag: the valve's dynamics, from the modelled valve to one valve_slow_factor x
+///   slower: a worn or cold valve is not a fault), outside that envelope by more than
+///   pressure_tolerance_Pa for confirm_cycles: high
 ///   (a valve filling by itself), low (a valve or sensor that does not follow; on two or more
 ///   muscles at once: supply loss), above supply;
 /// - encoder: a step above encoder_max_step_rad in one sample (jump), the same count for
@@ -95,6 +97,8 @@ struct MonitorParams {
   double valve_dead_time_s = 0.005;           ///< the valve's dynamics as the supervisor models them
   double valve_lag_s = 0.03;
   double valve_rate_Pa_per_s = 4e6;
+  /// The envelope's slow edge: dead time and lag x this, rate limit / this (>= 1; 1: the model alone).
+  double valve_slow_factor = 2.0;
   double encoder_max_step_rad = 0.02;
   int encoder_frozen_cycles = 5;
   double encoder_frozen_speed_radps = 0.2;
@@ -169,7 +173,8 @@ class FaultMonitor {
     int disagree = 0, low_tension = 0, pressure_low = 0, pressure_high = 0;
     std::array<double, kMaxDelay> delay{};
     int head = 0;
-    double setpoint_Pa = 0, predicted_Pa = 0;
+    double setpoint_Pa = 0, predicted_Pa = 0;            ///< the modelled valve
+    double slow_setpoint_Pa = 0, slow_predicted_Pa = 0;  ///< the envelope's slow valve
   };
   /// The descend governor of one joint (docs/safety.md): state from the fault on, output per sample.
   struct Governor {

@@ -20,22 +20,33 @@ namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kStartHold_s = 2.0;  // the operator holds the start posture while compensation comes on (as E3)
 
-/// One leg of the rig's reference: a minimum-jerk move to `target` over move_s, then a hold; the
-/// last average_s of the hold is a measurement of posture `posture` from `side` (-1: none).
+/// One leg of the rig's reference: a move to `target` over move_s (minimum jerk, or for a sweep a
+/// cruise at constant speed between two ramps), then a hold of hold_s. A sweep measures posture
+/// `posture` (-1: none, a warm-up) in direction `side` (0 up, 1 down) while the leg's clock is in
+/// [window_from_s, window_to_s].
 struct Leg {
   double target_rad[2] = {0, 0};
   double move_s = 1, hold_s = 0;
+  bool sweep = false;
   int posture = -1, side = -1;
+  double window_from_s = 0, window_to_s = 0;
 };
 
 std::vector<Leg> legs_of(const ArmScenario::Identification& id) {
   std::vector<Leg> legs;
+  const double sweep_s = 2 * id.sweep_rad / id.sweep_speed_radps + id.ramp_s;  // cruise + one ramp's worth of distance lost to two
+  const double half_window_s = id.window_rad / id.sweep_speed_radps;
   for (std::size_t p = 0; p < id.postures.size(); ++p) {
     const ArmPosture& a = id.postures[p];
-    for (int side = 0; side < 2; ++side) {
-      const double offset = side == 0 ? id.approach_rad : -id.approach_rad;  // above, then below
-      legs.push_back({{a.sfe_rad + offset, a.efe_rad + offset}, id.move_s, 0.5, -1, -1});
-      legs.push_back({{a.sfe_rad, a.efe_rad}, id.approach_s, id.settle_s + id.average_s, static_cast<int>(p), side});
+    legs.push_back({{a.sfe_rad - id.sweep_rad, a.efe_rad - id.sweep_rad}, id.move_s, id.settle_s});
+    // The first posture is swept once more before it is measured: the rig learns the friction it
+    // must push against (below) on that pair.
+    for (int pass = p == 0 ? 0 : 1; pass < 2; ++pass) {
+      for (int side = 0; side < 2; ++side) {
+        const double to = side == 0 ? id.sweep_rad : -id.sweep_rad;  // up, then back down
+        legs.push_back({{a.sfe_rad + to, a.efe_rad + to}, sweep_s, id.settle_s, true, pass == 1 ? static_cast<int>(p) : -1, side,
+                        0.5 * sweep_s - half_window_s, 0.5 * sweep_s + half_window_s});
+      }
     }
   }
   return legs;
@@ -44,6 +55,27 @@ std::vector<Leg> legs_of(const ArmScenario::Identification& id) {
 double min_jerk(double s) {
   s = std::clamp(s, 0.0, 1.0);
   return s * s * s * (10.0 + s * (-15.0 + 6.0 * s));
+}
+
+/// Fraction of a sweep done at `t_s` of `total_s`: the speed rises as a half cosine over ramp_s,
+/// cruises, and falls the same way; the middle is passed at total_s / 2 at cruise speed.
+double cruise(double t_s, double total_s, double ramp_s) {
+  if (t_s <= 0) return 0;
+  if (t_s >= total_s) return 1;
+  const double v = 1.0 / (total_s - ramp_s);
+  auto ramp = [&](double t) { return v * (0.5 * t - ramp_s / (2 * std::numbers::pi) * std::sin(std::numbers::pi * t / ramp_s)); };
+  if (t_s < ramp_s) return ramp(t_s);
+  if (t_s > total_s - ramp_s) return 1.0 - ramp(total_s - t_s);
+  return v * (0.5 * ramp_s + (t_s - ramp_s));
+}
+
+/// The capstan ratio k >= 0 for which the upward and the downward sweep give the same pulley-side
+/// torque: up a/k - b k + m_up = down a' k - b'/k + m_down (a, b: r0 x agonist, antagonist force), i.e.
+/// (b + a') k^2 + (m_down - m_up) k - (a + b') = 0. 1 (no friction) when the wires carry nothing.
+double capstan_ratio(double a_up, double b_up, double m_up, double a_down, double b_down, double m_down) {
+  const double qa = b_up + a_down, qb = m_down - m_up, qc = -(a_up + b_down);
+  if (!(qa > 1e-9)) return 1.0;
+  return (-qb + std::sqrt(qb * qb - 4 * qa * qc)) / (2 * qa);
 }
 
 }  // namespace
@@ -84,7 +116,7 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
 
   // Per posture and side: sums over the averaging window.
   struct Sums {
-    double q[3] = {0, 0, 0}, force[2][2] = {{0, 0}, {0, 0}}, motor[2] = {0, 0};
+    double q[3] = {0, 0, 0}, force[2][2] = {{0, 0}, {0, 0}}, motor[2] = {0, 0}, speed[2] = {0, 0};
     double n = 0;
   };
   std::vector<std::array<Sums, 2>> sums(id.postures.size());
@@ -92,6 +124,14 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
   bool started = false;
   std::size_t leg = 0;
   int reported = -1;
+  // The rig's friction feed-forward per sweep direction and joint (Nm): what the PD had to add in the
+  // last window of that direction, learned with friction_learning_gain. It keeps the lag behind the
+  // reference small and the wires sliding steadily through the window; without it the PD's lag (the
+  // friction over its stiffness, 5-6 deg on the shoulder) let the joint stick and slip in the window.
+  double feedforward_Nm[2][2] = {{0, 0}, {0, 0}};
+  double pd_sum_Nm[2] = {0, 0}, pd_n = 0;
+  double previous_ref[2] = {0, 0};
+  bool have_previous_ref = false;
 
   io::SensorState state;
   io::Command command;
@@ -105,16 +145,32 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
         start_q[1] = state.joints[1].angle_rad;
         started = true;
       }
-      while (leg + 1 < legs.size() && now >= leg_start_s[leg + 1]) ++leg;
+      while (leg + 1 < legs.size() && now >= leg_start_s[leg + 1]) {
+        const Leg& done = legs[leg];
+        if (done.sweep && pd_n > 0) {
+          for (int j = 0; j < 2; ++j) feedforward_Nm[done.side][j] += id.friction_learning_gain * pd_sum_Nm[j] / pd_n;
+        }
+        pd_sum_Nm[0] = pd_sum_Nm[1] = pd_n = 0;
+        ++leg;
+      }
       const Leg& l = legs[leg];
       const double* from = leg ? legs[leg - 1].target_rad : start_q;
-      const double s = min_jerk((now - leg_start_s[leg]) / l.move_s);
+      const double in_leg_s = now - leg_start_s[leg];
+      const double s = l.sweep ? cruise(in_leg_s, l.move_s, id.ramp_s) : min_jerk(in_leg_s / l.move_s);
+      const bool in_window = l.sweep && in_leg_s >= l.window_from_s && in_leg_s < l.window_to_s;
       for (int j = 0; j < 2; ++j) {
         const double ref = from[j] + (l.target_rad[j] - from[j]) * s;
-        const double error = ref - state.joints[j].angle_rad;
+        const double ref_velocity = have_previous_ref ? (ref - previous_ref[j]) / scenario.period_s : 0.0;
+        previous_ref[j] = ref;
         const auto& d = controller.diagnostics()[static_cast<std::size_t>(j)];
-        controller.set_desired_torque(j, d.torque_gravity_Nm + id.stiffness_Nm_per_rad[j] * error - id.damping_Nms_per_rad[j] * d.velocity_radps);
+        const double pd = id.stiffness_Nm_per_rad[j] * (ref - state.joints[j].angle_rad) + id.damping_Nms_per_rad[j] * (ref_velocity - d.velocity_radps);
+        const double cruising = l.sweep ? std::clamp(std::abs(ref_velocity) / id.sweep_speed_radps, 0.0, 1.0) : 0.0;
+        const double feedforward = l.sweep ? cruising * feedforward_Nm[l.side][j] : 0.0;
+        if (in_window) pd_sum_Nm[j] += pd;
+        controller.set_desired_torque(j, d.torque_gravity_Nm + feedforward + pd);
       }
+      if (in_window) pd_n += 1;
+      have_previous_ref = true;
     } else {
       for (int j = 0; j < 2; ++j) controller.set_desired_torque(j, controller.diagnostics()[static_cast<std::size_t>(j)].torque_gravity_Nm);
     }
@@ -123,8 +179,8 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
   auto observe = [&](std::size_t, const io::Command& sent, std::uint32_t) {
     if (!started) return;
     const Leg& l = legs[leg];
-    const double end_s = leg_start_s[leg] + l.move_s + l.hold_s;
-    if (l.posture < 0 || state.time_s < end_s - id.average_s) return;
+    const double in_leg_s = state.time_s - leg_start_s[leg];
+    if (l.posture < 0 || in_leg_s < l.window_from_s || in_leg_s >= l.window_to_s) return;
     Sums& s = sums[static_cast<std::size_t>(l.posture)][static_cast<std::size_t>(l.side)];
     for (int j = 0; j < 3; ++j) s.q[j] += state.joints[j].angle_rad;
     for (int j = 0; j < 2; ++j) {
@@ -132,11 +188,12 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
       s.force[j][0] += js.agonist_loadcell_N - controller.loadcell_offset_N(static_cast<std::size_t>(j), 0);
       s.force[j][1] += js.antagonist_loadcell_N - controller.loadcell_offset_N(static_cast<std::size_t>(j), 1);
       s.motor[j] += sent.joints[j].motor_torque_Nm;
+      s.speed[j] += controller.diagnostics()[static_cast<std::size_t>(j)].velocity_radps;
     }
     s.n += 1;
-    if (progress && l.side == 1 && l.posture != reported && state.time_s >= end_s - 2 * scenario.period_s) {
+    if (progress && l.side == 1 && l.posture != reported && in_leg_s >= l.window_to_s - 2 * scenario.period_s) {
       reported = l.posture;
-      progress(fmt::format("posture {}/{} '{}' measured from above and below", l.posture + 1, id.postures.size(),
+      progress(fmt::format("posture {}/{} '{}' measured sweeping up and down", l.posture + 1, id.postures.size(),
                            id.postures[static_cast<std::size_t>(l.posture)].name));
     }
   };
@@ -156,6 +213,7 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
   r.duration_s = duration_s;
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   const int dof = scenario.controller.arm.dof();
+  std::vector<std::array<double, 4>> motors;  // per posture: up SFE, up EFE, down SFE, down EFE (Nm)
   for (std::size_t p = 0; p < id.postures.size(); ++p) {
     IdentificationMeasurement m;
     m.name = id.postures[p].name;
@@ -163,8 +221,7 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
     sample.name = m.name;
     sample.q_rad = Eigen::VectorXd::Zero(dof);  // the passive wrist joints are taken at 0, as the controller does
     sample.tau_Nm = Eigen::VectorXd::Zero(2);
-    sample.uncertainty_Nm = Eigen::VectorXd::Zero(2);
-    double motor_mean[2] = {0, 0};
+    double motor[2][2] = {};  // sweep x joint
     for (int side = 0; side < 2; ++side) {
       const Sums& s = sums[p][static_cast<std::size_t>(side)];
       if (s.n < 1) throw std::runtime_error(fmt::format("identification: posture '{}' was not measured (run too short?)", m.name));
@@ -176,31 +233,75 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
         const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
         m.force_N[side][j][0] = s.force[j][0] / s.n;
         m.force_N[side][j][1] = s.force[j][1] / s.n;
-        m.tau_Nm[side][j] = r0 * (m.force_N[side][j][0] - m.force_N[side][j][1]) + s.motor[j] / s.n;
-        motor_mean[j] += 0.5 * s.motor[j] / s.n;
+        motor[side][j] = s.motor[j] / s.n;
+        m.tau_Nm[side][j] = r0 * (m.force_N[side][j][0] - m.force_N[side][j][1]) + motor[side][j];
+        m.speed_fraction[side][j] = (side == 0 ? 1.0 : -1.0) * s.speed[j] / s.n / id.sweep_speed_radps;
+        // A joint the cables held during the window measures the static friction's band, not sliding.
+        if (!(m.speed_fraction[side][j] >= id.min_speed_fraction)) {
+          throw calibration::GravityIdentificationRejected(fmt::format(
+              "gravity identification refused: at posture '{}' the {} moved at {:.0f} % of the reference's speed in the window of "
+              "the {} sweep (< {:.0f} %, min_speed_fraction): the cables held it, so its torque is not the sliding one. Stiffen the "
+              "rig's PD or slow the sweep",
+              m.name, j == 0 ? "shoulder" : "elbow", 100 * m.speed_fraction[side][j],
+              side == 0 ? "upward" : "downward", 100 * id.min_speed_fraction));
+        }
       }
-    }
-    for (int j = 0; j < 2; ++j) {
-      const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
-      double f[2];
-      for (int mu = 0; mu < 2; ++mu) {
-        const double a = m.force_N[0][j][mu], b = m.force_N[1][j][mu];
-        f[mu] = a > 0 && b > 0 ? std::sqrt(a * b) : 0.5 * (a + b);  // capstan: T e^x and T e^-x average to T
-      }
-      m.tau_mean_Nm[j] = r0 * (f[0] - f[1]) + motor_mean[j];
-      sample.tau_Nm[j] = m.tau_mean_Nm[j];
-      // Half the band the cables' friction held the joint in: what this row's mean is uncertain by.
-      sample.uncertainty_Nm[j] = 0.5 * std::abs(m.tau_Nm[1][j] - m.tau_Nm[0][j]);
     }
     r.measurements.push_back(m);
     r.samples.push_back(sample);
+    motors.push_back({motor[0][0], motor[0][1], motor[1][0], motor[1][1]});
   }
   calibration::GravityIdentificationOptions o;
   o.joints = {0, 1};
   o.max_residual_rms_Nm = id.max_residual_rms_Nm;
   o.max_change_fraction = id.max_change_fraction;
   o.rank_tolerance = id.rank_tolerance;
-  r.fit = calibration::identify_gravity(scenario.controller.arm, r.samples, o);
+  // Each posture's torques from the two sweeps' measurements, with the gravity model `theta`
+  // carrying each sweep from where the joints were in its window to the sweeps' mean posture: the PD
+  // lags the reference by the friction over its stiffness, so the arm is a few degrees below the
+  // posture going up and above it coming down, and the elbow's gravity changes by up to 1.5 Nm
+  // between the two. The correction uses the model; its error is the model's error in gravity's
+  // slope over those few degrees, and two passes with the identified model settle it.
+  const models::ArmModel& arm = scenario.controller.arm;
+  models::ArmData data(arm);
+  Eigen::MatrixXd Y(dof, models::gravity_parameter_count(arm));
+  auto gravity_Nm = [&](const Eigen::VectorXd& theta, const double* q_deg, int joint) {
+    Eigen::VectorXd q = Eigen::VectorXd::Zero(dof);
+    for (int j = 0; j < 3; ++j) q[j] = q_deg[j] * kDeg;
+    models::gravity_regressor(arm, data, q, Y);
+    return Y.row(joint).dot(theta);
+  };
+  auto measure = [&](const Eigen::VectorXd& theta) {
+    for (std::size_t p = 0; p < r.measurements.size(); ++p) {
+      IdentificationMeasurement& m = r.measurements[p];
+      double q_mean_deg[3];
+      for (int j = 0; j < 3; ++j) q_mean_deg[j] = 0.5 * (m.q_deg[0][j] + m.q_deg[1][j]);
+      for (int j = 0; j < 2; ++j) {
+        const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
+        const double a_up = r0 * m.force_N[0][j][0], b_up = r0 * m.force_N[0][j][1];
+        const double a_down = r0 * m.force_N[1][j][0], b_down = r0 * m.force_N[1][j][1];
+        const double g_mean = gravity_Nm(theta, q_mean_deg, j);
+        const double m_up = motors[p][static_cast<std::size_t>(j)] - (gravity_Nm(theta, m.q_deg[0], j) - g_mean);
+        const double m_down = motors[p][static_cast<std::size_t>(2 + j)] - (gravity_Nm(theta, m.q_deg[1], j) - g_mean);
+        const double k = capstan_ratio(a_up, b_up, m_up, a_down, b_down, m_down);
+        m.friction_ratio[j] = k;
+        m.tau_mean_Nm[j] = 0.5 * ((a_up / k - b_up * k + m_up) + (a_down * k - b_down / k + m_down));
+        r.samples[p].tau_Nm[j] = m.tau_mean_Nm[j];
+      }
+    }
+  };
+  Eigen::VectorXd theta = models::gravity_parameters(arm);
+  for (int pass = 0; pass < 3; ++pass) {
+    measure(theta);
+    if (pass < 2) {
+      try {
+        theta = calibration::identify_gravity(arm, r.samples, o).theta;
+      } catch (const calibration::GravityIdentificationRejected&) {
+        break;  // judged below, on the measurement so far
+      }
+    }
+  }
+  r.fit = calibration::identify_gravity(arm, r.samples, o);
   r.identified = models::with_gravity_parameters(scenario.controller.arm, r.fit.theta);
   return r;
 }

@@ -158,14 +158,24 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   gon.finish();
 }
 
-/// `identification:` (peha identify-gravity): the postures, the approach and the fit's checks.
+/// `identification:` (peha identify-gravity): the postures, the sweeps and the fit's checks.
 void read_identification(config::Map id, ArmScenario& s) {
   ArmScenario::Identification& d = s.identification.emplace();
-  d.approach_rad = id.number("approach_deg", {0.5, 30.0}) * kDeg;
+  d.sweep_rad = id.number("sweep_deg", {1.0, 30.0}) * kDeg;
+  d.sweep_speed_radps = id.number("sweep_speed_deg_per_s", {0.5, 90.0}) * kDeg;
+  d.ramp_s = id.number("ramp_s", {0.05, 10.0});
+  d.window_rad = id.number("window_deg", {0.1, d.sweep_rad / kDeg}) * kDeg;
   d.move_s = id.number("move_s", {0.2, 60.0});
-  d.approach_s = id.number("approach_s", {0.2, 60.0});
   d.settle_s = id.number("settle_s", {0.0, 60.0});
-  d.average_s = id.number("average_s", {0.05, 60.0});
+  d.min_speed_fraction = id.number("min_speed_fraction", {0.0, 1.0});
+  d.friction_learning_gain = id.number("friction_learning_gain", {0.0, 1.0});
+  // The cruise must reach the window: the reference passes the posture at the sweep's middle, at full
+  // speed only when the ramps end before the window starts.
+  if (d.sweep_rad - d.window_rad < 0.5 * d.sweep_speed_radps * d.ramp_s) {
+    id.fail("window_deg", fmt::format("the reference is still speeding up inside the window: sweep_deg - window_deg = {:.2f} deg must be at "
+                                      "least half a ramp at cruise speed ({:.2f} deg); widen the sweep, narrow the window or shorten ramp_s",
+                                      (d.sweep_rad - d.window_rad) / kDeg, 0.5 * d.sweep_speed_radps * d.ramp_s / kDeg));
+  }
   const std::vector<double> k = id.numbers("stiffness_Nm_per_rad", {0.0, 1e4}, 2, 2);
   const std::vector<double> c = id.numbers("damping_Nms_per_rad", {0.0, 1e3}, 2, 2);
   for (int j = 0; j < 2; ++j) {
@@ -178,11 +188,11 @@ void read_identification(config::Map id, ArmScenario& s) {
   for (config::Map item : id.maps("postures", 3, 64)) {
     ArmPosture a;
     a.name = item.string("name");
-    // Every approach point inside the joint's range: a stop would hold part of the torque.
+    // Every sweep inside the joint's range: a stop would hold part of the torque.
     for (int j = 0; j < 2; ++j) {
       const safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(j)];
       const char* key = j == 0 ? "sfe_deg" : "efe_deg";
-      const double v = item.number(key, {(lim.min_angle_rad + d.approach_rad) / kDeg + 1.0, (lim.max_angle_rad - d.approach_rad) / kDeg - 1.0});
+      const double v = item.number(key, {(lim.min_angle_rad + d.sweep_rad) / kDeg + 1.0, (lim.max_angle_rad - d.sweep_rad) / kDeg - 1.0});
       (j == 0 ? a.sfe_rad : a.efe_rad) = v * kDeg;
     }
     item.finish();

@@ -2,13 +2,13 @@
 /// \file
 /// The rig procedure of `peha identify-gravity` (docs/identification.md): the right arm's own
 /// controller, in commanded-torque mode with its nominal gravity torque plus a PD on the joint
-/// encoders, drives the arm to each posture of the scenario's `identification:` section, once from
-/// above and once from below (both joints), lets it settle, and averages what the rig measures: the
-/// encoders and the load cells (minus their zero) through the controller's pulley radius, plus the
-/// motor's command. The cable friction holds the link anywhere in a band; approached from above it
-/// sits at one edge, from below at the other, so the mean of the two is the gravity torque. Per
-/// muscle the two forces are combined by their geometric mean, which cancels a capstan's
-/// multiplicative friction (T e^x and T e^-x) exactly. Nothing of the plant's truth is read.
+/// encoders, sweeps the arm slowly up and then down through each posture of the scenario's
+/// `identification:` section (both joints at once) and averages what the rig measures while the
+/// reference crosses the posture: the encoders, the load cells (minus their zero) and the motor's
+/// command. While a wire slides, its Bowden friction is fully developed and its direction known: moving
+/// up, the pulley end of the agonist's wire carries F/k and the antagonist's F k (k = e^(mu psi), the
+/// capstan ratio), moving down the reverse. Up and down then give two equations in the gravity torque
+/// and k, solved per posture and joint. Nothing of the plant's truth is read.
 
 #include "peha/calibration/gravity_identification.hpp"
 #include "peha/experiments/right_arm/arm_scenario.hpp"
@@ -19,18 +19,20 @@
 
 namespace peha::experiments {
 
-/// One posture's measurement: per side (0 = approached from above, 1 = from below).
+/// One posture's measurement: per sweep (0 = upward, 1 = downward), averaged over the window.
 struct IdentificationMeasurement {
   std::string name;
-  double q_deg[2][3] = {};           ///< side x (SFE, EFE, WFE): encoders at rest
-  double tau_Nm[2][2] = {};          ///< side x (SFE, EFE): measured holding torque
-  double force_N[2][2][2] = {};      ///< side x joint x muscle: load cell minus its zero
-  double tau_mean_Nm[2] = {};        ///< the sample's torque: from the geometric mean forces of both sides
+  double q_deg[2][3] = {};           ///< sweep x (SFE, EFE, WFE): encoders
+  double speed_fraction[2][2] = {};  ///< sweep x (SFE, EFE): the joint's mean speed / the reference's
+  double tau_Nm[2][2] = {};          ///< sweep x (SFE, EFE): r0 (F_agonist - F_antagonist) + motor, muscle-side forces
+  double force_N[2][2][2] = {};      ///< sweep x joint x muscle: load cell minus its zero
+  double friction_ratio[2] = {};     ///< (SFE, EFE): k = e^(mu psi) the two sweeps agree on
+  double tau_mean_Nm[2] = {};        ///< the sample's gravity torque: either sweep's pulley-side torque with that k
 };
 
 struct ArmIdentificationResult {
   std::vector<IdentificationMeasurement> measurements;
-  std::vector<calibration::GravitySample> samples;   ///< what the fit used (q: mean of both sides)
+  std::vector<calibration::GravitySample> samples;   ///< what the fit used (q: mean of both sweeps)
   calibration::GravityIdentification fit;
   models::ArmModel identified;      ///< the controller's arm with the identified parameters
   double duration_s = 0;            ///< simulated
@@ -42,8 +44,9 @@ struct ArmIdentificationResult {
 sim::RightArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::RightArmPlantParams& plant);
 
 /// Runs the procedure on the in-process arm `plant` (the truth is not read) and fits. Throws
-/// calibration::GravityIdentificationRejected when the fit's checks fail, config::Error without an
-/// `identification:` section. `progress` gets one line per posture.
+/// calibration::GravityIdentificationRejected when a joint stuck in a window (moved slower than
+/// min_speed_fraction x the reference), a fault was latched, or the fit's checks fail; config::Error
+/// without an `identification:` section. `progress` gets one line per posture.
 ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const sim::RightArmPlantParams& plant,
                                              const std::function<void(const std::string&)>& progress = {});
 

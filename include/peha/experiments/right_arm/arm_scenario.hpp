@@ -72,15 +72,20 @@ struct ArmScenario {
     std::vector<Movement> movements;
   } goniometer;
   /// `peha identify-gravity` (docs/identification.md): the rig drives the arm with its own controller
-  /// plus a PD on the encoders to each posture, approached from above and from below, and measures the
-  /// holding torques from the load cells. Optional section `identification:`.
+  /// plus a PD on the encoders slowly up and then down through each posture (both joints at once) and
+  /// measures the torques while the cables slide. Optional section `identification:`.
   struct Identification {
     std::vector<ArmPosture> postures;
-    double approach_rad = 0.105;     ///< the approach points lie this far above and below each posture (both joints)
-    double move_s = 2.5;             ///< to an approach point
-    double approach_s = 2.0;         ///< from an approach point to the posture
-    double settle_s = 2.0;           ///< at rest before averaging
-    double average_s = 1.0;          ///< averaging window
+    double sweep_rad = 0.14;            ///< each sweep runs from this far below the posture to this far above (both joints), and back
+    double sweep_speed_radps = 0.14;    ///< the reference's speed while cruising through the posture
+    double ramp_s = 0.5;                ///< the reference speeds up and slows down over this at each end of a sweep
+    double window_rad = 0.044;          ///< averaged while the reference is within this of the posture
+    double move_s = 2.5;                ///< to the start of a posture's sweeps
+    double settle_s = 0.5;              ///< at rest before each sweep
+    double min_speed_fraction = 0.5;    ///< refuse when a joint moved slower than this x the reference in a window (the cables held it)
+    /// After each window, this x the PD's mean torque in it joins the rig's friction feed-forward for
+    /// that direction (0: PD alone).
+    double friction_learning_gain = 0.8;
     double stiffness_Nm_per_rad[2] = {100, 40};  ///< PD while the rig drives the arm (SFE, EFE)
     double damping_Nms_per_rad[2] = {12, 3};
     double max_residual_rms_Nm = 0.5;   ///< refuse a fit with a larger residual
