@@ -13,7 +13,7 @@ constexpr const char* kFlagNames[kFaultFlagCount] = {
     "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
     "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
     "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
-    "joint_range"};
+    "joint_range",       "loadcell_step"};
 
 constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
@@ -32,6 +32,7 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // loaded arm (the fault matrix: 115-414 deg/s): keep what the muscles hold, motor off
     SafeAction::kDescend, // joint_speed: the governor brakes the motion and lowers the joint slowly
     SafeAction::kDescend, // joint_range: back inside the range, then down to its end, slowly
+    SafeAction::kDescend, // loadcell_step: a load-cell fault as the others
 };
 
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
@@ -67,6 +68,8 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_saturated_N = m.number_or("loadcell_saturated_N", p.loadcell_saturated_N, {100, 20000});
   p.loadcell_tolerance_N = m.number_or("loadcell_tolerance_N", p.loadcell_tolerance_N, {0, 5000});
   p.loadcell_tolerance_fraction = m.number_or("loadcell_tolerance_fraction", p.loadcell_tolerance_fraction, {0, 10});
+  p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 1e5});
+  p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 10});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
   p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 1}) * 1e6;
   p.valve_dead_time_s = m.number_or("valve_dead_time_s", p.valve_dead_time_s, {0, 0.05});
@@ -113,7 +116,10 @@ void FaultMonitor::clear() noexcept {
   reason_[0] = '\0';
   synced_ = false;
   for (auto& j : joints_) {
-    for (auto& m : j.muscle) m.taut = false, m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = 0;
+    for (auto& m : j.muscle) {
+      m.taut = m.has_level = false;
+      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = 0;
+    }
     j.same_angle = 0;
     j.follow_since_s = -1;
     j.governor = {};
@@ -128,6 +134,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
   const MonitorParams& p = params_;
   if (!p.enabled) return;
   const int delay_cycles = std::clamp(static_cast<int>(std::lround(p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
+  const double step_alpha = 1.0 - std::exp(-period_s_ / p.loadcell_step_filter_s);  // the step check's level filter
   const int slow_delay_cycles =
       std::clamp(static_cast<int>(std::lround(p.valve_slow_factor * p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
   int low_muscles = 0;
@@ -219,6 +226,21 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       if (ms.disagree >= p.confirm_cycles) raise(kFaultLoadcellDisagrees, j, m, cell - model_N, tolerance);
       ms.low_tension = p.tension_checked[ji] && ms.taut && cell < floor_N ? ms.low_tension + 1 : 0;
       if (ms.low_tension >= p.confirm_cycles) raise(kFaultTensionFloor, j, m, cell, floor_N);
+      // Step (after the floor, so that a wire break that trips both is named by its floor): the cell leaves the pressure model's company at once. The model follows the measured
+      // pressure, so a real force change moves both; a bias or a slipped clamp moves the cell alone.
+      const double disagreement_N = cell - model_N;
+      // Armed with the slack checks (outputs followed for tension_arm_s, wire taut since): a start-up
+      // vent or refill moves the pressure faster than the muscle's force follows it.
+      if (!ms.has_level || !outputs_follow || !ms.taut) {
+        ms.disagreement_level_N = disagreement_N;
+        ms.has_level = true;
+        ms.step = 0;
+      } else {
+        const double jump_N = disagreement_N - ms.disagreement_level_N;
+        ms.step = std::abs(jump_N) > p.loadcell_step_N ? ms.step + 1 : 0;
+        if (ms.step >= p.confirm_cycles) raise(kFaultLoadcellStep, j, m, jump_N, p.loadcell_step_N);
+        ms.disagreement_level_N += step_alpha * jump_N;
+      }
       // Pressure sensor against the valve's dynamics.
       if (pressure > model->supply_pressure_Pa + p.pressure_over_supply_Pa) {
         raise(kFaultPressureOverSupply, j, m, pressure, model->supply_pressure_Pa + p.pressure_over_supply_Pa);

@@ -167,6 +167,36 @@ std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
   return monitor.flags();
 }
 
+/// Flags after a taut agonist whose cell moves by `change_N` over `over_s` at constant pressure.
+std::uint32_t flags_after_a_cell_moves(double change_N, double over_s) {
+  safety::MonitorParams p;
+  p.enabled = true;
+  safety::FaultMonitor monitor(p, 1e-3);
+  E1JointView view;
+  io::SensorState& state = view.state;
+  state.joints[0].agonist_pressure_Pa = 0.1e6;
+  state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  for (int k = 0; k < 4000; ++k) {  // 1.5 s taut, then the change, then the rest of 4 s
+    state.time_s = 1e-3 * k;
+    const double noise_N = 0.01 * (k % 7);
+    const double t_change = state.time_s - 1.5;
+    const double moved = t_change <= 0 ? 0.0 : change_N * std::min(1.0, over_s > 0 ? t_change / over_s : 1.0);
+    state.joints[0].agonist_loadcell_N = 60.0 + moved + noise_N;
+    state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
+    view.check(monitor, true);
+  }
+  return monitor.flags();
+}
+
+// A cell that jumps 150 N while the pressure stays is a load-cell fault (a bias, a slipped clamp);
+// the same 150 N arriving over 2 s (a drift the model's error can have) is not a step, and the
+// disagreement check (300 N + 60 %) judges it instead.
+TEST(FaultMonitor, ALoadCellStepIsRaisedButASlowDriftIsNot) {
+  EXPECT_TRUE(flags_after_a_cell_moves(150.0, 0.0) & safety::kFaultLoadcellStep);
+  EXPECT_FALSE(flags_after_a_cell_moves(150.0, 2.0) & safety::kFaultLoadcellStep);
+  EXPECT_FALSE(flags_after_a_cell_moves(60.0, 0.0) & safety::kFaultLoadcellStep);  // below the 100 N step
+}
+
 TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {
   EXPECT_TRUE(flags_after_a_taut_wire_reads_zero(true) & safety::kFaultLoadcellDisconnected);
   EXPECT_FALSE(flags_after_a_taut_wire_reads_zero(false) & safety::kFaultLoadcellDisconnected);
@@ -217,14 +247,29 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
 }
 
 // A joint running away (here: a +400 N load-cell bias that the controller's force trim turns into a
-// falling link) is caught by its speed (90 deg/s) and descends instead of holding: no limit
-// exceeded. With the old 229 deg/s threshold and hold, the link reached the stop (1 limit).
+// falling link, with the load-cell step check off so that only the speed sees it) is caught by its
+// speed (90 deg/s) and descends instead of holding: no limit exceeded. With the old 229 deg/s
+// threshold and hold, the link reached the stop (1 limit).
 TEST(Descend, ARunawayCaughtByItsSpeedIsBrakedInsideTheRange) {
-  const experiments::FaultRow r = matrix_row(e1(), sim::FaultKind::kLoadcellBias);
+  experiments::E1Scenario s = e1();
+  s.limits.monitor.disabled_checks = safety::kFaultLoadcellStep;
+  const experiments::FaultRow r = matrix_row(std::move(s), sim::FaultKind::kLoadcellBias);
   EXPECT_EQ(r.flag, "joint_speed");
   EXPECT_EQ(r.safe_state, "descend");
   EXPECT_EQ(r.limits_exceeded, 0);
   EXPECT_LE(r.peak_speed_degps, 120.0);  // measured 97
+}
+
+// The same +400 N bias with the step check on: the cell leaves the pressure model's company in one
+// sample, and loadcell_step catches it in 3 cycles (confirm_cycles) where the speed check needed
+// about 200 (holding) to 2000 (during a push) - the link never starts to fall.
+TEST(FaultMatrix, ALoadCellBiasIsCaughtByItsStepBeforeTheLinkMoves) {
+  const experiments::FaultRow r = matrix_row(e1(), sim::FaultKind::kLoadcellBias);
+  EXPECT_EQ(r.flag, "loadcell_step");
+  EXPECT_LE(r.detection_cycles, 5.0);
+  EXPECT_EQ(r.safe_state, "descend");
+  EXPECT_EQ(r.limits_exceeded, 0);
+  EXPECT_LT(r.peak_speed_degps, 60.0);  // the descent's first cycles, not a fall (measured 36.4)
 }
 
 // Where no safe state can keep a limit (a wire breaks under load: 0 N whatever is commanded), the row

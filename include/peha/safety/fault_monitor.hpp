@@ -58,8 +58,9 @@ enum FaultFlag : std::uint32_t {
   kFaultEncoderFrozen = 1u << 13,
   kFaultJointSpeed = 1u << 14,
   kFaultJointRange = 1u << 15,
+  kFaultLoadcellStep = 1u << 16,
 };
-inline constexpr int kFaultFlagCount = 16;
+inline constexpr int kFaultFlagCount = 17;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -91,6 +92,11 @@ struct MonitorParams {
   int loadcell_stuck_cycles = 5;              ///< the same reading this often: stuck (a live cell has noise)
   double loadcell_tolerance_N = 300.0;
   double loadcell_tolerance_fraction = 0.6;
+  /// A load cell that jumps away from the pressure model: |(cell - model) - its recent level| above
+  /// this for confirm_cycles (a bias, a slipping clamp, a broken cell). The recent level follows the
+  /// disagreement with a time constant of loadcell_step_filter_s, so the model's slow errors pass.
+  double loadcell_step_N = 100.0;
+  double loadcell_step_filter_s = 0.05;
   double tension_floor_fraction = 0.3;        ///< of the joint's pretension: a wire near slack (the verdict judges 0.5)
   double pressure_tolerance_Pa = 0.06e6;
   double pressure_over_supply_Pa = 0.05e6;    ///< measured above supply by more than this
@@ -175,6 +181,9 @@ class FaultMonitor {
     int head = 0;
     double setpoint_Pa = 0, predicted_Pa = 0;            ///< the modelled valve
     double slow_setpoint_Pa = 0, slow_predicted_Pa = 0;  ///< the envelope's slow valve
+    double disagreement_level_N = 0;  ///< low-passed (cell - model) for the step check
+    bool has_level = false;
+    int step = 0;
   };
   /// The descend governor of one joint (docs/safety.md): state from the fault on, output per sample.
   struct Governor {
