@@ -13,7 +13,7 @@ constexpr const char* kFlagNames[kFaultFlagCount] = {
     "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
     "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
     "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
-    "joint_range",       "loadcell_step"};
+    "joint_range",       "loadcell_step",        "estop"};
 
 constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
@@ -33,6 +33,7 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kDescend, // joint_speed: the governor brakes the motion and lowers the joint slowly
     SafeAction::kDescend, // joint_range: back inside the range, then down to its end, slowly
     SafeAction::kDescend, // loadcell_step: a load-cell fault as the others
+    SafeAction::kVent,    // estop: the hardware has already cut valves and motor (stop category 0)
 };
 
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }

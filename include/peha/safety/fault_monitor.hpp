@@ -59,8 +59,9 @@ enum FaultFlag : std::uint32_t {
   kFaultJointSpeed = 1u << 14,
   kFaultJointRange = 1u << 15,
   kFaultLoadcellStep = 1u << 16,
+  kFaultEstop = 1u << 17,
 };
-inline constexpr int kFaultFlagCount = 17;
+inline constexpr int kFaultFlagCount = 18;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -166,6 +167,10 @@ class FaultMonitor {
   /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
   void clear() noexcept;
   const MonitorParams& params() const noexcept { return params_; }
+
+  /// The backend reports an e-stop (its input line, the board's status, or estop()): latched as the
+  /// flag `estop` at the sample's time, so that logs, verdicts and the fault matrix name it.
+  void estop_reported() noexcept { raise(kFaultEstop, -1, -1, 1.0, 0.0); }
 
  private:
   void raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept;

@@ -38,7 +38,9 @@ class LimitedBackend final : public io::Backend {
     const bool fresh = inner_.read(state);
     if (fresh) {
       last_state_ = state;
-      monitor_.check_sample(state, joints_, min_angle_, max_angle_, inner_.status().active);
+      const io::BackendStatus status = inner_.status();
+      monitor_.check_sample(state, joints_, min_angle_, max_angle_, status.active);
+      if (status.estop) monitor_.estop_reported();
     }
     return fresh;
   }
