@@ -90,9 +90,10 @@ Command add_run(CLI::App& app) {
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
       "without it, type r + Enter on the terminal to recover")->check(peha::app::decimal())->check(CLI::Range(0.0, 3600.0));
   run_cmd->add_option("--fault", run.faults,
-                      "E1 in-process only (repeatable): inject a plant fault KIND@T[:TARGET[=VALUE]] at T s, TARGET\n"
-                      "[JOINT.]agonist|antagonist for muscle faults, VALUE for loadcell_bias (N), encoder_jump (deg),\n"
-                      "wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
+                      "E1 and the right arm's E3 (--experiment postures), in process only (repeatable): inject a plant\n"
+                      "fault KIND@T[:TARGET[=VALUE]] at T s, TARGET [JOINT.]agonist|antagonist for muscle faults, JOINT\n"
+                      "for the others (E1: joint; the arm: R_SFE|R_EFE|R_WFE; default the first), VALUE for loadcell_bias\n"
+                      "(N), encoder_jump (deg), wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
   run_cmd->add_option("--gravity-identification", run.gravity_identification,
                       "Right-arm scenarios only: the controller's gravity parameters identified on the rig (a file from\n"
                       "peha identify-gravity) instead of the nominal arm model (docs/identification.md)")

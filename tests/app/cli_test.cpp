@@ -217,6 +217,11 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
       {"run --telemetry udp://127.0.0.1:9870" + e1, "--telemetry", "--backend"},
       {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
        "in-process"},
+      // Plant faults: E1 and E3 in process; on the arm named by its joints.
+      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "E1 and the right arm's E3"},
+      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "E1 and the right arm's E3"},
+      {"run --experiment postures --backend udp://127.0.0.1:9 --fault estop@1" + arm, "--fault", "faults: list"},
+      {"run --experiment postures --fault wire_break@9:joint.agonist" + arm, "--fault", "R_SFE|R_EFE|R_WFE"},
   };
   for (const auto& r : refused) {
     const Result result = run(r.args);

@@ -31,7 +31,7 @@ struct RunOptions {
   std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
   bool telemetry_remote = false;              ///< --telemetry-remote: the telemetry may leave this machine
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
-  std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1
+  std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1 and E3
   std::filesystem::path gravity_identification;  ///< right arm: the controller's gravity parameters from peha identify-gravity
 };
 
