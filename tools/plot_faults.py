@@ -1,8 +1,8 @@
 #!/usr/bin/python3
-"""Fault matrix picture (`peha faults --config configs/e1_one_dof.yaml`).
+"""Fault matrix picture (`peha faults --config configs/e1_one_dof.yaml` or `configs/right_arm.yaml`).
 
 Reads RUN_DIR/faults.csv and writes RUN_DIR/faults.png: one row per fault kind, one column per
-moment (holding, push, after_release). Each cell is coloured by the control cycles from the fault to
+moment (E1: holding, push, after_release; E3: holding, moving). Each cell is coloured by the control cycles from the fault to
 its detection (green <= 5, amber later, red not detected) and shows the flag that caught it and the
 safe state; a black frame marks a limit exceeded, a dashed one an incomplete log. Run with
 /usr/bin/python3.
@@ -59,7 +59,10 @@ def main():
     ax.set_ylim(len(faults), 0)
     ax.set_xticks([i + 0.5 for i in range(len(moments))], moments)
     ax.set_yticks([i + 0.5 for i in range(len(faults))], faults)
-    title = "Fault matrix, E1 in process: detection (green <= 5 cycles, amber later, red none); frame = limit exceeded\n(dotted where physics forbids any safe state to keep it, solid = a miss of the designed outcome)"
+    experiment = (rows or nominal or [{}])[0].get("experiment", "E1")
+    where = {"E1": "E1 in process", "E3": "E3 on the right arm in process, faults on R_EFE"}.get(experiment, experiment)
+    title = (f"Fault matrix, {where}\ndetection: green <= 5 cycles, amber later, red none; frame = limit exceeded\n"
+             "(dotted where physics forbids any safe state to keep it, solid = a miss of the designed outcome)")
     if nominal:
         title += "\nnominal run without a fault: " + ("faulted by " + nominal[0]["flag"] if nominal[0]["detected"] == "1" else "no fault")
     ax.set_title(title, fontsize=9)

@@ -1,7 +1,9 @@
-// `peha faults`: the fault matrix on E1 in process (docs/safety.md): every injectable fault at
-// each moment, its detection, safe state and what the plant did; a table, a CSV and a PNG.
+// `peha faults`: the fault matrix in process (docs/safety.md) on E1 (a gravity_compensation_1dof
+// scenario) or E3 (a right_arm scenario): every injectable fault at each moment, its detection,
+// safe state and what the plant did; a table, a CSV and a PNG.
 #include "peha/app/commands.hpp"
 #include "peha/app/cli_checks.hpp"
+#include "peha/app/registry.hpp"
 #include "peha/app/run_dir.hpp"
 #include "peha/experiments/faults/fault_matrix.hpp"
 #include "peha/experiments/run_request.hpp"
@@ -10,38 +12,69 @@
 
 #include <cmath>
 #include <cstdio>
+#include <stdexcept>
 
 namespace peha::app {
+namespace {
+
+/// Throws UsageError unless every --moment is one of `moments` (the experiment's).
+void check_moments(const std::vector<std::string>& wanted, const std::vector<experiments::FaultMoment>& moments, const char* experiment) {
+  try {
+    experiments::select_fault_moments(moments, wanted, experiment);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(fmt::format("--moment: {}", e.what()));
+  }
+}
+
+}  // namespace
 
 int faults(const FaultsOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
-    const experiments::E1Scenario scenario = experiments::read_e1(doc);
+    // The scenario's kind says which experiment's matrix runs, as for `peha run`.
+    const std::string kind = find_experiment(doc).key;
+    if (kind != "gravity_compensation_1dof" && kind != "right_arm") {
+      throw UsageError(fmt::format("{} is a {} scenario: peha faults runs E1 (gravity_compensation_1dof) or E3 (right_arm)", doc.name(), kind));
+    }
+    const bool arm = kind == "right_arm";
     experiments::FaultMatrixOptions m;
     m.case_name = options.case_name;
     for (const std::string& k : options.kinds) {
       bool found = false;
-      for (sim::FaultKind kind : sim::all_fault_kinds()) {
-        if (k == sim::fault_kind_name(kind)) m.kinds.push_back(kind), found = true;
+      for (sim::FaultKind fault : sim::all_fault_kinds()) {
+        if (k == sim::fault_kind_name(fault)) m.kinds.push_back(fault), found = true;
       }
       if (!found) throw UsageError(fmt::format("--fault-kind '{}': expected one of {}", k, sim::fault_kind_list()));
     }
     m.moments = options.moments;
+    std::optional<experiments::E1Scenario> e1;
+    std::optional<experiments::ArmScenario> e3;
+    if (arm) {
+      if (!options.case_name.empty()) throw UsageError("--case: E3 has no cases (it is for an E1 scenario's payload case)");
+      e3 = experiments::read_arm_scenario(doc);
+      check_moments(m.moments, experiments::e3_fault_moments(*e3), "E3");
+    } else {
+      e1 = experiments::read_e1(doc);
+      check_moments(m.moments, experiments::e1_fault_moments(*e1), "E1");
+    }
     RunDir run_dir(options.config, options.out_root, options.run_name);
-    const std::filesystem::path dir = run_dir.create(scenario.seed);
-    fmt::print("peha faults: {} (E1 in process, plausibility stage on); output {}\n", doc.name(), dir.string());
+    const std::filesystem::path dir = run_dir.create(arm ? e3->seed : e1->seed);
+    fmt::print("peha faults: {} ({} in process, plausibility stage on{}); output {}\n", doc.name(), arm ? "E3 postures on the right arm" : "E1",
+               arm ? fmt::format(", faults on {}", experiments::kE3FaultJoint) : std::string(), dir.string());
     std::fflush(stdout);
     std::size_t n = 0;
-    const auto rows = experiments::run_fault_matrix(scenario, m, [&](const experiments::FaultRow& r) {
-      fmt::print("  [{}] {:<22} {:<14} {:<13}: {:<24} {:>4} cycles, {:<7} peak {:>6.0f} N, {:>6.1f} deg/s, T_min {:>6.1f} N, "
+    auto print_row = [&](const experiments::FaultRow& r) {
+      auto at = [&](const std::string& joint) { return arm ? fmt::format(" {:<5}", joint) : std::string(); };  // the arm: which joint
+      fmt::print("  [{}] {:<22} {:<14} {:<13}: {:<24} {:>4} cycles, {:<7} peak {:>6.0f} N{}, {:>6.1f} deg/s{}, T_min {:>6.1f} N{}, "
                  "limits exceeded {}{}{}\n",
                  ++n, r.fault, r.target, r.moment, r.detected ? r.flag : "NOT DETECTED",
                  std::isfinite(r.detection_cycles) ? fmt::format("{:.0f}", r.detection_cycles) : "-", r.safe_state, r.peak_force_N,
-                 r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids.empty() ? "" : " (physics forbids)",
-                 r.log_complete ? "" : ", LOG INCOMPLETE");
+                 at(r.peak_force_joint), r.peak_speed_degps, at(r.peak_speed_joint), r.min_tension_N, at(r.min_tension_joint),
+                 r.limits_exceeded, r.physics_forbids.empty() ? "" : " (physics forbids)", r.log_complete ? "" : ", LOG INCOMPLETE");
       std::fflush(stdout);
-    });
-    experiments::write_fault_matrix(dir, rows, doc.name());
+    };
+    const auto rows = arm ? experiments::run_fault_matrix(*e3, m, print_row) : experiments::run_fault_matrix(*e1, m, print_row);
+    experiments::write_fault_matrix(dir, rows, doc.name(), m.after_fault_s);
     std::size_t missed = 0, slow = 0, exceeded = 0, forbidden = 0, false_alarm = 0;
     for (const auto& r : rows) {
       if (r.fault == "none") {

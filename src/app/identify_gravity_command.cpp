@@ -15,6 +15,11 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     const config::Document doc = config::Document::load_file(options.config);
     experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
     refuse_output_equal_to_input(options.out, {options.config, scenario.gravity_identification_file});
+    if (!scenario.faults.empty()) {
+      fmt::print(stderr, "config error: {}: its faults: list is injected in E3 (--experiment postures) only, not in the "
+                         "identification: remove it for this run\n", options.config.string());
+      return 2;
+    }
     if (!scenario.identification) {
       fmt::print(stderr, "config error: {}: no identification: section (the postures to identify on)\n", options.config.string());
       return 2;

@@ -90,9 +90,10 @@ Command add_run(CLI::App& app) {
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
       "without it, type r + Enter on the terminal to recover")->check(peha::app::decimal())->check(CLI::Range(0.0, 3600.0));
   run_cmd->add_option("--fault", run.faults,
-                      "E1 in-process only (repeatable): inject a plant fault KIND@T[:TARGET[=VALUE]] at T s, TARGET\n"
-                      "[JOINT.]agonist|antagonist for muscle faults, VALUE for loadcell_bias (N), encoder_jump (deg),\n"
-                      "wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
+                      "E1 and the right arm's E3 (--experiment postures), in process only (repeatable): inject a plant\n"
+                      "fault KIND@T[:TARGET[=VALUE]] at T s, TARGET [JOINT.]agonist|antagonist for muscle faults, JOINT\n"
+                      "for the others (E1: joint; the arm: R_SFE|R_EFE|R_WFE; default the first), VALUE for loadcell_bias\n"
+                      "(N), encoder_jump (deg), wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
   run_cmd->add_option("--gravity-identification", run.gravity_identification,
                       "Right-arm scenarios only: the controller's gravity parameters identified on the rig (a file from\n"
                       "peha identify-gravity) instead of the nominal arm model (docs/identification.md)")
@@ -299,15 +300,19 @@ Command add_faults(CLI::App& app) {
   auto o = std::make_shared<peha::app::FaultsOptions>();
   CLI::App* cmd = app.add_subcommand(
       "faults", "Run the fault matrix (docs/safety.md): every fault the simulated plant can inject, at several moments\n"
-                "of E1 (holding, during a push, after a release), in process with the supervisor's plausibility stage on.\n"
-                "Prints one line per fault; writes <out>/<run>/faults.md, faults.csv and faults.png. Exit code 0 = no\n"
-                "false alarm, every fault detected within 5 cycles, no limit exceeded; 3 otherwise; 2 = bad input.");
-  cmd->add_option("-c,--config", o->config, "E1 scenario YAML, e.g. configs/e1_one_dof.yaml")->required()->check(CLI::ExistingFile);
+                "of E1 (holding, during a push, after a release) or, for a right_arm scenario, of E3 on the elbow R_EFE\n"
+                "(holding a posture, while the operator moves the arm), in process with the supervisor's plausibility\n"
+                "stage on. Prints one line per fault; writes <out>/<run>/faults.md, faults.csv and faults.png. Exit code\n"
+                "0 = no false alarm, every fault detected within 5 cycles, no limit exceeded unless physics forbids it;\n"
+                "3 otherwise; 2 = bad input.");
+  cmd->add_option("-c,--config", o->config, "E1 or right-arm scenario YAML: configs/e1_one_dof.yaml, configs/right_arm.yaml")
+      ->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--out", o->out_root, "Directory under which the run directory is created")->capture_default_str();
   cmd->add_option("-n,--name", o->run_name, "Run directory name (default: <config stem>-<UTC time>)")->check(peha::app::run_name());
-  cmd->add_option("--case", o->case_name, "E1 case (default: the first)");
+  cmd->add_option("--case", o->case_name, "E1 case (default: the first); E3 has none");
   cmd->add_option("--fault-kind", o->kinds, "Only these fault kinds (repeatable)");
-  cmd->add_option("--moment", o->moments, "Only these moments (repeatable)")->check(CLI::IsMember({"holding", "push", "after_release"}));
+  cmd->add_option("--moment", o->moments, "Only these moments (repeatable): E1 holding|push|after_release, E3 holding|moving")
+      ->check(CLI::IsMember({"holding", "push", "after_release", "moving"}));
   cmd->add_flag("!--no-plot", o->plot, "Do not render faults.png (no Python needed)");
   return {cmd, [o] { return peha::app::faults(*o); }};
 }

@@ -105,10 +105,20 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
 using ArmRun = int (*)(const config::Document&, const experiments::ArmScenario&, const experiments::RunRequest&,
                        std::optional<runtime::RealtimeRunOptions>);
 
+/// A right-arm scenario's `faults:` list is E3's: the other experiments refuse it (with a message).
+bool refuse_arm_faults(const config::Document& doc, const experiments::ArmScenario& scenario, const char* what) {
+  if (scenario.faults.empty()) return false;
+  fmt::print(stderr, "config error: {}: its faults: list is injected in E3 (--experiment postures) only, not in {}: "
+                     "remove it for this run\n", doc.name(), what);
+  return true;
+}
+
 /// The right arm's scenario with the request's seed and force trim; over the board, its mfb:
-/// section and the real-time options are checked before `run` writes anything.
-int run_arm(const config::Document& doc, const experiments::RunRequest& request, ArmRun run) {
+/// section and the real-time options are checked before `run` writes anything. `what` names the
+/// experiment; only E3 (`takes_faults`) takes the scenario's faults: list.
+int run_arm(const config::Document& doc, const experiments::RunRequest& request, ArmRun run, const char* what, bool takes_faults) {
   experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
+  if (!takes_faults && refuse_arm_faults(doc, scenario, what)) return 2;
   if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
   if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;
   if (!request.gravity_identification.empty()) experiments::use_gravity_identification(scenario, request.gravity_identification);
@@ -150,6 +160,7 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
   const auto& g = scenario->goniometer;
   for (std::size_t i = 0; i < g.movements.size(); ++i) {
     if (options.case_name != "goniometer_" + g.movements[i].name) continue;
+    if (refuse_arm_faults(doc, *scenario, "E4 (goniometer)")) return std::nullopt;
     if (!board.map.has_goniometer(1)) {
       fmt::print(stderr, "config error: {}: no R_EFE.goniometer channel to put the person's elbow on\n",
                  scenario->link->channel_map.string());
@@ -179,6 +190,7 @@ const Refusal kNoArmCalibration[] = {
 const std::string kIdentificationElsewhere =
     "gravity identification files are for the right arm (a right_arm scenario; peha identify-gravity)";
 const std::string kCsvElsewhere = "a recorded goniometer drives the right arm's E4 only (--experiment goniometer)";
+const std::string kFaultsElsewhere = "plant faults are injected in E1 and the right arm's E3 (--experiment postures)";
 
 std::vector<Refusal> arm_refusals(std::vector<Refusal> more) {
   more.insert(more.begin(), std::begin(kNoArmCalibration), std::end(kNoArmCalibration));
@@ -210,27 +222,28 @@ std::vector<ExperimentEntry> make_registry() {
                check_e5, e5_board});
   r.push_back({"right_arm", "right-arm",
                "the right arm (configs/right_arm.yaml): E3 postures, E4 goniometer, E6 bandwidth (--experiment)",
-               {{"postures", "E3 postures", {"--force-trim-rate", "--backend", "--gravity-identification"},
+               {{"postures", "E3 postures", {"--force-trim-rate", "--backend", "--gravity-identification", "--fault"},
                  arm_refusals({{"--case", "E3 runs every posture in one script (--case picks a movement of --experiment goniometer)"},
                                {"--goniometer-csv", kCsvElsewhere}}),
-                 {},
+                 {{"--fault", "over the board the plant is the emulator's: give the faults in the scenario's faults: list"}},
                  [](const config::Document& doc, const experiments::RunRequest& request) {
-                   return run_arm(doc, request, experiments::run_postures_experiment);
+                   return run_arm(doc, request, experiments::run_postures_experiment, "E3 (postures)", true);
                  }},
                 {"goniometer", "E4 goniometer", {"--case", "--goniometer-csv", "--force-trim-rate", "--backend", "--gravity-identification"},
-                 arm_refusals({}),
+                 arm_refusals({{"--fault", kFaultsElsewhere}}),
                  {{"--goniometer-csv", "over the board the goniometer is the board's AD channel; --goniometer-csv is for in-process runs"}},
                  [](const config::Document& doc, const experiments::RunRequest& request) {
-                   return run_arm(doc, request, experiments::run_goniometer_experiment);
+                   return run_arm(doc, request, experiments::run_goniometer_experiment, "E4 (goniometer)", false);
                  }},
                 {"bandwidth", "E6 bandwidth", {"--force-trim-rate", "--gravity-identification"},
                  arm_refusals({{"--case", "E6 sweeps every frequency of the scenario (--case picks a movement of --experiment goniometer)"},
                                {"--goniometer-csv", kCsvElsewhere},
                                {"--backend", "E6 (--experiment bandwidth) runs in-process only: it needs the joint's true delivered "
-                                             "torque, which no board sensor measures"}}),
+                                             "torque, which no board sensor measures"},
+                               {"--fault", kFaultsElsewhere}}),
                  {},
                  [](const config::Document& doc, const experiments::RunRequest& request) {
-                   return run_arm(doc, request, run_bandwidth);
+                   return run_arm(doc, request, run_bandwidth, "E6 (bandwidth)", false);
                  }}},
                check_arm, arm_board});
   return r;

@@ -10,6 +10,8 @@
 namespace peha::sim {
 namespace {
 
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+
 /// The plant's bodies with `unknown_kg` added to the body "payload": still a steel sphere at the
 /// hand's centre of mass (as models::build_arm_model makes it), so its inertia grows as m^(5/3).
 models::ArmModel with_unknown_payload(models::ArmModel model, double unknown_kg) {
@@ -34,10 +36,19 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
     : params_(params),
       model_(load_arm_mjcf(arm_mjcf(with_unknown_payload(params.model, params.unknown_hand_payload_kg), params.mjcf))),
       rng_(params.seed),
-      gate_(params.control_period_s, kSafeVent_s) {
+      gate_(params.control_period_s, kSafeVent_s),
+      fault_applied_(params.faults.size(), 0),
+      encoder_offset_rad_(params.actuated.size(), 0.0),
+      encoder_frozen_(params.actuated.size(), 0) {
   mjModel* m = model_.get();
   if (params_.actuated.size() != params_.actuators.size() || params_.actuated.size() > io::kMaxJoints) {
     throw std::invalid_argument("right arm: one actuator per actuated joint, at most io::kMaxJoints");
+  }
+  for (const PlantFault& f : params_.faults) {
+    if (f.joint < 0 || static_cast<std::size_t>(f.joint) >= params_.actuated.size()) {
+      throw std::invalid_argument(fmt::format("right arm: fault {} targets actuated joint {}, the arm has {}",
+                                              fault_kind_name(f.kind), f.joint, params_.actuated.size()));
+    }
   }
   if (static_cast<int>(params_.initial_q_rad.size()) != m->nq) {
     throw std::invalid_argument(fmt::format("right arm: initial_q has {} values, the model {} joints",
@@ -134,7 +145,7 @@ void RightArmBackend::sample() noexcept {
     truth_.bias_torque_Nm[a] = d->qfrc_bias[dof];
     io::JointSensors& s = state_.joints[a];
     const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
-    s.angle_rad = encoder_angle_rad(angle, params_.encoder_counts_per_rev);
+    if (!encoder_frozen_[a]) s.angle_rad = encoder_angle_rad(angle + encoder_offset_rad_[a], params_.encoder_counts_per_rev);
     joints_[a].sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   }
   state_.time_s = d->time;
@@ -147,8 +158,30 @@ bool RightArmBackend::read(io::SensorState& state) noexcept {
   return true;
 }
 
+void RightArmBackend::apply_faults(double t_s) noexcept {
+  for (std::size_t i = 0; i < params_.faults.size(); ++i) {
+    const PlantFault& f = params_.faults[i];
+    if (fault_applied_[i] || t_s + 1e-9 < f.time_s) continue;
+    fault_applied_[i] = 1;
+    const auto a = static_cast<std::size_t>(f.joint);
+    switch (f.kind) {
+      case FaultKind::kSupplyZero:
+      case FaultKind::kSupplyHalf:
+        for (PehaJointPlant& j : joints_) apply_joint_fault(f, j.faults());  // one supply feeds every joint
+        break;
+      case FaultKind::kEncoderJump: encoder_offset_rad_[a] += f.value * kDegToRad; break;
+      case FaultKind::kEncoderFrozen: encoder_frozen_[a] = 1; break;
+      case FaultKind::kEstop: gate_.estop(); break;
+      default: apply_joint_fault(f, joints_[a].faults()); break;
+    }
+  }
+}
+
 bool RightArmBackend::write(const io::Command& command) noexcept {
   if (command.joint_count != static_cast<int>(joints_.size())) return false;
+  apply_faults(data_->time);
+  // Vented (not active): the board's dump valves empty the chambers past a stuck valve.
+  for (PehaJointPlant& j : joints_) j.faults().dump = !gate_.status().active;
   const io::Command& applied = gate_.apply(command);
   for (int i = 0; i < substeps_; ++i) substep(applied);
   sample();

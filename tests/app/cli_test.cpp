@@ -113,6 +113,29 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
 
 // `peha robustness` documents itself and rejects a bad matrix file (exit 2, file:line:column) and an
 // unknown variant before it runs anything.
+// `peha faults` picks E1 or E3 from the scenario's experiment: key and refuses what that experiment
+// lacks before it writes anything.
+TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_faults";
+  std::filesystem::remove_all(out);
+  const std::string common = " --no-plot --out " + out.string() + " --config " + PEHA_SOURCE_DIR;
+  EXPECT_THAT(run("faults --help").output, HasSubstr("right_arm"));
+  const struct {
+    std::string args, detail;
+  } refused[] = {
+      {"faults" + common + "/configs/e5_max_force.yaml", "peha faults runs E1 (gravity_compensation_1dof) or E3 (right_arm)"},
+      {"faults --case payload_2.5kg" + common + "/configs/right_arm.yaml", "E3 has no cases"},
+      {"faults --moment moving" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'moving' (it has holding|push|after_release)"},
+      {"faults --moment push" + common + "/configs/right_arm.yaml", "E3 has no moment 'push' (it has holding|moving)"},
+  };
+  for (const auto& r : refused) {
+    const Result result = run(r.args);
+    EXPECT_EQ(result.code, 2) << r.args << "\n" << result.output;
+    EXPECT_THAT(result.output, HasSubstr(r.detail)) << r.args;
+  }
+  EXPECT_FALSE(std::filesystem::exists(out));  // nothing written
+}
+
 TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   const Result help = run("robustness --help");
   EXPECT_EQ(help.code, 0);
@@ -217,6 +240,11 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
       {"run --telemetry udp://127.0.0.1:9870" + e1, "--telemetry", "--backend"},
       {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
        "in-process"},
+      // Plant faults: E1 and E3 in process; on the arm named by its joints.
+      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "E1 and the right arm's E3"},
+      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "E1 and the right arm's E3"},
+      {"run --experiment postures --backend udp://127.0.0.1:9 --fault estop@1" + arm, "--fault", "faults: list"},
+      {"run --experiment postures --fault wire_break@9:joint.agonist" + arm, "--fault", "R_SFE|R_EFE|R_WFE"},
   };
   for (const auto& r : refused) {
     const Result result = run(r.args);

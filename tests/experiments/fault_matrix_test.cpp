@@ -1,5 +1,5 @@
-// The fault matrix (peha faults, docs/safety.md) on a small subset: the nominal row, a stuck load
-// cell and a NaN from the controller while holding. The rows report what the monitor did, measured
+// The fault matrix (peha faults, docs/safety.md) on small subsets: E1's nominal row, a stuck load
+// cell and a NaN from the controller while holding; E3's on the right arm's elbow. The rows report what the monitor did, measured
 // from the log: the flag, the cycles to it, and the plant's figures after the fault.
 #include "peha/experiments/faults/fault_matrix.hpp"
 
@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <stdexcept>
 
 #include <unistd.h>
 
@@ -49,6 +50,80 @@ TEST(FaultMatrix, HoldingRowsNameTheFlagTheCyclesAndThePlantsFigures) {
   text << md.rdbuf();
   EXPECT_NE(text.str().find("| loadcell_stuck | joint.agonist | holding | loadcell_stuck |"), std::string::npos) << text.str();
   std::filesystem::remove_all(dir);
+}
+
+// The E3 rows on the right arm, a subset: the nominal run, a stuck load cell on the elbow's agonist and
+// the supply falling to 0, each at `holding` (1 s after the first posture's release: 8.5 s) and
+// `moving` (the middle of the move to the second posture: 18.75 s). Measured (seed 1): the stuck cell
+// latches loadcell_stuck 19 cycles after the fault (the arm's loadcell_stuck_cycles is 20: its
+// shoulder cell repeats codes in nominal runs) and the arm descends without exceeding a limit; the
+// supply loss is unobservable at rest (check valves keep the air, no muscle is asked for more than it
+// holds: nothing moves) and seen as a pressure_low once the operator's move makes the controller ask
+// for more (293 cycles), then descends.
+TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndDescendAfterASupplyLoss) {
+  const ArmScenario s = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  const std::vector<FaultMoment> moments = e3_fault_moments(s);
+  ASSERT_EQ(moments.size(), 2u);
+  EXPECT_NEAR(moments[0].time_s, 8.5, 1e-9);   // first posture released at 7.5 s
+  EXPECT_NEAR(moments[1].time_s, 18.75, 1e-9); // second move from 17.5 s, 2.5 s long
+  FaultMatrixOptions o;
+  o.kinds = {sim::FaultKind::kLoadcellStuck, sim::FaultKind::kSupplyZero};
+  const std::vector<FaultRow> rows = run_fault_matrix(s, o);
+  ASSERT_EQ(rows.size(), 5u);
+  for (const FaultRow& r : rows) {
+    EXPECT_EQ(r.experiment, "E3");
+    EXPECT_TRUE(r.log_complete) << r.fault << " " << r.moment;
+    EXPECT_LE(r.peak_force_N, 2000.0) << r.fault << " " << r.moment;
+  }
+  const FaultRow& nominal = rows[0];
+  EXPECT_EQ(nominal.fault, "none");
+  EXPECT_FALSE(nominal.detected) << nominal.flag;  // no false alarm to 23.75 s
+  EXPECT_EQ(nominal.limits_exceeded, 0);
+
+  const FaultRow& stuck = rows[1];
+  EXPECT_EQ(stuck.fault, "loadcell_stuck");
+  EXPECT_EQ(stuck.target, "R_EFE.agonist");
+  EXPECT_EQ(stuck.moment, "holding");
+  EXPECT_EQ(stuck.flag, "loadcell_stuck");
+  EXPECT_GE(stuck.detection_cycles, 0.0);
+  EXPECT_LE(stuck.detection_cycles, s.limits.monitor.loadcell_stuck_cycles);
+  EXPECT_EQ(stuck.safe_state, "descend");
+  EXPECT_EQ(stuck.limits_exceeded, 0);
+
+  const FaultRow& supply_holding = rows[2];
+  EXPECT_EQ(supply_holding.fault, "supply_zero");
+  EXPECT_EQ(supply_holding.target, "arm");
+  EXPECT_FALSE(supply_holding.detected) << supply_holding.flag;
+  EXPECT_LT(supply_holding.peak_speed_degps, 5.0);
+  EXPECT_EQ(supply_holding.limits_exceeded, 0);
+
+  const FaultRow& supply_moving = rows[4];
+  EXPECT_EQ(supply_moving.fault, "supply_zero");
+  EXPECT_EQ(supply_moving.moment, "moving");
+  EXPECT_TRUE(supply_moving.flag == "pressure_low" || supply_moving.flag == "supply_loss") << supply_moving.flag;
+  EXPECT_EQ(supply_moving.safe_state, "descend");
+  EXPECT_EQ(supply_moving.limits_exceeded, 0);
+  EXPECT_TRUE(supply_moving.physics_forbids.empty());
+
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_fault_matrix_e3_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  write_fault_matrix(dir, rows, "right_arm.yaml");
+  std::stringstream md, csv;
+  md << std::ifstream(dir / "faults.md").rdbuf();
+  csv << std::ifstream(dir / "faults.csv").rdbuf();
+  EXPECT_NE(md.str().find("# Fault matrix: E3"), std::string::npos) << md.str();
+  EXPECT_NE(md.str().find("| loadcell_stuck | R_EFE.agonist | holding | loadcell_stuck |"), std::string::npos) << md.str();
+  EXPECT_EQ(csv.str().rfind("experiment,fault,target,moment,", 0), 0u) << csv.str();
+  EXPECT_NE(csv.str().find("\nE3,supply_zero,arm,moving,"), std::string::npos) << csv.str();
+  std::filesystem::remove_all(dir);
+}
+
+// A moment the experiment does not have is an error, not an empty matrix.
+TEST(FaultMatrix, AMomentTheExperimentLacksIsRefused) {
+  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  FaultMatrixOptions o;
+  o.moments = {"moving"};
+  EXPECT_THROW(run_fault_matrix(s, o), std::invalid_argument);
 }
 
 }  // namespace

@@ -10,6 +10,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
 
 namespace peha::experiments {
 namespace {
@@ -240,6 +245,57 @@ TEST(E3, StartupTareMeasuresTheLoadCellsOffsets) {
     for (int m = 0; m < 2; ++m) EXPECT_NEAR(controller.loadcell_offset_N(j, m), 40.0, 3.0) << j << " " << m;
   }
   EXPECT_EQ(controller.loadcell_offset_N(2, 0), 0.0);
+}
+
+// controller_nan (sim/plant_faults.hpp) is E3's step's part of the fault injection: from its time the
+// command on its joint carries a NaN, which the plausibility stage sees in the same cycle and answers
+// with hold. The run is cut at 10 s (postures_stop_s): the fault is 1 s after the first release.
+TEST(E3, AControllerNanOnTheElbowIsCaughtInItsCycleAndHeld) {
+  ArmScenario s = shipped();
+  s.postures_stop_s = 10.0;
+  EXPECT_DOUBLE_EQ(postures_duration_s(s), 10.0);
+  s.faults = {sim::parse_fault_spec("controller_nan@8.5:R_EFE", arm_joint_names(s), postures_duration_s(s))};
+  const PosturesResult r = run_postures(s, nullptr);
+  ASSERT_EQ(r.faults, 1u) << r.fault_reason;
+  EXPECT_EQ(r.fault_flags, static_cast<std::uint32_t>(safety::kFaultNonFiniteCommand));
+  EXPECT_NE(r.fault_reason.find("nonfinite_command joint 1"), std::string::npos) << r.fault_reason;  // R_EFE
+  EXPECT_NE(r.fault_reason.find("-> hold"), std::string::npos) << r.fault_reason;
+  EXPECT_NE(r.fault_reason.find("at 8.50"), std::string::npos) << r.fault_reason;
+  EXPECT_FALSE(r.within_limits);
+}
+
+// A right-arm scenario's optional faults: list is E3's: read against the arm's joints and E3's script
+// length, put into E3's plant by postures_plant_params, not into the plant E4 and E6 start from.
+TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_arm_faults_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (const char* sub : {"arm", "plant", "mfb"}) {  // the files the scenario names, relative to it
+    std::filesystem::create_directory_symlink(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / sub, dir / sub);
+  }
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
+  std::stringstream shipped_text;
+  shipped_text << in.rdbuf();
+  auto read_with = [&](const std::string& faults) {
+    std::ofstream(dir / "right_arm.yaml") << shipped_text.str() << "\nfaults:\n" << faults;
+    return read_arm_scenario(config::Document::load_file(dir / "right_arm.yaml"));
+  };
+  const ArmScenario s = read_with("  - {kind: wire_break, time_s: 9.0, joint: R_EFE, muscle: antagonist}\n"
+                                  "  - {kind: encoder_jump, time_s: 12.0, joint: R_SFE, value: 5.0}\n");
+  ASSERT_EQ(s.faults.size(), 2u);
+  EXPECT_EQ(s.faults[0].kind, sim::FaultKind::kWireBreak);
+  EXPECT_EQ(s.faults[0].joint, 1);
+  EXPECT_EQ(s.faults[0].muscle, 1);
+  EXPECT_EQ(s.faults[1].joint, 0);
+  EXPECT_DOUBLE_EQ(s.faults[1].value, 5.0);
+  EXPECT_EQ(postures_plant_params(s).faults.size(), 2u);
+  EXPECT_TRUE(s.plant.faults.empty());
+  try {
+    read_with("  - {kind: motor_fault, time_s: 9.0, joint: elbow}\n");
+    ADD_FAILURE() << "a joint the arm does not have was accepted";
+  } catch (const config::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("R_EFE"), std::string::npos) << e.what();
+  }
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

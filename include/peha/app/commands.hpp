@@ -31,7 +31,7 @@ struct RunOptions {
   std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
   bool telemetry_remote = false;              ///< --telemetry-remote: the telemetry may leave this machine
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
-  std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1
+  std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1 and E3
   std::filesystem::path gravity_identification;  ///< right arm: the controller's gravity parameters from peha identify-gravity
 };
 
@@ -122,17 +122,18 @@ struct RobustnessOptions {
 int robustness(const RobustnessOptions& options);
 
 struct FaultsOptions {
-  std::filesystem::path config;           ///< E1 scenario (configs/e1_one_dof.yaml)
+  std::filesystem::path config;           ///< E1 or right-arm scenario (configs/e1_one_dof.yaml, configs/right_arm.yaml)
   std::filesystem::path out_root = "out";
   std::string run_name;                   ///< default: <config stem>-<UTC time stamp>
   std::string case_name;                  ///< E1 case (default: the first)
   std::vector<std::string> kinds;         ///< only these fault kinds (default: all)
-  std::vector<std::string> moments;       ///< only these moments (default: holding, push, after_release)
+  std::vector<std::string> moments;       ///< only these moments (default: E1 holding, push, after_release; E3 holding, moving)
   bool plot = true;                       ///< render faults.png with tools/plot_faults.py
 };
 
-/// `peha faults`: the fault matrix on E1 in process (docs/safety.md). Exit 0 when the nominal run
-/// raised nothing and every fault was detected within 5 cycles with no limit exceeded, else 3.
+/// `peha faults`: the fault matrix in process on E1 or, for a right_arm scenario, E3 (docs/safety.md).
+/// Exit 0 when the nominal run raised nothing and every fault was detected within 5 cycles with no
+/// limit exceeded (or one physics forbids any safe state to keep), else 3; 2 bad input.
 int faults(const FaultsOptions& options);
 
 /// Runs a command body and maps what it throws to the exit codes every command documents:

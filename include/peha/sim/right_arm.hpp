@@ -12,6 +12,7 @@
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/output_gate.hpp"
 #include "peha/sim/peha_joint_plant.hpp"
+#include "peha/sim/plant_faults.hpp"
 
 #include <Eigen/Dense>
 
@@ -56,6 +57,10 @@ struct RightArmPlantParams {
   double encoder_counts_per_rev = 70000;
   OperatorParams operator_hands;
   std::uint64_t seed = 1;
+  /// Plant-only: faults injected at their time (sim/plant_faults.hpp; PlantFault::joint indexes
+  /// `actuated`); never told to the controller. Supply faults act on every actuated joint (the arm
+  /// has one supply); controller_nan is the experiment's to apply (E3's step), not the plant's.
+  std::vector<PlantFault> faults;
 };
 
 /// The plant's truth for logs and figures.
@@ -81,7 +86,8 @@ class RightArmBackend final : public io::Backend {
   void estop() noexcept override { gate_.estop(); }
   io::BackendStatus status() const noexcept override { return gate_.status(); }
   /// Writes step the plant by one control period with the command - or, unless activated, with the
-  /// safe outputs (OutputGate: motor off, valves vented over vent_s).
+  /// safe outputs (OutputGate: motor off, valves vented over vent_s; the dump valves vent past a stuck
+  /// valve). The faults due by then take effect first.
   bool write(const io::Command& command) noexcept override;
   /// The truth at the latest sample (after the latest write()).
   const RightArmTruth& truth() const { return truth_; }
@@ -91,6 +97,7 @@ class RightArmBackend final : public io::Backend {
  private:
   void substep(const io::Command& command) noexcept;
   void sample() noexcept;
+  void apply_faults(double t_s) noexcept;
 
   RightArmPlantParams params_;
   io::BackendInfo info_;
@@ -106,6 +113,9 @@ class RightArmBackend final : public io::Backend {
   io::SensorState state_;
   RightArmTruth truth_, sampled_truth_;
   OutputGate gate_;
+  std::vector<char> fault_applied_;         ///< per params_.faults: already in effect
+  std::vector<double> encoder_offset_rad_;  ///< per actuated joint: an injected encoder jump
+  std::vector<char> encoder_frozen_;        ///< per actuated joint: the encoder repeats its reading
 };
 
 }  // namespace peha::sim

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <complex>
@@ -26,10 +27,12 @@ const std::vector<std::string>& arm_log_columns() {
       for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
                             "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
                             "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_gravity_Nm",
-                            "plant_constraint_Nm"}) {
+                            "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N"}) {
         c.push_back(fmt::format("{}_{}", j, f));
       }
     }
+    c.push_back("limit_flags");
+    c.push_back("fault_flags");
     return c;
   }();
   return columns;
@@ -39,6 +42,7 @@ sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
   // The operator's script: hold the arm where it starts while compensation comes on, then for each
   // posture carry the arm there, hold, let go, and watch.
   sim::RightArmPlantParams p = scenario.plant;
+  p.faults = scenario.faults;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   p.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, {p.initial_q_rad[0], p.initial_q_rad[1], nan}});
   double t = 2.0 + scenario.observe_s * 0.2;
@@ -58,7 +62,10 @@ std::vector<double> postures_release_times_s(const ArmScenario& scenario) {
   return release_s;
 }
 
-double postures_duration_s(const ArmScenario& scenario) { return postures_release_times_s(scenario).back() + scenario.observe_s; }
+double postures_duration_s(const ArmScenario& scenario) {
+  const double whole_s = postures_release_times_s(scenario).back() + scenario.observe_s;
+  return scenario.postures_stop_s > 0 ? std::min(whole_s, scenario.postures_stop_s) : whole_s;
+}
 
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) {
   sim::RightArmBackend plant(postures_plant_params(scenario));
@@ -91,8 +98,23 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     sfe[k] = k ? sfe[k - 1] : 0.0;
     efe[k] = k ? efe[k - 1] : 0.0;
   };
-  auto step = [&](std::size_t) { controller.update(state, command); };
-  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
+  // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command on its
+  // joint here, before the supervisor: the test driver's part of the plant's fault injection (as E1).
+  std::array<double, io::kMaxJoints> nan_from_s;
+  nan_from_s.fill(std::numeric_limits<double>::infinity());
+  for (const sim::PlantFault& f : scenario.faults) {
+    if (f.kind == sim::FaultKind::kControllerNan && f.joint >= 0 && f.joint < io::kMaxJoints) {
+      double& from = nan_from_s[static_cast<std::size_t>(f.joint)];
+      from = std::min(from, f.time_s);
+    }
+  }
+  auto step = [&](std::size_t) {
+    controller.update(state, command);
+    for (std::size_t a = 0; a < nan_from_s.size(); ++a) {
+      if (state.time_s + 1e-9 >= nan_from_s[a]) command.joints[a].agonist_pressure_Pa = nan;
+    }
+  };
+  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
     const sim::RightArmTruth* truth = sim ? &sim->sampled_truth() : nullptr;
     bool operator_active = false;
     if (truth) {
@@ -128,9 +150,12 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
                                  sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
                                  state.joints[a].agonist_loadcell_N, state.joints[a].antagonist_loadcell_N, j ? j->muscle_force_N[0] : nan,
                                  j ? j->muscle_force_N[1] : nan, truth ? truth->bias_torque_Nm[a] : nan,
-                                 truth ? truth->constraint_torque_Nm[a] : nan};
+                                 truth ? truth->constraint_torque_Nm[a] : nan, j ? j->pulley_tension_min_N[0] : nan,
+                                 j ? j->pulley_tension_min_N[1] : nan};
         for (double v : values) row[col++] = v;
       }
+      row[col++] = static_cast<double>(limit_flags);
+      row[col++] = static_cast<double>(limited.monitor().flags());
       log->push_row(row);
     }
   };
@@ -181,6 +206,9 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     }
     r.postures.push_back(p);
   }
+  r.fault_flags = limited.monitor().flags();
+  r.faults = limited.monitor().count();
+  r.fault_reason = limited.monitor().run_reason();
   safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.within_limits = r.verdict.passed();
   return r;

@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <stdexcept>
 
 namespace peha::experiments {
 
@@ -38,8 +39,17 @@ void write_postures_summary(const std::filesystem::path& path, const PosturesRes
   }
 }
 
-int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
+int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario_read, const RunRequest& request,
                             std::optional<runtime::RealtimeRunOptions> realtime) {
+  ArmScenario scenario = scenario_read;
+  for (const std::string& spec : request.faults) {
+    try {
+      scenario.faults.push_back(sim::parse_fault_spec(spec, arm_joint_names(scenario), postures_duration_s(scenario)));
+    } catch (const std::invalid_argument& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return 2;
+    }
+  }
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   const double duration_s = postures_duration_s(scenario);
   fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
@@ -54,11 +64,13 @@ int run_postures_experiment(const config::Document& doc, const ArmScenario& scen
     r = rr->postures;
   } else {
     runtime::CsvLog log(arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    for (const sim::PlantFault& f : scenario.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario)));
     r = run_postures(scenario, &log);
     log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
                                         fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
                                         "plant_* columns are simulator truth the controller never sees"});
   }
+  if (r.faults) fmt::print("  SUPERVISOR FAULT: {}\n", r.fault_reason);
   write_postures_summary(dir / "summary.csv", r, scenario.observe_s);  // closed: the plotter reads it next
   fmt::print("verdict (thresholds from the verdict: section):\n{}verdict: {}; peak operator torque {:.1f} Nm\n"
              "real-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",

@@ -1,5 +1,6 @@
 #include "peha/experiments/faults/fault_matrix.hpp"
 
+#include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/safety/fault_monitor.hpp"
 
 #include <fmt/format.h>
@@ -10,6 +11,7 @@
 #include <fstream>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 
 namespace peha::experiments {
 namespace {
@@ -17,12 +19,23 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-/// Keeps the few log columns the matrix reads, one vector each (the run is short: a few thousand rows).
+/// Keeps the few log columns the matrix reads, one vector each (the run is short: a few thousand
+/// rows): time and fault flags, and per joint (its columns named by a prefix: "" on E1, "sfe_", ...
+/// on the arm) the plant's angle, both muscles' forces and both wires' tensions.
 class Columns final : public runtime::RowSink {
  public:
-  explicit Columns(const std::vector<std::string>& names) {
-    for (const char* want : {"t_s", "plant_angle_rad", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_agonist_tension_N",
-                             "plant_antagonist_tension_N", "fault_flags"}) {
+  /// `joint_names[j]` names the joint whose columns start with `joint_prefixes[j]`.
+  Columns(const std::vector<std::string>& names, const std::vector<std::string>& joint_prefixes, std::vector<std::string> joint_names)
+      : joints_(joint_prefixes.size()), joint_names_(std::move(joint_names)) {
+    if (joint_names_.size() != joints_) throw std::invalid_argument("fault matrix: one joint name per column prefix");
+    std::vector<std::string> wanted = {"t_s", "fault_flags"};
+    for (const std::string& j : joint_prefixes) {
+      for (const char* c : {"plant_angle_rad", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_agonist_tension_N",
+                            "plant_antagonist_tension_N"}) {
+        wanted.push_back(j + c);
+      }
+    }
+    for (const std::string& want : wanted) {
       const auto it = std::find(names.begin(), names.end(), want);
       index_.push_back(it == names.end() ? -1 : static_cast<int>(it - names.begin()));
     }
@@ -31,13 +44,17 @@ class Columns final : public runtime::RowSink {
   void push_row(std::span<const double> row) noexcept override {
     for (std::size_t i = 0; i < index_.size(); ++i) values_[i].push_back(index_[i] >= 0 ? row[static_cast<std::size_t>(index_[i])] : kNaN);
   }
+  std::size_t joints() const { return joints_; }
+  const std::string& joint_name(std::size_t j) const { return joint_names_[j]; }
   const std::vector<double>& t() const { return values_[0]; }
-  const std::vector<double>& angle() const { return values_[1]; }
-  const std::vector<double>& force(int m) const { return values_[static_cast<std::size_t>(2 + m)]; }
-  const std::vector<double>& tension(int m) const { return values_[static_cast<std::size_t>(4 + m)]; }
-  const std::vector<double>& flags() const { return values_[6]; }
+  const std::vector<double>& flags() const { return values_[1]; }
+  const std::vector<double>& angle(std::size_t j) const { return values_[2 + 5 * j]; }
+  const std::vector<double>& force(std::size_t j, int m) const { return values_[2 + 5 * j + 1 + static_cast<std::size_t>(m)]; }
+  const std::vector<double>& tension(std::size_t j, int m) const { return values_[2 + 5 * j + 3 + static_cast<std::size_t>(m)]; }
 
  private:
+  std::size_t joints_;
+  std::vector<std::string> joint_names_;
   std::vector<int> index_;
   std::vector<std::vector<double>> values_;
 };
@@ -49,17 +66,20 @@ std::string safe_state_of(const std::string& reason) {
   return "-";
 }
 
-FaultRow analyse(const E1Scenario& s, const E1Result& r, const Columns& log, const std::string& fault, const std::string& target,
-                 const FaultMoment& moment, std::size_t expected_rows) {
-  FaultRow row;
-  row.fault = fault;
-  row.target = target;
-  row.moment = moment.name;
-  row.fault_time_s = moment.time_s;
+/// What a run gave the row besides its log.
+struct RunOutcome {
+  double period_s = 1e-3;
+  std::string fault_reason;
+  const safety::Verdict* verdict = nullptr;
+  bool passed = false;
+};
+
+FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, std::size_t expected_rows) {
+  FaultRow row = what;
   row.log_complete = log.t().size() == expected_rows;
-  row.passed = r.within_limits;
+  row.passed = r.passed;
   const std::size_t n = log.t().size();
-  const auto k0 = std::min(n ? n - 1 : 0, static_cast<std::size_t>(std::llround(moment.time_s / s.period_s)));
+  const auto k0 = std::min(n ? n - 1 : 0, static_cast<std::size_t>(std::llround(row.fault_time_s / r.period_s)));
   std::size_t detected_at = n;
   for (std::size_t k = 0; k < n; ++k) {
     if (log.flags()[k] != 0 && std::isfinite(log.flags()[k])) {
@@ -76,21 +96,64 @@ FaultRow analyse(const E1Scenario& s, const E1Result& r, const Columns& log, con
   row.rest_after_s = kNaN;
   double quiet_s = 0;
   for (std::size_t k = std::max<std::size_t>(k0, 1); k < n; ++k) {
-    const double speed = std::abs(log.angle()[k] - log.angle()[k - 1]) / s.period_s / kDeg;
-    row.peak_speed_degps = std::max(row.peak_speed_degps, speed);
-    row.peak_force_N = std::max({row.peak_force_N, log.force(0)[k], log.force(1)[k]});
-    row.min_tension_N = std::min({row.min_tension_N, log.tension(0)[k], log.tension(1)[k]});
+    double speed = 0;  // the fastest joint's
+    for (std::size_t j = 0; j < log.joints(); ++j) {
+      const double joint_speed = std::abs(log.angle(j)[k] - log.angle(j)[k - 1]) / r.period_s / kDeg;
+      speed = std::max(speed, joint_speed);
+      if (joint_speed > row.peak_speed_degps) row.peak_speed_degps = joint_speed, row.peak_speed_joint = log.joint_name(j);
+      const double force = std::max(log.force(j, 0)[k], log.force(j, 1)[k]);
+      if (force > row.peak_force_N) row.peak_force_N = force, row.peak_force_joint = log.joint_name(j);
+      const double tension = std::min(log.tension(j, 0)[k], log.tension(j, 1)[k]);
+      if (tension < row.min_tension_N) row.min_tension_N = tension, row.min_tension_joint = log.joint_name(j);
+    }
     if (row.detected && k >= detected_at && std::isnan(row.rest_after_s)) {
-      quiet_s = speed < 5.0 ? quiet_s + s.period_s : 0.0;
-      if (quiet_s >= 0.5) row.rest_after_s = std::max(0.0, static_cast<double>(k - detected_at) * s.period_s - 0.5);
+      quiet_s = speed < 5.0 ? quiet_s + r.period_s : 0.0;
+      if (quiet_s >= 0.5) row.rest_after_s = std::max(0.0, static_cast<double>(k - detected_at) * r.period_s - 0.5);
     }
   }
-  for (const safety::Check& c : r.verdict.checks) {
+  for (const safety::Check& c : r.verdict->checks) {
     const bool envelope = c.figure.ends_with("peak force") || c.figure.ends_with("highest pressure") || c.figure.ends_with("peak motor torque") ||
                           c.figure.ends_with("lowest angle") || c.figure.ends_with("highest angle");
     if (envelope && !c.passed()) ++row.limits_exceeded;
   }
   return row;
+}
+
+/// Runs the nominal row and then every kind at every moment: `run_one(faults, row)` runs one and
+/// returns its analysed row (`row` names the fault); `target(kind)` labels the row's target.
+std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMoment& nominal, const std::vector<FaultMoment>& moments,
+                                  const FaultMatrixOptions& options, int joint, const std::function<std::string(sim::FaultKind)>& target,
+                                  const std::function<FaultRow(const std::vector<sim::PlantFault>&, const FaultRow&)>& run_one,
+                                  const std::function<void(const FaultRow&)>& progress) {
+  std::vector<sim::FaultKind> kinds = options.kinds;
+  if (kinds.empty()) kinds.assign(sim::all_fault_kinds().begin(), sim::all_fault_kinds().end());
+  auto named = [&](const std::string& fault, const std::string& tgt, const FaultMoment& m) {
+    FaultRow row;
+    row.experiment = experiment;
+    row.fault = fault;
+    row.target = tgt;
+    row.moment = m.name;
+    row.fault_time_s = m.time_s;
+    return row;
+  };
+  std::vector<FaultRow> out;
+  out.push_back(run_one({}, named("none", "-", nominal)));
+  if (progress) progress(out.back());
+  for (const FaultMoment& moment : moments) {
+    for (sim::FaultKind kind : kinds) {
+      sim::PlantFault f;
+      f.kind = kind;
+      f.time_s = moment.time_s;
+      f.joint = joint;
+      f.muscle = 0;  // muscle faults on the agonist, which carries the load (E1's payload, the arm's forearm)
+      f.value = sim::fault_default_value(kind);
+      FaultRow row = run_one({f}, named(sim::fault_kind_name(kind), target(kind), moment));
+      if (row.limits_exceeded > 0) row.physics_forbids = physics_forbids(kind);
+      if (progress) progress(row);
+      out.push_back(std::move(row));
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -122,6 +185,20 @@ std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario) {
   return m;
 }
 
+std::vector<FaultMoment> select_fault_moments(std::vector<FaultMoment> all, const std::vector<std::string>& wanted, const char* experiment) {
+  std::string names;
+  for (const FaultMoment& m : all) names += (names.empty() ? "" : "|") + m.name;
+  for (const std::string& w : wanted) {
+    if (std::none_of(all.begin(), all.end(), [&](const FaultMoment& m) { return m.name == w; })) {
+      throw std::invalid_argument(fmt::format("{} has no moment '{}' (it has {})", experiment, w, names));
+    }
+  }
+  if (!wanted.empty()) {
+    std::erase_if(all, [&](const FaultMoment& m) { return std::find(wanted.begin(), wanted.end(), m.name) == wanted.end(); });
+  }
+  return all;
+}
+
 std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& options, const std::function<void(const FaultRow&)>& progress) {
   s.limits.monitor.enabled = true;
   E1Case c = s.cases.front();
@@ -130,55 +207,71 @@ std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& o
     if (it == s.cases.end()) throw std::invalid_argument(fmt::format("peha faults: no case named '{}'", options.case_name));
     c = *it;
   }
-  std::vector<FaultMoment> moments = e1_fault_moments(s);
-  if (!options.moments.empty()) {
-    std::erase_if(moments, [&](const FaultMoment& m) { return std::find(options.moments.begin(), options.moments.end(), m.name) == options.moments.end(); });
-  }
-  std::vector<sim::FaultKind> kinds = options.kinds;
-  if (kinds.empty()) kinds.assign(sim::all_fault_kinds().begin(), sim::all_fault_kinds().end());
+  const std::vector<FaultMoment> moments = select_fault_moments(e1_fault_moments(s), options.moments, "E1");
   const std::vector<std::string> names = e1_log_columns();
-
-  auto run_one = [&](const std::vector<sim::PlantFault>& faults, const FaultMoment& moment, const std::string& fault, const std::string& target) {
+  auto run_one = [&](const std::vector<sim::PlantFault>& faults, const FaultRow& what) {
     E1Scenario run = s;
-    run.duration_s = std::min(s.duration_s, moment.time_s + options.after_fault_s);
+    run.duration_s = std::min(s.duration_s, what.fault_time_s + options.after_fault_s);
     run.plant.faults = faults;
-    Columns log(names);
+    Columns log(names, {""}, sim::one_dof_rig_joint_names());
     const E1Result r = run_e1_case(run, c, &log);
     const auto rows = static_cast<std::size_t>(std::llround(run.duration_s / run.period_s)) + 1;
-    FaultRow row = analyse(run, r, log, fault, target, moment, rows);
-    if (progress) progress(row);
-    return row;
+    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);
   };
-
-  std::vector<FaultRow> out;
-  out.push_back(run_one({}, {"nominal", 4.0}, "none", "-"));
-  for (const FaultMoment& moment : moments) {
-    for (sim::FaultKind kind : kinds) {
-      sim::PlantFault f;
-      f.kind = kind;
-      f.time_s = moment.time_s;
-      f.joint = 0;
-      f.muscle = 0;  // muscle faults on the agonist, which carries the payload
-      f.value = sim::fault_default_value(kind);
-      const std::string target = sim::fault_targets_muscle(kind) ? "joint.agonist" : "joint";
-      FaultRow row = run_one({f}, moment, sim::fault_kind_name(kind), target);
-      if (row.limits_exceeded > 0) row.physics_forbids = physics_forbids(kind);
-      out.push_back(std::move(row));
-    }
-  }
-  return out;
+  auto target = [](sim::FaultKind kind) { return std::string(sim::fault_targets_muscle(kind) ? "joint.agonist" : "joint"); };
+  return matrix_rows("E1", {"nominal", 4.0}, moments, options, 0, target, run_one, progress);
 }
 
-void write_fault_matrix(const std::filesystem::path& dir, const std::vector<FaultRow>& rows, const std::string& scenario_name) {
+std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
+  // The operator's script: "start" (the hold while compensation comes on), then one move per posture.
+  const std::vector<sim::OperatorMove> moves = postures_plant_params(scenario).operator_hands.moves;
+  if (moves.size() < 3) throw std::invalid_argument("peha faults: E3's rows need at least two postures (holding the first, moving to the second)");
+  const sim::OperatorMove& first = moves[1];
+  const sim::OperatorMove& second = moves[2];
+  return {{"holding", first.start_s + first.duration_s + 1.0}, {"moving", second.start_s + 0.5 * second.move_s}};
+}
+
+std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& options, const std::function<void(const FaultRow&)>& progress) {
+  if (!options.case_name.empty()) throw std::invalid_argument(fmt::format("peha faults: E3 has no cases (found --case '{}')", options.case_name));
+  s.limits.monitor.enabled = true;
+  s.faults.clear();  // the matrix injects its own
+  const std::vector<std::string>& joints = arm_joint_names(s);
+  const auto elbow = std::find(joints.begin(), joints.end(), kE3FaultJoint);
+  if (elbow == joints.end()) throw std::invalid_argument(fmt::format("peha faults: the arm has no joint {}", kE3FaultJoint));
+  const std::vector<FaultMoment> all = e3_fault_moments(s);
+  const std::vector<FaultMoment> moments = select_fault_moments(all, options.moments, "E3");
+  double end_s = 0;  // the nominal run covers every faulted run's span
+  for (const FaultMoment& m : moments) end_s = std::max(end_s, m.time_s + options.after_fault_s);
+  const std::vector<std::string> prefixes = {"sfe_", "efe_", "wfe_"};  // arm_log_columns' joints, in io order
+  auto run_one = [&](const std::vector<sim::PlantFault>& faults, const FaultRow& what) {
+    ArmScenario run = s;
+    run.postures_stop_s = faults.empty() ? std::max(end_s, what.fault_time_s + options.after_fault_s) : what.fault_time_s + options.after_fault_s;
+    run.faults = faults;
+    Columns log(arm_log_columns(), prefixes, joints);
+    const PosturesResult r = run_postures(run, &log);
+    const auto rows = static_cast<std::size_t>(std::llround(postures_duration_s(run) / run.period_s)) + 1;
+    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);
+  };
+  const std::string joint = *elbow;
+  auto target = [&joint](sim::FaultKind kind) {
+    if (kind == sim::FaultKind::kSupplyZero || kind == sim::FaultKind::kSupplyHalf || kind == sim::FaultKind::kEstop) return std::string("arm");
+    return sim::fault_targets_muscle(kind) ? joint + ".agonist" : joint;
+  };
+  return matrix_rows("E3", {"nominal", all.front().time_s}, moments, options, static_cast<int>(elbow - joints.begin()), target, run_one,
+                     progress);
+}
+
+void write_fault_matrix(const std::filesystem::path& dir, const std::vector<FaultRow>& rows, const std::string& scenario_name,
+                        double after_fault_s) {
   auto num = [](double v, const char* f) { return std::isfinite(v) ? fmt::format(fmt::runtime(f), v) : std::string("-"); };
   std::ofstream csv(dir / "faults.csv");
-  csv << "fault,target,moment,fault_time_s,detected,flag,detection_cycles,safe_state,rest_after_s,peak_force_N,peak_speed_degps,"
-         "min_tension_N,limits_exceeded,physics_forbids,log_complete,verdict_passed\n";
+  csv << "experiment,fault,target,moment,fault_time_s,detected,flag,detection_cycles,safe_state,rest_after_s,peak_force_N,peak_speed_degps,"
+         "min_tension_N,limits_exceeded,physics_forbids,log_complete,verdict_passed,peak_force_joint,peak_speed_joint,min_tension_joint\n";
   for (const FaultRow& r : rows) {
-    csv << fmt::format("{},{},{},{:.3f},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{}\n", r.fault, r.target, r.moment, r.fault_time_s,
-                       r.detected ? 1 : 0, r.flag, num(r.detection_cycles, "{:.0f}"), r.safe_state, num(r.rest_after_s, "{:.3f}"),
-                       r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids, r.log_complete ? 1 : 0,
-                       r.passed ? 1 : 0);
+    csv << fmt::format("{},{},{},{},{:.3f},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{},{},{},{}\n", r.experiment, r.fault, r.target,
+                       r.moment, r.fault_time_s, r.detected ? 1 : 0, r.flag, num(r.detection_cycles, "{:.0f}"), r.safe_state,
+                       num(r.rest_after_s, "{:.3f}"), r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids,
+                       r.log_complete ? 1 : 0, r.passed ? 1 : 0, r.peak_force_joint, r.peak_speed_joint, r.min_tension_joint);
   }
   std::size_t faults = 0, detected = 0, within5 = 0, clean = 0, complete = 0, forbidden = 0;
   for (const FaultRow& r : rows) {
@@ -190,19 +283,32 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
     forbidden += !r.physics_forbids.empty();
     complete += r.log_complete;
   }
+  const std::string experiment = rows.empty() ? std::string("-") : rows.front().experiment;
+  const std::string what =
+      experiment == "E3"
+          ? fmt::format("E3 (postures) on the right arm: faults on the elbow {} (muscle faults on its agonist; supply faults and the "
+                        "e-stop hit the whole arm) at `holding` (1 s after the operator lets go of the first posture) and `moving` "
+                        "(the middle of the operator's move to the second). Force, speed and tension are the worst of the actuated "
+                        "joints R_SFE, R_EFE, R_WFE; the limits are every joint's",
+                        kE3FaultJoint)
+          : std::string("E1 on the one-DOF rig: muscle faults on the agonist, at `holding` (4 s, at rest), `push` (the middle of the "
+                        "first push's move) and `after_release` (0.5 s after it lets go)");
   std::ofstream md(dir / "faults.md");
-  md << "# Fault matrix\n\n";
-  md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare as configured. Each fault "
-                    "starts at its moment and stays; the run ends 5 s later.\n\n", scenario_name);
+  md << "# Fault matrix: " << experiment << "\n\n";
+  md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare as configured. {}. Each fault "
+                    "starts at its moment and stays; the run ends {:g} s later.\n\n", scenario_name, what, after_fault_s);
   md << fmt::format("Faults injected: {}; detected: {}; within 5 control cycles: {}; no limit exceeded: {}; a limit exceeded where physics "
                     "forbids any safe state to avoid it: {}; a limit exceeded otherwise (a miss of the designed outcome): {}; log complete: {}.\n\n",
                     faults, detected, within5, clean, forbidden, faults - clean - forbidden, complete);
   md << "| fault | target | moment | detected by | cycles | safe state | at rest after s | peak force N | peak speed deg/s | min tension N "
         "| limits exceeded | physics forbids | log complete |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  // On the arm each figure names the joint it comes from.
+  auto at = [&](const std::string& joint) { return experiment == "E3" && !joint.empty() ? " " + joint : std::string(); };
   for (const FaultRow& r : rows) {
-    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {:.0f} | {:.1f} | {:.1f} | {} | {} | {} |\n", r.fault, r.target, r.moment,
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {:.0f}{} | {:.1f}{} | {:.1f}{} | {} | {} | {} |\n", r.fault, r.target, r.moment,
                       r.detected ? r.flag : "**not detected**", num(r.detection_cycles, "{:.0f}"), r.safe_state, num(r.rest_after_s, "{:.2f}"),
-                      r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids.empty() ? "-" : r.physics_forbids,
+                      r.peak_force_N, at(r.peak_force_joint), r.peak_speed_degps, at(r.peak_speed_joint), r.min_tension_N,
+                      at(r.min_tension_joint), r.limits_exceeded, r.physics_forbids.empty() ? "-" : r.physics_forbids,
                       r.log_complete ? "yes" : "**no**");
   }
 }

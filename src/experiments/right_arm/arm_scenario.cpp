@@ -230,6 +230,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   config::Map plant = root.map("plant");
   read_arm_plant(plant, root.map("operator"), body, l, s);
   read_postures(root.map("postures"), s);
+  s.faults = sim::read_plant_faults(root, s.plant.actuated, postures_duration_s(s));
   read_bandwidth(root.map("bandwidth"), s);
   if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
   read_goniometer(root.map("goniometer"), s);

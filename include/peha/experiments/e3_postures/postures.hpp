@@ -38,6 +38,9 @@ struct PosturesResult {
   /// distance to a stop against the scenario's `verdict:` thresholds.
   safety::Verdict verdict;
   bool within_limits = false;         ///< verdict.passed()
+  std::uint64_t faults = 0;           ///< faults the supervisor's plausibility stage latched (a faulted run fails)
+  std::uint32_t fault_flags = 0;      ///< safety::FaultFlag bits latched at the end
+  std::string fault_reason;           ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
 };
 
 const std::vector<std::string>& arm_log_columns();
@@ -48,7 +51,8 @@ PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log);
 /// The simulated arm of E3: the scenario's plant with the operator's script (hold at the start,
 /// then carry the arm to each posture, hold, let go) - also what `peha mfb-emulator` simulates.
 sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario);
-/// When the operator lets go of each posture, s (E3's script), and the whole run's length.
+/// When the operator lets go of each posture, s (E3's script), and the run's length (the whole
+/// script, or up to scenario.postures_stop_s when that is set).
 std::vector<double> postures_release_times_s(const ArmScenario& scenario);
 double postures_duration_s(const ArmScenario& scenario);
 

@@ -1,12 +1,15 @@
 #pragma once
 /// \file
 /// The fault matrix (`peha faults`, docs/safety.md): every fault the simulated plant can inject, at
-/// several moments of E1 (holding still, during a push, just after a release), in process, with the
-/// supervisor's plausibility stage on. Per row: which flag detected it and how many control cycles
-/// after the fault, the safe state taken, and what the plant did after the fault (peak muscle force,
-/// peak joint speed, lowest wire tension, limits exceeded) - plus a nominal row without a fault.
+/// several moments of E1 (holding still, during a push, just after a release) or of E3 on the right
+/// arm (holding a posture, while the operator moves the arm; faults on the elbow R_EFE), in process,
+/// with the supervisor's plausibility stage on. Per row: which flag detected it and how many control
+/// cycles after the fault, the safe state taken, and what the plant did after the fault (peak muscle
+/// force, peak joint speed, lowest wire tension, limits exceeded; on the arm the worst of its actuated
+/// joints) - plus a nominal row without a fault.
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/right_arm/arm_scenario.hpp"
 #include "peha/sim/plant_faults.hpp"
 
 #include <filesystem>
@@ -18,7 +21,7 @@
 namespace peha::experiments {
 
 struct FaultMoment {
-  std::string name;   ///< "holding", "push", "after_release"
+  std::string name;   ///< E1: "holding", "push", "after_release"; E3: "holding", "moving"
   double time_s = 0;  ///< when the fault starts
 };
 
@@ -26,19 +29,35 @@ struct FaultMoment {
 /// first push's move, and 0.5 s after that push lets go.
 std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario);
 
+/// The E3 moments: `holding` (1 s after the operator lets go of the first posture) and `moving`
+/// (the middle of the operator's move to the second posture). Throws std::invalid_argument when the
+/// scenario has fewer than two postures.
+std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario);
+
+/// The moments of `all` that `wanted` names, in `all`'s order (all of them when `wanted` is empty).
+/// Throws std::invalid_argument naming `experiment` and its moments for a name not among them.
+std::vector<FaultMoment> select_fault_moments(std::vector<FaultMoment> all, const std::vector<std::string>& wanted,
+                                              const char* experiment);
+
+/// The arm's joint the E3 rows inject into (the elbow; supply faults and the e-stop hit the whole arm).
+inline constexpr const char* kE3FaultJoint = "R_EFE";
+
 struct FaultRow {
+  std::string experiment;    ///< "E1" (one-DOF rig) or "E3" (right arm, postures)
   std::string fault;         ///< kind name, or "none"
-  std::string target;        ///< "joint.agonist", "joint", ...
+  std::string target;        ///< "joint.agonist", "joint"; on the arm "R_EFE.agonist", "R_EFE", "arm" (every joint)
   std::string moment;
   double fault_time_s = 0;
   bool detected = false;
   std::string flag;          ///< the first latched flag ("-" when none)
   double detection_cycles = 0;  ///< control cycles from the fault to the first latched flag (NaN: none)
   std::string safe_state;    ///< hold / descend / vent ("-" when none)
-  double rest_after_s = 0;   ///< from detection until the joint stays below 5 deg/s for 0.5 s (NaN: never)
-  double peak_force_N = 0;   ///< either muscle after the fault (plant truth)
-  double peak_speed_degps = 0;  ///< |joint speed| after the fault (plant truth)
-  double min_tension_N = 0;  ///< lowest wire tension after the fault (plant truth)
+  double rest_after_s = 0;   ///< from detection until every joint stays below 5 deg/s for 0.5 s (NaN: never)
+  double peak_force_N = 0;   ///< any muscle of any joint after the fault (plant truth)
+  double peak_speed_degps = 0;  ///< |joint speed| of any joint after the fault (plant truth)
+  double min_tension_N = 0;  ///< lowest wire tension of any joint after the fault (plant truth)
+  /// The joints the three figures above come from (E1: "joint"; empty when no sample set them).
+  std::string peak_force_joint, peak_speed_joint, min_tension_joint;
   int limits_exceeded = 0;   ///< failed envelope checks: force ceilings, pressure, motor rating, joint range
   /// Why no safe state can keep this fault within the limits (a limit was exceeded and the kind is one
   /// physics_forbids names); empty otherwise - then an exceeded limit is a miss of the designed outcome.
@@ -48,7 +67,7 @@ struct FaultRow {
 };
 
 struct FaultMatrixOptions {
-  std::string case_name;         ///< E1 case (default: the first)
+  std::string case_name;         ///< E1 case (default: the first); E3 has none
   double after_fault_s = 5.0;    ///< each run ends this long after its fault
   std::vector<sim::FaultKind> kinds;  ///< default: every kind
   std::vector<std::string> moments;   ///< default: every moment
@@ -58,12 +77,20 @@ struct FaultMatrixOptions {
 /// the e-stop), or empty when a designed safe state must avoid every limit.
 std::string physics_forbids(sim::FaultKind kind);
 
-/// Runs the matrix (the nominal row first). The scenario is run with the plausibility stage on
+/// Runs the E1 matrix (the nominal row first). The scenario is run with the plausibility stage on
 /// (limits.monitor.enabled) and its start-up tare as configured. `progress` (optional) gets each row as it finishes.
 std::vector<FaultRow> run_fault_matrix(E1Scenario scenario, const FaultMatrixOptions& options,
                                        const std::function<void(const FaultRow&)>& progress = {});
 
-/// faults.md (table + summary) and faults.csv in `dir`.
-void write_fault_matrix(const std::filesystem::path& dir, const std::vector<FaultRow>& rows, const std::string& scenario_name);
+/// Runs the E3 matrix on the right arm the same way: the nominal row (to the latest moment's end)
+/// first, then every kind on kE3FaultJoint (muscle kinds on its agonist) at each moment. Throws
+/// std::invalid_argument when options name an E3 case or a moment E3 does not have.
+std::vector<FaultRow> run_fault_matrix(ArmScenario scenario, const FaultMatrixOptions& options,
+                                       const std::function<void(const FaultRow&)>& progress = {});
+
+/// faults.md (table + summary, naming the rows' experiment) and faults.csv in `dir`.
+/// `after_fault_s` as the runs used (FaultMatrixOptions::after_fault_s).
+void write_fault_matrix(const std::filesystem::path& dir, const std::vector<FaultRow>& rows, const std::string& scenario_name,
+                        double after_fault_s = 5.0);
 
 }  // namespace peha::experiments

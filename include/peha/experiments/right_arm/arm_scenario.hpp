@@ -37,6 +37,12 @@ struct ArmScenario {
   sim::RightArmPlantParams plant;
   double move_s = 2.5, hold_s = 1.0, observe_s = 10.0;
   std::vector<ArmPosture> postures;
+  /// E3's plant faults (the optional `faults:` list, `peha run --fault`; sim/plant_faults.hpp, joints
+  /// R_SFE, R_EFE, R_WFE, times within E3's script): postures_plant_params puts them in the simulated
+  /// arm, E3's step applies controller_nan. E4, E6 and identify-gravity refuse a scenario with faults.
+  std::vector<sim::PlantFault> faults;
+  /// Not read from the file: E3 ends at this time when > 0 (the fault matrix's shortened runs), s.
+  double postures_stop_s = 0;
   /// E6: sine-sweep torque commands on one joint with the arm locked at a posture (a torque bench).
   struct Bandwidth {
     int joint = 1;                      ///< io joint (1 = R_EFE)
