@@ -83,13 +83,7 @@ struct ArmUnderFault {
 };
 
 PlantFault fault(FaultKind kind, double time_s, int joint, int muscle = 0, double value = 0) {
-  PlantFault f;
-  f.kind = kind;
-  f.time_s = time_s;
-  f.joint = joint;
-  f.muscle = muscle;
-  f.value = value;
-  return f;
+  return PlantFault{kind, time_s, joint, muscle, value};
 }
 
 // A stuck load cell repeats its reading from the fault on; the cells next to it keep their noise
