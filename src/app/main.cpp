@@ -185,15 +185,16 @@ Command add_identify_gravity(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "identify-gravity",
       "Identify the right arm's gravity parameters on the rig (docs/identification.md): the arm's own\n"
-      "controller plus a PD on the encoders drives the arm to each posture of the config's identification:\n"
-      "section, once from above and once from below; at rest the load cells (minus their zero) through the\n"
-      "pulley radius plus the motor command give each joint's holding torque; the mean of both approaches\n"
-      "cancels the cables' friction. A linear least squares on the gravity regressor tau = Y(q) theta, from the\n"
+      "controller plus a PD on the encoders sweeps the arm slowly up and down through each posture of the\n"
+      "config's identification: section; while the wires slide, the load cells (minus their zero) through the\n"
+      "pulley radius plus the motor command give each joint's torque, and the two directions give gravity and\n"
+      "the cables' friction ratio. A linear least squares on the gravity regressor tau = Y(q) theta, from the\n"
       "nominal model, gives theta, its std and the residual. Runs on the simulated arm (only what the rig\n"
       "measures is read). Use the file with peha run --gravity-identification FILE or the arm config's\n"
       "controller.gravity_identification key.\n"
-      "Exit code 0 = written, 2 = bad config or an identification the fit's checks refuse (residual, a torque\n"
-      "far from the nominal model's: a wrong lever, sign or channel; nothing written), 1 = other error.");
+      "Exit code 0 = written, 2 = bad config or an identification refused (a joint stuck in a window, a fault\n"
+      "the supervisor latched, the fit's residual, a torque far from the nominal model's: a wrong lever, sign\n"
+      "or channel; nothing written), 1 = other error.");
   cmd->add_option("-c,--config", s->id.config, "Right-arm scenario YAML with an identification: section, e.g. configs/right_arm.yaml")
       ->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--out", s->id.out, "Identification YAML to write (folders are created), e.g. out/identification/gravity.yaml")
