@@ -318,8 +318,9 @@ Command add_faults(CLI::App& app) {
   cmd->add_flag("--link", o->link,
                 "Instead of the in-process matrix: E1's link faults over UDP (docs/safety.md \"The link's faults\"): starts\n"
                 "`peha mfb-emulator` as a child process per row (random loss 1/5 %, duplicates, reordering, corruption,\n"
-                "3 ms delay, the e-stop input, the board stalled 200 ms or killed), ~4 s of real time each; writes\n"
-                "<out>/<run>/faults_link.md and faults_link.csv. Exit 3 when a row misses its designed outcome");
+                "3 ms delay, the e-stop input, the board stalled 200 ms or killed, a spoofing sender), ~4 s of real\n"
+                "time each (~50 s in all); writes <out>/<run>/faults_link.md and faults_link.csv. Exit 3 when a row\n"
+                "misses its designed outcome");
   cmd->add_option("--link-fault", o->link_faults, "With --link: only these rows (repeatable; 'none' always runs)")
       ->check(CLI::IsMember(peha::experiments::link_fault_names()));
   return {cmd, [o] { return peha::app::faults(*o); }};

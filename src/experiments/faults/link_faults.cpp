@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <csignal>
@@ -131,7 +132,10 @@ struct LinkFault {
   std::string injects;
   bool expect_detection;
   std::vector<std::string> emulator_args;  ///< "{t}" is replaced by the injection time
-  enum class Signal { kNone, kStall, kKill } signal = Signal::kNone;
+  /// kSpoof: from the injection on, every cycle, another socket of this machine sends the host a
+  /// state packet of its session, authenticated with the link's key (an insider), a wild encoder
+  /// reading in it and a sequence far ahead.
+  enum class Signal { kNone, kStall, kKill, kSpoof } signal = Signal::kNone;
   bool from_start = false;  ///< injected for the whole run (random link faults)
   /// Timed on the board's clock (the emulator's simulated time, a few ms off the host's cycle count):
   /// detection is measured in the log, whose t_s is the board's time stamp, to the first latched flag.
@@ -152,6 +156,8 @@ const std::vector<LinkFault>& link_faults() {
       {"estop", "the board's e-stop input active from the injection to the end", true, {"--estop-at", "{t}", "--estop-for", "1000"}, S::kNone, false, true},
       {"board_stall_200ms", "the emulator stopped (SIGSTOP) for 200 ms, then continued", true, {}, S::kStall, false},
       {"board_killed", "the emulator killed (SIGKILL)", true, {}, S::kKill, false},
+      {"spoofing_sender", "another port sends the host state packets of its session with the key, a wild encoder reading, every cycle",
+       false, {}, S::kSpoof, false},
   };
   return faults;
 }
@@ -187,6 +193,17 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   std::filesystem::create_directories(o.dir);
 
   const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+  // The spoofer's datagram, made before the run (the loop only sends it).
+  io::UdpSocket stranger({0x7F000001u, 0});
+  std::array<std::uint8_t, mfb::kMaxPacketSize> spoof{};
+  std::size_t spoof_bytes = 0;
+  if (fault.signal == LinkFault::Signal::kSpoof) {
+    mfb::StatePacket fake;
+    fake.session_id = backend->session_id();
+    fake.sequence = 0x7FFFFFF0u;
+    fake.encoder[0] = 12345;  // a wild angle if it were applied
+    spoof_bytes = mfb::encode(fake, mfb::load_link_key(s.link->key_file), spoof);
+  }
   E1RealtimeResult r;
   const auto inject_cycle = static_cast<std::uint64_t>(std::llround(t_inject / s.period_s));
   const auto resume_cycle = inject_cycle + static_cast<std::uint64_t>(std::llround(kStall_s / s.period_s));
@@ -196,8 +213,12 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
     runtime::CycleHooks hooks = harness.start();
     if (fault.signal != LinkFault::Signal::kNone) {
       hooks.wait = [&, wait = hooks.wait, cycle = std::uint64_t{0}]() mutable {
-        if (cycle == inject_cycle) emulator.signal(fault.signal == LinkFault::Signal::kKill ? SIGKILL : SIGSTOP);
+        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kKill) emulator.signal(SIGKILL);
+        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kStall) emulator.signal(SIGSTOP);
         if (cycle == resume_cycle && fault.signal == LinkFault::Signal::kStall) emulator.signal(SIGCONT);
+        if (cycle >= inject_cycle && spoof_bytes > 0) {
+          stranger.send_to(backend->local(), std::span<const std::uint8_t>(spoof.data(), spoof_bytes));
+        }
         ++cycle;
         wait();
       };
