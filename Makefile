@@ -21,7 +21,8 @@ help:
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
 	@echo "make soak   opt-in: 10 minutes of MFB round trips at 1 kHz over UDP, then 10 more with the other core busy"
 	@echo "make faults every injectable fault at three moments of E1 and two of E3 (right arm) in process:"
-	@echo "            out/faults/ and out/faults_arm/: faults.md and faults.png (docs/safety.md)"
+	@echo "            out/faults/ and out/faults_arm/: faults.md and faults.png (docs/safety.md); then E1's link faults"
+	@echo "            over UDP to the emulator (~50 s): out/faults_link/faults_link.md"
 	@echo "make property  opt-in: the limits' random-command property test with 10^7 commands (make test runs 10^5)"
 	@echo "make video  render MP4s of E1 (both payloads), E3 and E4 (brisk movement) into out/video_*/ (docs/video.md)"
 	@echo "make clean  remove build/ and out/"
@@ -56,13 +57,16 @@ run: build
 test: build
 	ctest --preset $(PRESET)
 
-# The fault matrix (docs/safety.md): E1 (out/faults) and E3 on the right arm (out/faults_arm). Exit
+# The fault matrix (docs/safety.md): E1 (out/faults), E3 on the right arm (out/faults_arm) and E1's
+# link faults over UDP to the emulator (out/faults_link, ~50 s of real time). Exit
 # code 3 = a row missed its designed outcome: reported in the table, not a failure of make; any other
 # failure stops make.
 faults: build
 	$(PEHA) faults --config $(CONFIG) --name faults; \
 	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
 	$(PEHA) faults --config $(ARM_CONFIG) --name faults_arm; \
+	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
+	$(PEHA) faults --config $(CONFIG) --link --name faults_link; \
 	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
 
 # Opt-in: the random-command property test of the limits stage with 10^7 commands (make test: 10^5).

@@ -6,6 +6,7 @@
 #include "peha/app/registry.hpp"
 #include "peha/app/run_dir.hpp"
 #include "peha/experiments/faults/fault_matrix.hpp"
+#include "peha/experiments/faults/link_faults.hpp"
 #include "peha/experiments/run_request.hpp"
 
 #include <fmt/format.h>
@@ -26,6 +27,42 @@ void check_moments(const std::vector<std::string>& wanted, const std::vector<exp
   }
 }
 
+/// `--link`: E1's link faults over UDP, the emulator a child process (this binary).
+int link_faults(const FaultsOptions& options, const config::Document& doc) {
+  if (!options.moments.empty() || !options.kinds.empty()) throw UsageError("--link runs the link's faults: --moment and --fault-kind are for the in-process matrix");
+  const experiments::E1Scenario e1 = experiments::read_e1(doc);
+  if (!e1.link) throw UsageError(fmt::format("--link: {} has no mfb: section (channel map, key, watchdogs)", doc.name()));
+  RunDir run_dir(options.config, options.out_root, options.run_name);
+  experiments::LinkFaultOptions o;
+  o.peha_binary = std::filesystem::read_symlink("/proc/self/exe");
+  o.config = std::filesystem::absolute(options.config);
+  o.case_name = options.case_name.empty() ? e1.cases.front().name : options.case_name;
+  o.faults = options.link_faults;
+  o.seed = e1.seed;
+  o.dir = run_dir.create(e1.seed);
+  fmt::print("peha faults --link: {} (E1 over UDP to `peha mfb-emulator` in its own process, plausibility stage on, watchdogs host {:g} ms / "
+             "board {:g} ms); output {}\n", doc.name(), e1.link->host_watchdog_s * 1e3, e1.link->board_watchdog_s * 1e3, o.dir.string());
+  std::fflush(stdout);
+  std::size_t n = 0;
+  auto print_row = [&](const experiments::LinkFaultRow& r) {
+    fmt::print("  [{}] {:<18} {:<8}: {:<48} {:>7} ms, peak {:>6.0f} N, {:>6.1f} deg/s, T_min {:>6.1f} N, limits exceeded {}{}; "
+               "lost {}, late {}, corrupt {}, duplicate {}, stale {}, foreign {}{}\n",
+               ++n, r.fault, r.expect_detection ? "fault" : "ride out", r.detected ? r.by : "not detected",
+               std::isfinite(r.detection_ms) ? fmt::format("{:.1f}", r.detection_ms) : "-", r.peak_force_N, r.peak_speed_degps, r.min_tension_N,
+               r.limits_exceeded, r.log_complete ? "" : ", LOG INCOMPLETE", r.lost, r.late, r.corrupt, r.duplicate, r.stale, r.foreign,
+               r.outcome_met() ? "" : "  <- designed outcome MISSED");
+    if (!r.limits.empty()) fmt::print("      exceeded: {}\n", r.limits);
+    std::fflush(stdout);
+  };
+  const auto rows = experiments::run_link_faults(e1, o, print_row);
+  experiments::write_link_faults(o.dir, rows, doc.name(), o);
+  std::size_t missed = 0;
+  for (const auto& r : rows) missed += !r.outcome_met();
+  fmt::print("\nrows: {}; designed outcome missed: {}\nwritten: {}/faults_link.md, faults_link.csv\n", rows.size(), missed, o.dir.string());
+  run_dir.link_latest();
+  return missed == 0 ? 0 : 3;
+}
+
 }  // namespace
 
 int faults(const FaultsOptions& options) {
@@ -37,6 +74,11 @@ int faults(const FaultsOptions& options) {
       throw UsageError(fmt::format("{} is a {} scenario: peha faults runs E1 (gravity_compensation_1dof) or E3 (right_arm)", doc.name(), kind));
     }
     const bool arm = kind == "right_arm";
+    if (options.link) {
+      if (arm) throw UsageError("--link runs E1 over UDP: give a gravity_compensation_1dof scenario (configs/e1_one_dof.yaml)");
+      return link_faults(options, doc);
+    }
+    if (!options.link_faults.empty()) throw UsageError("--link-fault needs --link");
     experiments::FaultMatrixOptions m;
     m.case_name = options.case_name;
     for (const std::string& k : options.kinds) {

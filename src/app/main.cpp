@@ -2,6 +2,7 @@
 #include "peha/sim/plant_faults.hpp"
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
+#include "peha/experiments/faults/link_faults.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
 
 #include <CLI/CLI.hpp>
@@ -315,6 +316,14 @@ Command add_faults(CLI::App& app) {
   cmd->add_option("--moment", o->moments, "Only these moments (repeatable): E1 holding|push|after_release, E3 holding|moving")
       ->check(CLI::IsMember({"holding", "push", "after_release", "moving"}));
   cmd->add_flag("!--no-plot", o->plot, "Do not render faults.png (no Python needed)");
+  cmd->add_flag("--link", o->link,
+                "Instead of the in-process matrix: E1's link faults over UDP (docs/safety.md \"The link's faults\"): starts\n"
+                "`peha mfb-emulator` as a child process per row (random loss 1/5 %, duplicates, reordering, corruption,\n"
+                "3 ms delay, the e-stop input, the board stalled 200 ms or killed, a spoofing sender), ~4 s of real\n"
+                "time each (~50 s in all); writes <out>/<run>/faults_link.md and faults_link.csv. Exit 3 when a row\n"
+                "misses its designed outcome");
+  cmd->add_option("--link-fault", o->link_faults, "With --link: only these rows (repeatable; 'none' always runs)")
+      ->check(CLI::IsMember(peha::experiments::link_fault_names()));
   return {cmd, [o] { return peha::app::faults(*o); }};
 }
 

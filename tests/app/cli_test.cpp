@@ -120,6 +120,7 @@ TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
   std::filesystem::remove_all(out);
   const std::string common = " --no-plot --out " + out.string() + " --config " + PEHA_SOURCE_DIR;
   EXPECT_THAT(run("faults --help").output, HasSubstr("right_arm"));
+  EXPECT_THAT(run("faults --help").output, HasSubstr("--link"));
   const struct {
     std::string args, detail;
   } refused[] = {
@@ -127,6 +128,10 @@ TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
       {"faults --case payload_2.5kg" + common + "/configs/right_arm.yaml", "E3 has no cases"},
       {"faults --moment moving" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'moving' (it has holding|push|after_release)"},
       {"faults --moment push" + common + "/configs/right_arm.yaml", "E3 has no moment 'push' (it has holding|moving)"},
+      // The link's faults: E1 only, and not mixed with the in-process matrix's selections.
+      {"faults --link" + common + "/configs/right_arm.yaml", "--link runs E1 over UDP"},
+      {"faults --link-fault loss_5pct" + common + "/configs/e1_one_dof.yaml", "--link-fault needs --link"},
+      {"faults --link --moment push" + common + "/configs/e1_one_dof.yaml", "--moment and --fault-kind are for the in-process matrix"},
   };
   for (const auto& r : refused) {
     const Result result = run(r.args);

@@ -821,3 +821,55 @@ TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
 
 }  // namespace
 }  // namespace peha::runtime
+
+#include "peha/experiments/faults/link_faults.hpp"
+
+namespace peha::runtime {
+namespace {
+
+// `peha faults --link`'s rows (docs/safety.md "The link's faults"), here three of them: the nominal
+// run, 5 % random loss (ridden out: counted, no fault) and the emulator killed at 2.5 s (the host
+// notices a silent backend within its watchdog, here 50 ms as in HostNoticesWhenTheBoardStops, and
+// no limit is exceeded). The rows' files are written as the command writes them.
+TEST(MfbEndToEnd, LinkFaultRowsMeasureLossAndAKilledBoard) {
+  experiments::E1Scenario s = scenario(4.0);
+  s.link->host_watchdog_s = 0.05;
+  experiments::LinkFaultOptions o;
+  o.peha_binary = PEHA_BINARY;
+  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
+  o.faults = {"loss_5pct", "board_killed"};
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_faults_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(o.dir);
+  std::filesystem::create_directories(o.dir);
+  const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
+  ASSERT_EQ(rows.size(), 3u);
+  const experiments::LinkFaultRow &none = rows[0], &loss = rows[1], &killed = rows[2];
+  EXPECT_EQ(none.fault, "none");
+  EXPECT_FALSE(none.detected) << none.by;
+  EXPECT_EQ(none.limits_exceeded, 0);
+  EXPECT_TRUE(none.log_complete);
+  EXPECT_EQ(loss.fault, "loss_5pct");
+  EXPECT_FALSE(loss.detected) << loss.by;  // single losses are held over
+  EXPECT_GT(loss.lost, 80u);               // ~5 % of ~4000 replies
+  EXPECT_GT(loss.accepted, 3000u);
+  EXPECT_EQ(loss.limits_exceeded, 0);
+  EXPECT_TRUE(loss.outcome_met());
+  EXPECT_EQ(killed.fault, "board_killed");
+  EXPECT_TRUE(killed.detected);
+  EXPECT_NE(killed.by.find("backend silent"), std::string::npos) << killed.by;
+  EXPECT_GT(killed.detection_ms, 0.0);
+  EXPECT_LT(killed.detection_ms, 50.0 + 10.0);  // the watchdog and a few cycles
+  EXPECT_EQ(killed.limits_exceeded, 0);
+  EXPECT_TRUE(killed.outcome_met());
+  EXPECT_GT(killed.peak_force_N, 100.0);  // the load cells read the held payload up to the kill
+  experiments::write_link_faults(o.dir, rows, "e1_one_dof", o);
+  EXPECT_TRUE(std::filesystem::exists(o.dir / "faults_link.md"));
+  EXPECT_TRUE(std::filesystem::exists(o.dir / "faults_link.csv"));
+  std::printf("link rows: loss_5pct lost %llu, accepted %llu; board_killed: %s after %.1f ms\n",
+              static_cast<unsigned long long>(loss.lost), static_cast<unsigned long long>(loss.accepted), killed.by.c_str(),
+              killed.detection_ms);
+  std::filesystem::remove_all(o.dir);
+}
+
+}  // namespace
+}  // namespace peha::runtime

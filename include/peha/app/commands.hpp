@@ -129,11 +129,16 @@ struct FaultsOptions {
   std::vector<std::string> kinds;         ///< only these fault kinds (default: all)
   std::vector<std::string> moments;       ///< only these moments (default: E1 holding, push, after_release; E3 holding, moving)
   bool plot = true;                       ///< render faults.png with tools/plot_faults.py
+  /// Instead of the in-process matrix: the link's faults, E1 over UDP to `peha mfb-emulator` started
+  /// as a child process (faults_link.md, faults_link.csv; docs/safety.md "The link's faults").
+  bool link = false;
+  std::vector<std::string> link_faults;   ///< with --link: only these rows (default: all)
 };
 
-/// `peha faults`: the fault matrix in process on E1 or, for a right_arm scenario, E3 (docs/safety.md).
-/// Exit 0 when the nominal run raised nothing and every fault was detected within 5 cycles with no
-/// limit exceeded (or one physics forbids any safe state to keep), else 3; 2 bad input.
+/// `peha faults`: the fault matrix in process on E1 or, for a right_arm scenario, E3 (docs/safety.md);
+/// with `link`, E1's link faults over UDP instead. Exit 0 when the nominal run raised nothing and
+/// every fault was detected within 5 cycles with no limit exceeded (or one physics forbids any safe
+/// state to keep) - with `link`: every row met its designed outcome - else 3; 2 bad input.
 int faults(const FaultsOptions& options);
 
 /// Runs a command body and maps what it throws to the exit codes every command documents:

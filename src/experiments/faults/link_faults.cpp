@@ -1,0 +1,366 @@
+#include "peha/experiments/faults/link_faults.hpp"
+
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
+#include "peha/experiments/faults/fault_matrix.hpp"
+#include "peha/mfb/udp_backend.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <sstream>
+#include <stdexcept>
+
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace peha::experiments {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+/// `peha mfb-emulator` as a child process: started with fork/exec, its output on a pipe read until
+/// it names its port; signalled by the row (stall, kill), ended with SIGTERM (then SIGKILL).
+class EmulatorProcess {
+ public:
+  explicit EmulatorProcess(const std::vector<std::string>& argv) {
+    int fds[2];
+    if (::pipe(fds) != 0) throw std::runtime_error("peha faults --link: pipe() failed");
+    pid_ = ::fork();
+    if (pid_ < 0) throw std::runtime_error("peha faults --link: fork() failed");
+    if (pid_ == 0) {
+      ::dup2(fds[1], STDOUT_FILENO);
+      ::dup2(fds[1], STDERR_FILENO);
+      ::close(fds[0]);
+      ::close(fds[1]);
+      std::vector<char*> args;
+      for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+      args.push_back(nullptr);
+      ::execv(args[0], args.data());
+      std::_Exit(127);
+    }
+    ::close(fds[1]);
+    fd_ = fds[0];
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (port_ == 0 && std::chrono::steady_clock::now() < end) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 50) <= 0) continue;
+      char buf[4096];
+      const ssize_t n = ::read(fd_, buf, sizeof buf);
+      if (n <= 0) break;
+      output_.append(buf, static_cast<std::size_t>(n));
+      const auto at = output_.find("listening on udp://");
+      if (at != std::string::npos) {
+        const auto colon = output_.find(':', at + 19);
+        if (colon != std::string::npos && output_.find('\n', colon) != std::string::npos) port_ = std::atoi(output_.c_str() + colon + 1);
+      }
+    }
+    if (port_ == 0) {
+      end_process();
+      throw std::runtime_error(fmt::format("peha faults --link: the emulator ({}) did not start listening within 10 s; it wrote:\n{}", argv[0], output_));
+    }
+  }
+  ~EmulatorProcess() { end_process(); }
+  EmulatorProcess(const EmulatorProcess&) = delete;
+  EmulatorProcess& operator=(const EmulatorProcess&) = delete;
+  int port() const { return port_; }
+  void signal(int sig) const noexcept { ::kill(pid_, sig); }
+
+ private:
+  void end_process() noexcept {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGCONT);  // a stalled one must be able to take the SIGTERM
+      ::kill(pid_, SIGTERM);
+      int status = 0;
+      for (int i = 0; i < 100 && ::waitpid(pid_, &status, WNOHANG) != pid_; ++i) ::usleep(20'000);
+      if (::waitpid(pid_, &status, WNOHANG) == 0) {
+        ::kill(pid_, SIGKILL);
+        ::waitpid(pid_, &status, 0);
+      }
+      pid_ = -1;
+    }
+    if (fd_ >= 0) ::close(fd_), fd_ = -1;
+  }
+  pid_t pid_ = -1;
+  int fd_ = -1;
+  int port_ = 0;
+  std::string output_;
+};
+
+/// Columns of a CSV log (comment lines skipped), by name; missing columns are empty.
+std::vector<std::vector<double>> read_columns(const std::filesystem::path& path, const std::vector<std::string>& names) {
+  std::ifstream in(path);
+  std::string line;
+  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
+  }
+  std::vector<std::string> header;
+  {
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) header.push_back(cell);
+  }
+  std::vector<long> index;
+  for (const std::string& n : names) {
+    const auto it = std::find(header.begin(), header.end(), n);
+    index.push_back(it == header.end() ? -1 : it - header.begin());
+  }
+  std::vector<std::vector<double>> out(names.size());
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string cell;
+    for (long i = 0; std::getline(ss, cell, ','); ++i) {
+      for (std::size_t c = 0; c < names.size(); ++c) {
+        if (index[c] == i) out[c].push_back(std::strtod(cell.c_str(), nullptr));
+      }
+    }
+  }
+  return out;
+}
+
+/// How a row injects its fault: emulator options, and/or a signal to the emulator at a host cycle.
+struct LinkFault {
+  std::string name;
+  std::string injects;
+  bool expect_detection;
+  std::vector<std::string> emulator_args;  ///< "{t}" is replaced by the injection time
+  /// kSpoof: from the injection on, every cycle, another socket of this machine sends the host a
+  /// state packet of its session, authenticated with the link's key (an insider), a wild encoder
+  /// reading in it and a sequence far ahead.
+  enum class Signal { kNone, kStall, kKill, kSpoof } signal = Signal::kNone;
+  bool from_start = false;  ///< injected for the whole run (random link faults)
+  /// Timed on the board's clock (the emulator's simulated time, a few ms off the host's cycle count):
+  /// detection is measured in the log, whose t_s is the board's time stamp, to the first latched flag.
+  bool board_clock = false;
+};
+
+constexpr double kStall_s = 0.2;
+
+const std::vector<LinkFault>& link_faults() {
+  using S = LinkFault::Signal;
+  static const std::vector<LinkFault> faults = {
+      {"loss_1pct", "1 % of the board's state packets dropped at random, the whole run", false, {"--loss", "0.01"}, S::kNone, true},
+      {"loss_5pct", "5 % of the state packets dropped at random, the whole run", false, {"--loss", "0.05"}, S::kNone, true},
+      {"duplicate_5pct", "5 % of the state packets sent twice, the whole run", false, {"--duplicate", "0.05"}, S::kNone, true},
+      {"reorder_5pct", "5 % of the state packets held back behind the next, the whole run", false, {"--reorder", "0.05"}, S::kNone, true},
+      {"corrupt_5pct", "one bit flipped in 5 % of the state packets, the whole run", false, {"--corrupt", "0.05"}, S::kNone, true},
+      {"delay_3ms", "every state packet leaves 3 ms late, the whole run", false, {"--delay-ms", "3"}, S::kNone, true},
+      {"estop", "the board's e-stop input active from the injection to the end", true, {"--estop-at", "{t}", "--estop-for", "1000"}, S::kNone, false, true},
+      {"board_stall_200ms", "the emulator stopped (SIGSTOP) for 200 ms, then continued", true, {}, S::kStall, false},
+      {"board_killed", "the emulator killed (SIGKILL)", true, {}, S::kKill, false},
+      {"spoofing_sender", "another port sends the host state packets of its session with the key, a wild encoder reading, every cycle",
+       false, {}, S::kSpoof, false},
+  };
+  return faults;
+}
+
+/// The first "-> fault (reason)" of a lifecycle: its time and reason (NaN, "" when none).
+std::pair<double, std::string> first_fault(const std::vector<std::string>& lifecycle) {
+  for (const std::string& e : lifecycle) {
+    const auto at = e.find("-> fault (");
+    if (at == std::string::npos) continue;
+    const auto close = e.rfind(')');
+    return {std::strtod(e.c_str(), nullptr), e.substr(at + 10, close == std::string::npos || close < at + 10 ? std::string::npos : close - at - 10)};
+  }
+  return {kNaN, ""};
+}
+
+LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaultOptions& options, const LinkFault& fault) {
+  const double t_inject = options.fault_at_s;
+  std::vector<std::string> argv = {options.peha_binary.string(), "mfb-emulator", "--config", options.config.string(), "--case", c.name,
+                                   "--port", "0", "--rt-priority", "0", "--fault-seed", std::to_string(options.seed)};
+  for (const std::string& a : fault.emulator_args) argv.push_back(a == "{t}" ? fmt::format("{:g}", t_inject) : a);
+  EmulatorProcess emulator(argv);
+
+  E1Scenario s = scenario;
+  s.limits.monitor.enabled = true;
+  s.duration_s = t_inject + options.after_fault_s;
+  runtime::RealtimeRunOptions o;
+  o.board = io::parse_udp_endpoint(fmt::format("udp://127.0.0.1:{}", emulator.port()));
+  o.realtime.fifo_priority = 0;  // both processes share the machine's cores: no SCHED_FIFO
+  o.realtime.lock_memory = false;
+  o.quiet = true;
+  o.dir = options.dir / "link" / fault.name;
+  std::filesystem::remove_all(o.dir);
+  std::filesystem::create_directories(o.dir);
+
+  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+  // The spoofer's datagram, made before the run (the loop only sends it).
+  io::UdpSocket stranger({0x7F000001u, 0});
+  std::array<std::uint8_t, mfb::kMaxPacketSize> spoof{};
+  std::size_t spoof_bytes = 0;
+  if (fault.signal == LinkFault::Signal::kSpoof) {
+    mfb::StatePacket fake;
+    fake.session_id = backend->session_id();
+    fake.sequence = 0x7FFFFFF0u;
+    fake.encoder[0] = 12345;  // a wild angle if it were applied
+    spoof_bytes = mfb::encode(fake, mfb::load_link_key(s.link->key_file), spoof);
+  }
+  E1RealtimeResult r;
+  const auto inject_cycle = static_cast<std::uint64_t>(std::llround(t_inject / s.period_s));
+  const auto resume_cycle = inject_cycle + static_cast<std::uint64_t>(std::llround(kStall_s / s.period_s));
+  {
+    runtime::RealtimeHarness harness(*backend, supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(),
+                                     {fmt::format("peha faults --link: {} ({})", fault.name, fault.injects)});
+    runtime::CycleHooks hooks = harness.start();
+    if (fault.signal != LinkFault::Signal::kNone) {
+      hooks.wait = [&, wait = hooks.wait, cycle = std::uint64_t{0}]() mutable {
+        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kKill) emulator.signal(SIGKILL);
+        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kStall) emulator.signal(SIGSTOP);
+        if (cycle == resume_cycle && fault.signal == LinkFault::Signal::kStall) emulator.signal(SIGCONT);
+        if (cycle >= inject_cycle && spoof_bytes > 0) {
+          stranger.send_to(backend->local(), std::span<const std::uint8_t>(spoof.data(), spoof_bytes));
+        }
+        ++cycle;
+        wait();
+      };
+    }
+    r.e1 = run_e1_on(s, c, *backend, nullptr, &harness.sink(), hooks);
+    harness.finish(r);
+    r.link = backend->stats();
+  }
+
+  LinkFaultRow row;
+  row.fault = fault.name;
+  row.injects = fault.injects;
+  row.expect_detection = fault.expect_detection;
+  row.fault_time_s = fault.from_start ? 0.0 : t_inject;
+  const auto [fault_t, reason] = first_fault(r.lifecycle);
+  row.detected = r.faults > 0 || r.e1.faults > 0;
+  row.by = row.detected ? (reason.empty() ? r.e1.fault_reason : reason) : "-";
+  row.detection_ms = !fault.from_start && std::isfinite(fault_t) ? (fault_t - t_inject) * 1e3 : kNaN;
+  const auto cols = read_columns(r.log_file, {"t_s", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "fault_flags"});
+  const std::size_t n = cols[0].size();
+  if (fault.board_clock) {
+    row.detection_ms = kNaN;
+    for (std::size_t k = 0; k < n && k < cols[4].size(); ++k) {
+      if (cols[0][k] >= t_inject - 0.5 * s.period_s && cols[4][k] != 0 && std::isfinite(cols[4][k])) {
+        row.detection_ms = (cols[0][k] - t_inject) * 1e3;
+        break;
+      }
+    }
+  }
+  row.detection_cycles = row.detection_ms / (s.period_s * 1e3);
+  const double from_s = std::max(row.fault_time_s, r.e1.tare_slack_s);
+  row.min_tension_N = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < n; ++k) {
+    if (cols[0][k] < from_s) continue;
+    if (k < cols[1].size() && std::isfinite(cols[1][k])) row.peak_speed_degps = std::max(row.peak_speed_degps, std::abs(cols[1][k]) / kDeg);
+    for (int m : {2, 3}) {
+      if (k >= cols[static_cast<std::size_t>(m)].size() || !std::isfinite(cols[static_cast<std::size_t>(m)][k])) continue;
+      row.peak_force_N = std::max(row.peak_force_N, cols[static_cast<std::size_t>(m)][k]);
+      row.min_tension_N = std::min(row.min_tension_N, cols[static_cast<std::size_t>(m)][k]);
+    }
+  }
+  if (!std::isfinite(row.min_tension_N)) row.min_tension_N = kNaN;
+  for (const safety::Check& ch : r.e1.verdict.checks) {
+    const bool envelope = ch.figure.ends_with("peak force") || ch.figure.ends_with("highest pressure") || ch.figure.ends_with("peak motor torque") ||
+                          ch.figure.ends_with("lowest angle") || ch.figure.ends_with("highest angle");
+    if (envelope && !ch.passed()) ++row.limits_exceeded, row.limits += (row.limits.empty() ? "" : "; ") + ch.describe();
+  }
+  if (row.limits_exceeded > 0 && fault.name == "estop") row.physics_forbids = physics_forbids(sim::FaultKind::kEstop);
+  if (row.limits_exceeded > 0 && fault.signal == LinkFault::Signal::kStall) {
+    row.physics_forbids = "the stalled board runs again with no command for longer than its watchdog: it disarms its outputs itself (stop "
+                          "category 0, as the e-stop), and the host, faulted on the silent backend, keeps them disabled: no output is left "
+                          "to govern a descent";
+  }
+  const auto expected_rows = static_cast<std::uint64_t>(std::llround(s.duration_s / s.period_s));
+  // A row per cycle with a new sample; a cycle without one holds the command and logs nothing.
+  row.log_complete = r.dropped_rows == 0 && r.logged_rows + r.e1.missed_samples >= expected_rows;
+  const mfb::ReceiveCounters& rc = r.link.received;
+  row.lost = r.link.replies_missing;
+  row.late = r.link.late_replies;
+  row.corrupt = rc.malformed;
+  row.duplicate = rc.duplicate;
+  row.stale = rc.stale;
+  row.foreign = rc.foreign_session + rc.foreign_source;
+  row.unauthenticated = rc.unauthenticated;
+  row.accepted = rc.accepted;
+  return row;
+}
+
+}  // namespace
+
+const std::vector<std::string>& link_fault_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (const LinkFault& f : link_faults()) v.push_back(f.name);
+    return v;
+  }();
+  return names;
+}
+
+std::vector<LinkFaultRow> run_link_faults(const E1Scenario& scenario, const LinkFaultOptions& options,
+                                          const std::function<void(const LinkFaultRow&)>& progress) {
+  if (!scenario.link) throw std::invalid_argument("peha faults --link: the scenario has no mfb: section (channel map, watchdogs)");
+  std::string all;
+  for (const std::string& n : link_fault_names()) all += (all.empty() ? "" : "|") + n;
+  for (const std::string& w : options.faults) {
+    if (std::find(link_fault_names().begin(), link_fault_names().end(), w) == link_fault_names().end()) {
+      throw std::invalid_argument(fmt::format("peha faults --link: no link fault '{}' (there are {})", w, all));
+    }
+  }
+  E1Case c = scenario.cases.front();
+  if (!options.case_name.empty()) {
+    const auto it = std::find_if(scenario.cases.begin(), scenario.cases.end(), [&](const E1Case& e) { return e.name == options.case_name; });
+    if (it == scenario.cases.end()) throw std::invalid_argument(fmt::format("peha faults: no case named '{}'", options.case_name));
+    c = *it;
+  }
+  std::vector<LinkFaultRow> out;
+  const LinkFault nominal{"none", "nothing injected", false, {}, LinkFault::Signal::kNone, true};
+  out.push_back(run_one(scenario, c, options, nominal));
+  if (progress) progress(out.back());
+  for (const LinkFault& f : link_faults()) {
+    if (!options.faults.empty() && std::find(options.faults.begin(), options.faults.end(), f.name) == options.faults.end()) continue;
+    out.push_back(run_one(scenario, c, options, f));
+    if (progress) progress(out.back());
+  }
+  return out;
+}
+
+void write_link_faults(const std::filesystem::path& dir, const std::vector<LinkFaultRow>& rows, const std::string& scenario_name,
+                       const LinkFaultOptions& options) {
+  auto num = [](double v, const char* f) { return std::isfinite(v) ? fmt::format(fmt::runtime(f), v) : std::string("-"); };
+  std::ofstream csv(dir / "faults_link.csv");
+  csv << "fault,fault_time_s,expect_detection,detected,by,detection_ms,detection_cycles,peak_force_N,peak_speed_degps,min_tension_N,"
+         "limits_exceeded,physics_forbids,log_complete,outcome_met,lost,late,corrupt,duplicate,stale,foreign,unauthenticated,accepted\n";
+  for (const LinkFaultRow& r : rows) {
+    csv << fmt::format("{},{:.3f},{},{},\"{}\",{},{},{:.1f},{:.2f},{},{},\"{}\",{},{},{},{},{},{},{},{},{},{}\n", r.fault, r.fault_time_s,
+                       r.expect_detection ? 1 : 0, r.detected ? 1 : 0, r.by, num(r.detection_ms, "{:.1f}"), num(r.detection_cycles, "{:.0f}"),
+                       r.peak_force_N, r.peak_speed_degps, num(r.min_tension_N, "{:.2f}"), r.limits_exceeded, r.physics_forbids,
+                       r.log_complete ? 1 : 0, r.outcome_met() ? 1 : 0, r.lost, r.late, r.corrupt, r.duplicate, r.stale, r.foreign,
+                       r.unauthenticated, r.accepted);
+  }
+  std::size_t met = 0, complete = 0;
+  for (const LinkFaultRow& r : rows) met += r.outcome_met(), complete += r.log_complete;
+  std::ofstream md(dir / "faults_link.md");
+  md << "# The link's faults: E1 over UDP\n\n";
+  md << fmt::format("Scenario `{}`, case `{}`, over real UDP (loopback) to `peha mfb-emulator` in its own process, neither side SCHED_FIFO, "
+                    "the watchdogs as configured, the supervisor's plausibility stage on. Each run lasts {:g} s; a fault with a moment is "
+                    "injected at {:g} s (after the start-up vent, tare and refill), the random ones run the whole time (emulator "
+                    "--fault-seed {}). Force, speed and tension are the host's sensors (load cells, velocity estimate) from the injection "
+                    "(or the end of the tare's slack) on: over UDP there is no plant truth.\n\n",
+                    scenario_name, options.case_name.empty() ? "(first)" : options.case_name, options.fault_at_s + options.after_fault_s,
+                    options.fault_at_s, options.seed);
+  md << fmt::format("Rows: {}; designed outcome met (a fault where one is designed, none where the link rides it out; no limit exceeded "
+                    "unless physics forbids): {}; log complete: {}.\n\n", rows.size(), met, complete);
+  md << "| fault | injects | expected | detected by | ms | cycles | peak load cell N | peak speed deg/s | min load cell N | limits exceeded "
+        "| log complete | lost | late | corrupt | duplicate | stale | foreign |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const LinkFaultRow& r : rows) {
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {:.0f} | {:.1f} | {} | {}{} | {} | {} | {} | {} | {} | {} | {} |\n", r.fault, r.injects,
+                      r.expect_detection ? "fault" : "ride out", r.detected ? r.by : (r.expect_detection ? "**not detected**" : "-"),
+                      num(r.detection_ms, "{:.1f}"), num(r.detection_cycles, "{:.0f}"), r.peak_force_N, r.peak_speed_degps,
+                      num(r.min_tension_N, "{:.1f}"), r.limits_exceeded, r.physics_forbids.empty() ? "" : " (physics forbids)",
+                      r.log_complete ? "yes" : "**no**", r.lost, r.late, r.corrupt, r.duplicate, r.stale, r.foreign);
+  }
+}
+
+}  // namespace peha::experiments
