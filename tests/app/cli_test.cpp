@@ -312,7 +312,7 @@ TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
 TEST(Cli, IdentifyGravityWritesAFileE3Takes) {
   const Result help = run("identify-gravity --help");
   EXPECT_EQ(help.code, 0);
-  for (const char* word : {"--config", "--out", "--seed", "Exit code", "above and once from below"}) EXPECT_THAT(help.output, HasSubstr(word));
+  for (const char* word : {"--config", "--out", "--seed", "Exit code", "sweeps the arm slowly up and down", "a joint stuck in a window"}) EXPECT_THAT(help.output, HasSubstr(word));
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_identify";
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
