@@ -20,7 +20,7 @@ help:
 	@echo "            the table in docs/performance.md (incl. 60 s of MFB round trips over UDP)"
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
 	@echo "make soak   opt-in: 10 minutes of MFB round trips at 1 kHz over UDP, then 10 more with the other core busy"
-	@echo "make faults every injectable fault at three moments of E1 and two of E3 (right arm) in process:"
+	@echo "make faults every injectable fault at three moments of E1 and three of E3 (right arm) in process:"
 	@echo "            out/faults/ and out/faults_arm/: faults.md and faults.png (docs/safety.md); then E1's link faults"
 	@echo "            over UDP to the emulator (~50 s): out/faults_link/faults_link.md"
 	@echo "make property  opt-in: the limits' random-command property test with 10^7 commands (make test runs 10^5)"

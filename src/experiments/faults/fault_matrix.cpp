@@ -228,7 +228,17 @@ std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
   if (moves.size() < 3) throw std::invalid_argument("peha faults: E3's rows need at least two postures (holding the first, moving to the second)");
   const sim::OperatorMove& first = moves[1];
   const sim::OperatorMove& second = moves[2];
-  return {{"holding", first.start_s + first.duration_s + 1.0}, {"moving", second.start_s + 0.5 * second.move_s}};
+  std::vector<FaultMoment> moments = {{"holding", first.start_s + first.duration_s + 1.0}, {"moving", second.start_s + 0.5 * second.move_s}};
+  // And 1 s after the release of the first posture with the elbow flexed (>= 45 deg): at the other
+  // two the elbow is straight, at its range's end, where a descent has no room to act.
+  for (std::size_t i = 1; i < moves.size(); ++i) {
+    const sim::OperatorMove& m = moves[i];
+    if (m.target_rad.size() > 1 && std::isfinite(m.target_rad[1]) && m.target_rad[1] >= 45.0 * kDeg) {
+      moments.push_back({"elbow_flexed", m.start_s + m.duration_s + 1.0});
+      break;
+    }
+  }
+  return moments;
 }
 
 std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& options, const std::function<void(const FaultRow&)>& progress) {

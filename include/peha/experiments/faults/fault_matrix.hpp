@@ -29,9 +29,10 @@ struct FaultMoment {
 /// first push's move, and 0.5 s after that push lets go.
 std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario);
 
-/// The E3 moments: `holding` (1 s after the operator lets go of the first posture) and `moving`
-/// (the middle of the operator's move to the second posture). Throws std::invalid_argument when the
-/// scenario has fewer than two postures.
+/// The E3 moments: `holding` (1 s after the operator lets go of the first posture), `moving` (the
+/// middle of the operator's move to the second posture) and, when a posture flexes the elbow by 45 deg
+/// or more, `elbow_flexed` (1 s after the first such posture's release). Throws
+/// std::invalid_argument when the scenario has fewer than two postures.
 std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario);
 
 /// The moments of `all` that `wanted` names, in `all`'s order (all of them when `wanted` is empty).
