@@ -11,7 +11,7 @@
 // (`make soak`).
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
-#include "../tests/support/child_process.hpp"
+#include "peha/runtime/child_process.hpp"
 
 #include <benchmark/benchmark.h>
 
@@ -62,8 +62,8 @@ void mfb_loopback(benchmark::State& state, double duration_s, bool busy) {
   for (auto _ : state) {
     std::optional<BusyCore> hog;
     if (busy) hog.emplace();
-    testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0", "--case", "payload_2.5kg"});
-    const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
+    runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0", "--case", "payload_2.5kg"});
+    const int port = runtime::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
     if (port == 0) {
       state.SkipWithError("mfb-emulator did not start");
       return;

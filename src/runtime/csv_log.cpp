@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <fstream>
+#include <sstream>
 #include <stdexcept>
 
 namespace peha::runtime {
@@ -46,6 +48,40 @@ void CsvLog::write(const std::filesystem::path& path, const std::vector<std::str
     out << line << '\n';
   }
   if (!out) throw std::runtime_error(fmt::format("{}: write failed", path.string()));
+}
+
+std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::path& path, const std::vector<std::string>& names) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error(fmt::format("{}: cannot open the log", path.string()));
+  std::string line;
+  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
+  }
+  std::vector<std::string> header;
+  {
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) header.push_back(cell);
+  }
+  std::vector<std::ptrdiff_t> index;
+  for (const std::string& n : names) {
+    const auto it = std::find(header.begin(), header.end(), n);
+    index.push_back(it == header.end() ? -1 : it - header.begin());
+  }
+  std::vector<std::vector<double>> out(names.size());
+  while (std::getline(in, line)) {
+    std::stringstream ss(line);
+    std::string cell;
+    for (std::ptrdiff_t i = 0; std::getline(ss, cell, ','); ++i) {
+      for (std::size_t c = 0; c < names.size(); ++c) {
+        if (index[c] != i) continue;
+        char* end = nullptr;
+        const double v = std::strtod(cell.c_str(), &end);
+        if (end == cell.c_str()) throw std::runtime_error(fmt::format("{}: column {}: '{}' is not a number", path.string(), names[c], cell));
+        out[c].push_back(v);
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace peha::runtime

@@ -4,7 +4,8 @@
 #include "peha/mfb/link_config.hpp"
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
-#include "../support/child_process.hpp"
+#include "peha/runtime/child_process.hpp"
+#include "peha/runtime/csv_log.hpp"
 
 #include <gtest/gtest.h>
 
@@ -89,7 +90,7 @@ struct RawHost {
 };
 
 struct Emulator {
-  testing::ChildProcess process;
+  runtime::ChildProcess process;
   int port = 0;
   explicit Emulator(std::vector<std::string> extra)
       : process([&] {
@@ -100,7 +101,7 @@ struct Emulator {
           argv.insert(argv.end(), extra.begin(), extra.end());
           return argv;
         }()) {
-    port = testing::parse_listening_port(process.wait_for_line("listening on", 10.0));
+    port = runtime::parse_listening_port(process.wait_for_line("listening on", 10.0));
   }
 };
 
@@ -119,26 +120,7 @@ RealtimeRunOptions options(int port, const std::string& name) {
 
 /// Column `name` of a CSV written by a log (comment lines skipped).
 std::vector<double> column(const std::filesystem::path& path, const std::string& name) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
-  }
-  std::vector<std::string> header;
-  {
-    std::stringstream ss(line);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) header.push_back(cell);
-  }
-  const auto col = static_cast<std::size_t>(std::find(header.begin(), header.end(), name) - header.begin());
-  std::vector<double> out;
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string cell;
-    for (std::size_t i = 0; std::getline(ss, cell, ','); ++i) {
-      if (i == col) out.push_back(std::stod(cell));
-    }
-  }
-  return out;
+  return runtime::read_csv_log_columns(path, {name}).front();
 }
 
 /// A run's lifecycle, one transition a line (for failure messages).
@@ -688,8 +670,8 @@ TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   s.link->host_watchdog_s = kTestWatchdog_s;
   const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::RightArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
 
-  testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
-  const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
+  runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
+  const int port = runtime::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
   ASSERT_GT(port, 0) << emulator.output();
   const experiments::PosturesRealtimeResult udp = experiments::run_postures_realtime(s, options(port, "arm"));
   EXPECT_EQ(udp.faults, 0u) << lifecycle_text(udp) << udp.timing.table();
@@ -721,7 +703,7 @@ TEST(MfbEndToEnd, CtrlCEndsARunOnTheBoardCleanly) {
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_mfb_ctrl_c_" + std::to_string(::getpid()));
   std::filesystem::remove_all(out);
-  testing::ChildProcess host({PEHA_BINARY, "run", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--case", "payload_2.5kg",
+  runtime::ChildProcess host({PEHA_BINARY, "run", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--case", "payload_2.5kg",
                               "--backend", "udp://127.0.0.1:" + std::to_string(emulator.port), "--rt-priority", "0", "--no-plot",
                               "--out", out.string(), "--name", "r"});
   ASSERT_FALSE(host.wait_for_line("payload_2.5kg: t =", 15.0).empty()) << host.output();  // the first progress line, ~1 s in
@@ -753,9 +735,9 @@ TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(s.goniometer, s.goniometer.movements[0], s.seed);
   const experiments::GoniometerResult local = experiments::run_goniometer(s, trace, experiments::GoniometerVariant::kFeedback, nullptr);
 
-  testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0",
+  runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0",
                                   "--watchdog-ms", "250", "--case", "goniometer_brisk"});
-  const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
+  const int port = runtime::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
   ASSERT_GT(port, 0) << emulator.output();
   const experiments::GoniometerRealtimeResult udp = experiments::run_goniometer_realtime(s, 0, experiments::GoniometerVariant::kFeedback, options(port, "e4"));
   EXPECT_EQ(udp.faults, 0u);
@@ -800,11 +782,11 @@ TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
   // The scenario names its files relative to itself: keep it beside the shipped one's folder.
   const std::filesystem::path config = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e5_test_" + std::to_string(::getpid()) + ".yaml");
   std::ofstream(config) << yaml;
-  testing::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--case", "angle_0deg", "--port", "0",
+  runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--case", "angle_0deg", "--port", "0",
                                   "--rt-priority", "0", "--watchdog-ms", "250"});
-  const int port = testing::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
+  const int port = runtime::parse_listening_port(emulator.wait_for_line("listening on", 10.0));
   ASSERT_GT(port, 0) << emulator.output();
-  testing::ChildProcess host({PEHA_BINARY, "run", "--config", config.string(), "--case", "angle_0deg", "--backend",
+  runtime::ChildProcess host({PEHA_BINARY, "run", "--config", config.string(), "--case", "angle_0deg", "--backend",
                               "udp://127.0.0.1:" + std::to_string(port), "--rt-priority", "0", "--no-plot", "--out", dir.string(),
                               "--name", "r"});
   const int code = host.wait(30.0);

@@ -45,4 +45,9 @@ class CsvLog final : public RowSink {
   std::size_t row_offset_ = 0;
 };
 
+/// Reads the columns `names` of a log in this format (`# ` comment lines, the column names, rows;
+/// CsvLog::write, AsyncCsvLog), one vector per name in that order; a name the file lacks gives an
+/// empty vector. Throws std::runtime_error on a file it cannot open or a cell that is not a number.
+std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::path& path, const std::vector<std::string>& names);
+
 }  // namespace peha::runtime

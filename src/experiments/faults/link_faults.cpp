@@ -3,24 +3,20 @@
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 #include "peha/experiments/faults/fault_matrix.hpp"
 #include "peha/mfb/udp_backend.hpp"
+#include "peha/runtime/child_process.hpp"
+#include "peha/runtime/csv_log.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <numbers>
-#include <sstream>
 #include <stdexcept>
-
-#include <poll.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace peha::experiments {
 namespace {
@@ -28,103 +24,25 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-/// `peha mfb-emulator` as a child process: started with fork/exec, its output on a pipe read until
-/// it names its port; signalled by the row (stall, kill), ended with SIGTERM (then SIGKILL).
-class EmulatorProcess {
- public:
-  explicit EmulatorProcess(const std::vector<std::string>& argv) {
-    int fds[2];
-    if (::pipe(fds) != 0) throw std::runtime_error("peha faults --link: pipe() failed");
-    pid_ = ::fork();
-    if (pid_ < 0) throw std::runtime_error("peha faults --link: fork() failed");
-    if (pid_ == 0) {
-      ::dup2(fds[1], STDOUT_FILENO);
-      ::dup2(fds[1], STDERR_FILENO);
-      ::close(fds[0]);
-      ::close(fds[1]);
-      std::vector<char*> args;
-      for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-      args.push_back(nullptr);
-      ::execv(args[0], args.data());
-      std::_Exit(127);
-    }
-    ::close(fds[1]);
-    fd_ = fds[0];
-    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (port_ == 0 && std::chrono::steady_clock::now() < end) {
-      pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 50) <= 0) continue;
-      char buf[4096];
-      const ssize_t n = ::read(fd_, buf, sizeof buf);
-      if (n <= 0) break;
-      output_.append(buf, static_cast<std::size_t>(n));
-      const auto at = output_.find("listening on udp://");
-      if (at != std::string::npos) {
-        const auto colon = output_.find(':', at + 19);
-        if (colon != std::string::npos && output_.find('\n', colon) != std::string::npos) port_ = std::atoi(output_.c_str() + colon + 1);
-      }
-    }
-    if (port_ == 0) {
-      end_process();
-      throw std::runtime_error(fmt::format("peha faults --link: the emulator ({}) did not start listening within 10 s; it wrote:\n{}", argv[0], output_));
+/// `peha mfb-emulator` as a child process, with the port it names once it listens; signalled by the
+/// row (stall, kill), ended with SIGTERM (the ChildProcess kills what is left).
+struct Emulator {
+  runtime::ChildProcess process;
+  int port = 0;
+  explicit Emulator(const std::vector<std::string>& argv) : process(argv) {
+    port = runtime::parse_listening_port(process.wait_for_line("listening on udp://", 10.0));
+    if (port == 0) {
+      throw std::runtime_error(fmt::format("peha faults --link: the emulator ({}) did not start listening within 10 s; it wrote:\n{}", argv[0],
+                                           process.output()));
     }
   }
-  ~EmulatorProcess() { end_process(); }
-  EmulatorProcess(const EmulatorProcess&) = delete;
-  EmulatorProcess& operator=(const EmulatorProcess&) = delete;
-  int port() const { return port_; }
-  void signal(int sig) const noexcept { ::kill(pid_, sig); }
-
- private:
-  void end_process() noexcept {
-    if (pid_ > 0) {
-      ::kill(pid_, SIGCONT);  // a stalled one must be able to take the SIGTERM
-      ::kill(pid_, SIGTERM);
-      int status = 0;
-      for (int i = 0; i < 100 && ::waitpid(pid_, &status, WNOHANG) != pid_; ++i) ::usleep(20'000);
-      if (::waitpid(pid_, &status, WNOHANG) == 0) {
-        ::kill(pid_, SIGKILL);
-        ::waitpid(pid_, &status, 0);
-      }
-      pid_ = -1;
-    }
-    if (fd_ >= 0) ::close(fd_), fd_ = -1;
+  ~Emulator() {
+    process.signal(SIGCONT);  // a stalled one must be able to take the SIGTERM
+    (void)process.stop(SIGTERM, 2.0);
   }
-  pid_t pid_ = -1;
-  int fd_ = -1;
-  int port_ = 0;
-  std::string output_;
+  Emulator(const Emulator&) = delete;
+  Emulator& operator=(const Emulator&) = delete;
 };
-
-/// Columns of a CSV log (comment lines skipped), by name; missing columns are empty.
-std::vector<std::vector<double>> read_columns(const std::filesystem::path& path, const std::vector<std::string>& names) {
-  std::ifstream in(path);
-  std::string line;
-  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
-  }
-  std::vector<std::string> header;
-  {
-    std::stringstream ss(line);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) header.push_back(cell);
-  }
-  std::vector<long> index;
-  for (const std::string& n : names) {
-    const auto it = std::find(header.begin(), header.end(), n);
-    index.push_back(it == header.end() ? -1 : it - header.begin());
-  }
-  std::vector<std::vector<double>> out(names.size());
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string cell;
-    for (long i = 0; std::getline(ss, cell, ','); ++i) {
-      for (std::size_t c = 0; c < names.size(); ++c) {
-        if (index[c] == i) out[c].push_back(std::strtod(cell.c_str(), nullptr));
-      }
-    }
-  }
-  return out;
-}
 
 /// How a row injects its fault: emulator options, and/or a signal to the emulator at a host cycle.
 struct LinkFault {
@@ -178,13 +96,13 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   std::vector<std::string> argv = {options.peha_binary.string(), "mfb-emulator", "--config", options.config.string(), "--case", c.name,
                                    "--port", "0", "--rt-priority", "0", "--fault-seed", std::to_string(options.seed)};
   for (const std::string& a : fault.emulator_args) argv.push_back(a == "{t}" ? fmt::format("{:g}", t_inject) : a);
-  EmulatorProcess emulator(argv);
+  Emulator emulator(argv);
 
   E1Scenario s = scenario;
   s.limits.monitor.enabled = true;
   s.duration_s = t_inject + options.after_fault_s;
   runtime::RealtimeRunOptions o;
-  o.board = io::parse_udp_endpoint(fmt::format("udp://127.0.0.1:{}", emulator.port()));
+  o.board = io::parse_udp_endpoint(fmt::format("udp://127.0.0.1:{}", emulator.port));
   o.realtime.fifo_priority = 0;  // both processes share the machine's cores: no SCHED_FIFO
   o.realtime.lock_memory = false;
   o.quiet = true;
@@ -213,9 +131,9 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
     runtime::CycleHooks hooks = harness.start();
     if (fault.signal != LinkFault::Signal::kNone) {
       hooks.wait = [&, wait = hooks.wait, cycle = std::uint64_t{0}]() mutable {
-        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kKill) emulator.signal(SIGKILL);
-        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kStall) emulator.signal(SIGSTOP);
-        if (cycle == resume_cycle && fault.signal == LinkFault::Signal::kStall) emulator.signal(SIGCONT);
+        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kKill) emulator.process.signal(SIGKILL);
+        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kStall) emulator.process.signal(SIGSTOP);
+        if (cycle == resume_cycle && fault.signal == LinkFault::Signal::kStall) emulator.process.signal(SIGCONT);
         if (cycle >= inject_cycle && spoof_bytes > 0) {
           stranger.send_to(backend->local(), std::span<const std::uint8_t>(spoof.data(), spoof_bytes));
         }
@@ -237,7 +155,7 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   row.detected = r.faults > 0 || r.e1.faults > 0;
   row.by = row.detected ? (reason.empty() ? r.e1.fault_reason : reason) : "-";
   row.detection_ms = !fault.from_start && std::isfinite(fault_t) ? (fault_t - t_inject) * 1e3 : kNaN;
-  const auto cols = read_columns(r.log_file, {"t_s", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "fault_flags"});
+  const auto cols = runtime::read_csv_log_columns(r.log_file, {"t_s", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "fault_flags"});
   const std::size_t n = cols[0].size();
   if (fault.board_clock) {
     row.detection_ms = kNaN;

@@ -1,4 +1,4 @@
-#include "child_process.hpp"
+#include "peha/runtime/child_process.hpp"
 
 #include <chrono>
 #include <csignal>
@@ -8,7 +8,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
-namespace peha::testing {
+namespace peha::runtime {
 
 ChildProcess::ChildProcess(const std::vector<std::string>& argv) {
   int fds[2];
@@ -72,6 +72,10 @@ int ChildProcess::wait(double timeout_s) {
   return WIFEXITED(status_) ? WEXITSTATUS(status_) : 128 + WTERMSIG(status_);
 }
 
+void ChildProcess::signal(int signal) const noexcept {
+  if (!exited_ && pid_ > 0) ::kill(pid_, signal);
+}
+
 int ChildProcess::stop(int signal, double timeout_s) {
   if (!exited_) ::kill(pid_, signal);
   return wait(timeout_s);
@@ -89,4 +93,4 @@ int parse_listening_port(const std::string& line) {
   return colon == std::string::npos ? 0 : std::atoi(line.c_str() + colon + 1);
 }
 
-}  // namespace peha::testing
+}  // namespace peha::runtime

@@ -1,12 +1,14 @@
 #pragma once
-// A child process for end-to-end tests (e.g. `peha mfb-emulator`): started with fork/exec, its
-// stdout readable line by line, stopped with a signal, its exit status and output collected.
+/// \file
+/// A child process (e.g. `peha mfb-emulator` for `peha faults --link`, the end-to-end tests and the
+/// link benchmark): started with fork/exec, its stdout and stderr readable line by line, signalled,
+/// its exit status and output collected. Not for the control loop (it allocates and blocks).
 
 #include <string>
 #include <vector>
 #include <sys/types.h>
 
-namespace peha::testing {
+namespace peha::runtime {
 
 class ChildProcess {
  public:
@@ -25,6 +27,8 @@ class ChildProcess {
   /// Everything the child wrote so far (after wait/stop: all of it).
   const std::string& output();
   pid_t pid() const { return pid_; }
+  /// Sends `signal` without waiting (e.g. SIGSTOP / SIGCONT to stall and resume it).
+  void signal(int signal) const noexcept;
 
  private:
   void pump(double timeout_s);
@@ -38,4 +42,4 @@ class ChildProcess {
 /// The port in "listening on udp://A.B.C.D:PORT" (0 if absent).
 int parse_listening_port(const std::string& line);
 
-}  // namespace peha::testing
+}  // namespace peha::runtime
