@@ -110,6 +110,18 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
   }
 }
 
+FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double period_s) noexcept {
+  auto cycles = [&](double s) { return std::clamp(static_cast<int>(std::lround(s / period_s)), 0, kMaxDelay - 1); };
+  auto alpha = [&](double tau_s) { return 1.0 - std::exp(-period_s / tau_s); };
+  PerPeriod pp;
+  pp.delay_cycles = cycles(p.valve_dead_time_s);
+  pp.slow_delay_cycles = cycles(p.valve_slow_factor * p.valve_dead_time_s);
+  pp.valve_alpha = alpha(p.valve_lag_s);
+  pp.slow_valve_alpha = alpha(p.valve_slow_factor * p.valve_lag_s);
+  pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter
+  return pp;
+}
+
 void FaultMonitor::clear() noexcept {
   flags_ = 0;
   action_ = SafeAction::kNone;
@@ -134,10 +146,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
   sequence_ = s.sequence;
   const MonitorParams& p = params_;
   if (!p.enabled) return;
-  const int delay_cycles = std::clamp(static_cast<int>(std::lround(p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
-  const double step_alpha = 1.0 - std::exp(-period_s_ / p.loadcell_step_filter_s);  // the step check's level filter
-  const int slow_delay_cycles =
-      std::clamp(static_cast<int>(std::lround(p.valve_slow_factor * p.valve_dead_time_s / period_s_)), 0, kMaxDelay - 1);
+  const PerPeriod& pp = per_period_;
   int low_muscles = 0;
   for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
     const auto ji = static_cast<std::size_t>(j);
@@ -240,7 +249,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
         const double jump_N = disagreement_N - ms.disagreement_level_N;
         ms.step = std::abs(jump_N) > p.loadcell_step_N ? ms.step + 1 : 0;
         if (ms.step >= p.confirm_cycles) raise(kFaultLoadcellStep, j, m, jump_N, p.loadcell_step_N);
-        ms.disagreement_level_N += step_alpha * jump_N;
+        ms.disagreement_level_N += pp.step_alpha * jump_N;
       }
       // Pressure sensor against the valve's dynamics.
       if (pressure > model->supply_pressure_Pa + p.pressure_over_supply_Pa) {
@@ -253,15 +262,15 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
         continue;
       }
       // Advance the valve model by one period with the delayed command (written by sent()).
-      const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - delay_cycles) % kMaxDelay)];
+      const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.delay_cycles) % kMaxDelay)];
       const double max_step = p.valve_rate_Pa_per_s * period_s_;
       ms.setpoint_Pa += std::clamp(delayed - ms.setpoint_Pa, -max_step, max_step);
-      ms.predicted_Pa += (1.0 - std::exp(-period_s_ / p.valve_lag_s)) * (ms.setpoint_Pa - ms.predicted_Pa);
+      ms.predicted_Pa += pp.valve_alpha * (ms.setpoint_Pa - ms.predicted_Pa);
       // The envelope's slow valve: the same command, later, slower, lagging more.
-      const double slow_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - slow_delay_cycles) % kMaxDelay)];
+      const double slow_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.slow_delay_cycles) % kMaxDelay)];
       const double slow_step = max_step / p.valve_slow_factor;
       ms.slow_setpoint_Pa += std::clamp(slow_delayed - ms.slow_setpoint_Pa, -slow_step, slow_step);
-      ms.slow_predicted_Pa += (1.0 - std::exp(-period_s_ / (p.valve_slow_factor * p.valve_lag_s))) * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
+      ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
       const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
       const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
       ms.pressure_high = above > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;

@@ -142,7 +142,8 @@ class FaultMonitor {
  public:
   static constexpr int kMaxDelay = 64;  ///< valve dead time in cycles, at most
 
-  FaultMonitor(const MonitorParams& params, double period_s) noexcept : params_(params), period_s_(period_s) {}
+  FaultMonitor(const MonitorParams& params, double period_s) noexcept
+      : params_(params), period_s_(period_s), per_period_(per_period(params, period_s)) {}
 
   /// Checks a new sample against the joint set-ups and the angle range.
   void check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
@@ -211,8 +212,17 @@ class FaultMonitor {
   };
   void govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
 
+  /// What the thresholds and the period fix for every sample: the valve models' dead times in cycles
+  /// and the first-order filters' factors per period (derived once, not per sample).
+  struct PerPeriod {
+    int delay_cycles = 0, slow_delay_cycles = 0;
+    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0;
+  };
+  static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
+
   MonitorParams params_;
   double period_s_;
+  PerPeriod per_period_;
   std::array<JointState, io::kMaxJoints> joints_{};
   bool synced_ = false;
   SafeAction action_ = SafeAction::kNone;
