@@ -213,7 +213,6 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
   r.duration_s = duration_s;
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   const int dof = scenario.controller.arm.dof();
-  std::vector<std::array<double, 4>> motors;  // per posture: up SFE, up EFE, down SFE, down EFE (Nm)
   for (std::size_t p = 0; p < id.postures.size(); ++p) {
     IdentificationMeasurement m;
     m.name = id.postures[p].name;
@@ -221,7 +220,6 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
     sample.name = m.name;
     sample.q_rad = Eigen::VectorXd::Zero(dof);  // the passive wrist joints are taken at 0, as the controller does
     sample.tau_Nm = Eigen::VectorXd::Zero(2);
-    double motor[2][2] = {};  // sweep x joint
     for (int side = 0; side < 2; ++side) {
       const Sums& s = sums[p][static_cast<std::size_t>(side)];
       if (s.n < 1) throw std::runtime_error(fmt::format("identification: posture '{}' was not measured (run too short?)", m.name));
@@ -233,8 +231,8 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
         const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
         m.force_N[side][j][0] = s.force[j][0] / s.n;
         m.force_N[side][j][1] = s.force[j][1] / s.n;
-        motor[side][j] = s.motor[j] / s.n;
-        m.tau_Nm[side][j] = r0 * (m.force_N[side][j][0] - m.force_N[side][j][1]) + motor[side][j];
+        m.motor_Nm[side][j] = s.motor[j] / s.n;
+        m.tau_Nm[side][j] = r0 * (m.force_N[side][j][0] - m.force_N[side][j][1]) + m.motor_Nm[side][j];
         m.speed_fraction[side][j] = (side == 0 ? 1.0 : -1.0) * s.speed[j] / s.n / id.sweep_speed_radps;
         // A joint the cables held during the window measures the static friction's band, not sliding.
         if (!(m.speed_fraction[side][j] >= id.min_speed_fraction)) {
@@ -249,7 +247,6 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
     }
     r.measurements.push_back(m);
     r.samples.push_back(sample);
-    motors.push_back({motor[0][0], motor[0][1], motor[1][0], motor[1][1]});
   }
   calibration::GravityIdentificationOptions o;
   o.joints = {0, 1};
@@ -265,24 +262,25 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
   const models::ArmModel& arm = scenario.controller.arm;
   models::ArmData data(arm);
   Eigen::MatrixXd Y(dof, models::gravity_parameter_count(arm));
-  auto gravity_Nm = [&](const Eigen::VectorXd& theta, const double* q_deg, int joint) {
+  auto gravity_Nm = [&](const Eigen::VectorXd& theta, const double* q_deg) -> Eigen::Vector2d {  // SFE, EFE
     Eigen::VectorXd q = Eigen::VectorXd::Zero(dof);
     for (int j = 0; j < 3; ++j) q[j] = q_deg[j] * kDeg;
     models::gravity_regressor(arm, data, q, Y);
-    return Y.row(joint).dot(theta);
+    return Y.topRows(2) * theta;
   };
   auto measure = [&](const Eigen::VectorXd& theta) {
     for (std::size_t p = 0; p < r.measurements.size(); ++p) {
       IdentificationMeasurement& m = r.measurements[p];
       double q_mean_deg[3];
       for (int j = 0; j < 3; ++j) q_mean_deg[j] = 0.5 * (m.q_deg[0][j] + m.q_deg[1][j]);
+      const Eigen::Vector2d g_mean = gravity_Nm(theta, q_mean_deg), g_up = gravity_Nm(theta, m.q_deg[0]),
+                            g_down = gravity_Nm(theta, m.q_deg[1]);
       for (int j = 0; j < 2; ++j) {
         const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
         const double a_up = r0 * m.force_N[0][j][0], b_up = r0 * m.force_N[0][j][1];
         const double a_down = r0 * m.force_N[1][j][0], b_down = r0 * m.force_N[1][j][1];
-        const double g_mean = gravity_Nm(theta, q_mean_deg, j);
-        const double m_up = motors[p][static_cast<std::size_t>(j)] - (gravity_Nm(theta, m.q_deg[0], j) - g_mean);
-        const double m_down = motors[p][static_cast<std::size_t>(2 + j)] - (gravity_Nm(theta, m.q_deg[1], j) - g_mean);
+        const double m_up = m.motor_Nm[0][j] - (g_up[j] - g_mean[j]);
+        const double m_down = m.motor_Nm[1][j] - (g_down[j] - g_mean[j]);
         const double k = capstan_ratio(a_up, b_up, m_up, a_down, b_down, m_down);
         m.friction_ratio[j] = k;
         m.tau_mean_Nm[j] = 0.5 * ((a_up / k - b_up * k + m_up) + (a_down * k - b_down / k + m_down));

@@ -26,6 +26,7 @@ struct IdentificationMeasurement {
   double speed_fraction[2][2] = {};  ///< sweep x (SFE, EFE): the joint's mean speed / the reference's
   double tau_Nm[2][2] = {};          ///< sweep x (SFE, EFE): r0 (F_agonist - F_antagonist) + motor, muscle-side forces
   double force_N[2][2][2] = {};      ///< sweep x joint x muscle: load cell minus its zero
+  double motor_Nm[2][2] = {};        ///< sweep x (SFE, EFE): the motor's command
   double friction_ratio[2] = {};     ///< (SFE, EFE): k = e^(mu psi) the two sweeps agree on
   double tau_mean_Nm[2] = {};        ///< the sample's gravity torque: either sweep's pulley-side torque with that k
 };
