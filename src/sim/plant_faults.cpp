@@ -7,6 +7,7 @@
 #include <optional>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace peha::sim {
@@ -186,6 +187,22 @@ void apply_joint_fault(const PlantFault& f, JointFaultState& j) noexcept {
     case FaultKind::kWireSlip: j.wire_slip_m[m] += f.value * 1e-3; break;
     case FaultKind::kMotorFault: j.motor_failed = true; break;
     default: break;
+  }
+}
+
+ControllerNanInjection::ControllerNanInjection(const std::vector<PlantFault>& faults) noexcept {
+  from_s_.fill(std::numeric_limits<double>::infinity());
+  for (const PlantFault& f : faults) {
+    if (f.kind == FaultKind::kControllerNan && f.joint >= 0 && f.joint < io::kMaxJoints) {
+      double& from = from_s_[static_cast<std::size_t>(f.joint)];
+      from = std::min(from, f.time_s);
+    }
+  }
+}
+
+void ControllerNanInjection::apply(double t_s, io::Command& command) const noexcept {
+  for (std::size_t j = 0; j < from_s_.size(); ++j) {
+    if (t_s + 1e-9 >= from_s_[j]) command.joints[j].agonist_pressure_Pa = std::numeric_limits<double>::quiet_NaN();
   }
 }
 

@@ -9,6 +9,7 @@
 /// `JOINT.MUSCLE`, `MUSCLE` (the first joint), or `JOINT` for joint-wide kinds.
 
 #include "peha/config/reader.hpp"
+#include "peha/io/backend.hpp"
 
 #include <array>
 #include <string>
@@ -69,6 +70,18 @@ struct JointFaultState;
 /// Sets the joint-level effect of `f` (load cells, pressure sensors, valves, wires, supply, motor) in
 /// `joint`; kinds the joint does not model (encoder, e-stop, controller) are left to the caller.
 void apply_joint_fault(const PlantFault& f, JointFaultState& joint) noexcept;
+
+/// The controller_nan faults of a run: the test driver's part of the plant's fault injection. From
+/// each one's time on, the controller's agonist command on its joint is NaN, before the supervisor.
+class ControllerNanInjection {
+ public:
+  explicit ControllerNanInjection(const std::vector<PlantFault>& faults) noexcept;
+  /// Corrupts `command` (just computed by the controller at `t_s`) where a controller_nan is due.
+  void apply(double t_s, io::Command& command) const noexcept;
+
+ private:
+  std::array<double, io::kMaxJoints> from_s_{};
+};
 
 /// "loadcell_stuck@3s joint.agonist" for logs and tables.
 std::string describe(const PlantFault& f, const std::vector<std::string>& joint_names);

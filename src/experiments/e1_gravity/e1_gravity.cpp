@@ -252,13 +252,10 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   };
   // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command here,
   // before the supervisor: the test driver's part of the plant's fault injection.
-  double nan_from_s = std::numeric_limits<double>::infinity();
-  for (const auto& f : scenario.plant.faults) {
-    if (f.kind == sim::FaultKind::kControllerNan) nan_from_s = std::min(nan_from_s, f.time_s);
-  }
+  const sim::ControllerNanInjection controller_nan(scenario.plant.faults);
   auto step = [&](std::size_t) {
     controller.update(state, command);
-    if (state.time_s + 1e-9 >= nan_from_s) command.joints[0].agonist_pressure_Pa = nan;
+    controller_nan.apply(state.time_s, command);
   };
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t flags) {
     const io::JointSensors& s = state.joints[0];

@@ -100,19 +100,10 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   };
   // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command on its
   // joint here, before the supervisor: the test driver's part of the plant's fault injection (as E1).
-  std::array<double, io::kMaxJoints> nan_from_s;
-  nan_from_s.fill(std::numeric_limits<double>::infinity());
-  for (const sim::PlantFault& f : scenario.faults) {
-    if (f.kind == sim::FaultKind::kControllerNan && f.joint >= 0 && f.joint < io::kMaxJoints) {
-      double& from = nan_from_s[static_cast<std::size_t>(f.joint)];
-      from = std::min(from, f.time_s);
-    }
-  }
+  const sim::ControllerNanInjection controller_nan(scenario.faults);
   auto step = [&](std::size_t) {
     controller.update(state, command);
-    for (std::size_t a = 0; a < nan_from_s.size(); ++a) {
-      if (state.time_s + 1e-9 >= nan_from_s[a]) command.joints[a].agonist_pressure_Pa = nan;
-    }
+    controller_nan.apply(state.time_s, command);
   };
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
     const sim::RightArmTruth* truth = sim ? &sim->sampled_truth() : nullptr;
