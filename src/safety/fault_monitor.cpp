@@ -85,6 +85,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.descent_speed_radps = m.number_or("descent_speed_degps", p.descent_speed_radps / kDeg, {0.5, 180}) * kDeg;
   p.descent_force_rate_N_per_s = m.number_or("descent_force_rate_N_per_s", p.descent_force_rate_N_per_s, {1, 5000});
   p.descent_gain_N_per_radps = m.number_or("descent_gain_N_per_radps", p.descent_gain_N_per_radps, {0, 20000});
+  p.descent_force_slew_N_per_s = m.number_or("descent_force_slew_N_per_s", p.descent_force_slew_N_per_s, {10, 1e6});
   p.descent_floor_fraction = m.number_or("descent_floor_fraction", p.descent_floor_fraction, {0, 1});
   p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
   p.descent_stop_margin_rad = m.number_or("descent_stop_margin_deg", p.descent_stop_margin_rad / kDeg, {0.5, 45}) * kDeg;
@@ -293,7 +294,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
   if (action_ == SafeAction::kDescend) {
     for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
       const auto ji = static_cast<std::size_t>(j);
-      if (models[ji] && std::isfinite(s.joints[ji].angle_rad)) govern(joints_[ji], *models[ji], s.joints[ji].angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
+      if (p.governed[ji] && models[ji] && std::isfinite(s.joints[ji].angle_rad)) govern(joints_[ji], *models[ji], s.joints[ji].angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
     }
   }
 }
@@ -361,6 +362,7 @@ void FaultMonitor::govern(JointState& js, const models::JointModel& model, doubl
     g.other_force_N = std::max(model.pretension_N, held_N[1 - g.carrying]);
     g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
     g.floor_N = std::min(g.ceiling_N, std::max(model.pretension_N, p.descent_floor_fraction * g.force_N));
+    g.command_N = g.force_N;
     g.started = true;
   }
   // Descending = toward the range's end the carrying muscle lets go to (the agonist lifts toward +).
@@ -374,7 +376,9 @@ void FaultMonitor::govern(JointState& js, const models::JointModel& model, doubl
   // Integral: bleeds at most descent_force_rate (while held, or pushed the other way), gains while too fast.
   const double ki = p.descent_force_rate_N_per_s / p.descent_speed_radps;
   g.force_N = std::clamp(g.force_N + ki * std::max(excess_radps, -p.descent_speed_radps) * period_s_, g.floor_N, g.ceiling_N);
-  const double force_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
+  const double wanted_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
+  const double force_N = std::min(wanted_N, g.command_N + p.descent_force_slew_N_per_s * period_s_);
+  g.command_N = force_N;
   const auto c = static_cast<std::size_t>(g.carrying);
   const models::InverseResult r = models::muscle_pressure(*mm[c], force_N, eps[c], model.supply_pressure_Pa);
   g.pressure_Pa[c] = r.pressure_Pa;

@@ -121,6 +121,38 @@ TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndDescendAfterASupplyLoss) 
   std::filesystem::remove_all(dir);
 }
 
+// The descend safe state while the operator carries the arm down (a stuck elbow cell at `moving`):
+// the governor takes the operator's move for a fall and brakes the shoulder. It governs only the
+// actuated joints - the constant-pressure wrist keeps its held pressures - and its force rises at
+// most descent_force_slew_N_per_s (2000 N/s on the arm), so nothing whips: peak speed 65 deg/s (the
+// operator's own move), shoulder force 708 N. Governing the wrist too swings it to 129 deg/s (376
+// without the slew limit; 64 from `holding`); without the slew limit the shoulder's braking step
+// whips the ungoverned wrist to 145.
+TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
+  const ArmScenario shipped = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  auto moving_row = [](ArmScenario s) {
+    FaultMatrixOptions o;
+    o.kinds = {sim::FaultKind::kLoadcellStuck};
+    o.moments = {"moving"};
+    const std::vector<FaultRow> rows = run_fault_matrix(std::move(s), o);
+    EXPECT_EQ(rows.size(), 2u);
+    return rows.back();
+  };
+  const FaultRow r = moving_row(shipped);
+  EXPECT_EQ(r.safe_state, "descend");
+  EXPECT_EQ(r.limits_exceeded, 0);
+  EXPECT_LE(r.peak_speed_degps, 90.0);  // measured 65.2 (the shoulder, the operator's move)
+  EXPECT_LE(r.peak_force_N, 800.0);     // measured 708 (was 817 with the unlimited step)
+
+  ArmScenario wrist_governed = shipped;
+  wrist_governed.limits.monitor.governed.fill(true);
+  EXPECT_GT(moving_row(wrist_governed).peak_speed_degps, 100.0);  // measured 129 (the wrist)
+
+  ArmScenario no_slew = shipped;
+  no_slew.limits.monitor.descent_force_slew_N_per_s = 1e6;
+  EXPECT_GT(moving_row(no_slew).peak_speed_degps, 110.0);  // measured 145 (the wrist)
+}
+
 // A moment the experiment does not have is an error, not an empty matrix.
 TEST(FaultMatrix, AMomentTheExperimentLacksIsRefused) {
   const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));

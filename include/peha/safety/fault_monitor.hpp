@@ -117,10 +117,19 @@ struct MonitorParams {
   double descent_force_rate_N_per_s = 150.0;  ///< how fast the carrying force is bled while the joint does not descend
   double descent_gain_N_per_radps = 600.0;    ///< force added per rad/s the joint descends too fast (proportional)
   double descent_floor_fraction = 0.5;        ///< the bled force never below this x the force held at the fault
+  /// The carrying force rises at most this fast, N/s, so that the governor brakes a joint the
+  /// operator is moving without a jolt. Default: no limit (the one-DOF link has nothing distal to
+  /// whip, and a slower rise let a push reach 55-75 deg/s instead of 47). The arm sets 2000: an
+  /// unlimited step of 600 N per rad/s at the shoulder whipped the wrist to 145 deg/s.
+  double descent_force_slew_N_per_s = 1e6;
   double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
   double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
   double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
   std::array<bool, io::kMaxJoints> tension_checked{true, true, true, true, true, true, true, true};  ///< per joint
+  /// Per joint: the descend safe state governs it (false: it keeps the pressures held at the fault -
+  /// a constant-pressure joint such as the arm's wrist, whose held pressures are its design; governed,
+  /// the light wrist swung at 64-381 deg/s in the fault matrix).
+  std::array<bool, io::kMaxJoints> governed{true, true, true, true, true, true, true, true};
 };
 
 /// Reads the scenario root's optional `supervisor:` section into `p` (keys absent keep their
@@ -196,6 +205,7 @@ class FaultMonitor {
     bool started = false;
     int carrying = 0;             ///< 0 agonist (descends toward negative angles), 1 antagonist
     double force_N = 0;           ///< the bled (integral) part of the carrying force
+    double command_N = 0;         ///< the carrying force commanded last (its rise is slew-limited)
     double floor_N = 0, ceiling_N = 0;
     double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
     std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)

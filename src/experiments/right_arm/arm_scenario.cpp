@@ -244,7 +244,10 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   // constant-pressure hold keeps no pretension by design: its wires are not held to the tension floor.
   safety::read_monitor_params(root, s.limits.monitor);
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
-    if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) s.limits.monitor.tension_checked[i] = false;
+    if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) {
+      s.limits.monitor.tension_checked[i] = false;
+      s.limits.monitor.governed[i] = false;  // descend keeps its constant pressures
+    }
   }
   root.finish();
   if (!s.gravity_identification_file.empty()) use_gravity_identification(s, s.gravity_identification_file);
