@@ -106,6 +106,11 @@ PehaJointPlant::PehaJointPlant(const PehaJointPlantParams& params, double timest
       timestep_s_(timestep_s),
       muscles_{{+1, Valve(capped(params_.agonist.valve, params_.supply_cap_Pa), timestep_s)},
                {-1, Valve(capped(params_.antagonist.valve, params_.supply_cap_Pa), timestep_s)}} {
+  const CablePlantParams& ca = params_.agonist.cable;
+  const CablePlantParams& cb = params_.antagonist.cable;
+  cables_mirrored_ = muscles_[0].side == -muscles_[1].side && ca.kinetic_friction == cb.kinetic_friction &&
+                     ca.static_friction == cb.static_friction && ca.stribeck_velocity_mps == cb.stribeck_velocity_mps &&
+                     ca.wrap_angle_rad == cb.wrap_angle_rad;
   for (Muscle& mu : muscles_) {
     const MusclePlantParams& p = muscle_params(mu);
     mu.valve.reset(std::min(p.initial_pressure_Pa, params_.supply_cap_Pa));
@@ -186,22 +191,38 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
     if (!faults_.dump && faults_.valve_stuck_closed[i]) command = valve.pressure_Pa();             // holds its air
     valve.step(command);
   }
-  double friction_Nm = 0.0;
-  for (Muscle& mu : muscles_) {
-    solve_muscle(mu, angle);
-    const CablePlantParams& c = muscle_params(mu).cable;
-    mu.creep_m = std::min(mu.creep_m + c.creep_m_per_N_s * mu.tension_N * dt, c.max_creep_m);
-    // Capstan friction: the wire slides toward its muscle (v > 0) or away from it. Moving toward the
-    // muscle the pulley end carries T*exp(-x); away, T*exp(+x). Around v = 0 the friction is static.
-    const double v = mu.side * r0 * omega;
+  // Capstan friction: the wire slides toward its muscle (v > 0) or away from it. Moving toward the
+  // muscle the pulley end carries T*exp(-x); away, T*exp(+x). Around v = 0 the friction is static.
+  // The two wires move at +-v: with mirrored cables (cables_mirrored_) the antagonist's exponentials
+  // are the agonist's (the same arguments, bit for bit) and its tanh the agonist's negated (glibc's
+  // tanh is odd), so they are computed once.
+  struct Capstan {
+    double exp_minus_x, exp_x, slide;  // slide = tanh(v / v_stribeck)
+  };
+  auto capstan = [&](const CablePlantParams& c, double v) noexcept -> Capstan {
     const double mu_eff = c.kinetic_friction + (c.static_friction - c.kinetic_friction) *
                                                    std::exp(-(v / c.stribeck_velocity_mps) * (v / c.stribeck_velocity_mps));
     const double x = mu_eff * c.wrap_angle_rad;
-    const double exp_minus_x = std::exp(-x);
+    return {std::exp(-x), std::exp(x), std::tanh(v / c.stribeck_velocity_mps)};
+  };
+  Capstan cap[2];
+  cap[0] = capstan(params_.agonist.cable, muscles_[0].side * r0 * omega);
+  if (cables_mirrored_) {
+    cap[1] = {cap[0].exp_minus_x, cap[0].exp_x, -cap[0].slide};
+  } else {
+    cap[1] = capstan(params_.antagonist.cable, muscles_[1].side * r0 * omega);
+  }
+  double friction_Nm = 0.0;
+  for (int k = 0; k < 2; ++k) {
+    Muscle& mu = muscles_[k];
+    solve_muscle(mu, angle);
+    const CablePlantParams& c = muscle_params(mu).cable;
+    mu.creep_m = std::min(mu.creep_m + c.creep_m_per_N_s * mu.tension_N * dt, c.max_creep_m);
+    const double exp_minus_x = cap[k].exp_minus_x;
     const double toward = mu.tension_N * (1.0 - exp_minus_x);
-    const double exp_x = std::exp(x);
+    const double exp_x = cap[k].exp_x;
     const double away = mu.tension_N * (exp_x - 1.0);
-    const double weight = 0.5 * (1.0 + std::tanh(v / c.stribeck_velocity_mps));  // which way it slides
+    const double weight = 0.5 * (1.0 + cap[k].slide);  // which way it slides
     friction_Nm += r0 * (weight * toward + (1.0 - weight) * away);
     const int i = mu.side > 0 ? 0 : 1;
     truth_.pulley_tension_min_N[i] = mu.tension_N * exp_minus_x;
