@@ -1,5 +1,7 @@
 #include "peha/sim/peha_joint_plant.hpp"
 
+#include "plant_muscle_law.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -154,10 +156,12 @@ void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
   // into a large change of rate. phi(T) = F - T decreases strictly in T (the static force falls with
   // u and the hysteresis factor falls with the rate), so the root is unique and bracketed by
   // [0, F at T = 0]. Newton steps with a difference quotient, bisection when a step leaves the bracket.
+  // The law's clamps and q(P) once per solve (the pressure holds during it); bit for bit force_N.
   const double u_previous = mu.contraction;
+  const detail::MuscleLawAtPressure law(p.law, pressure);
   auto phi = [&](double T) {
     const double u = base + T * per_N;
-    return force_N(p.law, pressure, u, (u - u_previous) / dt_s) - T;
+    return law.force_N(u, (u - u_previous) / dt_s) - T;
   };
   double lo = 0.0;
   double hi = phi(0.0);
