@@ -163,19 +163,58 @@ void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
     const double u = base + T * per_N;
     return law.force_N(u, (u - u_previous) / dt_s) - T;
   };
+  //
+  // The bracket's upper end phi(0) = F at zero tension costs an evaluation of the law, and the
+  // iteration needs its value only when a step would leave the bracket or bisect. It is evaluated
+  // when needed: F falls with T, so F(0) >= F(T) = T + phi(T) for any T >= 0 up to the law's
+  // rounding (~1e-11 N at 10 kN), and while every residual so far is positive (hi is still phi(0))
+  // a Newton step below T + phi(T) - margin is inside the bracket, and a residual >= 1e-7 keeps
+  // hi - lo >= 1e-7. Every decision, hence every iterate, is the one the bracket with phi(0)
+  // evaluated first makes: the same tension to the bit, ~one evaluation in five fewer.
+  auto margin = [](double F) { return 1e-8 + 1e-12 * F; };  // >> the law's rounding
   double lo = 0.0;
-  double hi = phi(0.0);
-  double T = 0.0;
-  if (hi > 0.0) {
-    T = std::clamp(mu.tension_N, lo, hi);
+  double hi = 0.0;
+  bool hi_known = false;  // false: hi is phi(0), not evaluated yet
+  auto evaluate_hi = [&]() {
+    hi = phi(0.0);
+    hi_known = true;
+  };
+  double T = mu.tension_N;
+  double r = phi(T);  // the first iterate's residual, unless the clamp below moves T
+  if (!(T >= 0.0 && r >= margin(T + r))) {
+    evaluate_hi();
+    if (!(hi > 0.0)) {
+      T = 0.0;
+    } else {
+      const double clamped = std::clamp(T, lo, hi);
+      if (clamped != T && !std::isnan(T)) {
+        T = clamped;
+        r = phi(T);
+      }
+    }
+  }
+  if (!hi_known || hi > 0.0) {
     for (int it = 0; it < 80; ++it) {
-      const double r = phi(T);
-      if (r > 0.0) lo = T; else hi = T;
-      if (std::abs(r) < 1e-7 || hi - lo < 1e-9) break;
+      if (it > 0) r = phi(T);
+      if (r > 0.0) {
+        lo = T;
+      } else {
+        hi = T;
+        hi_known = true;
+      }
+      // Unknown hi: r > 0 so far, and here r >= 1e-7, hence phi(0) - lo >= 1e-7.
+      if (std::abs(r) < 1e-7 || (hi_known && hi - lo < 1e-9)) break;
       const double h = 1e-6 * (1.0 + T);
       const double slope = (phi(T + h) - r) / h;
-      double next = slope < 0.0 ? T - r / slope : 0.5 * (lo + hi);
-      if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+      double next = 0.0;
+      if (slope < 0.0) {
+        next = T - r / slope;
+        if (!hi_known && !(next > lo && next <= (T + r) - margin(T + r))) evaluate_hi();
+      } else {
+        if (!hi_known) evaluate_hi();
+        next = 0.5 * (lo + hi);
+      }
+      if (hi_known && !(next > lo && next < hi)) next = 0.5 * (lo + hi);
       T = next;
     }
   }
