@@ -180,8 +180,16 @@ void PehaJointPlant::solve_muscle(Muscle& mu, double angle) noexcept {
     hi_known = true;
   };
   double T = mu.tension_N;
-  double r = phi(T);  // the first iterate's residual, unless the clamp below moves T
-  if (!(T >= 0.0 && r >= margin(T + r))) {
+  // The first iterate's residual phi(T) (unless the clamp below moves T), as static force x factor.
+  const double u_start = base + T * per_N;
+  const double static_start = law.static_force_N(u_start);
+  double r = static_start * law.hysteresis_factor((u_start - u_previous) / dt_s) - T;
+  // The clamp of T into [0, phi(0)] leaves it alone if phi(0) >= T for sure: if phi(T) > margin,
+  // or if the static force at u(T) (<= the static force at u(0) = base: it falls with u) times the
+  // hysteresis factor at T = 0 (one tanh, mostly saturated) is above T by the margin.
+  bool inside = T >= 0.0 && r >= margin(T + r);
+  if (!inside && T >= 0.0) inside = static_start * law.hysteresis_factor((base - u_previous) / dt_s) >= T + margin(T);
+  if (!inside) {
     evaluate_hi();
     if (!(hi > 0.0)) {
       T = 0.0;

@@ -89,10 +89,15 @@ struct MuscleLawAtPressure {
     return delta * softplus(z_N(u) / delta);
   }
 
-  /// sim::force_N at this pressure.
-  double force_N(double contraction, double contraction_rate_1ps) const noexcept {
+  /// The hysteresis factor 1 - h tanh(rate / r_h) (a NaN rate counts as 0).
+  double hysteresis_factor(double contraction_rate_1ps) const noexcept {
     const double rate = std::isnan(contraction_rate_1ps) ? 0.0 : contraction_rate_1ps;
-    const double factor = 1.0 - h * saturating_tanh(rate / rate_scale);
+    return 1.0 - h * saturating_tanh(rate / rate_scale);
+  }
+
+  /// sim::force_N at this pressure: static_force_N(contraction) * hysteresis_factor(rate).
+  double force_N(double contraction, double contraction_rate_1ps) const noexcept {
+    const double factor = hysteresis_factor(contraction_rate_1ps);
     return static_force_N(contraction) * factor;
   }
 };
