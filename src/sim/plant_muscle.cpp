@@ -1,5 +1,7 @@
 #include "peha/sim/plant_muscle.hpp"
 
+#include "plant_muscle_law.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -8,12 +10,9 @@
 namespace peha::sim {
 namespace {
 
-constexpr double kPressureUnit_Pa = 1.0e6;  // beta is "per MPa"
-// Floors for the divisors, so that even a hand-made (unvalidated) struct cannot produce NaN.
-constexpr double kTiny = 1e-12;
-
-/// log(1 + exp(x)) without overflow.
-double softplus(double x) noexcept { return std::max(x, 0.0) + std::log1p(std::exp(-std::abs(x))); }
+using detail::kPressureUnit_Pa;
+using detail::kTiny;
+using detail::softplus;
 
 /// 1 / (1 + exp(-x)) without overflow; the derivative of softplus.
 double sigmoid(double x) noexcept {
@@ -28,8 +27,8 @@ struct Inner {
   double dz_du_N;  ///< 0 unless asked for
 };
 
-/// z(P, u), and dz/du when kDerivative (the force alone, per Newton evaluation of the plant's wire
-/// equilibrium, skips the derivative's sigmoid: libm calls cannot be dropped by the compiler).
+/// z(P, u), and dz/du when kDerivative (the force alone is detail::MuscleLawAtPressure's, in
+/// plant_muscle_law.hpp; the two compute z by the same operations).
 template <bool kDerivative>
 Inner inner(const PlantMuscleParams& p, double pressure_Pa, double u) noexcept {
   const double P = std::clamp(pressure_Pa, 0.0, std::max(p.max_pressure_Pa, 0.0));
@@ -111,10 +110,7 @@ PlantMuscleParams load_plant_muscle(const std::filesystem::path& yaml_file) {
 }
 
 double static_force_N(const PlantMuscleParams& p, double pressure_Pa, double contraction) noexcept {
-  if (std::isnan(pressure_Pa) || std::isnan(contraction)) return 0.0;
-  const double u = std::clamp(contraction, kMinContraction, kMaxContraction);
-  const double delta = std::max(p.threshold_smoothing_N, kTiny);
-  return delta * softplus(inner<false>(p, pressure_Pa, u).z_N / delta);
+  return detail::MuscleLawAtPressure(p, pressure_Pa).static_force_N(contraction);
 }
 
 double static_force_dcontraction_N(const PlantMuscleParams& p, double pressure_Pa,
@@ -128,10 +124,7 @@ double static_force_dcontraction_N(const PlantMuscleParams& p, double pressure_P
 
 double force_N(const PlantMuscleParams& p, double pressure_Pa, double contraction,
                double contraction_rate_1ps) noexcept {
-  const double rate = std::isnan(contraction_rate_1ps) ? 0.0 : contraction_rate_1ps;
-  const double h = std::clamp(p.hysteresis_fraction, 0.0, 1.0);
-  const double factor = 1.0 - h * std::tanh(rate / std::max(p.hysteresis_rate_scale_1ps, kTiny));
-  return static_force_N(p, pressure_Pa, contraction) * factor;
+  return detail::MuscleLawAtPressure(p, pressure_Pa).force_N(contraction, contraction_rate_1ps);
 }
 
 }  // namespace peha::sim

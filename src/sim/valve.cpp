@@ -31,7 +31,7 @@ double Valve::step(double command_Pa) noexcept {
   if (!std::isfinite(command_Pa)) command_Pa = 0.0;  // a valve without a valid command vents
   command_Pa = std::clamp(command_Pa, 0.0, params_.supply_pressure_Pa);
   delay_[head_] = command_Pa;
-  head_ = (head_ + 1) % delay_.size();
+  if (++head_ == delay_.size()) head_ = 0;  // a ring: no integer division per step
   const double delayed = delay_[head_];  // oldest entry: written delay_.size()-1 steps ago
   const double max_step = params_.rate_limit_Pa_per_s * dt_s_;
   setpoint_Pa_ += std::clamp(delayed - setpoint_Pa_, -max_step, max_step);

@@ -6,8 +6,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <limits>
+#include <random>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -297,6 +299,46 @@ TEST(PlantMuscle, RejectsPressureCurvatureThatWouldMakeForceFallWithPressure) {
 TEST(PlantMuscle, RejectsConfigWithMissingKey) {
   config::Map root = config::Document::load_string("name: DMSP-40\ngain_N_per_Pa: 0.01\n").root();
   EXPECT_THROW(read_plant_muscle(root), config::Error);
+}
+
+// The law skips libm where the rounded result is known (softplus(x) = x from x > 34, tanh = +-1 from
+// |x| >= 20): the forces must be those of the law written out with every libm call, bit for bit,
+// since the simulated plants' figures are asserted to that (docs/performance.md).
+double textbook_force_N(const PlantMuscleParams& p, double pressure_Pa, double u, double rate) {
+  auto softplus = [](double x) { return std::max(x, 0.0) + std::log1p(std::exp(-std::abs(x))); };
+  if (std::isnan(pressure_Pa) || std::isnan(u)) return 0.0;
+  u = std::clamp(u, kMinContraction, kMaxContraction);
+  const double P = std::clamp(pressure_Pa, 0.0, std::max(p.max_pressure_Pa, 0.0));
+  const double q_Pa = P * (1.0 + p.pressure_curvature_per_MPa * P / 1.0e6);
+  const double um = std::max(p.gain_zero_contraction, 1e-12);
+  const double w = std::max(p.gain_smoothing_contraction, 1e-12);
+  const double d = w * softplus((um - u) / w) / um;
+  const double c = std::clamp(p.gain_quadratic_fraction, 0.0, 1.0);
+  const double s = ((1.0 - c) + c * d) * d;
+  const double kappa = std::max(p.gain_saturation, 0.0);
+  const double g = p.gain_N_per_Pa * (1.0 + kappa) * s / (1.0 + kappa * s);
+  const double ue = std::max(p.elastic_contraction_scale, 1e-12);
+  const double uk = p.elastic_knee_contraction;
+  const double E = u >= uk ? std::exp(-u / ue) : std::exp(-uk / ue) * (1.0 - (u - uk) / ue);
+  const double z = g * q_Pa + (p.elastic_force_N * (E - 1.0) - p.elastic_stiffness_N * u);
+  const double delta = std::max(p.threshold_smoothing_N, 1e-12);
+  const double h = std::clamp(p.hysteresis_fraction, 0.0, 1.0);
+  const double factor = 1.0 - h * std::tanh(rate / std::max(p.hysteresis_rate_scale_1ps, 1e-12));
+  return delta * softplus(z / delta) * factor;
+}
+
+TEST(PlantMuscle, ForceIsTheTextbookLawBitForBit) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> pressure(-1e5, 1.1e6), contraction(-1.2, 0.6), rate(-3.0, 3.0);
+  for (const PlantMuscleParams& p : {load_plant_muscle(kDmsp40Yaml), load_plant_muscle(kDmsp10Yaml)}) {
+    for (int n = 0; n < 200000; ++n) {
+      const double P = pressure(rng), u = contraction(rng), r = n % 4 == 0 ? 0.0 : rate(rng);
+      const double expected = textbook_force_N(p, P, u, r);
+      const double got = force_N(p, P, u, r);
+      ASSERT_EQ(std::memcmp(&expected, &got, sizeof got), 0) << p.name << " P " << P << " u " << u << " rate " << r
+                                                             << ": " << got << " vs " << expected;
+    }
+  }
 }
 
 }  // namespace

@@ -149,6 +149,8 @@ class PehaJointPlant {
 
   PehaJointPlantParams params_;
   double timestep_s_;
+  /// The two cables' friction parameters are equal: the capstan terms of one serve both (step()).
+  bool cables_mirrored_ = false;
   Muscle muscles_[2];
   std::normal_distribution<double> unit_normal_{0.0, 1.0};
   PehaJointTruth truth_;
