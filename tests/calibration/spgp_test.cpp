@@ -93,7 +93,7 @@ TEST(SpgpNlml, EqualsTheDenseFormulaOnSmallProblems) {
   std::cout << "[ measured ] FITC vs dense NLML, worst relative difference: " << worst << "\n";
 }
 
-// The evaluation the fit runs (two threads over halves of the samples, S by a symmetric update)
+// The evaluation the fit runs (blocked AVX2/generic passes on two threads, S by a symmetric update)
 // gives the original evaluation's NLML to 1e-9 relative (measured ~1e-15) and its gradient to 1e-8 of
 // the gradient's norm, on problems large enough to be split (N = 5000 and 2001, odd) and on a small
 // one (run inline), in 1-D and 2-D.
