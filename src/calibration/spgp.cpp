@@ -79,11 +79,23 @@ struct FitcRequest {
   MatrixXd* variance_matrix = nullptr;  ///< K_MM^-1 - A^-1
 };
 
+/// The samples in blocks of kBlock (fitc_evaluate), and what its forward pass leaves for the gradient pass.
+struct FitcBlocks {
+  std::vector<double> X;              ///< [block][d][kBlock]: inputs, 0 in the padding
+  std::vector<double> y;              ///< [block * kBlock + q]: y_n, 0 in the padding
+  std::vector<double> valid;          ///< [block * kBlock + q]: 1 for a sample, 0 for padding
+  std::vector<double> K;              ///< [block][m][kBlock]: K_NM, 0 in the padding
+  std::vector<double> V;              ///< [block][m][kBlock]: V = L^-1 K_MN
+  std::vector<double> lambda;         ///< [block * kBlock + q]: Lambda_n
+  std::vector<double> y_over_lambda;  ///< [block * kBlock + q]
+};
+
 /// Scratch of one FITC evaluation. The optimiser keeps one alive across evaluations so the N x M
 /// matrices (6 MB each at N = 15000, M = 50) are not reallocated and page-faulted every time.
 struct FitcWorkspace {
   MatrixXd Kmm_kernel, Kmm, Knm, V, U, B, R, Z, G, E;
   Eigen::ArrayXd r2;
+  FitcBlocks blocks;
 };
 
 /// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
@@ -210,12 +222,59 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
   return nlml;
 }
 
-/// Runs body(begin, end) over [0, n) in two halves, the second half on a second thread (the
-/// calibration machine has two cores and nothing else to do during a fit). Small n runs inline.
+// The 32-byte vectors below (Lanes) travel only between always-inlined helpers of this file, never
+// across an ABI boundary, so GCC's note that they pass differently with and without AVX does not apply.
+#pragma GCC diagnostic ignored "-Wpsabi"
+
+/// Four doubles (GCC/Clang vector extensions): one AVX register, or two SSE2 registers.
+constexpr int kLanes = 4;
+using Lanes = double __attribute__((vector_size(8 * kLanes)));
+using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int)
+
+[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
+  Lanes v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+[[gnu::always_inline]] inline Lanes splat(double x) { return Lanes{x, x, x, x}; }
+
+/// exp(x) for x <= 0, per lane (x < -708 gives 0; exp(-708) = 3e-308 is no weight anyway).
+/// Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a polynomial for exp(r) (below) and 2^n from
+/// the exponent bits (tests: the predictor against std::exp-based formulas to 1e-13). Same operations in every clone
+/// (no FMA), so the same bits on every x86-64.
+[[gnu::always_inline]] inline Lanes exp_nonpositive(Lanes x) {
+  const Lanes clamped = x < splat(-708.0) ? splat(-708.0) : x;
+  const Lanes shifter = splat(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
+  const Lanes t = clamped * splat(1.4426950408889634) + shifter;
+  const Lanes n = t - shifter;
+  const Lanes r = (clamped - n * splat(6.93147180369123816490e-01)) - n * splat(1.90821492927058770002e-10);
+  // exp(r) on [-ln2/2, ln2/2] by a degree-10 Chebyshev fit (mpmath.chebyfit at 40 digits, rounded
+  // to double: 4.4e-16 relative at worst in double arithmetic, i.e. 2 ulp), evaluated by Estrin's
+  // scheme: 4 dependent multiply-add levels instead of Horner's 10 (the pass is latency-bound).
+  const Lanes r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const Lanes q0 = splat(1.0) + splat(1.0000000000000067) * r;
+  const Lanes q1 = splat(0.5000000000000006) + splat(0.16666666666554406) * r;
+  const Lanes q2 = splat(0.04166666666657314) + splat(0.008333333385667782) * r;
+  const Lanes q3 = splat(0.0013888888932488599) + splat(0.00019841170270440067) * r;
+  const Lanes q4 = splat(2.4801504346997686e-05) + splat(2.764018079620985e-06) * r;
+  const Lanes q5 = splat(2.7626357241447223e-07);
+  const Lanes p = (q0 + q1 * r2 + (q2 + q3 * r2) * r4) + (q4 + q5 * r2) * r8;
+  LaneBits t_bits, s_bits;
+  std::memcpy(&t_bits, &t, sizeof t);
+  LaneBits shifter_bits;
+  std::memcpy(&shifter_bits, &shifter, sizeof shifter);
+  s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
+  Lanes scale;
+  std::memcpy(&scale, &s_bits, sizeof scale);
+  const Lanes result = p * scale;
+  return x < splat(-708.0) ? splat(0.0) : result;
+}
+
+/// Runs body(begin, end, half) over [0, n) in two halves, the second half on a second thread (the
+/// calibration machine has two cores and nothing else to do during a fit). n < min_split runs inline.
 template <typename Body>
-void for_two_halves(Eigen::Index n, Body&& body) {
-  constexpr Eigen::Index kMinSplit = 2000;  // below this a thread costs more than it saves
-  if (n < kMinSplit) {
+void for_two_halves(Eigen::Index n, Eigen::Index min_split, Body&& body) {
+  if (n < min_split) {
     body(Eigen::Index{0}, n, 0);
     return;
   }
@@ -233,12 +292,263 @@ void for_two_halves(Eigen::Index n, Body&& body) {
   if (error) std::rethrow_exception(error);
 }
 
-/// The sum of the two halves' parts (the second is empty when for_two_halves ran inline).
-template <typename T>
-T sum_halves(const T (&half)[2]) {
-  T sum = half[0];
-  if (half[1].size() > 0) sum += half[1];
-  return sum;
+// The per-sample work of fitc_evaluate runs on blocks of kBlock samples, four Lanes side by side:
+// each per-sample vector of length M (a row of K_NM, a column of V, ...) is stored M x kBlock, so
+// the M x M factors enter as broadcast scalars and every operation is lane-wise over samples (sums
+// over samples stay in per-lane accumulators until the end). The substitutions with the two Cholesky
+// factors and the symmetric rank updates are the O(N M^2) part: 4 x 4 independent lanes per step.
+constexpr int kBlockVecs = 4;
+constexpr int kBlock = kLanes * kBlockVecs;
+constexpr Eigen::Index kMinSplitBlocks = 2000 / kBlock;  // below this a thread costs more than it saves
+
+[[gnu::always_inline]] inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+[[gnu::always_inline]] inline Lanes lane_sqrt(Lanes v) { return Lanes{std::sqrt(v[0]), std::sqrt(v[1]), std::sqrt(v[2]), std::sqrt(v[3])}; }
+/// acc[0..3] += v (an accumulator of four lanes in memory).
+[[gnu::always_inline]] inline void accumulate(double* acc, Lanes v) { store_lanes(acc, load_lanes(acc) + v); }
+/// (v[0] + v[1]) + (v[2] + v[3]) of four lanes in memory.
+inline double lane_sum(const double* v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+
+/// What the forward pass reads besides the blocks.
+struct ForwardArgs {
+  int M, D;
+  const double* pseudo;      ///< M x D, column-major
+  const double* b;           ///< D
+  double c, c_plus_sigma2;
+  const double* L_rows;      ///< L (L L^T = K_MM) row-major: L(i, j) at i M + j
+  const double* L_inv_diag;  ///< 1 / L(i, i)
+};
+
+/// Forward pass over blocks [b0, b1): K_NM, V = L^-1 K_MN, Lambda, y / Lambda into `fb`; adds
+/// U U^T (packed lower triangle, four lanes per entry) to B_acc and V Lambda^-1 y (four lanes per
+/// entry) to Vy_acc. AVX2 and generic builds, picked at load time; no FMA in either, so the same bits.
+[[gnu::target_clones("avx2", "default")]] void fitc_forward_blocks(const ForwardArgs& a, FitcBlocks& fb,
+                                                                   Eigen::Index b0, Eigen::Index b1,
+                                                                   double* B_acc, double* Vy_acc) {
+  const int M = a.M, D = a.D;
+  const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
+  std::vector<double> U(per_block);
+  for (Eigen::Index blk = b0; blk < b1; ++blk) {
+    const auto ub = static_cast<std::size_t>(blk);
+    const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
+    const double* valid = fb.valid.data() + ub * kBlock;
+    double* K = fb.K.data() + ub * per_block;
+    double* V = fb.V.data() + ub * per_block;
+    // K(n, m) = c exp(-1/2 sum_d b_d (x_nd - p_md)^2), as ard_kernel.
+    for (int m = 0; m < M; ++m) {
+      for (int s = 0; s < kBlockVecs; ++s) {
+        Lanes r2 = splat(0.0);
+        for (int d = 0; d < D; ++d) {
+          const Lanes diff = load_lanes(x + d * kBlock + s * kLanes) - splat(a.pseudo[d * M + m]);
+          r2 += splat(a.b[d]) * (diff * diff);
+        }
+        store_lanes(K + m * kBlock + s * kLanes,
+                    splat(a.c) * exp_nonpositive(splat(-0.5) * r2) * load_lanes(valid + s * kLanes));
+      }
+    }
+    // V = L^-1 K by forward substitution.
+    for (int i = 0; i < M; ++i) {
+      const double* row = a.L_rows + static_cast<std::size_t>(i) * M;
+      Lanes acc[kBlockVecs];
+      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(K + i * kBlock + s * kLanes);
+      for (int j = 0; j < i; ++j) {
+        const Lanes l = splat(row[j]);
+        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(V + j * kBlock + s * kLanes);
+      }
+      const Lanes inv = splat(a.L_inv_diag[i]);
+      for (int s = 0; s < kBlockVecs; ++s) store_lanes(V + i * kBlock + s * kLanes, acc[s] * inv);
+    }
+    // Lambda = c + sigma^2 - |V_n|^2, U = V Lambda^-1/2, y / Lambda.
+    Lanes y_over_lambda[kBlockVecs];
+    for (int s = 0; s < kBlockVecs; ++s) {
+      Lanes sq = splat(0.0);
+      for (int i = 0; i < M; ++i) {
+        const Lanes v = load_lanes(V + i * kBlock + s * kLanes);
+        sq += v * v;
+      }
+      const Lanes lambda = splat(a.c_plus_sigma2) - sq;
+      const std::size_t at = ub * kBlock + static_cast<std::size_t>(s) * kLanes;
+      store_lanes(fb.lambda.data() + at, lambda);
+      y_over_lambda[s] = load_lanes(fb.y.data() + at) / lambda;
+      store_lanes(fb.y_over_lambda.data() + at, y_over_lambda[s]);
+      const Lanes inv_sqrt = splat(1.0) / lane_sqrt(lambda);
+      for (int i = 0; i < M; ++i)
+        store_lanes(U.data() + i * kBlock + s * kLanes, load_lanes(V + i * kBlock + s * kLanes) * inv_sqrt);
+    }
+    // B += U U^T (lower), Vy += V Lambda^-1 y.
+    for (int i = 0; i < M; ++i) {
+      Lanes ui[kBlockVecs];
+      for (int s = 0; s < kBlockVecs; ++s) ui[s] = load_lanes(U.data() + i * kBlock + s * kLanes);
+      double* row = B_acc + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+      for (int j = 0; j <= i; ++j) {
+        const double* uj = U.data() + j * kBlock;
+        const Lanes p = (ui[0] * load_lanes(uj) + ui[1] * load_lanes(uj + kLanes)) +
+                        (ui[2] * load_lanes(uj + 2 * kLanes) + ui[3] * load_lanes(uj + 3 * kLanes));
+        accumulate(row + j * kLanes, p);
+      }
+      Lanes vy = splat(0.0);
+      for (int s = 0; s < kBlockVecs; ++s) vy += load_lanes(V + i * kBlock + s * kLanes) * y_over_lambda[s];
+      accumulate(Vy_acc + i * kLanes, vy);
+    }
+  }
+}
+static_assert(kBlockVecs == 4, "fitc_forward_blocks and fitc_gradient_blocks write the four Lanes of a block out");
+
+/// What the gradient pass reads besides the blocks.
+struct GradientArgs {
+  int M, D;
+  const double* pseudo;       ///< M x D, column-major
+  const double* gamma;        ///< B^-1 V Lambda^-1 y
+  const double* LB_rows;      ///< L_B (L_B L_B^T = B) row-major
+  const double* LB_cols;      ///< L_B column-major: L_B(j, i) at i M + j
+  const double* LB_inv_diag;
+  const double* L_cols;       ///< L column-major
+  const double* L_inv_diag;
+};
+
+/// Per-lane sums of one half's gradient pass (four lanes per entry, added at the end).
+struct GradientSums {
+  std::vector<double> Va;              ///< M: V a
+  std::vector<double> VwV;             ///< packed lower M x M: V diag(w) V^T
+  std::vector<double> q_sum, r_sum;    ///< M: sum_n E'(n, m), sum_n K(n, m) a_n
+  std::vector<double> q_lin, r_lin;    ///< M x D (m + d M): the same times (x_nd - p_md)
+  std::vector<double> q_sq, r_sq;      ///< M x D: times (x_nd - p_md)^2
+  std::vector<double> w_sum;           ///< 1
+  void reset(int M, int D) {
+    const auto m = static_cast<std::size_t>(M) * kLanes, md = m * static_cast<std::size_t>(D);
+    Va.assign(m, 0.0);
+    VwV.assign(static_cast<std::size_t>(M) * (M + 1) / 2 * kLanes, 0.0);
+    q_sum.assign(m, 0.0);
+    r_sum.assign(m, 0.0);
+    q_lin.assign(md, 0.0);
+    r_lin.assign(md, 0.0);
+    q_sq.assign(md, 0.0);
+    r_sq.assign(md, 0.0);
+    w_sum.assign(kLanes, 0.0);
+  }
+};
+
+/// Gradient pass over blocks [b0, b1): per sample a = C^-1 y, w = diag(C^-1) - a^2 and
+/// G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without its -a_n L^-T V a term,
+/// which needs all samples: the caller subtracts it from the sums), E' = K_NM .* G'^T; the sums
+/// into `sums`. AVX2 and generic builds as fitc_forward_blocks.
+[[gnu::target_clones("avx2", "default")]] void fitc_gradient_blocks(const GradientArgs& a, const FitcBlocks& fb,
+                                                                    Eigen::Index b0, Eigen::Index b1,
+                                                                    GradientSums& sums) {
+  const int M = a.M, D = a.D;
+  const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
+  std::vector<double> W(per_block);  // t = L_B^-1 u, then r = B^-1 u, then G'
+  for (Eigen::Index blk = b0; blk < b1; ++blk) {
+    const auto ub = static_cast<std::size_t>(blk);
+    const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
+    const double* K = fb.K.data() + ub * per_block;
+    const double* V = fb.V.data() + ub * per_block;
+    Lanes lambda[kBlockVecs], inv_sqrt[kBlockVecs], av[kBlockVecs], w[kBlockVecs];
+    // a = (y - V^T gamma) / Lambda.
+    for (int s = 0; s < kBlockVecs; ++s) {
+      const std::size_t at = ub * kBlock + static_cast<std::size_t>(s) * kLanes;
+      lambda[s] = load_lanes(fb.lambda.data() + at);
+      inv_sqrt[s] = splat(1.0) / lane_sqrt(lambda[s]);
+      Lanes dot = splat(0.0);
+      for (int i = 0; i < M; ++i) dot += load_lanes(V + i * kBlock + s * kLanes) * splat(a.gamma[i]);
+      av[s] = (load_lanes(fb.y.data() + at) - dot) / lambda[s];
+    }
+    // V a; t = L_B^-1 u by forward substitution.
+    for (int i = 0; i < M; ++i) {
+      Lanes va = splat(0.0);
+      for (int s = 0; s < kBlockVecs; ++s) va += av[s] * load_lanes(V + i * kBlock + s * kLanes);
+      accumulate(sums.Va.data() + i * kLanes, va);
+      const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
+      Lanes acc[kBlockVecs];
+      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(V + i * kBlock + s * kLanes) * inv_sqrt[s];
+      for (int j = 0; j < i; ++j) {
+        const Lanes l = splat(row[j]);
+        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
+      }
+      const Lanes inv = splat(a.LB_inv_diag[i]);
+      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+    }
+    // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
+    Lanes w_total = splat(0.0);
+    for (int s = 0; s < kBlockVecs; ++s) {
+      Lanes tt = splat(0.0);
+      for (int i = 0; i < M; ++i) {
+        const Lanes t = load_lanes(W.data() + i * kBlock + s * kLanes);
+        tt += t * t;
+      }
+      const Lanes c_inv_nn = (splat(1.0) - tt) / lambda[s];
+      w[s] = (c_inv_nn - av[s] * av[s]) * load_lanes(fb.valid.data() + ub * kBlock + s * kLanes);
+      w_total += w[s];
+    }
+    accumulate(sums.w_sum.data(), w_total);
+    // r = L_B^-T t (back substitution, in place).
+    for (int i = M - 1; i >= 0; --i) {
+      const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
+      Lanes acc[kBlockVecs];
+      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(W.data() + i * kBlock + s * kLanes);
+      for (int j = i + 1; j < M; ++j) {
+        const Lanes l = splat(col[j]);
+        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
+      }
+      const Lanes inv = splat(a.LB_inv_diag[i]);
+      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+    }
+    // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
+    for (int i = M - 1; i >= 0; --i) {
+      const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
+      Lanes acc[kBlockVecs];
+      for (int s = 0; s < kBlockVecs; ++s)
+        acc[s] = inv_sqrt[s] * load_lanes(W.data() + i * kBlock + s * kLanes) -
+                 w[s] * load_lanes(V + i * kBlock + s * kLanes);
+      for (int j = i + 1; j < M; ++j) {
+        const Lanes l = splat(col[j]);
+        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
+      }
+      const Lanes inv = splat(a.L_inv_diag[i]);
+      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+    }
+    // V diag(w) V^T (lower).
+    for (int i = 0; i < M; ++i) {
+      Lanes wv[kBlockVecs];
+      for (int s = 0; s < kBlockVecs; ++s) wv[s] = w[s] * load_lanes(V + i * kBlock + s * kLanes);
+      double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+      for (int j = 0; j <= i; ++j) {
+        const double* vj = V + j * kBlock;
+        const Lanes p = (wv[0] * load_lanes(vj) + wv[1] * load_lanes(vj + kLanes)) +
+                        (wv[2] * load_lanes(vj + 2 * kLanes) + wv[3] * load_lanes(vj + 3 * kLanes));
+        accumulate(row + j * kLanes, p);
+      }
+    }
+    // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
+    for (int m = 0; m < M; ++m) {
+      Lanes q_sum = splat(0.0), r_sum = splat(0.0);
+      Lanes q_lin[kMaxInputDim], r_lin[kMaxInputDim], q_sq[kMaxInputDim], r_sq[kMaxInputDim];
+      for (int d = 0; d < D; ++d) q_lin[d] = r_lin[d] = q_sq[d] = r_sq[d] = splat(0.0);
+      for (int s = 0; s < kBlockVecs; ++s) {
+        const Lanes k = load_lanes(K + m * kBlock + s * kLanes);
+        const Lanes q = k * load_lanes(W.data() + m * kBlock + s * kLanes);
+        const Lanes r = k * av[s];
+        q_sum += q;
+        r_sum += r;
+        for (int d = 0; d < D; ++d) {
+          const Lanes diff = load_lanes(x + d * kBlock + s * kLanes) - splat(a.pseudo[d * M + m]);
+          const Lanes tq = q * diff, tr = r * diff;
+          q_lin[d] += tq;
+          r_lin[d] += tr;
+          q_sq[d] += tq * diff;
+          r_sq[d] += tr * diff;
+        }
+      }
+      accumulate(sums.q_sum.data() + m * kLanes, q_sum);
+      accumulate(sums.r_sum.data() + m * kLanes, r_sum);
+      for (int d = 0; d < D; ++d) {
+        const std::size_t at = (static_cast<std::size_t>(d) * M + m) * kLanes;
+        accumulate(sums.q_lin.data() + at, q_lin[d]);
+        accumulate(sums.r_lin.data() + at, r_lin[d]);
+        accumulate(sums.q_sq.data() + at, q_sq[d]);
+        accumulate(sums.r_sq.data() + at, r_sq[d]);
+      }
+    }
+  }
 }
 
 /// The FITC NLML in O(N M^2), and whatever `request` asks for from the same factorisations.
@@ -258,15 +568,19 @@ T sum_halves(const T (&half)[2]) {
 /// w = diag(W) = diag(C^-1) - a^2 with diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n,
 /// H = L^-T S L^-1 with S = Z V^T = I - B^-1 - V diag(w) V^T - (V a)(V a)^T (since
 /// V Lambda^-1 V^T = B - I): a symmetric rank-N update instead of a general M x N x M product.
+/// G = G' - g a^T with g = L^-T V a, so the sums over samples the gradient needs (of E = K_NM .* G^T
+/// and its products with x - p) come from E' = K_NM .* G'^T and K_NM .* a in the same pass.
 ///
-/// Everything per sample (columns of V, U, R, Z, G; rows of K_NM, E) is computed in two halves of
-/// the samples on two threads; the M x M sums over samples (B, V a, V diag(w) V^T and the data terms
-/// of the gradient) are added from the halves. Same formulas as fitc_evaluate_reference, different
-/// summation order: the NLML agrees to ~1e-15 relative (tests: 1e-9).
+/// Two passes over the samples (fitc_forward_blocks before the M x M factorisation of B,
+/// fitc_gradient_blocks after it), each in two halves of the sample blocks on two threads; the sums
+/// over samples are added from per-lane accumulators and the halves at the end. Same formulas as
+/// fitc_evaluate_reference, different summation order (and the exp of the prediction): the NLML
+/// agrees to ~1e-13 relative (tests: 1e-9).
 double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
                      double jitter, const FitcRequest& request, FitcWorkspace& ws) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
+  if (D > kMaxInputDim) reject("input dimension " + std::to_string(D) + " exceeds " + std::to_string(kMaxInputDim));
   const VectorXd b = hyper.log_b.array().exp().matrix();
   const double c = std::exp(hyper.log_c);
   const double sigma2 = std::exp(hyper.log_sigma2);
@@ -278,107 +592,101 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   if (llt_mm.info() != Eigen::Success) return kInf;
   const auto L = llt_mm.matrixL();
   const auto Lt = llt_mm.matrixU();
+  const MatrixXd L_cols = L;  // zero above the diagonal
+  const MatrixXd L_rows = L_cols.transpose();
+  const VectorXd L_inv_diag = L_cols.diagonal().cwiseInverse();
 
-  MatrixXd& Knm = ws.Knm;  // N x M
-  MatrixXd& V = ws.V;      // M x N
-  MatrixXd& U = ws.U;
-  Knm.resize(N, M);
-  V.resize(M, N);
-  U.resize(M, N);
-  VectorXd lambda(N), inv_sqrt_lambda(N), y_over_lambda(N);
-  MatrixXd B_half[2];
-  VectorXd Vy_half[2];
-  for_two_halves(N, [&](Eigen::Index n0, Eigen::Index n1, int h) {
-    const Eigen::Index len = n1 - n0;
-    for (Eigen::Index j = 0; j < M; ++j) {
-      Eigen::ArrayXd r2 = Eigen::ArrayXd::Zero(len);
-      for (Eigen::Index d = 0; d < D; ++d) r2 += b[d] * (X.col(d).segment(n0, len).array() - pseudo(j, d)).square();
-      Knm.col(j).segment(n0, len) = c * (-0.5 * r2).exp();
-    }
-    auto Vh = V.middleCols(n0, len);
-    Vh = Knm.middleRows(n0, len).transpose();
-    L.solveInPlace(Vh);
-    lambda.segment(n0, len) = (c + sigma2) - Vh.colwise().squaredNorm().transpose().array();
-    inv_sqrt_lambda.segment(n0, len) = lambda.segment(n0, len).cwiseSqrt().cwiseInverse();
-    y_over_lambda.segment(n0, len) = y.segment(n0, len).cwiseQuotient(lambda.segment(n0, len));
-    auto Uh = U.middleCols(n0, len);
-    Uh.noalias() = Vh * inv_sqrt_lambda.segment(n0, len).asDiagonal();
-    B_half[h].setZero(M, M);
-    B_half[h].selfadjointView<Eigen::Lower>().rankUpdate(Uh);
-    Vy_half[h].noalias() = Vh * y_over_lambda.segment(n0, len);
+  // The samples in blocks of kBlock (the last one padded with K = 0, y = 0: no contribution).
+  const Eigen::Index blocks = (N + kBlock - 1) / kBlock;
+  const auto padded = static_cast<std::size_t>(blocks) * kBlock;
+  const auto per_block = static_cast<std::size_t>(M) * kBlock;
+  FitcBlocks& fb = ws.blocks;
+  fb.X.assign(padded * static_cast<std::size_t>(D), 0.0);
+  fb.y.assign(padded, 0.0);
+  fb.valid.assign(padded, 0.0);
+  for (Eigen::Index n = 0; n < N; ++n) {
+    const auto blk = static_cast<std::size_t>(n / kBlock), q = static_cast<std::size_t>(n % kBlock);
+    for (Eigen::Index d = 0; d < D; ++d) fb.X[(blk * static_cast<std::size_t>(D) + static_cast<std::size_t>(d)) * kBlock + q] = X(n, d);
+    fb.y[static_cast<std::size_t>(n)] = y[n];
+    fb.valid[static_cast<std::size_t>(n)] = 1.0;
+  }
+  fb.K.resize(static_cast<std::size_t>(blocks) * per_block);
+  fb.V.resize(static_cast<std::size_t>(blocks) * per_block);
+  fb.lambda.resize(padded);
+  fb.y_over_lambda.resize(padded);
+
+  const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
+  std::vector<double> B_acc[2], Vy_acc[2];
+  const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), b.data(), c, c + sigma2,
+                            L_rows.data(), L_inv_diag.data()};
+  for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+    B_acc[h].assign(packed, 0.0);
+    Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
+    fitc_forward_blocks(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data());
   });
-  if (!(lambda.minCoeff() > 0.0)) return kInf;
+  const bool split = !B_acc[1].empty();
+  const VectorXd lambda = Eigen::Map<const VectorXd>(fb.lambda.data(), N);
+  if (!(lambda.minCoeff() > 0.0) || !lambda.allFinite()) return kInf;
+  const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(fb.y_over_lambda.data(), N);
 
   MatrixXd& B = ws.B;
   B.setIdentity(M, M);
-  B.triangularView<Eigen::Lower>() += B_half[0];
-  if (B_half[1].size() > 0) B.triangularView<Eigen::Lower>() += B_half[1];
+  VectorXd Vy(M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    for (Eigen::Index j = 0; j <= i; ++j) {
+      const auto at = (static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j)) * kLanes;
+      B(i, j) += lane_sum(B_acc[0].data() + at) + (split ? lane_sum(B_acc[1].data() + at) : 0.0);
+    }
+    const auto at = static_cast<std::size_t>(i) * kLanes;
+    Vy[i] = lane_sum(Vy_acc[0].data() + at) + (split ? lane_sum(Vy_acc[1].data() + at) : 0.0);
+  }
   const Eigen::LLT<MatrixXd> llt_b(B);  // reads the lower triangle only
   if (llt_b.info() != Eigen::Success) return kInf;
 
-  const VectorXd Vy = sum_halves(Vy_half);
   const VectorXd beta = llt_b.matrixL().solve(Vy);
   VectorXd gamma;
   const double nlml = nlml_and_outputs(llt_b, beta, y, y_over_lambda, lambda, L, Lt, request, gamma);
   if (!std::isfinite(nlml)) return kInf;
   if (request.gradient == nullptr) return nlml;
 
-  // Per sample: a = C^-1 y, R = B^-1 U, and V a (summed from the halves).
-  MatrixXd& R = ws.R;
-  R.resize(M, N);
-  VectorXd a(N);
-  VectorXd Va_half[2];
-  for_two_halves(N, [&](Eigen::Index n0, Eigen::Index n1, int h) {
-    const Eigen::Index len = n1 - n0;
-    auto Rh = R.middleCols(n0, len);
-    Rh = U.middleCols(n0, len);
-    llt_b.solveInPlace(Rh);
-    a.segment(n0, len) = (y.segment(n0, len) - V.middleCols(n0, len).transpose() * gamma)
-                             .cwiseQuotient(lambda.segment(n0, len));
-    Va_half[h].noalias() = V.middleCols(n0, len) * a.segment(n0, len);
+  const MatrixXd LB_cols = llt_b.matrixL();
+  const MatrixXd LB_rows = LB_cols.transpose();
+  const VectorXd LB_inv_diag = LB_cols.diagonal().cwiseInverse();
+  const GradientArgs backward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), gamma.data(),
+                              LB_rows.data(), LB_cols.data(), LB_inv_diag.data(), L_cols.data(), L_inv_diag.data()};
+  GradientSums sums[2];
+  for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+    sums[h].reset(static_cast<int>(M), static_cast<int>(D));
+    fitc_gradient_blocks(backward, fb, b0, b1, sums[h]);
   });
-  const VectorXd Va = sum_halves(Va_half);
-
-  // Per sample: w, Z, G = L^-T Z, E = K_NM .* G^T; per half: V diag(w) V^T and the data terms of
-  // the gradient (sums over the half's samples).
-  VectorXd w(N);
-  MatrixXd& Z = ws.Z;
-  MatrixXd& E = ws.E;  // dNLML/dK_NM .* K_NM, N x M
-  Z.resize(M, N);
-  E.resize(N, M);
-  MatrixXd VwV_half[2];
-  MatrixXd data_lin_half[2];  // M x D: sum_n E(n, m) (X(n, d) - pseudo(m, d))
-  VectorXd data_sq_half[2];   // D:     sum_n,m E(n, m) (X(n, d) - pseudo(m, d))^2
-  double E_sum_half[2] = {0.0, 0.0};
-  for_two_halves(N, [&](Eigen::Index n0, Eigen::Index n1, int h) {
-    const Eigen::Index len = n1 - n0;
-    for (Eigen::Index n = n0; n < n1; ++n) {
-      const double c_inv_nn = (1.0 - U.col(n).dot(R.col(n))) / lambda[n];
-      w[n] = c_inv_nn - a[n] * a[n];
-      Z.col(n) = inv_sqrt_lambda[n] * R.col(n) - w[n] * V.col(n) - a[n] * Va;
-    }
-    auto Zh = Z.middleCols(n0, len);
-    MatrixXd Gh = Zh;  // M x len
-    Lt.solveInPlace(Gh);
-    auto Eh = E.middleRows(n0, len);
-    Eh.noalias() = Knm.middleRows(n0, len).cwiseProduct(Gh.transpose());
-    const MatrixXd Vw = V.middleCols(n0, len) * w.segment(n0, len).asDiagonal();
-    VwV_half[h].setZero(M, M);
-    VwV_half[h].triangularView<Eigen::Lower>() += Vw * V.middleCols(n0, len).transpose();
-    data_lin_half[h].resize(M, D);
-    data_sq_half[h].setZero(D);
-    Eigen::ArrayXd diff(len), t(len);
+  // One total of four lanes (and of the two halves).
+  auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
+    const std::size_t at = entry * kLanes;
+    return lane_sum((sums[0].*part).data() + at) + (split ? lane_sum((sums[1].*part).data() + at) : 0.0);
+  };
+  VectorXd Va(M);
+  MatrixXd VwV(M, M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    Va[i] = total(&GradientSums::Va, static_cast<std::size_t>(i));
+    for (Eigen::Index j = 0; j <= i; ++j)
+      VwV(i, j) = total(&GradientSums::VwV, static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j));
+  }
+  const VectorXd g = Lt.solve(Va);  // L^-T V a: G = G' - g a^T
+  MatrixXd data_lin(M, D);  // sum_n E(n, m) (X(n, d) - pseudo(m, d))
+  VectorXd data_sq = VectorXd::Zero(D);  // sum_n,m E(n, m) (X(n, d) - pseudo(m, d))^2
+  double E_sum = 0.0;
+  for (Eigen::Index m = 0; m < M; ++m) {
+    const auto um = static_cast<std::size_t>(m);
+    E_sum += total(&GradientSums::q_sum, um) - g[m] * total(&GradientSums::r_sum, um);
     for (Eigen::Index d = 0; d < D; ++d) {
-      for (Eigen::Index m = 0; m < M; ++m) {
-        diff = X.col(d).segment(n0, len).array() - pseudo(m, d);
-        t = Eh.col(m).array() * diff;
-        data_lin_half[h](m, d) = t.sum();
-        data_sq_half[h][d] += (t * diff).sum();
-      }
+      const std::size_t e = static_cast<std::size_t>(d) * static_cast<std::size_t>(M) + um;
+      data_lin(m, d) = total(&GradientSums::q_lin, e) - g[m] * total(&GradientSums::r_lin, e);
+      data_sq[d] += total(&GradientSums::q_sq, e) - g[m] * total(&GradientSums::r_sq, e);
     }
-    E_sum_half[h] = Eh.sum();
-  });
-  MatrixXd S = -sum_halves(VwV_half);  // lower triangle: I - B^-1 - V diag(w) V^T - (V a)(V a)^T
+  }
+  const double w_sum = total(&GradientSums::w_sum, 0);
+
+  MatrixXd S = -VwV;  // lower triangle: I - B^-1 - V diag(w) V^T - (V a)(V a)^T
   S.triangularView<Eigen::Lower>() -= Va * Va.transpose();
   S.triangularView<Eigen::Lower>() -= llt_b.solve(MatrixXd::Identity(M, M));
   S.diagonal().array() += 1.0;
@@ -387,12 +695,9 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   MatrixXd H = Lt.solve(T.transpose()).transpose();  // L^-T S L^-1
   H = 0.5 * (H + H.transpose());
   const MatrixXd F = H.cwiseProduct(ws.Kmm_kernel);  // dK_MM's coefficient (x -2) .* K_MM
-  const MatrixXd data_lin = sum_halves(data_lin_half);
-  const VectorXd data_sq = sum_halves(data_sq_half);
 
   VectorXd& grad = *request.gradient;
   grad.setZero(M * D + D + 2);
-  const double w_sum = w.sum();
   for (Eigen::Index d = 0; d < D; ++d) {
     double pseudo_sq = 0.0;
     for (Eigen::Index m = 0; m < M; ++m) {
@@ -407,11 +712,10 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
     }
     grad[M * D + d] = -0.5 * b[d] * data_sq[d] + 0.25 * b[d] * pseudo_sq;
   }
-  grad[M * D + D] = (E_sum_half[0] + E_sum_half[1]) - 0.5 * F.sum() + 0.5 * c * w_sum;
+  grad[M * D + D] = E_sum - 0.5 * F.sum() + 0.5 * c * w_sum;
   grad[M * D + D + 1] = 0.5 * sigma2 * w_sum;
   return nlml;
 }
-
 /// Parameter vector layout of the optimiser: [vec(pseudo) (M*D, column-major), log_b, log_c, log_sigma2].
 struct ParamLayout {
   Eigen::Index M, D;
@@ -500,53 +804,6 @@ std::pair<double, double> mean_and_scale(const Eigen::Ref<const VectorXd>& v) {
   return {mean, scale > 0.0 && std::isfinite(scale) ? scale : 1.0};
 }
 
-// The 32-byte vectors below (Lanes) travel only between always-inlined helpers of this file, never
-// across an ABI boundary, so GCC's note that they pass differently with and without AVX does not apply.
-#pragma GCC diagnostic ignored "-Wpsabi"
-
-/// Four doubles (GCC/Clang vector extensions): one AVX register, or two SSE2 registers.
-constexpr int kLanes = 4;
-using Lanes = double __attribute__((vector_size(8 * kLanes)));
-using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int)
-
-[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
-  Lanes v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-[[gnu::always_inline]] inline Lanes splat(double x) { return Lanes{x, x, x, x}; }
-
-/// exp(x) for x <= 0, per lane (x < -708 gives 0; exp(-708) = 3e-308 is no weight anyway).
-/// Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a polynomial for exp(r) (below) and 2^n from
-/// the exponent bits (tests: the predictor against std::exp-based formulas to 1e-13). Same operations in every clone
-/// (no FMA), so the same bits on every x86-64.
-[[gnu::always_inline]] inline Lanes exp_nonpositive(Lanes x) {
-  const Lanes clamped = x < splat(-708.0) ? splat(-708.0) : x;
-  const Lanes shifter = splat(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
-  const Lanes t = clamped * splat(1.4426950408889634) + shifter;
-  const Lanes n = t - shifter;
-  const Lanes r = (clamped - n * splat(6.93147180369123816490e-01)) - n * splat(1.90821492927058770002e-10);
-  // exp(r) on [-ln2/2, ln2/2] by a degree-10 Chebyshev fit (mpmath.chebyfit at 40 digits, rounded
-  // to double: 4.4e-16 relative at worst in double arithmetic, i.e. 2 ulp), evaluated by Estrin's
-  // scheme: 4 dependent multiply-add levels instead of Horner's 10 (the pass is latency-bound).
-  const Lanes r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-  const Lanes q0 = splat(1.0) + splat(1.0000000000000067) * r;
-  const Lanes q1 = splat(0.5000000000000006) + splat(0.16666666666554406) * r;
-  const Lanes q2 = splat(0.04166666666657314) + splat(0.008333333385667782) * r;
-  const Lanes q3 = splat(0.0013888888932488599) + splat(0.00019841170270440067) * r;
-  const Lanes q4 = splat(2.4801504346997686e-05) + splat(2.764018079620985e-06) * r;
-  const Lanes q5 = splat(2.7626357241447223e-07);
-  const Lanes p = (q0 + q1 * r2 + (q2 + q3 * r2) * r4) + (q4 + q5 * r2) * r8;
-  LaneBits t_bits, s_bits;
-  std::memcpy(&t_bits, &t, sizeof t);
-  LaneBits shifter_bits;
-  std::memcpy(&shifter_bits, &shifter, sizeof shifter);
-  s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
-  Lanes scale;
-  std::memcpy(&scale, &s_bits, sizeof scale);
-  const Lanes result = p * scale;
-  return x < splat(-708.0) ? splat(0.0) : result;
-}
 
 /// Writes k_m / c = exp(-sum_d (x'_d - P'_dm)^2) for m in [0, padded) into k (when not null; padded
 /// is a multiple of kLanes) and returns sum_m weight_m k_m / c. kDim > 0: the input dimension known

@@ -93,12 +93,13 @@ TEST(SpgpNlml, EqualsTheDenseFormulaOnSmallProblems) {
   std::cout << "[ measured ] FITC vs dense NLML, worst relative difference: " << worst << "\n";
 }
 
-// The evaluation the fit runs (two threads over halves of the samples, S by a symmetric update)
+// The evaluation the fit runs (blocked AVX2/generic passes on two threads, S by a symmetric update)
 // gives the original evaluation's NLML to 1e-9 relative (measured ~1e-15) and its gradient to 1e-8 of
-// the gradient's norm, on problems large enough to be split (N = 5000 and 2001, odd) and on a small
-// one (run inline), in 1-D and 2-D.
+// the gradient's norm, on problems large enough to be split (N = 5000 and 2001, odd; 4000, a whole
+// number of 16-sample blocks, no padding) and on a small one (run inline), in 1-D, 2-D and 3-D.
 TEST(SpgpNlml, ParallelEvaluationEqualsTheOriginal) {
-  for (const auto& [N, M, D] : {std::tuple{5000, 50, 2}, std::tuple{2001, 20, 1}, std::tuple{300, 10, 3}}) {
+  for (const auto& [N, M, D] :
+       {std::tuple{5000, 50, 2}, std::tuple{2001, 20, 1}, std::tuple{4000, 13, 3}, std::tuple{300, 10, 3}}) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(N + M + D));
     std::uniform_real_distribution<double> box(-2.0, 2.0), unit(-1.0, 1.0);
     std::normal_distribution<double> noise(0.0, 0.1);
