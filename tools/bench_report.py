@@ -178,7 +178,7 @@ def main(argv: list[str] | None = None) -> int:
         if "max_burst" not in b:
             return ""
         return (f", {int(b['overruns'])} overrun(s), largest {int(b['max_burst'])} deadlines, "
-                f"{fmt(b['burst_miss_pct'], ' %', 2)} of misses in bursts > 1, {int(b['late_wake_overruns'])} from a wake-up >= 1 period late")
+                f"{fmt(b['burst_miss_pct'], ' %', 3)} of misses in bursts > 1, {int(b['late_wake_overruns'])} from a wake-up >= 1 period late")
 
     for name, floor_name, source, label in (
             ("BM_MfbLoopback1kHz60s", "BM_TimerFloor1kHz60s", gb, "UDP loop 60 s at 1 kHz (make bench)"),
