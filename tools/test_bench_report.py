@@ -53,6 +53,24 @@ class BenchReportTest(unittest.TestCase):
         self.assertTrue(verdicts[arm + "holding a posture (pressure bands reused)"])  # median 1.5 us
         self.assertFalse(verdicts[arm + "every pressure band computed (moving)"])  # median 2.1 us
 
+    def test_the_udp_row_carries_the_machine_floor_beside_the_loop(self):
+        report = json.loads((self.dir / "peha_bench.json").read_text())
+        misses = dict(overruns=2.0, max_burst=20.0, burst_miss_pct=95.0, late_wake_overruns=2.0)
+        report["benchmarks"] += [
+            gb_entry("BM_TimerFloor1kHz60s/iterations:1/real_time", 60.0, 1.0, "s", cycles=59980.0, wake_median_us=25.0,
+                     wake_p999_us=250.0, wake_max_us=20000.0, miss_rate_pct=0.035, fifo=1.0, **misses),
+            gb_entry("BM_MfbLoopback1kHz60s/iterations:1/real_time", 60.0, 3.0, "s", cycles=59979.0, rtt_median_us=40.0,
+                     rtt_p999_us=90.0, rtt_max_us=400.0, miss_rate_pct=0.036, faults=0.0, fifo=1.0, **misses),
+        ]
+        (self.dir / "peha_bench.json").write_text(json.dumps(report))
+        self.assertEqual(bench_report.main(["--dir", str(self.dir), "--doc", str(self.doc)]), 0)
+        doc = self.doc.read_text()
+        self.assertIn("RTT median 40 us, p99.9 90 us, max 400 us; deadline misses 0.036 %, 2 overrun(s), largest 20 deadlines", doc)
+        self.assertIn("Machine floor (bare timer loop, same set-up, run just before): wake-up latency median 25 us, "
+                      "p99.9 250 us, max 2e+04 us; deadline misses 0.035 %", doc)
+        verdicts = {t["figure"]: t["met"] for t in json.loads((self.dir / "bench.json").read_text())["targets"]}
+        self.assertFalse(verdicts["UDP loop 60 s at 1 kHz (make bench)"])  # misses 0.036 % > 0.01 %
+
     def test_missing_benchmark_json_is_an_error(self):
         (self.dir / "peha_bench.json").unlink()
         with self.assertRaises(SystemExit):

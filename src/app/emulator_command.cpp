@@ -37,6 +37,7 @@ int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const Emulato
   runtime::RealtimeOptions rt;
   rt.fifo_priority = options.fifo_priority;
   rt.lock_memory = options.fifo_priority > 0;
+  rt.cpu = options.cpu;
   const runtime::RealtimeReport report = runtime::configure_realtime_thread(rt);
   (void)report;  // its warnings were printed; the board runs best-effort without
   fmt::print("peha mfb-emulator: listening on udp://{} - {}, watchdog {} ms, vent {} s{}\n", board.local().to_string(), what,

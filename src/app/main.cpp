@@ -243,6 +243,8 @@ Command add_mfb_emulator(CLI::App& app) {
   emu_cmd->add_option("--estop-for", emu.estop_for_s, "... for this long, s")->capture_default_str()->check(peha::app::decimal())->check(CLI::Range(0.0, 1e6));
   emu_cmd->add_option("--rt-priority", emu.fifo_priority, "SCHED_FIFO priority of the board's loop (0 = don't ask)")
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 99));
+  emu_cmd->add_option("--cpu", emu.cpu, "Pin the board's loop to this CPU (-1 = don't pin)")
+      ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(-1, 1023));
   emu_cmd->add_option("--max-runtime", emu.max_runtime_s, "Stop after this much wall time, s (0 = never)")->check(peha::app::decimal())->check(CLI::Range(0.0, 1e7));
   emu_cmd->add_option("--sessions", emu.sessions, "Stop after this many sessions ended by the watchdog (0 = never)")
       ->check(peha::app::signed_integer())->check(CLI::Range(0, 1000000));

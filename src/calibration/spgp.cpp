@@ -841,6 +841,43 @@ template <int kDim>
   }
 }
 
+/// pseudo_kernel_pass_impl (k = nullptr) for two inputs at once: each lane's exponent and sum take
+/// exactly the operations of the single pass, so the two results are its results bit for bit.
+template <int kDim>
+[[gnu::always_inline]] inline void pseudo_kernel_pair_impl(const double* xa_scaled, const double* xb_scaled, int D,
+                                                           const double* scaled_pseudo, int padded, const double* weight,
+                                                           double out[2]) {
+  const int dims = kDim > 0 ? kDim : D;
+  Lanes xa[kDim > 0 ? kDim : kMaxInputDim], xb[kDim > 0 ? kDim : kMaxInputDim];
+  for (int d = 0; d < dims; ++d) xa[d] = splat(xa_scaled[d]), xb[d] = splat(xb_scaled[d]);
+  Lanes sum_a = splat(0.0), sum_b = splat(0.0);
+  for (int m = 0; m < padded; m += kLanes) {
+    Lanes exponent_a = splat(0.0), exponent_b = splat(0.0);
+    for (int d = 0; d < dims; ++d) {
+      const Lanes p = load_lanes(scaled_pseudo + static_cast<std::size_t>(d) * padded + m);
+      const Lanes diff_a = xa[d] - p, diff_b = xb[d] - p;
+      exponent_a -= diff_a * diff_a;
+      exponent_b -= diff_b * diff_b;
+    }
+    const Lanes w = load_lanes(weight + m);
+    sum_a += w * exp_nonpositive(exponent_a);
+    sum_b += w * exp_nonpositive(exponent_b);
+  }
+  out[0] = (sum_a[0] + sum_a[1]) + (sum_a[2] + sum_a[3]);
+  out[1] = (sum_b[0] + sum_b[1]) + (sum_b[2] + sum_b[3]);
+}
+
+[[gnu::target_clones("avx2", "default")]] void pseudo_kernel_pair(const double* xa_scaled, const double* xb_scaled, int D,
+                                                                  const double* scaled_pseudo, int padded, const double* weight,
+                                                                  double out[2]) {
+  switch (D) {
+    case 1: return pseudo_kernel_pair_impl<1>(xa_scaled, xb_scaled, D, scaled_pseudo, padded, weight, out);
+    case 2: return pseudo_kernel_pair_impl<2>(xa_scaled, xb_scaled, D, scaled_pseudo, padded, weight, out);
+    case 3: return pseudo_kernel_pair_impl<3>(xa_scaled, xb_scaled, D, scaled_pseudo, padded, weight, out);
+    default: return pseudo_kernel_pair_impl<0>(xa_scaled, xb_scaled, D, scaled_pseudo, padded, weight, out);
+  }
+}
+
 }  // namespace
 
 double spgp_nlml(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
@@ -1023,6 +1060,23 @@ double Spgp::predict_mean(const double* x) const noexcept {
     x_scaled[d] = (x[d] - input_mean_[d]) * input_gain_[static_cast<std::size_t>(d)];
   return output_mean_ +
          pseudo_kernel_pass(x_scaled, D, scaled_pseudo_.data(), padded_pseudo_, mean_weight_.data(), nullptr);
+}
+
+void Spgp::predict_mean_pair(const double* xa, const double* xb, double out[2]) const noexcept {
+  if (padded_pseudo_ == 0) {  // default-constructed: no model, no residual
+    out[0] = out[1] = output_mean_;
+    return;
+  }
+  const int D = input_dim();
+  double xa_scaled[kMaxInputDim], xb_scaled[kMaxInputDim];
+  for (int d = 0; d < D; ++d) {
+    xa_scaled[d] = (xa[d] - input_mean_[d]) * input_gain_[static_cast<std::size_t>(d)];
+    xb_scaled[d] = (xb[d] - input_mean_[d]) * input_gain_[static_cast<std::size_t>(d)];
+  }
+  double sums[2];
+  pseudo_kernel_pair(xa_scaled, xb_scaled, D, scaled_pseudo_.data(), padded_pseudo_, mean_weight_.data(), sums);
+  out[0] = output_mean_ + sums[0];
+  out[1] = output_mean_ + sums[1];
 }
 
 double Spgp::predict_mean_and_variance(const double* x, double* variance) const {

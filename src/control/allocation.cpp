@@ -51,23 +51,40 @@ MuscleCommand command_muscle(const models::JointModel& joint, const models::Musc
   // the pretension, whatever the load cell says.
   const double lowest_trim_N = std::max(-params.force_trim_max_N, floor_N - force);
   bool floor_held = false;
+  models::InverseResult evaluated[2];  // muscle_pressure at evaluated_N[i], when evaluations > 0
+  double evaluated_N[2] = {0.0, 0.0};
+  int evaluations = 0;
   if (params.force_trim_rate_1ps > 0.0 && sensors_valid && first && bumpless && std::isfinite(measured_pressure_Pa)) {
     trim_N = std::clamp(model_force_N - force, lowest_trim_N, params.force_trim_max_N);  // what the model says P makes
   } else if (params.force_trim_rate_1ps > 0.0 && sensors_valid && loadcell_ok) {
     const double step = params.force_trim_rate_1ps * (force - loadcell_N) * in.dt_s;
-    const auto now = models::muscle_pressure(m, force + trim_N, eps, supply_Pa);
-    // Anti-windup: do not integrate further into a saturated pressure.
-    const bool at_top = now.pressure_Pa >= supply_Pa && step > 0.0;
-    const bool at_bottom = now.pressure_Pa <= 0.0 && step < 0.0;
+    const double next = trim_N + step;
+    const double next_trim_N = std::clamp(next, lowest_trim_N, params.force_trim_max_N);
+    // Anti-windup: do not integrate further into a saturated pressure. Only whether the pressure
+    // now sits at 0 or at the supply matters: the residual is evaluated only when its bounds
+    // cannot rule that out (the same decision), and then together with the command's pressure
+    // should the trim move (the same contraction: one SPGP pass for both, the same bits).
+    const models::PressureInterval range = models::muscle_pressure_interval(m, force + trim_N, eps, supply_Pa);
+    bool at_top = false, at_bottom = false;
+    if ((range.hi_Pa >= supply_Pa && step > 0.0) || (range.lo_Pa <= 0.0 && step < 0.0)) {
+      evaluated_N[0] = force + trim_N;
+      evaluated_N[1] = force + next_trim_N;
+      models::muscle_pressure_pair(m, evaluated_N[0], evaluated_N[1], eps, supply_Pa, evaluated);
+      evaluations = 2;
+      at_top = evaluated[0].pressure_Pa >= supply_Pa && step > 0.0;
+      at_bottom = evaluated[0].pressure_Pa <= 0.0 && step < 0.0;
+    }
     if (!at_top && !at_bottom) {
-      const double next = trim_N + step;
       floor_held = next < lowest_trim_N;
-      trim_N = std::clamp(next, lowest_trim_N, params.force_trim_max_N);
+      trim_N = next_trim_N;
     }
   }
   // A force request that rose since the last step (a lower floor for the trim) is kept too.
   if (trim_N < lowest_trim_N) trim_N = lowest_trim_N;
-  const auto inv = models::muscle_pressure(m, force + trim_N, eps, supply_Pa);
+  const double command_N = force + trim_N;
+  const auto inv = evaluations > 0 && command_N == evaluated_N[1]   ? evaluated[1]
+                   : evaluations > 0 && command_N == evaluated_N[0] ? evaluated[0]
+                                                                    : models::muscle_pressure(m, command_N, eps, supply_Pa);
   return {force, inv.pressure_Pa, eps, model_force_N, wanted > ceiling,
           inv.status == models::InverseStatus::kSaturated || inv.status == models::InverseStatus::kUnreachable, floor_held};
 }

@@ -7,11 +7,13 @@
 #include <pthread.h>
 #include <sched.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/utsname.h>
 #include <time.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -241,6 +243,7 @@ RealtimeReport configure_realtime_thread(const RealtimeOptions& options) {
   if (options.lock_memory) request_memory_lock(r);
   if (options.cpu >= 0) request_pinning(options, r);
   if (options.prefault_stack_bytes > 0) prefault_stack(options, r);
+  if (options.timer_slack_ns > 0) prctl(PR_SET_TIMERSLACK, options.timer_slack_ns, 0, 0, 0);
   log_report(r);
   return r;
 }
@@ -265,6 +268,12 @@ void make_thread_non_realtime() noexcept {
   }
 }
 
+ThreadCounters thread_counters() noexcept {
+  rusage u{};
+  if (getrusage(RUSAGE_THREAD, &u) != 0) return {};
+  return {static_cast<std::uint64_t>(u.ru_minflt), static_cast<std::uint64_t>(u.ru_majflt), static_cast<std::uint64_t>(u.ru_nivcsw)};
+}
+
 PeriodicClock::PeriodicClock(double period_s) : period_ns_(std::llround(period_s * 1e9)) {
   if (!(period_s > 0) || !std::isfinite(period_s) || period_ns_ < 1) {
     throw std::invalid_argument(fmt::format("PeriodicClock: period_s must be > 0 and finite, got {}", period_s));
@@ -280,23 +289,33 @@ std::int64_t PeriodicClock::now_ns() noexcept {
 void PeriodicClock::start() noexcept {
   t0_ns_ = now_ns();
   deadline_ns_ = t0_ns_;
-  cycles_ = missed_ = overruns_ = 0;
+  cycles_ = missed_ = overruns_ = last_skipped_ = max_skipped_ = 0;
+  last_call_ns_ = t0_ns_;
 }
 
 double PeriodicClock::wait_next() noexcept {
   std::int64_t next = deadline_ns_ + period_ns_;
   const std::int64_t now = now_ns();
+  last_call_ns_ = now;
+  last_skipped_ = 0;
   if (now > next) {
     // Overran: skip every deadline already passed (counted), wake at the first one still ahead.
     ++overruns_;
     const std::int64_t skipped = (now - next) / period_ns_ + 1;
     missed_ += static_cast<std::uint64_t>(skipped);
+    last_skipped_ = static_cast<std::uint64_t>(skipped);
+    max_skipped_ = std::max(max_skipped_, last_skipped_);
     next += skipped * period_ns_;
   }
+  const std::int64_t sleep_until = next - spin_ns_;
   timespec ts{};
-  ts.tv_sec = static_cast<time_t>(next / 1'000'000'000);
-  ts.tv_nsec = static_cast<long>(next % 1'000'000'000);
+  ts.tv_sec = static_cast<time_t>(sleep_until / 1'000'000'000);
+  ts.tv_nsec = static_cast<long>(sleep_until % 1'000'000'000);
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+  }
+  if (spin_ns_ > 0) {
+    while (now_ns() < next) {
+    }
   }
   deadline_ns_ = next;
   ++cycles_;

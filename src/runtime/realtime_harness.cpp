@@ -34,6 +34,7 @@ RealtimeHarness::RealtimeHarness(io::Backend& backend, const SupervisorParams& s
       sink_(log_),
       clock_(period_s) {
   result_.log_file = log_file.string();
+  result_.timing.overrun_events.reserve(kOverrunEventsListed);
   if (options.telemetry) {
     std::vector<std::string> signals;
     const auto& names = backend.info().joint_names;
@@ -93,12 +94,23 @@ CycleHooks RealtimeHarness::start() {
   result_.realtime = configure_realtime_thread(options_.realtime);
   supervisor_.on_fault = [this](const char* why) { log_.request_fault_dump(why); };
   supervisor_.start(0.0);  // last in set-up: the handshake's answer is followed by the enable edge within a period
+  clock_.set_spin_ns(options_.realtime.wake_spin_ns);
   clock_.start();
   CycleHooks hooks;
   hooks.wait = [this] {
-    clock_.wait_next();
+    // The thread's counters from the first cycle on (what the experiment sets up before its
+    // first cycle, e.g. memory mlockall populates, is not the loop's).
+    if (cycle_start_ns_ == 0) counters_at_start_ = thread_counters();
+    const double late_s = clock_.wait_next();
     const std::int64_t now = PeriodicClock::now_ns();
-    if (last_wake_ns_) result_.timing.period.add(static_cast<double>(now - last_wake_ns_) * 1e-9);
+    LoopTiming& t = result_.timing;
+    if (clock_.last_skipped() > 0 && cycle_start_ns_ != 0 && t.overrun_events.size() < t.overrun_events.capacity()) {
+      t.overrun_events.push_back({static_cast<double>(cycle_start_ns_ - clock_.start_ns()) * 1e-9, clock_.last_skipped(), wake_late_s_,
+                                  static_cast<double>(clock_.last_call_ns() - cycle_start_ns_) * 1e-9, backend_.status().last_rtt_s});
+    }
+    t.wake.add(late_s);
+    wake_late_s_ = late_s;
+    if (last_wake_ns_) t.period.add(static_cast<double>(now - last_wake_ns_) * 1e-9);
     last_wake_ns_ = cycle_start_ns_ = now;
   };
   hooks.supervisor = &supervisor_;
@@ -147,6 +159,10 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   for (int i = 0; i < 5; ++i) backend_.write(idle);
   std::signal(SIGINT, previous_sigint_);
   std::signal(SIGTERM, previous_sigterm_);
+  const ThreadCounters end = thread_counters();
+  result_.timing.minor_faults = end.minor_faults - counters_at_start_.minor_faults;
+  result_.timing.major_faults = end.major_faults - counters_at_start_.major_faults;
+  result_.timing.involuntary_switches = end.involuntary_switches - counters_at_start_.involuntary_switches;
   make_thread_non_realtime();
   done_ = true;
   if (progress_.joinable()) progress_.join();
@@ -154,6 +170,7 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   result_.timing.cycles = clock_.cycles();
   result_.timing.overruns = clock_.overruns();
   result_.timing.deadline_misses = clock_.missed_deadlines();
+  result_.timing.max_burst = clock_.max_skipped();
   result_.timing.lost_packets = supervisor_.cycles_without_sample();
   result_.faults = supervisor_.faults();
   result_.recoveries = supervisor_.recoveries();

@@ -116,8 +116,9 @@ std::string LoopTiming::table() const {
   const auto us = [](double s) { return std::isnan(s) ? std::string("-") : fmt::format("{:.1f}", s * 1e6); };
   std::string out = fmt::format("{:<10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}\n", "[us]", "count", "median",
                                 "p99", "p99.9", "max", "mean");
-  const std::pair<const char*, const Histogram*> rows[] = {{"period", &period}, {"compute", &compute}, {"rtt", &rtt}};
+  const std::pair<const char*, const Histogram*> rows[] = {{"period", &period}, {"wake", &wake}, {"compute", &compute}, {"rtt", &rtt}};
   for (const auto& [name, h] : rows) {
+    if (h == &wake && wake.count() == 0) continue;
     out += fmt::format("{:<10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10}\n", name, h->count(), us(h->percentile(50)),
                        us(h->percentile(99)), us(h->percentile(99.9)), us(h->max()), us(h->mean()));
   }
@@ -135,13 +136,34 @@ void LoopTiming::write_csv(const std::filesystem::path& dir) const {
   out << fmt::format("# cycles {}\n# overruns {}\n# deadline_misses {}\n# lost_packets {}\n", cycles, overruns,
                      deadline_misses, lost_packets);
   out << "name,count,min_s,mean_s,p50_s,p99_s,p99_9_s,max_s\n";
-  const std::pair<const char*, const Histogram*> rows[] = {{"period", &period}, {"compute", &compute}, {"rtt", &rtt}};
+  const std::pair<const char*, const Histogram*> rows[] = {{"period", &period}, {"wake", &wake}, {"compute", &compute}, {"rtt", &rtt}};
   for (const auto& [name, h] : rows) {
     out << fmt::format("{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", name, h->count(), h->min(), h->mean(),
                        h->percentile(50), h->percentile(99), h->percentile(99.9), h->max());
     h->write_csv(dir / fmt::format("timing_{}_hist.csv", name));
   }
   check_written(out, summary);
+  const std::filesystem::path events = dir / "timing_overruns.csv";
+  std::ofstream ev = open_for_writing(events);
+  ev << fmt::format("# overruns {}, {} listed; max burst {} deadlines\n", overruns, overrun_events.size(), max_burst);
+  ev << "t_s,skipped,wake_late_s,work_s,rtt_s\n";
+  for (const OverrunEvent& e : overrun_events) {
+    ev << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g}\n", e.t_s, e.skipped, e.wake_late_s, e.work_s, e.rtt_s);
+  }
+  check_written(ev, events);
+}
+
+std::string LoopTiming::burst_summary(double period_s) const {
+  std::uint64_t multi = 0, late_wake = 0, in_multi = 0;
+  for (const OverrunEvent& e : overrun_events) {
+    if (e.skipped > 1) ++multi, in_multi += e.skipped;
+    if (e.wake_late_s >= period_s) ++late_wake;
+  }
+  return fmt::format("overruns {} (listed {}): max burst {} deadlines; {} overruns skipped > 1 deadline ({} of the {} misses); "
+                     "{} began with a wake-up >= 1 period late, {} with long work; loop thread: {} minor / {} major page faults, "
+                     "{} involuntary context switches",
+                     overruns, overrun_events.size(), max_burst, multi, in_multi, deadline_misses, late_wake,
+                     overrun_events.size() - late_wake, minor_faults, major_faults, involuntary_switches);
 }
 
 }  // namespace peha::runtime

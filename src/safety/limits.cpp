@@ -32,7 +32,10 @@ PressureBand pressure_band(const models::MuscleModel& m, const models::JointMode
   const double force_ceiling = models::force_ceiling_N(m);
   // The ceiling is the pressure at which the model makes exactly the force ceiling. When the model
   // cannot reach it at all (kUnreachable/kSaturated), the supply is the ceiling.
-  const auto top = models::muscle_pressure(m, force_ceiling, eps, joint.supply_pressure_Pa);
+  // Both ends at the same contraction: the residual is evaluated for both in one pass.
+  models::InverseResult ends[2];
+  models::muscle_pressure_pair(m, force_ceiling, joint.pretension_N, eps, joint.supply_pressure_Pa, ends);
+  const models::InverseResult& top = ends[0];
   PressureBand band{0.0, joint.supply_pressure_Pa, true};
   if (top.status == models::InverseStatus::kOk && top.pressure_Pa < joint.supply_pressure_Pa) {
     band.ceiling_Pa = top.pressure_Pa;
@@ -40,7 +43,7 @@ PressureBand pressure_band(const models::MuscleModel& m, const models::JointMode
   }
   // The floor keeps the pretension; where the model says the muscle cannot make it (unreachable),
   // forcing the supply would be the wrong guess, so there is no floor.
-  const auto bottom = models::muscle_pressure(m, joint.pretension_N, eps, joint.supply_pressure_Pa);
+  const models::InverseResult& bottom = ends[1];
   band.floor_Pa = bottom.status == models::InverseStatus::kOk ? std::min(bottom.pressure_Pa, band.ceiling_Pa) : 0.0;
   return band;
 }

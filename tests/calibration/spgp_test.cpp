@@ -500,6 +500,45 @@ TEST(Spgp, FastPredictionEqualsTheReferenceFormula) {
   }
 }
 
+// predict_mean_pair is predict_mean at both inputs, bit for bit (the arm's pressure band evaluates
+// its two ends in one pass), with and without a shared first coordinate, in and far outside the data.
+TEST(Spgp, PairPredictionEqualsTwoSinglePredictionsBitForBit) {
+  for (const auto& [N, M, D] : {std::tuple{400, 50, 2}, std::tuple{200, 13, 3}, std::tuple{100, 7, 1}}) {
+    std::mt19937_64 rng(static_cast<std::uint64_t>(M) + 7);
+    std::uniform_real_distribution<double> box(0.0, 5.0);
+    MatrixXd X(N, D);
+    VectorXd y(N);
+    for (int n = 0; n < N; ++n) {
+      double s = 0.0;
+      for (int d = 0; d < D; ++d) s += std::sin(X(n, d) = box(rng));
+      y[n] = 100.0 + 20.0 * s;
+    }
+    SpgpOptions options;
+    options.num_pseudo = M;
+    options.max_iterations = 20;
+    const Spgp model = Spgp::fit(X, y, options);
+    std::uniform_real_distribution<double> wide(-3.0, 8.0);
+    for (int trial = 0; trial < 200; ++trial) {
+      std::vector<double> a(static_cast<std::size_t>(D)), b(static_cast<std::size_t>(D));
+      for (int d = 0; d < D; ++d) {
+        a[static_cast<std::size_t>(d)] = trial < 190 ? wide(rng) : 1e6 * (trial - 189);
+        b[static_cast<std::size_t>(d)] = wide(rng);
+      }
+      if (trial % 2 == 0) b[0] = a[0];
+      double out[2];
+      model.predict_mean_pair(a.data(), b.data(), out);
+      EXPECT_EQ(out[0], model.predict_mean(a.data())) << "M " << M << " trial " << trial;
+      EXPECT_EQ(out[1], model.predict_mean(b.data())) << "M " << M << " trial " << trial;
+    }
+  }
+  const Spgp empty;
+  double out[2];
+  const double x[1] = {1.0};
+  empty.predict_mean_pair(x, x, out);
+  EXPECT_EQ(out[0], empty.predict_mean(x));
+  EXPECT_EQ(out[1], empty.predict_mean(x));
+}
+
 TEST(Spgp, ReportsProgressOncePerIteration) {
   SpgpOptions options;
   options.num_pseudo = 5;

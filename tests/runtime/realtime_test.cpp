@@ -65,6 +65,9 @@ TEST(PeriodicClock, SkipsMissedDeadlinesInsteadOfBursting) {
   EXPECT_GE(skipped, 3u);
   EXPECT_GE(clock.overruns(), 1u);
   EXPECT_EQ(clock.cycles(), 2u);
+  // The stall is one burst: the call says how many deadlines it skipped, and the largest burst too.
+  EXPECT_EQ(clock.last_skipped(), skipped);
+  EXPECT_GE(clock.max_skipped(), skipped);
   EXPECT_NEAR(clock.deadline_s(), static_cast<double>(2 + clock.missed_deadlines()) * 0.01, 1e-9);
   // It woke at (not before) the first deadline still ahead of the stall's end.
   EXPECT_GE(PeriodicClock::now_ns() - clock.start_ns(), static_cast<std::int64_t>(clock.deadline_s() * 1e9) - 1);
@@ -72,8 +75,23 @@ TEST(PeriodicClock, SkipsMissedDeadlinesInsteadOfBursting) {
   // And the next cycle is a whole period later, not a catch-up cycle.
   const double before = clock.deadline_s();
   clock.wait_next();
+  EXPECT_EQ(clock.last_skipped(), 0u);
+  EXPECT_GE(clock.max_skipped(), skipped);
   EXPECT_GE(clock.deadline_s() - before, 0.01 - 1e-9);
   EXPECT_GE(PeriodicClock::now_ns() - clock.start_ns(), static_cast<std::int64_t>(clock.deadline_s() * 1e9) - 1);
+}
+
+// A final spin lands the wake-up on the deadline (within clock noise), never before it.
+TEST(PeriodicClock, SpinsToTheDeadlineWhenAsked) {
+  PeriodicClock clock(0.002);
+  clock.set_spin_ns(200'000);
+  clock.start();
+  for (int i = 0; i < 5; ++i) {
+    const double late_s = clock.wait_next();
+    EXPECT_GE(late_s, 0.0);
+    EXPECT_GE(PeriodicClock::now_ns(), clock.deadline_ns());
+  }
+  EXPECT_EQ(clock.cycles(), 5u);
 }
 
 TEST(ConfigureRealtime, RejectsInvalidOptions) {

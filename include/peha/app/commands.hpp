@@ -48,6 +48,7 @@ struct EmulatorOptions {
   double max_runtime_s = 0;
   int sessions = 0;
   int fifo_priority = 70;        ///< the board is a real-time device too: SCHED_FIFO priority (0 = don't ask)
+  int cpu = -1;                  ///< pin the board's loop to this CPU (-1 = don't pin)
 };
 
 /// `peha mfb-emulator`: serves the MFB protocol over UDP in front of the simulated rig until

@@ -128,6 +128,18 @@ class SpgpResidual final : public models::PressureResidual {
     const double x[2] = {clamp(eps, contraction_), clamp(force_N, force_N_)};
     return clamp(spgp_->predict_mean(x), residual_Pa_);
   }
+  void pressure_pair_Pa(double eps, double force_a_N, double force_b_N, double out[2]) const noexcept override {
+    const double e = clamp(eps, contraction_);
+    const double xa[2] = {e, clamp(force_a_N, force_N_)};
+    const double xb[2] = {e, clamp(force_b_N, force_N_)};
+    spgp_->predict_mean_pair(xa, xb, out);
+    out[0] = clamp(out[0], residual_Pa_);
+    out[1] = clamp(out[1], residual_Pa_);
+  }
+  void bounds_Pa(double& lo, double& hi) const noexcept override {
+    lo = residual_Pa_.min;
+    hi = residual_Pa_.max;
+  }
 
  private:
   static double clamp(double v, const Span& s) noexcept { return v < s.min ? s.min : (v > s.max ? s.max : v); }

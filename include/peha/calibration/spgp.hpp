@@ -58,6 +58,10 @@ class Spgp {
 
   /// Predictive mean at x (length D, original units). O(M), no allocation, noexcept.
   double predict_mean(const double* x) const noexcept;
+  /// predict_mean at xa and xb into out[0] and out[1], bit for bit the same values, in one pass
+  /// over the pseudo-inputs (the two kernel rows interleaved; a shared first coordinate is
+  /// differenced once).
+  void predict_mean_pair(const double* xa, const double* xb, double out[2]) const noexcept;
   /// Predictive variance of the latent function at x (original units^2), O(M^2).
   double predict_variance(const double* x) const;
   /// Mean and latent variance at x from one evaluation of the M kernel values (what predict_mean

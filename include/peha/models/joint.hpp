@@ -10,6 +10,7 @@
 #include "peha/models/bowden.hpp"
 #include "peha/models/tendon_spring.hpp"
 
+#include <limits>
 #include <memory>
 #include <string>
 
@@ -25,6 +26,18 @@ class PressureResidual {
   virtual ~PressureResidual() = default;
   /// Pressure to add to the parametric inverse at rigid-wire contraction `eps` and force `force_N`, Pa.
   virtual double pressure_Pa(double eps, double force_N) const noexcept = 0;
+  /// pressure_Pa at (eps, force_a_N) and (eps, force_b_N) into out[0] and out[1]: the same values
+  /// as two calls (an implementation may share the work of the common contraction).
+  virtual void pressure_pair_Pa(double eps, double force_a_N, double force_b_N, double out[2]) const noexcept {
+    out[0] = pressure_Pa(eps, force_a_N);
+    out[1] = pressure_Pa(eps, force_b_N);
+  }
+  /// Bounds every value of pressure_Pa lies in, Pa (default: none known, -inf..+inf). Lets a caller
+  /// that only asks whether the corrected pressure reaches 0 or the supply skip the evaluation.
+  virtual void bounds_Pa(double& lo, double& hi) const noexcept {
+    lo = -std::numeric_limits<double>::infinity();
+    hi = std::numeric_limits<double>::infinity();
+  }
 };
 
 /// One muscle of the pair, with its cable.
@@ -65,6 +78,20 @@ double force_ceiling_N(const MuscleModel& m) noexcept;
 /// learned residual where the parametric inverse is defined (status kOk), clamped to [0, supply].
 /// A non-finite residual counts as 0. noexcept, allocation-free.
 InverseResult muscle_pressure(const MuscleModel& m, double force_N, double eps, double supply_pressure_Pa) noexcept;
+
+/// muscle_pressure at `force_a_N` and `force_b_N` (the same contraction) into out[0] and out[1]:
+/// the same results as two calls, with the residual evaluated for both in one pass when both
+/// parametric inverses are defined.
+void muscle_pressure_pair(const MuscleModel& m, double force_a_N, double force_b_N, double eps, double supply_pressure_Pa,
+                          InverseResult out[2]) noexcept;
+
+/// An interval [lo, hi] that muscle_pressure(m, force_N, eps, supply).pressure_Pa lies in, from the
+/// parametric inverse and the residual's bounds only (the residual is not evaluated): lo == hi
+/// without a residual or where the parametric inverse is not defined.
+struct PressureInterval {
+  double lo_Pa, hi_Pa;
+};
+PressureInterval muscle_pressure_interval(const MuscleModel& m, double force_N, double eps, double supply_pressure_Pa) noexcept;
 
 /// Rigid-wire contraction of the agonist (+1) or antagonist (-1) at `angle_rad`.
 /// eps = eps(0) + side * r0 * angle / L0.

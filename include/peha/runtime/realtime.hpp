@@ -20,6 +20,13 @@ struct RealtimeOptions {
   int cpu = -1;                ///< CPU to pin the calling thread to; -1 = don't pin
   bool lock_memory = true;     ///< mlockall(MCL_CURRENT | MCL_FUTURE): process-wide, not per thread
   std::size_t prefault_stack_bytes = 256 * 1024;  ///< stack touched now so the loop never faults it in; 0 = skip
+  /// prctl(PR_SET_TIMERSLACK) of the calling thread in ns; 0 = leave it (the default 50 us for
+  /// SCHED_OTHER). The kernel ignores the slack of SCHED_FIFO threads, so it matters only where
+  /// SCHED_FIFO was refused (or not asked for).
+  unsigned long timer_slack_ns = 0;
+  /// The loop's PeriodicClock sleeps until this long before each deadline and polls the clock for
+  /// the rest (PeriodicClock::set_spin_ns); 0 = clock_nanosleep all the way.
+  std::int64_t wake_spin_ns = 0;
 };
 
 /// What was granted. `warnings` holds one line per refusal (errno name, consequence and fix).
@@ -46,6 +53,13 @@ RealtimeReport configure_realtime_thread(const RealtimeOptions& options);
 /// affinity of their creator, and they must never compete with the loop for its CPU. Best effort.
 void make_thread_non_realtime() noexcept;
 
+/// The calling thread's page faults and involuntary context switches so far (getrusage
+/// RUSAGE_THREAD); differences of two readings bracket a loop.
+struct ThreadCounters {
+  std::uint64_t minor_faults = 0, major_faults = 0, involuntary_switches = 0;
+};
+ThreadCounters thread_counters() noexcept;
+
 /// A periodic schedule of absolute deadlines t0 + k * period on CLOCK_MONOTONIC.
 ///
 /// Overrun policy: if, when `wait_next` is called, the next deadline has already passed (the cycle's
@@ -71,7 +85,18 @@ class PeriodicClock {
   std::uint64_t overruns() const noexcept { return overruns_; }                ///< calls that found their deadline passed
   /// Deadline of the current cycle (the one wait_next last woke for) relative to t0, in s.
   double deadline_s() const noexcept { return static_cast<double>(deadline_ns_ - t0_ns_) * 1e-9; }
+  std::int64_t deadline_ns() const noexcept { return deadline_ns_; }  ///< deadline of the current cycle, CLOCK_MONOTONIC ns
   std::int64_t start_ns() const noexcept { return t0_ns_; }  ///< t0 on CLOCK_MONOTONIC, ns
+  /// Deadlines the last wait_next call skipped (0: the cycle ended in time), and the largest such
+  /// burst since start: one stall of 20 periods is one overrun of 20 missed deadlines.
+  std::uint64_t last_skipped() const noexcept { return last_skipped_; }
+  std::uint64_t max_skipped() const noexcept { return max_skipped_; }
+  /// When the last wait_next was called (the end of the previous cycle's work), CLOCK_MONOTONIC ns.
+  std::int64_t last_call_ns() const noexcept { return last_call_ns_; }
+
+  /// Sleep until `spin_ns` before each deadline, then poll the clock up to the deadline (0 = sleep
+  /// all the way, the default). Trades CPU time for the timer's wake-up latency.
+  void set_spin_ns(std::int64_t spin_ns) noexcept { spin_ns_ = spin_ns > 0 ? spin_ns : 0; }
 
   /// CLOCK_MONOTONIC now, in ns.
   static std::int64_t now_ns() noexcept;
@@ -83,6 +108,10 @@ class PeriodicClock {
   std::uint64_t cycles_ = 0;
   std::uint64_t missed_ = 0;
   std::uint64_t overruns_ = 0;
+  std::uint64_t last_skipped_ = 0;
+  std::uint64_t max_skipped_ = 0;
+  std::int64_t last_call_ns_ = 0;
+  std::int64_t spin_ns_ = 0;
 };
 
 }  // namespace peha::runtime

@@ -100,6 +100,9 @@ class RealtimeHarness {
   PeriodicClock clock_;
   RealtimeRunResult result_;
   std::int64_t cycle_start_ns_ = 0, last_wake_ns_ = 0;
+  double wake_late_s_ = 0;  ///< how late the current cycle woke
+  ThreadCounters counters_at_start_;
+  static constexpr std::size_t kOverrunEventsListed = 4096;
   std::uint64_t rtt_samples_ = 0;     ///< backend's round trips already in the statistics
   std::atomic<bool> done_{false};
   std::atomic<double> progress_t_{0.0};

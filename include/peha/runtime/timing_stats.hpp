@@ -57,8 +57,30 @@ class Histogram {
 /// `period` = time between successive wake-ups, `compute` = wake-up to end of the cycle's work,
 /// `rtt` = command sent to matching sensor packet received (hardware backends only); the counters
 /// come from PeriodicClock (overruns, missed deadlines) and the backend (lost packets).
+/// One overrun of the loop: the cycle that woke `wake_late_s` after its deadline (at `t_s` since
+/// the start) and ended `work_s` later, past the next deadline, so that `skipped` deadlines saw no
+/// cycle; `rtt_s` is the round trip of the last sample received by then (NaN without one).
+/// wake_late_s >= period: the thread itself did not run (kernel, hypervisor); else the cycle's work
+/// (waiting for the board's reply, compute) pushed it over.
+struct OverrunEvent {
+  double t_s = 0;
+  std::uint64_t skipped = 0;
+  double wake_late_s = 0;
+  double work_s = 0;
+  double rtt_s = 0;
+};
+
 struct LoopTiming {
   Histogram period, compute, rtt;
+  /// How late each wake-up came after its deadline (the timer's and the scheduler's latency).
+  Histogram wake;
+  /// The overruns in order, up to the capacity reserved before the loop (the loop never allocates:
+  /// further ones are counted in `overruns` only).
+  std::vector<OverrunEvent> overrun_events;
+  std::uint64_t max_burst = 0;        ///< most deadlines one overrun skipped
+  /// The loop thread's own counters over the loop (getrusage(RUSAGE_THREAD) deltas): page faults
+  /// (minor: no disk; major: read from disk) and involuntary context switches (preempted).
+  std::uint64_t minor_faults = 0, major_faults = 0, involuntary_switches = 0;
   std::uint64_t cycles = 0;           ///< cycles run
   std::uint64_t overruns = 0;         ///< cycles whose work ran past the next deadline
   std::uint64_t deadline_misses = 0;  ///< deadlines skipped because of overruns
@@ -67,6 +89,9 @@ struct LoopTiming {
   /// Multi-line table: count, median, p99, p99.9, max, mean per histogram in us, then the counters
   /// and the miss rate (missed / (cycles + missed): the share of deadlines that saw no cycle).
   std::string table() const;
+  /// One line on the misses' structure: overruns, how many deadlines the largest skipped, how many
+  /// skipped more than one, and how many began with a late wake-up (>= one period) vs long work.
+  std::string burst_summary(double period_s) const;
   /// Writes timing_summary.csv (one row per histogram, counters in `#` lines) and
   /// timing_<name>_hist.csv for each histogram into `dir` (created if missing).
   void write_csv(const std::filesystem::path& dir) const;
