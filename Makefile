@@ -60,7 +60,7 @@ test: build
 	ctest --preset $(PRESET)
 
 # The fault matrix (docs/safety.md): E1 (out/faults), E3 on the right arm (out/faults_arm) and E1's
-# link faults over UDP to the emulator (out/faults_link, ~50 s of real time). Exit
+# link faults over UDP to the emulator (out/faults_link, ~70 s of real time). Exit
 # code 3 = a row missed its designed outcome: reported in the table, not a failure of make; any other
 # failure stops make.
 faults: build

@@ -10,6 +10,10 @@
 #include <atomic>
 #include <csignal>
 #include <cstdio>
+#include <fstream>
+#include <stdexcept>
+#include <time.h>
+#include <cmath>
 
 namespace peha::app {
 namespace {
@@ -27,7 +31,8 @@ mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double perio
   p.max_runtime_s = options.max_runtime_s;
   p.sessions = options.sessions;
   p.faults = {options.loss, options.duplicate, options.reorder, options.corrupt, options.delay_ms * 1e-3, options.fault_seed,
-              options.estop_at_s, options.estop_for_s};
+              options.estop_at_s, options.estop_for_s, options.loss_burst_at_s, options.loss_burst_packets.value_or(0)};
+  if (!options.truth_csv.empty()) p.truth_steps = static_cast<std::size_t>(std::ceil(600.0 / period_s));
   return p;
 }
 
@@ -42,14 +47,32 @@ int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const Emulato
   (void)report;  // its warnings were printed; the board runs best-effort without
   fmt::print("peha mfb-emulator: listening on udp://{} - {}, watchdog {} ms, vent {} s{}\n", board.local().to_string(), what,
              p.watchdog_s * 1e3, p.vent_s,
-             p.faults.any() ? fmt::format("; injecting loss {} duplicate {} reorder {} corrupt {} delay {} ms{}", p.faults.loss,
+             p.faults.any() ? fmt::format("; injecting loss {} duplicate {} reorder {} corrupt {} delay {} ms{}{}", p.faults.loss,
                                           p.faults.duplicate, p.faults.reorder, p.faults.corrupt, options.delay_ms,
                                           p.faults.estop_from_s >= 0
                                               ? fmt::format(", e-stop at {} s for {} s", p.faults.estop_from_s, p.faults.estop_for_s)
+                                              : std::string(),
+                                          p.faults.burst_from_s >= 0
+                                              ? fmt::format(", loss burst at {} s of {}", p.faults.burst_from_s,
+                                                            p.faults.burst_packets == 0 ? std::string("every packet to the end")
+                                                                                        : fmt::format("{} packets", p.faults.burst_packets))
                                               : std::string())
                             : std::string());
   std::fflush(stdout);
   board.run(g_stop);
+  if (board.stats().host_loss_ns != 0) {
+    fmt::print("peha mfb-emulator: host lost: the watchdog fired at t={:.4f} s (monotonic {} ns) while the outputs were armed\n",
+               board.stats().host_loss_t_s, board.stats().host_loss_ns);
+  }
+  if (!options.truth_csv.empty()) {
+    std::ofstream csv(options.truth_csv);
+    csv << "t_s,mono_ns,angle_rad,agonist_loadcell_N,antagonist_loadcell_N,armed,motor_off\n";
+    for (const mfb::BoardEmulator::TruthRow& r : board.truth()) {
+      csv << fmt::format("{:.6f},{},{:.7f},{:.4f},{:.4f},{},{}\n", r.t_s, r.mono_ns, r.angle_rad, r.agonist_N, r.antagonist_N, r.armed ? 1 : 0,
+                         r.motor_off ? 1 : 0);
+    }
+    if (!csv) throw std::runtime_error(fmt::format("mfb-emulator: cannot write {}", options.truth_csv.string()));
+  }
   fmt::print("peha mfb-emulator: stopped\n{}\n", board.stats().table());
   return 0;
 }
@@ -61,7 +84,28 @@ int mfb_emulator(const EmulatorOptions& options) {
     const config::Document doc = config::Document::load_file(options.config);
     std::optional<BoardPlant> plant = find_experiment(doc).emulator(doc, options);
     if (!plant) return 2;
-    const mfb::EmulatorParams p = emulator_params(options, plant->period_s, plant->link);
+    mfb::EmulatorParams p = emulator_params(options, plant->period_s, plant->link);
+    if (options.bind_retry_s > 0 && p.bind.port != 0) {
+      // A rebooting board's successor: started while the old one still holds the port, it takes the
+      // port the moment it is free (a real board is back within milliseconds of its reset).
+      const std::int64_t give_up = io::monotonic_ns() + static_cast<std::int64_t>(options.bind_retry_s * 1e9);
+      bool told = false;
+      for (;;) {
+        try {
+          io::UdpSocket probe(p.bind);
+          break;
+        } catch (const std::exception&) {
+          if (io::monotonic_ns() > give_up) throw;
+          if (!told) {
+            fmt::print("peha mfb-emulator: waiting for udp://{} to be free\n", p.bind.to_string());
+            std::fflush(stdout);
+            told = true;
+          }
+          const timespec pause{0, 200'000};
+          nanosleep(&pause, nullptr);
+        }
+      }
+    }
     mfb::BoardEmulator board(p, std::move(plant->map), plant->make_plant);
     if (plant->input_hook) board.set_input_hook(plant->input_hook);
     return serve(board, p, options, plant->what);

@@ -45,10 +45,11 @@ int link_faults(const FaultsOptions& options, const config::Document& doc) {
   std::fflush(stdout);
   std::size_t n = 0;
   auto print_row = [&](const experiments::LinkFaultRow& r) {
-    fmt::print("  [{}] {:<18} {:<8}: {:<48} {:>7} ms, peak {:>6.0f} N, {:>6.1f} deg/s, T_min {:>6.1f} N, limits exceeded {}{}; "
+    fmt::print("  [{}] {:<18} {:<8}: {:<48} {:>7} ms, safe {:>7} ms, peak {:>6.0f} N, {:>6.1f} deg/s, T_min {:>6.1f} N, limits exceeded {}{}; "
                "lost {}, late {}, corrupt {}, duplicate {}, stale {}, foreign {}{}\n",
                ++n, r.fault, r.expect_detection ? "fault" : "ride out", r.detected ? r.by : "not detected",
-               std::isfinite(r.detection_ms) ? fmt::format("{:.1f}", r.detection_ms) : "-", r.peak_force_N, r.peak_speed_degps, r.min_tension_N,
+               std::isfinite(r.detection_ms) ? fmt::format("{:.1f}", r.detection_ms) : "-",
+               std::isfinite(r.safe_ms) ? fmt::format("{:.1f}", r.safe_ms) : "-", r.peak_force_N, r.peak_speed_degps, r.min_tension_N,
                r.limits_exceeded, r.log_complete ? "" : ", LOG INCOMPLETE", r.lost, r.late, r.corrupt, r.duplicate, r.stale, r.foreign,
                r.outcome_met() ? "" : "  <- designed outcome MISSED");
     if (!r.limits.empty()) fmt::print("      exceeded: {}\n", r.limits);

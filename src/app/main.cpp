@@ -212,7 +212,8 @@ Command add_mfb_emulator(CLI::App& app) {
     peha::app::EmulatorOptions emu;
     std::uint64_t seed = 0;
     double watchdog_ms = 0;
-    CLI::Option *seed_opt, *watchdog_opt;
+    CLI::Option *seed_opt, *watchdog_opt, *burst_packets_opt;
+    std::uint64_t burst_packets = 0;
   };
   auto s = std::make_shared<State>();
   peha::app::EmulatorOptions& emu = s->emu;
@@ -241,6 +242,20 @@ Command add_mfb_emulator(CLI::App& app) {
   emu_cmd->add_option("--fault-seed", emu.fault_seed, "Seed of the injected faults")->check(peha::app::unsigned_integer())->capture_default_str();
   emu_cmd->add_option("--estop-at", emu.estop_at_s, "Assert the e-stop input at this simulated time, s")->check(peha::app::decimal())->check(CLI::Range(0.0, 1e6));
   emu_cmd->add_option("--estop-for", emu.estop_for_s, "... for this long, s")->capture_default_str()->check(peha::app::decimal())->check(CLI::Range(0.0, 1e6));
+  CLI::Option* burst_at = emu_cmd->add_option("--loss-burst-at", emu.loss_burst_at_s,
+                                              "A loss burst: from this simulated time on, drop --loss-burst-packets consecutive\n"
+                                              "state packets, s (needs --loss-burst-packets)")
+                              ->check(peha::app::decimal())->check(CLI::Range(0.0, 1e6));
+  s->burst_packets_opt = emu_cmd->add_option("--loss-burst-packets", s->burst_packets,
+                                             "... this many state packets in a row (0 = every one from then on; needs --loss-burst-at)")
+                             ->check(peha::app::unsigned_integer())->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1'000'000'000}));
+  burst_at->needs(s->burst_packets_opt);
+  s->burst_packets_opt->needs(burst_at);
+  emu_cmd->add_option("--bind-retry", emu.bind_retry_s, "If --port is taken, retry binding it for this long, s, printing 'waiting for'\n"
+                                                       "once: a board that reboots (its successor started before it is gone)")
+      ->check(peha::app::decimal())->check(CLI::Range(0.0, 60.0));
+  emu_cmd->add_option("--truth-csv", emu.truth_csv, "When stopped, write the plant's truth per step (time, host monotonic ns, angle,\n"
+                                                   "load cells, armed, motor off) of the first 10 minutes to this CSV");
   emu_cmd->add_option("--rt-priority", emu.fifo_priority, "SCHED_FIFO priority of the board's loop (0 = don't ask)")
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 99));
   emu_cmd->add_option("--cpu", emu.cpu, "Pin the board's loop to this CPU (-1 = don't pin)")
@@ -251,6 +266,7 @@ Command add_mfb_emulator(CLI::App& app) {
   return {emu_cmd, [s] {
             if (*s->seed_opt) s->emu.seed = s->seed;
             if (*s->watchdog_opt) s->emu.watchdog_ms = s->watchdog_ms;
+            if (*s->burst_packets_opt) s->emu.loss_burst_packets = s->burst_packets;
             return peha::app::mfb_emulator(s->emu);
           }};
 }
@@ -320,10 +336,11 @@ Command add_faults(CLI::App& app) {
   cmd->add_flag("!--no-plot", o->plot, "Do not render faults.png (no Python needed)");
   cmd->add_flag("--link", o->link,
                 "Instead of the in-process matrix: E1's link faults over UDP (docs/safety.md \"The link's faults\"): starts\n"
-                "`peha mfb-emulator` as a child process per row (random loss 1/5 %, duplicates, reordering, corruption,\n"
-                "3 ms delay, the e-stop input, the board stalled 200 ms or killed, a spoofing sender), ~4 s of real\n"
-                "time each (~50 s in all); writes <out>/<run>/faults_link.md and faults_link.csv. Exit 3 when a row\n"
-                "misses its designed outcome");
+                "`peha mfb-emulator` as a child process per row (random loss 1/5 %, loss bursts of 1/5/50/all state\n"
+                "packets, duplicates, reordering, corruption, 3 ms delay, the e-stop input, the board stalled 200 ms,\n"
+                "killed or rebooted (a fresh emulator on its port), the host killed (peha run as a second child, the\n"
+                "board's watchdog observed), a spoofing sender), ~4 s of real time each (~80 s in all); writes\n"
+                "<out>/<run>/faults_link.md and faults_link.csv. Exit 3 when a row misses its designed outcome");
   cmd->add_option("--link-fault", o->link_faults, "With --link: only these rows (repeatable; 'none' always runs)")
       ->check(CLI::IsMember(peha::experiments::link_fault_names()));
   return {cmd, [o] { return peha::app::faults(*o); }};

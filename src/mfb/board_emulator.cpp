@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
+#include <limits>
 #include <stdexcept>
 #include <time.h>
 
@@ -21,11 +23,11 @@ std::string EmulatorStats::table() const {
       "commands: accepted {}, foreign source {}, foreign session {}, duplicate {}, stale {}, malformed {}, unauthenticated {}, gaps {}, "
       "oversized {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
-      "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}",
+      "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}",
       received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
       received.unauthenticated, received.gaps, oversized,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
-      injected_reorder, injected_corrupt, injected_delay);
+      injected_reorder, injected_corrupt, injected_delay, injected_burst);
 }
 
 BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant)
@@ -35,7 +37,9 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
                                             params.period_s, params.watchdog_s, params.vent_s));
   }
   if (sodium_init() < 0) throw std::runtime_error("mfb-emulator: libsodium failed to initialise (no entropy source?)");
+  while (boot_id_ == 0) boot_id_ = randombytes_random();  // this power-on's id: a restart draws another
   pending_.reserve(kMaxPending);
+  truth_.reserve(params.truth_steps);
   plant_ = make_plant_();
   plant_->activate();  // the plant is the world behind the board's outputs: always driven
   plant_->read(state_);
@@ -62,6 +66,11 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
     applied_.da = last_command_.da;
     applied_.digital_out = last_command_.digital_out;
     armed_ = true;
+    if (!reported_armed_) {  // for a process that supervises this one (peha faults --link): the run is live
+      reported_armed_ = true;
+      std::printf("peha mfb-emulator: outputs armed at t=%.4f s\n", state_.time_s);
+      std::fflush(stdout);
+    }
   } else {
     const BoardOutputs safe = map_.safe_outputs();
     if (armed_) {  // the moment of disarming: the vent ramp starts from what the DA held
@@ -90,6 +99,16 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
   plant_->write(command);
   plant_->read(state_);
   ++(by_command ? stats_.steps_on_command : stats_.steps_free_running);
+  if (truth_.size() < truth_.capacity()) {
+    const BoardOutputs safe = map_.safe_outputs();
+    bool motor_off = applied_.digital_out == safe.digital_out;
+    for (int j = 0; j < map_.joint_count(); ++j) {
+      const AnalogChannel& m = map_.joint(j).motor;
+      if (m.mapped()) motor_off = motor_off && applied_.da[static_cast<std::size_t>(m.channel)] == safe.da[static_cast<std::size_t>(m.channel)];
+    }
+    truth_.push_back({state_.time_s, io::monotonic_ns(), state_.joints[0].angle_rad, state_.joints[0].agonist_loadcell_N,
+                      state_.joints[0].antagonist_loadcell_N, armed_, motor_off});
+  }
 }
 
 void BoardEmulator::transmit(const std::uint8_t* bytes, std::size_t n, std::int64_t at_ns) noexcept {
@@ -133,11 +152,24 @@ void BoardEmulator::send_state(std::int64_t now) noexcept {
   s.digital_in = in.digital_in;
   s.status = static_cast<std::uint8_t>(arming_.status() | (filter_.has_session() ? 0 : kStatusNoSession));
   s.arm_token = arming_.token();
+  s.boot_id = boot_id_;
   std::array<std::uint8_t, kMaxPacketSize> bytes;
   const std::size_t n = encode(s, params_.key, bytes);
   const FaultInjection& f = params_.faults;
   const std::int64_t at = now + static_cast<std::int64_t>(f.delay_s * 1e9);
   if (f.delay_s > 0) ++stats_.injected_delay;
+  if (f.burst_from_s >= 0 && !burst_started_ && state_.time_s >= f.burst_from_s) {
+    burst_started_ = true;
+    burst_left_ = f.burst_packets == 0 ? std::numeric_limits<std::uint64_t>::max() : f.burst_packets;
+    stats_.burst_ns = now;
+    std::printf("peha mfb-emulator: loss burst from t=%.4f s (monotonic %lld ns)\n", state_.time_s, static_cast<long long>(now));
+    std::fflush(stdout);
+  }
+  if (burst_left_ > 0) {
+    --burst_left_;
+    ++stats_.injected_burst;
+    return;
+  }
   if (f.loss > 0 && uniform() < f.loss) {
     ++stats_.injected_loss;
     return;
@@ -221,6 +253,10 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
     }
     now = io::monotonic_ns();
     if (filter_.has_session() && now - last_command_ns_ > watchdog) {
+      if (arming_.outputs_enabled() && stats_.host_loss_ns == 0) {  // its host fell silent while driving the outputs
+        stats_.host_loss_ns = now;
+        stats_.host_loss_t_s = state_.time_s;
+      }
       arming_.on_watchdog();
       filter_.release();
       ++stats_.watchdog_trips;

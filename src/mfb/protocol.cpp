@@ -192,6 +192,7 @@ std::size_t encode(const StatePacket& packet, const LinkKey& key, std::span<std:
   put_u8(p, kStateDigitalInOffset, packet.digital_in);
   put_u8(p, kStateStatusOffset, packet.status);
   put_u32(p, kStateArmTokenOffset, packet.arm_token);
+  put_u32(p, kStateBootIdOffset, packet.boot_id);
   put_trailer(p, kStatePacketSize, key);
   return kStatePacketSize;
 }
@@ -233,6 +234,7 @@ ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, StatePac
   s.digital_in = p[kStateDigitalInOffset];
   s.status = p[kStateStatusOffset];
   s.arm_token = get_u32(p, kStateArmTokenOffset);
+  s.boot_id = get_u32(p, kStateBootIdOffset);
   if ((s.status & ~kStatusKnownBits) != 0) return ParseError::kBadFlags;
   if (s.session_id == 0) return ParseError::kZeroSession;
   out = s;
@@ -259,8 +261,27 @@ Verdict StateFilter::accept(std::span<const std::uint8_t> datagram, bool from_bo
     return count(counters_, rejected(e));
   }
   if (packet.session_id != session_id_) return count(counters_, Verdict::kForeignSession);
-  const Verdict v = judge_sequence(have_last_, last_sequence_, packet.sequence, counters_);
-  if (v == Verdict::kAccept) out = packet;
+  bool restart = false;
+  if (have_last_ && packet.boot_id != boot_id_) {
+    // Another boot of the board: one it replaced is history (late or replayed), a new one restarted
+    // its sequence counter, so the newest-only rule starts over from its first packet.
+    if (have_retired_boot_ && packet.boot_id == retired_boot_) return count(counters_, Verdict::kStale);
+    restart = true;
+  }
+  bool have_last = have_last_ && !restart;
+  std::uint32_t last = last_sequence_;
+  const Verdict v = judge_sequence(have_last, last, packet.sequence, counters_);
+  if (v == Verdict::kAccept) {
+    if (restart) {
+      retired_boot_ = boot_id_;
+      have_retired_boot_ = true;
+      ++counters_.reboots;
+    }
+    have_last_ = have_last;
+    last_sequence_ = last;
+    boot_id_ = packet.boot_id;
+    out = packet;
+  }
   return v;
 }
 

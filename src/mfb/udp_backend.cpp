@@ -76,6 +76,7 @@ io::BackendStatus UdpBackend::status() const noexcept {
   s.estop = (last_.status & kStatusEstop) || estop_input() || estop_latched_;
   s.watchdog_tripped = (last_.status & (kStatusWatchdogTripped | kStatusHostLost)) != 0;
   s.ready_to_arm = acked_disable_;
+  s.rebooted = rebooted_;
   s.last_sample_ns = last_sample_ns_;
   s.last_rtt_s = last_rtt_s_;
   s.rtt_samples = rtt_samples_;
@@ -121,6 +122,10 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       const Verdict v = filter_.accept(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), from == params_.board,
                                        packet);
       if (v != Verdict::kAccept) continue;
+      if (filter_.counters().reboots != reboots_seen_) {  // a new boot id: the board restarted under the run
+        reboots_seen_ = filter_.counters().reboots;
+        rebooted_ = true;
+      }
       last_ = packet;
       have_new_ = true;
       last_sample_ns_ = io::monotonic_ns();

@@ -46,6 +46,8 @@ void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state,
         fault(t_s, "backend silent for longer than host_watchdog_ms");
       } else if (status.estop) {
         fault(t_s, "e-stop");
+      } else if (status.rebooted) {
+        fault(t_s, "board reboot");
       } else if (status.watchdog_tripped) {
         fault(t_s, "backend watchdog tripped");
       }

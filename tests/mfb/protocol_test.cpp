@@ -78,6 +78,7 @@ StatePacket random_state(std::mt19937_64& rng) {
   s.digital_in = static_cast<std::uint8_t>(rng());
   s.status = static_cast<std::uint8_t>(rng() & kStatusKnownBits);
   s.arm_token = static_cast<std::uint32_t>(rng());
+  s.boot_id = static_cast<std::uint32_t>(rng());
   return s;
 }
 
@@ -135,6 +136,7 @@ StatePacket golden_state() {
   s.digital_in = 0x5A;
   s.status = kStatusOutputsSafe | kStatusNoSession;
   s.arm_token = 0x21222324;
+  s.boot_id = 0x31323334;
   return s;
 }
 
@@ -143,7 +145,7 @@ StatePacket golden_state() {
 // from Python's hashlib.blake2b(digest_size=16, key=bytes(range(32))) over everything before it.
 const Bytes kGoldenCommand = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x02,                                            // version
+    0x03,                                            // version
     0x01,                                            // type: command
     0x1E, 0x00,                                      // payload length 30
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
@@ -154,16 +156,16 @@ const Bytes kGoldenCommand = {
     0xC3,                                            // digital_out
     0x01,                                            // flags: enable
     0xF4, 0xF3, 0xF2, 0xF1,                          // arm_token 0xF1F2F3F4
-    0x6B, 0x74, 0xAC, 0xA9,                          // CRC-32C of bytes 0..45
-    0xA8, 0x3C, 0x6D, 0x74, 0x80, 0x52, 0x7F, 0xC9,  // MAC (keyed BLAKE2b-128) of bytes 0..49
-    0x9F, 0xD4, 0xE6, 0xDA, 0x84, 0xD2, 0x9F, 0x89,
+    0xFB, 0xF2, 0x7B, 0x5A,                          // CRC-32C of bytes 0..45
+    0x36, 0xA6, 0x98, 0x07, 0x83, 0x59, 0x82, 0xCE,  // MAC (keyed BLAKE2b-128) of bytes 0..49
+    0x88, 0xDC, 0xDD, 0x21, 0xD4, 0xA0, 0xEE, 0x7E,
 };
 
 const Bytes kGoldenState = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x02,                                            // version
+    0x03,                                            // version
     0x02,                                            // type: state
-    0x5A, 0x00,                                      // payload length 90
+    0x5E, 0x00,                                      // payload length 94
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
     0x0D, 0x0C, 0x0B, 0x0A,                          // sequence 0x0A0B0C0D
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,  // echo_host_time_ns
@@ -180,9 +182,10 @@ const Bytes kGoldenState = {
     0x5A,                                            // digital_in
     0x0A,                                            // status: outputs safe | no session
     0x24, 0x23, 0x22, 0x21,                          // arm_token 0x21222324
-    0xCD, 0xBF, 0xB0, 0x72,                          // CRC-32C of bytes 0..105
-    0x99, 0xA4, 0x75, 0xD5, 0x80, 0x83, 0x81, 0x72,  // MAC (keyed BLAKE2b-128) of bytes 0..109
-    0x3D, 0x8F, 0x4B, 0x86, 0x37, 0x47, 0x4B, 0x11,
+    0x34, 0x33, 0x32, 0x31,                          // boot_id 0x31323334
+    0x0A, 0xB5, 0xA8, 0xC9,                          // CRC-32C of bytes 0..109
+    0xF3, 0x7C, 0x99, 0x6D, 0x5A, 0x6A, 0x02, 0xD6,  // MAC (keyed BLAKE2b-128) of bytes 0..113
+    0xEF, 0xAA, 0xE9, 0xB8, 0x63, 0x90, 0xFC, 0x25,
 };
 
 // ---- CRC and layout -----------------------------------------------------------------------------
@@ -204,12 +207,13 @@ TEST(MfbProtocol, Crc32cTableAgreesWithBitwiseDefinition) {
 
 TEST(MfbProtocol, WireSizesMatchTheLayoutTable) {
   // 16 header + 8 time + 8x2 DA + 1 + 1 + 4 token + 4 CRC + 16 MAC;
-  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 4 token + 4 CRC + 16 MAC.
+  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 4 token + 4 boot id + 4 CRC + 16 MAC.
   EXPECT_EQ(kCommandPacketSize, 66u);
-  EXPECT_EQ(kStatePacketSize, 126u);
-  EXPECT_EQ(kMaxPacketSize, 126u);
+  EXPECT_EQ(kStatePacketSize, 130u);
+  EXPECT_EQ(kMaxPacketSize, 130u);
   EXPECT_EQ(kCommandArmTokenOffset + 4, kHeaderSize + kCommandPayloadSize);
-  EXPECT_EQ(kStateArmTokenOffset + 4, kHeaderSize + kStatePayloadSize);
+  EXPECT_EQ(kStateArmTokenOffset + 4, kStateBootIdOffset);
+  EXPECT_EQ(kStateBootIdOffset + 4, kHeaderSize + kStatePayloadSize);
   EXPECT_EQ(kGoldenCommand.size(), kCommandPacketSize);
   EXPECT_EQ(kGoldenState.size(), kStatePacketSize);
 }
@@ -335,7 +339,7 @@ TEST(MfbProtocol, RejectsWrongMagic) {
 }
 
 TEST(MfbProtocol, RejectsOtherVersionsEvenWithValidCrc) {
-  for (int version : {0, 1, 3, 255}) {
+  for (int version : {0, 1, 2, 4, 255}) {
     Bytes b = kGoldenState;
     b[kVersionOffset] = static_cast<std::uint8_t>(version);
     fix_trailer(b);
@@ -481,6 +485,39 @@ TEST(StateFilter, DropsReorderedOlderPacketAndKeepsItsGapCounted) {
   EXPECT_EQ(out.sequence, 12u);
   EXPECT_EQ(f.counters().stale, 1u);
   EXPECT_EQ(f.counters().gaps, 1u);
+}
+
+// A board that restarts under a run (power glitch, watchdog reset of its firmware) comes back with
+// a new boot id, its sequence counter from 1, and adopts the host's session again: its packets must
+// reach the host - as a restart, counted - instead of being dropped as stale until the counter
+// catches up (2^31 packets, 25 days), which would look like a dead board that no recovery revives.
+TEST(StateFilter, AcceptsANewBootOfTheBoardAsARestartAndNeverGoesBack) {
+  StateFilter f(kSession, kKey);
+  StatePacket out;
+  StatePacket before = state(kSession, 5000);
+  before.boot_id = 0xB0070001;
+  ASSERT_EQ(f.accept(encoded(before), true, out), Verdict::kAccept);
+  EXPECT_EQ(f.counters().reboots, 0u);
+  EXPECT_EQ(f.boot_id(), 0xB0070001u);
+  StatePacket after = state(kSession, 1);  // the restarted board's first packet
+  after.boot_id = 0xB0070002;
+  ASSERT_EQ(f.accept(encoded(after), true, out), Verdict::kAccept);
+  EXPECT_EQ(out, after);
+  EXPECT_EQ(f.counters().reboots, 1u);
+  EXPECT_EQ(f.boot_id(), 0xB0070002u);
+  EXPECT_EQ(f.counters().gaps, 0u);  // a new counter, not 2^32 - 4999 skipped numbers
+  after.sequence = 2;
+  EXPECT_EQ(f.accept(encoded(after), true, out), Verdict::kAccept);
+  EXPECT_EQ(f.accept(encoded(after), true, out), Verdict::kDuplicate);  // the newest-only rule holds in the new boot
+  // A late (or replayed) packet of the boot it replaced cannot switch back, however new its sequence.
+  before.sequence = 5001;
+  EXPECT_EQ(f.accept(encoded(before), true, out), Verdict::kStale);
+  EXPECT_EQ(f.counters().reboots, 1u);
+  EXPECT_EQ(f.boot_id(), 0xB0070002u);
+  // The first packet of a session is a baseline, not a restart.
+  f.reset(kSession);
+  ASSERT_EQ(f.accept(encoded(before), true, out), Verdict::kAccept);
+  EXPECT_EQ(f.counters().reboots, 0u);
 }
 
 TEST(StateFilter, AcceptsAcrossSequenceWrapAround) {

@@ -819,13 +819,21 @@ TEST(MfbEndToEnd, LinkFaultRowsMeasureLossAndAKilledBoard) {
   experiments::LinkFaultOptions o;
   o.peha_binary = PEHA_BINARY;
   o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
-  o.faults = {"loss_5pct", "board_killed"};
+  o.faults = {"loss_5pct", "loss_burst_all", "board_killed"};
   o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_faults_" + std::to_string(::getpid()));
   std::filesystem::remove_all(o.dir);
   std::filesystem::create_directories(o.dir);
   const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
-  ASSERT_EQ(rows.size(), 3u);
-  const experiments::LinkFaultRow &none = rows[0], &loss = rows[1], &killed = rows[2];
+  ASSERT_EQ(rows.size(), 4u);
+  const experiments::LinkFaultRow &none = rows[0], &loss = rows[1], &burst = rows[2], &killed = rows[3];
+  EXPECT_EQ(burst.fault, "loss_burst_all");
+  EXPECT_TRUE(burst.detected);
+  EXPECT_NE(burst.by.find("backend silent"), std::string::npos) << burst.by;
+  // Not before the (here 50 ms) host watchdog: timed from the first dropped packet, while the
+  // silence the watchdog measures began with the last sample, up to a period earlier.
+  EXPECT_GT(burst.detection_ms, 50.0 - 2.0);
+  EXPECT_LT(burst.detection_ms, 50.0 + 15.0);   // and a few cycles after it
+  EXPECT_TRUE(burst.outcome_met());
   EXPECT_EQ(none.fault, "none");
   EXPECT_FALSE(none.detected) << none.by;
   EXPECT_EQ(none.limits_exceeded, 0);
@@ -850,6 +858,68 @@ TEST(MfbEndToEnd, LinkFaultRowsMeasureLossAndAKilledBoard) {
   std::printf("link rows: loss_5pct lost %llu, accepted %llu; board_killed: %s after %.1f ms\n",
               static_cast<unsigned long long>(loss.lost), static_cast<unsigned long long>(loss.accepted), killed.by.c_str(),
               killed.detection_ms);
+  std::filesystem::remove_all(o.dir);
+}
+
+// The new rows' designed outcomes over real processes: a board that reboots under the run is
+// recognised as a reboot (its new boot id), not as a silent board, and the run stays in fault; a
+// killed host leaves the board to its own watchdog, which must make the outputs safe within
+// board_watchdog_ms of the kill.
+TEST(MfbEndToEnd, LinkFaultRowsRebootAndHostKilledMeetTheirDesignedOutcomes) {
+  experiments::E1Scenario s = scenario(4.0);
+  experiments::LinkFaultOptions o;
+  o.peha_binary = PEHA_BINARY;
+  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
+  o.faults = {"board_reboot", "host_killed"};
+  o.fault_at_s = 2.0;
+  o.after_fault_s = 1.0;
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_reboot_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(o.dir);
+  std::filesystem::create_directories(o.dir);
+  const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
+  ASSERT_EQ(rows.size(), 3u);
+  const experiments::LinkFaultRow &reboot = rows[1], &host = rows[2];
+  EXPECT_EQ(reboot.fault, "board_reboot");
+  EXPECT_TRUE(reboot.detected);
+  EXPECT_EQ(reboot.by, "board reboot");
+  EXPECT_LT(reboot.detection_ms, s.link->host_watchdog_s * 1e3);  // before the silence could be noticed
+  EXPECT_TRUE(reboot.outcome_met());
+  EXPECT_EQ(host.fault, "host_killed");
+  EXPECT_TRUE(host.detected) << host.by;
+  EXPECT_GE(host.detection_ms, s.link->board_watchdog_s * 1e3 - 2.0);  // the board waits its watchdog out
+  EXPECT_LE(host.safe_ms, s.link->board_watchdog_s * 1e3 + 5.0);
+  EXPECT_TRUE(host.log_complete);
+  EXPECT_TRUE(host.outcome_met());
+  std::printf("board_reboot: %s after %.1f ms; host_killed: %s after %.1f ms, safe after %.1f ms\n", reboot.by.c_str(), reboot.detection_ms,
+              host.by.c_str(), host.detection_ms, host.safe_ms);
+  std::filesystem::remove_all(o.dir);
+}
+
+// Every new row can fail: with the watchdogs set too long (deliberately broken), the 50-packet loss
+// burst is ridden out and the killed host's board is not safe in time - both rows report their
+// designed outcome missed.
+TEST(MfbEndToEnd, LinkFaultRowsReportMissedWhenTheWatchdogsAreTooLong) {
+  experiments::E1Scenario s = scenario(4.0);
+  experiments::LinkFaultOptions o;
+  o.peha_binary = PEHA_BINARY;
+  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
+  o.faults = {"loss_burst_50", "host_killed"};
+  o.fault_at_s = 2.0;
+  o.after_fault_s = 1.5;
+  o.host_watchdog_ms = 500.0;
+  o.board_watchdog_ms = 1000.0;
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_broken_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(o.dir);
+  std::filesystem::create_directories(o.dir);
+  const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
+  ASSERT_EQ(rows.size(), 3u);
+  const experiments::LinkFaultRow &burst = rows[1], &host = rows[2];
+  EXPECT_EQ(burst.fault, "loss_burst_50");
+  EXPECT_FALSE(burst.detected) << burst.by;
+  EXPECT_FALSE(burst.outcome_met());
+  EXPECT_EQ(host.fault, "host_killed");
+  EXPECT_GT(host.safe_ms, 900.0);
+  EXPECT_FALSE(host.outcome_met());
   std::filesystem::remove_all(o.dir);
 }
 

@@ -44,6 +44,10 @@ struct EmulatorOptions {
   double loss = 0, duplicate = 0, reorder = 0, corrupt = 0, delay_ms = 0;
   std::uint64_t fault_seed = 1;
   double estop_at_s = -1, estop_for_s = 1.0;
+  double loss_burst_at_s = -1;   ///< simulated time a loss burst starts (< 0: none)
+  std::optional<std::uint64_t> loss_burst_packets;  ///< its length in state packets (0: all to the end)
+  double bind_retry_s = 0;       ///< the port is taken: retry binding for this long (a rebooting board's successor)
+  std::filesystem::path truth_csv;  ///< write the plant's truth per step here when stopped (empty: not)
   std::optional<double> watchdog_ms;  ///< overrides the config's board_watchdog_ms
   double max_runtime_s = 0;
   int sessions = 0;

@@ -65,6 +65,8 @@ struct BackendStatus {
   bool estop = false;             ///< an e-stop holds the outputs safe (input line, board status or estop())
   bool watchdog_tripped = false;  ///< the backend's own watchdog put the outputs in their safe state
   bool ready_to_arm = true;       ///< activate() now would arm the outputs (a board has seen a disabled command)
+  bool rebooted = false;          ///< the board restarted during the run (a new boot id): its outputs lost their
+                                  ///< arming and state; latched until deactivate()
   std::int64_t last_sample_ns = 0;///< monotonic ns when the newest sample arrived (0: the backend has its own
                                   ///< clock and is never silent, e.g. a simulator)
   double last_rtt_s = 0;          ///< round trip of the newest sample's command, s (0: not measured)

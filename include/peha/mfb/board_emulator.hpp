@@ -47,7 +47,13 @@ struct FaultInjection {
   std::uint64_t seed = 1;
   double estop_from_s = -1; ///< simulated time the e-stop input goes active (< 0: never)
   double estop_for_s = 0;   ///< and how long it stays active
-  bool any() const { return loss > 0 || duplicate > 0 || reorder > 0 || corrupt > 0 || delay_s > 0 || estop_from_s >= 0; }
+  /// A loss burst: from the simulated time burst_from_s on, the next burst_packets state packets
+  /// are not sent (0: none is sent from then on). burst_from_s < 0: no burst.
+  double burst_from_s = -1;
+  std::uint64_t burst_packets = 0;
+  bool any() const {
+    return loss > 0 || duplicate > 0 || reorder > 0 || corrupt > 0 || delay_s > 0 || estop_from_s >= 0 || burst_from_s >= 0;
+  }
 };
 
 struct EmulatorParams {
@@ -59,6 +65,9 @@ struct EmulatorParams {
   double max_runtime_s = 0;              ///< stop after this much wall time (0 = until stopped)
   int sessions = 0;                      ///< stop after this many sessions ended by the watchdog (0 = never)
   FaultInjection faults;
+  /// Record the plant's sensors (the emulator's truth) every step, for `truth()` (fixed capacity:
+  /// this many steps; 0 = none).
+  std::size_t truth_steps = 0;
 };
 
 /// What the board saw and did.
@@ -71,6 +80,12 @@ struct EmulatorStats {
   std::uint64_t sessions = 0;            ///< sessions adopted (each resets the simulation)
   std::uint64_t watchdog_trips = 0;
   std::uint64_t estop_cycles = 0;
+  std::uint64_t injected_burst = 0;      ///< state packets dropped by the loss burst
+  std::int64_t burst_ns = 0;             ///< host monotonic ns of the burst's first dropped packet (0: none yet)
+  /// The watchdog's first trip while the outputs were armed (a host loss): host monotonic ns and
+  /// simulated time (0, -1 if none).
+  std::int64_t host_loss_ns = 0;
+  double host_loss_t_s = -1;
   std::uint64_t injected_loss = 0, injected_duplicate = 0, injected_reorder = 0, injected_corrupt = 0, injected_delay = 0;
   std::string table() const;
 };
@@ -88,6 +103,18 @@ class BoardEmulator {
   /// Serves until `stop` is set, max_runtime_s passes or `sessions` sessions have ended.
   void run(const std::atomic<bool>& stop);
   const EmulatorStats& stats() const noexcept { return stats_; }
+  /// The board's boot id (random, nonzero, drawn at construction: one per power-on).
+  std::uint32_t boot_id() const noexcept { return boot_id_; }
+  /// One simulation step as the plant saw it (EmulatorParams::truth_steps).
+  struct TruthRow {
+    double t_s;              ///< simulated time
+    std::int64_t mono_ns;    ///< host monotonic clock at the step
+    double angle_rad;        ///< joint 0
+    double agonist_N, antagonist_N;
+    bool armed;              ///< the outputs followed the command
+    bool motor_off;          ///< every motor DA channel at its zero-torque code, digital outputs low
+  };
+  const std::vector<TruthRow>& truth() const noexcept { return truth_; }
 
  private:
   void apply_and_step(bool by_command) noexcept;
@@ -123,6 +150,11 @@ class BoardEmulator {
   std::uint32_t state_sequence_ = 0;
   std::int64_t last_command_ns_ = 0;
   std::uint64_t rng_state_;
+  std::uint32_t boot_id_ = 0;
+  std::uint64_t burst_left_ = 0;         ///< state packets the loss burst still drops
+  bool burst_started_ = false;
+  bool reported_armed_ = false;          ///< "outputs armed" printed (once, for a supervising process)
+  std::vector<TruthRow> truth_;          ///< reserved to truth_steps
   struct Pending {
     std::int64_t at_ns;
     std::size_t size;

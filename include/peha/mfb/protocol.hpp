@@ -35,7 +35,7 @@ namespace peha::mfb {
 inline constexpr std::uint32_t kMagic = 0x3142464D;
 /// Layout version. Any change to a layout or to the meaning of a field or bit bumps it; receivers
 /// accept exactly this version and reject every other (`ParseError::kBadVersion`).
-inline constexpr std::uint8_t kProtocolVersion = 2;
+inline constexpr std::uint8_t kProtocolVersion = 3;
 
 inline constexpr std::size_t kKeySize = 32;  ///< bytes of the pre-shared link key
 inline constexpr std::size_t kMacSize = 16;  ///< bytes of the MAC that ends every packet
@@ -134,6 +134,10 @@ struct StatePacket {
   /// The board's arm token for the session it holds (random, drawn at each adoption): the host
   /// echoes it in `CommandPacket::arm_token`.
   std::uint32_t arm_token = 0;
+  /// The board's boot id: drawn at random (nonzero) at each power-on and constant until the next.
+  /// A state packet of the host's session with another boot id than the ones before it tells the
+  /// host that the board restarted (its sequence counter, session and arming started over).
+  std::uint32_t boot_id = 0;
 
   bool operator==(const StatePacket&) const = default;
 };
@@ -170,10 +174,11 @@ inline constexpr std::size_t kStateEncoderOffset = 68;       ///< i32 x 8
 inline constexpr std::size_t kStateDigitalInOffset = 100;    ///< u8
 inline constexpr std::size_t kStateStatusOffset = 101;       ///< u8
 inline constexpr std::size_t kStateArmTokenOffset = 102;     ///< u32
+inline constexpr std::size_t kStateBootIdOffset = 106;       ///< u32
 /// Bytes between the state's header and its CRC (the header's length field).
-inline constexpr std::size_t kStatePayloadSize = 90;
+inline constexpr std::size_t kStatePayloadSize = 94;
 /// Exact size of a state datagram.
-inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 126
+inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 130
 
 /// Largest datagram of this version: a receive buffer of this size holds any valid packet (use one
 /// byte more to tell "too long" from "exactly the largest").
@@ -261,6 +266,9 @@ struct ReceiveCounters {
   /// Sequence numbers skipped between consecutive accepted packets (accepting 7 after 4 adds 2).
   /// A skipped packet that arrives later is dropped as stale and stays counted here.
   std::uint64_t gaps = 0;
+  /// Board restarts seen (host only): accepted packets of the session whose boot id differed from
+  /// the one before (`StateFilter`). Not a verdict: such a packet is also counted as accepted.
+  std::uint64_t reboots = 0;
 };
 
 /// Where a datagram came from: IPv4 address and UDP port, host byte order.
@@ -275,8 +283,11 @@ struct Source {
 /// A datagram is accepted only if it came from the configured board address, decodes with an
 /// intact MAC under the link key, carries the filter's session and its sequence is newer
 /// (`sequence_newer`) than the last accepted one. The first valid packet of the session is
-/// accepted whatever its sequence: the board's counter runs across sessions. No allocation, no
-/// exceptions.
+/// accepted whatever its sequence: the board's counter runs across sessions. A packet of the session
+/// with another boot id than the last accepted one is a board restart: the board's counter started
+/// over, so it is accepted as a new baseline and counted in `ReceiveCounters::reboots`; packets of
+/// the boot it replaced are stale from then on (a late or replayed packet cannot switch back). No
+/// allocation, no exceptions.
 class StateFilter {
  public:
   /// Filters for `session_id`, the session the host puts in its commands (nonzero; with 0 every
@@ -293,8 +304,10 @@ class StateFilter {
   /// Why the last `kMalformed` datagram was rejected (`kOk` if none was).
   ParseError last_error() const noexcept { return last_error_; }
   std::uint32_t session_id() const noexcept { return session_id_; }
+  /// Boot id of the last accepted packet (0 before the first).
+  std::uint32_t boot_id() const noexcept { return boot_id_; }
 
-  /// Starts over for a new session: forgets the last sequence, zeroes the counters.
+  /// Starts over for a new session: forgets the last sequence and boot, zeroes the counters.
   void reset(std::uint32_t session_id) noexcept;
 
  private:
@@ -302,6 +315,9 @@ class StateFilter {
   std::uint32_t session_id_;
   bool have_last_ = false;
   std::uint32_t last_sequence_ = 0;
+  std::uint32_t boot_id_ = 0;
+  bool have_retired_boot_ = false;
+  std::uint32_t retired_boot_ = 0;  ///< the boot the last restart replaced
   ReceiveCounters counters_{};
   ParseError last_error_ = ParseError::kOk;
 };
@@ -353,6 +369,9 @@ class CommandFilter {
   std::uint32_t session_id_ = 0;
   bool have_last_ = false;
   std::uint32_t last_sequence_ = 0;
+  std::uint32_t boot_id_ = 0;
+  bool have_retired_boot_ = false;
+  std::uint32_t retired_boot_ = 0;  ///< the boot the last restart replaced
   ReceiveCounters counters_{};
   ParseError last_error_ = ParseError::kOk;
 };

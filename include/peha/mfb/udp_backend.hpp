@@ -76,6 +76,7 @@ class UdpBackend final : public io::Backend {
     enable_ = false;
     estop_latched_ = false;
     host_lost_latched_ = false;
+    rebooted_ = false;
   }
   void estop() noexcept override {
     enable_ = false;
@@ -129,6 +130,8 @@ class UdpBackend final : public io::Backend {
   bool last_was_reply_ = false;
   bool estop_latched_ = false;
   bool host_lost_latched_ = false;           ///< connect() found the board's kStatusHostLost
+  bool rebooted_ = false;                    ///< the StateFilter saw a new boot id since deactivate()
+  std::uint64_t reboots_seen_ = 0;           ///< the StateFilter's reboot count when last looked at
   std::uint64_t rtt_samples_ = 0;            ///< round trips measured
   std::uint32_t disable_sequence_ = 0;       ///< a command sent with enable clear
   StatePacket last_{};

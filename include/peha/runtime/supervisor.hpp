@@ -8,7 +8,8 @@
 /// Each cycle, before the command goes to the limits stage, supervise():
 /// - active: a fault when the backend is silent (no new sample for host_watchdog_s *and* for
 ///   kSilentCycles of the loop's own cycles in a row - a loop that was itself descheduled has not
-///   heard a dead board, it has not listened), reports an e-stop, or its watchdog tripped ->
+///   heard a dead board, it has not listened), reports an e-stop, a restart of the board (its new
+///   boot id: "board reboot"), or its watchdog tripped ->
 ///   fault: backend.deactivate() (outputs safe, valves vent slowly), on_fault(reason).
 /// - fault: recovery only on the operator's request (request_recovery(), or recover_after_s for
 ///   unattended runs) and only once the backend is alive, its e-stop released and it is ready to

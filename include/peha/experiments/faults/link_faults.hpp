@@ -13,6 +13,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <limits>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,6 +29,13 @@ struct LinkFaultRow {
   std::string by;             ///< the first fault's reason from the lifecycle ("-" when none)
   double detection_ms = 0;    ///< from the injection to the first fault (NaN: none, or injected from the start)
   double detection_cycles = 0;
+  /// From the injection to the outputs' safe state [ms]: the host's disabled command at its fault
+  /// (the board disarms on it), or - host killed - the board's own watchdog trip. NaN: none.
+  double safe_ms = std::numeric_limits<double>::quiet_NaN();
+  /// The designed outcome's detector: the first fault's reason must start with this ("": any).
+  std::string expect_by;
+  /// The designed outcome's bound on safe_ms (NaN: none).
+  double max_safe_ms = std::numeric_limits<double>::quiet_NaN();
   double peak_force_N = 0;    ///< highest load cell after the injection (the host's sensors: no plant truth over UDP)
   double peak_speed_degps = 0;  ///< highest |velocity estimate| after the injection
   double min_tension_N = 0;   ///< lowest load cell after the injection (and after the start-up tare's slack)
@@ -36,8 +45,12 @@ struct LinkFaultRow {
   /// Every cycle to the end logged (a row per cycle with a new sample) or held (no sample), no row dropped.
   bool log_complete = false;
   std::uint64_t lost = 0, late = 0, corrupt = 0, duplicate = 0, stale = 0, foreign = 0, unauthenticated = 0, accepted = 0;
-  /// The designed outcome held: detected exactly when expected, and no limit exceeded unless physics forbids.
-  bool outcome_met() const { return detected == expect_detection && (limits_exceeded == 0 || !physics_forbids.empty()); }
+  /// The designed outcome held: detected exactly when expected (by the designed detector, and safe
+  /// within the designed time, where the row names them), and no limit exceeded unless physics forbids.
+  bool outcome_met() const {
+    return detected == expect_detection && (!detected || expect_by.empty() || by.starts_with(expect_by)) &&
+           (!(max_safe_ms >= 0) || (safe_ms >= 0 && safe_ms <= max_safe_ms)) && (limits_exceeded == 0 || !physics_forbids.empty());
+  }
 };
 
 struct LinkFaultOptions {
@@ -49,6 +62,10 @@ struct LinkFaultOptions {
   std::vector<std::string> faults;    ///< only these rows (default: all of link_fault_names()); "none" always runs first
   std::filesystem::path dir;          ///< run directory: each row's log under link/<fault>/
   std::uint64_t seed = 1;             ///< the emulator's --fault-seed
+  /// Deliberately broken settings, to show that a row can fail (tests): the emulator's watchdog
+  /// (--watchdog-ms) and the host's (host_watchdog_ms) instead of the scenario's. The designed
+  /// outcomes stay the scenario's.
+  std::optional<double> board_watchdog_ms, host_watchdog_ms;
 };
 
 /// The rows the link section can run, in order (without "none").
