@@ -124,10 +124,10 @@ TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndDescendAfterASupplyLoss) 
 // The descend safe state while the operator carries the arm down (a stuck elbow cell at `moving`):
 // the governor takes the operator's move for a fall and brakes the shoulder. It governs only the
 // actuated joints - the constant-pressure wrist keeps its held pressures - and its force rises at
-// most descent_force_slew_N_per_s (2000 N/s on the arm), so nothing whips: peak speed 65 deg/s (the
-// operator's own move), shoulder force 708 N. Governing the wrist too swings it to 129 deg/s (376
-// without the slew limit; 64 from `holding`); without the slew limit the shoulder's braking step
-// whips the ungoverned wrist to 145.
+// most descent_force_slew_N_per_s (5000 N/s on the arm), so nothing whips: peak speed 77 deg/s (the
+// wrist; the operator moves the shoulder at 65), shoulder force 720 N. Governing the wrist too swung
+// it to 376 deg/s (64 from `holding`); without the slew limit the shoulder's braking step whips the
+// ungoverned wrist to 145.
 TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
   const ArmScenario shipped = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
   auto moving_row = [](ArmScenario s) {
@@ -141,12 +141,12 @@ TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
   const FaultRow r = moving_row(shipped);
   EXPECT_EQ(r.safe_state, "descend");
   EXPECT_EQ(r.limits_exceeded, 0);
-  EXPECT_LE(r.peak_speed_degps, 90.0);  // measured 65.2 (the shoulder, the operator's move)
-  EXPECT_LE(r.peak_force_N, 800.0);     // measured 708 (was 817 with the unlimited step)
+  EXPECT_LE(r.peak_speed_degps, 90.0);  // measured 76.7 (the wrist)
+  EXPECT_LE(r.peak_force_N, 800.0);     // measured 720 (was 817 with the unlimited step)
 
   ArmScenario wrist_governed = shipped;
   wrist_governed.limits.monitor.governed.fill(true);
-  EXPECT_GT(moving_row(wrist_governed).peak_speed_degps, 100.0);  // measured 129 (the wrist)
+  EXPECT_GT(moving_row(wrist_governed).peak_speed_degps, 100.0);  // the wrist
 
   ArmScenario no_slew = shipped;
   no_slew.limits.monitor.descent_force_slew_N_per_s = 1e6;
