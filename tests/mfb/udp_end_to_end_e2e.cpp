@@ -342,6 +342,10 @@ TEST(MfbEndToEnd, HostNoticesWhenTheBoardStops) {
   for (const auto& e : r.lifecycle) saw_fault |= e.find("active -> fault (backend silent") != std::string::npos;
   EXPECT_TRUE(saw_fault);
   EXPECT_GT(r.e1.missed_samples, 1000u);
+  // A run the runtime faulted never passes (exit code 3), whatever its other figures say: the board
+  // died while the hand still held the link, so only "link faults" tells.
+  ASSERT_NE(r.e1.verdict.find("link faults (first: backend silent for longer than host_watchdog_ms)"), nullptr) << r.e1.verdict.failures();
+  EXPECT_FALSE(r.e1.within_limits);
 }
 
 // The board's e-stop input goes active for 0.4 s at t = 1 s: fault, then - on the operator's command
@@ -385,10 +389,13 @@ TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
   // The e-stop vents the muscles (the load cells' tension falls below the floor of 0.5 x
   // pretension) and the recovery ramp (1 s from ~1.8 s) still runs when the hand lets go at 2 s (the
   // link may move a few degrees after that release): the verdict may say either, as the real-time
-  // timing falls; the run is faulted (the e-stop), so "supervisor faults" fails; every other figure holds.
+  // timing falls; the run is faulted (the e-stop), so "supervisor faults" and "link faults" fail (a
+  // faulted run never passes); every other figure holds.
+  EXPECT_NE(r.e1.verdict.failures().find("link faults (first: e-stop)"), std::string::npos) << r.e1.verdict.failures();
+  EXPECT_FALSE(r.e1.within_limits);
   for (const safety::Check& c : r.e1.verdict.checks) {
     EXPECT_TRUE(c.passed() || c.figure == "hold |drift|" || c.figure == "hold max excursion" || c.figure == "joint lowest wire tension" ||
-                c.figure.starts_with("supervisor faults"))
+                c.figure.starts_with("supervisor faults") || c.figure.starts_with("link faults"))
         << c.describe();
   }
 }
@@ -745,8 +752,11 @@ TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   EXPECT_NEAR(r.range_deg, 60.0, 2.0);  // the goniometer's noise widens the range a little
   EXPECT_NEAR(r.rms_error_deg, local.rms_error_deg, 1.5);
   EXPECT_NEAR(r.delay_s, local.delay_s, 0.025);
-  // The verdict judges the same figures over the board as in-process (tension floors and tracking may fail).
-  EXPECT_EQ(r.verdict.checks.size(), local.verdict.checks.size());
+  // The verdict judges the same figures over the board as in-process (tension floors and tracking may
+  // fail), and the link's own: "link faults" (0 here).
+  EXPECT_EQ(r.verdict.checks.size(), local.verdict.checks.size() + 1);
+  ASSERT_NE(r.verdict.find("link faults"), nullptr);
+  EXPECT_TRUE(r.verdict.find("link faults")->passed());
   for (const safety::Check& c : r.verdict.checks) {
     EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension") || c.figure.starts_with("elbow tracking")) << c.describe();
   }

@@ -17,6 +17,8 @@ E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, co
     const runtime::CycleHooks hooks = harness.start();
     res.e1 = run_e1_on(scenario, c, *backend, nullptr, &harness.sink(), hooks);
     harness.finish(res);
+    add_link_fault_check(res, res.e1.verdict);
+    res.e1.within_limits = res.e1.verdict.passed();
     res.link = backend->stats();
   }
   return res;

@@ -17,6 +17,8 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
     const runtime::CycleHooks hooks = harness.start();
     res.postures = run_postures_on(scenario, *backend, nullptr, &harness.sink(), hooks);
     harness.finish(res);
+    add_link_fault_check(res, res.postures.verdict);
+    res.postures.within_limits = res.postures.verdict.passed();
     res.link = backend->stats();
   }
   return res;

@@ -30,6 +30,8 @@ GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, st
     res.goniometer = run_goniometer_on(scenario, m.name, variant, duration_s, b, nullptr,
                                        [&b](double) { return b.goniometer_rad(kElbow); }, {}, &harness.sink(), hooks);
     harness.finish(res);
+    add_link_fault_check(res, res.goniometer.verdict);
+    res.goniometer.within_limits = res.goniometer.verdict.passed();
     res.link = backend->stats();
   }
   return res;

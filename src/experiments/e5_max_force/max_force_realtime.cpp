@@ -20,6 +20,8 @@ E5RealtimeResult run_e5_realtime(const E5Scenario& scenario, const E5Case& c, co
     const runtime::CycleHooks hooks = harness.start();
     res.e5 = run_e5_on(scenario, c, *backend, nullptr, &harness.sink(), hooks);
     harness.finish(res);
+    add_link_fault_check(res, res.e5.verdict);
+    res.e5.passed = res.e5.verdict.passed();
     res.link = backend->stats();
   }
   return res;

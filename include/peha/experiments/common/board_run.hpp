@@ -5,6 +5,7 @@
 
 #include "peha/mfb/link_config.hpp"
 #include "peha/runtime/realtime_harness.hpp"
+#include "peha/safety/verdict.hpp"
 
 namespace peha::experiments {
 
@@ -16,5 +17,11 @@ struct BoardRunResult : runtime::RealtimeRunResult {
 /// The supervisor's parameters of a board run: watchdog and recovery ramp from the scenario's
 /// `mfb:` section, the unattended recovery from the command line.
 runtime::SupervisorParams supervisor_params(const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& options) noexcept;
+
+/// Adds the run's lifecycle faults (the host watchdog: the board went silent; the board's own
+/// watchdog or e-stop; a board reboot) to `verdict` as the figure "link faults" (at most 0, the
+/// first fault's reason named), so that a run the runtime faulted never passes - as the
+/// plausibility stage's "supervisor faults" does in process.
+void add_link_fault_check(const runtime::RealtimeRunResult& run, safety::Verdict& verdict);
 
 }  // namespace peha::experiments
