@@ -441,6 +441,23 @@ TEST(Spgp, PredictMeanAndVarianceAllocatesNothing) {
   EXPECT_TRUE(std::isfinite(sum));
 }
 
+/// An SPGP (M pseudo-inputs, `iterations` LBFGS steps) fitted to N points drawn from `rng` in
+/// [0, 5]^D of y = 100 + 20 sum_d sin(x_d); the inputs are returned in X.
+Spgp fit_sine_sum(int N, int M, int D, int iterations, std::mt19937_64& rng, MatrixXd& X) {
+  std::uniform_real_distribution<double> box(0.0, 5.0);
+  X.resize(N, D);
+  VectorXd y(N);
+  for (int n = 0; n < N; ++n) {
+    double s = 0.0;
+    for (int d = 0; d < D; ++d) s += std::sin(X(n, d) = box(rng));
+    y[n] = 100.0 + 20.0 * s;
+  }
+  SpgpOptions options;
+  options.num_pseudo = M;
+  options.max_iterations = iterations;
+  return Spgp::fit(X, y, options);
+}
+
 // The vectorised predictor (prepared coefficients, its own exp) reproduces the textbook formulas
 // with std::exp from the model's stored parts: mean = m_y + s_y sum_m c exp(-1/2 sum_d b_d
 // (x_d - p_md)^2) alpha_m, variance = s_y^2 (c - k^T V k), to 1e-13 of the terms' scale, inside,
@@ -449,18 +466,8 @@ TEST(Spgp, PredictMeanAndVarianceAllocatesNothing) {
 TEST(Spgp, FastPredictionEqualsTheReferenceFormula) {
   for (const auto& [N, M, D] : {std::tuple{400, 50, 2}, std::tuple{200, 13, 3}}) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(M));
-    std::uniform_real_distribution<double> box(0.0, 5.0);
-    MatrixXd X(N, D);
-    VectorXd y(N);
-    for (int n = 0; n < N; ++n) {
-      double s = 0.0;
-      for (int d = 0; d < D; ++d) s += std::sin(X(n, d) = box(rng));
-      y[n] = 100.0 + 20.0 * s;
-    }
-    SpgpOptions options;
-    options.num_pseudo = M;
-    options.max_iterations = 30;
-    const Spgp model = Spgp::fit(X, y, options);
+    MatrixXd X;
+    const Spgp model = fit_sine_sum(N, M, D, 30, rng, X);
     const VectorXd b = model.hyper().log_b.array().exp();
     const double c = std::exp(model.hyper().log_c);
     const double weight_scale = model.output_scale() * c * model.alpha().cwiseAbs().sum();
@@ -505,18 +512,8 @@ TEST(Spgp, FastPredictionEqualsTheReferenceFormula) {
 TEST(Spgp, PairPredictionEqualsTwoSinglePredictionsBitForBit) {
   for (const auto& [N, M, D] : {std::tuple{400, 50, 2}, std::tuple{200, 13, 3}, std::tuple{100, 7, 1}}) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(M) + 7);
-    std::uniform_real_distribution<double> box(0.0, 5.0);
-    MatrixXd X(N, D);
-    VectorXd y(N);
-    for (int n = 0; n < N; ++n) {
-      double s = 0.0;
-      for (int d = 0; d < D; ++d) s += std::sin(X(n, d) = box(rng));
-      y[n] = 100.0 + 20.0 * s;
-    }
-    SpgpOptions options;
-    options.num_pseudo = M;
-    options.max_iterations = 20;
-    const Spgp model = Spgp::fit(X, y, options);
+    MatrixXd X;
+    const Spgp model = fit_sine_sum(N, M, D, 20, rng, X);
     std::uniform_real_distribution<double> wide(-3.0, 8.0);
     for (int trial = 0; trial < 200; ++trial) {
       std::vector<double> a(static_cast<std::size_t>(D)), b(static_cast<std::size_t>(D));

@@ -819,6 +819,19 @@ TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
 namespace peha::runtime {
 namespace {
 
+/// The link fault matrix's options for `faults` (besides 'none'), its output in a fresh temporary
+/// directory named after `tag`.
+experiments::LinkFaultOptions link_fault_options(const std::string& tag, std::vector<std::string> faults) {
+  experiments::LinkFaultOptions o;
+  o.peha_binary = PEHA_BINARY;
+  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
+  o.faults = std::move(faults);
+  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_" + tag + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(o.dir);
+  std::filesystem::create_directories(o.dir);
+  return o;
+}
+
 // `peha faults --link`'s rows (docs/safety.md "The link's faults"), here three of them: the nominal
 // run, 5 % random loss (ridden out: counted, no fault) and the emulator killed at 2.5 s (the host
 // notices a silent backend within its watchdog, here 50 ms as in HostNoticesWhenTheBoardStops, and
@@ -826,13 +839,7 @@ namespace {
 TEST(MfbEndToEnd, LinkFaultRowsMeasureLossAndAKilledBoard) {
   experiments::E1Scenario s = scenario(4.0);
   s.link->host_watchdog_s = 0.05;
-  experiments::LinkFaultOptions o;
-  o.peha_binary = PEHA_BINARY;
-  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
-  o.faults = {"loss_5pct", "loss_burst_all", "board_killed"};
-  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_faults_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(o.dir);
-  std::filesystem::create_directories(o.dir);
+  experiments::LinkFaultOptions o = link_fault_options("faults", {"loss_5pct", "loss_burst_all", "board_killed"});
   const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
   ASSERT_EQ(rows.size(), 4u);
   const experiments::LinkFaultRow &none = rows[0], &loss = rows[1], &burst = rows[2], &killed = rows[3];
@@ -877,15 +884,9 @@ TEST(MfbEndToEnd, LinkFaultRowsMeasureLossAndAKilledBoard) {
 // board_watchdog_ms of the kill.
 TEST(MfbEndToEnd, LinkFaultRowsRebootAndHostKilledMeetTheirDesignedOutcomes) {
   experiments::E1Scenario s = scenario(4.0);
-  experiments::LinkFaultOptions o;
-  o.peha_binary = PEHA_BINARY;
-  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
-  o.faults = {"board_reboot", "host_killed"};
+  experiments::LinkFaultOptions o = link_fault_options("reboot", {"board_reboot", "host_killed"});
   o.fault_at_s = 2.0;
   o.after_fault_s = 1.0;
-  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_reboot_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(o.dir);
-  std::filesystem::create_directories(o.dir);
   const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
   ASSERT_EQ(rows.size(), 3u);
   const experiments::LinkFaultRow &reboot = rows[1], &host = rows[2];
@@ -910,17 +911,11 @@ TEST(MfbEndToEnd, LinkFaultRowsRebootAndHostKilledMeetTheirDesignedOutcomes) {
 // designed outcome missed.
 TEST(MfbEndToEnd, LinkFaultRowsReportMissedWhenTheWatchdogsAreTooLong) {
   experiments::E1Scenario s = scenario(4.0);
-  experiments::LinkFaultOptions o;
-  o.peha_binary = PEHA_BINARY;
-  o.config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
-  o.faults = {"loss_burst_50", "host_killed"};
+  experiments::LinkFaultOptions o = link_fault_options("broken", {"loss_burst_50", "host_killed"});
   o.fault_at_s = 2.0;
   o.after_fault_s = 1.5;
   o.host_watchdog_ms = 500.0;
   o.board_watchdog_ms = 1000.0;
-  o.dir = std::filesystem::temp_directory_path() / ("peha_mfb_link_broken_" + std::to_string(::getpid()));
-  std::filesystem::remove_all(o.dir);
-  std::filesystem::create_directories(o.dir);
   const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
   ASSERT_EQ(rows.size(), 3u);
   const experiments::LinkFaultRow &burst = rows[1], &host = rows[2];
