@@ -12,8 +12,13 @@ if ! command -v "$CXX" >/dev/null 2>&1; then
   echo "fuzz-readers: $CXX not found: run scripts/install-deps.sh (clang-14 libclang-rt-14-dev)" >&2
   exit 1
 fi
+# -mavx2: the SPGP's blocked passes (src/calibration/spgp.cpp) pass 32-byte vectors between
+# always-inlined helpers and are cloned for AVX2 and generic x86-64 (target_clones). GCC, which
+# builds peha, compiles the generic clone with SSE2; clang refuses a 32-byte vector argument in a
+# function without AVX ("changes the ABI") even when inlined. The fuzz binary is built whole with
+# the same flags on this machine, so AVX2 for all of it is consistent (it needs an AVX2 CPU).
 flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -Wall -Wextra -I include
-       -I /usr/include/eigen3)
+       -I /usr/include/eigen3 -mavx2)
 config_src=(src/config/reader.cpp src/config/atomic_file.cpp)
 calibration_src=(src/calibration/dataset.cpp src/calibration/calibration_file.cpp src/calibration/spgp.cpp
                  src/models/tendon_spring.cpp src/models/joint.cpp src/models/bowden.cpp)
