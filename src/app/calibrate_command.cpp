@@ -16,7 +16,11 @@ int calibrate(const CalibrateCommandOptions& options) {
   return with_exit_codes([&] {
     calibration::DatasetRules rules;
     rules.min_rows = options.min_rows;
-    refuse_output_equal_to_input(options.out, {options.data});
+    if (!options.other_calibration.empty() && options.scenario.empty()) {
+      fmt::print(stderr, "error: --other-calibration is for the closed-loop check: it needs --scenario\n");
+      return 2;
+    }
+    refuse_output_equal_to_input(options.out, {options.data, options.other_calibration});
     const calibration::Dataset data = calibration::read_dataset(options.data, rules);
     calibration::CalibrateOptions o;
     o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;
@@ -63,6 +67,13 @@ int calibrate(const CalibrateCommandOptions& options) {
       const safety::JointLimits& range = s.limits.joints[0];
       calibration::apply_calibration(outcome.calibration, options.out, options.use_spgp, s.controller.joint, index,
                                      range.min_angle_rad, range.max_angle_rad);
+      if (!options.other_calibration.empty()) {
+        // The pair as peha run uses it: the nominal model of the other muscle can be far enough off
+        // the rig that the clamp carries the difference and this muscle's wire, not its model, decides.
+        const calibration::MuscleCalibration other = calibration::read_calibration(options.other_calibration);
+        calibration::apply_calibration(other, options.other_calibration, true, s.controller.joint, 1 - index, range.min_angle_rad,
+                                       range.max_angle_rad);
+      }
       fmt::print("closed-loop check on the rig ({}): holds at", options.scenario.string());
       for (double a : s.acceptance->angles_rad) fmt::print(" {:.0f}", a * 180.0 / 3.14159265358979323846);
       fmt::print(" deg x {} payload(s), {:.1f} s each, pure feed-forward\n", s.cases.size(), s.acceptance->hold_s);

@@ -173,6 +173,10 @@ Command add_calibrate(CLI::App& app) {
                       "its rig: the link clamped at E1's angles on pure feed-forward with this calibration; a failed check refuses the\n"
                       "calibration (exit 2, no calibration YAML written, the report is)")
       ->check(CLI::ExistingFile);
+  cal_cmd->add_option("--other-calibration", cal.other_calibration,
+                      "With --scenario: the other muscle's calibration YAML, used (with its SPGP) by the closed-loop check as\n"
+                      "peha run will use the pair; without it the other muscle keeps the scenario's model")
+      ->check(CLI::ExistingFile);
   return {cal_cmd, [options] { return peha::app::calibrate(*options); }};
 }
 

@@ -108,7 +108,14 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
   EXPECT_THAT(run("calibrate --help").output, HasSubstr("--restarts"));
   EXPECT_THAT(run("calibrate --help").output, HasSubstr("--scenario"));
+  EXPECT_THAT(run("calibrate --help").output, HasSubstr("--other-calibration"));
   EXPECT_THAT(run("record-calibration --help").output, HasSubstr("250 Hz"));
+  // The other muscle's calibration is for the closed-loop check: without --scenario it is an error.
+  const Result other = run("calibrate " + (dir / "kpa.csv").string() + " --out " + (dir / "out.yaml").string() + " --other-calibration " +
+                           (dir / "kpa.csv").string());
+  EXPECT_EQ(other.code, 2) << other.output;
+  EXPECT_THAT(other.output, HasSubstr("--other-calibration is for the closed-loop check: it needs --scenario"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
 }
 
 // `peha robustness` documents itself and rejects a bad matrix file (exit 2, file:line:column) and an

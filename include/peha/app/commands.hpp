@@ -92,6 +92,10 @@ struct CalibrateCommandOptions {
   /// E1 scenario (with calibration.acceptance): operating points in the report, and the
   /// closed-loop check on its rig that may refuse the calibration (empty: neither).
   std::filesystem::path scenario;
+  /// With `scenario`: the other muscle's calibration YAML, applied (with its SPGP) to the rig's
+  /// controller for the closed-loop check, as `peha run` will use the pair (empty: the other muscle
+  /// keeps the scenario's model).
+  std::filesystem::path other_calibration;
 };
 
 /// `peha calibrate`: fits the muscle model to a calibration CSV, writes the file and a report.
