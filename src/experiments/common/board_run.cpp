@@ -1,5 +1,7 @@
 #include "peha/experiments/common/board_run.hpp"
 
+#include <cstdlib>
+#include <limits>
 #include <string>
 
 namespace peha::experiments {
@@ -12,15 +14,18 @@ runtime::SupervisorParams supervisor_params(const mfb::LinkConfig& link, const r
   return p;
 }
 
-void add_link_fault_check(const runtime::RealtimeRunResult& run, safety::Verdict& verdict) {
-  std::string reason;
-  for (const std::string& e : run.lifecycle) {  // "t_s  from -> fault (reason)"
+std::pair<double, std::string> first_lifecycle_fault(const std::vector<std::string>& lifecycle) {
+  for (const std::string& e : lifecycle) {
     const auto at = e.find("-> fault (");
     if (at == std::string::npos) continue;
-    reason = e.substr(at + 10);
-    if (!reason.empty() && reason.back() == ')') reason.pop_back();
-    break;
+    const auto close = e.rfind(')');
+    return {std::strtod(e.c_str(), nullptr), e.substr(at + 10, close == std::string::npos || close < at + 10 ? std::string::npos : close - at - 10)};
   }
+  return {std::numeric_limits<double>::quiet_NaN(), ""};
+}
+
+void add_link_fault_check(const runtime::RealtimeRunResult& run, safety::Verdict& verdict) {
+  const std::string reason = first_lifecycle_fault(run.lifecycle).second;
   const double n = static_cast<double>(run.faults);
   verdict.at_most(run.faults ? "link faults (first: " + reason + ")" : std::string("link faults"), "", n, 0.0);
 }

@@ -118,17 +118,6 @@ std::vector<std::string> emulator_argv(const LinkFaultOptions& options, const E1
   return argv;
 }
 
-/// The first "-> fault (reason)" of a lifecycle: its time and reason (NaN, "" when none).
-std::pair<double, std::string> first_fault(const std::vector<std::string>& lifecycle) {
-  for (const std::string& e : lifecycle) {
-    const auto at = e.find("-> fault (");
-    if (at == std::string::npos) continue;
-    const auto close = e.rfind(')');
-    return {std::strtod(e.c_str(), nullptr), e.substr(at + 10, close == std::string::npos || close < at + 10 ? std::string::npos : close - at - 10)};
-  }
-  return {kNaN, ""};
-}
-
 LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaultOptions& options, const LinkFault& fault) {
   const double t_inject = options.fault_at_s;
   std::vector<std::string> argv = emulator_argv(options, c);
@@ -221,7 +210,7 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   row.expect_detection = fault.expect_detection;
   row.expect_by = fault.expect_by;
   row.fault_time_s = fault.from_start ? 0.0 : t_inject;
-  const auto [fault_t, reason] = first_fault(r.lifecycle);
+  const auto [fault_t, reason] = first_lifecycle_fault(r.lifecycle);
   row.detected = r.faults > 0 || r.e1.faults > 0;
   row.by = row.detected ? (reason.empty() ? r.e1.fault_reason : reason) : "-";
   row.detection_ms = !fault.from_start && std::isfinite(fault_t) ? (fault_t - t_inject) * 1e3 : kNaN;

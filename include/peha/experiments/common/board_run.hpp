@@ -7,6 +7,10 @@
 #include "peha/runtime/realtime_harness.hpp"
 #include "peha/safety/verdict.hpp"
 
+#include <string>
+#include <utility>
+#include <vector>
+
 namespace peha::experiments {
 
 /// A real-time run on the board: the harness's figures and the host's link counters.
@@ -17,6 +21,10 @@ struct BoardRunResult : runtime::RealtimeRunResult {
 /// The supervisor's parameters of a board run: watchdog and recovery ramp from the scenario's
 /// `mfb:` section, the unattended recovery from the command line.
 runtime::SupervisorParams supervisor_params(const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& options) noexcept;
+
+/// The first "-> fault (reason)" entry of a run's lifecycle (RealtimeRunResult::lifecycle, entries
+/// "t_s  from -> to (reason)"): its time, s, and reason (NaN and "" when the run never faulted).
+std::pair<double, std::string> first_lifecycle_fault(const std::vector<std::string>& lifecycle);
 
 /// Adds the run's lifecycle faults (the host watchdog: the board went silent; the board's own
 /// watchdog or e-stop; a board reboot) to `verdict` as the figure "link faults" (at most 0, the
