@@ -48,6 +48,8 @@ const Quantity kAdQuantities[] = {
     {"agonist_pressure", &kPressure, true, &JointChannels::agonist_pressure},
     {"antagonist_pressure", &kPressure, true, &JointChannels::antagonist_pressure},
     {"goniometer", &kAngle, false, &JointChannels::goniometer},
+    {"supply_pressure", &kPressure, false, &JointChannels::supply_pressure},
+    {"motor_torque_monitor", &kTorque, false, &JointChannels::motor_torque_monitor},
 };
 
 const Quantity kDaQuantities[] = {
@@ -337,6 +339,8 @@ bool ChannelMap::decode_inputs(const BoardInputs& in, io::SensorState& out) cons
     s.antagonist_loadcell_N = ad(c.antagonist_loadcell);
     s.agonist_pressure_Pa = ad(c.agonist_pressure);
     s.antagonist_pressure_Pa = ad(c.antagonist_pressure);
+    s.supply_pressure_Pa = c.supply_pressure.mapped() ? ad(c.supply_pressure) : std::numeric_limits<double>::quiet_NaN();
+    s.motor_torque_Nm = c.motor_torque_monitor.mapped() ? ad(c.motor_torque_monitor) : std::numeric_limits<double>::quiet_NaN();
   }
   return true;
 }
@@ -389,6 +393,8 @@ void ChannelMap::encode_inputs(const io::SensorState& s, bool estop, BoardInputs
     put(c.agonist_pressure, js.agonist_pressure_Pa);
     put(c.antagonist_pressure, js.antagonist_pressure_Pa);
     put(c.goniometer, js.angle_rad);
+    put(c.supply_pressure, js.supply_pressure_Pa);
+    put(c.motor_torque_monitor, js.motor_torque_Nm);
     out.encoder[static_cast<std::size_t>(c.encoder.channel)] = c.encoder.to_counts(js.angle_rad);
   }
   estop_.set(out.digital_in, estop);

@@ -13,7 +13,7 @@ constexpr const char* kFlagNames[kFaultFlagCount] = {
     "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
     "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
     "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
-    "joint_range",       "loadcell_step",        "estop"};
+    "joint_range",       "loadcell_step",        "estop",        "motor_disagrees",      "supply_low"};
 
 constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
@@ -26,7 +26,7 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kDescend, // tension_floor: a broken or slipped wire
     SafeAction::kVent,    // pressure_high: a valve fills by itself; the dump valve vents past it
     SafeAction::kDescend, // pressure_low: a valve or sensor that does not follow
-    SafeAction::kDescend, // supply_loss: the check valves hold the air; lower the arm on it
+    SafeAction::kHold,    // supply_loss: the check valves keep the air; with no supply a descent cannot be braked
     SafeAction::kVent,    // pressure_over_supply
     SafeAction::kHold,    // encoder faults: no angle or speed to govern a descent with, and venting drops a
     SafeAction::kHold,    // loaded arm (the fault matrix: 115-414 deg/s): keep what the muscles hold, motor off
@@ -34,6 +34,8 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kDescend, // joint_range: back inside the range, then down to its end, slowly
     SafeAction::kDescend, // loadcell_step: a load-cell fault as the others
     SafeAction::kVent,    // estop: the hardware has already cut valves and motor (stop category 0)
+    SafeAction::kHold,    // motor_disagrees: the muscles keep what they hold, the motor is switched off
+    SafeAction::kDescend, // supply_low: air is left to brake with; lower the arm on it
 };
 
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
@@ -82,6 +84,10 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.encoder_frozen_speed_radps = m.number_or("encoder_frozen_speed_degps", p.encoder_frozen_speed_radps / kDeg, {0.1, 1000}) * kDeg;
   p.max_joint_speed_radps = m.number_or("max_joint_speed_degps", p.max_joint_speed_radps / kDeg, {1, 2000}) * kDeg;
   p.range_margin_rad = m.number_or("range_margin_deg", p.range_margin_rad / kDeg, {0, 45}) * kDeg;
+  p.supply_low_fraction = m.number_or("supply_low_fraction", p.supply_low_fraction, {0, 1});
+  p.supply_lost_fraction = m.number_or("supply_lost_fraction", p.supply_lost_fraction, {0, p.supply_low_fraction});
+  p.motor_tolerance_Nm = m.number_or("motor_tolerance_Nm", p.motor_tolerance_Nm, {0.001, 100});
+  p.motor_window_cycles = static_cast<int>(m.number_or("motor_window_cycles", p.motor_window_cycles, {1, FaultMonitor::kMotorWindow}));
   p.descent_speed_radps = m.number_or("descent_speed_degps", p.descent_speed_radps / kDeg, {0.5, 180}) * kDeg;
   p.descent_force_rate_N_per_s = m.number_or("descent_force_rate_N_per_s", p.descent_force_rate_N_per_s, {1, 5000});
   p.descent_gain_N_per_radps = m.number_or("descent_gain_N_per_radps", p.descent_gain_N_per_radps, {0, 20000});
@@ -135,6 +141,8 @@ void FaultMonitor::clear() noexcept {
       m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = 0;
     }
     j.same_angle = 0;
+    j.supply_low = j.supply_lost = j.motor_off = 0;
+    j.motor_sent = 0;
     j.follow_since_s = -1;
     j.governor = {};
   }
@@ -196,6 +204,39 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       js.follow_since_s = s.time_s;
     }
     if (!model) continue;
+    // Supply, where it is measured: a sensor on the valve manifold sees a failing compressor at once,
+    // also at rest, where the check valves keep the muscles' air and no pressure sensor moves.
+    if (std::isfinite(in.supply_pressure_Pa)) {
+      const double low_Pa = p.supply_low_fraction * model->supply_pressure_Pa;
+      const double lost_Pa = p.supply_lost_fraction * model->supply_pressure_Pa;
+      js.supply_low = in.supply_pressure_Pa < low_Pa ? js.supply_low + 1 : 0;
+      js.supply_lost = in.supply_pressure_Pa < lost_Pa ? js.supply_lost + 1 : 0;
+      // A supply gone at once is a loss, not also a low supply (descend is the stronger safe state).
+      if (js.supply_lost >= p.confirm_cycles) {
+        raise(kFaultSupplyLoss, j, -1, in.supply_pressure_Pa, lost_Pa);
+      } else if (js.supply_low >= p.confirm_cycles && in.supply_pressure_Pa >= lost_Pa) {
+        raise(kFaultSupplyLow, j, -1, in.supply_pressure_Pa, low_Pa);
+      }
+    }
+    // Motor, where the driver's current monitor is read: the torque it makes against the span of the
+    // commands sent while the outputs followed over the last motor_window_cycles (the link's latency).
+    if (!outputs_follow) js.motor_sent = 0;
+    const int window = std::clamp(p.motor_window_cycles, 1, kMotorWindow);
+    if (model->has_motor && outputs_follow && std::isfinite(in.motor_torque_Nm) && js.motor_sent >= window) {
+      double lo_Nm = js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], hi_Nm = lo_Nm;
+      for (int k = 1; k < window; ++k) {
+        const double c = js.sent_motor_Nm[static_cast<std::size_t>((js.motor_head + kMotorWindow - k) % kMotorWindow)];
+        lo_Nm = std::min(lo_Nm, c);
+        hi_Nm = std::max(hi_Nm, c);
+      }
+      const double off_Nm = std::max(lo_Nm - in.motor_torque_Nm, in.motor_torque_Nm - hi_Nm);
+      js.motor_off = off_Nm > p.motor_tolerance_Nm ? js.motor_off + 1 : 0;
+      if (js.motor_off >= p.confirm_cycles) {
+        raise(kFaultMotorDisagrees, j, -1, in.motor_torque_Nm - js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], p.motor_tolerance_Nm);
+      }
+    } else {
+      js.motor_off = 0;
+    }
     for (int m = 0; m < 2; ++m) {
       MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];
       const models::MuscleModel& mm = m == 0 ? model->agonist : model->antagonist;
@@ -316,6 +357,10 @@ void FaultMonitor::sent(const io::Command& c) noexcept {
   last_sent_ = c;
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
     JointState& js = joints_[static_cast<std::size_t>(j)];
+    const double motor_Nm = c.joints[static_cast<std::size_t>(j)].motor_torque_Nm;
+    js.motor_head = (js.motor_head + 1) % kMotorWindow;
+    js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)] = std::isfinite(motor_Nm) ? motor_Nm : 0.0;
+    js.motor_sent = std::min(js.motor_sent + 1, kMotorWindow);
     const double p[2] = {c.joints[static_cast<std::size_t>(j)].agonist_pressure_Pa, c.joints[static_cast<std::size_t>(j)].antagonist_pressure_Pa};
     for (int m = 0; m < 2; ++m) {
       MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];

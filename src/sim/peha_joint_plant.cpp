@@ -316,6 +316,20 @@ void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, s
   s.antagonist_loadcell_N = cell[1];
   s.agonist_pressure_Pa = pressure[0];
   s.antagonist_pressure_Pa = pressure[1];
+  // The supply sensor on the valve manifold and the motor driver's current monitor: 16-bit channels
+  // without noise of their own (no draw: the other sensors' noise sequence stays as it was).
+  const double supply_Pa = faults_.supply_scale * std::min(params_.agonist.valve.supply_pressure_Pa, params_.supply_cap_Pa);
+  s.supply_pressure_Pa = quantize_16bit(supply_Pa, pressure_range_Pa);
+  if (params_.has_motor) {
+    // Offset binary over +-(the rating x 1.2, rounded up to a whole Nm): 0 Nm is exactly a code, and
+    // the monitor reads a little past the driver's limit (3 Nm for the 2.5 Nm motors, as the outputs).
+    const double half_range_Nm = std::ceil(1.2 * params_.motor.max_torque_Nm - 1e-9);
+    const double step_Nm = 2.0 * half_range_Nm / 65536.0;
+    const double code = std::clamp(std::round((truth_.motor_torque_Nm + half_range_Nm) / step_Nm), 0.0, 65535.0);
+    s.motor_torque_Nm = -half_range_Nm + code * step_Nm;
+  } else {
+    s.motor_torque_Nm = std::numeric_limits<double>::quiet_NaN();
+  }
 }
 
 }  // namespace peha::sim

@@ -7,6 +7,10 @@
 #include "peha/safety/fault_monitor.hpp"
 #include "peha/sim/plant_faults.hpp"
 
+#include <cmath>
+#include <limits>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -77,7 +81,11 @@ INSTANTIATE_TEST_SUITE_P(
                       // The wire's tension floor is armed once the wire is taut: a break is seen in 3 cycles
                       // (it was 13, as a disconnected cell, while the check had to be off).
                       Expect{"wire_break@3:agonist", safety::kFaultTensionFloor, 5, safety::SafeAction::kDescend},
-                      Expect{"valve_stuck_open@3:agonist", safety::kFaultPressureHigh, 60, safety::SafeAction::kVent}));
+                      Expect{"valve_stuck_open@3:agonist", safety::kFaultPressureHigh, 60, safety::SafeAction::kVent},
+                      // The supply sensor on the valve manifold: a loss holds (no air to brake a descent
+                      // with), half the supply descends on what is left. Both were unobservable at rest.
+                      Expect{"supply_zero@3", safety::kFaultSupplyLoss, 3, safety::SafeAction::kHold},
+                      Expect{"supply_half@3", safety::kFaultSupplyLow, 3, safety::SafeAction::kDescend}));
 
 TEST(FaultMonitor, BrokenSupervisorWithTheCheckDisabledMissesTheFault) {
   experiments::E1Scenario s = short_e1();
@@ -195,6 +203,48 @@ TEST(FaultMonitor, ALoadCellStepIsRaisedButASlowDriftIsNot) {
   EXPECT_TRUE(flags_after_a_cell_moves(150.0, 0.0) & safety::kFaultLoadcellStep);
   EXPECT_FALSE(flags_after_a_cell_moves(150.0, 2.0) & safety::kFaultLoadcellStep);
   EXPECT_FALSE(flags_after_a_cell_moves(60.0, 0.0) & safety::kFaultLoadcellStep);  // below the 100 N step
+}
+
+/// Flags after 1 s of commands of `commanded_Nm` on E1's motor while the driver's monitor reads
+/// what the command of `latency_cycles` before asked for (`dead`: 0 Nm whatever the command).
+std::uint32_t flags_after_motor_commands(double commanded_Nm, int latency_cycles, bool dead, bool has_monitor = true) {
+  safety::MonitorParams p;
+  p.enabled = true;
+  safety::FaultMonitor monitor(p, 1e-3);
+  E1JointView view;
+  io::SensorState& state = view.state;
+  state.joints[0].agonist_pressure_Pa = state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  std::vector<double> sent;
+  for (int k = 0; k < 1000; ++k) {
+    state.time_s = 1e-3 * k;
+    const double noise_N = 0.01 * (k % 7);
+    state.joints[0].agonist_loadcell_N = state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
+    const double shown = k > latency_cycles ? sent[static_cast<std::size_t>(k - 1 - latency_cycles)] : 0.0;
+    state.joints[0].motor_torque_Nm = !has_monitor ? std::numeric_limits<double>::quiet_NaN() : dead ? 0.0 : shown;
+    view.check(monitor, true);
+    io::Command c;
+    c.joint_count = 1;
+    c.joints[0].agonist_pressure_Pa = c.joints[0].antagonist_pressure_Pa = 0.1e6;
+    c.joints[0].motor_torque_Nm = commanded_Nm * std::sin(0.05 * k);  // a motor share that swings through 0 (126 ms period)
+    monitor.sent(c);
+    sent.push_back(c.joints[0].motor_torque_Nm);
+  }
+  return monitor.flags();
+}
+
+// The motor driver's current monitor against the commands sent: a dead driver (0 Nm while asked for
+// up to 1.5 Nm) is raised (hold: the muscles keep what they hold, motor off); a live one is not, also
+// when the link shows each sample 8 cycles late (the emulator's --delay-ms 3 shows 3-4); a motor asked
+// for less than the tolerance (0.2 of 0.25 Nm) is harmless and not observable; without a monitor
+// (NaN: the channel map has none) nothing is checked.
+TEST(FaultMonitor, AMotorThatDoesNotMakeItsTorqueIsRaisedAndALateSampleIsNot) {
+  EXPECT_TRUE(flags_after_motor_commands(1.5, 0, true) & safety::kFaultMotorDisagrees);
+  EXPECT_EQ(safety::safe_action(safety::kFaultMotorDisagrees), safety::SafeAction::kHold);
+  EXPECT_EQ(flags_after_motor_commands(1.5, 0, false), 0u);
+  EXPECT_EQ(flags_after_motor_commands(1.5, 8, false), 0u);
+  EXPECT_TRUE(flags_after_motor_commands(1.5, 30, false) & safety::kFaultMotorDisagrees);  // far beyond the 10-cycle window
+  EXPECT_EQ(flags_after_motor_commands(0.2, 0, true), 0u);
+  EXPECT_EQ(flags_after_motor_commands(1.5, 0, true, false), 0u);  // no monitor (NaN): not checked
 }
 
 TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {

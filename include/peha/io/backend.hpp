@@ -17,6 +17,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,11 @@ struct JointSensors {
   double antagonist_loadcell_N = 0;     ///< load cell at the antagonist's tip
   double agonist_pressure_Pa = 0;    ///< valve pressure sensor, gauge
   double antagonist_pressure_Pa = 0; ///< valve pressure sensor, gauge
+  /// Optional sensors: NaN when the backend does not measure them (e.g. a channel map without them).
+  /// The supply line's pressure at this joint's valves, gauge (a sensor on the valve manifold).
+  double supply_pressure_Pa = std::numeric_limits<double>::quiet_NaN();
+  /// The motor driver's current monitor as torque at the joint (current x torque constant x gear), Nm.
+  double motor_torque_Nm = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct SensorState {

@@ -95,6 +95,8 @@ struct JointChannels {
   AnalogChannel agonist_pressure;     ///< pressure sensor, Pa (gauge)
   AnalogChannel antagonist_pressure;  ///< pressure sensor, Pa (gauge)
   AnalogChannel goniometer;           ///< optional, rad
+  AnalogChannel supply_pressure;      ///< optional: the supply line at the joint's valves, Pa (gauge)
+  AnalogChannel motor_torque_monitor; ///< optional: the motor driver's current monitor as torque at the joint, Nm
   // DA
   AnalogChannel agonist_valve;        ///< pressure setpoint, Pa
   AnalogChannel antagonist_valve;     ///< pressure setpoint, Pa
@@ -120,8 +122,9 @@ class ChannelMap {
   /// Board sample -> SI sensor state: angles from the encoders, forces and pressures from AD.
   /// Fills `joint_count` and `joints[0..joint_count)`; leaves `time_s` and `sequence` (the
   /// backend's) alone. Returns false and leaves `out` untouched if any mapped AD channel
-  /// (goniometers included) is outside its valid codes (`implausible_ad_channels() != 0`). Values
-  /// are finite by construction (integer inputs, finite constants checked at load): no NaN test.
+  /// (goniometers included) is outside its valid codes (`implausible_ad_channels() != 0`). Mapped
+  /// values are finite by construction (integer inputs, finite constants checked at load); the
+  /// optional supply-pressure and motor-torque-monitor signals are NaN where not mapped.
   bool decode_inputs(const BoardInputs& in, io::SensorState& out) const noexcept;
   /// Bit i set if AD channel i is mapped and its code is outside the channel's valid codes.
   std::uint16_t implausible_ad_channels(const BoardInputs& in) const noexcept;

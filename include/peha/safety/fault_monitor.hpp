@@ -24,6 +24,13 @@
 /// - encoder: a step above encoder_max_step_rad in one sample (jump), the same count for
 ///   encoder_frozen_cycles right after moving faster than encoder_frozen_speed_radps (frozen);
 ///   joint speed above max_joint_speed_radps, angle beyond the range by range_margin_rad;
+/// - supply (where the backend measures it: io::JointSensors::supply_pressure_Pa finite), for
+///   confirm_cycles: below supply_lost_fraction x the joint's configured supply, supply_loss (hold:
+///   no air to brake a descent with); below supply_low_fraction x, supply_low (descend on what is left);
+/// - motor (where the backend measures it: io::JointSensors::motor_torque_Nm finite, a joint with a
+///   motor): the driver's monitored torque outside the span of the commands sent over the last
+///   motor_window_cycles (the link's latency: a sample may show any of them) by more than
+///   motor_tolerance_Nm, for confirm_cycles (motor_disagrees: a dead driver, a broken motor lead);
 /// - a non-finite sample.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
@@ -60,8 +67,10 @@ enum FaultFlag : std::uint32_t {
   kFaultJointRange = 1u << 15,
   kFaultLoadcellStep = 1u << 16,
   kFaultEstop = 1u << 17,
+  kFaultMotorDisagrees = 1u << 18,
+  kFaultSupplyLow = 1u << 19,
 };
-inline constexpr int kFaultFlagCount = 18;
+inline constexpr int kFaultFlagCount = 20;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -111,6 +120,18 @@ struct MonitorParams {
   double encoder_frozen_speed_radps = 0.2;
   double max_joint_speed_radps = 1.57;        ///< 90 deg/s: a falling link (nominal runs peak below 40)
   double range_margin_rad = 0.08;
+  /// The supply sensor below this x the configured supply: supply_low (0.6: the half supply of a
+  /// failing compressor is caught; a plant capped at 0.6 of it still is not a fault).
+  double supply_low_fraction = 0.6;
+  /// Below this x the configured supply: supply_loss. The descend governor brakes by adding air, so
+  /// without supply it cannot: such a loss holds (E1's push with no supply fell at 160 deg/s descending).
+  double supply_lost_fraction = 0.25;
+  /// The motor driver's monitored torque may differ from the command by this much (the monitor's
+  /// resolution and noise, the driver's current loop within a cycle), Nm.
+  double motor_tolerance_Nm = 0.25;
+  /// A sample shows the torque of one of the commands sent over this many cycles (the link's
+  /// latency: the board emulator's 3 ms delay shows commands 3-4 cycles old). At most kMotorWindow.
+  int motor_window_cycles = 10;
   // The descend safe state (docs/safety.md): a speed governor on the carrying muscle's force (the
   // pressure model turns it into a pressure), the motor a damper, the other muscle held.
   double descent_speed_radps = 0.2;           ///< the joint descends at this speed, never much faster
@@ -150,6 +171,7 @@ struct FaultRecord {
 class FaultMonitor {
  public:
   static constexpr int kMaxDelay = 64;  ///< valve dead time in cycles, at most
+  static constexpr int kMotorWindow = 16;  ///< commands kept for the motor check, at most
 
   FaultMonitor(const MonitorParams& params, double period_s) noexcept
       : params_(params), period_s_(period_s), per_period_(per_period(params, period_s)) {}
@@ -217,6 +239,11 @@ class FaultMonitor {
     double filtered_speed_radps = 0;
     double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
+    int supply_low = 0, supply_lost = 0, motor_off = 0;  ///< consecutive samples failing the supply and motor checks
+    /// The motor torque of the commands sent while the outputs followed, a ring of the last
+    /// kMotorWindow (newest at motor_head; motor_sent counts them, up to kMotorWindow).
+    std::array<double, kMotorWindow> sent_motor_Nm{};
+    int motor_head = 0, motor_sent = 0;
     bool has_previous = false;
     Governor governor{};
   };

@@ -125,7 +125,9 @@ class PehaJointPlant {
 
   /// The load cells and pressure sensors (noise drawn from `rng`, 16-bit quantised) into `out`;
   /// the angle is the caller's (encoder). Draw order: agonist force, antagonist force, agonist
-  /// pressure, antagonist pressure.
+  /// pressure, antagonist pressure. Also the supply pressure at the valves (16-bit over
+  /// pressure_range_Pa) and, with a motor, the driver's current monitor as torque at the joint
+  /// (16-bit over +-1.2 x the rating; NaN without a motor); neither draws noise.
   void sense(double pressure_noise_Pa, double pressure_range_Pa, std::mt19937_64& rng, io::JointSensors& out) noexcept;
 
   const PehaJointTruth& truth() const { return truth_; }
