@@ -134,8 +134,8 @@ void supervisor_step(benchmark::State& state, bool descending) {
   safety::MonitorParams params = s.limits.monitor;
   params.enabled = true;
   // The recording does not follow the governor's commands (open loop): the checks that compare the
-  // pressures with the commands would escalate to vent, which is not what is timed here.
-  if (descending) params.disabled_checks = safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss;
+  // pressures (or the motor monitor) with the commands would latch, which is not what is timed here.
+  if (descending) params.disabled_checks = safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss | safety::kFaultMotorDisagrees;
   std::optional<safety::FaultMonitor> monitor(std::in_place, params, s.period_s);
   std::array<const models::JointModel*, io::kMaxJoints> joints{};
   joints[0] = &s.controller.joint;
