@@ -50,12 +50,14 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   }
 }
 
-// The static torque error at rest is what the friction holds (plant truth): on the shipped arm it is the
-// controller's gravity model error (the plant's bodies are 8-12 % heavier), posture by posture, and it
-// fails the 5 % threshold at the elbow; a controller given the plant's own bodies passes it everywhere
-// (what is left: the pulleys' 1 % and the allocation's rounding).
+// The static torque error at rest is what the friction holds (plant truth): with the body file's
+// anthropometric prior (the nominal arm, not the shipped identification) it is the controller's gravity
+// model error (the plant's bodies are 8-12 % heavier), posture by posture, and it fails the 5 %
+// threshold at the elbow; a controller given the plant's own bodies passes it everywhere (what is left:
+// the pulleys' 1 % and the allocation's rounding).
 TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
   ArmScenario s = shipped();
+  s.controller.arm = s.nominal_arm;  // the prior, before identification
   const PosturesResult nominal = run_postures(s, nullptr);
   int judged = 0;
   for (const PostureResult& p : nominal.postures) {

@@ -643,6 +643,9 @@ std::filesystem::path short_arm_config(const std::filesystem::path& dir) {
   root["body"] = configs + root["body"].as<std::string>();
   root["mfb"]["channel_map"] = configs + root["mfb"]["channel_map"].as<std::string>();
   root["mfb"]["key_file"] = configs + root["mfb"]["key_file"].as<std::string>();
+  if (root["controller"]["gravity_identification"]) {
+    root["controller"]["gravity_identification"] = configs + root["controller"]["gravity_identification"].as<std::string>();
+  }
   for (const char* joint : {"shoulder", "elbow", "wrist"}) {
     for (const char* muscle : {"agonist", "antagonist"}) {
       YAML::Node law = root["plant"][joint][muscle]["law"];
