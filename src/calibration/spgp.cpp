@@ -96,6 +96,7 @@ struct FitcWorkspace {
   MatrixXd Kmm_kernel, Kmm, Knm, V, U, B, R, Z, G, E;
   Eigen::ArrayXd r2;
   FitcBlocks blocks;
+  std::vector<double> scratch[2];  ///< per half: M x kBlock doubles for the passes (U, then W)
 };
 
 /// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
@@ -222,8 +223,9 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
   return nlml;
 }
 
-// The 32-byte vectors below (Lanes) travel only between always-inlined helpers of this file, never
-// across an ABI boundary, so GCC's note that they pass differently with and without AVX does not apply.
+// The 32- and 64-byte vectors below (Lanes, Lanes8) travel only between always-inlined helpers of this
+// file, never across an ABI boundary, so GCC's note that they pass differently with and without AVX
+// (AVX-512) does not apply.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 /// Four doubles (GCC/Clang vector extensions): one AVX register, or two SSE2 registers.
@@ -231,43 +233,61 @@ constexpr int kLanes = 4;
 using Lanes = double __attribute__((vector_size(8 * kLanes)));
 using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int)
 
-[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
-  Lanes v;
+/// A vector of doubles of type V (Lanes, or Lanes8 in the AVX-512 passes) from memory, to memory, broadcast.
+template <class V>
+[[gnu::always_inline]] inline V vload(const double* p) {
+  V v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
-[[gnu::always_inline]] inline Lanes splat(double x) { return Lanes{x, x, x, x}; }
+template <class V>
+[[gnu::always_inline]] inline void vstore(double* p, const V& v) { std::memcpy(p, &v, sizeof v); }
+template <class V>
+[[gnu::always_inline]] inline V vsplat(double x) {
+  if constexpr (sizeof(V) == 4 * sizeof(double)) {
+    return V{x, x, x, x};
+  } else {
+    // Not V{x, x, ...}: GCC 12 builds that lane by lane with masked broadcasts; this is one vbroadcastsd.
+    static_assert(sizeof(V) == 8 * sizeof(double));
+    V v = {};
+    v[0] = x;
+    return __builtin_shufflevector(v, v, 0, 0, 0, 0, 0, 0, 0, 0);
+  }
+}
+[[gnu::always_inline]] inline Lanes load_lanes(const double* p) { return vload<Lanes>(p); }
+[[gnu::always_inline]] inline Lanes splat(double x) { return vsplat<Lanes>(x); }
 
 /// exp(x) for x <= 0, per lane (x < -708 gives 0; exp(-708) = 3e-308 is no weight anyway).
 /// Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a polynomial for exp(r) (below) and 2^n from
 /// the exponent bits (tests: the predictor against std::exp-based formulas to 1e-13). Same operations in every clone
-/// (no FMA), so the same bits on every x86-64.
-[[gnu::always_inline]] inline Lanes exp_nonpositive(Lanes x) {
-  const Lanes clamped = x < splat(-708.0) ? splat(-708.0) : x;
-  const Lanes shifter = splat(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
-  const Lanes t = clamped * splat(1.4426950408889634) + shifter;
-  const Lanes n = t - shifter;
-  const Lanes r = (clamped - n * splat(6.93147180369123816490e-01)) - n * splat(1.90821492927058770002e-10);
+/// and vector width (no FMA; spgp.cpp is compiled with -ffp-contract=off), so the same bits on every x86-64.
+template <class V>
+[[gnu::always_inline]] inline V exp_nonpositive(const V& x) {
+  using Bits = decltype(x < x);  // 64-bit integer lanes
+  const V clamped = x < vsplat<V>(-708.0) ? vsplat<V>(-708.0) : x;
+  const V shifter = vsplat<V>(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
+  const V t = clamped * vsplat<V>(1.4426950408889634) + shifter;
+  const V n = t - shifter;
+  const V r = (clamped - n * vsplat<V>(6.93147180369123816490e-01)) - n * vsplat<V>(1.90821492927058770002e-10);
   // exp(r) on [-ln2/2, ln2/2] by a degree-10 Chebyshev fit (mpmath.chebyfit at 40 digits, rounded
   // to double: 4.4e-16 relative at worst in double arithmetic, i.e. 2 ulp), evaluated by Estrin's
   // scheme: 4 dependent multiply-add levels instead of Horner's 10 (the pass is latency-bound).
-  const Lanes r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-  const Lanes q0 = splat(1.0) + splat(1.0000000000000067) * r;
-  const Lanes q1 = splat(0.5000000000000006) + splat(0.16666666666554406) * r;
-  const Lanes q2 = splat(0.04166666666657314) + splat(0.008333333385667782) * r;
-  const Lanes q3 = splat(0.0013888888932488599) + splat(0.00019841170270440067) * r;
-  const Lanes q4 = splat(2.4801504346997686e-05) + splat(2.764018079620985e-06) * r;
-  const Lanes q5 = splat(2.7626357241447223e-07);
-  const Lanes p = (q0 + q1 * r2 + (q2 + q3 * r2) * r4) + (q4 + q5 * r2) * r8;
-  LaneBits t_bits, s_bits;
+  const V r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const V q0 = vsplat<V>(1.0) + vsplat<V>(1.0000000000000067) * r;
+  const V q1 = vsplat<V>(0.5000000000000006) + vsplat<V>(0.16666666666554406) * r;
+  const V q2 = vsplat<V>(0.04166666666657314) + vsplat<V>(0.008333333385667782) * r;
+  const V q3 = vsplat<V>(0.0013888888932488599) + vsplat<V>(0.00019841170270440067) * r;
+  const V q4 = vsplat<V>(2.4801504346997686e-05) + vsplat<V>(2.764018079620985e-06) * r;
+  const V q5 = vsplat<V>(2.7626357241447223e-07);
+  const V p = (q0 + q1 * r2 + (q2 + q3 * r2) * r4) + (q4 + q5 * r2) * r8;
+  Bits t_bits, shifter_bits;
   std::memcpy(&t_bits, &t, sizeof t);
-  LaneBits shifter_bits;
   std::memcpy(&shifter_bits, &shifter, sizeof shifter);
-  s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
-  Lanes scale;
+  const Bits s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
+  V scale;
   std::memcpy(&scale, &s_bits, sizeof scale);
-  const Lanes result = p * scale;
-  return x < splat(-708.0) ? splat(0.0) : result;
+  const V result = p * scale;
+  return x < vsplat<V>(-708.0) ? vsplat<V>(0.0) : result;
 }
 
 /// Runs body(begin, end, half) over [0, n) in two halves, the second half on a second thread (the
@@ -297,16 +317,57 @@ void for_two_halves(Eigen::Index n, Eigen::Index min_split, Body&& body) {
 // the M x M factors enter as broadcast scalars and every operation is lane-wise over samples (sums
 // over samples stay in per-lane accumulators until the end). The substitutions with the two Cholesky
 // factors and the symmetric rank updates are the O(N M^2) part: 4 x 4 independent lanes per step.
+//
+// The passes are written for a vector type V of kW = 4 (Lanes: AVX2 / SSE2) or 8 doubles (Lanes8:
+// AVX-512), kBlock / kW vectors per row of a block. Lane-wise work does not depend on kW. Every sum
+// that combines the four 4-lane groups of a block (s = 0..3: samples 4 s .. 4 s + 3) goes through
+// tree4 or seq4 below, which take the groups in the same order for both widths: both give the same
+// bits, and with them the same bits as each other's clones.
 constexpr int kBlockVecs = 4;
 constexpr int kBlock = kLanes * kBlockVecs;
 constexpr Eigen::Index kMinSplitBlocks = 2000 / kBlock;  // below this a thread costs more than it saves
 
-[[gnu::always_inline]] inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
-[[gnu::always_inline]] inline Lanes lane_sqrt(Lanes v) { return Lanes{std::sqrt(v[0]), std::sqrt(v[1]), std::sqrt(v[2]), std::sqrt(v[3])}; }
+[[gnu::always_inline]] inline void store_lanes(double* p, const Lanes& v) { vstore(p, v); }
+template <class V>
+[[gnu::always_inline]] inline V lane_sqrt(const V& v) {
+  V r;
+  for (int i = 0; i < static_cast<int>(sizeof(V) / sizeof(double)); ++i) r[i] = std::sqrt(v[i]);
+  return r;
+}
 /// acc[0..3] += v (an accumulator of four lanes in memory).
-[[gnu::always_inline]] inline void accumulate(double* acc, Lanes v) { store_lanes(acc, load_lanes(acc) + v); }
+[[gnu::always_inline]] inline void accumulate(double* acc, const Lanes& v) { store_lanes(acc, load_lanes(acc) + v); }
 /// (v[0] + v[1]) + (v[2] + v[3]) of four lanes in memory.
 inline double lane_sum(const double* v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+
+/// The four 4-lane groups s = 0..3 of one block row held as kBlock / kW vectors of type V.
+template <class V>
+[[gnu::always_inline]] inline void lane_groups(const V* p, Lanes q[kBlockVecs]) {
+  if constexpr (sizeof(V) == sizeof(Lanes)) {
+    for (int s = 0; s < kBlockVecs; ++s) q[s] = p[s];
+  } else {
+    static_assert(sizeof(V) == 2 * sizeof(Lanes) && kBlockVecs == 4);
+    q[0] = __builtin_shufflevector(p[0], p[0], 0, 1, 2, 3);
+    q[1] = __builtin_shufflevector(p[0], p[0], 4, 5, 6, 7);
+    q[2] = __builtin_shufflevector(p[1], p[1], 0, 1, 2, 3);
+    q[3] = __builtin_shufflevector(p[1], p[1], 4, 5, 6, 7);
+  }
+}
+/// (q0 + q1) + (q2 + q3) of a block row's four groups.
+template <class V>
+[[gnu::always_inline]] inline Lanes tree4(const V* p) {
+  Lanes q[kBlockVecs];
+  lane_groups(p, q);
+  return (q[0] + q[1]) + (q[2] + q[3]);
+}
+/// (((0 + q0) + q1) + q2) + q3 of a block row's four groups.
+template <class V>
+[[gnu::always_inline]] inline Lanes seq4(const V* p) {
+  Lanes q[kBlockVecs];
+  lane_groups(p, q);
+  Lanes sum = splat(0.0);
+  for (int s = 0; s < kBlockVecs; ++s) sum += q[s];
+  return sum;
+}
 
 /// What the forward pass reads besides the blocks.
 struct ForwardArgs {
@@ -320,74 +381,75 @@ struct ForwardArgs {
 
 /// Forward pass over blocks [b0, b1): K_NM, V = L^-1 K_MN, Lambda, y / Lambda into `fb`; adds
 /// U U^T (packed lower triangle, four lanes per entry) to B_acc and V Lambda^-1 y (four lanes per
-/// entry) to Vy_acc. AVX2 and generic builds, picked at load time; no FMA in either, so the same bits.
-[[gnu::target_clones("avx2", "default")]] void fitc_forward_blocks(const ForwardArgs& a, FitcBlocks& fb,
-                                                                   Eigen::Index b0, Eigen::Index b1,
-                                                                   double* B_acc, double* Vy_acc) {
+/// entry) to Vy_acc. U is scratch of M x kBlock doubles.
+template <class V>
+[[gnu::always_inline]] inline void forward_blocks(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index b0,
+                                                  Eigen::Index b1, double* B_acc, double* Vy_acc, double* U) {
+  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW;
   const int M = a.M, D = a.D;
   const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  std::vector<double> U(per_block);
   for (Eigen::Index blk = b0; blk < b1; ++blk) {
     const auto ub = static_cast<std::size_t>(blk);
     const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
     const double* valid = fb.valid.data() + ub * kBlock;
     double* K = fb.K.data() + ub * per_block;
-    double* V = fb.V.data() + ub * per_block;
+    double* Vb = fb.V.data() + ub * per_block;
     // K(n, m) = c exp(-1/2 sum_d b_d (x_nd - p_md)^2), as ard_kernel.
     for (int m = 0; m < M; ++m) {
-      for (int s = 0; s < kBlockVecs; ++s) {
-        Lanes r2 = splat(0.0);
+      for (int t = 0; t < kT; ++t) {
+        V r2 = vsplat<V>(0.0);
         for (int d = 0; d < D; ++d) {
-          const Lanes diff = load_lanes(x + d * kBlock + s * kLanes) - splat(a.pseudo[d * M + m]);
-          r2 += splat(a.b[d]) * (diff * diff);
+          const V diff = vload<V>(x + d * kBlock + t * kW) - a.pseudo[d * M + m];
+          r2 += a.b[d] * (diff * diff);
         }
-        store_lanes(K + m * kBlock + s * kLanes,
-                    splat(a.c) * exp_nonpositive(splat(-0.5) * r2) * load_lanes(valid + s * kLanes));
+        vstore(K + m * kBlock + t * kW,
+               a.c * exp_nonpositive(vsplat<V>(-0.5) * r2) * vload<V>(valid + t * kW));
       }
     }
     // V = L^-1 K by forward substitution.
     for (int i = 0; i < M; ++i) {
       const double* row = a.L_rows + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(K + i * kBlock + s * kLanes);
+      V acc[kT];
+      for (int t = 0; t < kT; ++t) acc[t] = vload<V>(K + i * kBlock + t * kW);
       for (int j = 0; j < i; ++j) {
-        const Lanes l = splat(row[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(V + j * kBlock + s * kLanes);
+        const double l = row[j];  // scalar times vector: one broadcast, also in the AVX-512 build
+        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(Vb + j * kBlock + t * kW);
       }
-      const Lanes inv = splat(a.L_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(V + i * kBlock + s * kLanes, acc[s] * inv);
+      const double inv = a.L_inv_diag[i];
+      for (int t = 0; t < kT; ++t) vstore(Vb + i * kBlock + t * kW, acc[t] * inv);
     }
     // Lambda = c + sigma^2 - |V_n|^2, U = V Lambda^-1/2, y / Lambda.
-    Lanes y_over_lambda[kBlockVecs];
-    for (int s = 0; s < kBlockVecs; ++s) {
-      Lanes sq = splat(0.0);
-      for (int i = 0; i < M; ++i) {
-        const Lanes v = load_lanes(V + i * kBlock + s * kLanes);
-        sq += v * v;
+    V sq[kT], y_over_lambda[kT], inv_sqrt[kT];
+    for (int t = 0; t < kT; ++t) sq[t] = vsplat<V>(0.0);
+    for (int i = 0; i < M; ++i) {
+      for (int t = 0; t < kT; ++t) {
+        const V v = vload<V>(Vb + i * kBlock + t * kW);
+        sq[t] += v * v;
       }
-      const Lanes lambda = splat(a.c_plus_sigma2) - sq;
-      const std::size_t at = ub * kBlock + static_cast<std::size_t>(s) * kLanes;
-      store_lanes(fb.lambda.data() + at, lambda);
-      y_over_lambda[s] = load_lanes(fb.y.data() + at) / lambda;
-      store_lanes(fb.y_over_lambda.data() + at, y_over_lambda[s]);
-      const Lanes inv_sqrt = splat(1.0) / lane_sqrt(lambda);
-      for (int i = 0; i < M; ++i)
-        store_lanes(U.data() + i * kBlock + s * kLanes, load_lanes(V + i * kBlock + s * kLanes) * inv_sqrt);
     }
+    for (int t = 0; t < kT; ++t) {
+      const V lambda = vsplat<V>(a.c_plus_sigma2) - sq[t];
+      const std::size_t at = ub * kBlock + static_cast<std::size_t>(t) * kW;
+      vstore(fb.lambda.data() + at, lambda);
+      y_over_lambda[t] = vload<V>(fb.y.data() + at) / lambda;
+      vstore(fb.y_over_lambda.data() + at, y_over_lambda[t]);
+      inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda);
+    }
+    for (int i = 0; i < M; ++i)
+      for (int t = 0; t < kT; ++t) vstore(U + i * kBlock + t * kW, vload<V>(Vb + i * kBlock + t * kW) * inv_sqrt[t]);
     // B += U U^T (lower), Vy += V Lambda^-1 y.
     for (int i = 0; i < M; ++i) {
-      Lanes ui[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) ui[s] = load_lanes(U.data() + i * kBlock + s * kLanes);
+      V ui[kT];
+      for (int t = 0; t < kT; ++t) ui[t] = vload<V>(U + i * kBlock + t * kW);
       double* row = B_acc + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
       for (int j = 0; j <= i; ++j) {
-        const double* uj = U.data() + j * kBlock;
-        const Lanes p = (ui[0] * load_lanes(uj) + ui[1] * load_lanes(uj + kLanes)) +
-                        (ui[2] * load_lanes(uj + 2 * kLanes) + ui[3] * load_lanes(uj + 3 * kLanes));
-        accumulate(row + j * kLanes, p);
+        V p[kT];
+        for (int t = 0; t < kT; ++t) p[t] = ui[t] * vload<V>(U + j * kBlock + t * kW);
+        accumulate(row + j * kLanes, tree4(p));
       }
-      Lanes vy = splat(0.0);
-      for (int s = 0; s < kBlockVecs; ++s) vy += load_lanes(V + i * kBlock + s * kLanes) * y_over_lambda[s];
-      accumulate(Vy_acc + i * kLanes, vy);
+      V vy[kT];
+      for (int t = 0; t < kT; ++t) vy[t] = vload<V>(Vb + i * kBlock + t * kW) * y_over_lambda[t];
+      accumulate(Vy_acc + i * kLanes, seq4(vy));
     }
   }
 }
@@ -430,125 +492,188 @@ struct GradientSums {
 /// Gradient pass over blocks [b0, b1): per sample a = C^-1 y, w = diag(C^-1) - a^2 and
 /// G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without its -a_n L^-T V a term,
 /// which needs all samples: the caller subtracts it from the sums), E' = K_NM .* G'^T; the sums
-/// into `sums`. AVX2 and generic builds as fitc_forward_blocks.
-[[gnu::target_clones("avx2", "default")]] void fitc_gradient_blocks(const GradientArgs& a, const FitcBlocks& fb,
-                                                                    Eigen::Index b0, Eigen::Index b1,
-                                                                    GradientSums& sums) {
+/// into `sums`. W is scratch of M x kBlock doubles.
+template <class V>
+[[gnu::always_inline]] inline void gradient_blocks(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0,
+                                                   Eigen::Index b1, GradientSums& sums, double* W) {
+  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW;
   const int M = a.M, D = a.D;
   const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  std::vector<double> W(per_block);  // t = L_B^-1 u, then r = B^-1 u, then G'
+  // W: t = L_B^-1 u, then r = B^-1 u, then G'
   for (Eigen::Index blk = b0; blk < b1; ++blk) {
     const auto ub = static_cast<std::size_t>(blk);
     const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
     const double* K = fb.K.data() + ub * per_block;
-    const double* V = fb.V.data() + ub * per_block;
-    Lanes lambda[kBlockVecs], inv_sqrt[kBlockVecs], av[kBlockVecs], w[kBlockVecs];
+    const double* Vb = fb.V.data() + ub * per_block;
+    V lambda[kT], inv_sqrt[kT], av[kT], w[kT], dot[kT];
     // a = (y - V^T gamma) / Lambda.
-    for (int s = 0; s < kBlockVecs; ++s) {
-      const std::size_t at = ub * kBlock + static_cast<std::size_t>(s) * kLanes;
-      lambda[s] = load_lanes(fb.lambda.data() + at);
-      inv_sqrt[s] = splat(1.0) / lane_sqrt(lambda[s]);
-      Lanes dot = splat(0.0);
-      for (int i = 0; i < M; ++i) dot += load_lanes(V + i * kBlock + s * kLanes) * splat(a.gamma[i]);
-      av[s] = (load_lanes(fb.y.data() + at) - dot) / lambda[s];
+    for (int t = 0; t < kT; ++t) {
+      lambda[t] = vload<V>(fb.lambda.data() + ub * kBlock + static_cast<std::size_t>(t) * kW);
+      inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
+      dot[t] = vsplat<V>(0.0);
     }
+    for (int i = 0; i < M; ++i) {
+      const double g = a.gamma[i];
+      for (int t = 0; t < kT; ++t) dot[t] += vload<V>(Vb + i * kBlock + t * kW) * g;
+    }
+    for (int t = 0; t < kT; ++t)
+      av[t] = (vload<V>(fb.y.data() + ub * kBlock + static_cast<std::size_t>(t) * kW) - dot[t]) / lambda[t];
     // V a; t = L_B^-1 u by forward substitution.
     for (int i = 0; i < M; ++i) {
-      Lanes va = splat(0.0);
-      for (int s = 0; s < kBlockVecs; ++s) va += av[s] * load_lanes(V + i * kBlock + s * kLanes);
-      accumulate(sums.Va.data() + i * kLanes, va);
+      V va[kT];
+      for (int t = 0; t < kT; ++t) va[t] = av[t] * vload<V>(Vb + i * kBlock + t * kW);
+      accumulate(sums.Va.data() + i * kLanes, seq4(va));
       const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(V + i * kBlock + s * kLanes) * inv_sqrt[s];
+      V acc[kT];
+      for (int t = 0; t < kT; ++t) acc[t] = vload<V>(Vb + i * kBlock + t * kW) * inv_sqrt[t];
       for (int j = 0; j < i; ++j) {
-        const Lanes l = splat(row[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
+        const double l = row[j];
+        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(W + j * kBlock + t * kW);
       }
-      const Lanes inv = splat(a.LB_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+      const double inv = a.LB_inv_diag[i];
+      for (int t = 0; t < kT; ++t) vstore(W + i * kBlock + t * kW, acc[t] * inv);
     }
     // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
-    Lanes w_total = splat(0.0);
-    for (int s = 0; s < kBlockVecs; ++s) {
-      Lanes tt = splat(0.0);
-      for (int i = 0; i < M; ++i) {
-        const Lanes t = load_lanes(W.data() + i * kBlock + s * kLanes);
-        tt += t * t;
+    V tt[kT];
+    for (int t = 0; t < kT; ++t) tt[t] = vsplat<V>(0.0);
+    for (int i = 0; i < M; ++i) {
+      for (int t = 0; t < kT; ++t) {
+        const V v = vload<V>(W + i * kBlock + t * kW);
+        tt[t] += v * v;
       }
-      const Lanes c_inv_nn = (splat(1.0) - tt) / lambda[s];
-      w[s] = (c_inv_nn - av[s] * av[s]) * load_lanes(fb.valid.data() + ub * kBlock + s * kLanes);
-      w_total += w[s];
     }
-    accumulate(sums.w_sum.data(), w_total);
+    for (int t = 0; t < kT; ++t) {
+      const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
+      w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + ub * kBlock + static_cast<std::size_t>(t) * kW);
+    }
+    accumulate(sums.w_sum.data(), seq4(w));
     // r = L_B^-T t (back substitution, in place).
     for (int i = M - 1; i >= 0; --i) {
       const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(W.data() + i * kBlock + s * kLanes);
+      V acc[kT];
+      for (int t = 0; t < kT; ++t) acc[t] = vload<V>(W + i * kBlock + t * kW);
       for (int j = i + 1; j < M; ++j) {
-        const Lanes l = splat(col[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
+        const double l = col[j];
+        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(W + j * kBlock + t * kW);
       }
-      const Lanes inv = splat(a.LB_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+      const double inv = a.LB_inv_diag[i];
+      for (int t = 0; t < kT; ++t) vstore(W + i * kBlock + t * kW, acc[t] * inv);
     }
     // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
     for (int i = M - 1; i >= 0; --i) {
       const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s)
-        acc[s] = inv_sqrt[s] * load_lanes(W.data() + i * kBlock + s * kLanes) -
-                 w[s] * load_lanes(V + i * kBlock + s * kLanes);
+      V acc[kT];
+      for (int t = 0; t < kT; ++t)
+        acc[t] = inv_sqrt[t] * vload<V>(W + i * kBlock + t * kW) - w[t] * vload<V>(Vb + i * kBlock + t * kW);
       for (int j = i + 1; j < M; ++j) {
-        const Lanes l = splat(col[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
+        const double l = col[j];
+        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(W + j * kBlock + t * kW);
       }
-      const Lanes inv = splat(a.L_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+      const double inv = a.L_inv_diag[i];
+      for (int t = 0; t < kT; ++t) vstore(W + i * kBlock + t * kW, acc[t] * inv);
     }
     // V diag(w) V^T (lower).
     for (int i = 0; i < M; ++i) {
-      Lanes wv[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) wv[s] = w[s] * load_lanes(V + i * kBlock + s * kLanes);
+      V wv[kT];
+      for (int t = 0; t < kT; ++t) wv[t] = w[t] * vload<V>(Vb + i * kBlock + t * kW);
       double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
       for (int j = 0; j <= i; ++j) {
-        const double* vj = V + j * kBlock;
-        const Lanes p = (wv[0] * load_lanes(vj) + wv[1] * load_lanes(vj + kLanes)) +
-                        (wv[2] * load_lanes(vj + 2 * kLanes) + wv[3] * load_lanes(vj + 3 * kLanes));
-        accumulate(row + j * kLanes, p);
+        V p[kT];
+        for (int t = 0; t < kT; ++t) p[t] = wv[t] * vload<V>(Vb + j * kBlock + t * kW);
+        accumulate(row + j * kLanes, tree4(p));
       }
     }
     // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
     for (int m = 0; m < M; ++m) {
-      Lanes q_sum = splat(0.0), r_sum = splat(0.0);
-      Lanes q_lin[kMaxInputDim], r_lin[kMaxInputDim], q_sq[kMaxInputDim], r_sq[kMaxInputDim];
-      for (int d = 0; d < D; ++d) q_lin[d] = r_lin[d] = q_sq[d] = r_sq[d] = splat(0.0);
-      for (int s = 0; s < kBlockVecs; ++s) {
-        const Lanes k = load_lanes(K + m * kBlock + s * kLanes);
-        const Lanes q = k * load_lanes(W.data() + m * kBlock + s * kLanes);
-        const Lanes r = k * av[s];
-        q_sum += q;
-        r_sum += r;
-        for (int d = 0; d < D; ++d) {
-          const Lanes diff = load_lanes(x + d * kBlock + s * kLanes) - splat(a.pseudo[d * M + m]);
-          const Lanes tq = q * diff, tr = r * diff;
-          q_lin[d] += tq;
-          r_lin[d] += tr;
-          q_sq[d] += tq * diff;
-          r_sq[d] += tr * diff;
-        }
+      V q[kT], r[kT];
+      for (int t = 0; t < kT; ++t) {
+        const V k = vload<V>(K + m * kBlock + t * kW);
+        q[t] = k * vload<V>(W + m * kBlock + t * kW);
+        r[t] = k * av[t];
       }
-      accumulate(sums.q_sum.data() + m * kLanes, q_sum);
-      accumulate(sums.r_sum.data() + m * kLanes, r_sum);
+      accumulate(sums.q_sum.data() + m * kLanes, seq4(q));
+      accumulate(sums.r_sum.data() + m * kLanes, seq4(r));
       for (int d = 0; d < D; ++d) {
+        const double p = a.pseudo[d * M + m];
+        V tq[kT], tr[kT], tq2[kT], tr2[kT];
+        for (int t = 0; t < kT; ++t) {
+          const V diff = vload<V>(x + d * kBlock + t * kW) - p;
+          tq[t] = q[t] * diff;
+          tr[t] = r[t] * diff;
+          tq2[t] = tq[t] * diff;
+          tr2[t] = tr[t] * diff;
+        }
         const std::size_t at = (static_cast<std::size_t>(d) * M + m) * kLanes;
-        accumulate(sums.q_lin.data() + at, q_lin[d]);
-        accumulate(sums.r_lin.data() + at, r_lin[d]);
-        accumulate(sums.q_sq.data() + at, q_sq[d]);
-        accumulate(sums.r_sq.data() + at, r_sq[d]);
+        accumulate(sums.q_lin.data() + at, seq4(tq));
+        accumulate(sums.r_lin.data() + at, seq4(tr));
+        accumulate(sums.q_sq.data() + at, seq4(tq2));
+        accumulate(sums.r_sq.data() + at, seq4(tr2));
       }
     }
   }
+}
+
+/// The two passes for AVX2 and generic x86-64 (4-double vectors), picked at load time; no FMA in
+/// either, so the same bits.
+[[gnu::target_clones("avx2", "default")]] void fitc_forward_blocks(const ForwardArgs& a, FitcBlocks& fb,
+                                                                   Eigen::Index b0, Eigen::Index b1,
+                                                                   double* B_acc, double* Vy_acc, double* U) {
+  forward_blocks<Lanes>(a, fb, b0, b1, B_acc, Vy_acc, U);
+}
+[[gnu::target_clones("avx2", "default")]] void fitc_gradient_blocks(const GradientArgs& a, const FitcBlocks& fb,
+                                                                    Eigen::Index b0, Eigen::Index b1,
+                                                                    GradientSums& sums, double* W) {
+  gradient_blocks<Lanes>(a, fb, b0, b1, sums, W);
+}
+
+// The same passes on 8-double vectors (AVX-512; GCC only: clang, which builds only the fuzzers,
+// refuses 64-byte vector helpers outside AVX-512 functions as it does the 32-byte ones without AVX).
+// Chosen at run time when the CPU has AVX-512F/DQ/VL/BW; -ffp-contract=off keeps FMA out of them too.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define PEHA_SPGP_AVX512 1
+using Lanes8 = double __attribute__((vector_size(8 * 2 * kLanes)));
+[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void fitc_forward_blocks_avx512(const ForwardArgs& a, FitcBlocks& fb,
+                                                                             Eigen::Index b0, Eigen::Index b1,
+                                                                             double* B_acc, double* Vy_acc, double* U) {
+  forward_blocks<Lanes8>(a, fb, b0, b1, B_acc, Vy_acc, U);
+}
+[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void fitc_gradient_blocks_avx512(const GradientArgs& a,
+                                                                              const FitcBlocks& fb, Eigen::Index b0,
+                                                                              Eigen::Index b1, GradientSums& sums,
+                                                                              double* W) {
+  gradient_blocks<Lanes8>(a, fb, b0, b1, sums, W);
+}
+#else
+#define PEHA_SPGP_AVX512 0
+#endif
+
+/// Whether the passes may take the AVX-512 build (tests switch it off to compare the two).
+bool g_spgp_avx512_allowed = true;
+
+bool use_avx512_passes() {
+#if PEHA_SPGP_AVX512
+  static const bool supported = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+                                __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
+  return supported && g_spgp_avx512_allowed;
+#else
+  return false;
+#endif
+}
+
+void forward_pass(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index b0, Eigen::Index b1, double* B_acc,
+                  double* Vy_acc, double* U) {
+#if PEHA_SPGP_AVX512
+  if (use_avx512_passes()) return fitc_forward_blocks_avx512(a, fb, b0, b1, B_acc, Vy_acc, U);
+#endif
+  fitc_forward_blocks(a, fb, b0, b1, B_acc, Vy_acc, U);
+}
+
+void gradient_pass(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0, Eigen::Index b1,
+                   GradientSums& sums, double* W) {
+#if PEHA_SPGP_AVX512
+  if (use_avx512_passes()) return fitc_gradient_blocks_avx512(a, fb, b0, b1, sums, W);
+#endif
+  fitc_gradient_blocks(a, fb, b0, b1, sums, W);
 }
 
 /// The FITC NLML in O(N M^2), and whatever `request` asks for from the same factorisations.
@@ -622,7 +747,8 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     B_acc[h].assign(packed, 0.0);
     Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
-    fitc_forward_blocks(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data());
+    ws.scratch[h].resize(per_block);
+    forward_pass(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
   });
   const bool split = !B_acc[1].empty();
   const VectorXd lambda = Eigen::Map<const VectorXd>(fb.lambda.data(), N);
@@ -657,7 +783,8 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   GradientSums sums[2];
   for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     sums[h].reset(static_cast<int>(M), static_cast<int>(D));
-    fitc_gradient_blocks(backward, fb, b0, b1, sums[h]);
+    ws.scratch[h].resize(per_block);
+    gradient_pass(backward, fb, b0, b1, sums[h], ws.scratch[h].data());
   });
   // One total of four lanes (and of the two halves).
   auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
@@ -898,6 +1025,17 @@ double spgp_nlml_reference(const MatrixXd& X, const VectorXd& y, const MatrixXd&
   FitcWorkspace workspace;
   return fitc_evaluate_reference(X, y, pseudo, hyper, jitter, FitcRequest{gradient}, workspace);
 }
+
+/// Allows (true, the default) or forbids the AVX-512 build of the blocked passes; returns the previous
+/// setting (tests: both builds give the same bits). Not thread-safe: call it between fits.
+bool spgp_allow_avx512(bool allowed) {
+  const bool previous = g_spgp_avx512_allowed;
+  g_spgp_avx512_allowed = allowed;
+  return previous;
+}
+
+/// Whether the blocked passes run the AVX-512 build (the CPU has it and it is allowed).
+bool spgp_uses_avx512() { return use_avx512_passes(); }
 }  // namespace detail
 
 double spgp_nlml_dense(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,
