@@ -8,9 +8,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <condition_variable>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <limits>
+#include <mutex>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -90,13 +93,107 @@ struct FitcBlocks {
   std::vector<double> y_over_lambda;  ///< [block * kBlock + q]
 };
 
+/// Doubles per per-lane accumulator entry of the blocked passes (Lanes below).
+constexpr int kLanes = 4;
+
+/// Per-lane sums of one half's gradient pass (four lanes per entry, added at the end).
+struct GradientSums {
+  std::vector<double> Va;              ///< M: V a
+  std::vector<double> VwV;             ///< packed lower M x M: V diag(w) V^T
+  std::vector<double> q_sum, r_sum;    ///< M: sum_n E'(n, m), sum_n K(n, m) a_n
+  std::vector<double> q_lin, r_lin;    ///< M x D (m + d M): the same times (x_nd - p_md)
+  std::vector<double> q_sq, r_sq;      ///< M x D: times (x_nd - p_md)^2
+  std::vector<double> w_sum;           ///< 1
+  void reset(int M, int D) {
+    const auto m = static_cast<std::size_t>(M) * kLanes, md = m * static_cast<std::size_t>(D);
+    Va.assign(m, 0.0);
+    VwV.assign(static_cast<std::size_t>(M) * (M + 1) / 2 * kLanes, 0.0);
+    q_sum.assign(m, 0.0);
+    r_sum.assign(m, 0.0);
+    q_lin.assign(md, 0.0);
+    r_lin.assign(md, 0.0);
+    q_sq.assign(md, 0.0);
+    r_sq.assign(md, 0.0);
+    w_sum.assign(kLanes, 0.0);
+  }
+};
+
+/// A second thread for the halves of the blocked passes (for_two_halves), started on first use and
+/// kept until the workspace goes: the optimiser's workspace lives for the whole fit, so one thread
+/// serves all its evaluations instead of one new thread per pass (two per evaluation).
+class HalfWorker {
+ public:
+  HalfWorker() = default;
+  HalfWorker(const HalfWorker&) = delete;
+  HalfWorker& operator=(const HalfWorker&) = delete;
+  ~HalfWorker() {
+    if (!thread_.joinable()) return;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+
+  /// Runs job() on the worker thread (starting it if need be); wait() returns when it is done.
+  void start(const std::function<void()>& job) {
+    if (!thread_.joinable()) thread_ = std::thread([this] { loop(); });
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      job_ = &job;
+      done_ = false;
+      error_ = nullptr;
+    }
+    wake_.notify_one();
+  }
+  /// Waits for the job start() handed over; rethrows what it threw.
+  void wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    finished_.wait(lock, [this] { return done_; });
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+  }
+
+ private:
+  void loop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [this] { return stop_ || job_ != nullptr; });
+      if (stop_) return;
+      const std::function<void()>* job = std::exchange(job_, nullptr);
+      lock.unlock();
+      std::exception_ptr error;
+      try {
+        (*job)();
+      } catch (...) {
+        error = std::current_exception();
+      }
+      lock.lock();
+      error_ = error;
+      done_ = true;
+      finished_.notify_one();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_, finished_;
+  const std::function<void()>* job_ = nullptr;
+  bool done_ = false, stop_ = false;
+  std::exception_ptr error_;
+  std::thread thread_;
+};
+
 /// Scratch of one FITC evaluation. The optimiser keeps one alive across evaluations so the N x M
-/// matrices (6 MB each at N = 15000, M = 50) are not reallocated and page-faulted every time.
+/// matrices (6 MB each at N = 15000, M = 50) are not reallocated and page-faulted every time, nor
+/// the per-half accumulators, and one second thread serves all evaluations.
 struct FitcWorkspace {
   MatrixXd Kmm_kernel, Kmm, Knm, V, U, B, R, Z, G, E;
   Eigen::ArrayXd r2;
   FitcBlocks blocks;
   std::vector<double> scratch[2];  ///< per half: M x kBlock doubles for the passes (U, then W)
+  std::vector<double> B_acc[2], Vy_acc[2];  ///< per half: the forward pass's sums
+  GradientSums sums[2];                     ///< per half: the gradient pass's sums
+  HalfWorker worker;                        ///< declared last: its thread stops before the rest goes
 };
 
 /// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
@@ -229,7 +326,6 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 /// Four doubles (GCC/Clang vector extensions): one AVX register, or two SSE2 registers.
-constexpr int kLanes = 4;
 using Lanes = double __attribute__((vector_size(8 * kLanes)));
 using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int)
 
@@ -290,26 +386,24 @@ template <class V>
   return x < vsplat<V>(-708.0) ? vsplat<V>(0.0) : result;
 }
 
-/// Runs body(begin, end, half) over [0, n) in two halves, the second half on a second thread (the
+/// Runs body(begin, end, half) over [0, n) in two halves, the second half on `worker`'s thread (the
 /// calibration machine has two cores and nothing else to do during a fit). n < min_split runs inline.
 template <typename Body>
-void for_two_halves(Eigen::Index n, Eigen::Index min_split, Body&& body) {
+void for_two_halves(Eigen::Index n, Eigen::Index min_split, HalfWorker& worker, Body&& body) {
   if (n < min_split) {
     body(Eigen::Index{0}, n, 0);
     return;
   }
   const Eigen::Index mid = n / 2;
-  std::exception_ptr error;
-  std::thread second([&] {
-    try {
-      body(mid, n, 1);
-    } catch (...) {
-      error = std::current_exception();
-    }
-  });
-  body(Eigen::Index{0}, mid, 0);
-  second.join();
-  if (error) std::rethrow_exception(error);
+  const std::function<void()> second = [&] { body(mid, n, 1); };
+  worker.start(second);
+  try {
+    body(Eigen::Index{0}, mid, 0);
+  } catch (...) {
+    worker.wait();  // the second half still uses the caller's data
+    throw;
+  }
+  worker.wait();
 }
 
 // The per-sample work of fitc_evaluate runs on blocks of kBlock samples, four Lanes side by side:
@@ -465,28 +559,6 @@ struct GradientArgs {
   const double* LB_inv_diag;
   const double* L_cols;       ///< L column-major
   const double* L_inv_diag;
-};
-
-/// Per-lane sums of one half's gradient pass (four lanes per entry, added at the end).
-struct GradientSums {
-  std::vector<double> Va;              ///< M: V a
-  std::vector<double> VwV;             ///< packed lower M x M: V diag(w) V^T
-  std::vector<double> q_sum, r_sum;    ///< M: sum_n E'(n, m), sum_n K(n, m) a_n
-  std::vector<double> q_lin, r_lin;    ///< M x D (m + d M): the same times (x_nd - p_md)
-  std::vector<double> q_sq, r_sq;      ///< M x D: times (x_nd - p_md)^2
-  std::vector<double> w_sum;           ///< 1
-  void reset(int M, int D) {
-    const auto m = static_cast<std::size_t>(M) * kLanes, md = m * static_cast<std::size_t>(D);
-    Va.assign(m, 0.0);
-    VwV.assign(static_cast<std::size_t>(M) * (M + 1) / 2 * kLanes, 0.0);
-    q_sum.assign(m, 0.0);
-    r_sum.assign(m, 0.0);
-    q_lin.assign(md, 0.0);
-    r_lin.assign(md, 0.0);
-    q_sq.assign(md, 0.0);
-    r_sq.assign(md, 0.0);
-    w_sum.assign(kLanes, 0.0);
-  }
 };
 
 /// Gradient pass over blocks [b0, b1): per sample a = C^-1 y, w = diag(C^-1) - a^2 and
@@ -741,16 +813,17 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   fb.y_over_lambda.resize(padded);
 
   const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
-  std::vector<double> B_acc[2], Vy_acc[2];
+  std::vector<double>* const B_acc = ws.B_acc;
+  std::vector<double>* const Vy_acc = ws.Vy_acc;
   const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), b.data(), c, c + sigma2,
                             L_rows.data(), L_inv_diag.data()};
-  for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     B_acc[h].assign(packed, 0.0);
     Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
     ws.scratch[h].resize(per_block);
     forward_pass(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
   });
-  const bool split = !B_acc[1].empty();
+  const bool split = blocks >= kMinSplitBlocks;  // for_two_halves ran a second half
   const VectorXd lambda = Eigen::Map<const VectorXd>(fb.lambda.data(), N);
   if (!(lambda.minCoeff() > 0.0) || !lambda.allFinite()) return kInf;
   const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(fb.y_over_lambda.data(), N);
@@ -780,8 +853,8 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   const VectorXd LB_inv_diag = LB_cols.diagonal().cwiseInverse();
   const GradientArgs backward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), gamma.data(),
                               LB_rows.data(), LB_cols.data(), LB_inv_diag.data(), L_cols.data(), L_inv_diag.data()};
-  GradientSums sums[2];
-  for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+  GradientSums* const sums = ws.sums;
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     sums[h].reset(static_cast<int>(M), static_cast<int>(D));
     ws.scratch[h].resize(per_block);
     gradient_pass(backward, fb, b0, b1, sums[h], ws.scratch[h].data());
