@@ -190,7 +190,7 @@ struct FitcWorkspace {
   MatrixXd Kmm_kernel, Kmm, Knm, V, U, B, R, Z, G, E;
   Eigen::ArrayXd r2;
   FitcBlocks blocks;
-  std::vector<double> scratch[2];  ///< per half: M x kBlock doubles for the passes (U, then W)
+  std::vector<double> scratch[2];  ///< per half: kMaxGroup x M x kBlock doubles for the passes (U, then W)
   std::vector<double> B_acc[2], Vy_acc[2];  ///< per half: the forward pass's sums
   GradientSums sums[2];                     ///< per half: the gradient pass's sums
   HalfWorker worker;                        ///< declared last: its thread stops before the rest goes
@@ -473,79 +473,103 @@ struct ForwardArgs {
   const double* L_inv_diag;  ///< 1 / L(i, i)
 };
 
-/// Forward pass over blocks [b0, b1): K_NM, V = L^-1 K_MN, Lambda, y / Lambda into `fb`; adds
-/// U U^T (packed lower triangle, four lanes per entry) to B_acc and V Lambda^-1 y (four lanes per
-/// entry) to Vy_acc. U is scratch of M x kBlock doubles.
-template <class V>
-[[gnu::always_inline]] inline void forward_blocks(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index b0,
-                                                  Eigen::Index b1, double* B_acc, double* Vy_acc, double* U) {
-  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW;
+/// Blocks a pass handles side by side: kMaxGroup in the AVX-512 build (twice the independent
+/// vectors in the substitutions, which 32 vector registers hold), 1 for the 4-double builds.
+constexpr int kMaxGroup = 2;
+
+/// Forward pass over the P blocks blk0 .. blk0 + P - 1, side by side: K_NM, V = L^-1 K_MN, Lambda,
+/// y / Lambda into `fb`; adds U U^T (packed lower triangle, four lanes per entry) to B_acc and
+/// V Lambda^-1 y (four lanes per entry) to Vy_acc, block after block, so each accumulator gets the
+/// same sums in the same order whatever P. U is scratch of P M kBlock doubles. Vector t of a row
+/// (t < P kT) is vector t % kT of block t / kT.
+template <class V, int P>
+[[gnu::always_inline]] inline void forward_group(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index blk0,
+                                                 double* B_acc, double* Vy_acc, double* U) {
+  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
   const int M = a.M, D = a.D;
   const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  for (Eigen::Index blk = b0; blk < b1; ++blk) {
-    const auto ub = static_cast<std::size_t>(blk);
-    const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
-    const double* valid = fb.valid.data() + ub * kBlock;
-    double* K = fb.K.data() + ub * per_block;
-    double* Vb = fb.V.data() + ub * per_block;
-    // K(n, m) = c exp(-1/2 sum_d b_d (x_nd - p_md)^2), as ard_kernel.
-    for (int m = 0; m < M; ++m) {
-      for (int t = 0; t < kT; ++t) {
-        V r2 = vsplat<V>(0.0);
-        for (int d = 0; d < D; ++d) {
-          const V diff = vload<V>(x + d * kBlock + t * kW) - a.pseudo[d * M + m];
-          r2 += a.b[d] * (diff * diff);
-        }
-        vstore(K + m * kBlock + t * kW,
-               a.c * exp_nonpositive(vsplat<V>(-0.5) * r2) * vload<V>(valid + t * kW));
+  const double* x[P];
+  const double* valid[P];
+  double *K[P], *Vb[P], *Ub[P];
+  std::size_t at0[P];
+  for (int p = 0; p < P; ++p) {
+    const auto ub = static_cast<std::size_t>(blk0 + p);
+    x[p] = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
+    valid[p] = fb.valid.data() + ub * kBlock;
+    K[p] = fb.K.data() + ub * per_block;
+    Vb[p] = fb.V.data() + ub * per_block;
+    Ub[p] = U + static_cast<std::size_t>(p) * per_block;
+    at0[p] = ub * kBlock;
+  }
+  // Offset of vector t (of block t / kT) in row i of an M x kBlock block.
+  constexpr auto off = [](int i, int t) { return i * kBlock + (t % kT) * kW; };
+  // K(n, m) = c exp(-1/2 sum_d b_d (x_nd - p_md)^2), as ard_kernel.
+  for (int m = 0; m < M; ++m) {
+    for (int t = 0; t < kG; ++t) {
+      V r2 = vsplat<V>(0.0);
+      for (int d = 0; d < D; ++d) {
+        const V diff = vload<V>(x[t / kT] + off(d, t)) - a.pseudo[d * M + m];
+        r2 += a.b[d] * (diff * diff);
       }
-    }
-    // V = L^-1 K by forward substitution.
-    for (int i = 0; i < M; ++i) {
-      const double* row = a.L_rows + static_cast<std::size_t>(i) * M;
-      V acc[kT];
-      for (int t = 0; t < kT; ++t) acc[t] = vload<V>(K + i * kBlock + t * kW);
-      for (int j = 0; j < i; ++j) {
-        const double l = row[j];  // scalar times vector: one broadcast, also in the AVX-512 build
-        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(Vb + j * kBlock + t * kW);
-      }
-      const double inv = a.L_inv_diag[i];
-      for (int t = 0; t < kT; ++t) vstore(Vb + i * kBlock + t * kW, acc[t] * inv);
-    }
-    // Lambda = c + sigma^2 - |V_n|^2, U = V Lambda^-1/2, y / Lambda.
-    V sq[kT], y_over_lambda[kT], inv_sqrt[kT];
-    for (int t = 0; t < kT; ++t) sq[t] = vsplat<V>(0.0);
-    for (int i = 0; i < M; ++i) {
-      for (int t = 0; t < kT; ++t) {
-        const V v = vload<V>(Vb + i * kBlock + t * kW);
-        sq[t] += v * v;
-      }
-    }
-    for (int t = 0; t < kT; ++t) {
-      const V lambda = vsplat<V>(a.c_plus_sigma2) - sq[t];
-      const std::size_t at = ub * kBlock + static_cast<std::size_t>(t) * kW;
-      vstore(fb.lambda.data() + at, lambda);
-      y_over_lambda[t] = vload<V>(fb.y.data() + at) / lambda;
-      vstore(fb.y_over_lambda.data() + at, y_over_lambda[t]);
-      inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda);
-    }
-    for (int i = 0; i < M; ++i)
-      for (int t = 0; t < kT; ++t) vstore(U + i * kBlock + t * kW, vload<V>(Vb + i * kBlock + t * kW) * inv_sqrt[t]);
-    // B += U U^T (lower), Vy += V Lambda^-1 y.
-    for (int i = 0; i < M; ++i) {
-      V ui[kT];
-      for (int t = 0; t < kT; ++t) ui[t] = vload<V>(U + i * kBlock + t * kW);
-      double* row = B_acc + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
-      for (int j = 0; j <= i; ++j) {
-        V p[kT];
-        for (int t = 0; t < kT; ++t) p[t] = ui[t] * vload<V>(U + j * kBlock + t * kW);
-        accumulate(row + j * kLanes, tree4(p));
-      }
-      V vy[kT];
-      for (int t = 0; t < kT; ++t) vy[t] = vload<V>(Vb + i * kBlock + t * kW) * y_over_lambda[t];
-      accumulate(Vy_acc + i * kLanes, seq4(vy));
+      vstore(K[t / kT] + off(m, t), a.c * exp_nonpositive(vsplat<V>(-0.5) * r2) * vload<V>(valid[t / kT] + off(0, t)));
     }
   }
+  // V = L^-1 K by forward substitution.
+  for (int i = 0; i < M; ++i) {
+    const double* row = a.L_rows + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(K[t / kT] + off(i, t));
+    for (int j = 0; j < i; ++j) {
+      const double l = row[j];  // scalar times vector: one broadcast, also in the AVX-512 build
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Vb[t / kT] + off(j, t));
+    }
+    const double inv = a.L_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Vb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // Lambda = c + sigma^2 - |V_n|^2, U = V Lambda^-1/2, y / Lambda.
+  V sq[kG], y_over_lambda[kG], inv_sqrt[kG];
+  for (int t = 0; t < kG; ++t) sq[t] = vsplat<V>(0.0);
+  for (int i = 0; i < M; ++i) {
+    for (int t = 0; t < kG; ++t) {
+      const V v = vload<V>(Vb[t / kT] + off(i, t));
+      sq[t] += v * v;
+    }
+  }
+  for (int t = 0; t < kG; ++t) {
+    const V lambda = vsplat<V>(a.c_plus_sigma2) - sq[t];
+    const std::size_t at = at0[t / kT] + static_cast<std::size_t>(t % kT) * kW;
+    vstore(fb.lambda.data() + at, lambda);
+    y_over_lambda[t] = vload<V>(fb.y.data() + at) / lambda;
+    vstore(fb.y_over_lambda.data() + at, y_over_lambda[t]);
+    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda);
+  }
+  for (int i = 0; i < M; ++i)
+    for (int t = 0; t < kG; ++t) vstore(Ub[t / kT] + off(i, t), vload<V>(Vb[t / kT] + off(i, t)) * inv_sqrt[t]);
+  // B += U U^T (lower), Vy += V Lambda^-1 y, block after block.
+  for (int i = 0; i < M; ++i) {
+    V ui[kG];
+    for (int t = 0; t < kG; ++t) ui[t] = vload<V>(Ub[t / kT] + off(i, t));
+    double* row = B_acc + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+    for (int j = 0; j <= i; ++j) {
+      V prod[kG];
+      for (int t = 0; t < kG; ++t) prod[t] = ui[t] * vload<V>(Ub[t / kT] + off(j, t));
+      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
+    }
+    V vy[kG];
+    for (int t = 0; t < kG; ++t) vy[t] = vload<V>(Vb[t / kT] + off(i, t)) * y_over_lambda[t];
+    for (int p = 0; p < P; ++p) accumulate(Vy_acc + i * kLanes, seq4(vy + p * kT));
+  }
+}
+
+/// Forward pass over blocks [b0, b1), P blocks at a time (forward_group).
+template <class V, int P>
+[[gnu::always_inline]] inline void forward_blocks(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index b0,
+                                                  Eigen::Index b1, double* B_acc, double* Vy_acc, double* U) {
+  static_assert(P >= 1 && P <= kMaxGroup);
+  Eigen::Index blk = b0;
+  for (; blk + P <= b1; blk += P) forward_group<V, P>(a, fb, blk, B_acc, Vy_acc, U);
+  if constexpr (P > 1)
+    for (; blk < b1; ++blk) forward_group<V, 1>(a, fb, blk, B_acc, Vy_acc, U);
 }
 static_assert(kBlockVecs == 4, "fitc_forward_blocks and fitc_gradient_blocks write the four Lanes of a block out");
 
@@ -561,128 +585,149 @@ struct GradientArgs {
   const double* L_inv_diag;
 };
 
-/// Gradient pass over blocks [b0, b1): per sample a = C^-1 y, w = diag(C^-1) - a^2 and
-/// G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without its -a_n L^-T V a term,
-/// which needs all samples: the caller subtracts it from the sums), E' = K_NM .* G'^T; the sums
-/// into `sums`. W is scratch of M x kBlock doubles.
-template <class V>
-[[gnu::always_inline]] inline void gradient_blocks(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0,
-                                                   Eigen::Index b1, GradientSums& sums, double* W) {
-  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW;
+/// Gradient pass over the P blocks blk0 .. blk0 + P - 1, side by side: per sample a = C^-1 y,
+/// w = diag(C^-1) - a^2 and G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without
+/// its -a_n L^-T V a term, which needs all samples: the caller subtracts it from the sums),
+/// E' = K_NM .* G'^T; the sums into `sums`, block after block as forward_group. W is scratch of
+/// P M kBlock doubles.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_group(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index blk0,
+                                                  GradientSums& sums, double* W) {
+  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
   const int M = a.M, D = a.D;
   const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  // W: t = L_B^-1 u, then r = B^-1 u, then G'
-  for (Eigen::Index blk = b0; blk < b1; ++blk) {
-    const auto ub = static_cast<std::size_t>(blk);
-    const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
-    const double* K = fb.K.data() + ub * per_block;
-    const double* Vb = fb.V.data() + ub * per_block;
-    V lambda[kT], inv_sqrt[kT], av[kT], w[kT], dot[kT];
-    // a = (y - V^T gamma) / Lambda.
-    for (int t = 0; t < kT; ++t) {
-      lambda[t] = vload<V>(fb.lambda.data() + ub * kBlock + static_cast<std::size_t>(t) * kW);
-      inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
-      dot[t] = vsplat<V>(0.0);
+  const double *x[P], *K[P], *Vb[P];
+  double* Wb[P];  // t = L_B^-1 u, then r = B^-1 u, then G'
+  std::size_t at0[P];
+  for (int p = 0; p < P; ++p) {
+    const auto ub = static_cast<std::size_t>(blk0 + p);
+    x[p] = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
+    K[p] = fb.K.data() + ub * per_block;
+    Vb[p] = fb.V.data() + ub * per_block;
+    Wb[p] = W + static_cast<std::size_t>(p) * per_block;
+    at0[p] = ub * kBlock;
+  }
+  constexpr auto off = [](int i, int t) { return i * kBlock + (t % kT) * kW; };
+  const auto at = [&](int t) { return at0[t / kT] + static_cast<std::size_t>(t % kT) * kW; };
+  V lambda[kG], inv_sqrt[kG], av[kG], w[kG], dot[kG];
+  // a = (y - V^T gamma) / Lambda.
+  for (int t = 0; t < kG; ++t) {
+    lambda[t] = vload<V>(fb.lambda.data() + at(t));
+    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
+    dot[t] = vsplat<V>(0.0);
+  }
+  for (int i = 0; i < M; ++i) {
+    const double g = a.gamma[i];
+    for (int t = 0; t < kG; ++t) dot[t] += vload<V>(Vb[t / kT] + off(i, t)) * g;
+  }
+  for (int t = 0; t < kG; ++t) av[t] = (vload<V>(fb.y.data() + at(t)) - dot[t]) / lambda[t];
+  // V a; t = L_B^-1 u by forward substitution.
+  for (int i = 0; i < M; ++i) {
+    V va[kG];
+    for (int t = 0; t < kG; ++t) va[t] = av[t] * vload<V>(Vb[t / kT] + off(i, t));
+    for (int p = 0; p < P; ++p) accumulate(sums.Va.data() + i * kLanes, seq4(va + p * kT));
+    const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Vb[t / kT] + off(i, t)) * inv_sqrt[t];
+    for (int j = 0; j < i; ++j) {
+      const double l = row[j];
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
     }
-    for (int i = 0; i < M; ++i) {
-      const double g = a.gamma[i];
-      for (int t = 0; t < kT; ++t) dot[t] += vload<V>(Vb + i * kBlock + t * kW) * g;
+    const double inv = a.LB_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
+  V tt[kG];
+  for (int t = 0; t < kG; ++t) tt[t] = vsplat<V>(0.0);
+  for (int i = 0; i < M; ++i) {
+    for (int t = 0; t < kG; ++t) {
+      const V v = vload<V>(Wb[t / kT] + off(i, t));
+      tt[t] += v * v;
     }
-    for (int t = 0; t < kT; ++t)
-      av[t] = (vload<V>(fb.y.data() + ub * kBlock + static_cast<std::size_t>(t) * kW) - dot[t]) / lambda[t];
-    // V a; t = L_B^-1 u by forward substitution.
-    for (int i = 0; i < M; ++i) {
-      V va[kT];
-      for (int t = 0; t < kT; ++t) va[t] = av[t] * vload<V>(Vb + i * kBlock + t * kW);
-      accumulate(sums.Va.data() + i * kLanes, seq4(va));
-      const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
-      V acc[kT];
-      for (int t = 0; t < kT; ++t) acc[t] = vload<V>(Vb + i * kBlock + t * kW) * inv_sqrt[t];
-      for (int j = 0; j < i; ++j) {
-        const double l = row[j];
-        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(W + j * kBlock + t * kW);
+  }
+  for (int t = 0; t < kG; ++t) {
+    const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
+    w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + at(t));
+  }
+  for (int p = 0; p < P; ++p) accumulate(sums.w_sum.data(), seq4(w + p * kT));
+  // r = L_B^-T t (back substitution, in place).
+  for (int i = M - 1; i >= 0; --i) {
+    const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Wb[t / kT] + off(i, t));
+    for (int j = i + 1; j < M; ++j) {
+      const double l = col[j];
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
+    }
+    const double inv = a.LB_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
+  for (int i = M - 1; i >= 0; --i) {
+    const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t)
+      acc[t] = inv_sqrt[t] * vload<V>(Wb[t / kT] + off(i, t)) - w[t] * vload<V>(Vb[t / kT] + off(i, t));
+    for (int j = i + 1; j < M; ++j) {
+      const double l = col[j];
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
+    }
+    const double inv = a.L_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // V diag(w) V^T (lower), block after block.
+  for (int i = 0; i < M; ++i) {
+    V wv[kG];
+    for (int t = 0; t < kG; ++t) wv[t] = w[t] * vload<V>(Vb[t / kT] + off(i, t));
+    double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+    for (int j = 0; j <= i; ++j) {
+      V prod[kG];
+      for (int t = 0; t < kG; ++t) prod[t] = wv[t] * vload<V>(Vb[t / kT] + off(j, t));
+      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
+    }
+  }
+  // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
+  for (int m = 0; m < M; ++m) {
+    V q[kG], r[kG];
+    for (int t = 0; t < kG; ++t) {
+      const V k = vload<V>(K[t / kT] + off(m, t));
+      q[t] = k * vload<V>(Wb[t / kT] + off(m, t));
+      r[t] = k * av[t];
+    }
+    for (int p = 0; p < P; ++p) {
+      accumulate(sums.q_sum.data() + m * kLanes, seq4(q + p * kT));
+      accumulate(sums.r_sum.data() + m * kLanes, seq4(r + p * kT));
+    }
+    for (int d = 0; d < D; ++d) {
+      const double pd = a.pseudo[d * M + m];
+      V tq[kG], tr[kG], tq2[kG], tr2[kG];
+      for (int t = 0; t < kG; ++t) {
+        const V diff = vload<V>(x[t / kT] + off(d, t)) - pd;
+        tq[t] = q[t] * diff;
+        tr[t] = r[t] * diff;
+        tq2[t] = tq[t] * diff;
+        tr2[t] = tr[t] * diff;
       }
-      const double inv = a.LB_inv_diag[i];
-      for (int t = 0; t < kT; ++t) vstore(W + i * kBlock + t * kW, acc[t] * inv);
-    }
-    // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
-    V tt[kT];
-    for (int t = 0; t < kT; ++t) tt[t] = vsplat<V>(0.0);
-    for (int i = 0; i < M; ++i) {
-      for (int t = 0; t < kT; ++t) {
-        const V v = vload<V>(W + i * kBlock + t * kW);
-        tt[t] += v * v;
-      }
-    }
-    for (int t = 0; t < kT; ++t) {
-      const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
-      w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + ub * kBlock + static_cast<std::size_t>(t) * kW);
-    }
-    accumulate(sums.w_sum.data(), seq4(w));
-    // r = L_B^-T t (back substitution, in place).
-    for (int i = M - 1; i >= 0; --i) {
-      const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
-      V acc[kT];
-      for (int t = 0; t < kT; ++t) acc[t] = vload<V>(W + i * kBlock + t * kW);
-      for (int j = i + 1; j < M; ++j) {
-        const double l = col[j];
-        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(W + j * kBlock + t * kW);
-      }
-      const double inv = a.LB_inv_diag[i];
-      for (int t = 0; t < kT; ++t) vstore(W + i * kBlock + t * kW, acc[t] * inv);
-    }
-    // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
-    for (int i = M - 1; i >= 0; --i) {
-      const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
-      V acc[kT];
-      for (int t = 0; t < kT; ++t)
-        acc[t] = inv_sqrt[t] * vload<V>(W + i * kBlock + t * kW) - w[t] * vload<V>(Vb + i * kBlock + t * kW);
-      for (int j = i + 1; j < M; ++j) {
-        const double l = col[j];
-        for (int t = 0; t < kT; ++t) acc[t] -= l * vload<V>(W + j * kBlock + t * kW);
-      }
-      const double inv = a.L_inv_diag[i];
-      for (int t = 0; t < kT; ++t) vstore(W + i * kBlock + t * kW, acc[t] * inv);
-    }
-    // V diag(w) V^T (lower).
-    for (int i = 0; i < M; ++i) {
-      V wv[kT];
-      for (int t = 0; t < kT; ++t) wv[t] = w[t] * vload<V>(Vb + i * kBlock + t * kW);
-      double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
-      for (int j = 0; j <= i; ++j) {
-        V p[kT];
-        for (int t = 0; t < kT; ++t) p[t] = wv[t] * vload<V>(Vb + j * kBlock + t * kW);
-        accumulate(row + j * kLanes, tree4(p));
-      }
-    }
-    // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
-    for (int m = 0; m < M; ++m) {
-      V q[kT], r[kT];
-      for (int t = 0; t < kT; ++t) {
-        const V k = vload<V>(K + m * kBlock + t * kW);
-        q[t] = k * vload<V>(W + m * kBlock + t * kW);
-        r[t] = k * av[t];
-      }
-      accumulate(sums.q_sum.data() + m * kLanes, seq4(q));
-      accumulate(sums.r_sum.data() + m * kLanes, seq4(r));
-      for (int d = 0; d < D; ++d) {
-        const double p = a.pseudo[d * M + m];
-        V tq[kT], tr[kT], tq2[kT], tr2[kT];
-        for (int t = 0; t < kT; ++t) {
-          const V diff = vload<V>(x + d * kBlock + t * kW) - p;
-          tq[t] = q[t] * diff;
-          tr[t] = r[t] * diff;
-          tq2[t] = tq[t] * diff;
-          tr2[t] = tr[t] * diff;
-        }
-        const std::size_t at = (static_cast<std::size_t>(d) * M + m) * kLanes;
-        accumulate(sums.q_lin.data() + at, seq4(tq));
-        accumulate(sums.r_lin.data() + at, seq4(tr));
-        accumulate(sums.q_sq.data() + at, seq4(tq2));
-        accumulate(sums.r_sq.data() + at, seq4(tr2));
+      const std::size_t e = (static_cast<std::size_t>(d) * M + m) * kLanes;
+      for (int p = 0; p < P; ++p) {
+        accumulate(sums.q_lin.data() + e, seq4(tq + p * kT));
+        accumulate(sums.r_lin.data() + e, seq4(tr + p * kT));
+        accumulate(sums.q_sq.data() + e, seq4(tq2 + p * kT));
+        accumulate(sums.r_sq.data() + e, seq4(tr2 + p * kT));
       }
     }
   }
+}
+
+/// Gradient pass over blocks [b0, b1), P blocks at a time (gradient_group).
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_blocks(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0,
+                                                   Eigen::Index b1, GradientSums& sums, double* W) {
+  static_assert(P >= 1 && P <= kMaxGroup);
+  Eigen::Index blk = b0;
+  for (; blk + P <= b1; blk += P) gradient_group<V, P>(a, fb, blk, sums, W);
+  if constexpr (P > 1)
+    for (; blk < b1; ++blk) gradient_group<V, 1>(a, fb, blk, sums, W);
 }
 
 /// The two passes for AVX2 and generic x86-64 (4-double vectors), picked at load time; no FMA in
@@ -690,12 +735,12 @@ template <class V>
 [[gnu::target_clones("avx2", "default")]] void fitc_forward_blocks(const ForwardArgs& a, FitcBlocks& fb,
                                                                    Eigen::Index b0, Eigen::Index b1,
                                                                    double* B_acc, double* Vy_acc, double* U) {
-  forward_blocks<Lanes>(a, fb, b0, b1, B_acc, Vy_acc, U);
+  forward_blocks<Lanes, 1>(a, fb, b0, b1, B_acc, Vy_acc, U);
 }
 [[gnu::target_clones("avx2", "default")]] void fitc_gradient_blocks(const GradientArgs& a, const FitcBlocks& fb,
                                                                     Eigen::Index b0, Eigen::Index b1,
                                                                     GradientSums& sums, double* W) {
-  gradient_blocks<Lanes>(a, fb, b0, b1, sums, W);
+  gradient_blocks<Lanes, 1>(a, fb, b0, b1, sums, W);
 }
 
 // The same passes on 8-double vectors (AVX-512; GCC only: clang, which builds only the fuzzers,
@@ -707,13 +752,13 @@ using Lanes8 = double __attribute__((vector_size(8 * 2 * kLanes)));
 [[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void fitc_forward_blocks_avx512(const ForwardArgs& a, FitcBlocks& fb,
                                                                              Eigen::Index b0, Eigen::Index b1,
                                                                              double* B_acc, double* Vy_acc, double* U) {
-  forward_blocks<Lanes8>(a, fb, b0, b1, B_acc, Vy_acc, U);
+  forward_blocks<Lanes8, kMaxGroup>(a, fb, b0, b1, B_acc, Vy_acc, U);
 }
 [[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void fitc_gradient_blocks_avx512(const GradientArgs& a,
                                                                               const FitcBlocks& fb, Eigen::Index b0,
                                                                               Eigen::Index b1, GradientSums& sums,
                                                                               double* W) {
-  gradient_blocks<Lanes8>(a, fb, b0, b1, sums, W);
+  gradient_blocks<Lanes8, kMaxGroup>(a, fb, b0, b1, sums, W);
 }
 #else
 #define PEHA_SPGP_AVX512 0
@@ -820,7 +865,7 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     B_acc[h].assign(packed, 0.0);
     Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
-    ws.scratch[h].resize(per_block);
+    ws.scratch[h].resize(kMaxGroup * per_block);
     forward_pass(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
   });
   const bool split = blocks >= kMinSplitBlocks;  // for_two_halves ran a second half
@@ -856,7 +901,7 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   GradientSums* const sums = ws.sums;
   for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     sums[h].reset(static_cast<int>(M), static_cast<int>(D));
-    ws.scratch[h].resize(per_block);
+    ws.scratch[h].resize(kMaxGroup * per_block);
     gradient_pass(backward, fb, b0, b1, sums[h], ws.scratch[h].data());
   });
   // One total of four lanes (and of the two halves).
