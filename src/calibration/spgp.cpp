@@ -8,9 +8,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <condition_variable>
 #include <cstring>
 #include <exception>
+#include <functional>
 #include <limits>
+#include <mutex>
 #include <numbers>
 #include <random>
 #include <stdexcept>
@@ -90,12 +93,107 @@ struct FitcBlocks {
   std::vector<double> y_over_lambda;  ///< [block * kBlock + q]
 };
 
+/// Doubles per per-lane accumulator entry of the blocked passes (Lanes below).
+constexpr int kLanes = 4;
+
+/// Per-lane sums of one half's gradient pass (four lanes per entry, added at the end).
+struct GradientSums {
+  std::vector<double> Va;              ///< M: V a
+  std::vector<double> VwV;             ///< packed lower M x M: V diag(w) V^T
+  std::vector<double> q_sum, r_sum;    ///< M: sum_n E'(n, m), sum_n K(n, m) a_n
+  std::vector<double> q_lin, r_lin;    ///< M x D (m + d M): the same times (x_nd - p_md)
+  std::vector<double> q_sq, r_sq;      ///< M x D: times (x_nd - p_md)^2
+  std::vector<double> w_sum;           ///< 1
+  void reset(int M, int D) {
+    const auto m = static_cast<std::size_t>(M) * kLanes, md = m * static_cast<std::size_t>(D);
+    Va.assign(m, 0.0);
+    VwV.assign(static_cast<std::size_t>(M) * (M + 1) / 2 * kLanes, 0.0);
+    q_sum.assign(m, 0.0);
+    r_sum.assign(m, 0.0);
+    q_lin.assign(md, 0.0);
+    r_lin.assign(md, 0.0);
+    q_sq.assign(md, 0.0);
+    r_sq.assign(md, 0.0);
+    w_sum.assign(kLanes, 0.0);
+  }
+};
+
+/// A second thread for the halves of the blocked passes (for_two_halves), started on first use and
+/// kept until the workspace goes: the optimiser's workspace lives for the whole fit, so one thread
+/// serves all its evaluations instead of one new thread per pass (two per evaluation).
+class HalfWorker {
+ public:
+  HalfWorker() = default;
+  HalfWorker(const HalfWorker&) = delete;
+  HalfWorker& operator=(const HalfWorker&) = delete;
+  ~HalfWorker() {
+    if (!thread_.joinable()) return;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+
+  /// Runs job() on the worker thread (starting it if need be); wait() returns when it is done.
+  void start(const std::function<void()>& job) {
+    if (!thread_.joinable()) thread_ = std::thread([this] { loop(); });
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      job_ = &job;
+      done_ = false;
+      error_ = nullptr;
+    }
+    wake_.notify_one();
+  }
+  /// Waits for the job start() handed over; rethrows what it threw.
+  void wait() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    finished_.wait(lock, [this] { return done_; });
+    if (error_) std::rethrow_exception(std::exchange(error_, nullptr));
+  }
+
+ private:
+  void loop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    for (;;) {
+      wake_.wait(lock, [this] { return stop_ || job_ != nullptr; });
+      if (stop_) return;
+      const std::function<void()>* job = std::exchange(job_, nullptr);
+      lock.unlock();
+      std::exception_ptr error;
+      try {
+        (*job)();
+      } catch (...) {
+        error = std::current_exception();
+      }
+      lock.lock();
+      error_ = error;
+      done_ = true;
+      finished_.notify_one();
+    }
+  }
+
+  std::mutex mutex_;
+  std::condition_variable wake_, finished_;
+  const std::function<void()>* job_ = nullptr;
+  bool done_ = false, stop_ = false;
+  std::exception_ptr error_;
+  std::thread thread_;
+};
+
 /// Scratch of one FITC evaluation. The optimiser keeps one alive across evaluations so the N x M
-/// matrices (6 MB each at N = 15000, M = 50) are not reallocated and page-faulted every time.
+/// matrices (6 MB each at N = 15000, M = 50) are not reallocated and page-faulted every time, nor
+/// the per-half accumulators, and one second thread serves all evaluations.
 struct FitcWorkspace {
   MatrixXd Kmm_kernel, Kmm, Knm, V, U, B, R, Z, G, E;
   Eigen::ArrayXd r2;
   FitcBlocks blocks;
+  std::vector<double> scratch[2];  ///< per half: kMaxGroup x M x kBlock doubles for the passes (U, then W)
+  std::vector<double> B_acc[2], Vy_acc[2];  ///< per half: the forward pass's sums
+  GradientSums sums[2];                     ///< per half: the gradient pass's sums
+  HalfWorker worker;                        ///< declared last: its thread stops before the rest goes
 };
 
 /// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
@@ -222,74 +320,90 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
   return nlml;
 }
 
-// The 32-byte vectors below (Lanes) travel only between always-inlined helpers of this file, never
-// across an ABI boundary, so GCC's note that they pass differently with and without AVX does not apply.
+// The 32- and 64-byte vectors below (Lanes, Lanes8) travel only between always-inlined helpers of this
+// file, never across an ABI boundary, so GCC's note that they pass differently with and without AVX
+// (AVX-512) does not apply.
 #pragma GCC diagnostic ignored "-Wpsabi"
 
 /// Four doubles (GCC/Clang vector extensions): one AVX register, or two SSE2 registers.
-constexpr int kLanes = 4;
 using Lanes = double __attribute__((vector_size(8 * kLanes)));
 using LaneBits = long long __attribute__((vector_size(8 * kLanes)));  // NOLINT(google-runtime-int)
 
-[[gnu::always_inline]] inline Lanes load_lanes(const double* p) {
-  Lanes v;
+/// A vector of doubles of type V (Lanes, or Lanes8 in the AVX-512 passes) from memory, to memory, broadcast.
+template <class V>
+[[gnu::always_inline]] inline V vload(const double* p) {
+  V v;
   std::memcpy(&v, p, sizeof v);
   return v;
 }
-[[gnu::always_inline]] inline Lanes splat(double x) { return Lanes{x, x, x, x}; }
+template <class V>
+[[gnu::always_inline]] inline void vstore(double* p, const V& v) { std::memcpy(p, &v, sizeof v); }
+template <class V>
+[[gnu::always_inline]] inline V vsplat(double x) {
+  if constexpr (sizeof(V) == 4 * sizeof(double)) {
+    return V{x, x, x, x};
+  } else {
+    // Not V{x, x, ...}: GCC 12 builds that lane by lane with masked broadcasts; this is one vbroadcastsd.
+    static_assert(sizeof(V) == 8 * sizeof(double));
+    V v = {};
+    v[0] = x;
+    return __builtin_shufflevector(v, v, 0, 0, 0, 0, 0, 0, 0, 0);
+  }
+}
+[[gnu::always_inline]] inline Lanes load_lanes(const double* p) { return vload<Lanes>(p); }
+[[gnu::always_inline]] inline Lanes splat(double x) { return vsplat<Lanes>(x); }
 
 /// exp(x) for x <= 0, per lane (x < -708 gives 0; exp(-708) = 3e-308 is no weight anyway).
 /// Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, a polynomial for exp(r) (below) and 2^n from
 /// the exponent bits (tests: the predictor against std::exp-based formulas to 1e-13). Same operations in every clone
-/// (no FMA), so the same bits on every x86-64.
-[[gnu::always_inline]] inline Lanes exp_nonpositive(Lanes x) {
-  const Lanes clamped = x < splat(-708.0) ? splat(-708.0) : x;
-  const Lanes shifter = splat(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
-  const Lanes t = clamped * splat(1.4426950408889634) + shifter;
-  const Lanes n = t - shifter;
-  const Lanes r = (clamped - n * splat(6.93147180369123816490e-01)) - n * splat(1.90821492927058770002e-10);
+/// and vector width (no FMA; spgp.cpp is compiled with -ffp-contract=off), so the same bits on every x86-64.
+template <class V>
+[[gnu::always_inline]] inline V exp_nonpositive(const V& x) {
+  using Bits = decltype(x < x);  // 64-bit integer lanes
+  const V clamped = x < vsplat<V>(-708.0) ? vsplat<V>(-708.0) : x;
+  const V shifter = vsplat<V>(0x1.8p52);  // adding it rounds to an integer in the low mantissa bits
+  const V t = clamped * vsplat<V>(1.4426950408889634) + shifter;
+  const V n = t - shifter;
+  const V r = (clamped - n * vsplat<V>(6.93147180369123816490e-01)) - n * vsplat<V>(1.90821492927058770002e-10);
   // exp(r) on [-ln2/2, ln2/2] by a degree-10 Chebyshev fit (mpmath.chebyfit at 40 digits, rounded
   // to double: 4.4e-16 relative at worst in double arithmetic, i.e. 2 ulp), evaluated by Estrin's
   // scheme: 4 dependent multiply-add levels instead of Horner's 10 (the pass is latency-bound).
-  const Lanes r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
-  const Lanes q0 = splat(1.0) + splat(1.0000000000000067) * r;
-  const Lanes q1 = splat(0.5000000000000006) + splat(0.16666666666554406) * r;
-  const Lanes q2 = splat(0.04166666666657314) + splat(0.008333333385667782) * r;
-  const Lanes q3 = splat(0.0013888888932488599) + splat(0.00019841170270440067) * r;
-  const Lanes q4 = splat(2.4801504346997686e-05) + splat(2.764018079620985e-06) * r;
-  const Lanes q5 = splat(2.7626357241447223e-07);
-  const Lanes p = (q0 + q1 * r2 + (q2 + q3 * r2) * r4) + (q4 + q5 * r2) * r8;
-  LaneBits t_bits, s_bits;
+  const V r2 = r * r, r4 = r2 * r2, r8 = r4 * r4;
+  const V q0 = vsplat<V>(1.0) + vsplat<V>(1.0000000000000067) * r;
+  const V q1 = vsplat<V>(0.5000000000000006) + vsplat<V>(0.16666666666554406) * r;
+  const V q2 = vsplat<V>(0.04166666666657314) + vsplat<V>(0.008333333385667782) * r;
+  const V q3 = vsplat<V>(0.0013888888932488599) + vsplat<V>(0.00019841170270440067) * r;
+  const V q4 = vsplat<V>(2.4801504346997686e-05) + vsplat<V>(2.764018079620985e-06) * r;
+  const V q5 = vsplat<V>(2.7626357241447223e-07);
+  const V p = (q0 + q1 * r2 + (q2 + q3 * r2) * r4) + (q4 + q5 * r2) * r8;
+  Bits t_bits, shifter_bits;
   std::memcpy(&t_bits, &t, sizeof t);
-  LaneBits shifter_bits;
   std::memcpy(&shifter_bits, &shifter, sizeof shifter);
-  s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
-  Lanes scale;
+  const Bits s_bits = (t_bits - shifter_bits + 1023) << 52;  // n in [-1022, 0]: a normal 2^n
+  V scale;
   std::memcpy(&scale, &s_bits, sizeof scale);
-  const Lanes result = p * scale;
-  return x < splat(-708.0) ? splat(0.0) : result;
+  const V result = p * scale;
+  return x < vsplat<V>(-708.0) ? vsplat<V>(0.0) : result;
 }
 
-/// Runs body(begin, end, half) over [0, n) in two halves, the second half on a second thread (the
+/// Runs body(begin, end, half) over [0, n) in two halves, the second half on `worker`'s thread (the
 /// calibration machine has two cores and nothing else to do during a fit). n < min_split runs inline.
 template <typename Body>
-void for_two_halves(Eigen::Index n, Eigen::Index min_split, Body&& body) {
+void for_two_halves(Eigen::Index n, Eigen::Index min_split, HalfWorker& worker, Body&& body) {
   if (n < min_split) {
     body(Eigen::Index{0}, n, 0);
     return;
   }
   const Eigen::Index mid = n / 2;
-  std::exception_ptr error;
-  std::thread second([&] {
-    try {
-      body(mid, n, 1);
-    } catch (...) {
-      error = std::current_exception();
-    }
-  });
-  body(Eigen::Index{0}, mid, 0);
-  second.join();
-  if (error) std::rethrow_exception(error);
+  const std::function<void()> second = [&] { body(mid, n, 1); };
+  worker.start(second);
+  try {
+    body(Eigen::Index{0}, mid, 0);
+  } catch (...) {
+    worker.wait();  // the second half still uses the caller's data
+    throw;
+  }
+  worker.wait();
 }
 
 // The per-sample work of fitc_evaluate runs on blocks of kBlock samples, four Lanes side by side:
@@ -297,16 +411,57 @@ void for_two_halves(Eigen::Index n, Eigen::Index min_split, Body&& body) {
 // the M x M factors enter as broadcast scalars and every operation is lane-wise over samples (sums
 // over samples stay in per-lane accumulators until the end). The substitutions with the two Cholesky
 // factors and the symmetric rank updates are the O(N M^2) part: 4 x 4 independent lanes per step.
+//
+// The passes are written for a vector type V of kW = 4 (Lanes: AVX2 / SSE2) or 8 doubles (Lanes8:
+// AVX-512), kBlock / kW vectors per row of a block. Lane-wise work does not depend on kW. Every sum
+// that combines the four 4-lane groups of a block (s = 0..3: samples 4 s .. 4 s + 3) goes through
+// tree4 or seq4 below, which take the groups in the same order for both widths: both give the same
+// bits, and with them the same bits as each other's clones.
 constexpr int kBlockVecs = 4;
 constexpr int kBlock = kLanes * kBlockVecs;
 constexpr Eigen::Index kMinSplitBlocks = 2000 / kBlock;  // below this a thread costs more than it saves
 
-[[gnu::always_inline]] inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
-[[gnu::always_inline]] inline Lanes lane_sqrt(Lanes v) { return Lanes{std::sqrt(v[0]), std::sqrt(v[1]), std::sqrt(v[2]), std::sqrt(v[3])}; }
+[[gnu::always_inline]] inline void store_lanes(double* p, const Lanes& v) { vstore(p, v); }
+template <class V>
+[[gnu::always_inline]] inline V lane_sqrt(const V& v) {
+  V r;
+  for (int i = 0; i < static_cast<int>(sizeof(V) / sizeof(double)); ++i) r[i] = std::sqrt(v[i]);
+  return r;
+}
 /// acc[0..3] += v (an accumulator of four lanes in memory).
-[[gnu::always_inline]] inline void accumulate(double* acc, Lanes v) { store_lanes(acc, load_lanes(acc) + v); }
+[[gnu::always_inline]] inline void accumulate(double* acc, const Lanes& v) { store_lanes(acc, load_lanes(acc) + v); }
 /// (v[0] + v[1]) + (v[2] + v[3]) of four lanes in memory.
 inline double lane_sum(const double* v) { return (v[0] + v[1]) + (v[2] + v[3]); }
+
+/// The four 4-lane groups s = 0..3 of one block row held as kBlock / kW vectors of type V.
+template <class V>
+[[gnu::always_inline]] inline void lane_groups(const V* p, Lanes q[kBlockVecs]) {
+  if constexpr (sizeof(V) == sizeof(Lanes)) {
+    for (int s = 0; s < kBlockVecs; ++s) q[s] = p[s];
+  } else {
+    static_assert(sizeof(V) == 2 * sizeof(Lanes) && kBlockVecs == 4);
+    q[0] = __builtin_shufflevector(p[0], p[0], 0, 1, 2, 3);
+    q[1] = __builtin_shufflevector(p[0], p[0], 4, 5, 6, 7);
+    q[2] = __builtin_shufflevector(p[1], p[1], 0, 1, 2, 3);
+    q[3] = __builtin_shufflevector(p[1], p[1], 4, 5, 6, 7);
+  }
+}
+/// (q0 + q1) + (q2 + q3) of a block row's four groups.
+template <class V>
+[[gnu::always_inline]] inline Lanes tree4(const V* p) {
+  Lanes q[kBlockVecs];
+  lane_groups(p, q);
+  return (q[0] + q[1]) + (q[2] + q[3]);
+}
+/// (((0 + q0) + q1) + q2) + q3 of a block row's four groups.
+template <class V>
+[[gnu::always_inline]] inline Lanes seq4(const V* p) {
+  Lanes q[kBlockVecs];
+  lane_groups(p, q);
+  Lanes sum = splat(0.0);
+  for (int s = 0; s < kBlockVecs; ++s) sum += q[s];
+  return sum;
+}
 
 /// What the forward pass reads besides the blocks.
 struct ForwardArgs {
@@ -318,78 +473,103 @@ struct ForwardArgs {
   const double* L_inv_diag;  ///< 1 / L(i, i)
 };
 
-/// Forward pass over blocks [b0, b1): K_NM, V = L^-1 K_MN, Lambda, y / Lambda into `fb`; adds
-/// U U^T (packed lower triangle, four lanes per entry) to B_acc and V Lambda^-1 y (four lanes per
-/// entry) to Vy_acc. AVX2 and generic builds, picked at load time; no FMA in either, so the same bits.
-[[gnu::target_clones("avx2", "default")]] void fitc_forward_blocks(const ForwardArgs& a, FitcBlocks& fb,
-                                                                   Eigen::Index b0, Eigen::Index b1,
-                                                                   double* B_acc, double* Vy_acc) {
+/// Blocks a pass handles side by side: kMaxGroup in the AVX-512 build (twice the independent
+/// vectors in the substitutions, which 32 vector registers hold), 1 for the 4-double builds.
+constexpr int kMaxGroup = 2;
+
+/// Forward pass over the P blocks blk0 .. blk0 + P - 1, side by side: K_NM, V = L^-1 K_MN, Lambda,
+/// y / Lambda into `fb`; adds U U^T (packed lower triangle, four lanes per entry) to B_acc and
+/// V Lambda^-1 y (four lanes per entry) to Vy_acc, block after block, so each accumulator gets the
+/// same sums in the same order whatever P. U is scratch of P M kBlock doubles. Vector t of a row
+/// (t < P kT) is vector t % kT of block t / kT.
+template <class V, int P>
+[[gnu::always_inline]] inline void forward_group(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index blk0,
+                                                 double* B_acc, double* Vy_acc, double* U) {
+  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
   const int M = a.M, D = a.D;
   const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  std::vector<double> U(per_block);
-  for (Eigen::Index blk = b0; blk < b1; ++blk) {
-    const auto ub = static_cast<std::size_t>(blk);
-    const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
-    const double* valid = fb.valid.data() + ub * kBlock;
-    double* K = fb.K.data() + ub * per_block;
-    double* V = fb.V.data() + ub * per_block;
-    // K(n, m) = c exp(-1/2 sum_d b_d (x_nd - p_md)^2), as ard_kernel.
-    for (int m = 0; m < M; ++m) {
-      for (int s = 0; s < kBlockVecs; ++s) {
-        Lanes r2 = splat(0.0);
-        for (int d = 0; d < D; ++d) {
-          const Lanes diff = load_lanes(x + d * kBlock + s * kLanes) - splat(a.pseudo[d * M + m]);
-          r2 += splat(a.b[d]) * (diff * diff);
-        }
-        store_lanes(K + m * kBlock + s * kLanes,
-                    splat(a.c) * exp_nonpositive(splat(-0.5) * r2) * load_lanes(valid + s * kLanes));
+  const double* x[P];
+  const double* valid[P];
+  double *K[P], *Vb[P], *Ub[P];
+  std::size_t at0[P];
+  for (int p = 0; p < P; ++p) {
+    const auto ub = static_cast<std::size_t>(blk0 + p);
+    x[p] = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
+    valid[p] = fb.valid.data() + ub * kBlock;
+    K[p] = fb.K.data() + ub * per_block;
+    Vb[p] = fb.V.data() + ub * per_block;
+    Ub[p] = U + static_cast<std::size_t>(p) * per_block;
+    at0[p] = ub * kBlock;
+  }
+  // Offset of vector t (of block t / kT) in row i of an M x kBlock block.
+  constexpr auto off = [](int i, int t) { return i * kBlock + (t % kT) * kW; };
+  // K(n, m) = c exp(-1/2 sum_d b_d (x_nd - p_md)^2), as ard_kernel.
+  for (int m = 0; m < M; ++m) {
+    for (int t = 0; t < kG; ++t) {
+      V r2 = vsplat<V>(0.0);
+      for (int d = 0; d < D; ++d) {
+        const V diff = vload<V>(x[t / kT] + off(d, t)) - a.pseudo[d * M + m];
+        r2 += a.b[d] * (diff * diff);
       }
-    }
-    // V = L^-1 K by forward substitution.
-    for (int i = 0; i < M; ++i) {
-      const double* row = a.L_rows + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(K + i * kBlock + s * kLanes);
-      for (int j = 0; j < i; ++j) {
-        const Lanes l = splat(row[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(V + j * kBlock + s * kLanes);
-      }
-      const Lanes inv = splat(a.L_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(V + i * kBlock + s * kLanes, acc[s] * inv);
-    }
-    // Lambda = c + sigma^2 - |V_n|^2, U = V Lambda^-1/2, y / Lambda.
-    Lanes y_over_lambda[kBlockVecs];
-    for (int s = 0; s < kBlockVecs; ++s) {
-      Lanes sq = splat(0.0);
-      for (int i = 0; i < M; ++i) {
-        const Lanes v = load_lanes(V + i * kBlock + s * kLanes);
-        sq += v * v;
-      }
-      const Lanes lambda = splat(a.c_plus_sigma2) - sq;
-      const std::size_t at = ub * kBlock + static_cast<std::size_t>(s) * kLanes;
-      store_lanes(fb.lambda.data() + at, lambda);
-      y_over_lambda[s] = load_lanes(fb.y.data() + at) / lambda;
-      store_lanes(fb.y_over_lambda.data() + at, y_over_lambda[s]);
-      const Lanes inv_sqrt = splat(1.0) / lane_sqrt(lambda);
-      for (int i = 0; i < M; ++i)
-        store_lanes(U.data() + i * kBlock + s * kLanes, load_lanes(V + i * kBlock + s * kLanes) * inv_sqrt);
-    }
-    // B += U U^T (lower), Vy += V Lambda^-1 y.
-    for (int i = 0; i < M; ++i) {
-      Lanes ui[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) ui[s] = load_lanes(U.data() + i * kBlock + s * kLanes);
-      double* row = B_acc + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
-      for (int j = 0; j <= i; ++j) {
-        const double* uj = U.data() + j * kBlock;
-        const Lanes p = (ui[0] * load_lanes(uj) + ui[1] * load_lanes(uj + kLanes)) +
-                        (ui[2] * load_lanes(uj + 2 * kLanes) + ui[3] * load_lanes(uj + 3 * kLanes));
-        accumulate(row + j * kLanes, p);
-      }
-      Lanes vy = splat(0.0);
-      for (int s = 0; s < kBlockVecs; ++s) vy += load_lanes(V + i * kBlock + s * kLanes) * y_over_lambda[s];
-      accumulate(Vy_acc + i * kLanes, vy);
+      vstore(K[t / kT] + off(m, t), a.c * exp_nonpositive(vsplat<V>(-0.5) * r2) * vload<V>(valid[t / kT] + off(0, t)));
     }
   }
+  // V = L^-1 K by forward substitution.
+  for (int i = 0; i < M; ++i) {
+    const double* row = a.L_rows + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(K[t / kT] + off(i, t));
+    for (int j = 0; j < i; ++j) {
+      const double l = row[j];  // scalar times vector: one broadcast, also in the AVX-512 build
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Vb[t / kT] + off(j, t));
+    }
+    const double inv = a.L_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Vb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // Lambda = c + sigma^2 - |V_n|^2, U = V Lambda^-1/2, y / Lambda.
+  V sq[kG], y_over_lambda[kG], inv_sqrt[kG];
+  for (int t = 0; t < kG; ++t) sq[t] = vsplat<V>(0.0);
+  for (int i = 0; i < M; ++i) {
+    for (int t = 0; t < kG; ++t) {
+      const V v = vload<V>(Vb[t / kT] + off(i, t));
+      sq[t] += v * v;
+    }
+  }
+  for (int t = 0; t < kG; ++t) {
+    const V lambda = vsplat<V>(a.c_plus_sigma2) - sq[t];
+    const std::size_t at = at0[t / kT] + static_cast<std::size_t>(t % kT) * kW;
+    vstore(fb.lambda.data() + at, lambda);
+    y_over_lambda[t] = vload<V>(fb.y.data() + at) / lambda;
+    vstore(fb.y_over_lambda.data() + at, y_over_lambda[t]);
+    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda);
+  }
+  for (int i = 0; i < M; ++i)
+    for (int t = 0; t < kG; ++t) vstore(Ub[t / kT] + off(i, t), vload<V>(Vb[t / kT] + off(i, t)) * inv_sqrt[t]);
+  // B += U U^T (lower), Vy += V Lambda^-1 y, block after block.
+  for (int i = 0; i < M; ++i) {
+    V ui[kG];
+    for (int t = 0; t < kG; ++t) ui[t] = vload<V>(Ub[t / kT] + off(i, t));
+    double* row = B_acc + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+    for (int j = 0; j <= i; ++j) {
+      V prod[kG];
+      for (int t = 0; t < kG; ++t) prod[t] = ui[t] * vload<V>(Ub[t / kT] + off(j, t));
+      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
+    }
+    V vy[kG];
+    for (int t = 0; t < kG; ++t) vy[t] = vload<V>(Vb[t / kT] + off(i, t)) * y_over_lambda[t];
+    for (int p = 0; p < P; ++p) accumulate(Vy_acc + i * kLanes, seq4(vy + p * kT));
+  }
+}
+
+/// Forward pass over blocks [b0, b1), P blocks at a time (forward_group).
+template <class V, int P>
+[[gnu::always_inline]] inline void forward_blocks(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index b0,
+                                                  Eigen::Index b1, double* B_acc, double* Vy_acc, double* U) {
+  static_assert(P >= 1 && P <= kMaxGroup);
+  Eigen::Index blk = b0;
+  for (; blk + P <= b1; blk += P) forward_group<V, P>(a, fb, blk, B_acc, Vy_acc, U);
+  if constexpr (P > 1)
+    for (; blk < b1; ++blk) forward_group<V, 1>(a, fb, blk, B_acc, Vy_acc, U);
 }
 static_assert(kBlockVecs == 4, "fitc_forward_blocks and fitc_gradient_blocks write the four Lanes of a block out");
 
@@ -405,150 +585,212 @@ struct GradientArgs {
   const double* L_inv_diag;
 };
 
-/// Per-lane sums of one half's gradient pass (four lanes per entry, added at the end).
-struct GradientSums {
-  std::vector<double> Va;              ///< M: V a
-  std::vector<double> VwV;             ///< packed lower M x M: V diag(w) V^T
-  std::vector<double> q_sum, r_sum;    ///< M: sum_n E'(n, m), sum_n K(n, m) a_n
-  std::vector<double> q_lin, r_lin;    ///< M x D (m + d M): the same times (x_nd - p_md)
-  std::vector<double> q_sq, r_sq;      ///< M x D: times (x_nd - p_md)^2
-  std::vector<double> w_sum;           ///< 1
-  void reset(int M, int D) {
-    const auto m = static_cast<std::size_t>(M) * kLanes, md = m * static_cast<std::size_t>(D);
-    Va.assign(m, 0.0);
-    VwV.assign(static_cast<std::size_t>(M) * (M + 1) / 2 * kLanes, 0.0);
-    q_sum.assign(m, 0.0);
-    r_sum.assign(m, 0.0);
-    q_lin.assign(md, 0.0);
-    r_lin.assign(md, 0.0);
-    q_sq.assign(md, 0.0);
-    r_sq.assign(md, 0.0);
-    w_sum.assign(kLanes, 0.0);
-  }
-};
-
-/// Gradient pass over blocks [b0, b1): per sample a = C^-1 y, w = diag(C^-1) - a^2 and
-/// G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without its -a_n L^-T V a term,
-/// which needs all samples: the caller subtracts it from the sums), E' = K_NM .* G'^T; the sums
-/// into `sums`. AVX2 and generic builds as fitc_forward_blocks.
-[[gnu::target_clones("avx2", "default")]] void fitc_gradient_blocks(const GradientArgs& a, const FitcBlocks& fb,
-                                                                    Eigen::Index b0, Eigen::Index b1,
-                                                                    GradientSums& sums) {
+/// Gradient pass over the P blocks blk0 .. blk0 + P - 1, side by side: per sample a = C^-1 y,
+/// w = diag(C^-1) - a^2 and G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without
+/// its -a_n L^-T V a term, which needs all samples: the caller subtracts it from the sums),
+/// E' = K_NM .* G'^T; the sums into `sums`, block after block as forward_group. W is scratch of
+/// P M kBlock doubles.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_group(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index blk0,
+                                                  GradientSums& sums, double* W) {
+  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
   const int M = a.M, D = a.D;
   const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  std::vector<double> W(per_block);  // t = L_B^-1 u, then r = B^-1 u, then G'
-  for (Eigen::Index blk = b0; blk < b1; ++blk) {
-    const auto ub = static_cast<std::size_t>(blk);
-    const double* x = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
-    const double* K = fb.K.data() + ub * per_block;
-    const double* V = fb.V.data() + ub * per_block;
-    Lanes lambda[kBlockVecs], inv_sqrt[kBlockVecs], av[kBlockVecs], w[kBlockVecs];
-    // a = (y - V^T gamma) / Lambda.
-    for (int s = 0; s < kBlockVecs; ++s) {
-      const std::size_t at = ub * kBlock + static_cast<std::size_t>(s) * kLanes;
-      lambda[s] = load_lanes(fb.lambda.data() + at);
-      inv_sqrt[s] = splat(1.0) / lane_sqrt(lambda[s]);
-      Lanes dot = splat(0.0);
-      for (int i = 0; i < M; ++i) dot += load_lanes(V + i * kBlock + s * kLanes) * splat(a.gamma[i]);
-      av[s] = (load_lanes(fb.y.data() + at) - dot) / lambda[s];
+  const double *x[P], *K[P], *Vb[P];
+  double* Wb[P];  // t = L_B^-1 u, then r = B^-1 u, then G'
+  std::size_t at0[P];
+  for (int p = 0; p < P; ++p) {
+    const auto ub = static_cast<std::size_t>(blk0 + p);
+    x[p] = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
+    K[p] = fb.K.data() + ub * per_block;
+    Vb[p] = fb.V.data() + ub * per_block;
+    Wb[p] = W + static_cast<std::size_t>(p) * per_block;
+    at0[p] = ub * kBlock;
+  }
+  constexpr auto off = [](int i, int t) { return i * kBlock + (t % kT) * kW; };
+  const auto at = [&](int t) { return at0[t / kT] + static_cast<std::size_t>(t % kT) * kW; };
+  V lambda[kG], inv_sqrt[kG], av[kG], w[kG], dot[kG];
+  // a = (y - V^T gamma) / Lambda.
+  for (int t = 0; t < kG; ++t) {
+    lambda[t] = vload<V>(fb.lambda.data() + at(t));
+    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
+    dot[t] = vsplat<V>(0.0);
+  }
+  for (int i = 0; i < M; ++i) {
+    const double g = a.gamma[i];
+    for (int t = 0; t < kG; ++t) dot[t] += vload<V>(Vb[t / kT] + off(i, t)) * g;
+  }
+  for (int t = 0; t < kG; ++t) av[t] = (vload<V>(fb.y.data() + at(t)) - dot[t]) / lambda[t];
+  // V a; t = L_B^-1 u by forward substitution.
+  for (int i = 0; i < M; ++i) {
+    V va[kG];
+    for (int t = 0; t < kG; ++t) va[t] = av[t] * vload<V>(Vb[t / kT] + off(i, t));
+    for (int p = 0; p < P; ++p) accumulate(sums.Va.data() + i * kLanes, seq4(va + p * kT));
+    const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Vb[t / kT] + off(i, t)) * inv_sqrt[t];
+    for (int j = 0; j < i; ++j) {
+      const double l = row[j];
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
     }
-    // V a; t = L_B^-1 u by forward substitution.
-    for (int i = 0; i < M; ++i) {
-      Lanes va = splat(0.0);
-      for (int s = 0; s < kBlockVecs; ++s) va += av[s] * load_lanes(V + i * kBlock + s * kLanes);
-      accumulate(sums.Va.data() + i * kLanes, va);
-      const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(V + i * kBlock + s * kLanes) * inv_sqrt[s];
-      for (int j = 0; j < i; ++j) {
-        const Lanes l = splat(row[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
-      }
-      const Lanes inv = splat(a.LB_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+    const double inv = a.LB_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
+  V tt[kG];
+  for (int t = 0; t < kG; ++t) tt[t] = vsplat<V>(0.0);
+  for (int i = 0; i < M; ++i) {
+    for (int t = 0; t < kG; ++t) {
+      const V v = vload<V>(Wb[t / kT] + off(i, t));
+      tt[t] += v * v;
     }
-    // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
-    Lanes w_total = splat(0.0);
-    for (int s = 0; s < kBlockVecs; ++s) {
-      Lanes tt = splat(0.0);
-      for (int i = 0; i < M; ++i) {
-        const Lanes t = load_lanes(W.data() + i * kBlock + s * kLanes);
-        tt += t * t;
-      }
-      const Lanes c_inv_nn = (splat(1.0) - tt) / lambda[s];
-      w[s] = (c_inv_nn - av[s] * av[s]) * load_lanes(fb.valid.data() + ub * kBlock + s * kLanes);
-      w_total += w[s];
+  }
+  for (int t = 0; t < kG; ++t) {
+    const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
+    w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + at(t));
+  }
+  for (int p = 0; p < P; ++p) accumulate(sums.w_sum.data(), seq4(w + p * kT));
+  // r = L_B^-T t (back substitution, in place).
+  for (int i = M - 1; i >= 0; --i) {
+    const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Wb[t / kT] + off(i, t));
+    for (int j = i + 1; j < M; ++j) {
+      const double l = col[j];
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
     }
-    accumulate(sums.w_sum.data(), w_total);
-    // r = L_B^-T t (back substitution, in place).
-    for (int i = M - 1; i >= 0; --i) {
-      const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) acc[s] = load_lanes(W.data() + i * kBlock + s * kLanes);
-      for (int j = i + 1; j < M; ++j) {
-        const Lanes l = splat(col[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
-      }
-      const Lanes inv = splat(a.LB_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+    const double inv = a.LB_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
+  for (int i = M - 1; i >= 0; --i) {
+    const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
+    V acc[kG];
+    for (int t = 0; t < kG; ++t)
+      acc[t] = inv_sqrt[t] * vload<V>(Wb[t / kT] + off(i, t)) - w[t] * vload<V>(Vb[t / kT] + off(i, t));
+    for (int j = i + 1; j < M; ++j) {
+      const double l = col[j];
+      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
     }
-    // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
-    for (int i = M - 1; i >= 0; --i) {
-      const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
-      Lanes acc[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s)
-        acc[s] = inv_sqrt[s] * load_lanes(W.data() + i * kBlock + s * kLanes) -
-                 w[s] * load_lanes(V + i * kBlock + s * kLanes);
-      for (int j = i + 1; j < M; ++j) {
-        const Lanes l = splat(col[j]);
-        for (int s = 0; s < kBlockVecs; ++s) acc[s] -= l * load_lanes(W.data() + j * kBlock + s * kLanes);
-      }
-      const Lanes inv = splat(a.L_inv_diag[i]);
-      for (int s = 0; s < kBlockVecs; ++s) store_lanes(W.data() + i * kBlock + s * kLanes, acc[s] * inv);
+    const double inv = a.L_inv_diag[i];
+    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
+  }
+  // V diag(w) V^T (lower), block after block.
+  for (int i = 0; i < M; ++i) {
+    V wv[kG];
+    for (int t = 0; t < kG; ++t) wv[t] = w[t] * vload<V>(Vb[t / kT] + off(i, t));
+    double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+    for (int j = 0; j <= i; ++j) {
+      V prod[kG];
+      for (int t = 0; t < kG; ++t) prod[t] = wv[t] * vload<V>(Vb[t / kT] + off(j, t));
+      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
     }
-    // V diag(w) V^T (lower).
-    for (int i = 0; i < M; ++i) {
-      Lanes wv[kBlockVecs];
-      for (int s = 0; s < kBlockVecs; ++s) wv[s] = w[s] * load_lanes(V + i * kBlock + s * kLanes);
-      double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
-      for (int j = 0; j <= i; ++j) {
-        const double* vj = V + j * kBlock;
-        const Lanes p = (wv[0] * load_lanes(vj) + wv[1] * load_lanes(vj + kLanes)) +
-                        (wv[2] * load_lanes(vj + 2 * kLanes) + wv[3] * load_lanes(vj + 3 * kLanes));
-        accumulate(row + j * kLanes, p);
-      }
+  }
+  // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
+  for (int m = 0; m < M; ++m) {
+    V q[kG], r[kG];
+    for (int t = 0; t < kG; ++t) {
+      const V k = vload<V>(K[t / kT] + off(m, t));
+      q[t] = k * vload<V>(Wb[t / kT] + off(m, t));
+      r[t] = k * av[t];
     }
-    // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
-    for (int m = 0; m < M; ++m) {
-      Lanes q_sum = splat(0.0), r_sum = splat(0.0);
-      Lanes q_lin[kMaxInputDim], r_lin[kMaxInputDim], q_sq[kMaxInputDim], r_sq[kMaxInputDim];
-      for (int d = 0; d < D; ++d) q_lin[d] = r_lin[d] = q_sq[d] = r_sq[d] = splat(0.0);
-      for (int s = 0; s < kBlockVecs; ++s) {
-        const Lanes k = load_lanes(K + m * kBlock + s * kLanes);
-        const Lanes q = k * load_lanes(W.data() + m * kBlock + s * kLanes);
-        const Lanes r = k * av[s];
-        q_sum += q;
-        r_sum += r;
-        for (int d = 0; d < D; ++d) {
-          const Lanes diff = load_lanes(x + d * kBlock + s * kLanes) - splat(a.pseudo[d * M + m]);
-          const Lanes tq = q * diff, tr = r * diff;
-          q_lin[d] += tq;
-          r_lin[d] += tr;
-          q_sq[d] += tq * diff;
-          r_sq[d] += tr * diff;
-        }
+    for (int p = 0; p < P; ++p) {
+      accumulate(sums.q_sum.data() + m * kLanes, seq4(q + p * kT));
+      accumulate(sums.r_sum.data() + m * kLanes, seq4(r + p * kT));
+    }
+    for (int d = 0; d < D; ++d) {
+      const double pd = a.pseudo[d * M + m];
+      V tq[kG], tr[kG], tq2[kG], tr2[kG];
+      for (int t = 0; t < kG; ++t) {
+        const V diff = vload<V>(x[t / kT] + off(d, t)) - pd;
+        tq[t] = q[t] * diff;
+        tr[t] = r[t] * diff;
+        tq2[t] = tq[t] * diff;
+        tr2[t] = tr[t] * diff;
       }
-      accumulate(sums.q_sum.data() + m * kLanes, q_sum);
-      accumulate(sums.r_sum.data() + m * kLanes, r_sum);
-      for (int d = 0; d < D; ++d) {
-        const std::size_t at = (static_cast<std::size_t>(d) * M + m) * kLanes;
-        accumulate(sums.q_lin.data() + at, q_lin[d]);
-        accumulate(sums.r_lin.data() + at, r_lin[d]);
-        accumulate(sums.q_sq.data() + at, q_sq[d]);
-        accumulate(sums.r_sq.data() + at, r_sq[d]);
+      const std::size_t e = (static_cast<std::size_t>(d) * M + m) * kLanes;
+      for (int p = 0; p < P; ++p) {
+        accumulate(sums.q_lin.data() + e, seq4(tq + p * kT));
+        accumulate(sums.r_lin.data() + e, seq4(tr + p * kT));
+        accumulate(sums.q_sq.data() + e, seq4(tq2 + p * kT));
+        accumulate(sums.r_sq.data() + e, seq4(tr2 + p * kT));
       }
     }
   }
+}
+
+/// Gradient pass over blocks [b0, b1), P blocks at a time (gradient_group).
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_blocks(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0,
+                                                   Eigen::Index b1, GradientSums& sums, double* W) {
+  static_assert(P >= 1 && P <= kMaxGroup);
+  Eigen::Index blk = b0;
+  for (; blk + P <= b1; blk += P) gradient_group<V, P>(a, fb, blk, sums, W);
+  if constexpr (P > 1)
+    for (; blk < b1; ++blk) gradient_group<V, 1>(a, fb, blk, sums, W);
+}
+
+/// The two passes for AVX2 and generic x86-64 (4-double vectors), picked at load time; no FMA in
+/// either, so the same bits.
+[[gnu::target_clones("avx2", "default")]] void fitc_forward_blocks(const ForwardArgs& a, FitcBlocks& fb,
+                                                                   Eigen::Index b0, Eigen::Index b1,
+                                                                   double* B_acc, double* Vy_acc, double* U) {
+  forward_blocks<Lanes, 1>(a, fb, b0, b1, B_acc, Vy_acc, U);
+}
+[[gnu::target_clones("avx2", "default")]] void fitc_gradient_blocks(const GradientArgs& a, const FitcBlocks& fb,
+                                                                    Eigen::Index b0, Eigen::Index b1,
+                                                                    GradientSums& sums, double* W) {
+  gradient_blocks<Lanes, 1>(a, fb, b0, b1, sums, W);
+}
+
+// The same passes on 8-double vectors (AVX-512; GCC only: clang, which builds only the fuzzers,
+// refuses 64-byte vector helpers outside AVX-512 functions as it does the 32-byte ones without AVX).
+// Chosen at run time when the CPU has AVX-512F/DQ/VL/BW; -ffp-contract=off keeps FMA out of them too.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define PEHA_SPGP_AVX512 1
+using Lanes8 = double __attribute__((vector_size(8 * 2 * kLanes)));
+[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void fitc_forward_blocks_avx512(const ForwardArgs& a, FitcBlocks& fb,
+                                                                             Eigen::Index b0, Eigen::Index b1,
+                                                                             double* B_acc, double* Vy_acc, double* U) {
+  forward_blocks<Lanes8, kMaxGroup>(a, fb, b0, b1, B_acc, Vy_acc, U);
+}
+[[gnu::target("avx512f,avx512dq,avx512vl,avx512bw")]] void fitc_gradient_blocks_avx512(const GradientArgs& a,
+                                                                              const FitcBlocks& fb, Eigen::Index b0,
+                                                                              Eigen::Index b1, GradientSums& sums,
+                                                                              double* W) {
+  gradient_blocks<Lanes8, kMaxGroup>(a, fb, b0, b1, sums, W);
+}
+#else
+#define PEHA_SPGP_AVX512 0
+#endif
+
+/// Whether the passes may take the AVX-512 build (tests switch it off to compare the two).
+bool g_spgp_avx512_allowed = true;
+
+bool use_avx512_passes() {
+#if PEHA_SPGP_AVX512
+  static const bool supported = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512dq") &&
+                                __builtin_cpu_supports("avx512vl") && __builtin_cpu_supports("avx512bw");
+  return supported && g_spgp_avx512_allowed;
+#else
+  return false;
+#endif
+}
+
+void forward_pass(const ForwardArgs& a, FitcBlocks& fb, Eigen::Index b0, Eigen::Index b1, double* B_acc,
+                  double* Vy_acc, double* U) {
+#if PEHA_SPGP_AVX512
+  if (use_avx512_passes()) return fitc_forward_blocks_avx512(a, fb, b0, b1, B_acc, Vy_acc, U);
+#endif
+  fitc_forward_blocks(a, fb, b0, b1, B_acc, Vy_acc, U);
+}
+
+void gradient_pass(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0, Eigen::Index b1,
+                   GradientSums& sums, double* W) {
+#if PEHA_SPGP_AVX512
+  if (use_avx512_passes()) return fitc_gradient_blocks_avx512(a, fb, b0, b1, sums, W);
+#endif
+  fitc_gradient_blocks(a, fb, b0, b1, sums, W);
 }
 
 /// The FITC NLML in O(N M^2), and whatever `request` asks for from the same factorisations.
@@ -616,15 +858,17 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   fb.y_over_lambda.resize(padded);
 
   const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
-  std::vector<double> B_acc[2], Vy_acc[2];
+  std::vector<double>* const B_acc = ws.B_acc;
+  std::vector<double>* const Vy_acc = ws.Vy_acc;
   const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), b.data(), c, c + sigma2,
                             L_rows.data(), L_inv_diag.data()};
-  for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     B_acc[h].assign(packed, 0.0);
     Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
-    fitc_forward_blocks(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data());
+    ws.scratch[h].resize(kMaxGroup * per_block);
+    forward_pass(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
   });
-  const bool split = !B_acc[1].empty();
+  const bool split = blocks >= kMinSplitBlocks;  // for_two_halves ran a second half
   const VectorXd lambda = Eigen::Map<const VectorXd>(fb.lambda.data(), N);
   if (!(lambda.minCoeff() > 0.0) || !lambda.allFinite()) return kInf;
   const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(fb.y_over_lambda.data(), N);
@@ -654,10 +898,11 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   const VectorXd LB_inv_diag = LB_cols.diagonal().cwiseInverse();
   const GradientArgs backward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), gamma.data(),
                               LB_rows.data(), LB_cols.data(), LB_inv_diag.data(), L_cols.data(), L_inv_diag.data()};
-  GradientSums sums[2];
-  for_two_halves(blocks, kMinSplitBlocks, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+  GradientSums* const sums = ws.sums;
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
     sums[h].reset(static_cast<int>(M), static_cast<int>(D));
-    fitc_gradient_blocks(backward, fb, b0, b1, sums[h]);
+    ws.scratch[h].resize(kMaxGroup * per_block);
+    gradient_pass(backward, fb, b0, b1, sums[h], ws.scratch[h].data());
   });
   // One total of four lanes (and of the two halves).
   auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
@@ -898,6 +1143,17 @@ double spgp_nlml_reference(const MatrixXd& X, const VectorXd& y, const MatrixXd&
   FitcWorkspace workspace;
   return fitc_evaluate_reference(X, y, pseudo, hyper, jitter, FitcRequest{gradient}, workspace);
 }
+
+/// Allows (true, the default) or forbids the AVX-512 build of the blocked passes; returns the previous
+/// setting (tests: both builds give the same bits). Not thread-safe: call it between fits.
+bool spgp_allow_avx512(bool allowed) {
+  const bool previous = g_spgp_avx512_allowed;
+  g_spgp_avx512_allowed = allowed;
+  return previous;
+}
+
+/// Whether the blocked passes run the AVX-512 build (the CPU has it and it is allowed).
+bool spgp_uses_avx512() { return use_avx512_passes(); }
 }  // namespace detail
 
 double spgp_nlml_dense(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseudo, const SpgpHyper& hyper,

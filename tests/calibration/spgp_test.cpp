@@ -31,6 +31,9 @@ namespace detail {
 // The original one-thread FITC evaluation (src/calibration/spgp.cpp), kept as the reference.
 double spgp_nlml_reference(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, const Eigen::MatrixXd& pseudo,
                            const SpgpHyper& hyper, double jitter, Eigen::VectorXd* gradient);
+// Allows or forbids the AVX-512 build of the blocked passes (returns the previous setting); whether it runs.
+bool spgp_allow_avx512(bool allowed);
+bool spgp_uses_avx512();
 }  // namespace detail
 namespace {
 
@@ -335,6 +338,59 @@ void write_toy_csv(const std::string& path, const ToyData& data, const Spgp& spg
   for (Eigen::Index n = 0; n < data.X.rows(); ++n) out << "train," << data.X(n, 0) << ',' << data.y[n] << ",,,,,,\n";
   for (int m = 0; m < spgp.num_pseudo(); ++m)
     out << "pseudo," << spgp.input_mean()[0] + spgp.input_scale()[0] * spgp.pseudo_inputs()(m, 0) << ",,,,,,,\n";
+}
+
+// The AVX-512 build of the blocked passes (8-double vectors) against the 4-double build the other
+// CPUs run: the same operations per lane and the same order in every sum, so the same bits.
+TEST(SpgpNlml, Avx512PassesGiveTheSameBitsAsTheFourLaneBuild) {
+  if (!detail::spgp_uses_avx512()) GTEST_SKIP() << "no AVX-512 on this CPU (or not a GCC build)";
+  struct Restore {
+    ~Restore() { detail::spgp_allow_avx512(true); }
+  } restore;
+  for (const auto& [N, M, D] :
+       {std::tuple{5000, 50, 2}, std::tuple{2001, 20, 1}, std::tuple{4000, 13, 3}, std::tuple{300, 10, 3}}) {
+    std::mt19937_64 rng(static_cast<std::uint64_t>(7 * N + M + D));
+    std::uniform_real_distribution<double> box(-2.0, 2.0), unit(-1.0, 1.0);
+    MatrixXd X(N, D);
+    VectorXd y(N);
+    for (int n = 0; n < N; ++n) {
+      double s = 0.0;
+      for (int d = 0; d < D; ++d) {
+        X(n, d) = box(rng);
+        s += std::sin(1.5 * X(n, d) + d);
+      }
+      y[n] = s + 0.1 * unit(rng);
+    }
+    MatrixXd pseudo(M, D);
+    for (int m = 0; m < M; ++m)
+      for (int d = 0; d < D; ++d) pseudo(m, d) = box(rng);
+    SpgpHyper hyper;
+    hyper.log_b = VectorXd::NullaryExpr(D, [&] { return unit(rng); });
+    hyper.log_c = unit(rng);
+    hyper.log_sigma2 = -3.0 + unit(rng);
+    VectorXd g_wide, g_four;
+    detail::spgp_allow_avx512(true);
+    const double nlml_wide = spgp_nlml(X, y, pseudo, hyper, kJitter, &g_wide);
+    detail::spgp_allow_avx512(false);
+    ASSERT_FALSE(detail::spgp_uses_avx512());
+    const double nlml_four = spgp_nlml(X, y, pseudo, hyper, kJitter, &g_four);
+    ASSERT_TRUE(std::isfinite(nlml_four));
+    EXPECT_EQ(nlml_wide, nlml_four) << "N " << N;
+    ASSERT_EQ(g_wide.size(), g_four.size());
+    for (Eigen::Index i = 0; i < g_four.size(); ++i) EXPECT_EQ(g_wide[i], g_four[i]) << "N " << N << " entry " << i;
+  }
+  // And a short fit end to end (its end point amplifies any difference in the last bits).
+  SpgpOptions options;
+  options.num_pseudo = 10;
+  options.max_iterations = 30;
+  detail::spgp_allow_avx512(true);
+  const Spgp wide = Spgp::fit(toy_data().X, toy_data().y, options);
+  detail::spgp_allow_avx512(false);
+  const Spgp four = Spgp::fit(toy_data().X, toy_data().y, options);
+  EXPECT_EQ(wide.final_nlml(), four.final_nlml());
+  EXPECT_EQ(wide.iterations(), four.iterations());
+  EXPECT_TRUE(wide.alpha() == four.alpha());
+  EXPECT_TRUE(wide.pseudo_inputs() == four.pseudo_inputs());
 }
 
 TEST(SpgpToy, TenPseudoInputsTrackTheFullGp) {
