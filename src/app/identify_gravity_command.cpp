@@ -27,10 +27,11 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     const auto& id = *scenario.identification;
     constexpr double kDeg = 180.0 / 3.14159265358979323846;
-    fmt::print("peha identify-gravity: {} ({} postures, each swept up and down over +-{:.1f} deg at {:.1f} deg/s; prior: {})\n",
+    fmt::print("peha identify-gravity: {} ({} postures, each swept up and down over +-{:.1f} deg at {:.1f} deg/s; prior: the body "
+               "file's arm model{})\n",
                options.config.string(), id.postures.size(), id.sweep_rad * kDeg, id.sweep_speed_radps * kDeg,
-               scenario.gravity_identification_file.empty() ? std::string("the nominal arm model")
-                                                            : scenario.gravity_identification_file.string());
+               scenario.gravity_identification_file.empty() ? std::string()
+                                                            : ", not " + scenario.gravity_identification_file.string() + " (the config's)");
     experiments::ArmIdentificationResult r;
     try {
       r = experiments::identify_arm_gravity(scenario, scenario.plant, [](const std::string& line) { fmt::print("  {}\n", line); });
@@ -64,7 +65,7 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     }
     if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
     calibration::write_gravity_identification(
-        options.out, scenario.controller.arm, r.samples, f,
+        options.out, scenario.nominal_arm, r.samples, f,
         fmt::format("peha identify-gravity --config {} seed {} ({:.0f} s on the rig)", options.config.string(), scenario.seed, r.duration_s));
     fmt::print("written: {} (use: peha run --config {} --gravity-identification {})\n", options.out.string(), options.config.string(),
                options.out.string());

@@ -89,8 +89,14 @@ sim::RightArmPlantParams identification_plant_params(const ArmScenario& scenario
   return p;
 }
 
-ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const sim::RightArmPlantParams& plant_params,
+ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim::RightArmPlantParams& plant_params,
                                              const std::function<void(const std::string&)>& progress) {
+  // Always from the body file's prior, whatever identification the scenario's controller already
+  // uses: the rig's gravity compensation and the fit's prior do not depend on an earlier result (a
+  // rerun on the shipped config reproduces the shipped file, and the robustness matrix identifies
+  // each variant as a new rig would).
+  ArmScenario scenario = given;
+  scenario.controller.arm = scenario.nominal_arm;
   if (!scenario.identification) throw config::Error("the arm scenario has no identification: section (docs/identification.md)");
   const ArmScenario::Identification& id = *scenario.identification;
   const std::vector<Leg> legs = legs_of(id);

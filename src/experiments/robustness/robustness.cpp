@@ -406,8 +406,16 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
         // A gravity the controller cannot know: the variant's unknown payload or mass. Its own model's
         // error (E3's arm model) is not physics: identification on the rig removes it, so it counts.
         // After an identification on the variant, only the payload picked up afterwards is unknown.
-        row.physics_forbids = job.mode == RobustnessMode::kE3Identified ? job.variant->extra_payload_kg != 0
-                                                                         : job.variant->changes_gravity();
+        const bool untold_gravity = job.mode == RobustnessMode::kE3Identified ? job.variant->extra_payload_kg != 0
+                                                                               : job.variant->changes_gravity();
+        if (untold_gravity) {
+          row.physics_reason =
+              "plant gravity the controller is not told: without position feedback a target error below the mismatch is out of reach";
+        } else if (job.variant->removes_friction()) {
+          row.physics_reason =
+              "no cable friction: without position feedback any error of the gravity model moves the joint (a neutral equilibrium)";
+        }
+        row.physics_forbids = !row.physics_reason.empty();
         row.seconds = seconds / static_cast<double>(rows.size());
         const bool error_ok = row.static_error_pct <= g.max_static_error_pct;
         row.goal = error_ok && row.tension_fraction >= g.min_tension_fraction;
@@ -480,8 +488,9 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
                     config.goal_default.max_static_error_pct, config.goal_default.min_tension_fraction,
                     config.goal_calibrated.max_static_error_pct, config.goal_calibrated.min_tension_fraction,
                     100 * config.goal_calibrated.min_share);
-  md << "The share is judged over the cases physics allows; cases where physics forbids the goal (plant gravity the controller "
-        "is not told) are in the table, marked, and fail their verdict.\n\n";
+  md << "The share is judged over the cases physics allows; cases where physics forbids the goal to a controller without position "
+        "feedback (plant gravity the controller is not told; no cable friction to hold a model error) are in the table, marked with "
+        "the reason, and fail their verdict.\n\n";
   md << "| mode | goal met, of the cases physics allows | physics forbids (goal missed, reported) | goal met, of all cases | required |\n"
         "|---|---|---|---|---|\n";
   for (const auto& s : result.shares) {
@@ -494,9 +503,7 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
   for (const RobustnessRow& r : result.rows) {
     auto num = [](double v, const char* f) { return std::isnan(v) ? std::string("-") : fmt::format(fmt::runtime(f), v); };
     std::string note;
-    if (r.physics_forbids) {
-      note = "plant gravity the controller is not told: without position feedback a target error below the mismatch is out of reach";
-    }
+    if (r.physics_forbids) note = r.physics_reason;
     if (!std::isnan(r.model_gravity_error_pct) && r.model_gravity_error_pct > config.goal_e3.max_static_error_pct) {  // E3 rows only
       note += fmt::format("{}the controller's gravity model is {:.1f} % off the plant's (identify it on the rig)", note.empty() ? "" : "; ",
                           r.model_gravity_error_pct);

@@ -36,6 +36,10 @@ struct PlantVariant {
   bool changes_gravity() const noexcept {
     return link_mass_scale != 1 || payload_scale != 1 || extra_payload_kg != 0;
   }
+  /// No cable friction at all: nothing holds a joint still but the controller's torque balance, so with
+  /// no position feedback any error of its gravity model moves the joint (a neutral equilibrium: the
+  /// feed-forward follows the joint wherever it goes); drift and static error are out of reach.
+  bool removes_friction() const noexcept { return cable_friction_scale == 0; }
 };
 
 enum class RobustnessMode {
@@ -94,7 +98,8 @@ struct RobustnessRow {
   double tension_fraction = 0;   ///< min_tension_N / the joint's pretension (worst joint)
   bool verdict = false;          ///< the experiment's verdict
   bool goal = false;             ///< the goal of this mode (static error and tension)
-  bool physics_forbids = false;  ///< plant gravity the controller is not told about (the variant's, or a model error above the goal)
+  bool physics_forbids = false;  ///< physics forbids the goal to a controller without position feedback (physics_reason says why)
+  std::string physics_reason;    ///< why physics forbids it ("" when it does not)
   std::string failures;          ///< the verdict's failed figures, "; "-separated
   double seconds = 0;            ///< wall time of the case
 };
