@@ -53,28 +53,39 @@ struct FitcProblem {
 // N = 30 points in [-2, 2]^D, a smooth function plus noise, M = 7 random pseudo-inputs and random
 // hyperparameters over the range a fit visits (length scales 0.6 .. 1.6, c 0.4 .. 2.7,
 // sigma^2 0.02 .. 0.6).
-FitcProblem random_problem(int D, std::uint64_t seed) {
-  constexpr int kN = 30, kM = 7;
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> box(-2.0, 2.0), unit(-1.0, 1.0), noise(-0.1, 0.1);
-  FitcProblem p;
-  p.X.resize(kN, D);
-  p.y.resize(kN);
-  for (int n = 0; n < kN; ++n) {
+/// N points in [-2, 2]^D: a smooth function plus uniform noise (+-0.1), drawn from `rng`.
+void random_inputs(std::mt19937_64& rng, int N, int D, MatrixXd& X, VectorXd& y) {
+  std::uniform_real_distribution<double> box(-2.0, 2.0), noise(-0.1, 0.1);
+  X.resize(N, D);
+  y.resize(N);
+  for (int n = 0; n < N; ++n) {
     double s = 0.0;
     for (int d = 0; d < D; ++d) {
-      p.X(n, d) = box(rng);
-      s += std::sin(1.5 * p.X(n, d) + d);
+      X(n, d) = box(rng);
+      s += std::sin(1.5 * X(n, d) + d);
     }
-    p.y[n] = s + noise(rng);
+    y[n] = s + noise(rng);
   }
-  p.pseudo.resize(kM, D);
-  for (int m = 0; m < kM; ++m)
-    for (int d = 0; d < D; ++d) p.pseudo(m, d) = box(rng);
-  p.hyper.log_b.resize(D);
-  for (int d = 0; d < D; ++d) p.hyper.log_b[d] = unit(rng);
-  p.hyper.log_c = unit(rng);
-  p.hyper.log_sigma2 = -2.25 + 1.75 * unit(rng);
+}
+
+/// M random pseudo-inputs in [-2, 2]^D and random hyperparameters (log length scales and log c in
+/// [-1, 1], log sigma^2 = sigma2_mid + sigma2_half x [-1, 1]), drawn from `rng`.
+void random_point(std::mt19937_64& rng, int M, int D, double sigma2_mid, double sigma2_half, MatrixXd& pseudo, SpgpHyper& hyper) {
+  std::uniform_real_distribution<double> box(-2.0, 2.0), unit(-1.0, 1.0);
+  pseudo.resize(M, D);
+  for (int m = 0; m < M; ++m)
+    for (int d = 0; d < D; ++d) pseudo(m, d) = box(rng);
+  hyper.log_b.resize(D);
+  for (int d = 0; d < D; ++d) hyper.log_b[d] = unit(rng);
+  hyper.log_c = unit(rng);
+  hyper.log_sigma2 = sigma2_mid + sigma2_half * unit(rng);
+}
+
+FitcProblem random_problem(int D, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  FitcProblem p;
+  random_inputs(rng, 30, D, p.X, p.y);
+  random_point(rng, 7, D, -2.25, 1.75, p.pseudo, p.hyper);
   return p;
 }
 
@@ -104,26 +115,13 @@ TEST(SpgpNlml, ParallelEvaluationEqualsTheOriginal) {
   for (const auto& [N, M, D] :
        {std::tuple{5000, 50, 2}, std::tuple{2001, 20, 1}, std::tuple{4000, 13, 3}, std::tuple{300, 10, 3}}) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(N + M + D));
-    std::uniform_real_distribution<double> box(-2.0, 2.0), unit(-1.0, 1.0);
-    std::normal_distribution<double> noise(0.0, 0.1);
-    MatrixXd X(N, D);
-    VectorXd y(N);
-    for (int n = 0; n < N; ++n) {
-      double s = 0.0;
-      for (int d = 0; d < D; ++d) {
-        X(n, d) = box(rng);
-        s += std::sin(1.5 * X(n, d) + d);
-      }
-      y[n] = s + noise(rng);
-    }
+    MatrixXd X;
+    VectorXd y;
+    random_inputs(rng, N, D, X, y);
     for (int trial = 0; trial < 3; ++trial) {
-      MatrixXd pseudo(M, D);
-      for (int m = 0; m < M; ++m)
-        for (int d = 0; d < D; ++d) pseudo(m, d) = box(rng);
+      MatrixXd pseudo;
       SpgpHyper hyper;
-      hyper.log_b = VectorXd::NullaryExpr(D, [&] { return unit(rng); });
-      hyper.log_c = unit(rng);
-      hyper.log_sigma2 = -3.0 + unit(rng);
+      random_point(rng, M, D, -3.0, 1.0, pseudo, hyper);
       VectorXd g_new, g_ref;
       const double nlml_new = spgp_nlml(X, y, pseudo, hyper, kJitter, &g_new);
       const double nlml_ref = detail::spgp_nlml_reference(X, y, pseudo, hyper, kJitter, &g_ref);
@@ -350,24 +348,11 @@ TEST(SpgpNlml, Avx512PassesGiveTheSameBitsAsTheFourLaneBuild) {
   for (const auto& [N, M, D] :
        {std::tuple{5000, 50, 2}, std::tuple{2001, 20, 1}, std::tuple{4000, 13, 3}, std::tuple{300, 10, 3}}) {
     std::mt19937_64 rng(static_cast<std::uint64_t>(7 * N + M + D));
-    std::uniform_real_distribution<double> box(-2.0, 2.0), unit(-1.0, 1.0);
-    MatrixXd X(N, D);
-    VectorXd y(N);
-    for (int n = 0; n < N; ++n) {
-      double s = 0.0;
-      for (int d = 0; d < D; ++d) {
-        X(n, d) = box(rng);
-        s += std::sin(1.5 * X(n, d) + d);
-      }
-      y[n] = s + 0.1 * unit(rng);
-    }
-    MatrixXd pseudo(M, D);
-    for (int m = 0; m < M; ++m)
-      for (int d = 0; d < D; ++d) pseudo(m, d) = box(rng);
+    MatrixXd X, pseudo;
+    VectorXd y;
     SpgpHyper hyper;
-    hyper.log_b = VectorXd::NullaryExpr(D, [&] { return unit(rng); });
-    hyper.log_c = unit(rng);
-    hyper.log_sigma2 = -3.0 + unit(rng);
+    random_inputs(rng, N, D, X, y);
+    random_point(rng, M, D, -3.0, 1.0, pseudo, hyper);
     VectorXd g_wide, g_four;
     detail::spgp_allow_avx512(true);
     const double nlml_wide = spgp_nlml(X, y, pseudo, hyper, kJitter, &g_wide);
