@@ -74,6 +74,12 @@ double quantize_16bit(double value, double range) noexcept {
   return code / kCodes * range;
 }
 
+double quantize_16bit_offset_binary(double value, double half_range) noexcept {
+  const double step = 2.0 * half_range / 65536.0;
+  const double code = std::clamp(std::round((value + half_range) / step), 0.0, 65535.0);
+  return -half_range + code * step;
+}
+
 double encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept {
   const double counts_per_rad = counts_per_rev / (2.0 * std::numbers::pi);
   return std::floor(angle_rad * counts_per_rad) / counts_per_rad;
@@ -236,7 +242,7 @@ PehaJointPlant::Forces PehaJointPlant::step(const io::JointCommand& cmd, double 
   const double wanted[2] = {cmd.agonist_pressure_Pa, cmd.antagonist_pressure_Pa};
   for (int i = 0; i < 2; ++i) {
     Valve& valve = muscles_[i].valve;
-    valve.set_supply_Pa(faults_.supply_scale * std::min(muscle_params(muscles_[i]).valve.supply_pressure_Pa, params_.supply_cap_Pa));
+    valve.set_supply_Pa(supply_Pa(muscle_params(muscles_[i])));
     double command = wanted[i];
     if (!faults_.dump && faults_.valve_stuck_open[i]) command = std::numeric_limits<double>::max();  // fills to supply
     if (!faults_.dump && faults_.valve_stuck_closed[i]) command = valve.pressure_Pa();             // holds its air
@@ -318,15 +324,11 @@ void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, s
   s.antagonist_pressure_Pa = pressure[1];
   // The supply sensor on the valve manifold and the motor driver's current monitor: 16-bit channels
   // without noise of their own (no draw: the other sensors' noise sequence stays as it was).
-  const double supply_Pa = faults_.supply_scale * std::min(params_.agonist.valve.supply_pressure_Pa, params_.supply_cap_Pa);
-  s.supply_pressure_Pa = quantize_16bit(supply_Pa, pressure_range_Pa);
+  s.supply_pressure_Pa = quantize_16bit(supply_Pa(params_.agonist), pressure_range_Pa);
   if (params_.has_motor) {
-    // Offset binary over +-(the rating x 1.2, rounded up to a whole Nm): 0 Nm is exactly a code, and
-    // the monitor reads a little past the driver's limit (3 Nm for the 2.5 Nm motors, as the outputs).
-    const double half_range_Nm = std::ceil(1.2 * params_.motor.max_torque_Nm - 1e-9);
-    const double step_Nm = 2.0 * half_range_Nm / 65536.0;
-    const double code = std::clamp(std::round((truth_.motor_torque_Nm + half_range_Nm) / step_Nm), 0.0, 65535.0);
-    s.motor_torque_Nm = -half_range_Nm + code * step_Nm;
+    // Over +-(the rating x 1.2, rounded up to a whole Nm): the monitor reads a little past the
+    // driver's limit (3 Nm for the 2.5 Nm motors, as the outputs).
+    s.motor_torque_Nm = quantize_16bit_offset_binary(truth_.motor_torque_Nm, std::ceil(1.2 * params_.motor.max_torque_Nm - 1e-9));
   } else {
     s.motor_torque_Nm = std::numeric_limits<double>::quiet_NaN();
   }

@@ -12,6 +12,7 @@
 #include "peha/sim/plant_muscle.hpp"
 #include "peha/sim/valve.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <limits>
 #include <random>
@@ -148,6 +149,11 @@ class PehaJointPlant {
   const MusclePlantParams& muscle_params(const Muscle& m) const noexcept {
     return m.side > 0 ? params_.agonist : params_.antagonist;
   }
+  /// The supply at a muscle's valve: its valve's supply, capped by the plant, scaled by a supply fault
+  /// (what the valve fills from, and what the manifold's supply sensor reads).
+  double supply_Pa(const MusclePlantParams& m) const noexcept {
+    return faults_.supply_scale * std::min(m.valve.supply_pressure_Pa, params_.supply_cap_Pa);
+  }
 
   PehaJointPlantParams params_;
   double timestep_s_;
@@ -162,6 +168,10 @@ class PehaJointPlant {
 
 /// 16-bit AD quantisation of `value` over [0, range].
 double quantize_16bit(double value, double range) noexcept;
+
+/// 16-bit offset-binary quantisation of `value` over [-half_range, half_range): code 32768 is exactly
+/// 0, one code is 2 half_range / 65536 (as the board's motor channels, docs/channel-maps.md).
+double quantize_16bit_offset_binary(double value, double half_range) noexcept;
 
 /// What an incremental encoder with `counts_per_rev` reports for `angle_rad` (floored to a count).
 double encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept;
