@@ -173,20 +173,24 @@ void bind_models(py::module_& m) {
         "Paper eq. (1): (f1 - f2) r0 + tau_motor in Nm, pulley forces in N.");
 
   // --- The arm ---
-  py::class_<models::ArmJoint>(m, "ArmJoint", "A revolute joint of the arm's serial chain.")
-      .def(py::init([](std::string name, const Eigen::Vector3d& offset, const Eigen::Vector3d& axis, bool active) {
+  py::class_<models::ArmJoint>(m, "ArmJoint",
+                               "A revolute joint of the arm's kinematic tree (parent -2: the joint listed before, -1: the world).")
+      .def(py::init([](std::string name, const Eigen::Vector3d& offset, const Eigen::Vector3d& axis, bool active, int parent) {
              models::ArmJoint j;
              j.name = std::move(name);
              j.offset_m = offset;
              j.axis = axis;
              j.active = active;
+             j.parent = parent;
              return j;
            }),
-           py::arg("name"), py::arg("offset_m"), py::arg("axis"), py::arg("active") = true)
+           py::arg("name"), py::arg("offset_m"), py::arg("axis"), py::arg("active") = true,
+           py::arg("parent") = models::kPreviousJoint)
       .def_readwrite("name", &models::ArmJoint::name)
       .def_readwrite("offset_m", &models::ArmJoint::offset_m, "origin in the parent frame, m")
       .def_readwrite("axis", &models::ArmJoint::axis, "unit rotation axis in the joint frame")
-      .def_readwrite("active", &models::ArmJoint::active);
+      .def_readwrite("active", &models::ArmJoint::active)
+      .def_readwrite("parent", &models::ArmJoint::parent, "index of the parent joint, -1 the world, -2 the joint listed before");
   py::class_<models::ArmBody>(m, "ArmBody", "A rigid body attached to a joint frame.")
       .def(py::init([](std::string name, int joint, double mass, const Eigen::Vector3d& com, const Eigen::Matrix3d& inertia) {
              models::ArmBody b;

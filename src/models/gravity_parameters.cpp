@@ -26,9 +26,10 @@ void gravity_regressor(const ArmModel& model, ArmData& data, const Eigen::Vector
   forward_kinematics(model, data, q);
   Y.setZero();
   const Eigen::Vector3d up(0.0, 0.0, model.gravity_mps2);  // g e_z
-  for (int i = 0; i < model.dof(); ++i) {
-    for (int j = i; j < model.dof(); ++j) {
-      const int k = kGravityParametersPerFrame * j;
+  // Frame j's parameters load every joint i on its path to the world (j itself included).
+  for (int j = 0; j < model.dof(); ++j) {
+    const int k = kGravityParametersPerFrame * j;
+    for (int i = j; i >= 0; i = model.parent(i)) {
       // e_z . (z_i x v) = v . (e_z x z_i): one vector per row pair, dotted with each column's lever.
       const Eigen::Vector3d w = up.cross(data.z[i]);
       Y(i, k) = w.dot(data.p[j] - data.p[i]);

@@ -45,6 +45,11 @@ bool finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 void check_model(const models::ArmModel& model) {
   require(model.dof() > 0, "the model has no joints");
   require(std::isfinite(model.gravity_mps2) && model.gravity_mps2 >= 0, "gravity_mps2 must be finite and >= 0");
+  try {
+    models::check_tree(model);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("arm_mjcf: ") + e.what());
+  }
   for (const auto& j : model.joints) {
     check_name(j.name, "joint");
     require(finite(j.offset_m), fmt::format("joint '{}' has a non-finite offset", j.name));
@@ -73,14 +78,21 @@ void check_joint_options(const ArmMjcfJoint& o, const std::string& joint) {
   require(std::isfinite(o.locked_at_rad), fmt::format("joint '{}': locked_at_rad must be finite", joint));
 }
 
-/// The MuJoCo bodies' first joints: joint i joins joint i-1's body when it has no offset and no
-/// ArmBody hangs on joint i-1.
+/// The MuJoCo bodies' first joints: joint i joins its parent's body when it is listed right after
+/// it, sits at its origin (zero offset), is its only child and no ArmBody hangs on the parent
+/// (MuJoCo chains the joints of one body in order, exactly like our serial chain).
 std::vector<bool> starts_body(const models::ArmModel& model) {
   std::vector<bool> carries(model.joints.size(), false);
   for (const auto& b : model.bodies) carries[b.joint] = true;
+  std::vector<int> children(model.joints.size(), 0);
+  for (int i = 0; i < model.dof(); ++i) {
+    if (model.parent(i) >= 0) ++children[static_cast<std::size_t>(model.parent(i))];
+  }
   std::vector<bool> starts(model.joints.size(), true);
-  for (std::size_t i = 1; i < model.joints.size(); ++i) {
-    starts[i] = !(model.joints[i].offset_m.isZero(0.0) && !carries[i - 1]);
+  for (int i = 1; i < model.dof(); ++i) {
+    const auto parent = static_cast<std::size_t>(model.parent(i));
+    starts[static_cast<std::size_t>(i)] = !(model.parent(i) == i - 1 && children[parent] == 1 &&
+                                            model.joints[static_cast<std::size_t>(i)].offset_m.isZero(0.0) && !carries[parent]);
   }
   return starts;
 }
@@ -161,7 +173,7 @@ std::string arm_mjcf(const models::ArmModel& model, const ArmMjcfOptions& option
   // MuJoCo refuses a moving body without mass unless a welded child carries some: every body we
   // open must end with a joint that carries a massive ArmBody.
   for (std::size_t i = 0; i < model.joints.size(); ++i) {
-    const bool last_of_body = i + 1 == model.joints.size() || starts[i + 1];
+    const bool last_of_body = i + 1 == model.joints.size() || starts[i + 1];  // a joined child follows its parent
     if (!last_of_body) continue;
     bool massive = false;
     for (const auto& b : model.bodies) {
@@ -191,17 +203,20 @@ std::string arm_mjcf(const models::ArmModel& model, const ArmMjcfOptions& option
          "    <joint solreffriction=\"0.0005 1\" solimpfriction=\"0.99 0.999 0.001\"/>\n  </default>\n";
   out += "  <worldbody>\n";
 
-  int depth = 2;
-  int open_bodies = 0;
-  for (std::size_t i = 0; i < model.joints.size(); ++i) {
-    const auto& j = model.joints[i];
-    if (starts[i]) {
+  // Depth-first: a joint's body holds its joint, its welded ArmBodies and its children's bodies.
+  std::vector<std::vector<int>> children(model.joints.size());
+  for (int i = 0; i < model.dof(); ++i) {
+    if (model.parent(i) >= 0) children[static_cast<std::size_t>(model.parent(i))].push_back(i);
+  }
+  auto write_joint = [&](auto&& self, int i, int depth) -> void {
+    const auto& j = model.joints[static_cast<std::size_t>(i)];
+    const bool opens = starts[static_cast<std::size_t>(i)];
+    if (opens) {
       indent(out, depth);
       out += fmt::format("<body name=\"{}_frame\" pos=\"{}\">\n", j.name, vec(j.offset_m));
       ++depth;
-      ++open_bodies;
     }
-    const ArmMjcfJoint& o = joint_options(i);
+    const ArmMjcfJoint& o = joint_options(static_cast<std::size_t>(i));
     indent(out, depth);
     out += fmt::format(
         "<joint name=\"{}\" type=\"hinge\" pos=\"0 0 0\" axis=\"{}\" limited=\"true\" range=\"{} {}\" damping=\"{}\" "
@@ -209,13 +224,17 @@ std::string arm_mjcf(const models::ArmModel& model, const ArmMjcfOptions& option
         j.name, vec(j.axis), num(o.range_min_rad), num(o.range_max_rad), num(o.damping_Nms_per_rad),
         num(o.armature_kgm2), num(o.stiffness_Nm_per_rad), num(o.spring_ref_rad));
     for (const auto& b : model.bodies) {
-      if (b.joint == static_cast<int>(i)) write_body(out, depth, b, options.geom_radius_m);
+      if (b.joint == i) write_body(out, depth, b, options.geom_radius_m);
     }
-  }
-  while (open_bodies-- > 0) {
-    --depth;
-    indent(out, depth);
-    out += "</body>\n";
+    for (int c : children[static_cast<std::size_t>(i)]) self(self, c, depth);
+    if (opens) {
+      --depth;
+      indent(out, depth);
+      out += "</body>\n";
+    }
+  };
+  for (int i = 0; i < model.dof(); ++i) {
+    if (model.parent(i) < 0) write_joint(write_joint, i, 2);
   }
   out += "  </worldbody>\n";
 

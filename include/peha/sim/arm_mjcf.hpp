@@ -1,13 +1,14 @@
 #pragma once
 /// \file
-/// MJCF of a `models::ArmModel` (the right arm's serial chain), so the simulated plant and the
+/// MJCF of a `models::ArmModel` (a kinematic tree: the right arm's serial chain, or two arms on a base), so the simulated plant and the
 /// controller's model can be built from one description (with different parameters: the plant's
 /// truth is a second ArmModel, see configs/arm/right_arm_body.yaml and docs/right-arm.md).
 ///
 /// Structure of the generated model:
-/// - one MuJoCo body per group of joints: a joint starts a new body unless it sits at its
-///   predecessor's origin (zero offset) and no ArmBody hangs on the predecessor, in which case it
-///   joins the predecessor's body (MuJoCo chains several joints of one body exactly like our serial
+/// - one MuJoCo body per group of joints, nested as the joints' parents are: a joint starts a new body
+///   unless it is listed right after its parent, is its only child, sits at its origin (zero offset)
+///   and no ArmBody hangs on the parent, in which case it joins the parent's body (MuJoCo chains
+///   several joints of one body exactly like our serial
 ///   chain). The body is named "<first joint>_frame"; joints keep the ArmJoint names.
 /// - every ArmBody is a welded child body of its joint's body, named like the ArmBody, with an
 ///   explicit <inertial> (mass, pos = com_m, diaginertia = inertia_kgm2; a non-diagonal tensor as
