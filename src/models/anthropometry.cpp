@@ -1,4 +1,5 @@
 #include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 
 #include <fmt/format.h>
 
@@ -8,8 +9,6 @@
 
 namespace peha::models {
 namespace {
-
-constexpr double kSteelDensity_kg_per_m3 = 7850.0;
 
 SegmentParams segment(const SegmentFractions& f, double height_m, double mass_kg) {
   SegmentParams s;
@@ -73,7 +72,7 @@ Eigen::Matrix3d ExoLinkParams::inertia_kgm2() const {
   return slender(mass_kg, axial_radius_of_gyration_m, radius_of_gyration_fraction * length_m);
 }
 
-UserArm user_arm_from_anthropometry(double height_m, double mass_kg) {
+UserArm user_arm_from_anthropometry(double height_m, double mass_kg, Sex sex) {
   if (!std::isfinite(height_m) || height_m < kMinHeight_m || height_m > kMaxHeight_m) {
     throw std::invalid_argument(fmt::format(
         "user_arm_from_anthropometry: body height {} m is outside [{}, {}] m", height_m, kMinHeight_m, kMaxHeight_m));
@@ -86,6 +85,17 @@ UserArm user_arm_from_anthropometry(double height_m, double mass_kg) {
   arm.upper_arm = segment(winter2009::kUpperArm, height_m, mass_kg);
   arm.forearm = segment(winter2009::kForearm, height_m, mass_kg);
   arm.hand = segment(winter2009::kHand, height_m, mass_kg);
+  if (sex != Sex::kUnspecified) {
+    const bool male = sex == Sex::kMale;
+    auto apply = [mass_kg](SegmentParams& s, const SexSegmentFractions& f) {
+      s.mass_kg = f.mass_per_body_mass * mass_kg;
+      s.com_from_proximal_m = f.com_from_proximal * s.length_m;
+      s.radius_of_gyration_m = f.radius_of_gyration * s.length_m;
+      s.axial_radius_of_gyration_m = f.axial_radius_of_gyration * s.length_m;
+    };
+    apply(arm.upper_arm, male ? deleva1996::kMaleUpperArm : deleva1996::kFemaleUpperArm);
+    apply(arm.forearm, male ? deleva1996::kMaleForearm : deleva1996::kFemaleForearm);
+  }
   return arm;
 }
 
@@ -100,7 +110,7 @@ ExoArmParams exo_arm_for_user(const UserArm& user) {
   return exo;
 }
 
-ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double payload_kg, bool include_user_arm) {
+void check_arm_parameters(const ExoArmParams& exo, const UserArm& user) {
   check_link(exo.upper_link, "upper_link");
   check_link(exo.forearm_link, "forearm_link");
   check_link(exo.hand_piece, "hand_piece");
@@ -108,39 +118,16 @@ ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double pa
   check_segment(user.forearm, "forearm");
   check_segment(user.hand, "hand");
   require(std::isfinite(exo.shoulder_height_m), "shoulder_height_m must be finite");
-  require(std::isfinite(payload_kg) && payload_kg >= 0, "payload_kg must be finite and >= 0");
+}
 
-  const Eigen::Vector3d flexion_axis(0, -1, 0);  // positive turns +x toward +z (up)
-  ArmModel m;
-  m.joints = {
-      {kRightArmJointNames[kSFE], {0, 0, exo.shoulder_height_m}, flexion_axis, true},
-      {kRightArmJointNames[kEFE], {exo.upper_link.length_m, 0, 0}, flexion_axis, true},
-      {kRightArmJointNames[kWFE], {exo.forearm_link.length_m, 0, 0}, flexion_axis, true},
-      {kRightArmJointNames[kWR], Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitX(), false},
-      {kRightArmJointNames[kWAA], Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitZ(), false},
-  };
-
-  auto link_body = [](const std::string& name, int joint, const ExoLinkParams& l) {
-    return ArmBody{name, joint, l.mass_kg, Eigen::Vector3d(l.com_m(), 0, 0), l.inertia_kgm2()};
-  };
-  auto user_body = [](const std::string& name, int joint, const SegmentParams& s) {
-    return ArmBody{name, joint, s.mass_kg, Eigen::Vector3d(s.com_from_proximal_m, 0, 0), s.inertia_kgm2()};
-  };
-
-  m.bodies.push_back(link_body("exo_upper_arm", kSFE, exo.upper_link));
-  if (include_user_arm) m.bodies.push_back(user_body("user_upper_arm", kSFE, user.upper_arm));
-  m.bodies.push_back(link_body("exo_forearm", kEFE, exo.forearm_link));
-  if (include_user_arm) m.bodies.push_back(user_body("user_forearm", kEFE, user.forearm));
-  // The hand piece and the hand move with all three wrist joints: attached to the last one.
-  m.bodies.push_back(link_body("exo_hand", kWAA, exo.hand_piece));
-  if (include_user_arm) m.bodies.push_back(user_body("user_hand", kWAA, user.hand));
-
-  // The payload: a steel sphere held in the hand, its centre at the hand's COM.
-  const double radius_m = std::cbrt(3.0 * payload_kg / (4.0 * std::numbers::pi * kSteelDensity_kg_per_m3));
-  const double inertia = 0.4 * payload_kg * radius_m * radius_m;
-  m.bodies.push_back(ArmBody{"payload", kWAA, payload_kg, Eigen::Vector3d(user.hand.com_from_proximal_m, 0, 0),
-                             Eigen::Matrix3d::Identity() * inertia});
-  return m;
+ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double payload_kg, bool include_user_arm) {
+  ExoskeletonSpec spec;
+  spec.exo = exo;
+  spec.user = user;
+  spec.arm_joints = paper_right_arm_joints();
+  spec.payload_kg = payload_kg;
+  spec.include_user_arm = include_user_arm;
+  return build_exoskeleton_model(spec);
 }
 
 ExoArmParams read_exo_arm(config::Map map, const UserArm& sized_for) {
@@ -154,7 +141,7 @@ ExoArmParams read_exo_arm(config::Map map, const UserArm& sized_for) {
 }
 
 UserArm UserSpec::arm() const {
-  UserArm a = user_arm_from_anthropometry(height_m, mass_kg);
+  UserArm a = user_arm_from_anthropometry(height_m, mass_kg, sex);
   a.upper_arm.mass_kg *= upper_arm_mass_scale;
   a.forearm.mass_kg *= forearm_mass_scale;
   a.hand.mass_kg *= hand_mass_scale;
@@ -165,32 +152,13 @@ UserSpec read_user(config::Map map) {
   UserSpec u;
   u.height_m = map.number("height_m", {kMinHeight_m, kMaxHeight_m});
   u.mass_kg = map.number("mass_kg", {kMinBodyMass_kg, kMaxBodyMass_kg});
+  if (map.has("sex")) u.sex = map.choice("sex", {"male", "female"}) == "male" ? Sex::kMale : Sex::kFemale;
+  u.left_handed = map.has("handedness") && map.choice("handedness", {"right", "left"}) == "left";
   u.upper_arm_mass_scale = map.number_or("upper_arm_mass_scale", 1.0, {0.5, 2.0});
   u.forearm_mass_scale = map.number_or("forearm_mass_scale", 1.0, {0.5, 2.0});
   u.hand_mass_scale = map.number_or("hand_mass_scale", 1.0, {0.5, 2.0});
   map.finish();
   return u;
-}
-
-ArmSetup read_arm_setup(config::Map& map) {
-  ArmSetup s;
-  s.user_spec = read_user(map.map("user"));
-  s.user = s.user_spec.arm();
-  s.exo = read_exo_arm(map.map("exoskeleton"), s.user);
-  s.payload_kg = map.number("payload_kg", {0.0, 20.0});
-  s.include_user_arm = map.boolean("include_user_arm");
-  return s;
-}
-
-RightArmConfig read_right_arm(const config::Document& doc) {
-  config::Map root = doc.root();
-  RightArmConfig c;
-  c.controller = read_arm_setup(root);
-  config::Map plant = root.map("plant");
-  c.plant = read_arm_setup(plant);
-  plant.finish();
-  root.finish();
-  return c;
 }
 
 }  // namespace peha::models

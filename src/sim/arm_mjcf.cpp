@@ -1,6 +1,6 @@
 #include "peha/sim/arm_mjcf.hpp"
 
-#include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 
 #include <fmt/format.h>
 
@@ -142,16 +142,19 @@ void write_body(std::string& out, int depth, const models::ArmBody& b, double ge
 
 }  // namespace
 
-ArmMjcfOptions right_arm_mjcf_options() {
+ArmMjcfOptions exoskeleton_mjcf_options(const models::ExoskeletonSpec& spec) {
   ArmMjcfOptions o;
-  o.model_name = "peha_right_arm";
-  o.joints.resize(models::kRightArmDof);
-  o.joints[models::kSFE] = {-100 * kDeg, 60 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
-  o.joints[models::kEFE] = {0.0, 135 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
-  o.joints[models::kWFE] = {-60 * kDeg, 60 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
-  o.joints[models::kWR] = {-80 * kDeg, 80 * kDeg, 0.05, 0.0, 0.0, 0.0, true, 0.0};  // clamped (docs/models.md)
-  o.joints[models::kWAA] = {-30 * kDeg, 20 * kDeg, 0.05, 0.0, 0.0, 0.0, false, 0.0};
+  o.model_name = spec.sides.size() > 1 ? "peha_upper_body" : fmt::format("peha_{}_arm", spec.sides.at(0) == models::ArmSide::kRight ? "right" : "left");
+  for (const models::JointRange& r : models::exoskeleton_joint_ranges(spec)) {
+    o.joints.push_back({r.min_rad, r.max_rad, r.damping_Nms_per_rad, 0.0, 0.0, 0.0, r.locked, r.locked_at_rad});
+  }
   return o;
+}
+
+ArmMjcfOptions right_arm_mjcf_options() {
+  models::ExoskeletonSpec spec;
+  spec.arm_joints = models::paper_right_arm_joints();
+  return exoskeleton_mjcf_options(spec);
 }
 
 std::string arm_mjcf(const models::ArmModel& model, const ArmMjcfOptions& options) {

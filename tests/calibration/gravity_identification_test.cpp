@@ -2,7 +2,7 @@
 // plant's exact gravity torques, measured at the shoulder and the elbow, from the nominal prior.
 #include "peha/calibration/gravity_identification.hpp"
 
-#include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 #include "peha/models/gravity_parameters.hpp"
 
 #include <fmt/format.h>
@@ -20,8 +20,8 @@ namespace {
 using ::testing::HasSubstr;
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-models::RightArmConfig shipped_arm() {
-  return models::read_right_arm(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml"));
+models::BodyConfig shipped_arm() {
+  return models::read_body(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml"));
 }
 
 Eigen::VectorXd q_of(double sfe, double efe, double wfe) {
@@ -51,7 +51,7 @@ std::vector<GravitySample> samples_of(const models::ArmModel& truth, double shou
 // the fit) the identified shoulder and elbow torques are within 0.5 % of the plant's, where the
 // nominal model is 6-12 % off. Six base parameters are identified (two per link of a planar chain).
 TEST(GravityIdentification, RecoversThePlantsGravityFromItsTorques) {
-  const models::RightArmConfig arm = shipped_arm();
+  const models::BodyConfig arm = shipped_arm();
   const models::ArmModel nominal = arm.controller.model(), plant = arm.plant.model();
   const GravityIdentification fit = identify_gravity(nominal, samples_of(plant), {});
   EXPECT_EQ(fit.rank, 6);
@@ -77,7 +77,7 @@ TEST(GravityIdentification, RecoversThePlantsGravityFromItsTorques) {
 // Torques with the wrong sign (e.g. agonist and antagonist channels swapped): every torque would move
 // by 200 % of the nominal model's, far beyond the 30 % a real arm differs by: refused.
 TEST(GravityIdentification, RefusesTorquesOfTheWrongSign) {
-  const models::RightArmConfig arm = shipped_arm();
+  const models::BodyConfig arm = shipped_arm();
   std::vector<GravitySample> s = samples_of(arm.plant.model());
   for (GravitySample& g : s) g.tau_Nm = -g.tau_Nm;
   try {
@@ -91,7 +91,7 @@ TEST(GravityIdentification, RefusesTorquesOfTheWrongSign) {
 // The shoulder's torque computed with a pulley radius twice the real one (a wrong lever): the
 // shoulder's torques would move by about 100 % of the nominal model's: refused.
 TEST(GravityIdentification, RefusesAShoulderTorqueWithTheWrongLever) {
-  const models::RightArmConfig arm = shipped_arm();
+  const models::BodyConfig arm = shipped_arm();
   EXPECT_THROW(identify_gravity(arm.controller.model(), samples_of(arm.plant.model(), 2.0), {}), GravityIdentificationRejected);
   // 1.1: within what a real arm differs by, and a rigid arm can have it: accepted.
   EXPECT_NO_THROW(identify_gravity(arm.controller.model(), samples_of(arm.plant.model(), 1.1), {}));
@@ -100,7 +100,7 @@ TEST(GravityIdentification, RefusesAShoulderTorqueWithTheWrongLever) {
 // The file carries the parameters by name; read back for the same arm it gives the same gravity, and
 // a file for another arm (different joints) or with an unknown key is refused with its place.
 TEST(GravityIdentification, FileRoundTripAndStrictReading) {
-  const models::RightArmConfig arm = shipped_arm();
+  const models::BodyConfig arm = shipped_arm();
   const models::ArmModel nominal = arm.controller.model();
   const std::vector<GravitySample> s = samples_of(arm.plant.model());
   const GravityIdentification fit = identify_gravity(nominal, s, {});

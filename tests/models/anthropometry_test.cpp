@@ -1,4 +1,5 @@
 #include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 
 #include <gtest/gtest.h>
 
@@ -120,9 +121,9 @@ TEST(ArmModelBuild, ChainAndBodiesForTheDefaultUser) {
   EXPECT_THROW(build_arm_model(broken, u, 0.0, true), std::invalid_argument);
 }
 
-TEST(RightArmConfig, ReadsTheShippedFile) {
+TEST(BodyFile, ReadsTheShippedFile) {
   const auto doc = config::Document::load_file(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / "arm" / "right_arm_body.yaml");
-  const RightArmConfig c = read_right_arm(doc);
+  const BodyConfig c = read_body(doc);
   EXPECT_DOUBLE_EQ(c.controller.user_spec.height_m, 1.75);
   EXPECT_DOUBLE_EQ(c.controller.user_spec.mass_kg, 70.0);
   EXPECT_NEAR(c.controller.user.forearm.mass_kg, 1.12, kTol);
@@ -142,21 +143,21 @@ TEST(RightArmConfig, ReadsTheShippedFile) {
   EXPECT_NEAR(total_mass(m), 3.9 + 3.5, kTol);
 }
 
-TEST(RightArmConfig, RejectsUnknownKeys) {
+TEST(BodyFile, RejectsUnknownKeys) {
   const std::string text = right_arm_yaml();
   ASSERT_FALSE(text.empty());
-  EXPECT_NO_THROW(read_right_arm(config::Document::load_string(text, "right_arm.yaml")));
+  EXPECT_NO_THROW(read_body(config::Document::load_string(text, "right_arm.yaml")));
 
   // A typo at the top level, inside a section and inside the plant's section.
-  EXPECT_THROW(read_right_arm(config::Document::load_string(text + "paylaod_kg: 1.0\n", "right_arm.yaml")),
+  EXPECT_THROW(read_body(config::Document::load_string(text + "paylaod_kg: 1.0\n", "right_arm.yaml")),
                config::Error);
   std::string nested = text;
   nested.replace(nested.find("  mass_kg: 70.0"), 0, "  weight_kg: 70.0\n");
-  EXPECT_THROW(read_right_arm(config::Document::load_string(nested, "right_arm.yaml")), config::Error);
+  EXPECT_THROW(read_body(config::Document::load_string(nested, "right_arm.yaml")), config::Error);
   std::string in_plant = text;
   in_plant.replace(in_plant.find("  payload_kg: 0.0\n  include_user_arm: true"), 0, "  colour: red\n");
   try {
-    read_right_arm(config::Document::load_string(in_plant, "right_arm.yaml"));
+    read_body(config::Document::load_string(in_plant, "right_arm.yaml"));
     FAIL() << "unknown key accepted";
   } catch (const config::Error& e) {
     EXPECT_NE(std::string(e.what()).find("plant.colour"), std::string::npos) << e.what();
@@ -164,7 +165,7 @@ TEST(RightArmConfig, RejectsUnknownKeys) {
   // Out of range: a 2.5 m user.
   std::string tall = text;
   tall.replace(tall.find("height_m: 1.75"), 14, "height_m: 2.50");
-  EXPECT_THROW(read_right_arm(config::Document::load_string(tall, "right_arm.yaml")), config::Error);
+  EXPECT_THROW(read_body(config::Document::load_string(tall, "right_arm.yaml")), config::Error);
 }
 
 }  // namespace

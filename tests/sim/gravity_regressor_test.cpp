@@ -1,7 +1,7 @@
 // The gravity regressor tau_g(q) = Y(q) theta (models/gravity_parameters.hpp) cross-checked against
 // the controller's J^T G and against MuJoCo's gravity (qfrc_bias at zero velocity) of the same arm.
 #include "../support/alloc_counter.hpp"
-#include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 #include "peha/models/gravity_parameters.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 
@@ -15,7 +15,7 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-RightArmConfig shipped_arm() { return read_right_arm(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml")); }
+BodyConfig shipped_arm() { return read_body(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml")); }
 
 std::vector<Eigen::VectorXd> postures() {
   std::vector<Eigen::VectorXd> out;

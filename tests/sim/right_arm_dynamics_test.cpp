@@ -1,7 +1,7 @@
 // Issue 4's cross-checks on the real right-arm model (exoskeleton + user arm + payload, from
 // configs/arm/right_arm_body.yaml): our gravity compensation tau = J^T G equals MuJoCo's own bias force at
 // zero velocity, and our inverse dynamics equals mj_inverse, at random postures and states.
-#include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 #include "peha/models/arm.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 
@@ -20,12 +20,12 @@ struct RightArm {
 /// The plant's arm with a 2 kg payload, joints unlocked and undamped so MuJoCo's equations are the
 /// pure rigid-body ones our model describes.
 RightArm right_arm() {
-  const models::RightArmConfig cfg =
-      models::read_right_arm(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml"));
-  models::ArmSetup setup = cfg.plant;
+  const models::BodyConfig cfg =
+      models::read_body(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml"));
+  models::ExoskeletonSpec setup = cfg.plant;
   setup.payload_kg = 2.0;
   RightArm arm{setup.model(), nullptr};
-  sim::ArmMjcfOptions options = sim::right_arm_mjcf_options();
+  sim::ArmMjcfOptions options = sim::exoskeleton_mjcf_options(setup);
   for (sim::ArmMjcfJoint& j : options.joints) {
     j.locked = false;
     j.damping_Nms_per_rad = 0.0;

@@ -52,6 +52,30 @@ inline constexpr SegmentFractions kForearm{0.146, 0.016, 0.430, 0.303, 1130.0}; 
 inline constexpr SegmentFractions kHand{0.108, 0.006, 0.506, 0.297, 1160.0};      ///< wrist axis - fingertip (Fig. 4.1)
 }  // namespace winter2009
 
+/// de Leva, "Adjustments to Zatsiorsky-Seluyanov's segment inertia parameters", J. Biomech. 29(9),
+/// 1996, Table 4 (living young adults, gamma-ray scanning, referenced to the joint centres): mass,
+/// COM from the proximal joint centre, and the radii of gyration about the two transverse axes
+/// (averaged: the models here have one transverse radius) and the long axis, as fractions.
+/// Only the upper arm and forearm are used: de Leva's hand ends at the third metacarpal, Winter's
+/// (and the exoskeleton's hand piece) at the fingertip, so the hand keeps Winter's row.
+struct SexSegmentFractions {
+  double mass_per_body_mass;
+  double com_from_proximal;
+  double radius_of_gyration;          ///< transverse, mean of de Leva's two
+  double axial_radius_of_gyration;    ///< about the long axis
+};
+namespace deleva1996 {
+inline constexpr SexSegmentFractions kMaleUpperArm{0.0271, 0.5772, 0.5 * (0.285 + 0.269), 0.158};
+inline constexpr SexSegmentFractions kMaleForearm{0.0162, 0.4574, 0.5 * (0.276 + 0.265), 0.121};
+inline constexpr SexSegmentFractions kFemaleUpperArm{0.0255, 0.5754, 0.5 * (0.278 + 0.260), 0.148};
+inline constexpr SexSegmentFractions kFemaleForearm{0.0138, 0.4559, 0.5 * (0.261 + 0.257), 0.094};
+}  // namespace deleva1996
+
+/// Which table the user's segments come from: unspecified = Winter (2009), sex-neutral (the
+/// default, and what the shipped right arm uses); male / female = de Leva (1996) for the upper arm
+/// and forearm (lengths stay Winter's fractions of body height).
+enum class Sex { kUnspecified, kMale, kFemale };
+
 /// Valid inputs of `user_arm_from_anthropometry`.
 inline constexpr double kMinHeight_m = 1.2, kMaxHeight_m = 2.2;
 inline constexpr double kMinBodyMass_kg = 30.0, kMaxBodyMass_kg = 200.0;
@@ -79,7 +103,7 @@ struct UserArm {
 /// Segment parameters of a user of height `height_m` (m) and body mass `mass_kg` (kg) from Winter
 /// (2009). Throws std::invalid_argument for heights outside [1.2, 2.2] m or masses outside
 /// [30, 200] kg (or non-finite values).
-UserArm user_arm_from_anthropometry(double height_m, double mass_kg);
+UserArm user_arm_from_anthropometry(double height_m, double mass_kg, Sex sex = Sex::kUnspecified);
 
 /// One exoskeleton link (rigid frame + cuff + whatever sits on it), long axis along the joint
 /// frame's +x. Its COM is on that axis.
@@ -113,7 +137,11 @@ ExoArmParams exo_arm_for_user(const UserArm& user);
 /// `include_user_arm`) and "payload" (always present, mass `payload_kg` >= 0, a steel sphere at the
 /// user's hand COM). The user's segments are strapped to the exo links: their COMs lie on the
 /// link axes at com_from_proximal_m. Throws std::invalid_argument on non-physical input.
+/// The paper's right arm alone (models/exoskeleton.hpp: `paper_right_arm_joints()`, one side).
 ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double payload_kg, bool include_user_arm);
+
+/// Throws std::invalid_argument ("build_arm_model: ...") for non-physical links or segments.
+void check_arm_parameters(const ExoArmParams& exo, const UserArm& user);
 
 // ---- configuration (configs/arm/right_arm_body.yaml) ----
 
@@ -124,35 +152,17 @@ ArmModel build_arm_model(const ExoArmParams& exo, const UserArm& user, double pa
 /// scenario's (configs/right_arm.yaml), not the body's.
 ExoArmParams read_exo_arm(config::Map map, const UserArm& sized_for);
 
-/// Reads a `user:` section: height_m, mass_kg, optional upper_arm_mass_scale, forearm_mass_scale,
-/// hand_mass_scale (default 1: a person or mannequin that deviates from the table).
+/// Reads a `user:` section: height_m, mass_kg, optional sex (male, female; absent: Winter's
+/// sex-neutral table), handedness (right, left; default right), upper_arm_mass_scale,
+/// forearm_mass_scale, hand_mass_scale (default 1: a person or mannequin that deviates from the table).
 struct UserSpec {
   double height_m = 1.75;
   double mass_kg = 70.0;
+  Sex sex = Sex::kUnspecified;        ///< optional `sex: male | female`
+  bool left_handed = false;           ///< optional `handedness: right | left` (its dominant side)
   double upper_arm_mass_scale = 1.0, forearm_mass_scale = 1.0, hand_mass_scale = 1.0;
   UserArm arm() const;  ///< user_arm_from_anthropometry + the mass scales
 };
 UserSpec read_user(config::Map map);
-
-/// One complete description of the arm: who wears it, the exoskeleton, the payload.
-struct ArmSetup {
-  UserSpec user_spec;
-  UserArm user;
-  ExoArmParams exo;
-  double payload_kg = 0;
-  bool include_user_arm = true;
-  ArmModel model() const { return build_arm_model(exo, user, payload_kg, include_user_arm); }
-};
-/// Reads the keys user{...}, exoskeleton{...}, payload_kg, include_user_arm of `map` (leaves the
-/// map's other keys to the caller, who calls finish()).
-ArmSetup read_arm_setup(config::Map& map);
-
-/// configs/arm/right_arm_body.yaml: the controller's model at the top level, the simulated truth under
-/// `plant:` (same keys). Rejects unknown keys everywhere.
-struct RightArmConfig {
-  ArmSetup controller;
-  ArmSetup plant;
-};
-RightArmConfig read_right_arm(const config::Document& doc);
 
 }  // namespace peha::models

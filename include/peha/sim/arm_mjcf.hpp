@@ -18,6 +18,7 @@
 /// Set-up code: throws std::invalid_argument / std::runtime_error.
 
 #include "peha/models/arm.hpp"
+#include "peha/models/exoskeleton.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
 #include <string>
@@ -46,7 +47,11 @@ struct ArmMjcfOptions {
   double geom_radius_m = 0.02;          ///< visual only (inertia comes from <inertial>)
 };
 
-/// The right arm's defaults (5 joints, order of models::kRightArmJointNames): ranges
+/// Each joint's range, lock and damping from the body's joint list (models::exoskeleton_joint_ranges),
+/// named "peha_right_arm", "peha_left_arm" or "peha_upper_body".
+ArmMjcfOptions exoskeleton_mjcf_options(const models::ExoskeletonSpec& spec);
+
+/// The paper's right arm (models::paper_right_arm_joints(), 5 joints): ranges
 /// SFE [-100, 60] deg, EFE [0, 135] deg, WFE [-60, 60] deg, WR [-80, 80] deg, WAA [-30, 20] deg;
 /// small bearing damping on the exo joints, passive-tissue damping on the wrist; WR clamped at 0 as in
 /// the paper's experiments.

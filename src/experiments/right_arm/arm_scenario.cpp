@@ -3,7 +3,7 @@
 
 #include "peha/calibration/gravity_identification.hpp"
 
-#include "peha/models/anthropometry.hpp"
+#include "peha/models/exoskeleton.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/models/model_config.hpp"
 
@@ -29,7 +29,7 @@ struct ArmLimits {
 };
 
 /// `controller:`: the nominal arm, the allocation, and per actuated joint its model and limits.
-void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, const ArmLimits& l, ArmScenario& s) {
+void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const ArmLimits& l, ArmScenario& s) {
   s.controller.arm = s.nominal_arm = body.controller.model();
   // Optional: the arm's gravity parameters identified on the rig (peha identify-gravity).
   if (ctl.has("gravity_identification")) s.gravity_identification_file = ctl.path_value("gravity_identification");
@@ -62,10 +62,10 @@ void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, co
 }
 
 /// `plant:` and `operator:`: the simulated arm, its actuators and the operator's hands.
-void read_arm_plant(config::Map plant, config::Map op, const models::RightArmConfig& body, const ArmLimits& l, ArmScenario& s) {
+void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig& body, const ArmLimits& l, ArmScenario& s) {
   sim::RightArmPlantParams& p = s.plant;
   p.model = body.plant.model();
-  p.mjcf = sim::right_arm_mjcf_options();
+  p.mjcf = sim::exoskeleton_mjcf_options(body.plant);
   p.timestep_s = sim::read_timestep_s(plant, s.period_s);
   p.mjcf.timestep_s = p.timestep_s;
   p.control_period_s = s.period_s;
@@ -214,7 +214,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   const ScenarioHeader header = read_scenario_header(root, "right_arm");
   s.description = header.description;
   s.seed = header.seed;
-  const models::RightArmConfig body = models::read_right_arm(config::Document::load_file(root.path_value("body")));
+  const models::BodyConfig body = models::read_body(config::Document::load_file(root.path_value("body")));
 
   config::Map run = root.map("run");
   s.period_s = run.number("control_period_s", {1e-4, 0.1});
