@@ -8,6 +8,7 @@
 #include "../tests/support/alloc_counter.hpp"
 
 #include <benchmark/benchmark.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <chrono>
@@ -179,5 +180,78 @@ void BM_ArmControlStepWithSpgp(benchmark::State& state) {
   state.counters["band_reuse"] = 1.0 - static_cast<double>(band_evaluations) / bands;
 }
 BENCHMARK(BM_ArmControlStepWithSpgp)->Arg(0)->Arg(1)->Iterations(1)->Unit(benchmark::kMillisecond);
+
+/// A chain of `n` PEHA joints (each the right arm's elbow: DMSP-40/DMSP-10 pair, motor, Bowden
+/// cables; each link 1.2 kg at 0.15 m), its controller and limits, and 2000 sensor states of it
+/// moving slowly: the control step's cost against the number of joints (issue 14: it must grow
+/// linearly). Same work per joint as the arm: J^T G, allocation, limits.
+struct ChainSetup {
+  control::ArmControllerModel controller;
+  safety::LimitsModel limits;
+  std::vector<io::SensorState> states;
+};
+
+ChainSetup chain_setup(int n) {
+  ChainSetup c;
+  const experiments::ArmScenario& arm = scenario();
+  for (int i = 0; i < n; ++i) {
+    models::ArmJoint j{fmt::format("J{}", i), i == 0 ? Eigen::Vector3d(0, 0, 1.4) : Eigen::Vector3d(0.3, 0, 0),
+                       i % 3 == 2 ? Eigen::Vector3d(0, 0, 1) : Eigen::Vector3d(0, -1, 0), true};
+    c.controller.arm.joints.push_back(j);
+    c.controller.arm.bodies.push_back({fmt::format("link{}", i), i, 1.2, Eigen::Vector3d(0.15, 0, 0),
+                                       Eigen::Vector3d(0.002, 0.01, 0.01).asDiagonal()});
+    control::ArmActuatedJoint a = arm.controller.joints[1];  // the elbow's actuator model
+    a.model_joint = i;
+    c.controller.joints.push_back(a);
+    c.limits.joints[static_cast<std::size_t>(i)] = arm.limits.joints[1];
+  }
+  c.controller.allocation = arm.controller.allocation;
+  c.controller.velocity_cutoff_Hz = arm.controller.velocity_cutoff_Hz;
+  c.limits.joint_count = n;
+  c.limits.period_s = arm.limits.period_s;
+  c.limits.monitor = arm.limits.monitor;
+  c.states.resize(2000);
+  for (std::size_t k = 0; k < c.states.size(); ++k) {
+    io::SensorState& st = c.states[k];
+    st.time_s = 1e-3 * static_cast<double>(k);
+    st.sequence = k;
+    st.joint_count = n;
+    for (int i = 0; i < n; ++i) {
+      io::JointSensors& js = st.joints[static_cast<std::size_t>(i)];
+      js.angle_rad = 1.0 + 0.3 * std::sin(0.5 * st.time_s + i);
+      js.agonist_loadcell_N = 300 + 50 * std::sin(st.time_s + i);
+      js.antagonist_loadcell_N = 60;
+      js.agonist_pressure_Pa = 3e5;
+      js.antagonist_pressure_Pa = 2e5;
+    }
+  }
+  return c;
+}
+
+void BM_ArmControlStepJoints(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const ChainSetup c = chain_setup(n);
+  control::ArmController controller(c.controller);
+  safety::LimitsData limits;
+  const safety::JointModels models = experiments::arm_joint_models(c.controller);
+  io::Command command;
+  std::size_t k = 0;
+  for (auto _ : state) {
+    controller.update(c.states[k], command);
+    safety::apply_limits(c.limits, models, limits, c.states[k], command);
+    benchmark::DoNotOptimize(command);
+    if (++k == c.states.size()) {
+      state.PauseTiming();
+      controller = control::ArmController(c.controller);
+      limits = safety::LimitsData{};
+      k = 0;
+      state.ResumeTiming();
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["joints"] = n;
+  state.counters["ns_per_joint"] = benchmark::Counter(static_cast<double>(n), benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_ArmControlStepJoints)->Arg(1)->Arg(3)->Arg(8)->Arg(16);
 
 }  // namespace

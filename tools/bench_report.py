@@ -157,6 +157,17 @@ def main(argv: list[str] | None = None) -> int:
                      "median <= 2 us, p99.9 <= 10 us, 0 allocations",
                      arm["median_ns"] <= 2000 and arm["p999_ns"] <= 10000 and arm["allocs_per_step"] == 0))
 
+    # 5b. Control step against the number of joints (issue 14): CPU time per joint at 1, 3, 8, 16
+    # joints; linear when the largest per-joint cost is within 25 % of the smallest.
+    chain = {n: gb.get(f"BM_ArmControlStepJoints/{n}") for n in (1, 3, 8, 16)}
+    if all(v is not None for v in chain.values()):
+        per_joint = {n: seconds(v, "cpu_time") * 1e9 / n for n, v in chain.items()}
+        spread = max(per_joint.values()) / min(per_joint.values())
+        measured = ", ".join(f"{n} joints {fmt(seconds(v, 'cpu_time') * 1e9, ' ns')} ({fmt(per_joint[n], ' ns')}/joint)"
+                             for n, v in chain.items())
+        rows.append(("Control step (J^T G + allocation + limits) vs number of PEHA joints", f"{measured}; per-joint spread {fmt(spread, 'x')}",
+                     "linear: per-joint cost within 1.25x across 1-16 joints", spread <= 1.25))
+
     # 6. Plants over bare MuJoCo: overhead from CPU time (single-threaded), real-time factor from
     # wall time (its definition) and, for a machine to itself, from CPU time.
     for label, plant_name, bare_name, rtf_target in (("rig", "BM_SimulatedRigStep", "BM_BareMujocoRigStep", 500),

@@ -24,7 +24,7 @@
 namespace peha::io {
 
 /// Fixed capacity so that states and commands are plain values (no allocation in the loop).
-inline constexpr int kMaxJoints = 8;
+inline constexpr int kMaxJoints = 16;
 
 /// What the sensors of one joint report, already converted to SI by the backend's channel map.
 struct JointSensors {

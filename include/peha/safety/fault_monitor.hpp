@@ -48,6 +48,13 @@
 
 namespace peha::safety {
 
+/// One value for every joint io::kMaxJoints allows.
+constexpr std::array<bool, io::kMaxJoints> all_joints(bool value) noexcept {
+  std::array<bool, io::kMaxJoints> a{};
+  a.fill(value);
+  return a;
+}
+
 enum FaultFlag : std::uint32_t {
   kFaultNonFiniteCommand = 1u << 0,
   kFaultNonFiniteSample = 1u << 1,
@@ -146,11 +153,11 @@ struct MonitorParams {
   double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
   double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
   double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
-  std::array<bool, io::kMaxJoints> tension_checked{true, true, true, true, true, true, true, true};  ///< per joint
+  std::array<bool, io::kMaxJoints> tension_checked = all_joints(true);  ///< per joint
   /// Per joint: the descend safe state governs it (false: it keeps the pressures held at the fault -
   /// a constant-pressure joint such as the arm's wrist, whose held pressures are its design; governed,
   /// the light wrist swung at 64-381 deg/s in the fault matrix).
-  std::array<bool, io::kMaxJoints> governed{true, true, true, true, true, true, true, true};
+  std::array<bool, io::kMaxJoints> governed = all_joints(true);
 };
 
 /// Reads the scenario root's optional `supervisor:` section into `p` (keys absent keep their
