@@ -76,8 +76,9 @@ BENCHMARK(BM_E1CaseFull)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealT
 /// MuJoCo's own time per 1 ms control period; BM_SimulatedRigStep / BM_SimulatedArmStep minus this
 /// is peha's plant (muscles, valves, cables, motor, sensors, lifecycle) on top of it.
 void bare_mujoco_loop(benchmark::State& state, mjModel* m, double timestep_s, double period_s,
-                      const std::vector<double>& initial_q) {
+                      const std::vector<double>& initial_q, double frictionloss_Nm = 0.0) {
   m->opt.timestep = timestep_s;
+  for (int i = 0; i < m->nv; ++i) m->dof_frictionloss[i] += frictionloss_Nm;
   const int substeps = static_cast<int>(std::lround(period_s / timestep_s));
   sim::DataPtr data(mj_makeData(m));
   mjData* d = data.get();
@@ -102,6 +103,16 @@ void BM_BareMujocoRigStep(benchmark::State& state) {
   bare_mujoco_loop(state, model.get(), params.timestep_s, params.control_period_s, {params.initial_angle_rad});
 }
 BENCHMARK(BM_BareMujocoRigStep)->UseRealTime();
+
+/// The same, with a friction-loss constraint on every joint as the plant sets for the cables'
+/// stiction (5 Nm): MuJoCo's own step for the model as the plant runs it (one more constraint row
+/// per joint for its solver).
+void BM_BareMujocoRigStepWithFriction(benchmark::State& state) {
+  const sim::OneDofRigParams params = heavy_plant_params();
+  sim::ModelPtr model = sim::load_mjcf(params.model_file);
+  bare_mujoco_loop(state, model.get(), params.timestep_s, params.control_period_s, {params.initial_angle_rad}, 5.0);
+}
+BENCHMARK(BM_BareMujocoRigStepWithFriction)->UseRealTime();
 
 void BM_BareMujocoArmStep(benchmark::State& state) {
   const experiments::ArmScenario s =
