@@ -276,7 +276,6 @@ void apply_calibration(const MuscleCalibration& c, const std::filesystem::path& 
 models::MuscleModel calibrated_muscle(const MuscleCalibration& c, bool with_spgp, models::MuscleModel muscle) {
   muscle.pam = c.params;
   muscle.loadcell_zero_N = c.loadcell_zero_N;
-  muscle.calibrated = true;
   muscle.residual = with_spgp && c.spgp ? std::make_shared<SpgpResidual>(c.spgp, c.contraction, c.force_N, c.residual_Pa) : nullptr;
   return muscle;
 }

@@ -50,13 +50,7 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
   if (was_starting) {
     for (std::size_t i = 0; i < model_.joints.size(); ++i) {
       if (model_.joints[i].mode == ArmJointMode::kHoldPressure) continue;  // not vented: nothing to tare
-      // A calibrated muscle was not vented: its zero is the reading less what its model says it pulls.
-      for (int m = 0; m < 2; ++m) {
-        const double pressure_Pa = m == 0 ? state.joints[i].agonist_pressure_Pa : state.joints[i].antagonist_pressure_Pa;
-        allocation_data_[i].loadcell_offset_N[m] =
-            tare_offset_N(check, tare_, static_cast<int>(i), m) -
-            tare_vented_force_N(model_.joints[i].actuator, m, state.joints[i].angle_rad, pressure_Pa);
-      }
+      for (int m = 0; m < 2; ++m) allocation_data_[i].loadcell_offset_N[m] = tare_offset_N(check, tare_, static_cast<int>(i), m);
       allocation_data_[i].bumpless_start = false;  // the valves start from vented, the trim from 0
     }
   }

@@ -56,12 +56,4 @@ bool wires_slack_on_purpose(const LoadcellCheck& check, const StartupTare& t, do
   return check.tare_s > 0.0 && (t.compensating_since_s < 0.0 || t_s < t.compensating_since_s + check.refill_s);
 }
 
-double tare_vented_force_N(const models::JointModel& joint, int muscle, double angle_rad, double pressure_Pa) noexcept {
-  const models::MuscleModel& m = muscle == 0 ? joint.agonist : joint.antagonist;
-  if (!m.calibrated || !m.residual || !std::isfinite(angle_rad) || !std::isfinite(pressure_Pa)) return 0.0;
-  const double eps = models::rigid_contraction(m, joint.pulley_radius_m, muscle == 0 ? +1 : -1, angle_rad);
-  const double force_N = models::muscle_force_at_pressure_N(m, pressure_Pa, eps, joint.supply_pressure_Pa);
-  return m.residual->std_Pa(eps, force_N) <= models::kSupportedResidualStdOfSupply * joint.supply_pressure_Pa ? force_N : 0.0;
-}
-
 }  // namespace peha::control

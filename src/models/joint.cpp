@@ -46,18 +46,6 @@ PressureInterval muscle_pressure_interval(const MuscleModel& m, double force_N, 
   return {std::clamp(inv.pressure_Pa + lo, 0.0, supply_pressure_Pa), std::clamp(inv.pressure_Pa + hi, 0.0, supply_pressure_Pa)};
 }
 
-double muscle_force_at_pressure_N(const MuscleModel& m, double pressure_Pa, double eps, double supply_pressure_Pa) noexcept {
-  if (!std::isfinite(pressure_Pa) || !std::isfinite(eps)) return 0.0;
-  double lo = 0.0, hi = force_ceiling_N(m);
-  if (pressure_Pa <= muscle_pressure(m, lo, eps, supply_pressure_Pa).pressure_Pa) return lo;
-  if (pressure_Pa >= muscle_pressure(m, hi, eps, supply_pressure_Pa).pressure_Pa) return hi;
-  for (int i = 0; i < 60 && hi - lo > 1e-3; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (muscle_pressure(m, mid, eps, supply_pressure_Pa).pressure_Pa < pressure_Pa ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
 double rigid_contraction(const MuscleModel& m, double r0, int side, double angle_rad) noexcept {
   return m.contraction_at_zero_angle + side * r0 * angle_rad / m.rest_length_m;
 }

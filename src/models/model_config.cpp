@@ -25,7 +25,7 @@ BowdenParams read_bowden(config::Map map) {
   return p;
 }
 
-MuscleModel read_muscle_model(config::Map map, const std::string& name, std::filesystem::path* calibration_file) {
+MuscleModel read_muscle_model(config::Map map, const std::string& name) {
   MuscleModel m;
   m.name = name;
   m.rest_length_m = map.number("rest_length_m", {0.05, 2.0});
@@ -33,13 +33,11 @@ MuscleModel read_muscle_model(config::Map map, const std::string& name, std::fil
   m.max_force_N = map.number("max_force_N", {1.0, kMaxPamForce_N});
   m.pam = read_tendon_spring(map.map("pam"));
   m.bowden = read_bowden(map.map("bowden"));
-  if (calibration_file != nullptr && map.has("calibration")) *calibration_file = map.path_value("calibration");
   map.finish();
   return m;
 }
 
-JointModel read_joint_model(config::Map& map, const std::string& name, double supply_pressure_Pa, double pretension_N,
-                            std::filesystem::path* calibration_files) {
+JointModel read_joint_model(config::Map& map, const std::string& name, double supply_pressure_Pa, double pretension_N) {
   JointModel j;
   j.name = name;
   j.supply_pressure_Pa = supply_pressure_Pa;
@@ -47,8 +45,8 @@ JointModel read_joint_model(config::Map& map, const std::string& name, double su
   j.pulley_radius_m = map.number("pulley_radius_m", {0.005, 0.2});
   j.has_motor = map.boolean("has_motor");
   j.motor_max_torque_Nm = map.number("motor_max_torque_Nm", {0.0, 50.0});
-  j.agonist = read_muscle_model(map.map("agonist"), "agonist", calibration_files != nullptr ? &calibration_files[0] : nullptr);
-  j.antagonist = read_muscle_model(map.map("antagonist"), "antagonist", calibration_files != nullptr ? &calibration_files[1] : nullptr);
+  j.agonist = read_muscle_model(map.map("agonist"), "agonist");
+  j.antagonist = read_muscle_model(map.map("antagonist"), "antagonist");
   return j;
 }
 

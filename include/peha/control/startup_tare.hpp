@@ -36,17 +36,6 @@ bool step_startup_tare(const LoadcellCheck& check, const io::SensorState& s, Sta
 /// check.max_tare_N (not believed) or before any sample.
 double tare_offset_N(const LoadcellCheck& check, const StartupTare& t, int joint, int muscle) noexcept;
 
-/// What muscle `muscle` (0 agonist, 1 antagonist) of `joint` pulls while it is "vented" for the tare
-/// at `angle_rad` with measured pressure `pressure_Pa`, N. A muscle with the configured (nominal)
-/// model is vented for real: the limits layer's floor, the pressure that model gives the pretension
-/// at, lies below the real muscle's pressure threshold, so 0. A calibrated muscle
-/// (models::MuscleModel::calibrated) is not: its model holds the real pretension at that floor.
-/// There it is the calibrated model's force at the measured pressure (models::muscle_force_at_pressure_N)
-/// where the calibration has data (its residual's std at most models::kSupportedResidualStdOfSupply x
-/// the supply); elsewhere 0, as if vented: a tare never assumes a force it cannot vouch for (too
-/// high a zero only tightens the wire; too low a zero would slacken it). Start-up use; noexcept.
-double tare_vented_force_N(const models::JointModel& joint, int muscle, double angle_rad, double pressure_Pa) noexcept;
-
 /// True while the wires are slack on purpose: a tare runs and compensation began less than
 /// check.refill_s ago (or not yet). The experiments do not judge the wires' tension then.
 bool wires_slack_on_purpose(const LoadcellCheck& check, const StartupTare& t, double t_s) noexcept;

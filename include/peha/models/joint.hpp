@@ -19,10 +19,6 @@ namespace peha::models {
 /// Safety ceiling of any PAM force: the 1.7 mm inner wire broke at 2250 N (docs/models.md), 11 % margin.
 inline constexpr double kMaxPamForce_N = 2000.0;
 
-/// Where a learned residual has data: its predictive std at most this fraction of the supply (40 kPa
-/// at 0.8 MPa; 0.5-3 kPa where a recording went, 28-59 kPa where it never did; docs/calibration.md).
-inline constexpr double kSupportedResidualStdOfSupply = 0.05;
-
 /// A learned correction of the inverse model's pressure (docs/spgp.md: p* = g^-1(F*) + f(eps, F*)).
 /// Implementations must be noexcept, allocation-free and O(small) per call: they run in the loop.
 class PressureResidual {
@@ -42,10 +38,6 @@ class PressureResidual {
     lo = -std::numeric_limits<double>::infinity();
     hi = std::numeric_limits<double>::infinity();
   }
-  /// The residual's predictive standard deviation at (eps, force_N), unclamped, Pa: small where its
-  /// data were, large where it extrapolates (default: +inf, nothing known). Set-up and start-up use
-  /// only (may cost O(M^2)); noexcept, +inf on any failure.
-  virtual double std_Pa(double /*eps*/, double /*force_N*/) const noexcept { return std::numeric_limits<double>::infinity(); }
 };
 
 /// One muscle of the pair, with its cable.
@@ -62,10 +54,6 @@ struct MuscleModel {
   /// muscle vented (its forces are true forces, not raw readings). The controllers subtract it from
   /// every reading when no start-up tare runs; 0 = the reading is the force.
   double loadcell_zero_N = 0.0;
-  /// A calibration file replaced `pam` (calibration::calibrated_muscle): the model holds the real
-  /// pretension at the limits layer's floor pressure, so a start-up "vent" does not vent this muscle
-  /// and its load cell's zero is `loadcell_zero_N`, not a run-time tare.
-  bool calibrated = false;
 };
 
 /// Immutable model of a PEHA joint: the one joint set-up the controller and the limits layer share,
@@ -104,13 +92,6 @@ struct PressureInterval {
   double lo_Pa, hi_Pa;
 };
 PressureInterval muscle_pressure_interval(const MuscleModel& m, double force_N, double eps, double supply_pressure_Pa) noexcept;
-
-/// The force muscle `m`'s pressure model (muscle_pressure) makes at `pressure_Pa` and contraction `eps`:
-/// the force in [0, the ceiling] whose pressure is `pressure_Pa`, by bisection (muscle_pressure is
-/// non-decreasing in the force where the residual's correction is). 0 at or below the model's pressure
-/// for 0 N, the ceiling at or above its pressure for the ceiling. Start-up use (60 evaluations);
-/// noexcept, allocation-free.
-double muscle_force_at_pressure_N(const MuscleModel& m, double pressure_Pa, double eps, double supply_pressure_Pa) noexcept;
 
 /// Rigid-wire contraction of the agonist (+1) or antagonist (-1) at `angle_rad`.
 /// eps = eps(0) + side * r0 * angle / L0.

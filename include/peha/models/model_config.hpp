@@ -5,8 +5,6 @@
 #include "peha/config/reader.hpp"
 #include "peha/models/joint.hpp"
 
-#include <filesystem>
-
 namespace peha::models {
 
 /// Keys: a_N_per_MPa, b_N_per_MPa, c_N_per_MPa (g(u) in N/MPa, as calibration reports them),
@@ -14,16 +12,10 @@ namespace peha::models {
 TendonSpringParams read_tendon_spring(config::Map map);
 /// Keys: friction_coefficient, wrap_angle_deg, sigmoid_gain_s_per_m.
 BowdenParams read_bowden(config::Map map);
-/// Keys: rest_length_m, contraction_at_zero_angle, max_force_N, pam{...}, bowden{...}; with
-/// `calibration_file` non-null also the optional `calibration` (a muscle calibration file, relative to
-/// the config file; docs/calibration.md), whose path is put there (left as is when the key is absent).
-/// The caller applies it (calibration::apply_calibration): this reader only names it.
-MuscleModel read_muscle_model(config::Map map, const std::string& name, std::filesystem::path* calibration_file = nullptr);
+/// Keys: rest_length_m, contraction_at_zero_angle, max_force_N, pam{...}, bowden{...}.
+MuscleModel read_muscle_model(config::Map map, const std::string& name);
 /// Keys: pulley_radius_m, has_motor, motor_max_torque_Nm, agonist{...}, antagonist{...}. The supply
 /// (from the scenario's limits) and the pretension (from its allocation) complete the joint set-up.
-/// `calibration_files` (null: the key is refused): two paths, agonist and antagonist, that receive
-/// each muscle's optional `calibration` key (read_muscle_model).
-JointModel read_joint_model(config::Map& map, const std::string& name, double supply_pressure_Pa, double pretension_N,
-                            std::filesystem::path* calibration_files = nullptr);
+JointModel read_joint_model(config::Map& map, const std::string& name, double supply_pressure_Pa, double pretension_N);
 
 }  // namespace peha::models

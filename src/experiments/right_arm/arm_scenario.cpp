@@ -1,7 +1,6 @@
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 
-#include "peha/calibration/calibration_file.hpp"
 #include "peha/calibration/gravity_identification.hpp"
 
 #include "peha/models/anthropometry.hpp"
@@ -50,8 +49,7 @@ void read_arm_controller(config::Map ctl, const models::RightArmConfig& body, co
       joint.mode = control::ArmJointMode::kHoldPressure;
       joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, l.supply_Pa * 1e-6}) * 1e6;
     }
-    joint.actuator = models::read_joint_model(j, kJointNames[i], l.supply_Pa, pretension_N,
-                                              s.muscle_calibration_files[static_cast<std::size_t>(i)].data());
+    joint.actuator = models::read_joint_model(j, kJointNames[i], l.supply_Pa, pretension_N);
     j.finish();
     safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(i)];
     lim.pressure_rate_Pa_per_s = l.rate_Pa_per_s;
@@ -253,19 +251,6 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   }
   root.finish();
   if (!s.gravity_identification_file.empty()) use_gravity_identification(s, s.gravity_identification_file);
-  // Muscle calibrations (docs/calibration.md, "A calibration in the arm"): each checked over its
-  // joint's range (calibration::check_calibration) and put into the one joint model the controller
-  // and the limits layer share; its parametric model and SPGP residual replace the configured `pam`.
-  for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
-    const safety::JointLimits& lim = s.limits.joints[i];
-    for (int m = 0; m < 2; ++m) {
-      const std::filesystem::path& file = s.muscle_calibration_files[i][static_cast<std::size_t>(m)];
-      if (file.empty()) continue;
-      const calibration::MuscleCalibration c = calibration::read_calibration(file);
-      calibration::apply_calibration(c, file, /*with_spgp=*/true, s.controller.joints[i].actuator, m, lim.min_angle_rad,
-                                     lim.max_angle_rad);
-    }
-  }
   return s;
 }
 

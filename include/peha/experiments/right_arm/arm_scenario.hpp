@@ -13,7 +13,6 @@
 #include "peha/safety/verdict.hpp"
 #include "peha/sim/right_arm.hpp"
 
-#include <array>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -104,10 +103,6 @@ struct ArmScenario {
   models::ArmModel nominal_arm;
   /// The identification file `controller.gravity_identification` named (empty: none).
   std::filesystem::path gravity_identification_file;
-  /// The muscle calibration files `controller.<joint>.<muscle>.calibration` named, per actuated joint
-  /// (shoulder, elbow, wrist) and muscle (agonist, antagonist); empty: the configured `pam` model.
-  /// read_arm_scenario has applied them (calibration::apply_calibration) to controller.joints.
-  std::array<std::array<std::filesystem::path, 2>, 3> muscle_calibration_files;
 };
 
 /// `scenario` with the controller's arm from the identification file `path` (its bodies replaced by the
