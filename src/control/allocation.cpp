@@ -57,7 +57,10 @@ MuscleCommand command_muscle(const models::JointModel& joint, const models::Musc
   if (params.force_trim_rate_1ps > 0.0 && sensors_valid && first && bumpless && std::isfinite(measured_pressure_Pa)) {
     trim_N = std::clamp(model_force_N - force, lowest_trim_N, params.force_trim_max_N);  // what the model says P makes
   } else if (params.force_trim_rate_1ps > 0.0 && sensors_valid && loadcell_ok) {
-    const double step = params.force_trim_rate_1ps * (force - loadcell_N) * in.dt_s;
+    // Below the pretension the wire is near slack: the trim may integrate faster there (only upward).
+    const double rate_1ps = loadcell_N < floor_N && force > loadcell_N ? std::max(params.force_trim_rate_1ps, params.force_trim_slack_rate_1ps)
+                                                                       : params.force_trim_rate_1ps;
+    const double step = rate_1ps * (force - loadcell_N) * in.dt_s;
     const double next = trim_N + step;
     const double next_trim_N = std::clamp(next, lowest_trim_N, params.force_trim_max_N);
     // Anti-windup: do not integrate further into a saturated pressure. Only whether the pressure
@@ -104,6 +107,7 @@ AllocationParams read_allocation(config::Map map, double& pretension_N) {
   p.use_motor = map.boolean("use_motor");
   p.force_trim_rate_1ps = map.number("force_trim_rate_1ps", {0.0, 100.0});
   p.force_trim_max_N = map.number("force_trim_max_N", {0.0, 2000.0});
+  p.force_trim_slack_rate_1ps = map.number_or("force_trim_slack_rate_1ps", p.force_trim_slack_rate_1ps, {0.0, 1000.0});
   p.sure_cable_friction_fraction = map.number_or("sure_cable_friction_fraction", p.sure_cable_friction_fraction, {0.0, 1.0});
   p.motor_damping_Nms_per_rad = map.number_or("motor_damping_Nms_per_rad", p.motor_damping_Nms_per_rad, {0.0, 100.0});
   if (map.has("loadcell_check")) {

@@ -110,9 +110,11 @@ TEST(Robustness, SmallMatrixJudgesEveryCaseHonestly) {
 }
 
 // With no cable friction nothing but the torque balance holds the arm: E3's feed-forward follows the
-// arm wherever it goes, so the shipped model's 1-2 % error sinks it (measured: 115 deg, static error
-// 6.2 %, a slack wire) - the verdict fails, and the row is marked as a case physics forbids to a
-// controller without position feedback, with that reason, not counted as met.
+// arm wherever it goes, so the shipped model's 1-2 % error sinks it (measured: 45.7 deg, static error
+// 1.9 %, the wires at 0.93 x the pretension; before the trim's slack rate 115 deg, 6.2 % and a slack
+// wire) - the verdict fails, and the row is marked as a case physics forbids to a controller without
+// position feedback, with that reason. (Its goal - static error and tension - is now met, so the
+// matrix counts it as met: the goal does not judge drift.)
 TEST(Robustness, AFrictionlessArmSinksAndIsMarkedPhysicsForbidsWithItsReason) {
   RobustnessConfig c;
   c.e1_config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
@@ -127,8 +129,10 @@ TEST(Robustness, AFrictionlessArmSinksAndIsMarkedPhysicsForbidsWithItsReason) {
   const RobustnessResult r = run_robustness(c, {});
   ASSERT_EQ(r.rows.size(), 1u);
   EXPECT_FALSE(r.rows[0].verdict);
-  EXPECT_FALSE(r.rows[0].goal);
+  // It sinks (drift) with its wires taut (the trim's slack rate): the goal's figures - static error
+  // at the released postures and tension - are met, the verdict's drift is not.
   EXPECT_GT(r.rows[0].drift_deg, 10.0);
+  EXPECT_GE(r.rows[0].tension_fraction, 0.5);
   EXPECT_TRUE(r.rows[0].physics_forbids);
   EXPECT_THAT(r.rows[0].physics_reason, HasSubstr("no cable friction"));
 }

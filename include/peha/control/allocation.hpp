@@ -57,6 +57,9 @@ struct AllocationParams {
   bool use_motor = true;            ///< false: PAM-only joint (the motor command is 0)
   double force_trim_rate_1ps = 0.0;  ///< integral gain of the force trim, 1/s (0 = off)
   double force_trim_max_N = 200.0;   ///< bound of the trim's force correction, N
+  /// Integral gain of the trim while the muscle's load cell reads below the pretension and the force
+  /// wanted is above it (the wire near slack), 1/s; the larger of this and force_trim_rate_1ps. 0 = off.
+  double force_trim_slack_rate_1ps = 0.0;
   /// Fraction of the controller's cable friction (models::BowdenParams::friction_coefficient) the
   /// plant's cables are sure to have, in [0, 1]. The velocity-dependent Bowden compensation (the
   /// muscle command and the motor's estimate of the PAM torque) uses only this much
