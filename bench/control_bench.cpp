@@ -118,6 +118,39 @@ void BM_ControlStep(benchmark::State& state) {
 }
 BENCHMARK(BM_ControlStep);
 
+// The same full control step with the wire-creep estimator off (/0) and on (/1), in one run on the
+// same recorded states (docs/creep.md, "Cost"): the estimator's share of the step is the difference.
+// The E1 configuration's estimator parameters (configs/e1_creep.yaml's) except `enabled`.
+void BM_ControlStepCreepEstimator(benchmark::State& state) {
+  const experiments::E1Scenario& s = e1_scenario();
+  control::OneDofControllerModel m = heavy_controller_model();
+  m.creep.enabled = state.range(0) != 0;
+  const std::vector<io::SensorState>& states = e1_recording().states;
+  std::optional<control::OneDofGravityController> controller(std::in_place, m);
+  safety::LimitsData limits;
+  io::Command command;
+  std::size_t k = 0, updates = 0;
+  for (auto _ : state) {
+    const io::SensorState& x = states[k];
+    controller->update(x, command);
+    std::uint32_t flags = safety::apply_limits(s.limits, {&s.controller.joint}, limits, x, command);
+    benchmark::DoNotOptimize(flags);
+    benchmark::DoNotOptimize(command);
+    if (++k == states.size()) {
+      state.PauseTiming();
+      updates += static_cast<std::size_t>(controller->diagnostics().creep.muscle[0].updates);
+      k = 0;
+      controller.emplace(m);
+      limits = safety::LimitsData{};
+      state.ResumeTiming();
+    }
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.counters["us_per_step"] = us_per_iteration(state);
+  state.counters["filter_updates"] = static_cast<double>(updates);  // > 0: the estimator really ran its filter
+}
+BENCHMARK(BM_ControlStepCreepEstimator)->Arg(0)->Arg(1);
+
 // The supervisor's plausibility stage per control step, as LimitedBackend runs it (check the sample,
 // check the command, shape it to the safe state, note what was sent), on: the recorded closed-loop
 // samples and commands of the 5.0 kg E1 run from 2.5 s on (the shipped controller's start-up tare
