@@ -62,7 +62,12 @@ CreepMeasurement measure_wire_offset(const models::MuscleModel& m, double pulley
   const models::TendonSpringParams& pam = m.pam;
   const double eps = models::rigid_contraction(m, pulley_radius_m, side, angle_rad);
   // The learned residual is a pressure correction of the inverse (p* = g^-1(F) + f(eps, F)): the
-  // parametric model's pressure is the measured one minus it.
+  // parametric model's pressure is the measured one minus it. It is evaluated at the rigid
+  // contraction, not the corrected one: at one operating point it is then a constant the reference
+  // absorbs, the creep is read through the parametric model's slope, and the measurement never
+  // depends on the estimate (no loop inside the estimator). Evaluated at the corrected contraction
+  // the SPGP's own slope in eps enters instead: on the nominal rig (900 s, pure feed-forward) the
+  // antagonist's estimate improved (0.08 mm RMS) and the agonist's grew 1.7x too fast (docs/creep.md).
   double p_param = pressure_Pa;
   if (m.residual) {
     const double r = m.residual->pressure_Pa(eps, force_N);

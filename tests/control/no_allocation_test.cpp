@@ -76,10 +76,10 @@ TEST(ControlStep, AllocatesNothingWithTheCreepEstimator) {
   scenario.controller.creep.enabled = true;
   scenario.controller.creep.reference_s = 0.5;
   scenario.controller.creep.reference_delay_s = 1.0;
-  scenario.controller.creep.alert_m = 0.0001;
+  scenario.controller.creep.alert_m = 0.00005;
   scenario.controller.creep.alert_sigmas = 0.0;
   for (auto* m : {&scenario.plant.joint.agonist, &scenario.plant.joint.antagonist}) {
-    m->cable.creep_m_per_N_s = 2e-7;  // ~70 um/s: fast, yet the link stays within the gate's speed
+    m->cable.creep_m_per_N_s = 5e-7;  // ~0.2 mm/s: fast, yet the link stays within the gate's speed
     m->cable.max_creep_m = 0.004;
   }
   sim::OneDofRigBackend plant(scenario.plant);
