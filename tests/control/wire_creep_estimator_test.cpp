@@ -3,12 +3,15 @@
 // a known creep, the gate, the alerts and the bound of the correction.
 #include "peha/control/wire_creep_estimator.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/safety/limited_backend.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <utility>
+#include <vector>
 
 namespace peha {
 namespace {
@@ -238,6 +241,43 @@ TEST(WireCreepEstimator, CorrectionIsBoundedAndOptional) {
   p.correct = true;
   p.enabled = false;
   EXPECT_EQ(control::creep_correction_m(p, d, 0), 0.0);
+}
+
+// Estimating without correcting (correct: false) leaves E1's closed loop bit for bit as with the
+// estimator off, over 10 s of the scenario (start-up, hold, the first push): the estimator only reads.
+// With the correction on, the commands differ once the estimator has a reference.
+TEST(WireCreepEstimator, EstimatingWithoutCorrectingLeavesTheClosedLoopUnchanged) {
+  experiments::E1Scenario scenario =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  for (auto* m : {&scenario.plant.joint.agonist, &scenario.plant.joint.antagonist}) m->cable.creep_m_per_N_s = 5e-7;
+  auto run = [&](bool enabled, bool correct) {
+    control::OneDofControllerModel model = scenario.controller;
+    model.creep.enabled = enabled;
+    model.creep.correct = correct;
+    model.creep.reference_delay_s = 1.0;
+    sim::OneDofRigBackend plant(scenario.plant);
+    control::OneDofGravityController controller(model);
+    safety::LimitedBackend limited(plant, scenario.limits, {&model.joint});
+    limited.activate();
+    io::SensorState state;
+    io::Command command;
+    std::vector<double> pressures;
+    for (int k = 0; k < 10000; ++k) {
+      limited.read(state);
+      controller.update(state, command);
+      limited.write(command);
+      pressures.push_back(command.joints[0].agonist_pressure_Pa);
+    }
+    return std::make_pair(pressures, controller.diagnostics().creep.muscle[0].referenced);
+  };
+  const auto [off, off_referenced] = run(false, true);
+  const auto [reading, reading_referenced] = run(true, false);
+  const auto [correcting, correcting_referenced] = run(true, true);
+  EXPECT_FALSE(off_referenced);
+  EXPECT_TRUE(reading_referenced);
+  EXPECT_TRUE(correcting_referenced);
+  EXPECT_EQ(off, reading);
+  EXPECT_NE(off, correcting);
 }
 
 TEST(WireCreepEstimator, ConfigReadsMillimetresAndRejectsUnknownKeys) {
