@@ -15,6 +15,7 @@ CreepEstimatorParams read_creep_estimator(config::Map map) {
   p.reference_delay_s = map.number_or("reference_delay_s", p.reference_delay_s, {0.0, 3600.0});
   p.reference_s = map.number_or("reference_s", p.reference_s, {0.0, 600.0});
   p.force_bin_N = map.number_or("force_bin_N", p.force_bin_N, {1.0, 5000.0});
+  p.residual_at_corrected_contraction = map.boolean_or("residual_at_corrected_contraction", p.residual_at_corrected_contraction);
   p.model_force_fraction = map.number_or("model_force_fraction", p.model_force_fraction, {1e-4, 1.0});
   p.loadcell_noise_N = map.number_or("loadcell_noise_N", p.loadcell_noise_N, {0.0, 1000.0});
   p.pressure_noise_Pa = map.number_or("pressure_noise_MPa", p.pressure_noise_Pa * 1e-6, {0.0, 0.1}) * 1e6;
@@ -55,22 +56,22 @@ int creep_bin(double angle_rad, double force_N, double force_bin_N) noexcept {
 }
 
 CreepMeasurement measure_wire_offset(const models::MuscleModel& m, double pulley_radius_m, int side, double angle_rad,
-                                     double pressure_Pa, double force_N, const CreepEstimatorParams& p) noexcept {
+                                     double pressure_Pa, double force_N, const CreepEstimatorParams& p,
+                                     double residual_offset_m) noexcept {
   CreepMeasurement out;
   if (!std::isfinite(angle_rad) || !std::isfinite(pressure_Pa) || !std::isfinite(force_N)) return out;
   if (!(pressure_Pa > 0.0) || !(force_N > 0.0)) return out;
   const models::TendonSpringParams& pam = m.pam;
   const double eps = models::rigid_contraction(m, pulley_radius_m, side, angle_rad);
   // The learned residual is a pressure correction of the inverse (p* = g^-1(F) + f(eps, F)): the
-  // parametric model's pressure is the measured one minus it. It is evaluated at the rigid
-  // contraction, not the corrected one: at one operating point it is then a constant the reference
-  // absorbs, the creep is read through the parametric model's slope, and the measurement never
-  // depends on the estimate (no loop inside the estimator). Evaluated at the corrected contraction
-  // the SPGP's own slope in eps enters instead: on the nominal rig (900 s, pure feed-forward) the
-  // antagonist's estimate improved (0.08 mm RMS) and the agonist's grew 1.7x too fast (docs/creep.md).
+  // parametric model's pressure is the measured one minus it. By default the caller evaluates it at
+  // the rigid contraction (residual_offset_m = 0): at one operating point it is then a constant the
+  // reference absorbs, the creep is read through the parametric model's slope, and the measurement
+  // never depends on the estimate (no loop inside the estimator). At the corrected contraction the
+  // SPGP's own slope in eps enters instead (CreepEstimatorParams::residual_at_corrected_contraction).
   double p_param = pressure_Pa;
   if (m.residual) {
-    const double r = m.residual->pressure_Pa(eps, force_N);
+    const double r = m.residual->pressure_Pa(eps + residual_offset_m / m.rest_length_m, force_N);
     if (std::isfinite(r)) p_param -= r;
   }
   if (!(p_param > 0.0)) return out;
@@ -113,7 +114,8 @@ void update_muscle(const models::JointModel& joint, const models::MuscleModel& m
   const int bin = accept ? creep_bin(in.angle_rad, F, p.force_bin_N) : -1;
   accept = accept && bin >= 0 && (s.block_bin < 0 || s.block_bin == bin);  // one operating point per block
   if (accept) {
-    z = measure_wire_offset(m, joint.pulley_radius_m, side, in.angle_rad, P, F, p);
+    const double residual_offset_m = p.residual_at_corrected_contraction && s.referenced ? s.length_change_m : 0.0;
+    z = measure_wire_offset(m, joint.pulley_radius_m, side, in.angle_rad, P, F, p, residual_offset_m);
     accept = z.valid;
   }
   s.gated = accept;

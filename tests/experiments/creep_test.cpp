@@ -26,13 +26,12 @@ std::vector<experiments::CreepRun> run_pure_feed_forward(const experiments::Cree
           experiments::run_creep_case(s, s.e1.cases.front(), nominal, 0.0, true, &calibrated)};
 }
 
-// Pure feed-forward (trim 0): the estimate follows the agonist's true creep (more than 3 mm) within
-// the verdict's 0.5 mm RMS, the recalibrate alert latches after the truth crossed 1 mm and within the
-// allowed delay, and the correction cuts the agonist's force-tracking error below 0.8 x the
-// estimator-off run; no supervisor fault. The antagonist (at its 60 N pretension) is judged by the
-// verdict but not required here: its estimate grows about 2x too fast on this rig and raises its
-// alert early - the known limit of docs/creep.md, which the full run reports.
-TEST(CreepExperiment, EstimatorTracksAgonistCreepAndCutsTheTrackingErrorOnPureFeedForward) {
+// Pure feed-forward (trim 0): the estimate follows the agonist's true creep (about 4 mm) within the
+// verdict's 0.5 mm RMS (its lag at 25x E1's creep is most of the error) and the antagonist's (0.7 mm),
+// the agonist's recalibrate alert latches after the truth crossed 1 mm and within the allowed delay,
+// the antagonist's (below 1 mm) does not, and the correction cuts the agonist's force-tracking error
+// below 0.8 x the estimator-off run; no supervisor fault: the whole verdict passes.
+TEST(CreepExperiment, EstimatorTracksCreepAndCutsTheTrackingErrorOnPureFeedForward) {
   const experiments::CreepScenario s = short_scenario();
   const std::vector<experiments::CreepRun> runs = run_pure_feed_forward(s);
   const experiments::CreepRun& off = runs[0];
@@ -40,20 +39,14 @@ TEST(CreepExperiment, EstimatorTracksAgonistCreepAndCutsTheTrackingErrorOnPureFe
   EXPECT_GT(on.final_truth_m[0], 0.003);  // the agonist's wire crept more than 3 mm
   EXPECT_LT(on.estimate_rms_m[0], 0.0005);
   EXPECT_LT(on.estimate_max_m[0], 0.001);
+  EXPECT_LT(on.estimate_rms_m[1], 0.0005);
   ASSERT_GE(on.truth_cross_s[0], 0.0);
   EXPECT_GE(on.alert_time_s[0], on.truth_cross_s[0]);
   EXPECT_LT(on.alert_time_s[0], on.truth_cross_s[0] + s.creep.verdict.max_alert_delay_s);
+  EXPECT_LT(on.alert_time_s[1], 0.0);  // the antagonist's wire did not reach 1 mm: no alert
   EXPECT_LT(on.tracking_rms_last_quarter_N[0], 0.8 * off.tracking_rms_last_quarter_N[0]);
   const safety::Verdict v = experiments::creep_verdict(s, runs);
-  for (const char* figure : {"nominal_trim0_on agonist creep estimate RMS error", "nominal_trim0_on agonist creep estimate max error",
-                             "nominal_trim0_on agonist creep_recalibrate alert after the truth crossed",
-                             "nominal_trim0_on agonist force-tracking RMS on / off, last quarter",
-                             "nominal_trim0_on supervisor faults", "nominal_trim0_off supervisor faults",
-                             "nominal_trim0_on wire_slack alerts (no wire went slack)"}) {
-    const safety::Check* c = v.find(figure);
-    ASSERT_NE(c, nullptr) << figure;
-    EXPECT_TRUE(c->passed()) << c->describe();
-  }
+  EXPECT_TRUE(v.passed()) << v.describe_all();
 }
 
 // The figures can fail: an estimator whose gain is 0 never leaves its reference, one with the wrong

@@ -70,6 +70,11 @@ struct CreepEstimatorParams {
   double slack_force_N = 10.0;       ///< wire_slack: load cell below this, N ...
   double slack_model_force_N = 40.0; ///< ... while the model at the measured pressure expects more than this, N
   double slack_s = 0.2;              ///< ... for this long, s
+  /// Where a learned residual is evaluated: false (default) at the rigid contraction, so the creep is
+  /// read through the parametric model's slope and the measurement never depends on the estimate;
+  /// true at the corrected one (rigid + estimate / L0), as the allocation uses it: the SPGP's own
+  /// slope in the contraction then enters (docs/creep.md, "The measurement").
+  bool residual_at_corrected_contraction = false;
   /// Multiplies every Kalman gain: 1 in every configuration (not a config key). Tests set 0 (an
   /// estimator that never moves) or -1 (the wrong sign) to prove the experiment's verdict fails.
   double gain_scale = 1.0;
@@ -114,8 +119,10 @@ struct CreepMeasurement {
 /// in contraction at the measured pressure and force (see the file comment). `valid` is false
 /// where the inversion is undefined (no pressure, no force, g beyond its vertex, not finite).
 /// The gate on speed and valve is not applied here.
+/// A learned residual is evaluated at the rigid contraction plus `residual_offset_m` / L0.
 CreepMeasurement measure_wire_offset(const models::MuscleModel& m, double pulley_radius_m, int side, double angle_rad,
-                                     double pressure_Pa, double force_N, const CreepEstimatorParams& p) noexcept;
+                                     double pressure_Pa, double force_N, const CreepEstimatorParams& p,
+                                     double residual_offset_m = 0.0) noexcept;
 
 /// The reference map's grid: operating points binned by joint angle and load-cell force.
 inline constexpr int kCreepAngleBins = 20;   ///< over [-50, 50) deg; outside: no sample
