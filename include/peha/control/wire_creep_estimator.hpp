@@ -15,10 +15,12 @@
 ///
 /// Samples are gated (pressure, force, joint speed, valve settled, load cell trusted), averaged
 /// over blocks of `block_s`, and a scalar Kalman filter with a random-walk state tracks the offset.
-/// The first `reference_s` of accepted blocks fix the reference (the length at start-up: the
-/// offset the model already carries, e.g. its slack error); the estimate is the change since then,
-/// `length_change_m`, with its standard deviation. When `correct` is set the allocation adds
-/// length_change_m / L0 to the contraction its pressure model uses.
+/// The model's error depends on the operating point, so each (angle, force) bin learns its own
+/// reference over `reference_s` of accepted blocks: the first one (after `reference_delay_s` of
+/// taut wires) fixes the length at start-up, a later one is learned relative to the estimate then.
+/// The estimate is the change since start-up, `length_change_m`, with its standard deviation. When
+/// `correct` is set the allocation adds length_change_m / L0 to the contraction its pressure model
+/// uses (AllocationData::contraction_offset).
 ///
 /// Alerts (named, latched, advisory: they never stop a run): `creep_recalibrate` when
 /// |length_change| - n_sigma * sigma > alert threshold; `wire_slack` when the load cell reads

@@ -88,8 +88,6 @@ void repeat_pushes(E1Scenario& e1, const CreepSettings& c) {
   e1.probe_direction = directions;
 }
 
-double plant_gravity_Nm(const sim::OneDofRigParams& plant, double angle_rad) { return e1_plant_gravity_torque_Nm(plant, angle_rad); }
-
 }  // namespace
 
 CreepScenario read_creep(const config::Document& doc) {
@@ -257,7 +255,7 @@ CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVari
     CreepRelease rel;
     rel.time_s = static_cast<double>(k0) * sc.period_s;
     rel.angle_deg = angle[k1] / kDeg;
-    rel.static_torque_error_pct = 100.0 * torque / std::abs(plant_gravity_Nm(plant_params, angle[k1]));
+    rel.static_torque_error_pct = 100.0 * torque / std::abs(e1_plant_gravity_torque_Nm(plant_params, angle[k1]));
     r.releases.push_back(rel);
     if (rel.time_s >= quarter_s) {
       worst = std::max(worst, std::abs(rel.static_torque_error_pct));

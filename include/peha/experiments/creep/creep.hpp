@@ -64,7 +64,7 @@ CreepScenario read_creep(const config::Document& doc);
 struct CreepSample {
   double t_s = 0;
   double angle_deg = 0;
-  double truth_m[2] = {0, 0};       ///< plant creep since the estimator's reference (agonist, antagonist), m
+  double truth_m[2] = {0, 0};       ///< plant creep since the estimator's reference (absolute when it is off), m (agonist, antagonist)
   double estimate_m[2] = {0, 0};    ///< the estimator's length change, m (0 when off or before its reference)
   double sigma_m[2] = {0, 0};       ///< its standard deviation, m
   double tracking_rms_N[2] = {0, 0};  ///< RMS(force request - load cell) over the last sample_s, N
