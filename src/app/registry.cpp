@@ -1,5 +1,6 @@
 #include "peha/app/registry.hpp"
 
+#include "peha/experiments/creep/creep.hpp"
 #include "peha/experiments/e1_gravity/e1_report.hpp"
 #include "peha/experiments/e3_postures/postures_report.hpp"
 #include "peha/experiments/e4_goniometer/goniometer_report.hpp"
@@ -51,6 +52,24 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOp
                     mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names()),
                     [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
                     fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg)};
+}
+
+// --- wire_creep: the creep estimator's long E1-like run on the one-DOF rig ---
+
+ScenarioCheck check_creep(const std::filesystem::path& config, const config::Document& doc) {
+  const experiments::CreepScenario s = experiments::read_creep(doc);
+  sim::load_mjcf(s.e1.plant.model_file);  // the model file must exist and load, too
+  fmt::print("{}: OK\n  experiment wire_creep: {}\n  {} s at {} Hz, {} finger push(es), {} plant variant(s) x {} trim rate(s) x "
+             "estimator off/on, plant model {}\n",
+             config.string(), s.e1.description, s.e1.duration_s, 1.0 / s.e1.period_s, s.e1.plant.finger.pushes.size(),
+             s.creep.variants.size(), s.creep.force_trim_rates_1ps.size(), s.e1.plant.model_file.string());
+  return {sim::one_dof_rig_joint_names(), s.e1.link};
+}
+
+std::optional<BoardPlant> creep_board(const config::Document& doc, const EmulatorOptions&) {
+  fmt::print(stderr, "error: {}: the wire-creep experiment runs in-process only (it judges the estimate against the plant's "
+                     "true creep); serve its E1 scenario instead\n", doc.name());
+  return std::nullopt;
 }
 
 // --- max_force_ramp: E5 on the clamped one-DOF rig ---
@@ -208,6 +227,19 @@ std::vector<ExperimentEntry> make_registry() {
                  {{"--fault", "over the board the plant is the emulator's: give the faults in the scenario's faults: list"}},
                  experiments::run_e1_experiment}},
                check_e1, e1_board});
+  r.push_back({"wire_creep", "one-DOF rig",
+               "wire creep and slack: the creep estimator off and on over a long E1-like run (configs/e1_creep.yaml)",
+               {{"", "wire creep estimator",
+                 {"--case", "--force-trim-rate"},
+                 {{"--backend", "the creep experiment judges the estimate against the plant's true creep: in-process only"},
+                  {"--agonist-calibration", "the creep experiment runs the scenario's own muscle models"},
+                  {"--antagonist-calibration", "the creep experiment runs the scenario's own muscle models"},
+                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"},
+                  {"--gravity-identification", kIdentificationElsewhere},
+                  {"--fault", "the creep experiment's plant changes are its creep: section's variants"}},
+                 {},
+                 experiments::run_creep_experiment}},
+               check_creep, creep_board});
   r.push_back({"max_force_ramp", "one-DOF rig",
                "E5: the maximum-force test, one muscle ramped against the clamped rig (configs/e5_max_force.yaml)",
                {{"", "E5 maximum force",

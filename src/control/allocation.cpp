@@ -39,13 +39,13 @@ bool check_loadcell(const LoadcellCheck& c, double loadcell_N, double model_forc
 MuscleCommand command_muscle(const models::JointModel& joint, const models::MuscleModel& m, const models::BowdenParams& cable,
                              int side, double joint_force_N, double wire_velocity_mps, const AllocationParams& params,
                              const AllocationInput& in, double loadcell_N, double measured_pressure_Pa, bool first,
-                             bool bumpless, bool sensors_valid, bool loadcell_ok, double& trim_N) {
+                             bool bumpless, bool sensors_valid, bool loadcell_ok, double contraction_offset, double& trim_N) {
   const double supply_Pa = joint.supply_pressure_Pa;
   const double wanted = models::muscle_force_for_joint_N(cable, joint_force_N, wire_velocity_mps);
   const double ceiling = models::force_ceiling_N(m);
   const double floor_N = std::min(joint.pretension_N, ceiling);
   const double force = std::clamp(wanted, floor_N, ceiling);
-  const double eps = models::rigid_contraction(m, joint.pulley_radius_m, side, in.angle_rad);
+  const double eps = models::rigid_contraction(m, joint.pulley_radius_m, side, in.angle_rad) + contraction_offset;
   const double model_force_N = std::isfinite(measured_pressure_Pa) ? models::forward_force_N(m.pam, measured_pressure_Pa, eps) : 0.0;
   // The tension floor by the model: the trim may not take the model's force (force + trim) below
   // the pretension, whatever the load cell says.
@@ -168,11 +168,11 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   const MuscleCommand agonist =
       command_muscle(joint, joint.agonist, agonist_cable, +1, agonist_joint_force_cmd_N, agonist_wire_mps, params, in,
                      agonist_loadcell_N, in.agonist_pressure_Pa, first, data.bumpless_start, valid, data.loadcell_ok[0],
-                     data.force_trim_N[0]);
+                     data.contraction_offset[0], data.force_trim_N[0]);
   const MuscleCommand antagonist =
       command_muscle(joint, joint.antagonist, antagonist_cable, -1, antagonist_joint_force_cmd_N, antagonist_wire_mps, params,
                      in, antagonist_loadcell_N, in.antagonist_pressure_Pa, first, data.bumpless_start, valid,
-                     data.loadcell_ok[1], data.force_trim_N[1]);
+                     data.loadcell_ok[1], data.contraction_offset[1], data.force_trim_N[1]);
   // Each load cell against the pressure model at the measured pressure (after this step's trim,
   // so a disagreement freezes the trim from the next step on).
   if (valid) {

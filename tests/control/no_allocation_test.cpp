@@ -66,6 +66,43 @@ TEST(ControlStep, AllocatesNothingWhileTaringOrDistrustingALoadcell) {
   EXPECT_EQ(control_allocations, 0u);
 }
 
+// The creep estimator runs inside the step: gating, the model's inversion, the block average, the
+// filter update, the correction and the alerts allocate nothing. The plant's wires creep fast so that
+// the estimator passes its reference, updates and raises its recalibrate alert within the run (the
+// start-up hold, then the link left alone until the first push at 6 s).
+TEST(ControlStep, AllocatesNothingWithTheCreepEstimator) {
+  experiments::E1Scenario scenario =
+      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  scenario.controller.creep.enabled = true;
+  scenario.controller.creep.reference_s = 0.5;
+  scenario.controller.creep.reference_delay_s = 1.0;
+  scenario.controller.creep.alert_m = 0.00005;
+  scenario.controller.creep.alert_sigmas = 0.0;
+  for (auto* m : {&scenario.plant.joint.agonist, &scenario.plant.joint.antagonist}) {
+    m->cable.creep_m_per_N_s = 5e-7;  // ~0.2 mm/s: fast, yet the link stays within the gate's speed
+    m->cable.max_creep_m = 0.004;
+  }
+  sim::OneDofRigBackend plant(scenario.plant);
+  control::OneDofGravityController controller(scenario.controller);
+  safety::LimitedBackend limited(plant, scenario.limits, {&scenario.controller.joint});
+  limited.activate();
+  io::SensorState state;
+  io::Command command;
+  std::size_t control_allocations = 0;
+  for (int k = 0; k < 8000; ++k) {
+    control_allocations += testing::allocations_during([&] {
+      limited.read(state);
+      controller.update(state, command);
+      limited.write(command);
+    });
+  }
+  const control::CreepEstimatorData& d = controller.diagnostics().creep;
+  EXPECT_TRUE(d.muscle[0].referenced);
+  EXPECT_GT(d.muscle[0].updates, 10);
+  EXPECT_NE(d.alerts & control::kCreepRecalibrateAgonist, 0u);
+  EXPECT_EQ(control_allocations, 0u);
+}
+
 // The simulated plant steps without allocating too (MuJoCo works in its preallocated arena).
 TEST(SimulatedRig, StepsWithoutAllocating) {
   const experiments::E1Scenario scenario =

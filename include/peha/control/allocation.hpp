@@ -135,6 +135,10 @@ struct AllocationData {
   double loadcell_offset_N[2] = {0, 0};   ///< tare, subtracted from each reading (agonist, antagonist)
   double disagreement_N[2] = {0, 0};      ///< low-passed reading - model force
   bool loadcell_ok[2] = {true, true};     ///< each load cell currently trusted
+  /// Added to each muscle's rigid-wire contraction before its pressure model (agonist, antagonist),
+  /// dimensionless: a wire longer by dL lets the muscle contract dL / L0 further at the same angle
+  /// (the creep estimator's correction, control/wire_creep_estimator.hpp). 0 = the model as set up.
+  double contraction_offset[2] = {0, 0};
 };
 
 /// One allocation step. Never throws, never allocates; every output is finite and within limits.

@@ -10,6 +10,7 @@
 
 #include "peha/control/allocation.hpp"
 #include "peha/control/startup_tare.hpp"
+#include "peha/control/wire_creep_estimator.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/models/joint.hpp"
 
@@ -42,6 +43,8 @@ struct OneDofControllerModel {
   OneDofGravityModel gravity;
   AllocationParams allocation;
   double velocity_cutoff_Hz = 20.0;
+  /// Online tracking of wire creep and slack (control/wire_creep_estimator.hpp; off by default).
+  CreepEstimatorParams creep;
 };
 
 /// What one step computed (for logs and plots).
@@ -52,6 +55,7 @@ struct OneDofDiagnostics {
   double tau_desired_Nm = 0;
   AllocationInput allocation_input;  ///< what the allocation was given this step
   AllocationOutput allocation;
+  CreepEstimatorData creep;  ///< the creep estimator's state after this step (alerts latched there)
 };
 
 class OneDofGravityController {

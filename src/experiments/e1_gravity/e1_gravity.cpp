@@ -55,10 +55,12 @@ sim::FingerParams read_finger(config::Map map, double duration_s, std::vector<in
 
 }  // namespace
 
-E1Scenario read_e1(const config::Document& doc) {
+E1Scenario read_e1(const config::Document& doc) { return read_e1(doc, "gravity_compensation_1dof", {}); }
+
+E1Scenario read_e1(const config::Document& doc, const char* experiment, const std::function<void(config::Map&)>& extra) {
   config::Map root = doc.root();
   E1Scenario s;
-  const ScenarioHeader header = read_scenario_header(root, "gravity_compensation_1dof");
+  const ScenarioHeader header = read_scenario_header(root, experiment);
   s.description = header.description;
   s.seed = header.seed;
 
@@ -84,6 +86,7 @@ E1Scenario read_e1(const config::Document& doc) {
   s.controller.gravity.gravity_mps2 = gravity.number("gravity_mps2", {0.0, 20.0});
   gravity.finish();
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
+  if (ctl.has("creep_estimator")) s.controller.creep = control::read_creep_estimator(ctl.map("creep_estimator"));
   ctl.finish();
 
   s.limits = read_one_joint_limits(limits, s.period_s);
@@ -112,6 +115,7 @@ E1Scenario read_e1(const config::Document& doc) {
     if (cal.has("acceptance")) s.acceptance = experiments::read_calibration_acceptance(cal.map("acceptance"));
     cal.finish();
   }
+  if (extra) extra(root);
   root.finish();
   return s;
 }

@@ -28,7 +28,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-PlantVariant read_variant(config::Map m) {
+PlantVariant read_variant_keys(config::Map m) {
   PlantVariant v;
   v.name = m.string("name");
   v.cable_friction_scale = m.number_or("cable_friction_scale", 1.0, {0.0, 10.0});
@@ -255,6 +255,8 @@ const RobustnessGoal& goal_of(const RobustnessConfig& c, RobustnessMode m) {
 
 }  // namespace
 
+PlantVariant read_plant_variant(config::Map m) { return read_variant_keys(std::move(m)); }
+
 const char* to_string(RobustnessMode m) {
   switch (m) {
     case RobustnessMode::kE1Default: return "e1_default";
@@ -302,7 +304,7 @@ RobustnessConfig read_robustness(const config::Document& doc) {
     if (goals.has("e3_identified")) c.goal_e3_identified = read_goal(goals.map("e3_identified"), c.goal_e3_identified);
     goals.finish();
   }
-  for (config::Map v : root.maps("variants", 1, 256)) c.variants.push_back(read_variant(v));
+  for (config::Map v : root.maps("variants", 1, 256)) c.variants.push_back(read_variant_keys(v));
   root.finish();
   return c;
 }

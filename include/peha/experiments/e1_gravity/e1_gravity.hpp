@@ -55,6 +55,9 @@ struct E1Scenario {
 
 /// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.
 E1Scenario read_e1(const config::Document& doc);
+/// The same for an experiment that shares E1's scenario (e.g. `wire_creep`): `experiment:` must be
+/// `experiment`, and `extra` reads that experiment's own root sections before the root is finished.
+E1Scenario read_e1(const config::Document& doc, const char* experiment, const std::function<void(config::Map&)>& extra);
 
 struct E1Release {
   std::string push;           ///< the push that ended

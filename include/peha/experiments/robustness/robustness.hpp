@@ -120,6 +120,9 @@ struct RobustnessResult {
   std::vector<Share> shares;
 };
 
+/// Reads one variant mapping (name and the factors above; the same keys as the matrix's `variants:`).
+PlantVariant read_plant_variant(config::Map m);
+
 /// The plant of an E1 case under `v` (the controller is untouched).
 sim::OneDofRigParams e1_variant_plant(const E1Scenario& scenario, const E1Case& c, const PlantVariant& v);
 /// The right arm's plant under `v`.

@@ -1,0 +1,425 @@
+#include "peha/experiments/creep/creep.hpp"
+
+#include "peha/calibration/calibrate.hpp"
+#include "peha/calibration/calibration_file.hpp"
+#include "peha/safety/limited_backend.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <optional>
+
+namespace peha::experiments {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kDeg = std::numbers::pi / 180.0;
+
+CreepSettings read_creep_section(config::Map m, double duration_s) {
+  CreepSettings c;
+  c.repeat_from_s = m.number("repeat_from_s", {0.0, duration_s});
+  c.cycle_s = m.number("cycle_s", {1.0, 3600.0});
+  c.sample_s = m.number_or("sample_s", c.sample_s, {0.01, 60.0});
+  c.convergence_s = m.number_or("convergence_s", c.convergence_s, {0.0, duration_s});
+  if (m.has("force_trim_rates_1ps")) {
+    c.force_trim_rates_1ps = m.numbers("force_trim_rates_1ps", {0.0, 100.0}, 1, 4);
+  }
+  if (m.has("variants")) {
+    for (config::Map v : m.maps("variants", 1, 16)) c.variants.push_back(read_plant_variant(v));
+  } else {
+    c.variants.push_back(PlantVariant{.name = "nominal"});
+  }
+  if (m.has("calibration")) {
+    config::Map k = m.map("calibration");
+    c.calibrate = true;
+    c.calibration_restarts = static_cast<int>(k.integer("restarts", 1, 10000));
+    c.calibration_pseudo_inputs = static_cast<int>(k.integer("pseudo_inputs", 1, 1000));
+    c.calibration_spgp_iterations = static_cast<int>(k.integer("spgp_iterations", 0, 100000));
+    k.finish();
+  }
+  if (m.has("verdict")) {
+    config::Map v = m.map("verdict");
+    CreepVerdictThresholds& t = c.verdict;
+    t.max_estimate_rms_m = v.number_or("max_estimate_rms_mm", t.max_estimate_rms_m * 1e3, {0.0, 100.0}) * 1e-3;
+    t.max_estimate_error_m = v.number_or("max_estimate_error_mm", t.max_estimate_error_m * 1e3, {0.0, 100.0}) * 1e-3;
+    t.max_alert_delay_s = v.number_or("max_alert_delay_s", t.max_alert_delay_s, {0.0, 36000.0});
+    t.max_early_alert_s = v.number_or("max_early_alert_s", t.max_early_alert_s, {0.0, 36000.0});
+    t.max_static_torque_error_pct = v.number_or("max_static_torque_error_pct", t.max_static_torque_error_pct, {0.0, 1000.0});
+    t.max_tracking_ratio = v.number_or("max_tracking_ratio", t.max_tracking_ratio, {0.0, 100.0});
+    v.finish();
+  }
+  m.finish();
+  return c;
+}
+
+/// The pushes from repeat_from_s on, repeated every cycle_s while they end within the run.
+void repeat_pushes(E1Scenario& e1, const CreepSettings& c) {
+  const std::vector<sim::FingerPush> once = e1.plant.finger.pushes;
+  const std::vector<int> probes = e1.probe_direction;
+  std::vector<sim::FingerPush> all;
+  std::vector<int> directions;
+  for (std::size_t i = 0; i < once.size(); ++i) {
+    if (once[i].start_s < c.repeat_from_s) {
+      all.push_back(once[i]);
+      directions.push_back(probes[i]);
+    }
+  }
+  for (int n = 0;; ++n) {
+    bool any = false;
+    for (std::size_t i = 0; i < once.size(); ++i) {
+      if (once[i].start_s < c.repeat_from_s) continue;
+      sim::FingerPush p = once[i];
+      p.start_s += n * c.cycle_s;
+      if (p.start_s + p.duration_s > e1.duration_s) continue;
+      p.name = fmt::format("{}_{}", once[i].name, n);
+      all.push_back(p);
+      directions.push_back(probes[i]);
+      any = true;
+    }
+    if (!any) break;
+  }
+  e1.plant.finger.pushes = all;
+  e1.probe_direction = directions;
+}
+
+}  // namespace
+
+CreepScenario read_creep(const config::Document& doc) {
+  CreepScenario s;
+  s.e1 = read_e1(doc, "wire_creep", [&s](config::Map& root) { s.creep = read_creep_section(root.map("creep"), 3600.0); });
+  if (s.creep.convergence_s >= s.e1.duration_s) {
+    throw config::Error(fmt::format("{}: creep.convergence_s ({} s) must end before the run (run.duration_s {} s)", doc.name(),
+                                    s.creep.convergence_s, s.e1.duration_s));
+  }
+  repeat_pushes(s.e1, s.creep);
+  return s;
+}
+
+E1Scenario creep_calibrated_scenario(const CreepScenario& cs, const PlantVariant& v) {
+  E1Scenario s = cs.e1;
+  for (int i = 0; i < 2; ++i) {
+    if (!s.excitation[i]) {
+      throw config::Error(fmt::format("creep.calibration needs the scenario's calibration.{} section (the excitation to record)",
+                                      i == 0 ? "agonist" : "antagonist"));
+    }
+    E1Case recording{"calibration", s.excitation[i]->payload_kg};
+    sim::OneDofRigParams plant = e1_variant_plant(cs.e1, recording, v);
+    plant.joint.agonist.cable.creep_m_per_N_s = plant.joint.antagonist.cable.creep_m_per_N_s = 0.0;  // a fresh rig
+    const calibration::Dataset data = record_e1_muscle(cs.e1, plant, i);
+    calibration::CalibrateOptions o;
+    o.muscle = i == 0 ? "agonist" : "antagonist";
+    o.fit.restarts = cs.creep.calibration_restarts;
+    o.fit.threads = 2;
+    o.fit.seed = cs.e1.seed;
+    o.spgp.num_pseudo = cs.creep.calibration_pseudo_inputs;
+    o.spgp.max_iterations = cs.creep.calibration_spgp_iterations;
+    o.spgp.seed = cs.e1.seed;
+    o.use_spgp = cs.creep.calibration_spgp_iterations > 0;
+    const calibration::CalibrationOutcome outcome = calibration::calibrate(data, o);
+    const safety::JointLimits& range = s.limits.joints[0];
+    calibration::apply_calibration(outcome.calibration, fmt::format("calibration of {} on variant {}", o.muscle, v.name), o.use_spgp,
+                                   s.controller.joint, i, range.min_angle_rad, range.max_angle_rad);
+  }
+  use_calibration_loadcell_zero(s);
+  return s;
+}
+
+CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVariant& v, double trim_1ps, bool estimator,
+                        const control::OneDofControllerModel* controller_model) {
+  E1Scenario sc = s.e1;
+  if (controller_model) sc.controller = *controller_model;
+  sc.controller.allocation.force_trim_rate_1ps = trim_1ps;
+  sc.controller.creep.enabled = estimator;
+  const control::OneDofControllerModel model = e1_controller_model(sc, c);
+  const sim::OneDofRigParams plant_params = e1_variant_plant(sc, c, v);
+  sim::OneDofRigBackend plant(plant_params);
+  control::OneDofGravityController controller(model);
+  const safety::JointModels joints{&model.joint};
+  safety::LimitedBackend limited(plant, sc.limits, joints);
+
+  CreepRun r;
+  r.variant = v.name;
+  r.force_trim_rate_1ps = trim_1ps;
+  r.estimator = estimator;
+  r.name = fmt::format("{}_trim{:g}_{}", v.name, trim_1ps, estimator ? "on" : "off");
+  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
+
+  const auto steps = static_cast<std::size_t>(std::llround(sc.duration_s / sc.period_s));
+  const auto per_sample = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(s.creep.sample_s / sc.period_s)));
+  std::vector<double> angle(steps + 1, 0.0), constraint(steps + 1, kNaN);
+  double trk_sum[2] = {0, 0}, gated[2] = {0, 0};
+  std::size_t in_sample = 0;
+  bool referenced[2] = {false, false};
+  io::SensorState state;
+  io::Command command;
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto step = [&](std::size_t) { controller.update(state, command); };
+  auto hold = [&](std::size_t k) { angle[k] = k > 0 ? angle[k - 1] : 0.0; };
+  auto observe = [&](std::size_t k, const io::Command&, std::uint32_t) {
+    const sim::OneDofRigTruth& t = plant.sampled_truth();
+    const io::JointSensors& sens = state.joints[0];
+    const control::OneDofDiagnostics& d = controller.diagnostics();
+    angle[k] = t.angle_rad;
+    constraint[k] = t.constraint_torque_Nm;
+    if (!controller.wires_slack_on_purpose(state.time_s)) {
+      r.min_wire_tension_N = std::min({r.min_wire_tension_N, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]});
+    }
+    const double e0 = d.allocation.agonist_force_cmd_N - (sens.agonist_loadcell_N - d.loadcell_offset_N[0]);
+    const double e1 = d.allocation.antagonist_force_cmd_N - (sens.antagonist_loadcell_N - d.loadcell_offset_N[1]);
+    trk_sum[0] += e0 * e0;
+    trk_sum[1] += e1 * e1;
+    for (int i = 0; i < 2; ++i) {
+      gated[i] += d.creep.muscle[i].gated ? 1.0 : 0.0;
+      if (estimator && !referenced[i] && d.creep.muscle[i].referenced) {
+        referenced[i] = true;
+        r.reference_time_s[i] = state.time_s;
+        r.truth_at_reference_m[i] = t.creep_m[i];
+      }
+    }
+    if (++in_sample == per_sample) {
+      CreepSample smp;
+      smp.t_s = state.time_s;
+      smp.angle_deg = t.angle_rad / kDeg;
+      for (int i = 0; i < 2; ++i) {
+        smp.truth_m[i] = t.creep_m[i] - r.truth_at_reference_m[i];
+        smp.estimate_m[i] = d.creep.muscle[i].referenced ? d.creep.muscle[i].length_change_m : 0.0;
+        smp.sigma_m[i] = control::creep_sigma_m(d.creep, i);
+        smp.tracking_rms_N[i] = std::sqrt(trk_sum[i] / static_cast<double>(in_sample));
+        smp.gated_fraction[i] = gated[i] / static_cast<double>(in_sample);
+        trk_sum[i] = gated[i] = 0;
+      }
+      smp.alerts = d.creep.alerts;
+      r.samples.push_back(smp);
+      in_sample = 0;
+    }
+    for (int i = 0; i < 2; ++i) r.final_truth_m[i] = t.creep_m[i];
+  };
+  const std::size_t done = runtime::run_cycles(limited, {}, steps, state, command, step, hold, observe);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  r.simulated_s = static_cast<double>(done) * sc.period_s;
+  r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
+  r.faults = limited.monitor().count();
+  r.fault_reason = limited.monitor().run_reason();
+  const control::CreepEstimatorData& cd = controller.diagnostics().creep;
+  for (int i = 0; i < 4; ++i) r.alert_time_s[i] = cd.alert_time_s[i];
+
+  // The estimate against the truth (change since the reference) after the convergence window.
+  const double alert_m = sc.controller.creep.alert_m;
+  for (int i = 0; i < 2; ++i) {
+    double sum = 0, worst = 0;
+    std::size_t n = 0;
+    for (const CreepSample& smp : r.samples) {
+      if (r.truth_cross_s[i] < 0 && referenced[i] && std::abs(smp.truth_m[i]) > alert_m) r.truth_cross_s[i] = smp.t_s;
+      if (!estimator || smp.t_s < s.creep.convergence_s) continue;
+      const double e = smp.estimate_m[i] - smp.truth_m[i];
+      sum += e * e;
+      worst = std::max(worst, std::abs(e));
+      ++n;
+    }
+    r.estimate_rms_m[i] = estimator && n ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
+    r.estimate_max_m[i] = estimator && n ? worst : kNaN;
+  }
+  // Tracking over the last quarter.
+  const double quarter_s = 0.75 * r.simulated_s;
+  for (int i = 0; i < 2; ++i) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (const CreepSample& smp : r.samples) {
+      if (smp.t_s < quarter_s) continue;
+      sum += smp.tracking_rms_N[i] * smp.tracking_rms_N[i];
+      ++n;
+    }
+    r.tracking_rms_last_quarter_N[i] = n ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
+  }
+  // Static torque error after each release: the friction's torque over the last second before the
+  // next push (or the run's end), as E1 measures it, % of the plant's gravity torque there.
+  const auto& pushes = sc.plant.finger.pushes;
+  const auto span = static_cast<std::size_t>(std::llround(1.0 / sc.period_s));
+  double worst = 0, sum = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    if (pushes[i].hold || sc.probe_direction[i] != 0) continue;
+    const auto k0 = static_cast<std::size_t>(std::llround((pushes[i].start_s + pushes[i].duration_s) / sc.period_s));
+    std::size_t k1 = done;
+    if (i + 1 < pushes.size()) k1 = std::min(done, static_cast<std::size_t>(std::llround(pushes[i + 1].start_s / sc.period_s)) - 1);
+    if (k0 >= done || k1 <= k0 + span) continue;
+    double torque = 0;
+    for (std::size_t k = k1 - span; k <= k1; ++k) torque += constraint[k];
+    torque = -torque / static_cast<double>(span + 1);
+    CreepRelease rel;
+    rel.time_s = static_cast<double>(k0) * sc.period_s;
+    rel.angle_deg = angle[k1] / kDeg;
+    rel.static_torque_error_pct = 100.0 * torque / std::abs(e1_plant_gravity_torque_Nm(plant_params, angle[k1]));
+    r.releases.push_back(rel);
+    if (rel.time_s >= quarter_s) {
+      worst = std::max(worst, std::abs(rel.static_torque_error_pct));
+      sum += rel.static_torque_error_pct;
+      ++n;
+    }
+  }
+  r.static_error_last_quarter_max_pct = n ? worst : kNaN;
+  r.static_error_last_quarter_mean_pct = n ? sum / static_cast<double>(n) : kNaN;
+  return r;
+}
+
+safety::Verdict creep_verdict(const CreepScenario& s, const std::vector<CreepRun>& runs) {
+  safety::Verdict v;
+  const CreepVerdictThresholds& t = s.creep.verdict;
+  const std::string nominal = s.creep.variants.front().name;
+  const char* muscle[2] = {"agonist", "antagonist"};
+  for (const CreepRun& r : runs) {
+    if (r.variant != nominal) continue;  // variants are reported, not judged (docs/creep.md)
+    v.at_most(r.name + " supervisor faults", "", static_cast<double>(r.faults), 0.0);
+    if (r.estimator) {
+      for (int i = 0; i < 2; ++i) {
+        v.at_most(fmt::format("{} {} creep estimate RMS error", r.name, muscle[i]), "mm", r.estimate_rms_m[i] * 1e3,
+                  t.max_estimate_rms_m * 1e3);
+        v.at_most(fmt::format("{} {} creep estimate max error", r.name, muscle[i]), "mm", r.estimate_max_m[i] * 1e3,
+                  t.max_estimate_error_m * 1e3);
+        const double alert = r.alert_time_s[i], cross = r.truth_cross_s[i];
+        if (cross >= 0) {
+          // Not latched: late once the run went on max_alert_delay_s past the crossing; a run that
+          // ended earlier is judged by how long it did go on (not late yet).
+          const double delay = alert >= 0                                  ? alert - cross
+                               : r.simulated_s - cross < t.max_alert_delay_s ? r.simulated_s - cross
+                                                                              : std::numeric_limits<double>::infinity();
+          v.within(fmt::format("{} {} creep_recalibrate alert after the truth crossed", r.name, muscle[i]), "s", delay,
+                   -t.max_early_alert_s, t.max_alert_delay_s);
+        } else {
+          v.at_most(fmt::format("{} {} creep_recalibrate alert without the truth crossing (1 = raised)", r.name, muscle[i]), "",
+                    alert >= 0 ? 1.0 : 0.0, 0.0);
+        }
+      }
+      v.at_most(r.name + " |static torque error|, last quarter, max", "% of gravity", r.static_error_last_quarter_max_pct,
+                t.max_static_torque_error_pct);
+      v.at_most(r.name + " wire_slack alerts (no wire went slack)", "", ((r.alert_time_s[2] >= 0) + (r.alert_time_s[3] >= 0)) * 1.0, 0.0);
+    }
+  }
+  // Pure feed-forward: the estimator's correction must cut the agonist's force-tracking error.
+  for (const CreepRun& on : runs) {
+    if (on.variant != nominal || !on.estimator || on.force_trim_rate_1ps != 0.0) continue;
+    for (const CreepRun& off : runs) {
+      if (off.variant != nominal || off.estimator || off.force_trim_rate_1ps != 0.0) continue;
+      v.at_most(on.name + " agonist force-tracking RMS on / off, last quarter", "",
+                on.tracking_rms_last_quarter_N[0] / std::max(off.tracking_rms_last_quarter_N[0], 1e-9), t.max_tracking_ratio);
+    }
+  }
+  return v;
+}
+
+namespace {
+
+void write_series(const std::filesystem::path& path, const CreepRun& r) {
+  std::ofstream out(path);
+  out << "t_s,angle_deg,truth_agonist_mm,truth_antagonist_mm,estimate_agonist_mm,estimate_antagonist_mm,sigma_agonist_mm,"
+         "sigma_antagonist_mm,tracking_rms_agonist_N,tracking_rms_antagonist_N,gated_agonist,gated_antagonist,alerts\n";
+  for (const CreepSample& s : r.samples) {
+    out << fmt::format("{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.2f},{:.2f},{:.3f},{:.3f},{}\n", s.t_s, s.angle_deg,
+                       s.truth_m[0] * 1e3, s.truth_m[1] * 1e3, s.estimate_m[0] * 1e3, s.estimate_m[1] * 1e3, s.sigma_m[0] * 1e3,
+                       s.sigma_m[1] * 1e3, s.tracking_rms_N[0], s.tracking_rms_N[1], s.gated_fraction[0], s.gated_fraction[1],
+                       s.alerts);
+  }
+}
+
+void write_releases(const std::filesystem::path& path, const CreepRun& r) {
+  std::ofstream out(path);
+  out << "release_time_s,angle_deg,static_torque_error_pct\n";
+  for (const CreepRelease& rel : r.releases) out << fmt::format("{:.3f},{:.3f},{:.3f}\n", rel.time_s, rel.angle_deg, rel.static_torque_error_pct);
+}
+
+void write_summary(const std::filesystem::path& path, const std::vector<CreepRun>& runs) {
+  std::ofstream out(path);
+  out << "run,variant,force_trim_rate_1ps,estimator,estimate_rms_agonist_mm,estimate_rms_antagonist_mm,estimate_max_agonist_mm,"
+         "estimate_max_antagonist_mm,final_truth_agonist_mm,final_truth_antagonist_mm,truth_cross_agonist_s,truth_cross_antagonist_s,"
+         "alert_creep_agonist_s,alert_creep_antagonist_s,alert_slack_agonist_s,alert_slack_antagonist_s,"
+         "tracking_rms_last_quarter_agonist_N,tracking_rms_last_quarter_antagonist_N,static_error_last_quarter_max_pct,"
+         "static_error_last_quarter_mean_pct,min_wire_tension_N,realtime_factor\n";
+  for (const CreepRun& r : runs) {
+    out << fmt::format("{},{},{:g},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.1f},{:.1f},{:.1f},{:.1f},{:.1f},{:.1f},{:.2f},{:.2f},{:.3f},"
+                       "{:.3f},{:.2f},{:.1f}\n",
+                       r.name, r.variant, r.force_trim_rate_1ps, r.estimator ? 1 : 0, r.estimate_rms_m[0] * 1e3,
+                       r.estimate_rms_m[1] * 1e3, r.estimate_max_m[0] * 1e3, r.estimate_max_m[1] * 1e3, r.final_truth_m[0] * 1e3,
+                       r.final_truth_m[1] * 1e3, r.truth_cross_s[0], r.truth_cross_s[1], r.alert_time_s[0], r.alert_time_s[1],
+                       r.alert_time_s[2], r.alert_time_s[3], r.tracking_rms_last_quarter_N[0], r.tracking_rms_last_quarter_N[1],
+                       r.static_error_last_quarter_max_pct, r.static_error_last_quarter_mean_pct, r.min_wire_tension_N,
+                       r.realtime_factor);
+  }
+}
+
+std::string alert_text(double t_s) { return t_s >= 0 ? fmt::format("{:.0f} s", t_s) : std::string("-"); }
+
+}  // namespace
+
+int run_creep_experiment(const config::Document& doc, const RunRequest& request) {
+  CreepScenario scenario = read_creep(doc);
+  if (request.seed) scenario.e1.plant.seed = scenario.e1.seed = *request.seed;
+  if (request.force_trim_rate_1ps) scenario.creep.force_trim_rates_1ps = {*request.force_trim_rate_1ps};
+  const E1Case* chosen = &scenario.e1.cases.front();
+  for (const auto& c : scenario.e1.cases) {
+    if (c.name == request.only_case) chosen = &c;
+  }
+  if (!request.only_case.empty() && chosen->name != request.only_case) {
+    fmt::print(stderr, "error: no case named '{}' in {}\n", request.only_case, doc.name());
+    return 2;
+  }
+  const std::filesystem::path dir = request.open_run_dir(scenario.e1.seed);
+  const auto& cable = scenario.e1.plant.joint.agonist.cable;
+  fmt::print("peha run: {}\n  {}\n  case {}, {:.0f} s simulated per run, plant creep {:g} m/(N s) up to {:g} mm, seed {}, output {}\n",
+             doc.name(), scenario.e1.description, chosen->name, scenario.e1.duration_s, cable.creep_m_per_N_s,
+             cable.max_creep_m * 1e3, scenario.e1.seed, dir.string());
+  std::vector<CreepRun> runs;
+  for (const PlantVariant& v : scenario.creep.variants) {
+    std::optional<control::OneDofControllerModel> calibrated;
+    for (double trim : scenario.creep.force_trim_rates_1ps) {
+      if (scenario.creep.calibrate && !calibrated) {
+        fmt::print("  {}: recording and calibrating both muscles on the plant (its wires not yet crept) ... ", v.name);
+        std::fflush(stdout);
+        const auto start = std::chrono::steady_clock::now();
+        calibrated = creep_calibrated_scenario(scenario, v).controller;
+        fmt::print("{:.0f} s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      }
+      const control::OneDofControllerModel* model = calibrated ? &*calibrated : nullptr;
+      for (bool on : {false, true}) {
+        fmt::print("  {} trim {:g}/s{} estimator {} ... ", v.name, trim, model ? " (calibrated)" : "", on ? "on " : "off");
+        std::fflush(stdout);
+        runs.push_back(run_creep_case(scenario, *chosen, v, trim, on, model));
+        const CreepRun& r = runs.back();
+        write_series(dir / fmt::format("creep_{}.csv", r.name), r);
+        write_releases(dir / fmt::format("releases_{}.csv", r.name), r);
+        fmt::print("{:.0f} s at {:.0f}x real time\n", r.simulated_s, r.realtime_factor);
+      }
+    }
+  }
+  write_summary(dir / "summary.csv", runs);
+  fmt::print("\n{:<34} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8} {:>9} {:>9} {:>9} {:>9} {:>8} {:>8}\n", "run", "truth_ag", "truth_an",
+             "rms_ag", "max_ag", "rms_an", "max_an", "cross_ag", "alert_ag", "trk_ag/N", "trk_an/N", "tau_max%", "tau_avg%");
+  for (const CreepRun& r : runs) {
+    fmt::print("{:<34} {:>7.2f}mm {:>7.2f}mm {:>7.3f}mm {:>7.3f}mm {:>6.3f}mm {:>6.3f}mm {:>9} {:>9} {:>9.1f} {:>9.1f} {:>8.2f} {:>8.2f}\n",
+               r.name, r.final_truth_m[0] * 1e3, r.final_truth_m[1] * 1e3, r.estimate_rms_m[0] * 1e3, r.estimate_max_m[0] * 1e3,
+               r.estimate_rms_m[1] * 1e3, r.estimate_max_m[1] * 1e3, alert_text(r.truth_cross_s[0]), alert_text(r.alert_time_s[0]),
+               r.tracking_rms_last_quarter_N[0], r.tracking_rms_last_quarter_N[1], r.static_error_last_quarter_max_pct,
+               r.static_error_last_quarter_mean_pct);
+    if (r.faults) fmt::print("{:<34} SUPERVISOR FAULT: {}\n", "", r.fault_reason);
+    for (int b = 0; b < 4; ++b) {
+      if (r.alert_time_s[b] >= 0) {
+        fmt::print("{:<34} ALERT {} at {:.1f} s\n", "", control::creep_alert_name(static_cast<control::CreepAlert>(1u << b)),
+                   r.alert_time_s[b]);
+      }
+    }
+  }
+  const safety::Verdict verdict = creep_verdict(scenario, runs);
+  fmt::print("\nverdict (creep.verdict: section; plant variants other than {} are reported, not judged):\n{}", scenario.creep.variants.front().name,
+             verdict.describe_all());
+  fmt::print("\nwritten: {}/summary.csv, creep_<run>.csv, releases_<run>.csv, config.yaml\n", dir.string());
+  if (request.plot) plot_with("plot_creep.py", dir);
+  fmt::print("{}\n", verdict.passed() ? "PASSED" : "FAILED");
+  return verdict.passed() ? 0 : 3;
+}
+
+}  // namespace peha::experiments
