@@ -50,7 +50,7 @@ int run_bandwidth_experiment(const config::Document& doc, const ArmScenario& sce
   const auto& b = scenario.bandwidth;
   fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} joint locked at SFE {:.0f} deg, EFE {:.0f} deg; gravity torque "
              "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
-             doc.name(), b.joint == 0 ? "shoulder" : "elbow", b.sfe_rad * 180 / std::numbers::pi,
+             doc.name(), arm_joint_names(scenario)[static_cast<std::size_t>(b.joint)], b.sfe_rad * 180 / std::numbers::pi,
              b.efe_rad * 180 / std::numbers::pi, b.amplitude_Nm, b.frequencies_Hz.size());
   std::vector<BandwidthResult> results;
   for (bool hybrid : {false, true}) results.push_back(run_bandwidth(scenario, hybrid));
