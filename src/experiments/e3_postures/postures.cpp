@@ -143,7 +143,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
         gravity[j][k] = truth->bias_torque_Nm[a];
         model_gravity[j][k] = controller.diagnostics()[a].torque_gravity_Nm;
       }
-      angle[j][k] = truth ? truth->q_rad[static_cast<std::size_t>(scenario.controller.joints[a].model_joint)] : state.joints[a].angle_rad;
+      angle[j][k] = truth ? truth->actuated_q_rad[a] : state.joints[a].angle_rad;
     }
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       safety::JointSample j = arm_joint_sample(state, sent, truth, a);
@@ -159,8 +159,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       const auto& diag = controller.diagnostics();
       for (std::size_t a = 0; a < scenario.controller.joints.size(); ++a) {
         const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
-        const auto q = static_cast<std::size_t>(scenario.controller.joints[a].model_joint);
-        const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[q] : nan, diag[a].torque_gravity_Nm, diag[a].tau_desired_Nm,
+        const double values[] = {state.joints[a].angle_rad, truth ? truth->actuated_q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].tau_desired_Nm,
                                  sent.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
                                  sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
                                  state.joints[a].agonist_loadcell_N, state.joints[a].antagonist_loadcell_N, j ? j->muscle_force_N[0] : nan,

@@ -321,9 +321,9 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   read_arm_plant(plant, root.map("operator"), body, l, s);
   read_postures(root.map("postures"), s);
   s.faults = sim::read_plant_faults(root, s.plant.actuated, postures_duration_s(s));
-  read_bandwidth(root.map("bandwidth"), s);
+  if (root.has("bandwidth")) read_bandwidth(root.map("bandwidth"), s);  // E6's section (optional)
   if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
-  read_goniometer(root.map("goniometer"), s);
+  if (root.has("goniometer")) read_goniometer(root.map("goniometer"), s);  // E4's section (optional)
   if (root.has("identification")) read_identification(root.map("identification"), s);
   s.verdict = safety::read_verdict_thresholds(root);
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
@@ -358,7 +358,7 @@ safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Com
   if (truth) {
     const sim::PehaJointTruth& t = truth->actuators[joint];
     j = {{t.muscle_force_N[0], t.muscle_force_N[1]}, std::min(t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]),
-         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm, truth->q_rad[joint]};
+         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm, truth->actuated_q_rad[joint]};
   } else {
     const io::JointSensors& s = state.joints[joint];
     j = {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),
