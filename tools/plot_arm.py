@@ -1,8 +1,9 @@
 #!/usr/bin/python3
-"""Plot an E3 (postures) run of the right arm: `peha run --config configs/right_arm.yaml --experiment postures`.
+"""Plot an E3 (postures) run of an arm or both arms: `peha run --config configs/right_arm.yaml --experiment postures`.
 
-Reads RUN_DIR/e3_postures.csv and RUN_DIR/summary.csv and writes RUN_DIR/plot.png:
-  top:    SFE and EFE angles over time (measured and plant), the operator's grips shaded,
+Reads RUN_DIR/e3_postures.csv and RUN_DIR/summary.csv (one row per posture and judged joint) and writes
+RUN_DIR/plot.png:
+  top:    the judged joints' angles over time (measured and plant), the operator's grips shaded,
           the releases marked, and the torques (gravity model, operator) below;
   bottom: the drift after each release, zoomed: angle minus angle at release, per posture.
 Run with Debian's /usr/bin/python3 (numpy + matplotlib).
@@ -39,8 +40,16 @@ def main():
         sys.stderr.write(f"plot_arm.py: {log_path} not found\n")
         return 2
     d = read(log_path)
-    s = read(os.path.join(a.run_dir, "summary.csv"))
-    s = np.atleast_1d(s)
+    rows = np.atleast_1d(read(os.path.join(a.run_dir, "summary.csv")))
+    joints = list(dict.fromkeys(str(j) for j in rows["joint"]))
+    postures = list(dict.fromkeys(str(p) for p in rows["posture"]))
+    # Log column prefix: "sfe" for a single arm's R_SFE, "r_sfe" when both arms are logged.
+    two_sides = len({j.split("_", 1)[0] for j in joints}) > 1
+    prefix = {j: (j if two_sides else j.split("_", 1)[1]).lower() for j in joints}
+    colour = {j: f"C{i}" for i, j in enumerate(joints)}
+    def target(posture):
+        return ", ".join(f"{float(r['target_deg']):.0f}" for r in rows if str(r["posture"]) == posture)
+    s = rows[[str(j) == joints[0] for j in rows["joint"]]]  # one row per posture
     t = d["t_s"]
     op = d["operator_active"] > 0.5
     releases = t[1:][(op[:-1]) & (~op[1:])]
@@ -56,11 +65,12 @@ def main():
             ax.axvspan(t[x0], t[x1 - 1], color="0.88", lw=0)
         for r in releases:
             ax.axvline(r, color="0.4", ls=":", lw=0.8)
-    for j, c in (("sfe", "C0"), ("efe", "C1")):
-        ax1.plot(t, np.degrees(d[f"{j}_plant_angle_rad"]), c, lw=1.2, label=f"{j.upper()} (plant)")
-        ax1.plot(t, np.degrees(d[f"{j}_angle_rad"]), c, lw=0.6, ls="--", label=f"{j.upper()} (encoder)")
-        ax2.plot(t, d[f"{j}_tau_gravity_Nm"], c, lw=1.0, label=f"{j.upper()} J$^T$G")
-        ax2.plot(t, d[f"{j}_operator_torque_Nm"], c, lw=0.6, ls=":", label=f"{j.upper()} operator")
+    for name in joints:
+        j, c = prefix[name], colour[name]
+        ax1.plot(t, np.degrees(d[f"{j}_plant_angle_rad"]), c, lw=1.2, label=f"{name} (plant)")
+        ax1.plot(t, np.degrees(d[f"{j}_angle_rad"]), c, lw=0.6, ls="--", label=f"{name} (encoder)")
+        ax2.plot(t, d[f"{j}_tau_gravity_Nm"], c, lw=1.0, label=f"{name} J$^T$G")
+        ax2.plot(t, d[f"{j}_operator_torque_Nm"], c, lw=0.6, ls=":", label=f"{name} operator")
     ax1.set_ylabel("joint angle [deg]")
     ax1.set_title("E3: the operator carries the arm to each posture (grey) and lets go (dotted)")
     ax1.legend(loc="upper right", fontsize=8, ncol=2)
@@ -81,10 +91,11 @@ def main():
         ax = fig.add_subplot(3, max(n, 1), 2 * max(n, 1) + i + 1)
         m = (t >= r) & (t <= r + 10.0)
         k0 = np.argmax(t >= r)
-        for j, c in (("sfe", "C0"), ("efe", "C1")):
-            ax.plot(t[m] - r, np.degrees(d[f"{j}_plant_angle_rad"][m] - d[f"{j}_plant_angle_rad"][k0]), c, lw=1.0, label=j.upper())
-        name = str(s["posture"][i]) if i < len(s) else f"#{i + 1}"
-        ax.set_title(f"{name}\n({s['target_sfe_deg'][i]:.0f}, {s['target_efe_deg'][i]:.0f}) deg" if i < len(s) else name, fontsize=9)
+        for joint in joints:
+            j = prefix[joint]
+            ax.plot(t[m] - r, np.degrees(d[f"{j}_plant_angle_rad"][m] - d[f"{j}_plant_angle_rad"][k0]), colour[joint], lw=1.0, label=joint)
+        name = postures[i] if i < len(postures) else f"#{i + 1}"
+        ax.set_title(f"{name}\n({target(name)}) deg" if i < len(postures) else name, fontsize=9)
         ax.set_xlabel("time after release [s]", fontsize=8)
         if i == 0:
             ax.set_ylabel("drift [deg]")

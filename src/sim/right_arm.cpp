@@ -79,6 +79,7 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
   truth_.actuator_torque_Nm.assign(params_.actuated.size(), 0.0);
   truth_.constraint_torque_Nm.assign(params_.actuated.size(), 0.0);
   truth_.bias_torque_Nm.assign(params_.actuated.size(), 0.0);
+  truth_.actuated_q_rad.assign(params_.actuated.size(), 0.0);
   truth_.actuators.resize(params_.actuated.size());
   info_.name = "sim:right_arm";
   info_.period_s = params_.control_period_s;
@@ -145,6 +146,7 @@ void RightArmBackend::sample() noexcept {
     truth_.bias_torque_Nm[a] = d->qfrc_bias[dof];
     io::JointSensors& s = state_.joints[a];
     const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
+    truth_.actuated_q_rad[a] = angle;
     if (!encoder_frozen_[a]) s.angle_rad = encoder_angle_rad(angle + encoder_offset_rad_[a], params_.encoder_counts_per_rev);
     joints_[a].sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   }

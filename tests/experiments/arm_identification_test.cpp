@@ -19,8 +19,8 @@ double worst_pct(const PosturesResult& r, double min_gravity_Nm, bool model = fa
   double worst = 0;
   for (const PostureResult& p : r.postures) {
     for (int j = 0; j < 2; ++j) {
-      if (std::abs(p.gravity_torque_Nm[j]) < min_gravity_Nm) continue;
-      worst = std::max(worst, std::abs(model ? p.model_gravity_error_pct[j] : p.static_torque_error_pct[j]));
+      if (std::abs(p.joints[j].gravity_torque_Nm) < min_gravity_Nm) continue;
+      worst = std::max(worst, std::abs(model ? p.joints[j].model_gravity_error_pct : p.joints[j].static_torque_error_pct));
     }
   }
   return worst;
@@ -59,8 +59,8 @@ TEST(ArmIdentification, IdentifiedModelHoldsE3WhereTheNominalDoesNot) {
   EXPECT_LE(worst_pct(identified, min_gravity), 5.0);
   EXPECT_LT(worst_pct(identified, min_gravity, true), 2.5);
   for (const PostureResult& p : identified.postures) {
-    EXPECT_LT(std::abs(p.drift_deg[0]), 0.5) << p.name;
-    EXPECT_LT(std::abs(p.drift_deg[1]), 0.5) << p.name;
+    EXPECT_LT(std::abs(p.joints[0].drift_deg), 0.5) << p.name;
+    EXPECT_LT(std::abs(p.joints[1].drift_deg), 0.5) << p.name;
   }
 
   // The shipped configs/arm/right_arm_gravity.yaml (the controller's arm in configs/right_arm.yaml) is

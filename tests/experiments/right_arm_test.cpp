@@ -42,11 +42,11 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
   EXPECT_LE(r.peak_muscle_force_N, 2000.0);
   EXPECT_GT(r.min_wire_tension_N, 0.0);
   for (const PostureResult& p : r.postures) {
-    EXPECT_LT(p.max_excursion_deg[0], 0.5) << p.name;
-    EXPECT_LT(p.max_excursion_deg[1], 0.5) << p.name;
+    EXPECT_LT(p.joints[0].max_excursion_deg, 0.5) << p.name;
+    EXPECT_LT(p.joints[1].max_excursion_deg, 0.5) << p.name;
     // The operator really moved the arm there (within the reach of their 30 Nm hands).
-    EXPECT_NEAR(p.released_deg[0], p.target_deg[0], 5.0) << p.name;
-    EXPECT_NEAR(p.released_deg[1], p.target_deg[1], 5.0) << p.name;
+    EXPECT_NEAR(p.joints[0].released_deg, p.joints[0].target_deg, 5.0) << p.name;
+    EXPECT_NEAR(p.joints[1].released_deg, p.joints[1].target_deg, 5.0) << p.name;
   }
 }
 
@@ -62,10 +62,10 @@ TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
   int judged = 0;
   for (const PostureResult& p : nominal.postures) {
     for (int j = 0; j < 2; ++j) {
-      if (std::abs(p.gravity_torque_Nm[j]) < s.verdict.min_gravity_torque_Nm) continue;
+      if (std::abs(p.joints[j].gravity_torque_Nm) < s.verdict.min_gravity_torque_Nm) continue;
       ++judged;
-      EXPECT_NEAR(p.static_torque_error_pct[j], p.model_gravity_error_pct[j], 1.5) << p.name << " joint " << j;
-      EXPECT_LT(p.static_torque_error_pct[j], -5.0) << p.name << " joint " << j;  // the plant is heavier
+      EXPECT_NEAR(p.joints[j].static_torque_error_pct, p.joints[j].model_gravity_error_pct, 1.5) << p.name << " joint " << j;
+      EXPECT_LT(p.joints[j].static_torque_error_pct, -5.0) << p.name << " joint " << j;  // the plant is heavier
     }
   }
   EXPECT_GE(judged, 8);
@@ -75,8 +75,8 @@ TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
   const PosturesResult told = run_postures(s, nullptr);
   for (const PostureResult& p : told.postures) {
     for (int j = 0; j < 2; ++j) {
-      if (std::abs(p.gravity_torque_Nm[j]) < s.verdict.min_gravity_torque_Nm) continue;
-      EXPECT_LT(std::abs(p.static_torque_error_pct[j]), 3.0) << p.name << " joint " << j;
+      if (std::abs(p.joints[j].gravity_torque_Nm) < s.verdict.min_gravity_torque_Nm) continue;
+      EXPECT_LT(std::abs(p.joints[j].static_torque_error_pct), 3.0) << p.name << " joint " << j;
     }
   }
   for (const std::string& f : testing::failed_figures(told.verdict)) EXPECT_EQ(f, "R_WFE lowest wire tension") << told.verdict.failures();

@@ -646,9 +646,9 @@ std::filesystem::path short_arm_config(const std::filesystem::path& dir) {
   if (root["controller"]["gravity_identification"]) {
     root["controller"]["gravity_identification"] = configs + root["controller"]["gravity_identification"].as<std::string>();
   }
-  for (const char* joint : {"shoulder", "elbow", "wrist"}) {
+  for (const auto& joint : root["plant"]["joints"]) {
     for (const char* muscle : {"agonist", "antagonist"}) {
-      YAML::Node law = root["plant"][joint][muscle]["law"];
+      YAML::Node law = joint.second[muscle]["law"];
       law = configs + law.as<std::string>();
     }
   }
@@ -689,15 +689,15 @@ TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   const experiments::PostureResult& a = udp.postures.postures[0];
   const experiments::PostureResult& b = local.postures[0];
   for (int j = 0; j < 2; ++j) {
-    EXPECT_NEAR(a.released_deg[j], b.released_deg[j], 0.2) << j;
-    EXPECT_NEAR(a.drift_deg[j], b.drift_deg[j], 0.1) << j;
-    EXPECT_LT(std::abs(a.drift_deg[j]), 0.5) << j;
+    EXPECT_NEAR(a.joints[j].released_deg, b.joints[j].released_deg, 0.2) << j;
+    EXPECT_NEAR(a.joints[j].drift_deg, b.joints[j].drift_deg, 0.1) << j;
+    EXPECT_LT(std::abs(a.joints[j].drift_deg), 0.5) << j;
   }
   // Over the board the figures come from the sensors; only tension floors may fail (the wrist's, see E3).
   for (const safety::Check& c : udp.postures.verdict.checks) EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension")) << c.describe();
   std::printf("E3 over UDP: released %.2f/%.2f deg (in-process %.2f/%.2f), drift %.3f/%.3f deg (in-process %.3f/%.3f)\n",
-              a.released_deg[0], a.released_deg[1], b.released_deg[0], b.released_deg[1], a.drift_deg[0], a.drift_deg[1],
-              b.drift_deg[0], b.drift_deg[1]);
+              a.joints[0].released_deg, a.joints[1].released_deg, b.joints[0].released_deg, b.joints[1].released_deg, a.joints[0].drift_deg, a.joints[1].drift_deg,
+              b.joints[0].drift_deg, b.joints[1].drift_deg);
 }
 
 }  // namespace

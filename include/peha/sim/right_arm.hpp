@@ -69,6 +69,7 @@ struct RightArmTruth {
   std::vector<double> q_rad, qd_radps;           ///< every model joint
   std::vector<PehaJointTruth> actuators;         ///< per actuated joint
   std::vector<double> operator_torque_Nm;        ///< per actuated joint
+  std::vector<double> actuated_q_rad;            ///< per actuated joint: its angle (q_rad is per model joint)
   /// Per actuated joint, from MuJoCo at the latest physics step:
   std::vector<double> actuator_torque_Nm;        ///< cables (muscle-side tensions x pulley) + motor, as applied
   std::vector<double> constraint_torque_Nm;      ///< what the friction, joint-limit and lock constraints apply (qfrc_constraint)

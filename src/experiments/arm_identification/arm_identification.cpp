@@ -38,13 +38,13 @@ std::vector<Leg> legs_of(const ArmScenario::Identification& id) {
   const double half_window_s = id.window_rad / id.sweep_speed_radps;
   for (std::size_t p = 0; p < id.postures.size(); ++p) {
     const ArmPosture& a = id.postures[p];
-    legs.push_back({{a.sfe_rad - id.sweep_rad, a.efe_rad - id.sweep_rad}, id.move_s, id.settle_s});
+    legs.push_back({{a.target_rad[0] - id.sweep_rad, a.target_rad[1] - id.sweep_rad}, id.move_s, id.settle_s});
     // The first posture is swept once more before it is measured: the rig learns the friction it
     // must push against (below) on that pair.
     for (int pass = p == 0 ? 0 : 1; pass < 2; ++pass) {
       for (int side = 0; side < 2; ++side) {
         const double to = side == 0 ? id.sweep_rad : -id.sweep_rad;  // up, then back down
-        legs.push_back({{a.sfe_rad + to, a.efe_rad + to}, sweep_s, id.settle_s, true, pass == 1 ? static_cast<int>(p) : -1, side,
+        legs.push_back({{a.target_rad[0] + to, a.target_rad[1] + to}, sweep_s, id.settle_s, true, pass == 1 ? static_cast<int>(p) : -1, side,
                         0.5 * sweep_s - half_window_s, 0.5 * sweep_s + half_window_s});
       }
     }

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <complex>
@@ -20,22 +21,36 @@ constexpr double kDeg = std::numbers::pi / 180.0;
 
 }  // namespace
 
-const std::vector<std::string>& arm_log_columns() {
-  static const std::vector<std::string> columns = [] {
-    std::vector<std::string> c = {"t_s", "operator_active"};
-    for (const char* j : {"sfe", "efe", "wfe"}) {
-      for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
-                            "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
-                            "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_gravity_Nm",
-                            "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N"}) {
-        c.push_back(fmt::format("{}_{}", j, f));
-      }
+std::vector<std::size_t> gravity_joints(const ArmScenario& scenario) {
+  std::vector<std::size_t> out;
+  for (std::size_t i = 0; i < scenario.controller.joints.size(); ++i) {
+    if (scenario.controller.joints[i].mode == control::ArmJointMode::kGravity) out.push_back(i);
+  }
+  return out;
+}
+
+std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint) {
+  std::string name = scenario.plant.actuated[io_joint];
+  bool two_sides = false;
+  for (const std::string& n : scenario.plant.actuated) two_sides |= n[0] != scenario.plant.actuated[0][0];
+  if (!two_sides) name = name.substr(name.find('_') + 1);
+  for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return name;
+}
+
+std::vector<std::string> arm_log_columns(const ArmScenario& scenario) {
+  std::vector<std::string> c = {"t_s", "operator_active"};
+  for (std::size_t j = 0; j < scenario.plant.actuated.size(); ++j) {
+    for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
+                          "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
+                          "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_gravity_Nm",
+                          "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N"}) {
+      c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
     }
-    c.push_back("limit_flags");
-    c.push_back("fault_flags");
-    return c;
-  }();
-  return columns;
+  }
+  c.push_back("limit_flags");
+  c.push_back("fault_flags");
+  return c;
 }
 
 sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
@@ -44,10 +59,16 @@ sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
   sim::RightArmPlantParams p = scenario.plant;
   p.faults = scenario.faults;
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  p.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, {p.initial_q_rad[0], p.initial_q_rad[1], nan}});
+  // Hold every gravity-compensated joint where it starts (a constant-pressure joint is left to its hold).
+  std::vector<double> start(p.actuated.size(), nan);
+  for (std::size_t i = 0; i < start.size(); ++i) {
+    const control::ArmActuatedJoint& j = scenario.controller.joints[i];
+    if (j.mode != control::ArmJointMode::kHoldPressure) start[i] = p.initial_q_rad[static_cast<std::size_t>(j.model_joint)];
+  }
+  p.operator_hands.moves.push_back({"start", 0.0, 2.0, 2.0, start});
   double t = 2.0 + scenario.observe_s * 0.2;
   for (const ArmPosture& a : scenario.postures) {
-    p.operator_hands.moves.push_back({a.name, t, scenario.move_s + scenario.hold_s, scenario.move_s, {a.sfe_rad, a.efe_rad, nan}});
+    p.operator_hands.moves.push_back({a.name, t, scenario.move_s + scenario.hold_s, scenario.move_s, a.target_rad});
     t += scenario.move_s + scenario.hold_s + scenario.observe_s;
   }
   return p;
@@ -85,18 +106,20 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
 
   PosturesResult r;
   const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
-  std::vector<double> sfe(steps + 1), efe(steps + 1);
-  // Plant truth per cycle (SFE, EFE): the constraint torque (friction, stops) and the gravity torque.
-  std::vector<double> held[2] = {std::vector<double>(steps + 1, nan), std::vector<double>(steps + 1, nan)};
-  std::vector<double> gravity[2] = {std::vector<double>(steps + 1, nan), std::vector<double>(steps + 1, nan)};
-  std::vector<double> model_gravity[2] = {std::vector<double>(steps + 1, nan), std::vector<double>(steps + 1, nan)};
+  // Per judged joint and cycle: its angle, and from the plant's truth the constraint torque (friction,
+  // stops), the gravity torque, and the controller's model of it.
+  const std::vector<std::size_t> judged = gravity_joints(scenario);
+  const std::size_t n_judged = judged.size();
+  std::vector<std::vector<double>> angle(n_judged, std::vector<double>(steps + 1, 0.0));
+  std::vector<std::vector<double>> held(n_judged, std::vector<double>(steps + 1, nan));
+  std::vector<std::vector<double>> gravity(n_judged, std::vector<double>(steps + 1, nan));
+  std::vector<std::vector<double>> model_gravity(n_judged, std::vector<double>(steps + 1, nan));
   io::SensorState state;
   io::Command command;
-  std::vector<double> row(arm_log_columns().size());
+  std::vector<double> row(arm_log_columns(scenario).size());
   const auto wall_start = std::chrono::steady_clock::now();
   auto hold = [&](std::size_t k) {  // no new sample: the command is held
-    sfe[k] = k ? sfe[k - 1] : 0.0;
-    efe[k] = k ? efe[k - 1] : 0.0;
+    for (std::vector<double>& a : angle) a[k] = k ? a[k - 1] : 0.0;
   };
   // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command on its
   // joint here, before the supervisor: the test driver's part of the plant's fault injection (as E1).
@@ -113,15 +136,15 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     } else {
       for (const auto& m : script.operator_hands.moves) operator_active |= state.time_s >= m.start_s && state.time_s < m.start_s + m.duration_s;
     }
-    if (truth) {
-      for (std::size_t j = 0; j < 2; ++j) {
-        held[j][k] = truth->constraint_torque_Nm[j];
-        gravity[j][k] = truth->bias_torque_Nm[j];
-        model_gravity[j][k] = controller.diagnostics()[j].torque_gravity_Nm;
+    for (std::size_t j = 0; j < n_judged; ++j) {
+      const std::size_t a = judged[j];
+      if (truth) {
+        held[j][k] = truth->constraint_torque_Nm[a];
+        gravity[j][k] = truth->bias_torque_Nm[a];
+        model_gravity[j][k] = controller.diagnostics()[a].torque_gravity_Nm;
       }
+      angle[j][k] = truth ? truth->actuated_q_rad[a] : state.joints[a].angle_rad;
     }
-    sfe[k] = truth ? truth->q_rad[0] : state.joints[0].angle_rad;
-    efe[k] = truth ? truth->q_rad[1] : state.joints[1].angle_rad;
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       safety::JointSample j = arm_joint_sample(state, sent, truth, a);
       // The start-up tare vents the muscles on purpose (the operator holds the arm): tension not judged.
@@ -134,9 +157,9 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       row[col++] = state.time_s;
       row[col++] = operator_active ? 1.0 : 0.0;
       const auto& diag = controller.diagnostics();
-      for (std::size_t a = 0; a < 3; ++a) {
+      for (std::size_t a = 0; a < scenario.controller.joints.size(); ++a) {
         const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
-        const double values[] = {state.joints[a].angle_rad, truth ? truth->q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].tau_desired_Nm,
+        const double values[] = {state.joints[a].angle_rad, truth ? truth->actuated_q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].tau_desired_Nm,
                                  sent.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
                                  sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
                                  state.joints[a].agonist_loadcell_N, state.joints[a].antagonist_loadcell_N, j ? j->muscle_force_N[0] : nan,
@@ -161,22 +184,22 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
     PostureResult p;
     p.name = scenario.postures[i].name;
-    p.target_deg[0] = scenario.postures[i].sfe_rad / kDeg;
-    p.target_deg[1] = scenario.postures[i].efe_rad / kDeg;
     const auto k0 = static_cast<std::size_t>(std::llround(release_s[i] / scenario.period_s));
     if (k0 > done) continue;  // a run ended early analyses what it has
     const std::size_t k1 = std::min(k0 + window, done);
-    const std::vector<double>* angles[2] = {&sfe, &efe};
-    for (int j = 0; j < 2; ++j) {
-      const std::vector<double>& a = *angles[j];
-      p.released_deg[j] = a[k0] / kDeg;
-      p.drift_deg[j] = (a[k1] - a[k0]) / kDeg;
-      const safety::JointLimits& range = scenario.limits.joints[static_cast<std::size_t>(j)];
-      for (std::size_t k = k0; k <= k1; ++k) p.max_excursion_deg[j] = std::max(p.max_excursion_deg[j], std::abs(a[k] - a[k0]) / kDeg);
+    for (std::size_t j = 0; j < n_judged; ++j) {
+      const std::size_t io_joint = judged[j];
+      PostureJointResult f;
+      f.joint = arm_joint_names(scenario)[io_joint];
+      f.target_deg = scenario.postures[i].target_rad[io_joint] / kDeg;
+      const std::vector<double>& a = angle[j];
+      f.released_deg = a[k0] / kDeg;
+      f.drift_deg = (a[k1] - a[k0]) / kDeg;
+      const safety::JointLimits& range = scenario.limits.joints[io_joint];
+      for (std::size_t k = k0; k <= k1; ++k) f.max_excursion_deg = std::max(f.max_excursion_deg, std::abs(a[k] - a[k0]) / kDeg);
       const StopDistance stop = stop_distance(a, k0, k1, range.min_angle_rad, range.max_angle_rad);
-      p.stop_distance_deg[j] = stop.closest_deg;
-      const std::string joint = arm_joint_names(scenario)[static_cast<std::size_t>(j)];
-      add_release_checks(p.name + " " + joint, p.drift_deg[j], p.max_excursion_deg[j], stop, scenario.verdict, r.verdict);
+      f.stop_distance_deg = stop.closest_deg;
+      add_release_checks(p.name + " " + f.joint, f.drift_deg, f.max_excursion_deg, stop, scenario.verdict, r.verdict);
       // Static torque error at rest (truth): what the friction and stops hold over the window's last
       // second; the controller's torque error is its negative (M qdd = tau + constraint - bias).
       const auto span = std::min(k1 - k0, static_cast<std::size_t>(std::llround(1.0 / scenario.period_s)));
@@ -187,13 +210,14 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
         model_sum += model_gravity[j][k];
       }
       const double n = static_cast<double>(span + 1);
-      p.gravity_torque_Nm[j] = gravity_sum / n;
-      p.static_torque_error_pct[j] = 100.0 * (-held_sum / n) / std::abs(p.gravity_torque_Nm[j]);
-      p.model_gravity_error_pct[j] = 100.0 * (model_sum - gravity_sum) / n / std::abs(p.gravity_torque_Nm[j]);
-      if (sim && std::abs(p.gravity_torque_Nm[j]) >= scenario.verdict.min_gravity_torque_Nm) {
-        r.verdict.at_most(p.name + " " + joint + " |static torque error|", "% of gravity", std::abs(p.static_torque_error_pct[j]),
+      f.gravity_torque_Nm = gravity_sum / n;
+      f.static_torque_error_pct = 100.0 * (-held_sum / n) / std::abs(f.gravity_torque_Nm);
+      f.model_gravity_error_pct = 100.0 * (model_sum - gravity_sum) / n / std::abs(f.gravity_torque_Nm);
+      if (sim && std::abs(f.gravity_torque_Nm) >= scenario.verdict.min_gravity_torque_Nm) {
+        r.verdict.at_most(p.name + " " + f.joint + " |static torque error|", "% of gravity", std::abs(f.static_torque_error_pct),
                           scenario.verdict.max_static_torque_error_pct);
       }
+      p.joints.push_back(f);
     }
     r.postures.push_back(p);
   }

@@ -10,7 +10,7 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
   PosturesRealtimeResult res;
   {
     runtime::RealtimeHarness harness(*backend, supervisor_params(*scenario.link, options), options, scenario.period_s, postures_duration_s(scenario), "postures",
-                            options.dir / "e3_postures.csv", arm_log_columns(),
+                            options.dir / "e3_postures.csv", arm_log_columns(scenario),
                             {fmt::format("case: E3 postures on the MFB at udp://{}, session {:08x}", options.board.to_string(),
                                          backend->session_id()),
                              "plant_* and operator_torque columns are NaN: the host sees only the board's sensors"});

@@ -12,30 +12,25 @@ namespace peha::experiments {
 
 void write_postures_summary(const std::filesystem::path& path, const PosturesResult& r, double observe_s) {
   std::ofstream summary(path);
-  summary << "posture,target_sfe_deg,target_efe_deg,released_sfe_deg,released_efe_deg,drift_sfe_deg,drift_efe_deg,"
-             "max_excursion_sfe_deg,max_excursion_efe_deg,stop_distance_sfe_deg,stop_distance_efe_deg,max_drift_deg,"
-             "stop_margin_deg,static_torque_error_sfe_pct,static_torque_error_efe_pct,gravity_torque_sfe_Nm,gravity_torque_efe_Nm,"
-             "model_gravity_error_sfe_pct,model_gravity_error_efe_pct,max_static_torque_error_pct,min_wire_tension_N,min_wire_tension_limit_N,within_limits\n";
+  summary << "posture,joint,target_deg,released_deg,drift_deg,max_excursion_deg,stop_distance_deg,static_torque_error_pct,"
+             "gravity_torque_Nm,model_gravity_error_pct,max_drift_deg,stop_margin_deg,max_static_torque_error_pct,min_wire_tension_N,"
+             "min_wire_tension_limit_N,within_limits\n";
   const safety::VerdictThresholds& t = r.verdict.thresholds;
   double tension_limit = 0;
   for (const auto& c : r.verdict.checks) {
     if (c.figure.ends_with("lowest wire tension")) tension_limit = std::max(tension_limit, c.limit);
   }
-  fmt::print("\n{:<15} {:>15} {:>17} {:>19} {:>19} {:>21} {:>15}\n", "posture", "target SFE/EFE", "released SFE/EFE",
-             fmt::format("drift {:.0f} s SFE/EFE", observe_s), "max excursion", "static error SFE/EFE", "model G error");
+  fmt::print("\n{:<15} {:<7} {:>7} {:>9} {:>11} {:>14} {:>13} {:>14}\n", "posture", "joint", "target", "released",
+             fmt::format("drift {:.0f} s", observe_s), "max excursion", "static error", "model G error");
   for (const auto& p : r.postures) {
-    fmt::print("{:<15} {:>7.1f} {:>7.1f} {:>8.2f} {:>8.2f} {:>9.3f} {:>9.3f} {:>9.3f} {:>9.3f} deg {:>7.1f} {:>7.1f} {:>7.1f} {:>7.1f} % of gravity\n",
-               p.name, p.target_deg[0], p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0], p.drift_deg[1],
-               p.max_excursion_deg[0], p.max_excursion_deg[1], p.static_torque_error_pct[0], p.static_torque_error_pct[1],
-               p.model_gravity_error_pct[0], p.model_gravity_error_pct[1]);
-    summary << fmt::format("{},{:.3f},{:.3f},{:.3f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.3f},{:.3f},{:.3g},{:.3g},{:.2f},{:.2f},{:.3f},{:.3f},"
-                           "{:.2f},{:.2f},{:.3g},{:.2f},{:.2f},{}\n",
-                           p.name, p.target_deg[0], p.target_deg[1], p.released_deg[0], p.released_deg[1], p.drift_deg[0],
-                           p.drift_deg[1], p.max_excursion_deg[0], p.max_excursion_deg[1], p.stop_distance_deg[0],
-                           p.stop_distance_deg[1], t.max_drift_deg, t.stop_margin_deg, p.static_torque_error_pct[0],
-                           p.static_torque_error_pct[1], p.gravity_torque_Nm[0], p.gravity_torque_Nm[1], p.model_gravity_error_pct[0],
-                           p.model_gravity_error_pct[1], t.max_static_torque_error_pct,
-                           r.min_wire_tension_N, tension_limit, r.within_limits ? 1 : 0);
+    for (const PostureJointResult& j : p.joints) {
+      fmt::print("{:<15} {:<7} {:>7.1f} {:>9.2f} {:>11.3f} {:>10.3f} deg {:>11.1f} % {:>12.1f} % of gravity\n", p.name, j.joint,
+                 j.target_deg, j.released_deg, j.drift_deg, j.max_excursion_deg, j.static_torque_error_pct, j.model_gravity_error_pct);
+      summary << fmt::format("{},{},{:.3f},{:.3f},{:.4f},{:.4f},{:.3f},{:.2f},{:.3f},{:.2f},{:.3g},{:.3g},{:.3g},{:.2f},{:.2f},{}\n", p.name,
+                             j.joint, j.target_deg, j.released_deg, j.drift_deg, j.max_excursion_deg, j.stop_distance_deg,
+                             j.static_torque_error_pct, j.gravity_torque_Nm, j.model_gravity_error_pct, t.max_drift_deg, t.stop_margin_deg,
+                             t.max_static_torque_error_pct, r.min_wire_tension_N, tension_limit, r.within_limits ? 1 : 0);
+    }
   }
 }
 
@@ -63,10 +58,10 @@ int run_postures_experiment(const config::Document& doc, const ArmScenario& scen
     rr = run_postures_realtime(scenario, *realtime);
     r = rr->postures;
   } else {
-    runtime::CsvLog log(arm_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    runtime::CsvLog log(arm_log_columns(scenario), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
     for (const sim::PlantFault& f : scenario.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario)));
     r = run_postures(scenario, &log);
-    log.write(dir / "e3_postures.csv", {"case: E3 postures, right arm with mannequin arm",
+    log.write(dir / "e3_postures.csv", {fmt::format("case: E3 postures, {}", scenario.description),
                                         fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
                                         "plant_* columns are simulator truth the controller never sees"});
   }

@@ -286,8 +286,8 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     const double t = state.time_s;
     const sim::RightArmTruth* tr = sim ? &sim->sampled_truth() : nullptr;
     // Without the simulator: the exoskeleton by its encoders, the person by the goniometer.
-    exo[k] = tr ? tr->q_rad[kElbow] : state.joints[kElbow].angle_rad;
-    sfe[k] = tr ? tr->q_rad[0] : state.joints[0].angle_rad;
+    exo[k] = tr ? tr->actuated_q_rad[kElbow] : state.joints[kElbow].angle_rad;
+    sfe[k] = tr ? tr->actuated_q_rad[0] : state.joints[0].angle_rad;
     truth[k] = person ? person(t) : goniometer;
     double tension_min = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {

@@ -158,6 +158,10 @@ bool print_goniometer_tables(const std::vector<GoniometerResult>& results) {
 
 int run_goniometer_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
                               std::optional<runtime::RealtimeRunOptions> realtime) {
+  if (scenario.goniometer.movements.empty()) {
+    fmt::print(stderr, "error: {} has no goniometer: section (E4's sensor, filter and movements; docs/right-arm.md)\n", doc.name());
+    return 2;
+  }
   return realtime ? run_on_board(doc, scenario, request, *realtime) : run_in_process(doc, scenario, request);
 }
 

@@ -46,11 +46,15 @@ bool write_bandwidth_report(const std::filesystem::path& bode_csv, const std::ve
 }
 
 int run_bandwidth_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
+  if (scenario.bandwidth.frequencies_Hz.empty()) {
+    fmt::print(stderr, "error: {} has no bandwidth: section (E6's joint, posture and sweep; docs/right-arm.md)\n", doc.name());
+    return 2;
+  }
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   const auto& b = scenario.bandwidth;
   fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} joint locked at SFE {:.0f} deg, EFE {:.0f} deg; gravity torque "
              "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
-             doc.name(), b.joint == 0 ? "shoulder" : "elbow", b.sfe_rad * 180 / std::numbers::pi,
+             doc.name(), arm_joint_names(scenario)[static_cast<std::size_t>(b.joint)], b.sfe_rad * 180 / std::numbers::pi,
              b.efe_rad * 180 / std::numbers::pi, b.amplitude_Nm, b.frequencies_Hz.size());
   std::vector<BandwidthResult> results;
   for (bool hybrid : {false, true}) results.push_back(run_bandwidth(scenario, hybrid));

@@ -252,12 +252,13 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& 
   const std::vector<FaultMoment> moments = select_fault_moments(all, options.moments, "E3");
   double end_s = 0;  // the nominal run covers every faulted run's span
   for (const FaultMoment& m : moments) end_s = std::max(end_s, m.time_s + options.after_fault_s);
-  const std::vector<std::string> prefixes = {"sfe_", "efe_", "wfe_"};  // arm_log_columns' joints, in io order
+  std::vector<std::string> prefixes;  // arm_log_columns' joints, in io order
+  for (std::size_t j = 0; j < s.plant.actuated.size(); ++j) prefixes.push_back(arm_log_prefix(s, j) + "_");
   auto run_one = [&](const std::vector<sim::PlantFault>& faults, const FaultRow& what) {
     ArmScenario run = s;
     run.postures_stop_s = faults.empty() ? std::max(end_s, what.fault_time_s + options.after_fault_s) : what.fault_time_s + options.after_fault_s;
     run.faults = faults;
-    Columns log(arm_log_columns(), prefixes, joints);
+    Columns log(arm_log_columns(s), prefixes, joints);
     const PosturesResult r = run_postures(run, &log);
     const auto rows = static_cast<std::size_t>(std::llround(postures_duration_s(run) / run.period_s)) + 1;
     return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);

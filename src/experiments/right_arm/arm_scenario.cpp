@@ -20,15 +20,41 @@ namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr const char* kJointKeys[3] = {"shoulder", "elbow", "wrist"};
-constexpr const char* kJointNames[3] = {"R_SFE", "R_EFE", "R_WFE"};
-
 /// Pressure and rate limits of the `limits:` section (shared by every actuated joint).
 struct ArmLimits {
   double supply_Pa = 0, rate_Pa_per_s = 0, motor_rate_Nm_per_s = 0;
 };
 
-/// `controller:`: the nominal arm, the allocation, and per actuated joint its model and limits.
+/// The body's driven joints in io order: every side, each side's active joints in list order.
+struct IoJoint {
+  std::string name;       ///< "R_SFE"
+  std::string arm_joint;  ///< "SFE": the key of its `controller.joints` / `plant.joints` entry
+  int model_joint = 0;    ///< index into the ArmModel
+};
+
+std::vector<IoJoint> io_joints(const models::ExoskeletonSpec& body) {
+  std::vector<IoJoint> out;
+  int model_joint = 0;
+  for (const models::ArmSide side : body.sides) {
+    for (const models::ArmJointSpec& j : body.arm_joints) {
+      if (j.active) out.push_back({fmt::format("{}_{}", models::side_prefix(side), j.name), j.name, model_joint});
+      ++model_joint;
+    }
+  }
+  return out;
+}
+
+/// The arm joints that are driven (each once, in list order): the keys of `joints:`.
+std::vector<std::string> driven_arm_joints(const models::ExoskeletonSpec& body) {
+  std::vector<std::string> out;
+  for (const models::ArmJointSpec& j : body.arm_joints) {
+    if (j.active) out.push_back(j.name);
+  }
+  return out;
+}
+
+/// `controller:`: the nominal arm, the allocation, and per driven joint (`joints: {<name>: ...}`, applied
+/// to every side) its actuator kind, model and limits.
 void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const ArmLimits& l, ArmScenario& s) {
   s.controller.arm = s.nominal_arm = body.controller.model();
   // Optional: the arm's gravity parameters identified on the rig (peha identify-gravity).
@@ -37,31 +63,53 @@ void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const 
   double pretension_N = 0;
   s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
   s.controller.allocation.period_s = s.period_s;
-  s.limits.joint_count = 3;
+  const std::vector<IoJoint> io = io_joints(body.controller);
+  if (io.empty() || io.size() > static_cast<std::size_t>(io::kMaxJoints)) {
+    ctl.fail("joints", fmt::format("the body drives {} joints; peha drives 1 to {}", io.size(), io::kMaxJoints));
+  }
+  s.limits.joint_count = static_cast<int>(io.size());
   s.limits.period_s = s.period_s;
-  for (int i = 0; i < 3; ++i) {
-    config::Map j = ctl.map(kJointKeys[i]);
+  config::Map joints = ctl.map("joints");
+  std::vector<control::ArmActuatedJoint> per_arm_joint;
+  std::vector<std::pair<double, double>> range_rad;
+  for (const std::string& name : driven_arm_joints(body.controller)) {
+    config::Map j = joints.map(name);
     control::ArmActuatedJoint joint;
-    joint.model_joint = i;  // SFE, EFE, WFE are the first three joints of the arm model
+    const std::string kind = j.choice("actuator", {"peha", "pam_pair", "constant_pressure"});
     const double lo = j.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
     const double hi = j.number("max_angle_deg", {lo / kDeg, 180.0}) * kDeg;
-    if (i == 2) {
+    if (kind == "constant_pressure") {
       joint.mode = control::ArmJointMode::kHoldPressure;
       joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, l.supply_Pa * 1e-6}) * 1e6;
     }
-    joint.actuator = models::read_joint_model(j, kJointNames[i], l.supply_Pa, pretension_N);
+    joint.actuator = models::read_joint_model(j, name, l.supply_Pa, pretension_N);
+    if (joint.actuator.has_motor != (kind == "peha")) {
+      j.fail("has_motor", fmt::format("actuator '{}' {} a motor, found has_motor: {}", kind, kind == "peha" ? "has" : "has no",
+                                      joint.actuator.has_motor));
+    }
     j.finish();
-    safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(i)];
+    per_arm_joint.push_back(joint);
+    range_rad.emplace_back(lo, hi);
+  }
+  joints.finish();
+  const std::vector<std::string> driven = driven_arm_joints(body.controller);
+  for (std::size_t i = 0; i < io.size(); ++i) {
+    const auto k = static_cast<std::size_t>(std::find(driven.begin(), driven.end(), io[i].arm_joint) - driven.begin());
+    control::ArmActuatedJoint joint = per_arm_joint[k];
+    joint.model_joint = io[i].model_joint;
+    joint.actuator.name = io[i].name;
+    safety::JointLimits& lim = s.limits.joints[i];
     lim.pressure_rate_Pa_per_s = l.rate_Pa_per_s;
     lim.motor_rate_Nm_per_s = l.motor_rate_Nm_per_s;
-    lim.min_angle_rad = lo;
-    lim.max_angle_rad = hi;
+    lim.min_angle_rad = range_rad[k].first;
+    lim.max_angle_rad = range_rad[k].second;
     s.controller.joints.push_back(joint);
   }
   ctl.finish();
 }
 
-/// `plant:` and `operator:`: the simulated arm, its actuators and the operator's hands.
+/// `plant:` and `operator:`: the simulated arm, its actuators (`joints: {<name>: ...}`, every side) and
+/// the operator's hands.
 void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig& body, const ArmLimits& l, ArmScenario& s) {
   sim::RightArmPlantParams& p = s.plant;
   p.model = body.plant.model();
@@ -75,13 +123,28 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
   p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
   p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
   pressure.finish();
-  const std::vector<double> q0 = plant.numbers("initial_angles_deg", {-180.0, 180.0}, 5, 5);
-  for (double a : q0) p.initial_q_rad.push_back(a * kDeg);
-  for (int i = 0; i < 3; ++i) {
-    config::Map j = plant.map(kJointKeys[i]);
-    p.actuated.emplace_back(kJointNames[i]);
-    p.actuators.push_back(sim::read_peha_joint_plant(j, l.supply_Pa, /*has_motor=*/i < 2));
+  // Initial angles by arm joint (every side), 0 for joints not named.
+  config::Map q0 = plant.map("initial_angles_deg");
+  std::vector<double> per_arm;
+  for (const models::ArmJointSpec& j : body.plant.arm_joints) {
+    per_arm.push_back(q0.number_or(j.name, j.locked ? j.locked_at_rad / kDeg : 0.0, {j.min_angle_rad / kDeg, j.max_angle_rad / kDeg}) * kDeg);
+  }
+  q0.finish();
+  for (std::size_t side = 0; side < body.plant.sides.size(); ++side) p.initial_q_rad.insert(p.initial_q_rad.end(), per_arm.begin(), per_arm.end());
+  config::Map joints = plant.map("joints");
+  std::vector<sim::PehaJointPlantParams> per_arm_joint;
+  const std::vector<std::string> driven = driven_arm_joints(body.plant);
+  for (std::size_t k = 0; k < driven.size(); ++k) {
+    config::Map j = joints.map(driven[k]);
+    // The plant's motor is where the controller's model says the joint has one (io joints start with the
+    // first side's driven joints, in this order).
+    per_arm_joint.push_back(sim::read_peha_joint_plant(j, l.supply_Pa, s.controller.joints[k].actuator.has_motor));
     j.finish();
+  }
+  joints.finish();
+  for (const IoJoint& j : io_joints(body.plant)) {
+    p.actuated.push_back(j.name);
+    p.actuators.push_back(per_arm_joint[static_cast<std::size_t>(std::find(driven.begin(), driven.end(), j.arm_joint) - driven.begin())]);
   }
   plant.finish();
   p.seed = s.seed;
@@ -92,7 +155,31 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
   op.finish();
 }
 
-/// `postures:` (E3): the script, each posture within the joint range.
+/// An `angles_deg:` map: a target per driven joint, by arm joint ("SFE": every side) or by io joint
+/// ("R_SFE": that side only, over the arm joint's value); each within its joint's range. Joints not
+/// named stay NaN (the operator leaves them free). At least `min_named` joints must be named.
+std::vector<double> read_angles(config::Map item, const ArmScenario& s, std::size_t min_named) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> q(s.plant.actuated.size(), nan);
+  std::size_t named = 0;
+  for (std::size_t i = 0; i < q.size(); ++i) {
+    const std::string& io_name = s.plant.actuated[i];
+    const std::string arm_name = io_name.substr(io_name.find('_') + 1);
+    const safety::JointLimits& lim = s.limits.joints[i];
+    const config::Range range{lim.min_angle_rad / kDeg, lim.max_angle_rad / kDeg};
+    if (item.has(io_name)) {
+      q[i] = item.number(io_name, range) * kDeg;
+    } else if (item.has(arm_name)) {
+      q[i] = item.number(arm_name, range) * kDeg;
+    }
+    named += !std::isnan(q[i]);
+  }
+  item.finish();
+  if (named < min_named) item.fail("", fmt::format("names {} joints, needs at least {}", named, min_named));
+  return q;
+}
+
+/// `postures:` (E3): the script, each posture within the joint ranges.
 void read_postures(config::Map postures, ArmScenario& s) {
   s.move_s = postures.number("move_s", {0.1, 60.0});
   s.hold_s = postures.number("hold_s", {0.0, 60.0});
@@ -100,8 +187,7 @@ void read_postures(config::Map postures, ArmScenario& s) {
   for (config::Map item : postures.maps("list", 1, 32)) {
     ArmPosture a;
     a.name = item.string("name");
-    a.sfe_rad = item.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
-    a.efe_rad = item.number("efe_deg", {s.limits.joints[1].min_angle_rad / kDeg, s.limits.joints[1].max_angle_rad / kDeg}) * kDeg;
+    a.target_rad = read_angles(item.map("angles_deg"), s, 1);
     item.finish();
     s.postures.push_back(a);
   }
@@ -110,8 +196,10 @@ void read_postures(config::Map postures, ArmScenario& s) {
 
 /// `bandwidth:` (E6): the locked posture and the sweep.
 void read_bandwidth(config::Map bw, ArmScenario& s) {
-  const std::string joint = bw.choice("joint", {"shoulder", "elbow"});
-  s.bandwidth.joint = joint == "shoulder" ? 0 : 1;
+  // The swept joint: one of the first two driven joints (the locked posture names their angles).
+  const std::vector<std::string> first_two(s.plant.actuated.begin(), s.plant.actuated.begin() + std::min<std::ptrdiff_t>(2, std::ssize(s.plant.actuated)));
+  const std::string joint = bw.choice("joint", first_two);
+  s.bandwidth.joint = static_cast<int>(std::find(first_two.begin(), first_two.end(), joint) - first_two.begin());
   s.bandwidth.sfe_rad = bw.number("sfe_deg", {-100.0, 60.0}) * kDeg;
   s.bandwidth.efe_rad = bw.number("efe_deg", {0.0, 135.0}) * kDeg;
   s.bandwidth.amplitude_Nm = bw.number("amplitude_Nm", {0.01, 50.0});
@@ -188,12 +276,14 @@ void read_identification(config::Map id, ArmScenario& s) {
   for (config::Map item : id.maps("postures", 3, 64)) {
     ArmPosture a;
     a.name = item.string("name");
-    // Every sweep inside the joint's range: a stop would hold part of the torque.
+    a.target_rad.assign(s.plant.actuated.size(), std::numeric_limits<double>::quiet_NaN());
+    // The first two driven joints (shoulder and elbow flexion), every sweep inside the joint's range:
+    // a stop would hold part of the torque.
     for (int j = 0; j < 2; ++j) {
       const safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(j)];
       const char* key = j == 0 ? "sfe_deg" : "efe_deg";
       const double v = item.number(key, {(lim.min_angle_rad + d.sweep_rad) / kDeg + 1.0, (lim.max_angle_rad - d.sweep_rad) / kDeg - 1.0});
-      (j == 0 ? a.sfe_rad : a.efe_rad) = v * kDeg;
+      a.target_rad[static_cast<std::size_t>(j)] = v * kDeg;
     }
     item.finish();
     d.postures.push_back(a);
@@ -231,9 +321,9 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   read_arm_plant(plant, root.map("operator"), body, l, s);
   read_postures(root.map("postures"), s);
   s.faults = sim::read_plant_faults(root, s.plant.actuated, postures_duration_s(s));
-  read_bandwidth(root.map("bandwidth"), s);
+  if (root.has("bandwidth")) read_bandwidth(root.map("bandwidth"), s);  // E6's section (optional)
   if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
-  read_goniometer(root.map("goniometer"), s);
+  if (root.has("goniometer")) read_goniometer(root.map("goniometer"), s);  // E4's section (optional)
   if (root.has("identification")) read_identification(root.map("identification"), s);
   s.verdict = safety::read_verdict_thresholds(root);
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
@@ -268,7 +358,7 @@ safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Com
   if (truth) {
     const sim::PehaJointTruth& t = truth->actuators[joint];
     j = {{t.muscle_force_N[0], t.muscle_force_N[1]}, std::min(t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]),
-         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm, truth->q_rad[joint]};
+         {t.pressure_Pa[0], t.pressure_Pa[1]}, t.motor_torque_Nm, truth->actuated_q_rad[joint]};
   } else {
     const io::JointSensors& s = state.joints[joint];
     j = {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),

@@ -226,12 +226,12 @@ RobustnessRow run_e3_job(const ArmScenario& nominal, const Job& job) {
   row.payload = "mannequin";
   row.breakaway_error_pct = kNaN;
   for (const PostureResult& p : r.postures) {
-    row.drift_deg = std::max({row.drift_deg, std::abs(p.drift_deg[0]), std::abs(p.drift_deg[1])});
-    // Worst static torque error (truth) over postures and joints that carry a judged gravity torque.
-    for (int j = 0; j < 2; ++j) {
-      if (std::abs(p.gravity_torque_Nm[j]) >= scenario.verdict.min_gravity_torque_Nm) {
-        row.static_error_pct = std::max(row.static_error_pct, std::abs(p.static_torque_error_pct[j]));
-        const double model = std::abs(p.model_gravity_error_pct[j]);
+    for (const PostureJointResult& j : p.joints) {
+      row.drift_deg = std::max(row.drift_deg, std::abs(j.drift_deg));
+      // Worst static torque error (truth) over postures and joints that carry a judged gravity torque.
+      if (std::abs(j.gravity_torque_Nm) >= scenario.verdict.min_gravity_torque_Nm) {
+        row.static_error_pct = std::max(row.static_error_pct, std::abs(j.static_torque_error_pct));
+        const double model = std::abs(j.model_gravity_error_pct);
         row.model_gravity_error_pct = std::isnan(row.model_gravity_error_pct) ? model : std::max(row.model_gravity_error_pct, model);
       }
     }

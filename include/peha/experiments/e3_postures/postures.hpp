@@ -1,9 +1,9 @@
 #pragma once
 /// \file
-/// Experiment E3 "postures" on the right arm: the operator moves the arm with its mannequin to
-/// several postures and lets go; with gravity compensation tau = J^T G and no position feedback it
-/// should stay where it was left. The figures are the drift of shoulder and elbow over observe_s
-/// after each release.
+/// Experiment E3 "postures" on an arm or both arms: the operator moves the arms with the user to
+/// several postures and lets go; with gravity compensation tau = J^T G and no position feedback they
+/// should stay where they were left. The figures, per gravity-compensated joint and posture: drift
+/// over observe_s after each release, excursion, distance to a stop, static torque error.
 
 #include "peha/experiments/right_arm/arm_scenario.hpp"
 
@@ -12,20 +12,26 @@
 
 namespace peha::experiments {
 
-struct PostureResult {
-  std::string name;
-  double target_deg[2] = {0, 0};      ///< SFE, EFE the operator aimed at
-  double released_deg[2] = {0, 0};    ///< where the arm was at release (plant truth)
-  double drift_deg[2] = {0, 0};       ///< angle observe_s after release minus at release
-  double max_excursion_deg[2] = {0, 0};
-  double stop_distance_deg[2] = {0, 0};  ///< closest to either end of the joint's range after release
+/// One gravity-compensated joint's figures after one release.
+struct PostureJointResult {
+  std::string joint;                  ///< io joint name, e.g. "R_SFE"
+  double target_deg = 0;              ///< where the operator aimed (NaN: left free)
+  double released_deg = 0;            ///< where the joint was at release (plant truth, else encoder)
+  double drift_deg = 0;               ///< angle observe_s after release minus at release
+  double max_excursion_deg = 0;
+  double stop_distance_deg = 0;       ///< closest to either end of the joint's range after release
   /// In simulation (plant truth): the torque the friction and stops hold at rest, averaged over the
   /// last second of the window, as % of the gravity torque the joint carries there (NaN without truth).
-  double static_torque_error_pct[2] = {0, 0};
-  double gravity_torque_Nm[2] = {0, 0};
+  double static_torque_error_pct = 0;
+  double gravity_torque_Nm = 0;
   /// The controller's gravity torque (its J^T G) minus the plant's, as % of the plant's, over the same
   /// second: the part of the static error no feed-forward can remove (NaN without truth).
-  double model_gravity_error_pct[2] = {0, 0};
+  double model_gravity_error_pct = 0;
+};
+
+struct PostureResult {
+  std::string name;
+  std::vector<PostureJointResult> joints;  ///< every gravity-compensated io joint, in io order
 };
 
 struct PosturesResult {
@@ -43,7 +49,14 @@ struct PosturesResult {
   std::string fault_reason;           ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
 };
 
-const std::vector<std::string>& arm_log_columns();
+/// The joints E3 judges: every io joint in gravity mode (not the constant-pressure holds), in io order.
+std::vector<std::size_t> gravity_joints(const ArmScenario& scenario);
+
+/// The per-cycle log's columns: t_s, operator_active, then per io joint its block (prefixed with the
+/// joint's log name, arm_log_prefix), limit_flags, fault_flags.
+std::vector<std::string> arm_log_columns(const ArmScenario& scenario);
+/// "sfe" for the single arm's R_SFE, "r_sfe" / "l_sfe" on a two-armed body.
+std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
 
 /// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log);

@@ -20,10 +20,10 @@
 
 namespace peha::experiments {
 
+/// A posture: a target angle per io (driven) joint, rad; NaN = not set (E3's operator leaves it free).
 struct ArmPosture {
   std::string name;
-  double sfe_rad = 0;
-  double efe_rad = 0;
+  std::vector<double> target_rad;
 };
 
 struct ArmScenario {
@@ -45,7 +45,7 @@ struct ArmScenario {
   double postures_stop_s = 0;
   /// E6: sine-sweep torque commands on one joint with the arm locked at a posture (a torque bench).
   struct Bandwidth {
-    int joint = 1;                      ///< io joint (1 = R_EFE)
+    int joint = 1;                      ///< io joint: one of the first two (`joint:` names it, e.g. R_EFE)
     double sfe_rad = -1.5707963, efe_rad = 1.5707963;  ///< locked posture
     double amplitude_Nm = 2.0;          ///< sine amplitude on top of the gravity torque
     std::vector<double> frequencies_Hz;
