@@ -5,6 +5,8 @@
 #include "peha/calibration/spgp.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
 
+#include "bench_support.hpp"
+
 #include "../tests/support/alloc_counter.hpp"
 
 #include <benchmark/benchmark.h>
@@ -87,37 +89,11 @@ void BM_SimulatedArmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_SimulatedArmStep)->UseRealTime();
 
-/// An SPGP pressure residual like a calibration's (M = 50 pseudo-inputs over x = (eps, F), output
-/// in Pa): fitted once on 3000 synthetic rows, a smooth surface of +-20 kPa plus 1 kPa noise.
-std::shared_ptr<const calibration::Spgp> residual_spgp() {
-  static const std::shared_ptr<const calibration::Spgp> model = [] {
-    constexpr int kRows = 3000;
-    std::mt19937_64 rng(12);
-    std::uniform_real_distribution<double> eps(0.0, 0.25), force(0.0, 1500.0);
-    std::normal_distribution<double> noise_Pa(0.0, 1000.0);
-    Eigen::MatrixXd X(kRows, 2);
-    Eigen::VectorXd y(kRows);
-    for (int n = 0; n < kRows; ++n) {
-      X(n, 0) = eps(rng);
-      X(n, 1) = force(rng);
-      const double f = X(n, 1) / 1500.0;
-      y[n] = 2e4 * std::sin(25.0 * X(n, 0)) + 1e4 * f * f - 6e4 * X(n, 0) * f + noise_Pa(rng);
-    }
-    calibration::SpgpOptions options;
-    options.num_pseudo = 50;
-    options.max_iterations = 60;
-    return std::make_shared<const calibration::Spgp>(calibration::Spgp::fit(X, y, options));
-  }();
-  return model;
-}
-
 /// The arm controller's model with the SPGP residual on all six muscles (3 joints x 2).
 const control::ArmControllerModel& controller_with_spgp() {
   static const control::ArmControllerModel model = [] {
     control::ArmControllerModel m = scenario().controller;
-    const auto residual = std::make_shared<const calibration::SpgpResidual>(residual_spgp(), calibration::Span{0.0, 0.25},
-                                                                            calibration::Span{0.0, 1500.0},  // the data box
-                                                                            calibration::Span{-0.2e6, 0.2e6});  // its residual range
+    const auto residual = bench::synthetic_spgp_residual();
     for (control::ArmActuatedJoint& j : m.joints) {
       j.actuator.agonist.residual = residual;
       j.actuator.antagonist.residual = residual;

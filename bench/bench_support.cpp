@@ -5,7 +5,10 @@
 #include "peha/safety/limits.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
+#include "peha/calibration/spgp.hpp"
+
 #include <cmath>
+#include <random>
 #include <cstddef>
 #include <stdexcept>
 
@@ -69,6 +72,30 @@ E1Recording record() {
 const E1Recording& e1_recording() {
   static const E1Recording r = record();
   return r;
+}
+
+std::shared_ptr<const calibration::SpgpResidual> synthetic_spgp_residual() {
+  static const std::shared_ptr<const calibration::SpgpResidual> residual = [] {
+    constexpr int kRows = 3000;
+    std::mt19937_64 rng(12);
+    std::uniform_real_distribution<double> eps(0.0, 0.25), force(0.0, 1500.0);
+    std::normal_distribution<double> noise_Pa(0.0, 1000.0);
+    Eigen::MatrixXd X(kRows, 2);
+    Eigen::VectorXd y(kRows);
+    for (int n = 0; n < kRows; ++n) {
+      X(n, 0) = eps(rng);
+      X(n, 1) = force(rng);
+      const double f = X(n, 1) / 1500.0;
+      y[n] = 2e4 * std::sin(25.0 * X(n, 0)) + 1e4 * f * f - 6e4 * X(n, 0) * f + noise_Pa(rng);
+    }
+    calibration::SpgpOptions options;
+    options.num_pseudo = 50;
+    options.max_iterations = 60;
+    const auto spgp = std::make_shared<const calibration::Spgp>(calibration::Spgp::fit(X, y, options));
+    return std::make_shared<const calibration::SpgpResidual>(spgp, calibration::Span{0.0, 0.25}, calibration::Span{0.0, 1500.0},
+                                                             calibration::Span{-0.2e6, 0.2e6});
+  }();
+  return residual;
 }
 
 }  // namespace peha::bench

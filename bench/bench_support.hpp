@@ -4,6 +4,7 @@
 /// 5.0 kg case on the simulated rig, so the control-side benchmarks run on realistic states and the
 /// plant-side benchmarks on realistic commands. Built once, lazily, outside any timed region.
 
+#include "peha/calibration/calibration_file.hpp"
 #include "peha/control/allocation.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
@@ -30,5 +31,10 @@ const E1Recording& e1_recording();
 /// Controller model / plant parameters of the heavy case (payload filled in as run_e1_case does).
 control::OneDofControllerModel heavy_controller_model();
 sim::OneDofRigParams heavy_plant_params();
+
+/// An SPGP pressure residual like a calibration's (M = 50 pseudo-inputs over x = (eps, F), output in
+/// Pa): fitted once on 3000 synthetic rows, a smooth surface of +-20 kPa plus 1 kPa noise, over the
+/// data box eps [0, 0.25], F [0, 1500] N, residual range +-0.2 MPa.
+std::shared_ptr<const calibration::SpgpResidual> synthetic_spgp_residual();
 
 }  // namespace peha::bench

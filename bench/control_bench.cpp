@@ -123,79 +123,10 @@ void BM_ControlStep(benchmark::State& state) {
 }
 BENCHMARK(BM_ControlStep);
 
-// The same full control step with the wire-creep estimator off (/0) and on (/1), in one run on the
-// same recorded states (docs/creep.md, "Cost"): the estimator's share of the step is the difference.
-// The estimator's default parameters (E1's nominal model: no residual).
-void BM_ControlStepCreepEstimator(benchmark::State& state) {
+/// The E1 controller `m` (its estimator on or off) on the recorded E1 states, with the limits stage;
+/// counter filter_updates > 0 shows the estimator really ran its filter.
+void run_creep_bench(benchmark::State& state, const control::OneDofControllerModel& m) {
   const experiments::E1Scenario& s = e1_scenario();
-  control::OneDofControllerModel m = heavy_controller_model();
-  m.creep.enabled = state.range(0) != 0;
-  const std::vector<io::SensorState>& states = e1_recording().states;
-  std::optional<control::OneDofGravityController> controller(std::in_place, m);
-  safety::LimitsData limits;
-  io::Command command;
-  std::size_t k = 0, updates = 0;
-  for (auto _ : state) {
-    const io::SensorState& x = states[k];
-    controller->update(x, command);
-    std::uint32_t flags = safety::apply_limits(s.limits, {&s.controller.joint}, limits, x, command);
-    benchmark::DoNotOptimize(flags);
-    benchmark::DoNotOptimize(command);
-    if (++k == states.size()) {
-      state.PauseTiming();
-      updates += static_cast<std::size_t>(controller->diagnostics().creep.muscle[0].updates);
-      k = 0;
-      controller.emplace(m);
-      limits = safety::LimitsData{};
-      state.ResumeTiming();
-    }
-  }
-  state.SetItemsProcessed(state.iterations());
-  state.counters["us_per_step"] = us_per_iteration(state);
-  state.counters["filter_updates"] = static_cast<double>(updates);  // > 0: the estimator really ran its filter
-}
-BENCHMARK(BM_ControlStepCreepEstimator)->Arg(0)->Arg(1);
-
-/// The E1 controller's muscles with an SPGP pressure residual like a calibration's (M = 50 over
-/// x = (eps, F), fitted once on 3000 synthetic rows: a smooth +-20 kPa surface plus 1 kPa noise).
-control::OneDofControllerModel controller_with_spgp() {
-  static const std::shared_ptr<const calibration::Spgp> spgp = [] {
-    constexpr int kRows = 3000;
-    std::mt19937_64 rng(12);
-    std::uniform_real_distribution<double> eps(0.0, 0.25), force(0.0, 1500.0);
-    std::normal_distribution<double> noise_Pa(0.0, 1000.0);
-    Eigen::MatrixXd X(kRows, 2);
-    Eigen::VectorXd y(kRows);
-    for (int n = 0; n < kRows; ++n) {
-      X(n, 0) = eps(rng);
-      X(n, 1) = force(rng);
-      const double f = X(n, 1) / 1500.0;
-      y[n] = 2e4 * std::sin(25.0 * X(n, 0)) + 1e4 * f * f - 6e4 * X(n, 0) * f + noise_Pa(rng);
-    }
-    calibration::SpgpOptions options;
-    options.num_pseudo = 50;
-    options.max_iterations = 60;
-    return std::make_shared<const calibration::Spgp>(calibration::Spgp::fit(X, y, options));
-  }();
-  control::OneDofControllerModel m = heavy_controller_model();
-  const auto residual = std::make_shared<const calibration::SpgpResidual>(spgp, calibration::Span{0.0, 0.25}, calibration::Span{0.0, 1500.0},
-                                                                          calibration::Span{-0.2e6, 0.2e6});
-  m.joint.agonist.residual = residual;
-  m.joint.antagonist.residual = residual;
-  return m;
-}
-
-// The control step of a calibrated controller (SPGP residual on both muscles) with the estimator off
-// (/0) and on (/1) as configs/e1_creep.yaml runs it (residual at the corrected contraction: one more
-// SPGP evaluation per accepted sample and muscle). The recorded states come from the nominal
-// controller, so the valve-settled gate is opened (settle tolerance 1 MPa): every static sample is
-// inverted, the estimator's most expensive case.
-void BM_ControlStepCreepEstimatorSpgp(benchmark::State& state) {
-  const experiments::E1Scenario& s = e1_scenario();
-  control::OneDofControllerModel m = controller_with_spgp();
-  m.creep.enabled = state.range(0) != 0;
-  m.creep.residual_at_corrected_contraction = true;
-  m.creep.settle_tolerance_Pa = 1e6;
   const std::vector<io::SensorState>& states = e1_recording().states;
   std::optional<control::OneDofGravityController> controller(std::in_place, m);
   safety::LimitsData limits;
@@ -219,6 +150,37 @@ void BM_ControlStepCreepEstimatorSpgp(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations());
   state.counters["us_per_step"] = us_per_iteration(state);
   state.counters["filter_updates"] = static_cast<double>(updates);
+}
+
+// The same full control step with the wire-creep estimator off (/0) and on (/1), in one run on the
+// same recorded states (docs/creep.md, "Cost"): the estimator's share of the step is the difference.
+// The estimator's default parameters (E1's nominal model: no residual).
+void BM_ControlStepCreepEstimator(benchmark::State& state) {
+  control::OneDofControllerModel m = heavy_controller_model();
+  m.creep.enabled = state.range(0) != 0;
+  run_creep_bench(state, m);
+}
+BENCHMARK(BM_ControlStepCreepEstimator)->Arg(0)->Arg(1);
+
+/// The E1 controller's muscles with an SPGP pressure residual like a calibration's (bench_support).
+control::OneDofControllerModel controller_with_spgp() {
+  control::OneDofControllerModel m = heavy_controller_model();
+  m.joint.agonist.residual = synthetic_spgp_residual();
+  m.joint.antagonist.residual = synthetic_spgp_residual();
+  return m;
+}
+
+// The control step of a calibrated controller (SPGP residual on both muscles) with the estimator off
+// (/0) and on (/1) as configs/e1_creep.yaml runs it (residual at the corrected contraction: one more
+// SPGP evaluation per accepted sample and muscle). The recorded states come from the nominal
+// controller, so the valve-settled gate is opened (settle tolerance 1 MPa): every static sample is
+// inverted, the estimator's most expensive case.
+void BM_ControlStepCreepEstimatorSpgp(benchmark::State& state) {
+  control::OneDofControllerModel m = controller_with_spgp();
+  m.creep.enabled = state.range(0) != 0;
+  m.creep.residual_at_corrected_contraction = true;
+  m.creep.settle_tolerance_Pa = 1e6;
+  run_creep_bench(state, m);
 }
 BENCHMARK(BM_ControlStepCreepEstimatorSpgp)->Arg(0)->Arg(1);
 
