@@ -215,7 +215,7 @@ void supervisor_step(benchmark::State& state, bool descending) {
   double descend_steps = 0;
   for (auto _ : state) {
     const io::SensorState& x = samples[k];
-    command = rec.commands[k];
+    io::copy_used(command, rec.commands[k]);
     monitor->check_sample(x, joints, min_angle, max_angle, true);
     monitor->check_command(command, x.time_s);
     monitor->shape(command);

@@ -104,7 +104,7 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
   if (flags_ == 0) {
     first_ = {flag, joint, muscle, value, threshold, t_s_, sequence_};
     ++count_;
-    held_ = last_sent_;
+    io::copy_used(held_, last_sent_);
     for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
   }
   flags_ |= flag;
@@ -354,7 +354,7 @@ bool FaultMonitor::check_command(const io::Command& c, double t_s) noexcept {
 }
 
 void FaultMonitor::sent(const io::Command& c) noexcept {
-  last_sent_ = c;
+  io::copy_used(last_sent_, c);
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
     JointState& js = joints_[static_cast<std::size_t>(j)];
     const double motor_Nm = c.joints[static_cast<std::size_t>(j)].motor_torque_Nm;
@@ -372,11 +372,11 @@ void FaultMonitor::sent(const io::Command& c) noexcept {
 
 void FaultMonitor::shape(io::Command& c) const noexcept {
   if (action_ == SafeAction::kHold) {
-    c = held_;
+    io::copy_used(c, held_);
     return;
   }
   if (action_ != SafeAction::kDescend) return;
-  c = held_;
+  io::copy_used(c, held_);
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
     const Governor& g = joints_[static_cast<std::size_t>(j)].governor;
     if (!g.started) continue;  // no joint model: hold

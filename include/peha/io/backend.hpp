@@ -58,6 +58,14 @@ struct Command {
   std::array<JointCommand, kMaxJoints> joints{};
 };
 
+/// `to = from` for the joints in use only (the capacity is kMaxJoints, usually far more than a body
+/// drives): what per-cycle code copies, so a larger capacity costs nothing per cycle.
+inline void copy_used(Command& to, const Command& from) noexcept {
+  const int n = from.joint_count < 0 ? 0 : (from.joint_count > kMaxJoints ? kMaxJoints : from.joint_count);
+  to.joint_count = from.joint_count;
+  for (int j = 0; j < n; ++j) to.joints[static_cast<std::size_t>(j)] = from.joints[static_cast<std::size_t>(j)];
+}
+
 /// Static description of what a backend drives.
 struct BackendInfo {
   std::string name;                      ///< e.g. "sim:one_dof_rig"
