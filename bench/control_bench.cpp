@@ -93,39 +93,9 @@ void BM_Allocate(benchmark::State& state) {
 }
 BENCHMARK(BM_Allocate);
 
-// The full host control step: OneDofGravityController::update + safety::apply_limits, on the sensor
-// states recorded from the closed-loop simulated rig (5.0 kg E1 case, 24 s). At the end of the
-// recording the controller and limits restart (untimed), so time stamps stay monotonic.
-void BM_ControlStep(benchmark::State& state) {
-  const experiments::E1Scenario& s = e1_scenario();
-  const control::OneDofControllerModel m = heavy_controller_model();
-  const std::vector<io::SensorState>& states = e1_recording().states;
-  std::optional<control::OneDofGravityController> controller(std::in_place, m);
-  safety::LimitsData limits;
-  io::Command command;
-  std::size_t k = 0;
-  for (auto _ : state) {
-    const io::SensorState& x = states[k];
-    controller->update(x, command);
-    std::uint32_t flags = safety::apply_limits(s.limits, {&s.controller.joint}, limits, x, command);
-    benchmark::DoNotOptimize(flags);
-    benchmark::DoNotOptimize(command);
-    if (++k == states.size()) {
-      state.PauseTiming();
-      k = 0;
-      controller.emplace(m);
-      limits = safety::LimitsData{};
-      state.ResumeTiming();
-    }
-  }
-  state.SetItemsProcessed(state.iterations());
-  state.counters["us_per_step"] = us_per_iteration(state);
-}
-BENCHMARK(BM_ControlStep);
-
-/// The E1 controller `m` (its estimator on or off) on the recorded E1 states, with the limits stage;
-/// counter filter_updates > 0 shows the estimator really ran its filter.
-void run_creep_bench(benchmark::State& state, const control::OneDofControllerModel& m) {
+/// The E1 controller `m` on the recorded E1 states, with the limits stage; the controller and limits
+/// restart (untimed) at the recording's end. Counter filter_updates > 0: the creep estimator ran its filter.
+void run_control_step_bench(benchmark::State& state, const control::OneDofControllerModel& m) {
   const experiments::E1Scenario& s = e1_scenario();
   const std::vector<io::SensorState>& states = e1_recording().states;
   std::optional<control::OneDofGravityController> controller(std::in_place, m);
@@ -152,13 +122,19 @@ void run_creep_bench(benchmark::State& state, const control::OneDofControllerMod
   state.counters["filter_updates"] = static_cast<double>(updates);
 }
 
+// The full host control step: OneDofGravityController::update + safety::apply_limits, on the sensor
+// states recorded from the closed-loop simulated rig (5.0 kg E1 case, 24 s). At the end of the
+// recording the controller and limits restart (untimed), so time stamps stay monotonic.
+void BM_ControlStep(benchmark::State& state) { run_control_step_bench(state, heavy_controller_model()); }
+BENCHMARK(BM_ControlStep);
+
 // The same full control step with the wire-creep estimator off (/0) and on (/1), in one run on the
 // same recorded states (docs/creep.md, "Cost"): the estimator's share of the step is the difference.
 // The estimator's default parameters (E1's nominal model: no residual).
 void BM_ControlStepCreepEstimator(benchmark::State& state) {
   control::OneDofControllerModel m = heavy_controller_model();
   m.creep.enabled = state.range(0) != 0;
-  run_creep_bench(state, m);
+  run_control_step_bench(state, m);
 }
 BENCHMARK(BM_ControlStepCreepEstimator)->Arg(0)->Arg(1);
 
@@ -180,7 +156,7 @@ void BM_ControlStepCreepEstimatorSpgp(benchmark::State& state) {
   m.creep.enabled = state.range(0) != 0;
   m.creep.residual_at_corrected_contraction = true;
   m.creep.settle_tolerance_Pa = 1e6;
-  run_creep_bench(state, m);
+  run_control_step_bench(state, m);
 }
 BENCHMARK(BM_ControlStepCreepEstimatorSpgp)->Arg(0)->Arg(1);
 
