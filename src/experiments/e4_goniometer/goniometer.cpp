@@ -22,7 +22,7 @@ namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr int kElbow = 1;  // io joint and model joint of R_EFE
+constexpr int kElbow = 1;  // io joint of R_EFE (the second driven joint of the right arm)
 
 double quantize(double x, double step) { return step > 0.0 ? std::round(x / step) * step : x; }
 
@@ -262,16 +262,23 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     sfe[k] = k ? sfe[k - 1] : 0.0;
     truth[k] = k ? truth[k - 1] : 0.0;
   };
+  std::vector<int> joints_q;  // model joint of each io joint
+  for (const control::ArmActuatedJoint& j : controller.model().joints) joints_q.push_back(j.model_joint);
+  const int elbow_q = joints_q[static_cast<std::size_t>(kElbow)];
   auto step = [&](std::size_t k) {
     const double t = state.time_s;
     if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
       goniometer = reading(t);
       d = derivative.step(goniometer);
-      for (int j = 0; j < state.joint_count && j < dof; ++j) q[j] = state.joints[static_cast<std::size_t>(j)].angle_rad;
-      q[kElbow] = d.value;
-      qd[kElbow] = d.rate;
-      qdd[kElbow] = d.acceleration;
-      tau_id = models::inverse_dynamics(arm, arm_data, q, qd, qdd)[kElbow];
+      // The encoders of the driven joints into the model's joint vector (io and model indices differ
+      // once a body has passive joints before a driven one, or two arms); the elbow from the person.
+      for (int j = 0; j < state.joint_count && j < static_cast<int>(joints_q.size()); ++j) {
+        q[joints_q[static_cast<std::size_t>(j)]] = state.joints[static_cast<std::size_t>(j)].angle_rad;
+      }
+      q[elbow_q] = d.value;
+      qd[elbow_q] = d.rate;
+      qdd[elbow_q] = d.acceleration;
+      tau_id = models::inverse_dynamics(arm, arm_data, q, qd, qdd)[elbow_q];
     }
     tau_cmd = tau_id;
     if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
