@@ -106,7 +106,7 @@ std::uint32_t apply_limits(const LimitsModel& model, const JointModels& joints, 
     for (std::uint32_t f = flags; f != 0; f &= f - 1) ++data.counts[std::countr_zero(f)];
     all |= flags;
   }
-  data.previous = command;
+  io::copy_used(data.previous, command);
   data.has_previous = true;
   return all;
 }

@@ -12,26 +12,32 @@
 namespace peha {
 namespace {
 
+/// Allocations of `steps` control cycles as every experiment runs them: read and write through the
+/// limits stage at the boundary, the controller's update between.
+std::size_t closed_loop_allocations(io::Backend& plant, const experiments::E1Scenario& scenario,
+                                    control::OneDofGravityController& controller, int steps) {
+  safety::LimitedBackend limited(plant, scenario.limits, {&scenario.controller.joint});
+  limited.activate();
+  io::SensorState state;
+  io::Command command;
+  std::size_t allocations = 0;
+  for (int k = 0; k < steps; ++k) {
+    allocations += testing::allocations_during([&] {
+      limited.read(state);
+      controller.update(state, command);
+      limited.write(command);
+    });
+  }
+  return allocations;
+}
+
 TEST(ControlStep, AllocatesNothing) {
   const experiments::E1Scenario scenario =
       experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   sim::OneDofRigParams plant_params = scenario.plant;
   sim::OneDofRigBackend plant(plant_params);
   control::OneDofGravityController controller(scenario.controller);
-  // The step as every experiment runs it: read and write through the limits stage at the boundary.
-  safety::LimitedBackend limited(plant, scenario.limits, {&scenario.controller.joint});
-  limited.activate();
-  io::SensorState state;
-  io::Command command;
-  std::size_t control_allocations = 0;
-  for (int k = 0; k < 10000; ++k) {
-    control_allocations += testing::allocations_during([&] {
-      limited.read(state);
-      controller.update(state, command);
-      limited.write(command);
-    });
-  }
-  EXPECT_EQ(control_allocations, 0u);
+  EXPECT_EQ(closed_loop_allocations(plant, scenario, controller, 10000), 0u);
 }
 
 // The new paths of the step allocate nothing either: the start-up tare (vent, average), and a load
@@ -84,18 +90,7 @@ TEST(ControlStep, AllocatesNothingWithTheCreepEstimator) {
   }
   sim::OneDofRigBackend plant(scenario.plant);
   control::OneDofGravityController controller(scenario.controller);
-  safety::LimitedBackend limited(plant, scenario.limits, {&scenario.controller.joint});
-  limited.activate();
-  io::SensorState state;
-  io::Command command;
-  std::size_t control_allocations = 0;
-  for (int k = 0; k < 8000; ++k) {
-    control_allocations += testing::allocations_during([&] {
-      limited.read(state);
-      controller.update(state, command);
-      limited.write(command);
-    });
-  }
+  const std::size_t control_allocations = closed_loop_allocations(plant, scenario, controller, 8000);
   const control::CreepEstimatorData& d = controller.diagnostics().creep;
   EXPECT_TRUE(d.muscle[0].referenced);
   EXPECT_GT(d.muscle[0].updates, 10);

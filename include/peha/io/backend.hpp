@@ -59,9 +59,21 @@ struct Command {
 };
 
 /// `to = from` for the joints in use only (the capacity is kMaxJoints, usually far more than a body
-/// drives): what per-cycle code copies, so a larger capacity costs nothing per cycle.
+/// drives): what per-cycle code copies, so a larger capacity costs nothing per cycle. Joints beyond
+/// `from.joint_count` keep what they held (nobody reads them: a run's joint count does not change).
 inline void copy_used(Command& to, const Command& from) noexcept {
   const int n = from.joint_count < 0 ? 0 : (from.joint_count > kMaxJoints ? kMaxJoints : from.joint_count);
+  to.joint_count = from.joint_count;
+  for (int j = 0; j < n; ++j) to.joints[static_cast<std::size_t>(j)] = from.joints[static_cast<std::size_t>(j)];
+}
+// copy_used copies every field but the unused joints: a new field must be added there too.
+static_assert(sizeof(Command) == sizeof(double) + kMaxJoints * sizeof(JointCommand), "Command gained a field: copy it in copy_used");
+static_assert(sizeof(SensorState) == 3 * sizeof(double) + kMaxJoints * sizeof(JointSensors),
+              "SensorState gained a field: copy it in copy_used");
+inline void copy_used(SensorState& to, const SensorState& from) noexcept {
+  const int n = from.joint_count < 0 ? 0 : (from.joint_count > kMaxJoints ? kMaxJoints : from.joint_count);
+  to.time_s = from.time_s;
+  to.sequence = from.sequence;
   to.joint_count = from.joint_count;
   for (int j = 0; j < n; ++j) to.joints[static_cast<std::size_t>(j)] = from.joints[static_cast<std::size_t>(j)];
 }

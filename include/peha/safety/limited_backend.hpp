@@ -37,7 +37,7 @@ class LimitedBackend final : public io::Backend {
   bool read(io::SensorState& state) noexcept override {
     const bool fresh = inner_.read(state);
     if (fresh) {
-      last_state_ = state;
+      io::copy_used(last_state_, state);
       const io::BackendStatus status = inner_.status();
       monitor_.check_sample(state, joints_, min_angle_, max_angle_, status.active);
       if (status.estop) monitor_.estop_reported();
@@ -47,7 +47,7 @@ class LimitedBackend final : public io::Backend {
   /// Checks `command`, replaces it by the safe state's while a fault is latched, limits it against
   /// the newest sample, then writes it.
   bool write(const io::Command& command) noexcept override {
-    sent_ = command;
+    io::copy_used(sent_, command);
     monitor_.check_command(command, last_state_.time_s);
     const SafeAction before = vented_ ? SafeAction::kVent : SafeAction::kNone;
     monitor_.shape(sent_);
