@@ -27,17 +27,18 @@ struct ArmLimits {
 
 /// The body's driven joints in io order: every side, each side's active joints in list order.
 struct IoJoint {
-  std::string name;       ///< "R_SFE"
-  std::string arm_joint;  ///< "SFE": the key of its `controller.joints` / `plant.joints` entry
-  int model_joint = 0;    ///< index into the ArmModel
+  std::string name;        ///< "R_SFE"
+  std::size_t driven = 0;  ///< its arm joint's index in driven_arm_joints (the `joints:` entry it uses)
+  int model_joint = 0;     ///< index into the ArmModel
 };
 
 std::vector<IoJoint> io_joints(const models::ExoskeletonSpec& body) {
   std::vector<IoJoint> out;
   int model_joint = 0;
   for (const models::ArmSide side : body.sides) {
+    std::size_t driven = 0;
     for (const models::ArmJointSpec& j : body.arm_joints) {
-      if (j.active) out.push_back({fmt::format("{}_{}", models::side_prefix(side), j.name), j.name, model_joint});
+      if (j.active) out.push_back({fmt::format("{}_{}", models::side_prefix(side), j.name), driven++, model_joint});
       ++model_joint;
     }
   }
@@ -92,9 +93,8 @@ void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const 
     range_rad.emplace_back(lo, hi);
   }
   joints.finish();
-  const std::vector<std::string> driven = driven_arm_joints(body.controller);
   for (std::size_t i = 0; i < io.size(); ++i) {
-    const auto k = static_cast<std::size_t>(std::find(driven.begin(), driven.end(), io[i].arm_joint) - driven.begin());
+    const std::size_t k = io[i].driven;
     control::ArmActuatedJoint joint = per_arm_joint[k];
     joint.model_joint = io[i].model_joint;
     joint.actuator.name = io[i].name;
@@ -136,15 +136,15 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
   const std::vector<std::string> driven = driven_arm_joints(body.plant);
   for (std::size_t k = 0; k < driven.size(); ++k) {
     config::Map j = joints.map(driven[k]);
-    // The plant's motor is where the controller's model says the joint has one (io joints start with the
-    // first side's driven joints, in this order).
+    // The plant's motor is where the controller's model says the joint has one (the first side's io
+    // joints are the driven joints in this order).
     per_arm_joint.push_back(sim::read_peha_joint_plant(j, l.supply_Pa, s.controller.joints[k].actuator.has_motor));
     j.finish();
   }
   joints.finish();
   for (const IoJoint& j : io_joints(body.plant)) {
     p.actuated.push_back(j.name);
-    p.actuators.push_back(per_arm_joint[static_cast<std::size_t>(std::find(driven.begin(), driven.end(), j.arm_joint) - driven.begin())]);
+    p.actuators.push_back(per_arm_joint[j.driven]);
   }
   plant.finish();
   p.seed = s.seed;
