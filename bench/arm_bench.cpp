@@ -32,7 +32,7 @@ const experiments::ArmScenario& scenario() {
 /// 2 s of sensor states from the simulated arm under its own controller.
 const std::vector<io::SensorState>& recorded_states() {
   static const std::vector<io::SensorState> states = [] {
-    sim::RightArmBackend plant(scenario().plant);
+    sim::ArmBackend plant(scenario().plant);
     plant.activate();
     control::ArmController controller(scenario().controller);
     safety::LimitsData limits;
@@ -72,7 +72,7 @@ void BM_ArmControlStep(benchmark::State& state) {
 BENCHMARK(BM_ArmControlStep);
 
 void BM_SimulatedArmStep(benchmark::State& state) {
-  sim::RightArmBackend plant(scenario().plant);
+  sim::ArmBackend plant(scenario().plant);
   plant.activate();
   control::ArmController controller(scenario().controller);
   safety::LimitsData limits;

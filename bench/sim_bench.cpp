@@ -4,7 +4,7 @@
 #include "bench_support.hpp"
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/one_dof_rig.hpp"

@@ -4,7 +4,7 @@
 #include "bindings.hpp"
 
 #include "peha/config/reader.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/models/arm.hpp"
 #include "peha/models/bowden.hpp"
 #include "peha/models/joint.hpp"

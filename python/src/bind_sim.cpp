@@ -9,9 +9,9 @@
 #include "peha/control/allocation.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/sim/one_dof_rig.hpp"
-#include "peha/sim/right_arm.hpp"
+#include "peha/sim/arm_plant.hpp"
 
 #include <pybind11/stl.h>
 
@@ -137,7 +137,7 @@ class Arm {
     reset();
   }
   void reset() {
-    plant_ = std::make_unique<sim::RightArmBackend>(scenario_.plant);
+    plant_ = std::make_unique<sim::ArmBackend>(scenario_.plant);
     plant_->configure();
     plant_->activate();
   }
@@ -149,7 +149,7 @@ class Arm {
     plant_->write(make_command(static_cast<int>(plant_->info().joint_names.size()), p1, p2, motor));
   }
   py::dict truth(bool sampled) const {
-    const sim::RightArmTruth& t = sampled ? plant_->sampled_truth() : plant_->truth();
+    const sim::ArmTruth& t = sampled ? plant_->sampled_truth() : plant_->truth();
     py::dict d;
     d["time_s"] = t.time_s;
     d["q_rad"] = to_numpy(t.q_rad);
@@ -162,11 +162,11 @@ class Arm {
     return d;
   }
   const experiments::ArmScenario& scenario() const { return scenario_; }
-  const sim::RightArmBackend& plant() const { return *plant_; }
+  const sim::ArmBackend& plant() const { return *plant_; }
 
  private:
   experiments::ArmScenario scenario_;
-  std::unique_ptr<sim::RightArmBackend> plant_;
+  std::unique_ptr<sim::ArmBackend> plant_;
   io::SensorState state_;
 };
 

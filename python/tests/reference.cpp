@@ -8,13 +8,13 @@
 #include "peha/control/allocation.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/models/arm.hpp"
 #include "peha/models/bowden.hpp"
 #include "peha/models/joint.hpp"
 #include "peha/models/tendon_spring.hpp"
 #include "peha/sim/one_dof_rig.hpp"
-#include "peha/sim/right_arm.hpp"
+#include "peha/sim/arm_plant.hpp"
 
 #include <cmath>
 #include <cstdio>
@@ -163,7 +163,7 @@ int main(int argc, char** argv) {
 
   // The right arm under a constant command for 0.5 s: the actuated joints' encoder angles.
   {
-    sim::RightArmBackend plant(arm.plant);
+    sim::ArmBackend plant(arm.plant);
     plant.configure();
     plant.activate();
     io::SensorState s;

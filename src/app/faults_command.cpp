@@ -1,5 +1,5 @@
 // `peha faults`: the fault matrix in process (docs/safety.md) on E1 (a gravity_compensation_1dof
-// scenario) or E3 (a right_arm scenario): every injectable fault at each moment, its detection,
+// scenario) or E3 (an arm scenario): every injectable fault at each moment, its detection,
 // safe state and what the plant did; a table, a CSV and a PNG.
 #include "peha/app/commands.hpp"
 #include "peha/app/cli_checks.hpp"
@@ -71,10 +71,10 @@ int faults(const FaultsOptions& options) {
     const config::Document doc = config::Document::load_file(options.config);
     // The scenario's kind says which experiment's matrix runs, as for `peha run`.
     const std::string kind = find_experiment(doc).key;
-    if (kind != "gravity_compensation_1dof" && kind != "right_arm") {
+    if (kind != "gravity_compensation_1dof" && kind != "arm") {
       throw UsageError(fmt::format("{} is a {} scenario: peha faults runs E1 (gravity_compensation_1dof) or E3 (right_arm)", doc.name(), kind));
     }
-    const bool arm = kind == "right_arm";
+    const bool arm = kind == "arm";
     if (options.link) {
       if (arm) throw UsageError("--link runs E1 over UDP: give a gravity_compensation_1dof scenario (configs/e1_one_dof.yaml)");
       return link_faults(options, doc);

@@ -326,7 +326,7 @@ Command add_faults(CLI::App& app) {
   auto o = std::make_shared<peha::app::FaultsOptions>();
   CLI::App* cmd = app.add_subcommand(
       "faults", "Run the fault matrix (docs/safety.md): every fault the simulated plant can inject, at several moments\n"
-                "of E1 (holding, during a push, after a release) or, for a right_arm scenario, of E3 on the elbow R_EFE\n"
+                "of E1 (holding, during a push, after a release) or, for an arm scenario, of E3 on the elbow R_EFE\n"
                 "(holding a posture, while the operator moves the arm), in process with the supervisor's plausibility\n"
                 "stage on. Prints one line per fault; writes <out>/<run>/faults.md, faults.csv and faults.png. Exit code\n"
                 "0 = no false alarm, every fault detected within 5 cycles, no limit exceeded unless physics forbids it;\n"

@@ -8,7 +8,7 @@
 #include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/one_dof_rig.hpp"
-#include "peha/sim/right_arm.hpp"
+#include "peha/sim/arm_plant.hpp"
 
 #include <fmt/format.h>
 
@@ -170,8 +170,8 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
                                          experiments::arm_joint_names(*scenario)),
                    {}, {}, {}};
   if (options.case_name.empty() || options.case_name == "postures") {
-    const sim::RightArmPlantParams plant = experiments::postures_plant_params(*scenario);
-    board.make_plant = [plant] { return std::make_unique<sim::RightArmBackend>(plant); };
+    const sim::ArmPlantParams plant = experiments::postures_plant_params(*scenario);
+    board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
     board.what = fmt::format("right arm with the operator's E3 script ({} postures)", scenario->postures.size());
     return board;
   }
@@ -186,8 +186,8 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
       return std::nullopt;
     }
     const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(g, g.movements[i], scenario->seed + i);
-    const sim::RightArmPlantParams plant = experiments::goniometer_plant_params(*scenario, trace);
-    board.make_plant = [plant] { return std::make_unique<sim::RightArmBackend>(plant); };
+    const sim::ArmPlantParams plant = experiments::goniometer_plant_params(*scenario, trace);
+    board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
     const mfb::AnalogChannel channel = board.map.joint(1).goniometer;
     board.input_hook = [scenario, trace, channel](double t_s, mfb::BoardInputs& in) {
       bool clamped = false;
@@ -207,7 +207,7 @@ const Refusal kNoArmCalibration[] = {
     {"--antagonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
 };
 const std::string kIdentificationElsewhere =
-    "gravity identification files are for the right arm (a right_arm scenario; peha identify-gravity)";
+    "gravity identification files are for an arm scenario (peha identify-gravity)";
 const std::string kCsvElsewhere = "a recorded goniometer drives the right arm's E4 only (--experiment goniometer)";
 const std::string kFaultsElsewhere = "plant faults are injected in E1 and the right arm's E3 (--experiment postures)";
 
@@ -222,7 +222,7 @@ std::vector<ExperimentEntry> make_registry() {
                "E1: gravity compensation of the one-DOF PEHA rig with each payload (configs/e1_one_dof.yaml)",
                {{"", "E1 gravity compensation",
                  {"--case", "--agonist-calibration", "--antagonist-calibration", "--force-trim-rate", "--backend", "--fault"},
-                 {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"},
+                 {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (an arm scenario, --experiment goniometer)"},
                   {"--gravity-identification", kIdentificationElsewhere}},
                  {{"--fault", "over the board the plant is the emulator's: give the faults in the scenario's faults: list"}},
                  experiments::run_e1_experiment}},
@@ -234,7 +234,7 @@ std::vector<ExperimentEntry> make_registry() {
                  {{"--backend", "the creep experiment judges the estimate against the plant's true creep: in-process only"},
                   {"--agonist-calibration", "the creep experiment runs the scenario's own muscle models"},
                   {"--antagonist-calibration", "the creep experiment runs the scenario's own muscle models"},
-                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"},
+                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (an arm scenario, --experiment goniometer)"},
                   {"--gravity-identification", kIdentificationElsewhere},
                   {"--fault", "the creep experiment's plant changes are its creep: section's variants"}},
                  {},
@@ -247,13 +247,13 @@ std::vector<ExperimentEntry> make_registry() {
                  {{"--agonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
                   {"--antagonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
                   {"--force-trim-rate", "E5 has no force controller: its input is a pressure ramp"},
-                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (a right_arm scenario, --experiment goniometer)"},
+                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (an arm scenario, --experiment goniometer)"},
                   {"--gravity-identification", kIdentificationElsewhere}},
                  {},
                  experiments::run_e5_experiment}},
                check_e5, e5_board});
-  r.push_back({"right_arm", "right-arm",
-               "the right arm (configs/right_arm.yaml): E3 postures, E4 goniometer, E6 bandwidth (--experiment)",
+  r.push_back({"arm", "arm",
+               "an arm or the upper body (configs/right_arm.yaml, configs/upper_body.yaml): E3 postures, E4 goniometer, E6 bandwidth (--experiment)",
                {{"postures", "E3 postures", {"--force-trim-rate", "--backend", "--gravity-identification", "--fault"},
                  arm_refusals({{"--case", "E3 runs every posture in one script (--case picks a movement of --experiment goniometer)"},
                                {"--goniometer-csv", kCsvElsewhere}}),

@@ -42,7 +42,7 @@ std::vector<std::string> realtime_options_given(const RunOptions& o) {
   return given;
 }
 
-/// Where --experiment applies: "a right_arm scenario's postures|goniometer|bandwidth".
+/// Where --experiment applies: "an arm scenario's postures|goniometer|bandwidth".
 std::string where_experiment_applies() {
   std::string where;
   for (const auto& e : experiment_registry()) {

@@ -2,7 +2,7 @@
 #include "peha/app/video_option.hpp"
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 #include "peha/video/run_videos.hpp"
 
@@ -13,8 +13,8 @@ namespace peha::app {
 bool write_run_videos(const config::Document& doc, const std::string& experiment, const std::filesystem::path& dir) {
   try {
     sim::ModelPtr model;
-    if (experiment == "right_arm") {
-      const sim::RightArmPlantParams plant = experiments::read_arm_scenario(doc).plant;
+    if (experiment == "arm") {
+      const sim::ArmPlantParams plant = experiments::read_arm_scenario(doc).plant;
       model = sim::load_arm_mjcf(sim::arm_mjcf(plant.model, plant.mjcf));
     } else {
       model = sim::load_mjcf(experiments::read_e1(doc).plant.model_file);

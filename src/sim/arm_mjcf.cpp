@@ -151,7 +151,7 @@ ArmMjcfOptions exoskeleton_mjcf_options(const models::ExoskeletonSpec& spec) {
   return o;
 }
 
-ArmMjcfOptions right_arm_mjcf_options() {
+ArmMjcfOptions arm_mjcf_options() {
   models::ExoskeletonSpec spec;
   spec.arm_joints = models::paper_right_arm_joints();
   return exoskeleton_mjcf_options(spec);

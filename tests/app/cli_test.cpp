@@ -126,7 +126,7 @@ TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
   const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_faults";
   std::filesystem::remove_all(out);
   const std::string common = " --no-plot --out " + out.string() + " --config " + PEHA_SOURCE_DIR;
-  EXPECT_THAT(run("faults --help").output, HasSubstr("right_arm"));
+  EXPECT_THAT(run("faults --help").output, HasSubstr("arm"));
   EXPECT_THAT(run("faults --help").output, HasSubstr("--link"));
   const struct {
     std::string args, detail;
@@ -279,7 +279,7 @@ TEST(Cli, UnknownExperimentKeyNamesTheKnownOnes) {
     EXPECT_EQ(r.code, 2) << command << "\n" << r.output;
     EXPECT_THAT(r.output, HasSubstr("unknown.yaml:1:13: experiment"));
     EXPECT_THAT(r.output, HasSubstr("gravity_compensation_1dof"));
-    EXPECT_THAT(r.output, HasSubstr("right_arm"));
+    EXPECT_THAT(r.output, HasSubstr("arm"));
   }
 }
 
@@ -339,7 +339,7 @@ TEST(Cli, IdentifyGravityWritesAFileE3Takes) {
   EXPECT_EQ(r.code, 0) << r.output;
   r = run("run --no-plot --config " PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml --out " + dir.string() + " --gravity-identification " + file.string());
   EXPECT_EQ(r.code, 2);
-  EXPECT_THAT(r.output, HasSubstr("gravity identification files are for the right arm"));
+  EXPECT_THAT(r.output, HasSubstr("gravity identification files are for an arm"));
   std::filesystem::remove_all(dir);
 }
 

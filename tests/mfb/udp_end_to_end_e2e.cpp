@@ -678,7 +678,7 @@ TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   ASSERT_EQ(s.postures.size(), 1u);
   s.link->host_watchdog_s = kTestWatchdog_s;
-  const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::RightArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
+  const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::ArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
 
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
   const int port = runtime::parse_listening_port(emulator.wait_for_line("listening on", 10.0));

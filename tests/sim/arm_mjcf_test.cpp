@@ -62,10 +62,10 @@ Eigen::VectorXd posture(double sfe, double efe, double wfe = 0, double wr = 0, d
 
 TEST(ArmMjcf, LoadsWithTheModelsJointsAndBodies) {
   const ArmModel arm = default_arm();
-  const std::string xml = arm_mjcf(arm, right_arm_mjcf_options());
+  const std::string xml = arm_mjcf(arm, arm_mjcf_options());
   EXPECT_NE(xml.find("angle=\"radian\""), std::string::npos);
   EXPECT_NE(xml.find("contype=\"0\" conaffinity=\"0\""), std::string::npos);
-  Sim s(arm, right_arm_mjcf_options());
+  Sim s(arm, arm_mjcf_options());
   ASSERT_EQ(s.m->nv, 5);
   ASSERT_EQ(s.m->njnt, 5);
   for (int i = 0; i < 5; ++i) {
@@ -201,7 +201,7 @@ TEST(ArmMjcf, FullInertiaAndGroupedJoints) {
 
 TEST(ArmMjcf, ZeroPayloadAndNoUserArmLoad) {
   const ArmModel bare = default_arm(0.0, false);
-  Sim s(bare, right_arm_mjcf_options());
+  Sim s(bare, arm_mjcf_options());
   const int id = mj_name2id(s.m.get(), mjOBJ_BODY, "payload");
   ASSERT_GE(id, 0);
   EXPECT_EQ(s.m->body_mass[id], 0.0);
@@ -212,10 +212,10 @@ TEST(ArmMjcf, ZeroPayloadAndNoUserArmLoad) {
 
 TEST(ArmMjcf, RejectsBadInput) {
   ArmModel arm = default_arm();
-  ArmMjcfOptions o = right_arm_mjcf_options();
+  ArmMjcfOptions o = arm_mjcf_options();
   o.joints.pop_back();
   EXPECT_THROW(arm_mjcf(arm, o), std::invalid_argument);
-  o = right_arm_mjcf_options();
+  o = arm_mjcf_options();
   o.joints[0].range_min_rad = o.joints[0].range_max_rad;
   EXPECT_THROW(arm_mjcf(arm, o), std::invalid_argument);
   o = ArmMjcfOptions{};

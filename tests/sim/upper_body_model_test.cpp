@@ -142,7 +142,7 @@ TEST(UpperBody, TheRightArmIsTheSameDescriptionWithOneSide) {
   }
   ASSERT_EQ(m.bodies.size(), paper.bodies.size());
   for (std::size_t b = 0; b < m.bodies.size(); ++b) EXPECT_EQ(m.bodies[b].name, paper.bodies[b].name);
-  EXPECT_EQ(sim::arm_mjcf(m, sim::exoskeleton_mjcf_options(c.controller)), sim::arm_mjcf(paper, sim::right_arm_mjcf_options()));
+  EXPECT_EQ(sim::arm_mjcf(m, sim::exoskeleton_mjcf_options(c.controller)), sim::arm_mjcf(paper, sim::arm_mjcf_options()));
 }
 
 std::string upper_body_text() {

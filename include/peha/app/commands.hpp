@@ -144,7 +144,7 @@ struct FaultsOptions {
   std::vector<std::string> link_faults;   ///< with --link: only these rows (default: all)
 };
 
-/// `peha faults`: the fault matrix in process on E1 or, for a right_arm scenario, E3 (docs/safety.md);
+/// `peha faults`: the fault matrix in process on E1 or, for an arm scenario, E3 (docs/safety.md);
 /// with `link`, E1's link faults over UDP instead. Exit 0 when the nominal run raised nothing and
 /// every fault was detected within 5 cycles with no limit exceeded (or one physics forbids any safe
 /// state to keep) - with `link`: every row met its designed outcome - else 3; 2 bad input.

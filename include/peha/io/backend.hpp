@@ -3,7 +3,7 @@
 /// The one interface between controllers and an exoskeleton: sensor state in, command out, and the
 /// hardware's lifecycle (after ros2_control's hardware components).
 ///
-/// Implementations: the in-process simulators (`sim::OneDofRigBackend`, `sim::RightArmBackend`) and
+/// Implementations: the in-process simulators (`sim::OneDofRigBackend`, `sim::ArmBackend`) and
 /// the multifunction board over UDP (`mfb::UdpBackend`). Controllers never see anything else of the
 /// plant. Every command passes the limits layer on its way in: experiments write through
 /// `safety::LimitedBackend`, which wraps the backend, so no command reaches `write` unlimited.

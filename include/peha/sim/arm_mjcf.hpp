@@ -55,7 +55,7 @@ ArmMjcfOptions exoskeleton_mjcf_options(const models::ExoskeletonSpec& spec);
 /// SFE [-100, 60] deg, EFE [0, 135] deg, WFE [-60, 60] deg, WR [-80, 80] deg, WAA [-30, 20] deg;
 /// small bearing damping on the exo joints, passive-tissue damping on the wrist; WR clamped at 0 as in
 /// the paper's experiments.
-ArmMjcfOptions right_arm_mjcf_options();
+ArmMjcfOptions arm_mjcf_options();
 
 /// The complete MJCF document (see the file comment). Throws std::invalid_argument if the model or
 /// the options are unusable (bad names, non-finite numbers, wrong option count, empty range, a

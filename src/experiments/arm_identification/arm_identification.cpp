@@ -80,8 +80,8 @@ double capstan_ratio(double a_up, double b_up, double m_up, double a_down, doubl
 
 }  // namespace
 
-sim::RightArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::RightArmPlantParams& plant) {
-  sim::RightArmPlantParams p = plant;
+sim::ArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::ArmPlantParams& plant) {
+  sim::ArmPlantParams p = plant;
   p.operator_hands.moves.clear();
   const double nan = std::numeric_limits<double>::quiet_NaN();
   p.operator_hands.moves.push_back({"start", 0.0, kStartHold_s, kStartHold_s, {p.initial_q_rad[0], p.initial_q_rad[1], nan}});
@@ -89,7 +89,7 @@ sim::RightArmPlantParams identification_plant_params(const ArmScenario& scenario
   return p;
 }
 
-ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim::RightArmPlantParams& plant_params,
+ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim::ArmPlantParams& plant_params,
                                              const std::function<void(const std::string&)>& progress) {
   // Always from the body file's prior, whatever identification the scenario's controller already
   // uses: the rig's gravity compensation and the fit's prior do not depend on an earlier result (a
@@ -108,12 +108,12 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   }
   const double duration_s = t;
 
-  std::unique_ptr<sim::RightArmBackend> owned;
+  std::unique_ptr<sim::ArmBackend> owned;
   {
     const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
-    owned = std::make_unique<sim::RightArmBackend>(identification_plant_params(scenario, plant_params));
+    owned = std::make_unique<sim::ArmBackend>(identification_plant_params(scenario, plant_params));
   }
-  sim::RightArmBackend& plant = *owned;
+  sim::ArmBackend& plant = *owned;
   control::ArmController controller(scenario.controller);
   controller.set_mode(0, control::ArmJointMode::kCommanded);
   controller.set_mode(1, control::ArmJointMode::kCommanded);

@@ -53,10 +53,10 @@ std::vector<std::string> arm_log_columns(const ArmScenario& scenario) {
   return c;
 }
 
-sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
+sim::ArmPlantParams postures_plant_params(const ArmScenario& scenario) {
   // The operator's script: hold the arm where it starts while compensation comes on, then for each
   // posture carry the arm there, hold, let go, and watch.
-  sim::RightArmPlantParams p = scenario.plant;
+  sim::ArmPlantParams p = scenario.plant;
   p.faults = scenario.faults;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   // Hold every gravity-compensated joint where it starts (a constant-pressure joint is left to its hold).
@@ -76,7 +76,7 @@ sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario) {
 
 std::vector<double> postures_release_times_s(const ArmScenario& scenario) {
   // The operator lets go at the end of each posture's move (the script's moves after "start").
-  const sim::RightArmPlantParams script = postures_plant_params(scenario);
+  const sim::ArmPlantParams script = postures_plant_params(scenario);
   const std::vector<sim::OperatorMove>& moves = script.operator_hands.moves;
   std::vector<double> release_s;
   for (std::size_t i = 1; i < moves.size(); ++i) release_s.push_back(moves[i].start_s + moves[i].duration_s);
@@ -89,15 +89,15 @@ double postures_duration_s(const ArmScenario& scenario) {
 }
 
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) {
-  sim::RightArmBackend plant(postures_plant_params(scenario));
+  sim::ArmBackend plant(postures_plant_params(scenario));
   return run_postures_on(scenario, plant, &plant, log);
 }
 
-PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::RightArmBackend* sim, runtime::RowSink* log,
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::ArmBackend* sim, runtime::RowSink* log,
                                const runtime::CycleHooks& hooks) {
   const std::vector<double> release_s = postures_release_times_s(scenario);
   const double duration_s = postures_duration_s(scenario);
-  const sim::RightArmPlantParams script = postures_plant_params(scenario);  // where the operator's hands are, by the clock
+  const sim::ArmPlantParams script = postures_plant_params(scenario);  // where the operator's hands are, by the clock
   control::ArmController controller(scenario.controller);
   const safety::JointModels joints = arm_joint_models(controller.model());
   safety::LimitedBackend limited(backend, scenario.limits, joints);
@@ -129,7 +129,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     controller_nan.apply(state.time_s, command);
   };
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
-    const sim::RightArmTruth* truth = sim ? &sim->sampled_truth() : nullptr;
+    const sim::ArmTruth* truth = sim ? &sim->sampled_truth() : nullptr;
     bool operator_active = false;
     if (truth) {
       operator_active = truth->operator_active;

@@ -200,9 +200,9 @@ double goniometer_reading(const ArmScenario& scenario, const GoniometerTrace& tr
   return i < trace.measured_rad.size() ? trace.measured_rad[i] : trace.measured_rad.back();
 }
 
-sim::RightArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace) {
+sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace) {
   const ArmScenario::Goniometer& g = scenario.goniometer;
-  sim::RightArmPlantParams p = scenario.plant;
+  sim::ArmPlantParams p = scenario.plant;
   p.initial_q_rad[0] = g.sfe_rad;
   p.initial_q_rad[1] = trace.truth_rad.front();
   const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -217,7 +217,7 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
   if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size()) {
     throw std::invalid_argument("run_goniometer: empty trace or truth/measured size mismatch");
   }
-  sim::RightArmBackend plant(goniometer_plant_params(scenario, trace));
+  sim::ArmBackend plant(goniometer_plant_params(scenario, trace));
   const double settle_s = scenario.goniometer.settle_s, rate_Hz = scenario.goniometer.sample_rate_Hz;
   return run_goniometer_on(
       scenario, trace.name, variant, goniometer_run_duration_s(scenario, trace), plant, &plant,
@@ -226,7 +226,7 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
 }
 
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::RightArmBackend* sim, const GoniometerSource& reading,
+                                   io::Backend& backend, const sim::ArmBackend* sim, const GoniometerSource& reading,
                                    const GoniometerSource& person, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
   const ArmScenario::Goniometer& g = scenario.goniometer;
   const double period = scenario.period_s;
@@ -291,7 +291,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   };
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
     const double t = state.time_s;
-    const sim::RightArmTruth* tr = sim ? &sim->sampled_truth() : nullptr;
+    const sim::ArmTruth* tr = sim ? &sim->sampled_truth() : nullptr;
     // Without the simulator: the exoskeleton by its encoders, the person by the goniometer.
     exo[k] = tr ? tr->actuated_q_rad[kElbow] : state.joints[kElbow].angle_rad;
     sfe[k] = tr ? tr->actuated_q_rad[0] : state.joints[0].angle_rad;

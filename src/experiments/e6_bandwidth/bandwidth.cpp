@@ -38,7 +38,7 @@ std::pair<double, bool> bandwidth_3dB_Hz(const std::vector<BodePoint>& bode) {
 
 BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   const ArmScenario::Bandwidth& b = scenario.bandwidth;
-  sim::RightArmPlantParams plant_params = scenario.plant;
+  sim::ArmPlantParams plant_params = scenario.plant;
   plant_params.initial_q_rad[0] = b.sfe_rad;
   plant_params.initial_q_rad[1] = b.efe_rad;
   // A torque bench: shoulder and elbow locked (equality constraints), so the delivered torque is the
@@ -46,7 +46,7 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   plant_params.mjcf.joints[0].locked = plant_params.mjcf.joints[1].locked = true;
   plant_params.mjcf.joints[0].locked_at_rad = b.sfe_rad;
   plant_params.mjcf.joints[1].locked_at_rad = b.efe_rad;
-  sim::RightArmBackend plant(plant_params);
+  sim::ArmBackend plant(plant_params);
   control::ArmControllerModel model = scenario.controller;
   model.allocation.use_motor = hybrid;
   // PAM-only: no motor to hand the fast part to, so no low-pass split either.
@@ -97,7 +97,7 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
     // A torque bench measures what the actuator delivers in answer to the command just sent: the
     // plant's truth after this cycle's write.
-    const sim::RightArmTruth& truth = plant.truth();
+    const sim::ArmTruth& truth = plant.truth();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       safety::JointSample j = arm_joint_sample(state, sent, &truth, a);
       if (controller.wires_slack_on_purpose(state.time_s)) j.min_tension_N = std::numeric_limits<double>::infinity();  // start-up tare

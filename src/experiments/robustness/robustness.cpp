@@ -202,7 +202,7 @@ RobustnessRow run_e3_job(const ArmScenario& nominal, const Job& job) {
     // unknown payload, which the identification therefore does not see.
     PlantVariant before_payload = *job.variant;
     before_payload.extra_payload_kg = 0.0;
-    sim::RightArmPlantParams rig = arm_variant_plant(nominal, before_payload);
+    sim::ArmPlantParams rig = arm_variant_plant(nominal, before_payload);
     rig.seed = job.seed;
     try {
       scenario.controller.arm = identify_arm_gravity(scenario, rig).identified;
@@ -216,10 +216,10 @@ RobustnessRow run_e3_job(const ArmScenario& nominal, const Job& job) {
   }
   scenario.plant = arm_variant_plant(nominal, *job.variant);
   scenario.plant.seed = scenario.seed = job.seed;
-  std::unique_ptr<sim::RightArmBackend> plant;
+  std::unique_ptr<sim::ArmBackend> plant;
   {
     const std::lock_guard lock(mujoco_load_mutex());
-    plant = std::make_unique<sim::RightArmBackend>(postures_plant_params(scenario));
+    plant = std::make_unique<sim::ArmBackend>(postures_plant_params(scenario));
   }
   const PosturesResult r = run_postures_on(scenario, *plant, plant.get(), nullptr);
   RobustnessRow row;
@@ -330,8 +330,8 @@ sim::OneDofRigParams e1_variant_plant(const E1Scenario& scenario, const E1Case& 
   return p;
 }
 
-sim::RightArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVariant& v) {
-  sim::RightArmPlantParams p = scenario.plant;
+sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVariant& v) {
+  sim::ArmPlantParams p = scenario.plant;
   for (auto& j : p.actuators) apply_to_joint(v, j);
   p.pressure_noise_Pa *= v.sensor_noise_scale;
   for (models::ArmBody& b : p.model.bodies) {

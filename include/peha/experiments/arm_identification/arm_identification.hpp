@@ -11,7 +11,7 @@
 /// and k, solved per posture and joint. Nothing of the plant's truth is read.
 
 #include "peha/calibration/gravity_identification.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 
 #include <functional>
 #include <string>
@@ -42,13 +42,13 @@ struct ArmIdentificationResult {
 
 /// The simulated arm of the procedure: `plant` with the operator holding the start posture while
 /// compensation comes on (as E3), and no operator after.
-sim::RightArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::RightArmPlantParams& plant);
+sim::ArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::ArmPlantParams& plant);
 
 /// Runs the procedure on the in-process arm `plant` (the truth is not read) and fits. Throws
 /// calibration::GravityIdentificationRejected when a joint stuck in a window (moved slower than
 /// min_speed_fraction x the reference), a fault was latched, or the fit's checks fail; config::Error
 /// without an `identification:` section. `progress` gets one line per posture.
-ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const sim::RightArmPlantParams& plant,
+ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const sim::ArmPlantParams& plant,
                                              const std::function<void(const std::string&)>& progress = {});
 
 }  // namespace peha::experiments

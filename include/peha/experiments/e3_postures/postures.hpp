@@ -5,7 +5,7 @@
 /// should stay where they were left. The figures, per gravity-compensated joint and posture: drift
 /// over observe_s after each release, excursion, distance to a stop, static torque error.
 
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 
 #include <string>
 #include <vector>
@@ -63,7 +63,7 @@ PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log);
 
 /// The simulated arm of E3: the scenario's plant with the operator's script (hold at the start,
 /// then carry the arm to each posture, hold, let go) - also what `peha mfb-emulator` simulates.
-sim::RightArmPlantParams postures_plant_params(const ArmScenario& scenario);
+sim::ArmPlantParams postures_plant_params(const ArmScenario& scenario);
 /// When the operator lets go of each posture, s (E3's script), and the run's length (the whole
 /// script, or up to scenario.postures_stop_s when that is set).
 std::vector<double> postures_release_times_s(const ArmScenario& scenario);
@@ -72,7 +72,7 @@ double postures_duration_s(const ArmScenario& scenario);
 /// E3 on any backend. `sim` (optional) is the in-process arm when `backend` is it (truth figures);
 /// without it the drift comes from the joint encoders, forces and tensions from the load cells, and
 /// the operator is where the script puts them. A cycle whose read() fails holds the last command.
-PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::RightArmBackend* sim, runtime::RowSink* log,
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::ArmBackend* sim, runtime::RowSink* log,
                                const runtime::CycleHooks& hooks = {});
 
 }  // namespace peha::experiments

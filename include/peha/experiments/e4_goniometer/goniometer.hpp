@@ -90,7 +90,7 @@ double goniometer_reading(const ArmScenario& scenario, const GoniometerTrace& tr
 double goniometer_run_duration_s(const ArmScenario& scenario, const GoniometerTrace& trace);
 /// The simulated arm of an E4 run: shoulder at goniometer.sfe_deg, elbow where the person starts,
 /// the operator holding it until settle_s - 1.
-sim::RightArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace);
+sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace);
 
 /// A goniometer angle (rad) as a function of the run's time (s).
 using GoniometerSource = std::function<double(double t_s)>;
@@ -100,7 +100,7 @@ using GoniometerSource = std::function<double(double t_s)>;
 /// as over the board). `sim` (optional) is the in-process arm for truth figures; without it the
 /// exoskeleton's elbow is its encoder and forces are the load cells'.
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::RightArmBackend* sim, const GoniometerSource& reading,
+                                   io::Backend& backend, const sim::ArmBackend* sim, const GoniometerSource& reading,
                                    const GoniometerSource& person, runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
 
 }  // namespace peha::experiments

@@ -4,7 +4,7 @@
 /// PAM-only vs hybrid (PAMs + motor): sine torques at each frequency of the scenario's sweep, the
 /// delivered torque's gain and phase, and the -3 dB frequency.
 
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 
 #include <string>
 #include <vector>

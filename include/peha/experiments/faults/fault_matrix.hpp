@@ -9,7 +9,7 @@
 /// joints) - plus a nominal row without a fault.
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/sim/plant_faults.hpp"
 
 #include <filesystem>

@@ -8,7 +8,7 @@
 
 #include "peha/config/reader.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
-#include "peha/experiments/right_arm/arm_scenario.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -126,7 +126,7 @@ PlantVariant read_plant_variant(config::Map m);
 /// The plant of an E1 case under `v` (the controller is untouched).
 sim::OneDofRigParams e1_variant_plant(const E1Scenario& scenario, const E1Case& c, const PlantVariant& v);
 /// The right arm's plant under `v`.
-sim::RightArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVariant& v);
+sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVariant& v);
 
 /// Runs the matrix; `progress(done, total, line)` after each case (from the worker threads, serialised).
 RobustnessResult run_robustness(const RobustnessConfig& config,

@@ -1,6 +1,6 @@
 // The right arm's plant-only knobs: a mass in the hand the controller is not told, and injected faults.
-#include "peha/experiments/right_arm/arm_scenario.hpp"
-#include "peha/sim/right_arm.hpp"
+#include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/sim/arm_plant.hpp"
 
 #include <gtest/gtest.h>
 
@@ -18,11 +18,11 @@ namespace {
 /// The shipped right arm's plant, arm held out horizontally (shoulder and elbow at 0), the
 /// backend inactive (valves vented, motors off): where the shoulder is 0.3 s later.
 double shoulder_after_fall_rad(double unknown_hand_payload_kg) {
-  RightArmPlantParams p =
+  ArmPlantParams p =
       experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")).plant;
   p.initial_q_rad.assign(p.initial_q_rad.size(), 0.0);
   p.unknown_hand_payload_kg = unknown_hand_payload_kg;
-  RightArmBackend arm(p);
+  ArmBackend arm(p);
   io::Command vented;
   vented.joint_count = static_cast<int>(p.actuated.size());
   for (int k = 0; k < 300; ++k) arm.write(vented);
@@ -52,22 +52,22 @@ namespace {
 // (io order R_SFE, R_EFE, R_WFE) at its time and nothing else, as the one-DOF rig's do; supply faults
 // hit every joint (one supply). The arm starts hanging (the shipped E3 start), the backend active, every
 // muscle commanded to `pressure_MPa` (motors off).
-const RightArmPlantParams& shipped_arm() {
-  static const RightArmPlantParams plant =
+const ArmPlantParams& shipped_arm() {
+  static const ArmPlantParams plant =
       experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")).plant;
   return plant;
 }
 
 struct ArmUnderFault {
-  RightArmPlantParams params;
-  std::unique_ptr<RightArmBackend> arm;
+  ArmPlantParams params;
+  std::unique_ptr<ArmBackend> arm;
   io::Command command;
   io::SensorState state;
 
   explicit ArmUnderFault(std::vector<PlantFault> faults, double pressure_MPa = 0.3) {
     params = shipped_arm();
     params.faults = std::move(faults);
-    arm = std::make_unique<RightArmBackend>(params);
+    arm = std::make_unique<ArmBackend>(params);
     arm->activate();
     command.joint_count = static_cast<int>(params.actuated.size());
     for (int a = 0; a < command.joint_count; ++a) {
@@ -88,7 +88,7 @@ PlantFault fault(FaultKind kind, double time_s, int joint, int muscle = 0, doubl
 
 // A stuck load cell repeats its reading from the fault on; the cells next to it keep their noise
 // (1 N on the DMSP-40s' cells: a live cell never repeats 100 times).
-TEST(RightArmPlantFaults, AStuckLoadCellRepeatsItsReadingOnItsJointOnly) {
+TEST(ArmPlantFaults, AStuckLoadCellRepeatsItsReadingOnItsJointOnly) {
   ArmUnderFault run({fault(FaultKind::kLoadcellStuck, 0.1, 1, 0)});
   std::vector<double> elbow, shoulder;
   for (int k = 0; k < 200; ++k) {
@@ -108,7 +108,7 @@ TEST(RightArmPlantFaults, AStuckLoadCellRepeatsItsReadingOnItsJointOnly) {
 
 // The arm's one supply: supply_zero on any joint keeps every muscle of every joint from filling (a
 // check valve keeps the air they had); at half supply none fills above half of 0.8 MPa.
-TEST(RightArmPlantFaults, ASupplyFaultHitsEveryJoint) {
+TEST(ArmPlantFaults, ASupplyFaultHitsEveryJoint) {
   auto highest_MPa = [](std::vector<PlantFault> faults) {
     ArmUnderFault run(std::move(faults), 0.7);
     for (int k = 0; k < 1500; ++k) run.cycle();
@@ -131,14 +131,14 @@ TEST(RightArmPlantFaults, ASupplyFaultHitsEveryJoint) {
 
 // An encoder jump offsets its joint's reading by the jump (10 deg, within a count); a frozen encoder
 // repeats its reading while the joint moves (the arm swings under 0.3 MPa on every muscle).
-TEST(RightArmPlantFaults, EncoderFaultsShowInTheirJointsReadingOnly) {
+TEST(ArmPlantFaults, EncoderFaultsShowInTheirJointsReadingOnly) {
   constexpr double kDeg = std::numbers::pi / 180.0;
   ArmUnderFault run({fault(FaultKind::kEncoderJump, 0.05, 1, 0, 10.0), fault(FaultKind::kEncoderFrozen, 0.05, 0)});
   for (int k = 0; k < 49; ++k) run.cycle();
   const double count_rad = 2.0 * std::numbers::pi / run.params.encoder_counts_per_rev;
   EXPECT_NEAR(run.state.joints[1].angle_rad, run.arm->truth().q_rad[1], count_rad);  // before the fault
   for (int k = 0; k < 200; ++k) run.cycle();
-  const RightArmTruth& t = run.arm->truth();
+  const ArmTruth& t = run.arm->truth();
   EXPECT_NEAR(run.state.joints[1].angle_rad - t.q_rad[1], 10.0 * kDeg, count_rad);
   EXPECT_NEAR(run.state.joints[2].angle_rad, t.q_rad[2], count_rad);
   const double frozen = run.state.joints[0].angle_rad;
@@ -150,7 +150,7 @@ TEST(RightArmPlantFaults, EncoderFaultsShowInTheirJointsReadingOnly) {
 // A broken wire carries nothing from its time on; the e-stop cuts the outputs through the gate; a
 // valve stuck open fills its muscle while the outputs follow, and the dump valve empties it once the
 // backend is vented (deactivate(), the supervisor's vent).
-TEST(RightArmPlantFaults, WireValveAndEstopFaultsActOnTheirTargets) {
+TEST(ArmPlantFaults, WireValveAndEstopFaultsActOnTheirTargets) {
   ArmUnderFault broken({fault(FaultKind::kWireBreak, 0.1, 1, 1)});
   for (int k = 0; k < 300; ++k) broken.cycle();
   EXPECT_EQ(broken.arm->truth().actuators[1].pulley_tension_min_N[1], 0.0);
@@ -174,10 +174,10 @@ TEST(RightArmPlantFaults, WireValveAndEstopFaultsActOnTheirTargets) {
   EXPECT_LT(stuck.arm->truth().actuators[1].pressure_Pa[0], 0.05e6);
 }
 
-TEST(RightArmPlantFaults, AFaultOnAJointTheArmDoesNotHaveIsRefused) {
-  RightArmPlantParams p = shipped_arm();
+TEST(ArmPlantFaults, AFaultOnAJointTheArmDoesNotHaveIsRefused) {
+  ArmPlantParams p = shipped_arm();
   p.faults = {fault(FaultKind::kMotorFault, 1.0, 3)};
-  EXPECT_THROW(RightArmBackend{p}, std::invalid_argument);
+  EXPECT_THROW(ArmBackend{p}, std::invalid_argument);
 }
 
 }  // namespace

@@ -11,7 +11,7 @@
 #include "peha/runtime/control_loop.hpp"
 #include "peha/safety/limits.hpp"
 #include "peha/safety/verdict.hpp"
-#include "peha/sim/right_arm.hpp"
+#include "peha/sim/arm_plant.hpp"
 
 #include <filesystem>
 #include <optional>
@@ -34,7 +34,7 @@ struct ArmScenario {
   control::ArmControllerModel controller;
   safety::VerdictThresholds verdict;     ///< the optional `verdict:` section (defaults when absent)
   safety::LimitsModel limits;
-  sim::RightArmPlantParams plant;
+  sim::ArmPlantParams plant;
   double move_s = 2.5, hold_s = 1.0, observe_s = 10.0;
   std::vector<ArmPosture> postures;
   /// E3's plant faults (the optional `faults:` list, `peha run --fault`; sim/plant_faults.hpp, joints
@@ -118,7 +118,7 @@ const std::vector<std::string>& arm_joint_names(const ArmScenario& scenario);
 /// One actuated joint at one cycle for the safety envelope: from the simulator's truth when there is
 /// one (the sample's, `sampled_truth()`), else from what the host has (load cells, pressure sensors,
 /// encoders, the command as sent).
-safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::RightArmTruth* truth,
+safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::ArmTruth* truth,
                                      std::size_t joint) noexcept;
 /// The joint set-ups of `model`'s actuated joints, for the limits stage and the envelope (pointers
 /// into `model`, which must outlive their use).

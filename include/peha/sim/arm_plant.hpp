@@ -40,7 +40,7 @@ struct OperatorParams {
   std::vector<OperatorMove> moves;
 };
 
-struct RightArmPlantParams {
+struct ArmPlantParams {
   models::ArmModel model;                 ///< the plant's true rigid bodies (payload included)
   /// Plant-only: mass added to the model's body "payload" (held in the hand) that the controller
   /// is not told, kg; may be < 0 for a lighter payload than believed, but the payload's total mass
@@ -64,7 +64,7 @@ struct RightArmPlantParams {
 };
 
 /// The plant's truth for logs and figures.
-struct RightArmTruth {
+struct ArmTruth {
   double time_s = 0;
   std::vector<double> q_rad, qd_radps;           ///< every model joint
   std::vector<PehaJointTruth> actuators;         ///< per actuated joint
@@ -77,9 +77,9 @@ struct RightArmTruth {
   bool operator_active = false;
 };
 
-class RightArmBackend final : public io::Backend {
+class ArmBackend final : public io::Backend {
  public:
-  explicit RightArmBackend(const RightArmPlantParams& params);
+  explicit ArmBackend(const ArmPlantParams& params);
   const io::BackendInfo& info() const override { return info_; }
   bool read(io::SensorState& state) noexcept override;
   void activate() noexcept override { gate_.activate(); }
@@ -91,16 +91,16 @@ class RightArmBackend final : public io::Backend {
   /// valve). The faults due by then take effect first.
   bool write(const io::Command& command) noexcept override;
   /// The truth at the latest sample (after the latest write()).
-  const RightArmTruth& truth() const { return truth_; }
+  const ArmTruth& truth() const { return truth_; }
   /// The truth at the instant of the sample the latest read() returned (see OneDofRigBackend).
-  const RightArmTruth& sampled_truth() const { return sampled_truth_; }
+  const ArmTruth& sampled_truth() const { return sampled_truth_; }
 
  private:
   void substep(const io::Command& command) noexcept;
   void sample() noexcept;
   void apply_faults(double t_s) noexcept;
 
-  RightArmPlantParams params_;
+  ArmPlantParams params_;
   io::BackendInfo info_;
   ModelPtr model_;
   DataPtr data_;
@@ -112,7 +112,7 @@ class RightArmBackend final : public io::Backend {
   int substeps_ = 1;
   std::mt19937_64 rng_;
   io::SensorState state_;
-  RightArmTruth truth_, sampled_truth_;
+  ArmTruth truth_, sampled_truth_;
   OutputGate gate_;
   std::vector<char> fault_applied_;         ///< per params_.faults: already in effect
   std::vector<double> encoder_offset_rad_;  ///< per actuated joint: an injected encoder jump

@@ -111,7 +111,7 @@ void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const 
 /// `plant:` and `operator:`: the simulated arm, its actuators (`joints: {<name>: ...}`, every side) and
 /// the operator's hands.
 void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig& body, const ArmLimits& l, ArmScenario& s) {
-  sim::RightArmPlantParams& p = s.plant;
+  sim::ArmPlantParams& p = s.plant;
   p.model = body.plant.model();
   p.mjcf = sim::exoskeleton_mjcf_options(body.plant);
   p.timestep_s = sim::read_timestep_s(plant, s.period_s);
@@ -301,7 +301,7 @@ void use_gravity_identification(ArmScenario& scenario, const std::filesystem::pa
 ArmScenario read_arm_scenario(const config::Document& doc) {
   config::Map root = doc.root();
   ArmScenario s;
-  const ScenarioHeader header = read_scenario_header(root, "right_arm");
+  const ScenarioHeader header = read_scenario_header(root, "arm");
   s.description = header.description;
   s.seed = header.seed;
   const models::BodyConfig body = models::read_body(config::Document::load_file(root.path_value("body")));
@@ -352,7 +352,7 @@ void add_arm_envelope_checks(const ArmScenario& scenario, const safety::JointMod
   safety::add_envelope_checks(scenario.limits, joints, arm_joint_names(scenario), envelope, scenario.verdict, verdict);
 }
 
-safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::RightArmTruth* truth,
+safety::JointSample arm_joint_sample(const io::SensorState& state, const io::Command& sent, const sim::ArmTruth* truth,
                                      std::size_t joint) noexcept {
   safety::JointSample j;
   if (truth) {

@@ -123,7 +123,7 @@ TEST(RightArmScenario, ActuatorsAreSizedAsSpecified) {
 // The arm's control step (J^T G + three allocations + limits) allocates nothing.
 TEST(ArmController, StepAllocatesNothing) {
   const ArmScenario s = shipped();
-  sim::RightArmBackend plant(s.plant);
+  sim::ArmBackend plant(s.plant);
   control::ArmController controller(s.controller);
   safety::LimitedBackend limited(plant, s.limits, arm_joint_models(controller.model()));
   limited.activate();
@@ -230,7 +230,7 @@ TEST(E3, StartupTareMeasuresTheLoadCellsOffsets) {
   PlantVariant v;
   v.loadcell_bias_N = 40.0;
   s.plant = arm_variant_plant(s, v);
-  sim::RightArmBackend plant(postures_plant_params(s));
+  sim::ArmBackend plant(postures_plant_params(s));
   control::ArmController controller(s.controller);
   safety::LimitedBackend limited(plant, s.limits, arm_joint_models(controller.model()));
   limited.activate();

@@ -1,4 +1,4 @@
-#include "peha/sim/right_arm.hpp"
+#include "peha/sim/arm_plant.hpp"
 
 #include <fmt/format.h>
 
@@ -32,7 +32,7 @@ models::ArmModel with_unknown_payload(models::ArmModel model, double unknown_kg)
 
 }  // namespace
 
-RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
+ArmBackend::ArmBackend(const ArmPlantParams& params)
     : params_(params),
       model_(load_arm_mjcf(arm_mjcf(with_unknown_payload(params.model, params.unknown_hand_payload_kg), params.mjcf))),
       rng_(params.seed),
@@ -88,7 +88,7 @@ RightArmBackend::RightArmBackend(const RightArmPlantParams& params)
   sampled_truth_ = truth_;
 }
 
-void RightArmBackend::substep(const io::Command& command) noexcept {
+void ArmBackend::substep(const io::Command& command) noexcept {
   mjModel* m = model_.get();
   mjData* d = data_.get();
   mju_zero(d->qfrc_applied, m->nv);
@@ -133,7 +133,7 @@ void RightArmBackend::substep(const io::Command& command) noexcept {
   mj_step(m, d);
 }
 
-void RightArmBackend::sample() noexcept {
+void ArmBackend::sample() noexcept {
   const mjModel* m = model_.get();
   const mjData* d = data_.get();
   truth_.time_s = d->time;
@@ -154,13 +154,13 @@ void RightArmBackend::sample() noexcept {
   ++state_.sequence;
 }
 
-bool RightArmBackend::read(io::SensorState& state) noexcept {
+bool ArmBackend::read(io::SensorState& state) noexcept {
   state = state_;
   sampled_truth_ = truth_;  // same sizes every time: no allocation after the constructor's copy
   return true;
 }
 
-void RightArmBackend::apply_faults(double t_s) noexcept {
+void ArmBackend::apply_faults(double t_s) noexcept {
   for (std::size_t i = 0; i < params_.faults.size(); ++i) {
     const PlantFault& f = params_.faults[i];
     if (fault_applied_[i] || t_s + 1e-9 < f.time_s) continue;
@@ -179,7 +179,7 @@ void RightArmBackend::apply_faults(double t_s) noexcept {
   }
 }
 
-bool RightArmBackend::write(const io::Command& command) noexcept {
+bool ArmBackend::write(const io::Command& command) noexcept {
   if (command.joint_count != static_cast<int>(joints_.size())) return false;
   apply_faults(data_->time);
   // Vented (not active): the board's dump valves empty the chambers past a stuck valve.
