@@ -2,7 +2,7 @@
 """Model vs identified vs measured joint torque per posture of a gravity identification.
 
 Reads an identification file written by `peha identify-gravity` (docs/identification.md) and writes a
-PNG beside it (or --out): per measured joint (R_SFE, R_EFE) and posture, the torque the rig measured
+PNG beside it (or --out): per measured joint (the file's measured_joints) and posture, the torque the rig measured
 (from the sweeps up and down through each posture), the identified model's Y(q) theta and the nominal
 model's, and below them the two models' errors against the measurement. Run with /usr/bin/python3
 (PyYAML, numpy, matplotlib).
@@ -34,11 +34,16 @@ def main(argv=None):
     measured = np.array([s["measured_Nm"] for s in samples])
     identified = np.array([s["identified_Nm"] for s in samples])
     nominal = np.array([s["nominal_Nm"] for s in samples])
-    joints = ["R_SFE", "R_EFE"][: measured.shape[1]]
+    joints = str(doc["measured_joints"]).split(",")
+    if len(joints) != measured.shape[1]:
+        print(f"{a.file}: measured_joints names {len(joints)} joints, the samples list {measured.shape[1]} torques", file=sys.stderr)
+        return 2
     x = np.arange(len(names))
-    fig, axes = plt.subplots(2, len(joints), figsize=(6 * len(joints), 7), sharex=True, squeeze=False)
+    cols = min(len(joints), 3)
+    rows = (len(joints) + cols - 1) // cols
+    fig, axes = plt.subplots(2 * rows, cols, figsize=(6 * cols, 6 * rows), squeeze=False)
     for j, joint in enumerate(joints):
-        ax = axes[0][j]
+        ax = axes[2 * (j // cols)][j % cols]
         ax.bar(x - 0.27, measured[:, j], 0.27, label="measured (mean of both approaches)", color="0.4")
         ax.bar(x, identified[:, j], 0.27, label="identified model", color="tab:green")
         ax.bar(x + 0.27, nominal[:, j], 0.27, label="nominal model", color="tab:orange")
@@ -46,7 +51,9 @@ def main(argv=None):
         ax.axhline(0, color="k", lw=0.5)
         if j == 0:
             ax.legend(fontsize=8)
-        err = axes[1][j]
+        ax.set_xticks(x)
+        ax.set_xticklabels([])
+        err = axes[2 * (j // cols) + 1][j % cols]
         err.plot(x, identified[:, j] - measured[:, j], "o-", color="tab:green", label="identified - measured")
         err.plot(x, nominal[:, j] - measured[:, j], "s--", color="tab:orange", label="nominal - measured")
         err.axhline(0, color="k", lw=0.5)

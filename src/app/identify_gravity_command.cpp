@@ -1,4 +1,4 @@
-// `peha identify-gravity`: the right arm's gravity parameters identified by the rig procedure.
+// `peha identify-gravity`: an arm's (or the upper body's) gravity parameters identified by the rig procedure.
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/calibration/gravity_identification.hpp"
@@ -27,9 +27,11 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     const auto& id = *scenario.identification;
     constexpr double kDeg = 180.0 / 3.14159265358979323846;
-    fmt::print("peha identify-gravity: {} ({} postures, each swept up and down over +-{:.1f} deg at {:.1f} deg/s; prior: the body "
+    std::string swept;
+    for (const std::size_t i : id.joints) swept += (swept.empty() ? "" : " ") + scenario.plant.actuated[i];
+    fmt::print("peha identify-gravity: {} ({} postures, each swept up and down over +-{:.1f} deg at {:.1f} deg/s on {}; prior: the body "
                "file's arm model{})\n",
-               options.config.string(), id.postures.size(), id.sweep_rad * kDeg, id.sweep_speed_radps * kDeg,
+               options.config.string(), id.postures.size(), id.sweep_rad * kDeg, id.sweep_speed_radps * kDeg, swept,
                scenario.gravity_identification_file.empty() ? std::string()
                                                             : ", not " + scenario.gravity_identification_file.string() + " (the config's)");
     experiments::ArmIdentificationResult r;
@@ -40,17 +42,21 @@ int identify_gravity(const IdentifyGravityOptions& options) {
       return 2;
     }
     const calibration::GravityIdentification& f = r.fit;
-    fmt::print("  {:<16} {:>22} {:>22} {:>18} {:>18} {:>14}\n", "posture", "measured SFE/EFE Nm", "identified SFE/EFE", "nominal SFE/EFE",
-               "up/down SFE *", "capstan k", "slowest");
+    fmt::print("  {:<16} {:<8} {:>10} {:>10} {:>10} {:>19} {:>9} {:>8}\n", "posture", "joint", "measured", "identified", "nominal",
+               "up / down *", "capstan k", "slowest");
     for (std::size_t i = 0; i < r.measurements.size(); ++i) {
       const auto& m = r.measurements[i];
       const auto k = static_cast<Eigen::Index>(i);
-      fmt::print("  {:<16} {:>10.3f} {:>10.3f}  {:>10.3f} {:>10.3f}  {:>8.3f} {:>8.3f}  {:>8.3f} {:>8.3f}  {:>6.3f} {:>6.3f}  {:>5.0f} %\n", m.name,
-                 m.tau_mean_Nm[0], m.tau_mean_Nm[1], f.predicted_Nm(k, 0), f.predicted_Nm(k, 1), f.prior_Nm(k, 0), f.prior_Nm(k, 1),
-                 m.tau_Nm[0][0], m.tau_Nm[1][0], m.friction_ratio[0], m.friction_ratio[1],
-                 100 * std::min({m.speed_fraction[0][0], m.speed_fraction[0][1], m.speed_fraction[1][0], m.speed_fraction[1][1]}));
+      for (std::size_t j = 0; j < m.joints.size(); ++j) {
+        const experiments::IdentificationJoint& mj = m.joints[j];
+        const auto e = static_cast<Eigen::Index>(j);
+        fmt::print("  {:<16} {:<8} {:>7.3f} Nm {:>7.3f} Nm {:>7.3f} Nm {:>7.3f} / {:>7.3f} Nm {:>9.3f} {:>6.0f} %\n", j == 0 ? m.name : "",
+                   r.joint_names[j], mj.tau_mean_Nm, f.predicted_Nm(k, e), f.prior_Nm(k, e), mj.tau_Nm[0], mj.tau_Nm[1], mj.friction_ratio,
+                   100 * std::min(mj.speed_fraction[0], mj.speed_fraction[1]));
+      }
     }
-    fmt::print("  * muscle side: r0 (F_agonist - F_antagonist) + motor while sweeping up / down; their difference is the cables' friction\n");
+    fmt::print("  * muscle side: r0 (F_agonist - F_antagonist) + motor while sweeping up / down; their difference is the cables' friction; "
+               "slowest: the joint's lowest mean speed in a window, of the reference's\n");
     fmt::print("fit: {} rows, {} identified directions, residual RMS {:.3f} Nm (max {:.3f}); the nominal model's RMS {:.3f} Nm; "
                "largest change vs nominal {:.1f} %\n",
                f.rows, f.rank, f.residual_rms_Nm, f.residual_max_Nm, f.prior_rms_Nm, 100 * f.max_change_fraction);

@@ -58,6 +58,7 @@ GravityIdentification identify_gravity(const models::ArmModel& nominal, const st
   }
 
   GravityIdentification fit;
+  fit.joints = options.joints;
   fit.prior = models::gravity_parameters(nominal);
   fit.rows = static_cast<int>(n);
   for (int k = 0; k < p; ++k) fit.names.push_back(models::gravity_parameter_name(nominal, k));
@@ -159,6 +160,9 @@ void write_gravity_identification(const std::filesystem::path& path, const model
     std::replace(quoted.begin(), quoted.end(), '"', '\'');
     out << fmt::format("provenance: \"{}\"\n", quoted);
     out << fmt::format("arm_joints: {}\n", joined(joints));
+    std::vector<std::string> measured;
+    for (const int j : fit.joints) measured.push_back(joints[static_cast<std::size_t>(j)]);
+    out << fmt::format("measured_joints: {}   # the joints whose torques each sample's *_Nm lists give, in order\n", joined(measured));
     out << fmt::format("fit: {{rank: {}, rows: {}, residual_rms_Nm: {:.6g}, residual_max_Nm: {:.6g}, uncertainty_rms_Nm: {:.6g}, "
                        "nominal_rms_Nm: {:.6g}, max_change_fraction: {:.6g}}}\n",
                        fit.rank, fit.rows, fit.residual_rms_Nm, fit.residual_max_Nm, fit.uncertainty_rms_Nm, fit.prior_rms_Nm,
@@ -187,6 +191,19 @@ models::ArmModel read_gravity_identification(const config::Document& doc, const 
   for (const models::ArmJoint& j : nominal.joints) joints.push_back(j.name);
   const std::string arm_joints = root.string("arm_joints");
   if (arm_joints != joined(joints)) root.fail("arm_joints", fmt::format("expected {} (this arm's joints), found {}", joined(joints), arm_joints));
+  // The measured joints: each one of this arm's, once; every sample lists one torque per measured joint.
+  const std::string measured_text = root.string("measured_joints");
+  std::vector<std::string> measured;
+  for (std::size_t from = 0; from <= measured_text.size();) {
+    const std::size_t comma = std::min(measured_text.find(',', from), measured_text.size());
+    measured.push_back(measured_text.substr(from, comma - from));
+    from = comma + 1;
+  }
+  for (std::size_t k = 0; k < measured.size(); ++k) {
+    if (std::find(joints.begin(), joints.end(), measured[k]) == joints.end() || std::find(measured.begin(), measured.begin() + static_cast<std::ptrdiff_t>(k), measured[k]) != measured.begin() + static_cast<std::ptrdiff_t>(k)) {
+      root.fail("measured_joints", fmt::format("expected distinct joints of this arm ({}), found '{}'", joined(joints), measured[k]));
+    }
+  }
   config::Map f = root.map("fit");
   (void)f.integer("rank", 0, 10000);
   (void)f.integer("rows", 0, 1000000);
@@ -209,7 +226,7 @@ models::ArmModel read_gravity_identification(const config::Document& doc, const 
   for (config::Map& s : root.maps("samples", 0, 100000)) {
     (void)s.string("name");
     (void)s.numbers("q_deg", {-360.0, 360.0}, 1, 64);
-    for (const char* k : {"measured_Nm", "identified_Nm", "nominal_Nm"}) (void)s.numbers(k, {-kBig, kBig}, 1, 64);
+    for (const char* k : {"measured_Nm", "identified_Nm", "nominal_Nm"}) (void)s.numbers(k, {-kBig, kBig}, measured.size(), measured.size());
     s.finish();
   }
   root.finish();

@@ -119,6 +119,13 @@ TEST(GravityIdentification, FileRoundTripAndStrictReading) {
   const std::string bad_arm = std::string(text).replace(text.find("R_WAA"), 5, "R_XYZ");
   EXPECT_THROW(read_gravity_identification(config::Document::load_string(bad_arm), nominal), config::Error);
   EXPECT_THROW(read_gravity_identification(config::Document::load_string(text + "colour: red\n"), nominal), config::Error);
+  // measured_joints names the joints behind each sample's torques: one of this arm's, once each, as
+  // many as the samples list.
+  ASSERT_NE(text.find("measured_joints: R_SFE,R_EFE"), std::string::npos) << text;
+  for (const char* bad : {"measured_joints: R_SFE,R_XYZ", "measured_joints: R_SFE,R_SFE", "measured_joints: R_SFE"}) {
+    const std::string t = std::string(text).replace(text.find("measured_joints: R_SFE,R_EFE"), 28, bad);
+    EXPECT_THROW(read_gravity_identification(config::Document::load_string(t), nominal), config::Error) << bad;
+  }
 }
 
 }  // namespace

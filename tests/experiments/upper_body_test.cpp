@@ -1,12 +1,19 @@
 // E3 on the upper body (configs/upper_body.yaml): both arms, eight driven joints from the body's joint
 // list, symmetric and asymmetric postures.
+#include "peha/experiments/arm_identification/arm_identification.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/models/gravity_parameters.hpp"
 
 #include "../support/verdict_checks.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <unistd.h>
 
 namespace peha::experiments {
 namespace {
@@ -40,19 +47,23 @@ TEST(UpperBodyScenario, DrivesBothArmsFromTheJointList) {
 }
 
 // Both arms stay where they were left (drift far below the threshold), mirror-image postures give the
-// same figures on both sides, and the static torque error is what the prior does not know about the
-// plant's heavier arms - so the run fails its static-error figures until the upper body is identified.
-TEST(UpperBodyScenario, BothArmsHoldMirrorPosturesAndTheirStaticErrorIsThePriors) {
-  const ArmScenario s = upper_body();
+// same figures on both sides, and with the shipped identification (configs/arm/upper_body_gravity.yaml)
+// every static torque error is within the verdict's 5 % (measured: worst 2.7 %, L_SFE at abducted_45;
+// drift <= 0.03 deg) and the verdict is OK. The same run on the body file's prior fails the elbows'
+// static-error figures (the prior does not know the plant's heavier arms: 8-12 %).
+TEST(UpperBodyScenario, BothArmsHoldMirrorPosturesWithinTheStaticErrorLimitOnceIdentified) {
+  ArmScenario s = upper_body();
+  ASSERT_FALSE(s.gravity_identification_file.empty());
   const PosturesResult r = run_postures(s, nullptr);
   ASSERT_EQ(r.postures.size(), s.postures.size());
   EXPECT_EQ(r.faults, 0u) << r.fault_reason;
+  EXPECT_TRUE(r.verdict.passed()) << r.verdict.failures();
   for (const PostureResult& p : r.postures) {
     ASSERT_EQ(p.joints.size(), 6u);
     for (const PostureJointResult& j : p.joints) {
       EXPECT_LT(std::abs(j.drift_deg), s.verdict.max_drift_deg) << p.name << " " << j.joint;
       if (std::abs(j.gravity_torque_Nm) < s.verdict.min_gravity_torque_Nm) continue;
-      EXPECT_NEAR(j.static_torque_error_pct, j.model_gravity_error_pct, 2.0) << p.name << " " << j.joint;
+      EXPECT_LE(std::abs(j.static_torque_error_pct), s.verdict.max_static_torque_error_pct) << p.name << " " << j.joint;
     }
   }
   for (const char* name : {"elbows_90", "abducted_45"}) {
@@ -67,8 +78,84 @@ TEST(UpperBodyScenario, BothArmsHoldMirrorPosturesAndTheirStaticErrorIsThePriors
   // The asymmetric posture: the right arm hangs while the left is raised and flexed.
   const PostureResult& raise = r.postures.back();
   EXPECT_GT(std::abs(figure(raise, "L_SFE").gravity_torque_Nm), 10.0);
-  EXPECT_TRUE(testing::fails_on(r.verdict, "elbows_90 L_EFE |static torque error|")) << r.verdict.failures();
-  EXPECT_TRUE(testing::fails_on(r.verdict, "elbows_90 R_EFE |static torque error|")) << r.verdict.failures();
+
+  s.controller.arm = s.nominal_arm;  // the body file's prior
+  const PosturesResult prior = run_postures(s, nullptr);
+  for (const PostureResult& p : prior.postures) {
+    for (const PostureJointResult& j : p.joints) {
+      if (std::abs(j.gravity_torque_Nm) < s.verdict.min_gravity_torque_Nm) continue;
+      EXPECT_NEAR(j.static_torque_error_pct, j.model_gravity_error_pct, 2.0) << p.name << " " << j.joint;
+    }
+  }
+  EXPECT_TRUE(testing::fails_on(prior.verdict, "elbows_90 L_EFE |static torque error|")) << prior.verdict.failures();
+  EXPECT_TRUE(testing::fails_on(prior.verdict, "elbows_90 R_EFE |static torque error|")) << prior.verdict.failures();
+}
+
+// peha identify-gravity on the upper body sweeps the six PEHA joints of both arms together (not the
+// constant-pressure wrists), measures each joint's capstan ratio near the plant's e^(mu_k psi) = 1.233
+// (measured 1.23-1.29) and fits all of them at once (residual 0.13 Nm, under 0.3); the shipped
+// configs/arm/upper_body_gravity.yaml is this identification (each parameter within 1 % or 0.002), so
+// a change that leaves it stale fails here. Regenerate: peha identify-gravity --config
+// configs/upper_body.yaml --out configs/arm/upper_body_gravity.yaml.
+TEST(UpperBodyIdentification, SweepsEveryPehaJointOfBothArmsAndReproducesTheShippedFile) {
+  const ArmScenario s = upper_body();
+  ASSERT_TRUE(s.identification);
+  const ArmIdentificationResult id = identify_arm_gravity(s, s.plant);
+  EXPECT_EQ(id.joint_names, (std::vector<std::string>{"R_SAA", "R_SFE", "R_EFE", "L_SAA", "L_SFE", "L_EFE"}));
+  EXPECT_LT(id.fit.residual_rms_Nm, 0.3);
+  EXPECT_EQ(id.fit.rows, static_cast<int>(6 * s.identification->postures.size()));
+  const sim::CablePlantParams& cable = s.plant.actuators[0].agonist.cable;
+  const double k_plant = std::exp(cable.kinetic_friction * cable.wrap_angle_rad);
+  for (const IdentificationMeasurement& m : id.measurements) {
+    for (std::size_t j = 0; j < m.joints.size(); ++j) {
+      EXPECT_NEAR(m.joints[j].friction_ratio, k_plant, 0.1 * k_plant) << m.name << " " << id.joint_names[j];
+    }
+  }
+  const Eigen::VectorXd now = models::gravity_parameters(id.identified);
+  const Eigen::VectorXd file = models::gravity_parameters(s.controller.arm);
+  ASSERT_EQ(now.size(), file.size());
+  for (Eigen::Index i = 0; i < now.size(); ++i) {
+    EXPECT_NEAR(file[i], now[i], std::max(0.01 * std::abs(now[i]), 0.002)) << "parameter " << i;
+  }
+}
+
+// An identification posture must give every swept joint an angle whose sweep stays inside its range,
+// and must not name a joint the rig does not sweep; each refusal names the file, the field and why.
+TEST(UpperBodyIdentification, PosturesThatMissASweptJointOrNameTheWristAreRefused) {
+  const std::string path = PEHA_SOURCE_DIR "/configs/upper_body.yaml";
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  auto refusal = [&](const std::string& from, const std::string& to) {
+    std::string t = text.str();
+    const std::size_t at = t.find(from);
+    if (at == std::string::npos) return std::string("'" + from + "' not in the shipped file");
+    t.replace(at, from.size(), to);
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_ub_id_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(dir);
+    for (const char* sub : {"arm", "plant", "mfb"}) {
+      std::error_code ignored;
+      std::filesystem::create_directory_symlink(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / sub, dir / sub, ignored);
+    }
+    std::ofstream(dir / "upper_body.yaml") << t;
+    try {
+      (void)read_arm_scenario(config::Document::load_file(dir / "upper_body.yaml"));
+    } catch (const config::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  const std::string missing = refusal("{name: forward_15, angles_deg: {SAA: 0.0, SFE: 0.0, EFE: 15.0}}", "{name: forward_15, angles_deg: {SAA: 0.0, SFE: 0.0}}");
+  EXPECT_NE(missing.find("names no angle for R_EFE"), std::string::npos) << missing;
+  EXPECT_NE(missing.find("upper_body.yaml"), std::string::npos) << missing;
+  const std::string wrist = refusal("{name: forward_15, angles_deg: {SAA: 0.0, SFE: 0.0, EFE: 15.0}}",
+                                    "{name: forward_15, angles_deg: {SAA: 0.0, SFE: 0.0, EFE: 15.0, L_WFE: 10.0}}");
+  EXPECT_NE(wrist.find("names L_WFE, which the rig does not sweep"), std::string::npos) << wrist;
+  const std::string edge = refusal("{name: forward_15, angles_deg: {SAA: 0.0, SFE: 0.0, EFE: 15.0}}",
+                                   "{name: forward_15, angles_deg: {SAA: 85.0, SFE: 0.0, EFE: 15.0}}");
+  EXPECT_NE(edge.find("R_SAA at 85.0 deg: its sweep of +-8.0 deg must stay 1 deg inside"), std::string::npos) << edge;
+  const std::string pd = refusal("stiffness_Nm_per_rad: {SAA: 100.0, SFE: 100.0, EFE: 40.0}", "stiffness_Nm_per_rad: {SFE: 100.0, EFE: 40.0}");
+  EXPECT_NE(pd.find("the rig sweeps R_SAA: give its value"), std::string::npos) << pd;
 }
 
 }  // namespace

@@ -54,6 +54,7 @@ struct GravityIdentificationOptions {
 };
 
 struct GravityIdentification {
+  std::vector<int> joints;        ///< the model joints whose torques were measured (the options'), in the samples' order
   Eigen::VectorXd prior;          ///< theta0: the nominal model's parameters
   Eigen::VectorXd theta;          ///< identified parameters
   Eigen::VectorXd std;            ///< per parameter, from the residual and the (pseudo-)inverse of Y^T Y; 0 where not identified

@@ -155,6 +155,23 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
   op.finish();
 }
 
+/// A per-joint map: a value per driven joint, by arm joint ("SFE": every side) or by io joint ("R_SFE":
+/// that side only, over the arm joint's value), each within `range`; NaN for joints not named.
+std::vector<double> read_angles_like(config::Map& item, const ArmScenario& s, const config::Range& range) {
+  std::vector<double> v(s.plant.actuated.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    const std::string& io_name = s.plant.actuated[i];
+    const std::string arm_name = io_name.substr(io_name.find('_') + 1);
+    if (item.has(io_name)) {
+      v[i] = item.number(io_name, range);
+    } else if (item.has(arm_name)) {
+      v[i] = item.number(arm_name, range);
+    }
+  }
+  item.finish();
+  return v;
+}
+
 /// An `angles_deg:` map: a target per driven joint, by arm joint ("SFE": every side) or by io joint
 /// ("R_SFE": that side only, over the arm joint's value); each within its joint's range. Joints not
 /// named stay NaN (the operator leaves them free). At least `min_named` joints must be named.
@@ -264,26 +281,50 @@ void read_identification(config::Map id, ArmScenario& s) {
                                       "least half a ramp at cruise speed ({:.2f} deg); widen the sweep, narrow the window or shorten ramp_s",
                                       (d.sweep_rad - d.window_rad) / kDeg, 0.5 * d.sweep_speed_radps * d.ramp_s / kDeg));
   }
-  const std::vector<double> k = id.numbers("stiffness_Nm_per_rad", {0.0, 1e4}, 2, 2);
-  const std::vector<double> c = id.numbers("damping_Nms_per_rad", {0.0, 1e3}, 2, 2);
-  for (int j = 0; j < 2; ++j) {
-    d.stiffness_Nm_per_rad[j] = k[static_cast<std::size_t>(j)];
-    d.damping_Nms_per_rad[j] = c[static_cast<std::size_t>(j)];
+  // The swept joints: those whose actuator follows a torque (PEHA, PAM pair).
+  for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
+    if (s.controller.joints[i].mode != control::ArmJointMode::kHoldPressure) d.joints.push_back(i);
   }
+  // The rig's PD per swept joint, by arm joint (every side) or io joint (one side).
+  auto per_swept_joint = [&](const char* key, const config::Range& range) {
+    config::Map m = id.map(key);
+    const std::vector<double> v = read_angles_like(m, s, range);
+    std::vector<double> out;
+    for (const std::size_t i : d.joints) {
+      if (std::isnan(v[i])) m.fail(s.plant.actuated[i], fmt::format("the rig sweeps {}: give its value", s.plant.actuated[i]));
+      out.push_back(v[i]);
+    }
+    return out;
+  };
+  d.stiffness_Nm_per_rad = per_swept_joint("stiffness_Nm_per_rad", {0.0, 1e4});
+  d.damping_Nms_per_rad = per_swept_joint("damping_Nms_per_rad", {0.0, 1e3});
   d.max_residual_rms_Nm = id.number("max_residual_rms_Nm", {0.001, 100.0});
   d.max_change_fraction = id.number("max_change_fraction", {0.001, 10.0});
   d.rank_tolerance = id.number_or("rank_tolerance", d.rank_tolerance, {1e-12, 1.0});
   for (config::Map item : id.maps("postures", 3, 64)) {
     ArmPosture a;
     a.name = item.string("name");
-    a.target_rad.assign(s.plant.actuated.size(), std::numeric_limits<double>::quiet_NaN());
-    // The first two driven joints (shoulder and elbow flexion), every sweep inside the joint's range:
-    // a stop would hold part of the torque.
-    for (int j = 0; j < 2; ++j) {
-      const safety::JointLimits& lim = s.limits.joints[static_cast<std::size_t>(j)];
-      const char* key = j == 0 ? "sfe_deg" : "efe_deg";
-      const double v = item.number(key, {(lim.min_angle_rad + d.sweep_rad) / kDeg + 1.0, (lim.max_angle_rad - d.sweep_rad) / kDeg - 1.0});
-      a.target_rad[static_cast<std::size_t>(j)] = v * kDeg;
+    config::Map angles = item.map("angles_deg");
+    a.target_rad = read_angles(angles, s, 1);
+    // Every swept joint has an angle, its whole sweep inside the joint's range (a stop would hold part
+    // of the torque); the others (a constant-pressure wrist) are not named.
+    for (std::size_t i = 0; i < a.target_rad.size(); ++i) {
+      const safety::JointLimits& lim = s.limits.joints[i];
+      const bool is_swept = std::find(d.joints.begin(), d.joints.end(), i) != d.joints.end();
+      const std::string& io_name = s.plant.actuated[i];
+      if (!is_swept) {
+        if (!std::isnan(a.target_rad[i])) {
+          item.fail("angles_deg", fmt::format("names {}, which the rig does not sweep (a constant-pressure hold): remove it", io_name));
+        }
+        continue;
+      }
+      if (std::isnan(a.target_rad[i])) item.fail("angles_deg", fmt::format("names no angle for {}; the rig sweeps every PEHA and PAM-pair joint", io_name));
+      const double lo = lim.min_angle_rad + d.sweep_rad + kDeg, hi = lim.max_angle_rad - d.sweep_rad - kDeg;
+      if (a.target_rad[i] < lo || a.target_rad[i] > hi) {
+        item.fail("angles_deg", fmt::format("{} at {:.1f} deg: its sweep of +-{:.1f} deg must stay 1 deg inside the joint's range, so the "
+                                            "posture must lie in [{:.1f}, {:.1f}] deg",
+                                            io_name, a.target_rad[i] / kDeg, d.sweep_rad / kDeg, lo / kDeg, hi / kDeg));
+      }
     }
     item.finish();
     d.postures.push_back(a);

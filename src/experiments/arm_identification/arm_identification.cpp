@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -20,17 +21,24 @@ namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kStartHold_s = 2.0;  // the operator holds the start posture while compensation comes on (as E3)
 
-/// One leg of the rig's reference: a move to `target` over move_s (minimum jerk, or for a sweep a
-/// cruise at constant speed between two ramps), then a hold of hold_s. A sweep measures posture
-/// `posture` (-1: none, a warm-up) in direction `side` (0 up, 1 down) while the leg's clock is in
-/// [window_from_s, window_to_s].
+/// One leg of the rig's reference: a move to `target` (one angle per swept joint) over move_s (minimum
+/// jerk, or for a sweep a cruise at constant speed between two ramps), then a hold of hold_s. A sweep
+/// measures posture `posture` (-1: none, a warm-up) in direction `side` (0 up, 1 down) while the leg's
+/// clock is in [window_from_s, window_to_s].
 struct Leg {
-  double target_rad[2] = {0, 0};
+  std::vector<double> target_rad;
   double move_s = 1, hold_s = 0;
   bool sweep = false;
   int posture = -1, side = -1;
   double window_from_s = 0, window_to_s = 0;
 };
+
+/// `posture`'s angle of each swept joint plus `offset_rad`.
+std::vector<double> swept_targets(const ArmScenario::Identification& id, const ArmPosture& posture, double offset_rad) {
+  std::vector<double> q;
+  for (const std::size_t i : id.joints) q.push_back(posture.target_rad[i] + offset_rad);
+  return q;
+}
 
 std::vector<Leg> legs_of(const ArmScenario::Identification& id) {
   std::vector<Leg> legs;
@@ -38,13 +46,13 @@ std::vector<Leg> legs_of(const ArmScenario::Identification& id) {
   const double half_window_s = id.window_rad / id.sweep_speed_radps;
   for (std::size_t p = 0; p < id.postures.size(); ++p) {
     const ArmPosture& a = id.postures[p];
-    legs.push_back({{a.target_rad[0] - id.sweep_rad, a.target_rad[1] - id.sweep_rad}, id.move_s, id.settle_s});
+    legs.push_back({swept_targets(id, a, -id.sweep_rad), id.move_s, id.settle_s});
     // The first posture is swept once more before it is measured: the rig learns the friction it
     // must push against (below) on that pair.
     for (int pass = p == 0 ? 0 : 1; pass < 2; ++pass) {
       for (int side = 0; side < 2; ++side) {
         const double to = side == 0 ? id.sweep_rad : -id.sweep_rad;  // up, then back down
-        legs.push_back({{a.target_rad[0] + to, a.target_rad[1] + to}, sweep_s, id.settle_s, true, pass == 1 ? static_cast<int>(p) : -1, side,
+        legs.push_back({swept_targets(id, a, to), sweep_s, id.settle_s, true, pass == 1 ? static_cast<int>(p) : -1, side,
                         0.5 * sweep_s - half_window_s, 0.5 * sweep_s + half_window_s});
       }
     }
@@ -83,9 +91,15 @@ double capstan_ratio(double a_up, double b_up, double m_up, double a_down, doubl
 sim::ArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::ArmPlantParams& plant) {
   sim::ArmPlantParams p = plant;
   p.operator_hands.moves.clear();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  p.operator_hands.moves.push_back({"start", 0.0, kStartHold_s, kStartHold_s, {p.initial_q_rad[0], p.initial_q_rad[1], nan}});
-  (void)scenario;
+  // The operator holds every swept joint where the arm starts while compensation comes on; the
+  // others (a constant-pressure wrist) stay free.
+  std::vector<double> hold(scenario.controller.joints.size(), std::numeric_limits<double>::quiet_NaN());
+  if (scenario.identification) {
+    for (const std::size_t i : scenario.identification->joints) {
+      hold[i] = p.initial_q_rad[static_cast<std::size_t>(scenario.controller.joints[i].model_joint)];
+    }
+  }
+  p.operator_hands.moves.push_back({"start", 0.0, kStartHold_s, kStartHold_s, hold});
   return p;
 }
 
@@ -99,6 +113,8 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   scenario.controller.arm = scenario.nominal_arm;
   if (!scenario.identification) throw config::Error("the arm scenario has no identification: section (docs/identification.md)");
   const ArmScenario::Identification& id = *scenario.identification;
+  const std::vector<std::size_t>& swept = id.joints;  // io joints the rig sweeps and measures
+  const std::size_t n = swept.size(), io_count = scenario.controller.joints.size();
   const std::vector<Leg> legs = legs_of(id);
   std::vector<double> leg_start_s;
   double t = kStartHold_s;
@@ -115,28 +131,31 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   }
   sim::ArmBackend& plant = *owned;
   control::ArmController controller(scenario.controller);
-  controller.set_mode(0, control::ArmJointMode::kCommanded);
-  controller.set_mode(1, control::ArmJointMode::kCommanded);
+  for (const std::size_t i : swept) controller.set_mode(i, control::ArmJointMode::kCommanded);
   const safety::JointModels joints = arm_joint_models(controller.model());
   safety::LimitedBackend limited(plant, scenario.limits, joints);
 
-  // Per posture and side: sums over the averaging window.
+  // Per posture and side: sums over the averaging window (q per io joint; the rest per swept joint).
   struct Sums {
-    double q[3] = {0, 0, 0}, force[2][2] = {{0, 0}, {0, 0}}, motor[2] = {0, 0}, speed[2] = {0, 0};
+    std::vector<double> q;
+    std::vector<std::array<double, 2>> force;
+    std::vector<double> motor, speed;
     double n = 0;
   };
-  std::vector<std::array<Sums, 2>> sums(id.postures.size());
-  double start_q[2] = {0, 0};
+  const Sums empty{std::vector<double>(io_count, 0.0), std::vector<std::array<double, 2>>(n, {0.0, 0.0}), std::vector<double>(n, 0.0),
+                   std::vector<double>(n, 0.0), 0.0};
+  std::vector<std::array<Sums, 2>> sums(id.postures.size(), {empty, empty});
+  std::vector<double> start_q(n, 0.0);
   bool started = false;
   std::size_t leg = 0;
   int reported = -1;
-  // The rig's friction feed-forward per sweep direction and joint (Nm): what the PD had to add in the
-  // last window of that direction, learned with friction_learning_gain. It keeps the lag behind the
-  // reference small and the wires sliding steadily through the window; without it the PD's lag (the
-  // friction over its stiffness, 5-6 deg on the shoulder) let the joint stick and slip in the window.
-  double feedforward_Nm[2][2] = {{0, 0}, {0, 0}};
-  double pd_sum_Nm[2] = {0, 0}, pd_n = 0;
-  double previous_ref[2] = {0, 0};
+  // The rig's friction feed-forward per sweep direction and swept joint (Nm): what the PD had to add
+  // in the last window of that direction, learned with friction_learning_gain. It keeps the lag behind
+  // the reference small and the wires sliding steadily through the window; without it the PD's lag
+  // (the friction over its stiffness, 5-6 deg on the shoulder) let the joint stick and slip in the window.
+  std::vector<std::array<double, 2>> feedforward_Nm(n, {0.0, 0.0});
+  std::vector<double> pd_sum_Nm(n, 0.0), previous_ref(n, 0.0);
+  double pd_n = 0;
   bool have_previous_ref = false;
 
   io::SensorState state;
@@ -147,38 +166,39 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
     const double now = state.time_s;
     if (now >= kStartHold_s) {
       if (!started) {  // the rig's reference starts where the operator left the arm
-        start_q[0] = state.joints[0].angle_rad;
-        start_q[1] = state.joints[1].angle_rad;
+        for (std::size_t k = 0; k < n; ++k) start_q[k] = state.joints[swept[k]].angle_rad;
         started = true;
       }
       while (leg + 1 < legs.size() && now >= leg_start_s[leg + 1]) {
         const Leg& done = legs[leg];
         if (done.sweep && pd_n > 0) {
-          for (int j = 0; j < 2; ++j) feedforward_Nm[done.side][j] += id.friction_learning_gain * pd_sum_Nm[j] / pd_n;
+          for (std::size_t k = 0; k < n; ++k) feedforward_Nm[k][static_cast<std::size_t>(done.side)] += id.friction_learning_gain * pd_sum_Nm[k] / pd_n;
         }
-        pd_sum_Nm[0] = pd_sum_Nm[1] = pd_n = 0;
+        std::fill(pd_sum_Nm.begin(), pd_sum_Nm.end(), 0.0);
+        pd_n = 0;
         ++leg;
       }
       const Leg& l = legs[leg];
-      const double* from = leg ? legs[leg - 1].target_rad : start_q;
+      const std::vector<double>& from = leg ? legs[leg - 1].target_rad : start_q;
       const double in_leg_s = now - leg_start_s[leg];
       const double s = l.sweep ? cruise(in_leg_s, l.move_s, id.ramp_s) : min_jerk(in_leg_s / l.move_s);
       const bool in_window = l.sweep && in_leg_s >= l.window_from_s && in_leg_s < l.window_to_s;
-      for (int j = 0; j < 2; ++j) {
-        const double ref = from[j] + (l.target_rad[j] - from[j]) * s;
-        const double ref_velocity = have_previous_ref ? (ref - previous_ref[j]) / scenario.period_s : 0.0;
-        previous_ref[j] = ref;
-        const auto& d = controller.diagnostics()[static_cast<std::size_t>(j)];
-        const double pd = id.stiffness_Nm_per_rad[j] * (ref - state.joints[j].angle_rad) + id.damping_Nms_per_rad[j] * (ref_velocity - d.velocity_radps);
+      for (std::size_t k = 0; k < n; ++k) {
+        const std::size_t j = swept[k];
+        const double ref = from[k] + (l.target_rad[k] - from[k]) * s;
+        const double ref_velocity = have_previous_ref ? (ref - previous_ref[k]) / scenario.period_s : 0.0;
+        previous_ref[k] = ref;
+        const auto& d = controller.diagnostics()[j];
+        const double pd = id.stiffness_Nm_per_rad[k] * (ref - state.joints[j].angle_rad) + id.damping_Nms_per_rad[k] * (ref_velocity - d.velocity_radps);
         const double cruising = l.sweep ? std::clamp(std::abs(ref_velocity) / id.sweep_speed_radps, 0.0, 1.0) : 0.0;
-        const double feedforward = l.sweep ? cruising * feedforward_Nm[l.side][j] : 0.0;
-        if (in_window) pd_sum_Nm[j] += pd;
+        const double feedforward = l.sweep ? cruising * feedforward_Nm[k][static_cast<std::size_t>(l.side)] : 0.0;
+        if (in_window) pd_sum_Nm[k] += pd;
         controller.set_desired_torque(j, d.torque_gravity_Nm + feedforward + pd);
       }
       if (in_window) pd_n += 1;
       have_previous_ref = true;
     } else {
-      for (int j = 0; j < 2; ++j) controller.set_desired_torque(j, controller.diagnostics()[static_cast<std::size_t>(j)].torque_gravity_Nm);
+      for (const std::size_t j : swept) controller.set_desired_torque(j, controller.diagnostics()[j].torque_gravity_Nm);
     }
     controller.update(state, command);
   };
@@ -188,13 +208,14 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
     const double in_leg_s = state.time_s - leg_start_s[leg];
     if (l.posture < 0 || in_leg_s < l.window_from_s || in_leg_s >= l.window_to_s) return;
     Sums& s = sums[static_cast<std::size_t>(l.posture)][static_cast<std::size_t>(l.side)];
-    for (int j = 0; j < 3; ++j) s.q[j] += state.joints[j].angle_rad;
-    for (int j = 0; j < 2; ++j) {
+    for (std::size_t i = 0; i < io_count; ++i) s.q[i] += state.joints[i].angle_rad;
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t j = swept[k];
       const io::JointSensors& js = state.joints[j];
-      s.force[j][0] += js.agonist_loadcell_N - controller.loadcell_offset_N(static_cast<std::size_t>(j), 0);
-      s.force[j][1] += js.antagonist_loadcell_N - controller.loadcell_offset_N(static_cast<std::size_t>(j), 1);
-      s.motor[j] += sent.joints[j].motor_torque_Nm;
-      s.speed[j] += controller.diagnostics()[static_cast<std::size_t>(j)].velocity_radps;
+      s.force[k][0] += js.agonist_loadcell_N - controller.loadcell_offset_N(j, 0);
+      s.force[k][1] += js.antagonist_loadcell_N - controller.loadcell_offset_N(j, 1);
+      s.motor[k] += sent.joints[j].motor_torque_Nm;
+      s.speed[k] += controller.diagnostics()[j].velocity_radps;
     }
     s.n += 1;
     if (progress && l.side == 1 && l.posture != reported && in_leg_s >= l.window_to_s - 2 * scenario.period_s) {
@@ -218,36 +239,40 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   ArmIdentificationResult r;
   r.duration_s = duration_s;
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
+  for (const std::size_t j : swept) r.joint_names.push_back(scenario.plant.actuated[j]);
   const int dof = scenario.controller.arm.dof();
+  auto model_joint = [&](std::size_t io_joint) { return scenario.controller.joints[io_joint].model_joint; };
   for (std::size_t p = 0; p < id.postures.size(); ++p) {
     IdentificationMeasurement m;
     m.name = id.postures[p].name;
+    m.joints.resize(n);
     calibration::GravitySample sample;
     sample.name = m.name;
     sample.q_rad = Eigen::VectorXd::Zero(dof);  // the passive wrist joints are taken at 0, as the controller does
-    sample.tau_Nm = Eigen::VectorXd::Zero(2);
+    sample.tau_Nm = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
     for (int side = 0; side < 2; ++side) {
       const Sums& s = sums[p][static_cast<std::size_t>(side)];
       if (s.n < 1) throw std::runtime_error(fmt::format("identification: posture '{}' was not measured (run too short?)", m.name));
-      for (int j = 0; j < 3; ++j) {
-        m.q_deg[side][j] = s.q[j] / s.n / kDeg;
-        sample.q_rad[j] += 0.5 * s.q[j] / s.n;
+      m.q_deg[side].resize(io_count);
+      for (std::size_t i = 0; i < io_count; ++i) {
+        m.q_deg[side][i] = s.q[i] / s.n / kDeg;
+        sample.q_rad[model_joint(i)] += 0.5 * s.q[i] / s.n;
       }
-      for (int j = 0; j < 2; ++j) {
-        const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
-        m.force_N[side][j][0] = s.force[j][0] / s.n;
-        m.force_N[side][j][1] = s.force[j][1] / s.n;
-        m.motor_Nm[side][j] = s.motor[j] / s.n;
-        m.tau_Nm[side][j] = r0 * (m.force_N[side][j][0] - m.force_N[side][j][1]) + m.motor_Nm[side][j];
-        m.speed_fraction[side][j] = (side == 0 ? 1.0 : -1.0) * s.speed[j] / s.n / id.sweep_speed_radps;
+      for (std::size_t k = 0; k < n; ++k) {
+        IdentificationJoint& mj = m.joints[k];
+        const double r0 = controller.model().joints[swept[k]].actuator.pulley_radius_m;
+        mj.force_N[side][0] = s.force[k][0] / s.n;
+        mj.force_N[side][1] = s.force[k][1] / s.n;
+        mj.motor_Nm[side] = s.motor[k] / s.n;
+        mj.tau_Nm[side] = r0 * (mj.force_N[side][0] - mj.force_N[side][1]) + mj.motor_Nm[side];
+        mj.speed_fraction[side] = (side == 0 ? 1.0 : -1.0) * s.speed[k] / s.n / id.sweep_speed_radps;
         // A joint the cables held during the window measures the static friction's band, not sliding.
-        if (!(m.speed_fraction[side][j] >= id.min_speed_fraction)) {
+        if (!(mj.speed_fraction[side] >= id.min_speed_fraction)) {
           throw calibration::GravityIdentificationRejected(fmt::format(
-              "gravity identification refused: at posture '{}' the {} moved at {:.0f} % of the reference's speed in the window of "
+              "gravity identification refused: at posture '{}' {} moved at {:.0f} % of the reference's speed in the window of "
               "the {} sweep (< {:.0f} %, min_speed_fraction): the cables held it, so its torque is not the sliding one. Stiffen the "
               "rig's PD or slow the sweep",
-              m.name, j == 0 ? "shoulder" : "elbow", 100 * m.speed_fraction[side][j],
-              side == 0 ? "upward" : "downward", 100 * id.min_speed_fraction));
+              m.name, r.joint_names[k], 100 * mj.speed_fraction[side], side == 0 ? "upward" : "downward", 100 * id.min_speed_fraction));
         }
       }
     }
@@ -255,7 +280,8 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
     r.samples.push_back(sample);
   }
   calibration::GravityIdentificationOptions o;
-  o.joints = {0, 1};
+  o.joints.clear();
+  for (const std::size_t j : swept) o.joints.push_back(model_joint(j));
   o.max_residual_rms_Nm = id.max_residual_rms_Nm;
   o.max_change_fraction = id.max_change_fraction;
   o.rank_tolerance = id.rank_tolerance;
@@ -268,29 +294,34 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   const models::ArmModel& arm = scenario.controller.arm;
   models::ArmData data(arm);
   Eigen::MatrixXd Y(dof, models::gravity_parameter_count(arm));
-  auto gravity_Nm = [&](const Eigen::VectorXd& theta, const double* q_deg) -> Eigen::Vector2d {  // SFE, EFE
+  auto gravity_Nm = [&](const Eigen::VectorXd& theta, const std::vector<double>& q_deg) -> Eigen::VectorXd {  // per swept joint
     Eigen::VectorXd q = Eigen::VectorXd::Zero(dof);
-    for (int j = 0; j < 3; ++j) q[j] = q_deg[j] * kDeg;
+    for (std::size_t i = 0; i < io_count; ++i) q[model_joint(i)] = q_deg[i] * kDeg;
     models::gravity_regressor(arm, data, q, Y);
-    return Y.topRows(2) * theta;
+    const Eigen::VectorXd all = Y * theta;
+    Eigen::VectorXd g(static_cast<Eigen::Index>(n));
+    for (std::size_t k = 0; k < n; ++k) g[static_cast<Eigen::Index>(k)] = all[model_joint(swept[k])];
+    return g;
   };
   auto measure = [&](const Eigen::VectorXd& theta) {
     for (std::size_t p = 0; p < r.measurements.size(); ++p) {
       IdentificationMeasurement& m = r.measurements[p];
-      double q_mean_deg[3];
-      for (int j = 0; j < 3; ++j) q_mean_deg[j] = 0.5 * (m.q_deg[0][j] + m.q_deg[1][j]);
-      const Eigen::Vector2d g_mean = gravity_Nm(theta, q_mean_deg), g_up = gravity_Nm(theta, m.q_deg[0]),
+      std::vector<double> q_mean_deg(io_count);
+      for (std::size_t i = 0; i < io_count; ++i) q_mean_deg[i] = 0.5 * (m.q_deg[0][i] + m.q_deg[1][i]);
+      const Eigen::VectorXd g_mean = gravity_Nm(theta, q_mean_deg), g_up = gravity_Nm(theta, m.q_deg[0]),
                             g_down = gravity_Nm(theta, m.q_deg[1]);
-      for (int j = 0; j < 2; ++j) {
-        const double r0 = controller.model().joints[static_cast<std::size_t>(j)].actuator.pulley_radius_m;
-        const double a_up = r0 * m.force_N[0][j][0], b_up = r0 * m.force_N[0][j][1];
-        const double a_down = r0 * m.force_N[1][j][0], b_down = r0 * m.force_N[1][j][1];
-        const double m_up = m.motor_Nm[0][j] - (g_up[j] - g_mean[j]);
-        const double m_down = m.motor_Nm[1][j] - (g_down[j] - g_mean[j]);
-        const double k = capstan_ratio(a_up, b_up, m_up, a_down, b_down, m_down);
-        m.friction_ratio[j] = k;
-        m.tau_mean_Nm[j] = 0.5 * ((a_up / k - b_up * k + m_up) + (a_down * k - b_down / k + m_down));
-        r.samples[p].tau_Nm[j] = m.tau_mean_Nm[j];
+      for (std::size_t k = 0; k < n; ++k) {
+        IdentificationJoint& mj = m.joints[k];
+        const auto e = static_cast<Eigen::Index>(k);
+        const double r0 = controller.model().joints[swept[k]].actuator.pulley_radius_m;
+        const double a_up = r0 * mj.force_N[0][0], b_up = r0 * mj.force_N[0][1];
+        const double a_down = r0 * mj.force_N[1][0], b_down = r0 * mj.force_N[1][1];
+        const double m_up = mj.motor_Nm[0] - (g_up[e] - g_mean[e]);
+        const double m_down = mj.motor_Nm[1] - (g_down[e] - g_mean[e]);
+        const double ratio = capstan_ratio(a_up, b_up, m_up, a_down, b_down, m_down);
+        mj.friction_ratio = ratio;
+        mj.tau_mean_Nm = 0.5 * ((a_up / ratio - b_up * ratio + m_up) + (a_down * ratio - b_down / ratio + m_down));
+        r.samples[p].tau_Nm[e] = mj.tau_mean_Nm;
       }
     }
   };

@@ -78,11 +78,14 @@ struct ArmScenario {
     std::vector<Movement> movements;
   } goniometer;
   /// `peha identify-gravity` (docs/identification.md): the rig drives the arm with its own controller
-  /// plus a PD on the encoders slowly up and then down through each posture (both joints at once) and
-  /// measures the torques while the cables slide. Optional section `identification:`.
+  /// plus a PD on the encoders slowly up and then down through each posture (every swept joint at
+  /// once) and measures the torques while the cables slide. Optional section `identification:`.
   struct Identification {
-    std::vector<ArmPosture> postures;
-    double sweep_rad = 0.14;            ///< each sweep runs from this far below the posture to this far above (both joints), and back
+    /// The io joints the rig sweeps and measures: every joint with a PEHA or PAM-pair actuator (a
+    /// constant-pressure hold cannot follow a torque), in io order.
+    std::vector<std::size_t> joints;
+    std::vector<ArmPosture> postures;   ///< each names an angle for every swept joint (NaN for the others)
+    double sweep_rad = 0.14;            ///< each sweep runs from this far below the posture to this far above (every swept joint), and back
     double sweep_speed_radps = 0.14;    ///< the reference's speed while cruising through the posture
     double ramp_s = 0.5;                ///< the reference speeds up and slows down over this at each end of a sweep
     double window_rad = 0.044;          ///< averaged while the reference is within this of the posture
@@ -92,8 +95,8 @@ struct ArmScenario {
     /// After each window, this x the PD's mean torque in it joins the rig's friction feed-forward for
     /// that direction (0: PD alone).
     double friction_learning_gain = 0.8;
-    double stiffness_Nm_per_rad[2] = {100, 40};  ///< PD while the rig drives the arm (SFE, EFE)
-    double damping_Nms_per_rad[2] = {12, 3};
+    std::vector<double> stiffness_Nm_per_rad;  ///< per swept joint: the PD while the rig drives the arm
+    std::vector<double> damping_Nms_per_rad;
     double max_residual_rms_Nm = 0.5;   ///< refuse a fit with a larger residual
     double max_change_fraction = 0.3;   ///< refuse a fit that moves a torque by more than this vs the nominal model
     double rank_tolerance = 0.05;       ///< directions with a singular value below this x the largest keep the nominal model

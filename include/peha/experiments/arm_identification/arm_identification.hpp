@@ -1,9 +1,9 @@
 #pragma once
 /// \file
-/// The rig procedure of `peha identify-gravity` (docs/identification.md): the right arm's own
-/// controller, in commanded-torque mode with its nominal gravity torque plus a PD on the joint
-/// encoders, sweeps the arm slowly up and then down through each posture of the scenario's
-/// `identification:` section (both joints at once) and averages what the rig measures while the
+/// The rig procedure of `peha identify-gravity` (docs/identification.md): the arm's own controller,
+/// in commanded-torque mode with its nominal gravity torque plus a PD on the joint encoders, sweeps
+/// every joint with a PEHA or PAM-pair actuator (every side at once) slowly up and then down through
+/// each posture of the scenario's `identification:` section and averages what the rig measures while the
 /// reference crosses the posture: the encoders, the load cells (minus their zero) and the motor's
 /// command. While a wire slides, its Bowden friction is fully developed and its direction known: moving
 /// up, the pulley end of the agonist's wire carries F/k and the antagonist's F k (k = e^(mu psi), the
@@ -19,19 +19,26 @@
 
 namespace peha::experiments {
 
-/// One posture's measurement: per sweep (0 = upward, 1 = downward), averaged over the window.
+/// One swept joint's measurement at one posture: per sweep (0 = upward, 1 = downward), averaged over
+/// the window.
+struct IdentificationJoint {
+  double speed_fraction[2] = {};  ///< the joint's mean speed / the reference's
+  double tau_Nm[2] = {};          ///< r0 (F_agonist - F_antagonist) + motor, muscle-side forces
+  double force_N[2][2] = {};      ///< sweep x muscle (agonist, antagonist): load cell minus its zero
+  double motor_Nm[2] = {};        ///< the motor's command (0 without a motor)
+  double friction_ratio = 0;      ///< k = e^(mu psi) the two sweeps agree on
+  double tau_mean_Nm = 0;         ///< the sample's gravity torque: either sweep's pulley-side torque with that k
+};
+
+/// One posture's measurement.
 struct IdentificationMeasurement {
   std::string name;
-  double q_deg[2][3] = {};           ///< sweep x (SFE, EFE, WFE): encoders
-  double speed_fraction[2][2] = {};  ///< sweep x (SFE, EFE): the joint's mean speed / the reference's
-  double tau_Nm[2][2] = {};          ///< sweep x (SFE, EFE): r0 (F_agonist - F_antagonist) + motor, muscle-side forces
-  double force_N[2][2][2] = {};      ///< sweep x joint x muscle: load cell minus its zero
-  double motor_Nm[2][2] = {};        ///< sweep x (SFE, EFE): the motor's command
-  double friction_ratio[2] = {};     ///< (SFE, EFE): k = e^(mu psi) the two sweeps agree on
-  double tau_mean_Nm[2] = {};        ///< the sample's gravity torque: either sweep's pulley-side torque with that k
+  std::vector<double> q_deg[2];           ///< sweep x io joint: encoders
+  std::vector<IdentificationJoint> joints;  ///< per swept joint (ArmIdentificationResult::joint_names)
 };
 
 struct ArmIdentificationResult {
+  std::vector<std::string> joint_names;    ///< the swept io joints (R_SFE, ...), in the order of each measurement's joints
   std::vector<IdentificationMeasurement> measurements;
   std::vector<calibration::GravitySample> samples;   ///< what the fit used (q: mean of both sweeps)
   calibration::GravityIdentification fit;
