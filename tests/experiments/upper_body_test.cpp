@@ -1,6 +1,8 @@
 // E3 on the upper body (configs/upper_body.yaml): both arms, eight driven joints from the body's joint
 // list, symmetric and asymmetric postures.
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
+#include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
 #include "../support/verdict_checks.hpp"
 
@@ -69,6 +71,50 @@ TEST(UpperBodyScenario, BothArmsHoldMirrorPosturesAndTheirStaticErrorIsThePriors
   EXPECT_GT(std::abs(figure(raise, "L_SFE").gravity_torque_Nm), 10.0);
   EXPECT_TRUE(testing::fails_on(r.verdict, "elbows_90 L_EFE |static torque error|")) << r.verdict.failures();
   EXPECT_TRUE(testing::fails_on(r.verdict, "elbows_90 R_EFE |static torque error|")) << r.verdict.failures();
+}
+
+// E4 on both elbows (configs/upper_body.yaml, goniometer.joints [R_EFE, L_EFE]): each elbow follows its
+// own goniometer through its own filter, inverse dynamics and impedance, and every per-elbow figure is
+// reported and judged per elbow. A shortened brisk movement (one flexion and back, 0.5 s each way).
+TEST(UpperBodyE4, DrivesBothElbowsAndReportsAFigurePerElbow) {
+  ArmScenario s = upper_body();
+  ArmScenario::Goniometer::Movement m = s.goniometer.movements.back();
+  ASSERT_EQ(m.name, "brisk");
+  m.repetitions = 1;
+  const GoniometerResult r = run_goniometer(s, synthesize_goniometers(s.goniometer, m, s.seed), GoniometerVariant::kFeedback, nullptr);
+  ASSERT_EQ(r.joints.size(), 2u);
+  EXPECT_EQ(r.joints[0].joint, "R_EFE");
+  EXPECT_EQ(r.joints[1].joint, "L_EFE");
+  for (const GoniometerJointResult& j : r.joints) {
+    EXPECT_NEAR(j.range_deg, 60.0, 0.5) << j.joint;
+    EXPECT_LT(j.rms_error_deg, 100.0) << j.joint;
+    EXPECT_GT(j.delay_s, r.filter_delay_s) << j.joint;
+    EXPECT_LT(j.held_excursion_deg, 100.0) << j.joint;
+    for (const char* figure : {" tracking RMS error", " tracking max error", " lowest wire tension"}) {
+      EXPECT_TRUE(testing::judges(r.verdict, j.joint + figure)) << j.joint << figure;
+    }
+    EXPECT_NEAR(j.min_wire_tension_N, r.verdict.find(j.joint + " lowest wire tension")->value, 1e-9);
+  }
+  // Mirror-image arms, the same movement: the two elbows' figures agree (their goniometers' noise differs).
+  EXPECT_NEAR(r.joints[0].rms_error_deg, r.joints[1].rms_error_deg, 100.0);
+  EXPECT_NEAR(r.joints[0].delay_s, r.joints[1].delay_s, 0.02);
+}
+
+// E6 on a left-arm joint (bandwidth.joint L_EFE, both arms locked at the posture): the swept joint's
+// torque is delivered at unit gain at low frequency by both variants, and the hybrid keeps it up to
+// 30 Hz while PAM-only has rolled off - the right elbow's figures (arm_scenario_test's E6).
+TEST(UpperBodyE6, SweepsALeftElbowLockedAtItsPosture) {
+  ArmScenario s = upper_body();
+  EXPECT_EQ(arm_joint_names(s)[static_cast<std::size_t>(s.bandwidth.joint)], "L_EFE");
+  s.bandwidth.frequencies_Hz = {0.5, 30.0};
+  const BandwidthResult pam = run_bandwidth(s, /*hybrid=*/false);
+  const BandwidthResult hybrid = run_bandwidth(s, /*hybrid=*/true);
+  EXPECT_NEAR(pam.bode.front().gain, 1.0, 0.1);
+  EXPECT_NEAR(hybrid.bode.front().gain, 1.0, 0.1);
+  EXPECT_NEAR(hybrid.bode.back().gain, 1.0, 0.1);
+  EXPECT_LT(pam.bode.back().gain, 0.5);
+  EXPECT_EQ(pam.peak_motor_torque_Nm, 0.0);
+  EXPECT_TRUE(testing::judges(hybrid.verdict, "L_EFE lowest wire tension"));
 }
 
 }  // namespace
