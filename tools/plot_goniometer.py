@@ -101,7 +101,7 @@ def main():
         title += "\nverdict: tracking RMS <= %.3g deg, max <= %.3g deg, wire tension >= %.3g N" % (
             float(s["max_tracking_rms_deg"][0]), float(s["max_tracking_error_deg"][0]), float(s["min_wire_tension_limit_N"][0]))
     fig.suptitle(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 1 - 0.05 / len(joints)))  # room for the two-line title
     out = a.out or os.path.join(a.run_dir, "plot.png")
     fig.savefig(out, dpi=110)
     print(f"plot: {out}")
