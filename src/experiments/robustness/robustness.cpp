@@ -489,15 +489,18 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
   }
   std::ofstream md(dir / "robustness.md");
   md << "# Robustness matrix\n\n";
-  md << fmt::format("E1 scenario `{}`, right arm `{}`, seeds {}; {} variants. Variants change only the plant.\n\n",
-                    config.e1_config.filename().string(), config.arm_config.filename().string(), fmt::join(config.seeds, ", "),
+  std::string scenarios;
+  if (!config.e1_config.empty()) scenarios += fmt::format("E1 scenario `{}`, ", config.e1_config.filename().string());
+  if (!config.arm_config.empty()) scenarios += fmt::format("arm scenario `{}`, ", config.arm_config.filename().string());
+  md << fmt::format("{}seeds {}; {} variants. Variants change only the plant.\n\n", scenarios, fmt::join(config.seeds, ", "),
                     config.variants.size());
-  md << "Goals (issue 10): default controller |static torque error| <= "
-     << fmt::format("{} % and T_min >= {} x pretension in every variant; calibrated pure feed-forward <= {} % and >= {} x in >= {:.0f} % "
-                    "of the variants; E3 (static torque error from the arm's truth, shoulder and elbow) as the default.\n\n",
-                    config.goal_default.max_static_error_pct, config.goal_default.min_tension_fraction,
-                    config.goal_calibrated.max_static_error_pct, config.goal_calibrated.min_tension_fraction,
-                    100 * config.goal_calibrated.min_share);
+  md << "Goals: ";
+  for (RobustnessMode m : config.modes) {
+    const RobustnessGoal& g = goal_of(config, m);
+    md << fmt::format("{} |static torque error| <= {} % and T_min >= {} x pretension in >= {:.0f} % of the variants; ", to_string(m),
+                      g.max_static_error_pct, g.min_tension_fraction, 100 * g.min_share);
+  }
+  md << "E3's static torque error is from the arm's truth, every gravity-compensated joint.\n\n";
   md << "The share is judged over the cases physics allows; cases where physics forbids the goal to a controller without position "
         "feedback (plant gravity the controller is not told; no cable friction to hold a model error) are in the table, marked with "
         "the reason, and fail their verdict.\n\n";
