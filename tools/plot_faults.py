@@ -43,7 +43,7 @@ def main():
             colour, text = "#e06666", "not detected"
         else:
             c = float(cycles)
-            colour = "#93c47d" if c <= 5 else "#f6b26b"
+            colour = "#93c47d" if c <= float(r.get("prompt_cycles", 5) or 5) else "#f6b26b"
             text = f"{r['flag']} {c:.0f} cyc, {r['safe_state']}"
         ax.add_patch(Rectangle((x, y), 1, 1, facecolor=colour, edgecolor="white"))
         if r["limits_exceeded"] != "0":
@@ -70,7 +70,7 @@ def main():
             scenario = os.path.basename(first.strip()[len("# peha run copy of "):])
     e3_where = f"E3 on {scenario or 'the arm scenario'} in process, faults on R_EFE"
     where = {"E1": "E1 in process", "E3": e3_where}.get(experiment, experiment)
-    title = (f"Fault matrix, {where}\ndetection: green <= 5 cycles, amber later, red none; frame = limit exceeded\n"
+    title = (f"Fault matrix, {where}\ndetection: green <= 5 cycles (a stuck cell: its window), amber later, red none; frame = limit exceeded\n"
              "(dotted where physics forbids any safe state to keep it, solid = a miss of the designed outcome)")
     if nominal:
         title += "\nnominal run without a fault: " + ("faulted by " + nominal[0]["flag"] if nominal[0]["detected"] == "1" else "no fault")

@@ -69,7 +69,7 @@ TEST_P(InjectedFault, IsDetectedByItsFlagWithinItsCyclesAndTakesItsSafeState) {
 
 INSTANTIATE_TEST_SUITE_P(
     E1Holding, InjectedFault,
-    ::testing::Values(Expect{"loadcell_stuck@3:agonist", safety::kFaultLoadcellStuck, 5, safety::SafeAction::kDescend},
+    ::testing::Values(Expect{"loadcell_stuck@3:agonist", safety::kFaultLoadcellStuck, 8, safety::SafeAction::kDescend},
                       Expect{"loadcell_disconnected@3:antagonist", safety::kFaultLoadcellDisconnected, 4, safety::SafeAction::kDescend},
                       // A full-scale reading the pressure model cannot explain is a load-cell fault, not an
                       // over-force: descend on the model (venting would drop the loaded link).
@@ -92,7 +92,7 @@ TEST(FaultMonitor, BrokenSupervisorWithTheCheckDisabledMissesTheFault) {
   s.limits.monitor.disabled_checks = safety::kFaultLoadcellStuck | safety::kFaultLoadcellDisagrees;
   const auto r = run_with(s, "loadcell_stuck@3:agonist");
   EXPECT_EQ(r.fault_flags & safety::kFaultLoadcellStuck, 0u);
-  // The test above (loadcell_stuck detected within 5 cycles) would fail on this supervisor.
+  // The test above (loadcell_stuck detected within its 8-cycle window) would fail on this supervisor.
 }
 
 TEST(FaultSpec, ParsesStrictlyAndNamesWhatIsWrong) {

@@ -106,7 +106,11 @@ struct MonitorParams {
   int confirm_cycles = 3;                     ///< consecutive samples a noisy check must fail
   double loadcell_disconnected_N = 0.01;      ///< at or below: AD code 0
   double loadcell_saturated_N = 4990.0;       ///< at or above: the channel's full scale
-  int loadcell_stuck_cycles = 5;              ///< the same reading this often: stuck (a live cell has noise)
+  /// The same reading this often: stuck (a live cell has noise). Two successive readings of a cell
+  /// with 1 N of noise on a 16-bit 0-5000 N channel are equal with p = 0.021, so n equal readings
+  /// happen by chance with p^(n-1) per cycle: 5 gave a false alarm about every 40 min of holding at
+  /// 1 kHz (two cells), 8 once in about 10^5 h.
+  int loadcell_stuck_cycles = 8;
   double loadcell_tolerance_N = 300.0;
   double loadcell_tolerance_fraction = 0.6;
   /// A load cell that jumps away from the pressure model: |(cell - model) - its recent level| above

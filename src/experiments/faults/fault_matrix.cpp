@@ -122,7 +122,7 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
 /// Runs the nominal row and then every kind at every moment: `run_one(faults, row)` runs one and
 /// returns its analysed row (`row` names the fault); `target(kind)` labels the row's target.
 std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMoment& nominal, const std::vector<FaultMoment>& moments,
-                                  const FaultMatrixOptions& options, int joint, const std::function<std::string(sim::FaultKind)>& target,
+                                  const FaultMatrixOptions& options, const safety::MonitorParams& monitor, int joint, const std::function<std::string(sim::FaultKind)>& target,
                                   const std::function<FaultRow(const std::vector<sim::PlantFault>&, const FaultRow&)>& run_one,
                                   const std::function<void(const FaultRow&)>& progress) {
   std::vector<sim::FaultKind> kinds = options.kinds;
@@ -136,8 +136,14 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
     row.fault_time_s = m.time_s;
     return row;
   };
+  // Prompt: within 5 cycles, or within the caught flag's own designed window when that is longer (a
+  // stuck load cell needs loadcell_stuck_cycles equal readings: fewer happen by chance).
+  auto judged = [&](FaultRow row) {
+    row.prompt_cycles = row.flag == safety::fault_flag_name(safety::kFaultLoadcellStuck) ? std::max(5, monitor.loadcell_stuck_cycles) : 5;
+    return row;
+  };
   std::vector<FaultRow> out;
-  out.push_back(run_one({}, named("none", "-", nominal)));
+  out.push_back(judged(run_one({}, named("none", "-", nominal))));
   if (progress) progress(out.back());
   for (const FaultMoment& moment : moments) {
     for (sim::FaultKind kind : kinds) {
@@ -147,7 +153,7 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
       f.joint = joint;
       f.muscle = 0;  // muscle faults on the agonist, which carries the load (E1's payload, the arm's forearm)
       f.value = sim::fault_default_value(kind);
-      FaultRow row = run_one({f}, named(sim::fault_kind_name(kind), target(kind), moment));
+      FaultRow row = judged(run_one({f}, named(sim::fault_kind_name(kind), target(kind), moment)));
       if (row.limits_exceeded > 0) row.physics_forbids = physics_forbids(kind);
       if (progress) progress(row);
       out.push_back(std::move(row));
@@ -219,7 +225,7 @@ std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& o
     return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);
   };
   auto target = [](sim::FaultKind kind) { return std::string(sim::fault_targets_muscle(kind) ? "joint.agonist" : "joint"); };
-  return matrix_rows("E1", {"nominal", 4.0}, moments, options, 0, target, run_one, progress);
+  return matrix_rows("E1", {"nominal", 4.0}, moments, options, s.limits.monitor, 0, target, run_one, progress);
 }
 
 std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
@@ -268,7 +274,7 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& 
     if (kind == sim::FaultKind::kSupplyZero || kind == sim::FaultKind::kSupplyHalf || kind == sim::FaultKind::kEstop) return std::string("arm");
     return sim::fault_targets_muscle(kind) ? joint + ".agonist" : joint;
   };
-  return matrix_rows("E3", {"nominal", all.front().time_s}, moments, options, static_cast<int>(elbow - joints.begin()), target, run_one,
+  return matrix_rows("E3", {"nominal", all.front().time_s}, moments, options, s.limits.monitor, static_cast<int>(elbow - joints.begin()), target, run_one,
                      progress);
 }
 
@@ -276,11 +282,11 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
                         double after_fault_s) {
   auto num = [](double v, const char* f) { return std::isfinite(v) ? fmt::format(fmt::runtime(f), v) : std::string("-"); };
   std::ofstream csv(dir / "faults.csv");
-  csv << "experiment,fault,target,moment,fault_time_s,detected,flag,detection_cycles,safe_state,rest_after_s,peak_force_N,peak_speed_degps,"
+  csv << "experiment,fault,target,moment,fault_time_s,detected,flag,detection_cycles,prompt_cycles,safe_state,rest_after_s,peak_force_N,peak_speed_degps,"
          "min_tension_N,limits_exceeded,physics_forbids,log_complete,verdict_passed,peak_force_joint,peak_speed_joint,min_tension_joint\n";
   for (const FaultRow& r : rows) {
-    csv << fmt::format("{},{},{},{},{:.3f},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{},{},{},{}\n", r.experiment, r.fault, r.target,
-                       r.moment, r.fault_time_s, r.detected ? 1 : 0, r.flag, num(r.detection_cycles, "{:.0f}"), r.safe_state,
+    csv << fmt::format("{},{},{},{},{:.3f},{},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{},{},{},{}\n", r.experiment, r.fault, r.target,
+                       r.moment, r.fault_time_s, r.detected ? 1 : 0, r.flag, num(r.detection_cycles, "{:.0f}"), r.prompt_cycles, r.safe_state,
                        num(r.rest_after_s, "{:.3f}"), r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids,
                        r.log_complete ? 1 : 0, r.passed ? 1 : 0, r.peak_force_joint, r.peak_speed_joint, r.min_tension_joint);
   }
@@ -289,7 +295,7 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
     if (r.fault == "none") continue;
     ++faults;
     detected += r.detected;
-    within5 += r.detected && r.detection_cycles <= 5;
+    within5 += r.detected && r.detection_cycles <= r.prompt_cycles;
     clean += r.limits_exceeded == 0;
     forbidden += !r.physics_forbids.empty();
     complete += r.log_complete;
@@ -308,7 +314,8 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   md << "# Fault matrix: " << experiment << "\n\n";
   md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare as configured. {}. Each fault "
                     "starts at its moment and stays; the run ends {:g} s later.\n\n", scenario_name, what, after_fault_s);
-  md << fmt::format("Faults injected: {}; detected: {}; within 5 control cycles: {}; no limit exceeded: {}; a limit exceeded where physics "
+  md << fmt::format("Faults injected: {}; detected: {}; promptly (within 5 control cycles, or a stuck load cell within its "
+                    "loadcell_stuck_cycles window): {}; no limit exceeded: {}; a limit exceeded where physics "
                     "forbids any safe state to avoid it: {}; a limit exceeded otherwise (a miss of the designed outcome): {}; log complete: {}.\n\n",
                     faults, detected, within5, clean, forbidden, faults - clean - forbidden, complete);
   md << "| fault | target | moment | detected by | cycles | safe state | at rest after s | peak force N | peak speed deg/s | min tension N "

@@ -52,6 +52,9 @@ struct FaultRow {
   bool detected = false;
   std::string flag;          ///< the first latched flag ("-" when none)
   double detection_cycles = 0;  ///< control cycles from the fault to the first latched flag (NaN: none)
+  /// Detection within this many cycles is prompt: 5, or the caught flag's own designed window when
+  /// longer (loadcell_stuck: MonitorParams::loadcell_stuck_cycles equal readings).
+  int prompt_cycles = 5;
   std::string safe_state;    ///< hold / descend / vent ("-" when none)
   double rest_after_s = 0;   ///< from detection until every joint stays below 5 deg/s for 0.5 s (NaN: never)
   double peak_force_N = 0;   ///< any muscle of any joint after the fault (plant truth)
