@@ -114,20 +114,18 @@ void BM_BareMujocoRigStepWithFriction(benchmark::State& state) {
 }
 BENCHMARK(BM_BareMujocoRigStepWithFriction)->UseRealTime();
 
-void BM_BareMujocoArmStep(benchmark::State& state) {
+/// MuJoCo alone on an arm scenario's generated MJCF (configs/<file>).
+void bare_arm_loop(benchmark::State& state, const char* file) {
   const experiments::ArmScenario s =
-      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+      experiments::read_arm_scenario(config::Document::load_file(std::string(PEHA_SOURCE_DIR "/configs/") + file));
   sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
   bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad);
 }
+
+void BM_BareMujocoArmStep(benchmark::State& state) { bare_arm_loop(state, "right_arm.yaml"); }
 BENCHMARK(BM_BareMujocoArmStep)->UseRealTime();
 
-void BM_BareMujocoUpperBodyStep(benchmark::State& state) {
-  const experiments::ArmScenario s =
-      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
-  sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
-  bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad);
-}
+void BM_BareMujocoUpperBodyStep(benchmark::State& state) { bare_arm_loop(state, "upper_body.yaml"); }
 BENCHMARK(BM_BareMujocoUpperBodyStep)->UseRealTime();
 
 }  // namespace

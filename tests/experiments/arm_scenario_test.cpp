@@ -5,6 +5,7 @@
 #include "peha/experiments/robustness/robustness.hpp"
 
 #include "../support/alloc_counter.hpp"
+#include "../support/edited_config.hpp"
 #include "../support/verdict_checks.hpp"
 
 #include <gmock/gmock.h>
@@ -274,17 +275,9 @@ TEST(E3, AControllerNanOnTheElbowIsCaughtInItsCycleAndHeld) {
 // A right-arm scenario's optional faults: list is E3's: read against the arm's joints and E3's script
 // length, put into E3's plant by postures_plant_params, not into the plant E4 and E6 start from.
 TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_arm_faults_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  for (const char* sub : {"arm", "plant", "mfb"}) {  // the files the scenario names, relative to it
-    std::filesystem::create_directory_symlink(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / sub, dir / sub);
-  }
-  std::ifstream in(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
-  std::stringstream shipped_text;
-  shipped_text << in.rdbuf();
+  const testing::EditedConfig config("right_arm.yaml", "arm_faults");
   auto read_with = [&](const std::string& faults) {
-    std::ofstream(dir / "right_arm.yaml") << shipped_text.str() << "\nfaults:\n" << faults;
-    return read_arm_scenario(config::Document::load_file(dir / "right_arm.yaml"));
+    return read_arm_scenario(config::Document::load_file(config.write(config.shipped() + "\nfaults:\n" + faults)));
   };
   const ArmScenario s = read_with("  - {kind: wire_break, time_s: 9.0, joint: R_EFE, muscle: antagonist}\n"
                                   "  - {kind: encoder_jump, time_s: 12.0, joint: R_SFE, value: 5.0}\n");
@@ -302,7 +295,6 @@ TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
   } catch (const config::Error& e) {
     EXPECT_NE(std::string(e.what()).find("R_EFE"), std::string::npos) << e.what();
   }
-  std::filesystem::remove_all(dir);
 }
 
 // E4's and E6's joints and postures come from the joint list: goniometer.joints and bandwidth.joint
@@ -334,22 +326,13 @@ TEST(ArmScenario, E4AndE6ReadTheirJointsAndPosturesByName) {
 // have, the wrist held at a constant pressure, a held posture naming a driven joint, a bench posture
 // without the swept joint.
 TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_arm_e4e6_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
-  for (const char* sub : {"arm", "plant", "mfb"}) {  // the files the scenario names, relative to it
-    std::filesystem::create_directory_symlink(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / sub, dir / sub);
-  }
-  std::ifstream in(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
-  std::stringstream shipped_text;
-  shipped_text << in.rdbuf();
+  const testing::EditedConfig config("right_arm.yaml", "arm_e4e6");
   auto error_after = [&](const std::string& from, const std::string& to) {
-    std::string text = shipped_text.str();
-    const auto pos = text.find(from);
-    EXPECT_NE(pos, std::string::npos) << from;
-    if (pos != std::string::npos) text.replace(pos, from.size(), to);
-    std::ofstream(dir / "right_arm.yaml") << text;
+    bool found = false;
+    const std::filesystem::path path = config.write_replacing(from, to, &found);
+    EXPECT_TRUE(found) << from;
     try {
-      read_arm_scenario(config::Document::load_file(dir / "right_arm.yaml"));
+      read_arm_scenario(config::Document::load_file(path));
     } catch (const config::Error& e) {
       return std::string(e.what());
     }
@@ -372,7 +355,6 @@ TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
   EXPECT_THAT(error_after("angles_deg: {SFE: -90.0, EFE: 90.0}   #", "angles_deg: {SFE: -90.0, EFE: 90.0, WR: 0.0}   #"),
               HasSubstr("bandwidth.angles_deg.WR: unknown key"));
   EXPECT_EQ(error_after("joint: R_EFE ", "joint: R_SFE "), "");  // the shoulder has a motor and muscles: a bench joint too
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

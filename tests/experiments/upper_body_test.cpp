@@ -6,6 +6,7 @@
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 #include "peha/models/gravity_parameters.hpp"
 
+#include "../support/edited_config.hpp"
 #include "../support/verdict_checks.hpp"
 
 #include <gtest/gtest.h>
@@ -124,24 +125,13 @@ TEST(UpperBodyIdentification, SweepsEveryPehaJointOfBothArmsAndReproducesTheShip
 // An identification posture must give every swept joint an angle whose sweep stays inside its range,
 // and must not name a joint the rig does not sweep; each refusal names the file, the field and why.
 TEST(UpperBodyIdentification, PosturesThatMissASweptJointOrNameTheWristAreRefused) {
-  const std::string path = PEHA_SOURCE_DIR "/configs/upper_body.yaml";
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
+  const testing::EditedConfig config("upper_body.yaml", "ub_id");
   auto refusal = [&](const std::string& from, const std::string& to) {
-    std::string t = text.str();
-    const std::size_t at = t.find(from);
-    if (at == std::string::npos) return std::string("'" + from + "' not in the shipped file");
-    t.replace(at, from.size(), to);
-    const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_ub_id_" + std::to_string(::getpid()));
-    std::filesystem::create_directories(dir);
-    for (const char* sub : {"arm", "plant", "mfb"}) {
-      std::error_code ignored;
-      std::filesystem::create_directory_symlink(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / sub, dir / sub, ignored);
-    }
-    std::ofstream(dir / "upper_body.yaml") << t;
+    bool found = false;
+    const std::filesystem::path path = config.write_replacing(from, to, &found);
+    if (!found) return std::string("'" + from + "' not in the shipped file");
     try {
-      (void)read_arm_scenario(config::Document::load_file(dir / "upper_body.yaml"));
+      (void)read_arm_scenario(config::Document::load_file(path));
     } catch (const config::Error& e) {
       return std::string(e.what());
     }
