@@ -18,7 +18,15 @@ namespace peha::experiments {
 std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request) {
   runtime::RealtimeRunOptions o;
   try {
-    o.board = io::parse_udp_endpoint(request.backend);
+    // Several boards: comma-separated addresses, one per board of the scenario (or one: board i at port + i).
+    std::string rest = request.backend;
+    for (;;) {
+      const auto comma = rest.find(',');
+      o.boards.push_back(io::parse_udp_endpoint(rest.substr(0, comma)));
+      if (comma == std::string::npos) break;
+      rest = rest.substr(comma + 1);
+    }
+    o.board = o.boards.front();
     if (!request.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(request.telemetry);
     o.telemetry_remote = request.telemetry_remote;
   } catch (const std::invalid_argument& e) {
@@ -43,6 +51,15 @@ void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timin
              l.implausible_samples, l.clamped_outputs);
   fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
              rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
+  for (const auto& b : rr.boards) {
+    const auto& s = b.link;
+    fmt::print("  board '{}': {} commands, {} states accepted, replies later than receive_timeout {}, cycles without a new sample {}, "
+               "dropped {}; round trip mean {:.1f} us, max {:.1f} us ({} measured)\n",
+               b.name, s.commands_sent, s.received.accepted, s.late_replies, s.replies_missing,
+               s.received.foreign_source + s.received.foreign_session + s.received.duplicate + s.received.stale + s.received.malformed +
+                   s.received.unauthenticated,
+               s.rtt_count ? s.rtt_sum_s / static_cast<double>(s.rtt_count) * 1e6 : 0.0, s.rtt_max_s * 1e6, s.rtt_count);
+  }
   for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
   rr.timing.write_csv(timing_dir);
 }
