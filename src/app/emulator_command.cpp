@@ -87,7 +87,7 @@ int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const Emulato
 /// (mfb::SharedPlant). Stops them all together.
 int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
   const std::size_t n = plant.link.boards.size();
-  const std::vector<std::string>& io_joints = plant.make_plant()->info().joint_names;
+  const std::vector<std::string> io_joints = plant.make_plant()->info().joint_names;
   mfb::EmulatorParams base = emulator_params(options, plant.period_s, plant.link);
   // A board waits this long for the others' outputs of a period before the body steps without them.
   const double wait_s = std::clamp(0.2 * base.watchdog_s, 2.0 * plant.period_s, 0.01);

@@ -971,7 +971,7 @@ std::vector<int> listening_ports(const std::string& line) {
 // serves all three in front of one simulated body. As in process (same scenario, seed): release
 // angles within 0.2 deg and drift within 0.1 deg of the in-process run's, on every PEHA joint.
 TEST(MfbEndToEnd, UpperBodyPosturesRunOnThreeBoardsAcrossUdpAsInProcess) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_upper_body_" + std::to_string(::getpid()));
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_upper_body_config_" + std::to_string(::getpid()));
   const std::filesystem::path config = short_upper_body_config(dir);
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   ASSERT_TRUE(s.link);
@@ -1014,7 +1014,7 @@ TEST(MfbEndToEnd, UpperBodyPosturesRunOnThreeBoardsAcrossUdpAsInProcess) {
 // The host's control step over three boards allocates nothing: 500 cycles of BoardsBackend::write
 // (three sends, one wait for all replies) and read (three samples put together) against the emulator.
 TEST(MfbEndToEnd, BoardsBackendAllocatesNothingPerCycle) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_boards_alloc_" + std::to_string(::getpid()));
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_boards_alloc_config_" + std::to_string(::getpid()));
   const std::filesystem::path config = short_upper_body_config(dir);
   const experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
