@@ -89,9 +89,11 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
   const std::size_t n = plant.link.boards.size();
   const std::vector<std::string> io_joints = plant.make_plant()->info().joint_names;
   mfb::EmulatorParams base = emulator_params(options, plant.period_s, plant.link);
-  // A board waits this long for the others' outputs of a period before the body steps without them.
-  const double wait_s = std::clamp(0.2 * base.watchdog_s, 2.0 * plant.period_s, 0.01);
-  const auto body = mfb::SharedPlant::create(plant.make_plant, static_cast<int>(n), wait_s);
+  // A cycle waits this long for a live board's command before the body steps without it (a lost
+  // command; the host's next cycle closes it sooner), and a board without a command this long is
+  // not waited for.
+  const double wait_s = 3.0 * plant.period_s;
+  const auto body = mfb::SharedPlant::create(plant.make_plant, static_cast<int>(n), plant.period_s, wait_s);
   std::vector<std::unique_ptr<mfb::BoardEmulator>> boards;
   std::string where;
   for (std::size_t b = 0; b < n; ++b) {
@@ -105,6 +107,7 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
     p.key = mfb::load_link_key(link.key_file);
     p.faults.seed = options.fault_seed + b;  // each board's own draws
     boards.push_back(std::make_unique<mfb::BoardEmulator>(p, plant.maps[b], [body, b, io_index] { return body->view(static_cast<int>(b), io_index); }));
+    boards.back()->set_step_hook([body, b](const mfb::CommandPacket* c) { body->note_command(static_cast<int>(b), c); });
     where += fmt::format("{}udp://{} (board '{}': {})", b ? ", " : "", boards.back()->local().to_string(), link.name, fmt::join(link.joint_names, " "));
   }
   std::signal(SIGINT, on_stop_signal);
@@ -113,7 +116,7 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
   rt.fifo_priority = options.fifo_priority;
   rt.lock_memory = options.fifo_priority > 0;
   rt.cpu = options.cpu;
-  fmt::print("peha mfb-emulator: listening on {} - {}, one body stepped when every board has its period's outputs (waiting at most {} ms "
+  fmt::print("peha mfb-emulator: listening on {} - {}, one body stepped once per host cycle with every board's command (waiting at most {} ms "
              "for a late one), watchdog {} ms, vent {} s\n",
              where, plant.what, wait_s * 1e3, base.watchdog_s * 1e3, base.vent_s);
   std::fflush(stdout);
@@ -134,7 +137,7 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
   }
   stop = true;
   for (std::thread& t : threads) t.join();
-  fmt::print("peha mfb-emulator: stopped; the body took {} steps ({} without every board's outputs)\n", body->steps(), body->partial_steps());
+  fmt::print("peha mfb-emulator: stopped; the body took {} steps ({} host cycles without every board's command)\n", body->steps(), body->partial_steps());
   for (std::size_t b = 0; b < n; ++b) fmt::print("board '{}':\n{}\n", plant.link.boards[b].name, boards[b]->stats().table());
   return 0;
 }

@@ -1,7 +1,10 @@
 #include "peha/mfb/shared_plant.hpp"
 
+#include "peha/io/udp_socket.hpp"
+
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <stdexcept>
 #include <string>
@@ -45,13 +48,20 @@ class PlantView final : public io::Backend {
 
 }  // namespace
 
-std::shared_ptr<SharedPlant> SharedPlant::create(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double wait_s) {
-  return std::shared_ptr<SharedPlant>(new SharedPlant(std::move(make_plant), parts, wait_s));
+std::shared_ptr<SharedPlant> SharedPlant::create(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double period_s,
+                                                 double wait_s) {
+  return std::shared_ptr<SharedPlant>(new SharedPlant(std::move(make_plant), parts, period_s, wait_s));
 }
 
-SharedPlant::SharedPlant(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double wait_s)
-    : make_plant_(std::move(make_plant)), all_(parts >= 32 ? ~0u : (1u << parts) - 1u), wait_s_(wait_s) {
+SharedPlant::SharedPlant(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double period_s, double wait_s)
+    : make_plant_(std::move(make_plant)),
+      parts_(parts),
+      half_period_ns_(static_cast<std::int64_t>(period_s * 0.5e9)),
+      wait_ns_(static_cast<std::int64_t>(wait_s * 1e9)),
+      next_host_ns_(static_cast<std::size_t>(std::max(parts, 0)), 0),
+      live_ns_(static_cast<std::size_t>(std::max(parts, 0)), 0) {
   if (parts < 1 || parts > 31) throw std::invalid_argument(fmt::format("SharedPlant: 1 to 31 boards, found {}", parts));
+  if (!(period_s > 0) || !(wait_s > 0)) throw std::invalid_argument("SharedPlant: period and wait must be > 0");
   plant_ = make_plant_();
   plant_->activate();
   plant_->read(state_);
@@ -60,6 +70,7 @@ SharedPlant::SharedPlant(std::function<std::unique_ptr<io::Backend>()> make_plan
 
 std::unique_ptr<io::Backend> SharedPlant::view(int part, const std::vector<int>& io_index) {
   std::lock_guard lock(mutex_);
+  if (part < 0 || part >= parts_) throw std::invalid_argument(fmt::format("SharedPlant: no board {}", part));
   for (const int j : io_index) {
     if (j < 0 || j >= state_.joint_count) throw std::invalid_argument(fmt::format("SharedPlant: no io joint {}", j));
   }
@@ -69,16 +80,22 @@ std::unique_ptr<io::Backend> SharedPlant::view(int part, const std::vector<int>&
   command_ = io::Command{};
   command_.joint_count = state_.joint_count;
   written_ = 0;
+  cycle_open_ = false;
   ++generation_;
   stepped_.notify_all();
   return std::make_unique<PlantView>(shared_from_this(), part, io_index, plant_->info());
 }
 
+void SharedPlant::note_command(int part, const CommandPacket* command) noexcept {
+  std::lock_guard lock(mutex_);
+  next_host_ns_[static_cast<std::size_t>(part)] = command ? std::max<std::uint64_t>(command->host_time_ns, 1) : 0;
+}
+
 void SharedPlant::step() noexcept {
-  if (written_ != all_) ++partial_steps_;
   plant_->write(command_);
   plant_->read(state_);
   written_ = 0;
+  cycle_open_ = false;
   ++generation_;
   ++steps_;
   stepped_.notify_all();
@@ -86,18 +103,49 @@ void SharedPlant::step() noexcept {
 
 void SharedPlant::write(int part, const std::vector<int>& io_index, const io::Command& command) noexcept {
   std::unique_lock lock(mutex_);
-  for (std::size_t k = 0; k < io_index.size() && static_cast<int>(k) < command.joint_count; ++k) {
-    command_.joints[static_cast<std::size_t>(io_index[k])] = command.joints[k];
+  const auto p = static_cast<std::size_t>(part);
+  const std::uint64_t host_ns = next_host_ns_[p];
+  next_host_ns_[p] = 0;
+  const std::int64_t now = io::monotonic_ns();
+  auto apply = [&] {
+    for (std::size_t k = 0; k < io_index.size() && static_cast<int>(k) < command.joint_count; ++k) {
+      command_.joints[static_cast<std::size_t>(io_index[k])] = command.joints[k];
+    }
+  };
+  std::uint32_t live = 0;
+  for (int b = 0; b < parts_; ++b) {
+    if (live_ns_[static_cast<std::size_t>(b)] != 0 && now - live_ns_[static_cast<std::size_t>(b)] <= wait_ns_) live |= 1u << b;
+  }
+  if (host_ns == 0) {  // free-running: the body runs on by itself only while no host drives any board
+    apply();
+    if (live == 0 && part == 0) step();
+    return;
+  }
+  live_ns_[p] = now;
+  live |= 1u << part;
+  const auto h = static_cast<std::int64_t>(host_ns);
+  const auto c = static_cast<std::int64_t>(cycle_host_ns_);
+  if (cycle_open_ && h + half_period_ns_ < c) return;  // a command of a cycle already stepped (delayed): too late
+  if (cycle_open_ && h > c + half_period_ns_) {        // the next cycle began: the open one missed a board
+    ++partial_steps_;
+    step();
+  }
+  apply();
+  if (!cycle_open_) {
+    cycle_open_ = true;
+    cycle_host_ns_ = host_ns;
   }
   written_ |= 1u << part;
-  if (written_ == all_) {
+  if ((written_ & live) == live) {
     step();
     return;
   }
-  // Wait for the other boards' outputs of this period; a late board does not hold the body.
+  // Wait for the other live boards' commands of this cycle; a missing one does not hold the body.
   const std::uint64_t generation = generation_;
-  const bool others = stepped_.wait_for(lock, std::chrono::duration<double>(wait_s_), [&] { return generation_ != generation; });
-  if (!others) step();
+  if (!stepped_.wait_for(lock, std::chrono::nanoseconds(wait_ns_), [&] { return generation_ != generation; })) {
+    ++partial_steps_;
+    step();
+  }
 }
 
 void SharedPlant::read(const std::vector<int>& io_index, io::SensorState& state) noexcept {

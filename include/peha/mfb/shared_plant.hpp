@@ -4,15 +4,19 @@
 /// boards, docs/channel-maps.md): each board's BoardEmulator runs in its own thread with its own
 /// socket, key, session and watchdog, and sees the plant through a view of its joints
 /// (SharedPlant::view). The plant stays one physical simulation of the whole body (one MuJoCo
-/// model): it steps once every board has applied its outputs for the period - the host sends all
-/// boards their commands in one cycle, so each step takes every board's command of that cycle, and
-/// every board then replies with the sample after that step, as the in-process run sees it.
+/// model): it steps once per host cycle with every board's command of that cycle, and every board
+/// then replies with the sample after that step, as the in-process run sees it.
 ///
-/// A board that does not come within `wait_s` (its host silent, its thread descheduled) does not
-/// hold the body: the step goes on with that board's last outputs. A new session on any board
-/// (the host connecting) restarts the whole body in its initial state.
-
+/// A host cycle is recognised by the commands' host send times (`CommandPacket::host_time_ns`,
+/// given by `note_command` before each step): the host sends all boards their commands within
+/// microseconds, so commands less than half a period apart are one cycle. The cycle steps when every
+/// live board (one that had a command within `wait_s`) has written; a newer cycle's first command,
+/// or `wait_s`, closes a cycle a board missed (a lost command: the step goes on with that board's
+/// last outputs). Free-running steps (no host) come from board 0 alone while no board is live, so
+/// the body runs on one period per period of wall time. A new session on any board (the host
+/// connecting) restarts the whole body in its initial state.
 #include "peha/io/backend.hpp"
+#include "peha/mfb/protocol.hpp"
 
 #include <condition_variable>
 #include <cstdint>
@@ -25,17 +29,22 @@ namespace peha::mfb {
 
 class SharedPlant : public std::enable_shared_from_this<SharedPlant> {
  public:
-  /// `make_plant` builds the whole body in its initial state; `parts` boards share it; a step
-  /// waits at most `wait_s` for the boards that have not written yet.
-  static std::shared_ptr<SharedPlant> create(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double wait_s);
+  /// `make_plant` builds the whole body in its initial state; `parts` boards share it; control
+  /// period `period_s`; a cycle waits at most `wait_s` for the live boards that have not written.
+  static std::shared_ptr<SharedPlant> create(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double period_s,
+                                             double wait_s);
 
   /// What board `part` drives and senses: io joints `io_index` (its joint k = io joint io_index[k]).
   /// Restarts the body (a board's new session): pass it as the board's `make_plant`.
   std::unique_ptr<io::Backend> view(int part, const std::vector<int>& io_index);
 
+  /// Board `part`'s next write applies `command` (its host cycle), or is free-running (nullptr):
+  /// its BoardEmulator's step hook.
+  void note_command(int part, const CommandPacket* command) noexcept;
+
   /// Steps the body taken (for the emulator's report).
   std::uint64_t steps() const;
-  /// Steps taken without every board's outputs (a board came later than wait_s).
+  /// Host cycles stepped without every live board's command (a command lost or later than wait_s).
   std::uint64_t partial_steps() const;
 
   // Called by the views (under the lock).
@@ -43,12 +52,16 @@ class SharedPlant : public std::enable_shared_from_this<SharedPlant> {
   void read(const std::vector<int>& io_index, io::SensorState& state) noexcept;
 
  private:
-  SharedPlant(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double wait_s);
+  SharedPlant(std::function<std::unique_ptr<io::Backend>()> make_plant, int parts, double period_s, double wait_s);
   void step() noexcept;  // with the lock held
 
   std::function<std::unique_ptr<io::Backend>()> make_plant_;
-  std::uint32_t all_;                 ///< bit per board
-  double wait_s_;
+  int parts_;
+  std::int64_t half_period_ns_, wait_ns_;
+  std::vector<std::uint64_t> next_host_ns_;  ///< per board: its next write's command send time (0: free-running)
+  std::vector<std::int64_t> live_ns_;        ///< per board: when its last command came (monotonic)
+  bool cycle_open_ = false;
+  std::uint64_t cycle_host_ns_ = 0;          ///< the open cycle's host send time
   mutable std::mutex mutex_;
   std::condition_variable stepped_;
   std::unique_ptr<io::Backend> plant_;
