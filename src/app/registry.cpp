@@ -149,12 +149,7 @@ int run_arm(const config::Document& doc, const experiments::RunRequest& request,
     }
     realtime = experiments::realtime_options(request);
     if (!realtime) return 2;
-    try {
-      (void)mfb::board_endpoints(*scenario.link, realtime->boards);  // one address per board, or one for all
-    } catch (const std::invalid_argument& e) {
-      fmt::print(stderr, "error: {}: {}\n", doc.name(), e.what());
-      return 2;
-    }
+    if (!experiments::check_board_addresses(doc.name(), *scenario.link, *realtime)) return 2;
   }
   return run(doc, scenario, request, std::move(realtime));
 }

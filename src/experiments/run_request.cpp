@@ -39,6 +39,16 @@ std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& re
   return o;
 }
 
+bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& realtime) {
+  try {
+    (void)mfb::board_endpoints(link, realtime.boards.empty() ? std::vector<io::UdpEndpoint>{realtime.board} : realtime.boards);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: {}: {}\n", doc_name, e.what());
+    return false;
+  }
+  return true;
+}
+
 void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timing_dir) {
   fmt::print("  real-time setup: {}\n", rr.realtime.summary());
   fmt::print("{}\n", rr.timing.table());
