@@ -90,9 +90,8 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
   const std::vector<std::string> io_joints = plant.make_plant()->info().joint_names;
   mfb::EmulatorParams base = emulator_params(options, plant.period_s, plant.link);
   // A cycle waits this long for a live board's command before the body steps without it (a lost
-  // command; the host's next cycle closes it sooner), and a board without a command this long is
-  // not waited for.
-  const double wait_s = 3.0 * plant.period_s;
+  // command; the host's next cycle closes it sooner).
+  const double wait_s = 3.0 * plant.period_s;  // and a board without a command for 4 waits is not waited for
   const auto body = mfb::SharedPlant::create(plant.make_plant, static_cast<int>(n), plant.period_s, wait_s);
   std::vector<std::unique_ptr<mfb::BoardEmulator>> boards;
   std::string where;

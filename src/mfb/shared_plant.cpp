@@ -81,6 +81,7 @@ std::unique_ptr<io::Backend> SharedPlant::view(int part, const std::vector<int>&
   command_.joint_count = state_.joint_count;
   written_ = 0;
   cycle_open_ = false;
+  stepped_host_ns_ = 0;
   ++generation_;
   stepped_.notify_all();
   return std::make_unique<PlantView>(shared_from_this(), part, io_index, plant_->info());
@@ -92,6 +93,7 @@ void SharedPlant::note_command(int part, const CommandPacket* command) noexcept 
 }
 
 void SharedPlant::step() noexcept {
+  if (cycle_open_) stepped_host_ns_ = cycle_host_ns_;
   plant_->write(command_);
   plant_->read(state_);
   written_ = 0;
@@ -114,7 +116,8 @@ void SharedPlant::write(int part, const std::vector<int>& io_index, const io::Co
   };
   std::uint32_t live = 0;
   for (int b = 0; b < parts_; ++b) {
-    if (live_ns_[static_cast<std::size_t>(b)] != 0 && now - live_ns_[static_cast<std::size_t>(b)] <= wait_ns_) live |= 1u << b;
+    // Live: commanded within 4 waits, so one lost command (a wait) does not drop a board from the next cycle.
+    if (live_ns_[static_cast<std::size_t>(b)] != 0 && now - live_ns_[static_cast<std::size_t>(b)] <= 4 * wait_ns_) live |= 1u << b;
   }
   if (host_ns == 0) {  // free-running: the body runs on by itself only while no host drives any board
     apply();
@@ -126,6 +129,10 @@ void SharedPlant::write(int part, const std::vector<int>& io_index, const io::Co
   const auto h = static_cast<std::int64_t>(host_ns);
   const auto c = static_cast<std::int64_t>(cycle_host_ns_);
   if (cycle_open_ && h + half_period_ns_ < c) return;  // a command of a cycle already stepped (delayed): too late
+  if (!cycle_open_ && stepped_host_ns_ != 0 && h <= static_cast<std::int64_t>(stepped_host_ns_) + half_period_ns_) {
+    apply();  // of the cycle just stepped without it (it came after the wait): its outputs hold from now
+    return;
+  }
   if (cycle_open_ && h > c + half_period_ns_) {        // the next cycle began: the open one missed a board
     ++partial_steps_;
     step();

@@ -10,9 +10,10 @@
 /// A host cycle is recognised by the commands' host send times (`CommandPacket::host_time_ns`,
 /// given by `note_command` before each step): the host sends all boards their commands within
 /// microseconds, so commands less than half a period apart are one cycle. The cycle steps when every
-/// live board (one that had a command within `wait_s`) has written; a newer cycle's first command,
+/// live board (one that had a command within 4 `wait_s`) has written; a newer cycle's first command,
 /// or `wait_s`, closes a cycle a board missed (a lost command: the step goes on with that board's
-/// last outputs). Free-running steps (no host) come from board 0 alone while no board is live, so
+/// last outputs); that board's command, should it come after all, is kept for the next step and
+/// opens no cycle of its own. Free-running steps (no host) come from board 0 alone while no board is live, so
 /// the body runs on one period per period of wall time. A new session on any board (the host
 /// connecting) restarts the whole body in its initial state.
 #include "peha/io/backend.hpp"
@@ -62,6 +63,7 @@ class SharedPlant : public std::enable_shared_from_this<SharedPlant> {
   std::vector<std::int64_t> live_ns_;        ///< per board: when its last command came (monotonic)
   bool cycle_open_ = false;
   std::uint64_t cycle_host_ns_ = 0;          ///< the open cycle's host send time
+  std::uint64_t stepped_host_ns_ = 0;        ///< the last stepped cycle's (0: none since the restart)
   mutable std::mutex mutex_;
   std::condition_variable stepped_;
   std::unique_ptr<io::Backend> plant_;
