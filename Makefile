@@ -15,7 +15,7 @@ help:
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make robustness  E1 (default + calibrated pure feed-forward) and E3 (nominal + identified arm model) over plant variants:"
-	@echo "            out/robustness/robustness.md and heatmap.png (docs/robustness.md; about 2 minutes on 2 cores)"
+	@echo "            out/robustness/robustness.md and heatmap.png; then E3 on the upper body: out/robustness_upper_body/ (docs/robustness.md; about 5 minutes on 2 cores)"
 	@echo "make bench  build, run the benchmarks and the peers (SciPy LM, sklearn dense GP); one JSON in out/bench,"
 	@echo "            the table in docs/performance.md (incl. 60 s of the bare 1 kHz timer loop, the machine's floor, and 60 s of MFB"
 	@echo "            round trips over UDP, host and emulator pinned to CPU 1)"
@@ -83,6 +83,8 @@ property: build
 # in the table, not a failure of make; any other failure stops make.
 robustness: build
 	$(PEHA) robustness --config configs/robustness.yaml --name robustness; \
+	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
+	$(PEHA) robustness --config configs/robustness_upper_body.yaml --name robustness_upper_body; \
 	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
 
 # Google Benchmark (out/bench/peha_bench.json), then the peers in the same run: the same LM fit by

@@ -71,23 +71,36 @@ void BM_ArmControlStep(benchmark::State& state) {
 }
 BENCHMARK(BM_ArmControlStep);
 
-void BM_SimulatedArmStep(benchmark::State& state) {
-  sim::ArmBackend plant(scenario().plant);
+/// One control period of a simulated arm scenario under its own controller and limits.
+void simulated_step(benchmark::State& state, const experiments::ArmScenario& sc) {
+  sim::ArmBackend plant(sc.plant);
   plant.activate();
-  control::ArmController controller(scenario().controller);
+  control::ArmController controller(sc.controller);
+  const safety::JointModels joints = experiments::arm_joint_models(sc.controller);
   safety::LimitsData limits;
   io::SensorState s;
   io::Command command;
   for (auto _ : state) {
     plant.read(s);
     controller.update(s, command);
-    safety::apply_limits(scenario().limits, experiments::arm_joint_models(scenario().controller), limits, s, command);
+    safety::apply_limits(sc.limits, joints, limits, s, command);
     plant.write(command);
   }
-  state.counters["realtime_factor"] = benchmark::Counter(static_cast<double>(state.iterations()) * scenario().period_s,
+  state.counters["realtime_factor"] = benchmark::Counter(static_cast<double>(state.iterations()) * sc.period_s,
                                                          benchmark::Counter::kIsRate);
 }
+
+void BM_SimulatedArmStep(benchmark::State& state) { simulated_step(state, scenario()); }
 BENCHMARK(BM_SimulatedArmStep)->UseRealTime();
+
+/// The upper body (configs/upper_body.yaml): both arms, 8 driven joints, 12 model joints (issue 14's
+/// simulation real-time factor).
+void BM_SimulatedUpperBodyStep(benchmark::State& state) {
+  static const experiments::ArmScenario upper_body =
+      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
+  simulated_step(state, upper_body);
+}
+BENCHMARK(BM_SimulatedUpperBodyStep)->UseRealTime();
 
 /// The arm controller's model with the SPGP residual on all six muscles (3 joints x 2).
 const control::ArmControllerModel& controller_with_spgp() {

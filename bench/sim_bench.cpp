@@ -122,5 +122,13 @@ void BM_BareMujocoArmStep(benchmark::State& state) {
 }
 BENCHMARK(BM_BareMujocoArmStep)->UseRealTime();
 
+void BM_BareMujocoUpperBodyStep(benchmark::State& state) {
+  const experiments::ArmScenario s =
+      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
+  sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
+  bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad);
+}
+BENCHMARK(BM_BareMujocoUpperBodyStep)->UseRealTime();
+
 }  // namespace
 }  // namespace peha::bench

@@ -60,7 +60,16 @@ def main():
     ax.set_xticks([i + 0.5 for i in range(len(moments))], moments)
     ax.set_yticks([i + 0.5 for i in range(len(faults))], faults)
     experiment = (rows or nominal or [{}])[0].get("experiment", "E1")
-    where = {"E1": "E1 in process", "E3": "E3 on the right arm in process, faults on R_EFE"}.get(experiment, experiment)
+    # The scenario the matrix ran on: the run's copy of its config names it on its first line.
+    scenario = ""
+    config_copy = os.path.join(a.run_dir, "config.yaml")
+    if os.path.exists(config_copy):
+        with open(config_copy, encoding="utf-8") as fh:
+            first = fh.readline()
+        if first.startswith("# peha run copy of "):
+            scenario = os.path.basename(first.strip()[len("# peha run copy of "):])
+    e3_where = f"E3 on {scenario or 'the arm scenario'} in process, faults on R_EFE"
+    where = {"E1": "E1 in process", "E3": e3_where}.get(experiment, experiment)
     title = (f"Fault matrix, {where}\ndetection: green <= 5 cycles, amber later, red none; frame = limit exceeded\n"
              "(dotted where physics forbids any safe state to keep it, solid = a miss of the designed outcome)")
     if nominal:

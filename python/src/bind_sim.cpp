@@ -281,8 +281,8 @@ void bind_sim(py::module_& m) {
         return l;
       }, "the operator's finger script");
 
-  py::class_<Arm>(m, "RightArm",
-                  "The simulated right arm of a right-arm scenario (configs/right_arm.yaml). read() -> sensors, "
+  py::class_<Arm>(m, "Arm",
+                  "The simulated arm of an arm scenario (configs/right_arm.yaml, configs/upper_body.yaml: both arms). read() -> sensors, "
                   "write(agonist_Pa[], antagonist_Pa[], motor_Nm[]) steps one control period (one value per actuated joint).")
       .def(py::init<const std::string&, std::optional<std::uint64_t>>(), py::arg("scenario"), py::arg("seed") = py::none())
       .def("reset", &Arm::reset)

@@ -45,8 +45,8 @@ def test_rig_reset_repeats_the_run(ref):
     assert rig.payload_kg > 0 and rig.pushes[0]["hold"]
 
 
-def test_right_arm_matches_cpp(ref):
-    arm = peha.RightArm(str(ARM))
+def test_arm_matches_cpp(ref):
+    arm = peha.Arm(str(ARM))
     n = len(arm.joint_names)
     q = []
     for _ in range(500):

@@ -102,7 +102,7 @@ int faults(const FaultsOptions& options) {
     }
     RunDir run_dir(options.config, options.out_root, options.run_name);
     const std::filesystem::path dir = run_dir.create(arm ? e3->seed : e1->seed);
-    fmt::print("peha faults: {} ({} in process, plausibility stage on{}); output {}\n", doc.name(), arm ? "E3 postures on the right arm" : "E1",
+    fmt::print("peha faults: {} ({} in process, plausibility stage on{}); output {}\n", doc.name(), arm ? "E3 postures on the arm scenario" : "E1",
                arm ? fmt::format(", faults on {}", experiments::kE3FaultJoint) : std::string(), dir.string());
     std::fflush(stdout);
     std::size_t n = 0;

@@ -64,12 +64,14 @@ Command add_run(CLI::App& app) {
                       "Right-arm scenarios (configs/right_arm.yaml) only: the experiment to run.\n"
                       "postures  = E3: move the arm with its mannequin to each posture, let go, measure the drift\n"
                       "goniometer = E4: a person's elbow, measured by a goniometer at 200 Hz, drives the exoskeleton's\n"
-                      "             elbow through Butterworth filter, derivatives and inverse dynamics; tracking RMS and delay\n"
+                      "             elbow (each of goniometer.joints) through Butterworth filter, derivatives and inverse\n"
+                      "             dynamics; tracking RMS and delay per driven joint\n"
                       "bandwidth = E6: sine-sweep torque on one locked joint, PAM-only vs hybrid, Bode plot, -3 dB")
       ->check(CLI::IsMember({"postures", "goniometer", "bandwidth"}));
   run_cmd->add_option("--goniometer-csv", run.goniometer_csv,
                       "E4 only: replay a recorded goniometer CSV (columns t_s and elbow_angle_deg or elbow_angle_rad,\n"
-                      "sampled at the config's goniometer.sample_rate_Hz) instead of the config's synthetic movements")
+                      "sampled at the config's goniometer.sample_rate_Hz) instead of the config's synthetic movements;\n"
+                      "it drives every joint of goniometer.joints")
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--backend", run.backend,
                       "Run on a multifunction board over UDP instead of the in-process simulator, e.g.\n"

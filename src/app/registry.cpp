@@ -186,20 +186,25 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
       fmt::print(stderr, "error: {}: E4 (goniometer) runs on one board; this scenario has {} (mfb: boards:)\n", doc.name(), board.maps.size());
       return std::nullopt;
     }
-    if (!board.maps[0].has_goniometer(1)) {
-      fmt::print(stderr, "config error: {}: no R_EFE.goniometer channel to put the person's elbow on\n",
-                 scenario->link->channel_map.string());
-      return std::nullopt;
+    for (const int j : g.joints) {
+      if (!board.maps[0].has_goniometer(j)) {
+        fmt::print(stderr, "config error: {}: no {}.goniometer channel to put the person's joint on\n", scenario->link->channel_map.string(),
+                   experiments::arm_joint_names(*scenario)[static_cast<std::size_t>(j)]);
+        return std::nullopt;
+      }
     }
-    const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(g, g.movements[i], scenario->seed + i);
-    const sim::ArmPlantParams plant = experiments::goniometer_plant_params(*scenario, trace);
+    const std::vector<experiments::GoniometerTrace> traces = experiments::synthesize_goniometers(g, g.movements[i], scenario->seed + i);
+    const sim::ArmPlantParams plant = experiments::goniometer_plant_params(*scenario, traces);
     board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
-    const mfb::AnalogChannel channel = board.maps[0].joint(1).goniometer;
-    board.input_hook = [scenario, trace, channel](double t_s, mfb::BoardInputs& in) {
+    std::vector<mfb::AnalogChannel> channels;  // each driven joint's goniometer channel
+    for (const int j : g.joints) channels.push_back(board.maps[0].joint(j).goniometer);
+    board.input_hook = [scenario, traces, channels](double t_s, mfb::BoardInputs& in) {
       bool clamped = false;
-      in.ad[static_cast<std::size_t>(channel.channel)] = channel.to_code(experiments::goniometer_reading(*scenario, trace, t_s), clamped);
+      for (std::size_t k = 0; k < traces.size(); ++k) {
+        in.ad[static_cast<std::size_t>(channels[k].channel)] = channels[k].to_code(experiments::goniometer_reading(*scenario, traces[k], t_s), clamped);
+      }
     };
-    board.what = fmt::format("right arm, E4: a person's elbow '{}' on the goniometer channel", trace.name);
+    board.what = fmt::format("arm, E4: a person's movement '{}' on the goniometer channel of each driven joint", g.movements[i].name);
     return board;
   }
   std::string cases = "postures";

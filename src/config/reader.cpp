@@ -4,6 +4,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -171,6 +172,27 @@ std::string Map::choice(std::string_view key, const std::vector<std::string>& op
   }
   fail_at(value, key,
           fmt::format("expected one of {{{}}}, found {}", fmt::join(options, ", "), describe(value)));
+}
+
+std::vector<std::string> Map::choices(std::string_view key, const std::vector<std::string>& options, std::size_t min_count,
+                                      std::size_t max_count) {
+  const YAML::Node value = required(key);
+  if (!value.IsSequence() || value.size() < min_count || value.size() > max_count) {
+    fail_at(value, key, fmt::format("expected a list of {} to {} of {{{}}}, found {}", min_count, max_count, fmt::join(options, ", "),
+                                    describe(value)));
+  }
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const YAML::Node item = value[i];
+    const std::string s = item.IsScalar() ? item.Scalar() : std::string();
+    const std::string item_key = fmt::format("{}[{}]", key, i);
+    if (std::find(options.begin(), options.end(), s) == options.end()) {
+      fail_at(item, item_key, fmt::format("expected one of {{{}}}, found {}", fmt::join(options, ", "), describe(item)));
+    }
+    if (std::find(out.begin(), out.end(), s) != out.end()) fail_at(item, item_key, fmt::format("'{}' is listed twice", s));
+    out.push_back(s);
+  }
+  return out;
 }
 
 std::vector<double> Map::numbers(std::string_view key, Range range, std::size_t min_count,

@@ -200,9 +200,12 @@ void allocate(const models::JointModel& joint, const AllocationParams& params, A
   if (agonist.saturated || antagonist.saturated) out.flags |= kPressureSaturated;
 
   // Mini: the motor closes the gap between the desired and the measured PAM torque. A load cell
-  // that disagrees with the model is replaced by the model's force for that muscle.
-  const double agonist_force_N = data.loadcell_ok[0] ? agonist_loadcell_N : agonist.model_force_N;
-  const double antagonist_force_N = data.loadcell_ok[1] ? antagonist_loadcell_N : antagonist.model_force_N;
+  // that disagrees with the model is replaced by the force asked of that muscle (no gap to close):
+  // not by the model's force at the measured pressure, which near the pressure threshold is off by
+  // hundreds of newtons and moves 54 N per kPa of sensor noise on a DMSP-40 - it saturated the
+  // motor and dropped a lightly loaded shoulder 7 deg (upper body, sensor noise x3).
+  const double agonist_force_N = data.loadcell_ok[0] ? agonist_loadcell_N : agonist.force_N;
+  const double antagonist_force_N = data.loadcell_ok[1] ? antagonist_loadcell_N : antagonist.force_N;
   const double agonist_joint_force_N = models::joint_force_from_loadcell_N(agonist_cable, agonist_force_N, agonist_wire_mps);
   const double antagonist_joint_force_N =
       models::joint_force_from_loadcell_N(antagonist_cable, antagonist_force_N, antagonist_wire_mps);

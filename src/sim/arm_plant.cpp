@@ -12,21 +12,26 @@ namespace {
 
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 
-/// The plant's bodies with `unknown_kg` added to the body "payload": still a steel sphere at the
-/// hand's centre of mass (as models::build_arm_model makes it), so its inertia grows as m^(5/3).
+/// The plant's bodies with `unknown_kg` added to every hand's payload body ("payload", or "R_payload"
+/// and "L_payload" on a body with both arms): still a steel sphere at the hand's centre of mass (as
+/// models::build_arm_model makes it), so its inertia grows as m^(5/3).
 models::ArmModel with_unknown_payload(models::ArmModel model, double unknown_kg) {
   if (unknown_kg == 0.0) return model;
-  const auto payload = std::find_if(model.bodies.begin(), model.bodies.end(), [](const models::ArmBody& b) { return b.name == "payload"; });
-  if (payload == model.bodies.end()) throw std::invalid_argument("right arm: an unknown hand payload needs a body \"payload\"");
-  const double mass_kg = payload->mass_kg + unknown_kg;
-  if (!(mass_kg >= 0.0)) {
-    throw std::invalid_argument(fmt::format("right arm: payload {} kg + unknown hand payload {} kg is negative",
-                                            payload->mass_kg, unknown_kg));
+  int payloads = 0;
+  for (models::ArmBody& payload : model.bodies) {
+    if (payload.name != "payload" && !payload.name.ends_with("_payload")) continue;
+    ++payloads;
+    const double mass_kg = payload.mass_kg + unknown_kg;
+    if (!(mass_kg >= 0.0)) {
+      throw std::invalid_argument(fmt::format("arm plant: {} {} kg + unknown hand payload {} kg is negative", payload.name,
+                                              payload.mass_kg, unknown_kg));
+    }
+    constexpr double kSteelDensity_kg_per_m3 = 7850.0;
+    const double radius_m = std::cbrt(3.0 * mass_kg / (4.0 * std::numbers::pi * kSteelDensity_kg_per_m3));
+    payload.mass_kg = mass_kg;
+    payload.inertia_kgm2 = Eigen::Matrix3d::Identity() * (0.4 * mass_kg * radius_m * radius_m);
   }
-  constexpr double kSteelDensity_kg_per_m3 = 7850.0;
-  const double radius_m = std::cbrt(3.0 * mass_kg / (4.0 * std::numbers::pi * kSteelDensity_kg_per_m3));
-  payload->mass_kg = mass_kg;
-  payload->inertia_kgm2 = Eigen::Matrix3d::Identity() * (0.4 * mass_kg * radius_m * radius_m);
+  if (payloads == 0) throw std::invalid_argument("arm plant: an unknown hand payload needs a hand payload body (\"payload\" or \"<side>_payload\")");
   return model;
 }
 

@@ -119,6 +119,48 @@ LogTable read_log_table(const std::filesystem::path& csv) {
   return t;
 }
 
+/// A model joint a log has columns for: the columns' prefix ("sfe_", "r_saa_", "" ...), its qpos
+/// address and its name for the overlay.
+struct LogJoint {
+  std::string prefix;
+  int qpos = -1;
+  std::string label;
+};
+
+/// The qpos address of the joint a log names `joint` ("sfe" on one arm: R_SFE, then L_SFE; "r_saa":
+/// R_SAA), or -1.
+int joint_qpos(const mjModel* model, const std::string& joint) {
+  std::string upper = joint;
+  for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  for (const std::string& name : {upper, "R_" + upper, "L_" + upper}) {
+    const int id = mj_name2id(model, mjOBJ_JOINT, name.c_str());
+    if (id >= 0) return model->jnt_qposadr[id];
+  }
+  return -1;
+}
+
+/// Every joint with a column `<prefix><suffix>` whose prefix names a joint of `model` (an empty
+/// prefix is kept with qpos -1 for the caller to resolve), in the log's column order.
+std::vector<LogJoint> log_joints(const LogTable& log, const mjModel* model, const std::string& suffix) {
+  std::vector<LogJoint> out;
+  for (const std::string& name : log.names) {
+    if (!name.ends_with(suffix) || name.starts_with("video_")) continue;
+    const std::string prefix = name.substr(0, name.size() - suffix.size());
+    if (prefix.empty()) {
+      out.push_back({prefix, -1, ""});
+      continue;
+    }
+    if (prefix.back() != '_') continue;
+    const std::string joint = prefix.substr(0, prefix.size() - 1);
+    const int q = joint_qpos(model, joint);
+    if (q < 0) continue;
+    std::string label = joint;
+    for (char& ch : label) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    out.push_back({prefix, q, label});
+  }
+  return out;
+}
+
 FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o, const std::string& title) {
   const auto& t = log.at("t_s");
   auto sample = std::make_shared<Sampler>(t);
@@ -161,46 +203,77 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
       }
     };
   }
-  if (log.has("sfe_plant_angle_rad")) {  // E3, the right arm's postures
-    const int q[3] = {qpos_of(model, "R_SFE"), qpos_of(model, "R_EFE"), qpos_of(model, "R_WFE")};
-    o.inset = {{"SFE / deg", &t, &derived(log, "video_sfe_deg", "sfe_plant_angle_rad", 1 / kDeg), blue},
-               {"EFE / deg", &t, &derived(log, "video_efe_deg", "efe_plant_angle_rad", 1 / kDeg), orange}};
-    o.inset_title = "shoulder and elbow angles";
+  // E3 (postures): every joint with a `<prefix>plant_angle_rad` column ("sfe_" on one arm, "r_saa_"
+  // on two), in the log's order.
+  std::vector<LogJoint> e3 = log_joints(log, model, "plant_angle_rad");
+  std::erase_if(e3, [](const LogJoint& j) { return j.qpos < 0; });
+  if (!e3.empty()) {
+    o.inset.clear();
+    for (std::size_t k = 0; k < e3.size() && k < 2; ++k) {
+      o.inset.push_back({fmt::format("{} / deg", e3[k].label), &t,
+                         &derived(log, "video_" + e3[k].prefix + "deg", e3[k].prefix + "plant_angle_rad", 1 / kDeg), k == 0 ? blue : orange});
+    }
+    o.inset_title = e3.size() > 1 ? fmt::format("{} and {} angles", e3[0].label, e3[1].label) : e3[0].label + " angle";
+    const bool compact = e3.size() > 3;  // two arms: one line per joint
     return [=](double time, mjData* d, Frame& f) {
       sample->seek(time);
       const Sampler& s = *sample;
       std::string names = "time\noperator", values = fmt::format("{:.2f} s\n{}", time,
                                                                   s.nearest(L->at("operator_active")) > 0.5 ? "holding" : "released");
-      const char* joints[3] = {"sfe", "efe", "wfe"};
-      for (int j = 0; j < 3; ++j) {
-        auto c = [&](const char* what) { return s(L->at(fmt::format("{}_{}", joints[j], what))); };
+      for (const LogJoint& j : e3) {
+        auto c = [&](const char* what) { return s(L->at(j.prefix + what)); };
         const double angle = std::isfinite(c("plant_angle_rad")) ? c("plant_angle_rad") : c("angle_rad");  // board: encoder
-        d->qpos[q[j]] = angle;
-        names += fmt::format("\n{} angle\n  F agonist / antagonist\n  p cmd", j == 0 ? "SFE" : j == 1 ? "EFE" : "WFE");
-        values += fmt::format("\n{:.1f} deg\n{:.0f} N / {:.0f} N\n{:.3f} / {:.3f} MPa", angle / kDeg,
-                              c("plant_agonist_force_N"), c("plant_antagonist_force_N"), c("agonist_pressure_cmd_MPa"),
-                              c("antagonist_pressure_cmd_MPa"));
+        d->qpos[j.qpos] = angle;
+        if (compact) {
+          names += fmt::format("\n{}", j.label);
+          values += fmt::format("\n{:.1f} deg  {:.0f} / {:.0f} N", angle / kDeg, c("plant_agonist_force_N"), c("plant_antagonist_force_N"));
+        } else {
+          names += fmt::format("\n{} angle\n  F agonist / antagonist\n  p cmd", j.label);
+          values += fmt::format("\n{:.1f} deg\n{:.0f} N / {:.0f} N\n{:.3f} / {:.3f} MPa", angle / kDeg, c("plant_agonist_force_N"),
+                                c("plant_antagonist_force_N"), c("agonist_pressure_cmd_MPa"), c("antagonist_pressure_cmd_MPa"));
+        }
       }
       f.overlay_names = names;
       f.overlay_values = values;
     };
   }
-  if (log.has("plant_elbow_deg")) {  // E4, the elbow follows a person's goniometer
-    const int sfe = qpos_of(model, "R_SFE"), efe = qpos_of(model, "R_EFE");
-    o.inset = {{"person / deg", &t, &log.at("person_elbow_deg"), green}, {"exo / deg", &t, &log.at("plant_elbow_deg"), blue}};
-    o.inset_title = "elbow: person and exoskeleton";
+  // E4: each driven joint's `<prefix>plant_elbow_deg` ("" for one elbow: R_EFE; "r_efe_" ...), each held
+  // joint's `plant_<joint>_deg`.
+  std::vector<LogJoint> driven = log_joints(log, model, "plant_elbow_deg");
+  if (driven.size() == 1 && driven[0].prefix.empty()) driven[0].qpos = joint_qpos(model, "efe"), driven[0].label = "EFE";
+  std::erase_if(driven, [](const LogJoint& j) { return j.qpos < 0; });
+  if (!driven.empty()) {
+    std::vector<std::pair<int, std::string>> held;  // qpos, column
+    for (const std::string& name : log.names) {
+      if (!name.starts_with("plant_") || !name.ends_with("_deg") || name == "plant_elbow_deg") continue;
+      const std::string joint = name.substr(6, name.size() - 10);
+      const int q = joint_qpos(model, joint);
+      if (q >= 0) held.emplace_back(q, name);
+    }
+    const LogJoint& first = driven.front();
+    o.inset = {{"person / deg", &t, &log.at(first.prefix + "person_elbow_deg"), green},
+               {"exo / deg", &t, &log.at(first.prefix + "plant_elbow_deg"), blue}};
+    o.inset_title = driven.size() > 1 ? first.label + ": person and exoskeleton" : "elbow: person and exoskeleton";
     return [=](double time, mjData* d, Frame& f) {
       sample->seek(time);
       const Sampler& s = *sample;
-      if (const double shoulder = s(L->at("plant_sfe_deg")); std::isfinite(shoulder)) d->qpos[sfe] = shoulder * kDeg;
-      const double elbow = s(L->at("plant_elbow_deg"));
-      d->qpos[efe] = (std::isfinite(elbow) ? elbow : s(L->at("elbow_encoder_deg"))) * kDeg;  // board: encoder
-      f.overlay_names = "time\nperson's elbow\nexo elbow\nshoulder\nF agonist / antagonist\np cmd\nmotor";
-      f.overlay_values = fmt::format("{:.2f} s\n{:.1f} deg\n{:.1f} deg\n{:.1f} deg\n{}\n{:.2f} Nm", time,
-                                     s(L->at("person_elbow_deg")), s(L->at("plant_elbow_deg")), s(L->at("plant_sfe_deg")),
-                                     muscle_lines(s(L->at("plant_agonist_force_N")), s(L->at("plant_antagonist_force_N")),
-                                                  s(L->at("agonist_pressure_cmd_MPa")), s(L->at("antagonist_pressure_cmd_MPa"))),
-                                     s(L->at("tau_motor_cmd_Nm")));
+      std::string names = "time", values = fmt::format("{:.2f} s", time);
+      for (const auto& [q, column] : held) {
+        if (const double deg = s(L->at(column)); std::isfinite(deg)) d->qpos[q] = deg * kDeg;
+      }
+      for (const LogJoint& j : driven) {
+        auto c = [&](const char* what) { return s(L->at(j.prefix + what)); };
+        const double elbow = c("plant_elbow_deg");
+        d->qpos[j.qpos] = (std::isfinite(elbow) ? elbow : c("elbow_encoder_deg")) * kDeg;  // board: encoder
+        const std::string who = driven.size() > 1 ? j.label + " " : std::string();
+        names += fmt::format("\n{}person\n{}exo\n  F agonist / antagonist\n  p cmd\n  motor", who, who);
+        values += fmt::format("\n{:.1f} deg\n{:.1f} deg\n{}\n{:.2f} Nm", c("person_elbow_deg"), elbow,
+                              muscle_lines(c("plant_agonist_force_N"), c("plant_antagonist_force_N"), c("agonist_pressure_cmd_MPa"),
+                                           c("antagonist_pressure_cmd_MPa")),
+                              c("tau_motor_cmd_Nm"));
+      }
+      f.overlay_names = names;
+      f.overlay_values = values;
     };
   }
   throw std::runtime_error("not a log the video knows (E1 e1_<case>.csv, E3 e3_postures.csv, E4 e4_<movement>_<variant>.csv)");

@@ -126,6 +126,26 @@ TEST(Config, StrictReaderAcceptsOnlyWhatItReads) {
   EXPECT_THROW(root.integer("gain", 0, 10), Error);
 }
 
+// A list of names from a fixed set (E4's goniometer.joints): each must be one of the options and listed
+// once; the error names the item, what was expected and what was found.
+TEST(Config, ChoicesAreDistinctNamesFromTheOptions) {
+  Document doc = Document::load_string("a: [R_EFE, L_EFE]\nb: [R_EFE, R_WR]\nc: [R_EFE, R_EFE]\nd: R_EFE\n", "t.yaml");
+  Map root = doc.root();
+  const std::vector<std::string> io = {"R_SFE", "R_EFE", "L_EFE"};
+  EXPECT_EQ(root.choices("a", io, 1, 3), (std::vector<std::string>{"R_EFE", "L_EFE"}));
+  auto error = [&](const char* key) {
+    try {
+      root.choices(key, io, 1, 3);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_THAT(error("b"), HasSubstr("t.yaml:2:12: b[1]: expected one of {R_SFE, R_EFE, L_EFE}, found 'R_WR'"));
+  EXPECT_THAT(error("c"), HasSubstr("c[1]: 'R_EFE' is listed twice"));
+  EXPECT_THAT(error("d"), HasSubstr("d: expected a list of 1 to 3 of {R_SFE, R_EFE, L_EFE}, found 'R_EFE'"));
+}
+
 TEST(Config, NumbersAreDecimalOnly) {
   const auto read = [](const std::string& text) {
     Document doc = Document::load_string("x: " + text + "\n", "n.yaml");

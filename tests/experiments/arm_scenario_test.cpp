@@ -7,6 +7,7 @@
 #include "../support/alloc_counter.hpp"
 #include "../support/verdict_checks.hpp"
 
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -301,6 +302,76 @@ TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
   } catch (const config::Error& e) {
     EXPECT_NE(std::string(e.what()).find("R_EFE"), std::string::npos) << e.what();
   }
+  std::filesystem::remove_all(dir);
+}
+
+// E4's and E6's joints and postures come from the joint list: goniometer.joints and bandwidth.joint
+// name io joints, goniometer.angles_deg and bandwidth.angles_deg are postures as E3's (by arm joint for
+// every side, or by io joint). The right arm holds its shoulder and drives its elbow; the upper body
+// drives both elbows with both shoulders held, and sweeps the left elbow.
+TEST(ArmScenario, E4AndE6ReadTheirJointsAndPosturesByName) {
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  const ArmScenario right = shipped();
+  EXPECT_EQ(right.goniometer.joints, std::vector<int>{1});
+  ASSERT_EQ(right.goniometer.held_rad.size(), 3u);
+  EXPECT_NEAR(right.goniometer.held_rad[0], -90 * kDeg, 1e-12);
+  EXPECT_TRUE(std::isnan(right.goniometer.held_rad[1]));
+  EXPECT_TRUE(std::isnan(right.goniometer.held_rad[2]));  // the wrist: where the plant starts it
+  EXPECT_EQ(right.bandwidth.joint, 1);
+  EXPECT_NEAR(right.bandwidth.locked_rad[0], -90 * kDeg, 1e-12);
+  EXPECT_NEAR(right.bandwidth.locked_rad[1], 90 * kDeg, 1e-12);
+  EXPECT_TRUE(std::isnan(right.bandwidth.locked_rad[2]));
+  const ArmScenario upper = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
+  EXPECT_EQ(upper.goniometer.joints, (std::vector<int>{2, 6}));  // R_EFE, L_EFE
+  for (const std::size_t shoulder : {0u, 4u}) EXPECT_NEAR(upper.goniometer.held_rad[shoulder], 0.0, 1e-12);      // SAA
+  for (const std::size_t shoulder : {1u, 5u}) EXPECT_NEAR(upper.goniometer.held_rad[shoulder], -90 * kDeg, 1e-12);  // SFE
+  EXPECT_EQ(upper.bandwidth.joint, 6);  // L_EFE
+  EXPECT_NEAR(upper.bandwidth.locked_rad[2], 90 * kDeg, 1e-12);
+}
+
+// A goniometer or bandwidth section naming a joint the arm cannot drive by torque is refused at load
+// time with the file, the field and expected vs found: a passive joint (R_WR) or one the arm does not
+// have, the wrist held at a constant pressure, a held posture naming a driven joint, a bench posture
+// without the swept joint.
+TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_arm_e4e6_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  for (const char* sub : {"arm", "plant", "mfb"}) {  // the files the scenario names, relative to it
+    std::filesystem::create_directory_symlink(std::filesystem::path(PEHA_SOURCE_DIR) / "configs" / sub, dir / sub);
+  }
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
+  std::stringstream shipped_text;
+  shipped_text << in.rdbuf();
+  auto error_after = [&](const std::string& from, const std::string& to) {
+    std::string text = shipped_text.str();
+    const auto pos = text.find(from);
+    EXPECT_NE(pos, std::string::npos) << from;
+    if (pos != std::string::npos) text.replace(pos, from.size(), to);
+    std::ofstream(dir / "right_arm.yaml") << text;
+    try {
+      read_arm_scenario(config::Document::load_file(dir / "right_arm.yaml"));
+    } catch (const config::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  using ::testing::HasSubstr;
+  const std::string passive = error_after("joints: [R_EFE]", "joints: [R_WR]");
+  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:261:"));  // file and line of the list item
+  EXPECT_THAT(passive, HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'R_WR'"));
+  EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [L_EFE]"), HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'L_EFE'"));
+  EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [R_EFE, R_WFE]"),
+              HasSubstr("goniometer.joints: expected a joint with a peha or pam_pair actuator, found R_WFE (actuator constant_pressure"));
+  EXPECT_THAT(error_after("angles_deg: {SFE: -90.0}    #", "angles_deg: {SFE: -90.0, EFE: 30.0}    #"),
+              HasSubstr("goniometer.angles_deg: expected the posture of the joints the goniometers do not drive, found R_EFE"));
+  EXPECT_THAT(error_after("joint: R_EFE ", "joint: R_WR "), HasSubstr("bandwidth.joint: expected one of {R_SFE, R_EFE, R_WFE}, found 'R_WR'"));
+  EXPECT_THAT(error_after("joint: R_EFE ", "joint: R_WFE "),
+              HasSubstr("bandwidth.joint: expected a joint with a peha or pam_pair actuator, found R_WFE"));
+  EXPECT_THAT(error_after("angles_deg: {SFE: -90.0, EFE: 90.0}   #", "angles_deg: {SFE: -90.0}   #"),
+              HasSubstr("bandwidth.angles_deg: expected the swept joint R_EFE among the locked joints"));
+  EXPECT_THAT(error_after("angles_deg: {SFE: -90.0, EFE: 90.0}   #", "angles_deg: {SFE: -90.0, EFE: 90.0, WR: 0.0}   #"),
+              HasSubstr("bandwidth.angles_deg.WR: unknown key"));
+  EXPECT_EQ(error_after("joint: R_EFE ", "joint: R_SFE "), "");  // the shoulder has a motor and muscles: a bench joint too
   std::filesystem::remove_all(dir);
 }
 

@@ -62,26 +62,30 @@ TEST(E4, ExoskeletonElbowFollowsThePersonWithFeedbackButNotOnPureReplay) {
   const ArmScenario s = shipped();
   for (const char* name : {"slow", "brisk"}) {
     const GoniometerTrace t = synthesize_goniometer(s.goniometer, movement(s, name), s.seed);
-    const GoniometerResult open = run_goniometer(s, t, GoniometerVariant::kOpenLoop, nullptr);
-    const GoniometerResult fb = run_goniometer(s, t, GoniometerVariant::kFeedback, nullptr);
-    EXPECT_NEAR(fb.range_deg, 60.0, 0.5) << name;
-    EXPECT_LT(fb.rms_error_deg, 8.0) << name;
-    EXPECT_LT(fb.rms_error_aligned_deg, 3.0) << name;
-    EXPECT_GT(fb.delay_s, open.filter_delay_s) << name;  // at least the Butterworth's group delay
-    EXPECT_LT(fb.delay_s, 0.15) << name;
-    EXPECT_GT(open.rms_error_deg, 3.0 * fb.rms_error_deg) << name;
+    const GoniometerResult open = run_goniometer(s, {t}, GoniometerVariant::kOpenLoop, nullptr);
+    const GoniometerResult fb = run_goniometer(s, {t}, GoniometerVariant::kFeedback, nullptr);
+    ASSERT_EQ(fb.joints.size(), 1u);  // the right arm's goniometer drives R_EFE
+    const GoniometerJointResult& f = fb.joints[0];
+    const GoniometerJointResult& o = open.joints[0];
+    EXPECT_EQ(f.joint, "R_EFE");
+    EXPECT_NEAR(f.range_deg, 60.0, 0.5) << name;
+    EXPECT_LT(f.rms_error_deg, 8.0) << name;
+    EXPECT_LT(f.rms_error_aligned_deg, 3.0) << name;
+    EXPECT_GT(f.delay_s, open.filter_delay_s) << name;  // at least the Butterworth's group delay
+    EXPECT_LT(f.delay_s, 0.15) << name;
+    EXPECT_GT(o.rms_error_deg, 3.0 * f.rms_error_deg) << name;
     EXPECT_NEAR(open.filter_delay_s, 0.0374, 0.0005);  // sqrt(2) / Omega_c for N = 2, 6 Hz at 200 Hz
     // The tracking figures are in the verdict: pure replay fails both, by far.
-    EXPECT_TRUE(testing::fails_on(open.verdict, "elbow tracking RMS error")) << name;
-    EXPECT_TRUE(testing::fails_on(open.verdict, "elbow tracking max error")) << name;
+    EXPECT_TRUE(testing::fails_on(open.verdict, "R_EFE tracking RMS error")) << name;
+    EXPECT_TRUE(testing::fails_on(open.verdict, "R_EFE tracking max error")) << name;
     EXPECT_FALSE(open.within_limits) << name;
     if (std::string(name) == "slow") {
-      EXPECT_FALSE(testing::fails_on(fb.verdict, "elbow tracking")) << fb.verdict.failures();
+      EXPECT_FALSE(testing::fails_on(fb.verdict, "R_EFE tracking")) << fb.verdict.failures();
     }
     for (const GoniometerResult* r : {&open, &fb}) {
       // Beyond tracking, only tension floors may fail (the wrist's, see E3).
       for (const std::string& f : testing::failed_figures(r->verdict)) {
-        EXPECT_TRUE(f.ends_with("lowest wire tension") || f.starts_with("elbow tracking")) << name << ": " << f;
+        EXPECT_TRUE(f.ends_with("lowest wire tension") || f.starts_with("R_EFE tracking")) << name << ": " << f;
       }
       // The supervisor's plausibility stage is on and raises nothing on the person's movement (its
       // figure is judged; a false alarm would fail it above).
@@ -102,13 +106,48 @@ TEST(E4, BriskFeedbackKeepsTheElbowWiresAboveHalfThePretension) {
   ArmScenario s = shipped();
   ASSERT_GT(s.controller.allocation.force_trim_slack_rate_1ps, 0.0);
   const GoniometerTrace t = synthesize_goniometer(s.goniometer, movement(s, "brisk"), s.seed);
-  const GoniometerResult fb = run_goniometer(s, t, GoniometerVariant::kFeedback, nullptr);
+  const GoniometerResult fb = run_goniometer(s, {t}, GoniometerVariant::kFeedback, nullptr);
   EXPECT_TRUE(testing::judges(fb.verdict, "R_EFE lowest wire tension"));
+  EXPECT_NEAR(fb.joints[0].min_wire_tension_N, fb.verdict.find("R_EFE lowest wire tension")->value, 1e-9);
   EXPECT_FALSE(testing::fails_on(fb.verdict, "R_EFE lowest wire tension")) << fb.verdict.failures();
   EXPECT_TRUE(fb.within_limits) << fb.verdict.failures();
   s.controller.allocation.force_trim_slack_rate_1ps = 0.0;
-  const GoniometerResult before = run_goniometer(s, t, GoniometerVariant::kFeedback, nullptr);
+  const GoniometerResult before = run_goniometer(s, {t}, GoniometerVariant::kFeedback, nullptr);
   EXPECT_TRUE(testing::fails_on(before.verdict, "R_EFE lowest wire tension"));
+}
+
+// The log keeps the single-elbow column names when one joint is driven (tools/plot_goniometer.py and
+// the videos read them); with both elbows of the upper body driven each elbow's columns start with its
+// log name, and every held joint (shoulders, named in goniometer.angles_deg) has its angle and gravity
+// torque.
+TEST(E4, LogColumnsFollowTheDrivenAndHeldJoints) {
+  const std::vector<std::string> one = goniometer_log_columns(shipped());
+  for (const char* c : {"person_elbow_deg", "plant_elbow_deg", "tau_elbow_cmd_Nm", "plant_sfe_deg", "tau_sfe_gravity_Nm",
+                        "agonist_loadcell_N", "plant_tension_min_N"}) {
+    EXPECT_THAT(one, ::testing::Contains(std::string(c)));
+  }
+  EXPECT_EQ(one.size(), 20u);  // as before the joint list: 2 + 8 + 2 + 7 + 1
+  const ArmScenario upper = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
+  const std::vector<std::string> both = goniometer_log_columns(upper);
+  for (const char* c : {"r_efe_person_elbow_deg", "l_efe_person_elbow_deg", "r_efe_plant_elbow_deg", "l_efe_tau_motor_cmd_Nm",
+                        "plant_r_saa_deg", "plant_l_sfe_deg", "tau_l_sfe_gravity_Nm"}) {
+    EXPECT_THAT(both, ::testing::Contains(std::string(c)));
+  }
+  EXPECT_THAT(both, ::testing::Not(::testing::Contains(std::string("person_elbow_deg"))));
+  EXPECT_EQ(both.size(), 2u + 2 * 8 + 4 * 2 + 2 * 7 + 1);
+}
+
+// Each driven joint's goniometer is its own sensor: the same movement, its own noise; the first is the
+// one-joint trace of the same seed (the right arm's figures do not move).
+TEST(E4, EachDrivenJointHasItsOwnGoniometer) {
+  const ArmScenario upper = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
+  const auto& m = movement(upper, "brisk");
+  const std::vector<GoniometerTrace> t = synthesize_goniometers(upper.goniometer, m, 5);
+  ASSERT_EQ(t.size(), 2u);
+  EXPECT_EQ(t[0].truth_rad, t[1].truth_rad);
+  EXPECT_NE(t[0].measured_rad, t[1].measured_rad);
+  EXPECT_EQ(t[0].measured_rad, synthesize_goniometer(upper.goniometer, m, 5).measured_rad);
+  EXPECT_THROW(run_goniometer(upper, {t[0]}, GoniometerVariant::kFeedback, nullptr), std::invalid_argument);
 }
 
 // A recording in the documented format reads back as written; the reader rejects, naming the line

@@ -745,7 +745,7 @@ TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   s.link->host_watchdog_s = kTestWatchdog_s;
   ASSERT_EQ(s.goniometer.movements.size(), 1u);
   const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(s.goniometer, s.goniometer.movements[0], s.seed);
-  const experiments::GoniometerResult local = experiments::run_goniometer(s, trace, experiments::GoniometerVariant::kFeedback, nullptr);
+  const experiments::GoniometerResult local = experiments::run_goniometer(s, {trace}, experiments::GoniometerVariant::kFeedback, nullptr);
 
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0",
                                   "--watchdog-ms", "250", "--case", "goniometer_brisk"});
@@ -754,19 +754,20 @@ TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   const experiments::GoniometerRealtimeResult udp = experiments::run_goniometer_realtime(s, 0, experiments::GoniometerVariant::kFeedback, options(port, "e4"));
   EXPECT_EQ(udp.faults, 0u);
   const experiments::GoniometerResult& r = udp.goniometer;
-  EXPECT_NEAR(r.range_deg, 60.0, 2.0);  // the goniometer's noise widens the range a little
-  EXPECT_NEAR(r.rms_error_deg, local.rms_error_deg, 1.5);
-  EXPECT_NEAR(r.delay_s, local.delay_s, 0.025);
+  ASSERT_EQ(r.joints.size(), 1u);
+  EXPECT_NEAR(r.joints[0].range_deg, 60.0, 2.0);  // the goniometer's noise widens the range a little
+  EXPECT_NEAR(r.joints[0].rms_error_deg, local.joints[0].rms_error_deg, 1.5);
+  EXPECT_NEAR(r.joints[0].delay_s, local.joints[0].delay_s, 0.025);
   // The verdict judges the same figures over the board as in-process (tension floors and tracking may
   // fail), and the link's own: "link faults" (0 here).
   EXPECT_EQ(r.verdict.checks.size(), local.verdict.checks.size() + 1);
   ASSERT_NE(r.verdict.find("link faults"), nullptr);
   EXPECT_TRUE(r.verdict.find("link faults")->passed());
   for (const safety::Check& c : r.verdict.checks) {
-    EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension") || c.figure.starts_with("elbow tracking")) << c.describe();
+    EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension") || c.figure.starts_with("R_EFE tracking")) << c.describe();
   }
-  std::printf("E4 over UDP (brisk, feedback): RMS %.2f deg, delay %.0f ms; in-process %.2f deg, %.0f ms\n", r.rms_error_deg,
-              r.delay_s * 1e3, local.rms_error_deg, local.delay_s * 1e3);
+  std::printf("E4 over UDP (brisk, feedback): RMS %.2f deg, delay %.0f ms; in-process %.2f deg, %.0f ms\n", r.joints[0].rms_error_deg,
+              r.joints[0].delay_s * 1e3, local.joints[0].rms_error_deg, local.joints[0].delay_s * 1e3);
 }
 
 }  // namespace

@@ -1,5 +1,7 @@
 // The video layer: a 2 s clip of the one-DOF rig from a log, checked with ffprobe (duration, size,
 // frame count) and by the pixels of a decoded frame (not blank: the link and the overlay are there).
+#include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/sim/arm_mjcf.hpp"
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/video/clip.hpp"
 #include "peha/video/run_videos.hpp"
@@ -142,6 +144,44 @@ TEST(VideoClip, AnUnknownLogIsSkippedWithTheReason) {
   EXPECT_TRUE(report.videos.empty());
   ASSERT_EQ(report.skipped.size(), 1u);
   EXPECT_NE(report.skipped[0].find("not a log the video knows"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
+// A two-armed E3 log (the upper body's columns, prefixed by side) makes a clip: every joint named by a
+// `<joint>_plant_angle_rad` column drives its joint of the upper body's model, each side its own.
+TEST(VideoClip, ATwoArmedPosturesLogDrivesBothArms) {
+  const auto dir = fresh_dir("peha_video_two_arms_test");
+  const experiments::ArmScenario s =
+      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
+  sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
+  {
+    std::ofstream f(dir / "e3_postures.csv");
+    f << "t_s,operator_active";
+    for (const std::string& joint : s.plant.actuated) {
+      std::string p = joint;
+      for (char& c : p) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+      for (const char* what : {"plant_angle_rad", "angle_rad", "plant_agonist_force_N", "plant_antagonist_force_N",
+                               "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa"}) {
+        f << ',' << p << '_' << what;
+      }
+    }
+    f << '\n';
+    for (int k = 0; k <= 1000; ++k) {
+      const double t = k * 1e-3;
+      f << t << ",0";
+      for (std::size_t j = 0; j < s.plant.actuated.size(); ++j) {
+        const double angle = (j == 1 ? -1.5 : j == 6 ? 0.3 * t : 0.0);  // R_SFE hangs; L_EFE flexes
+        f << ',' << angle << ',' << angle << ",40,40,0.1,0.3";
+      }
+      f << '\n';
+    }
+  }
+  RunVideoOptions options;
+  options.clip.width = 320;
+  options.clip.height = 180;
+  const RunVideoReport report = render_run_videos(dir, model.get(), options);
+  ASSERT_EQ(report.videos.size(), 1u) << (report.skipped.empty() ? std::string() : report.skipped[0]);
+  EXPECT_EQ(report.videos[0].stats.frames, 30);
   std::filesystem::remove_all(dir);
 }
 

@@ -82,6 +82,9 @@ class Map {
   std::string string(std::string_view key);
   /// Required string that must be one of `options`.
   std::string choice(std::string_view key, const std::vector<std::string>& options);
+  /// Required list of distinct strings, each one of `options`, with a length in [min_count, max_count].
+  std::vector<std::string> choices(std::string_view key, const std::vector<std::string>& options, std::size_t min_count,
+                                   std::size_t max_count);
   /// Required list of numbers, each within `range`, with a length in [min_count, max_count].
   std::vector<double> numbers(std::string_view key, Range range, std::size_t min_count,
                               std::size_t max_count);

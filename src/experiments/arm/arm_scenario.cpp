@@ -211,14 +211,29 @@ void read_postures(config::Map postures, ArmScenario& s) {
   postures.finish();
 }
 
-/// `bandwidth:` (E6): the locked posture and the sweep.
+/// An io joint named in `key` of `section` (E4's `joints:`, E6's `joint:`) that a torque command can
+/// drive: a peha or pam_pair joint, not one held at a constant pressure. Returns its io index.
+int torque_driven_joint(const config::Map& section, std::string_view key, const std::string& name, const ArmScenario& s) {
+  const std::vector<std::string>& io = s.plant.actuated;
+  const auto i = static_cast<std::size_t>(std::find(io.begin(), io.end(), name) - io.begin());
+  if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) {
+    section.fail(key, fmt::format("expected a joint with a peha or pam_pair actuator, found {} (actuator constant_pressure: held at "
+                                  "a constant pressure, no torque command)", name));
+  }
+  return static_cast<int>(i);
+}
+
+/// `bandwidth:` (E6): the swept joint, the locked posture and the sweep.
 void read_bandwidth(config::Map bw, ArmScenario& s) {
-  // The swept joint: one of the first two driven joints (the locked posture names their angles).
-  const std::vector<std::string> first_two(s.plant.actuated.begin(), s.plant.actuated.begin() + std::min<std::ptrdiff_t>(2, std::ssize(s.plant.actuated)));
-  const std::string joint = bw.choice("joint", first_two);
-  s.bandwidth.joint = static_cast<int>(std::find(first_two.begin(), first_two.end(), joint) - first_two.begin());
-  s.bandwidth.sfe_rad = bw.number("sfe_deg", {-100.0, 60.0}) * kDeg;
-  s.bandwidth.efe_rad = bw.number("efe_deg", {0.0, 135.0}) * kDeg;
+  s.bandwidth.joint = torque_driven_joint(bw, "joint", bw.choice("joint", s.plant.actuated), s);
+  // The bench locks every joint the posture names; the swept joint must be one of them.
+  s.bandwidth.locked_rad = read_angles(bw.map("angles_deg"), s, 1);
+  const auto swept = static_cast<std::size_t>(s.bandwidth.joint);
+  if (std::isnan(s.bandwidth.locked_rad[swept])) {
+    bw.fail("angles_deg", fmt::format("expected the swept joint {} among the locked joints (by {} or {}), found it missing",
+                                      s.plant.actuated[swept], s.plant.actuated[swept],
+                                      s.plant.actuated[swept].substr(s.plant.actuated[swept].find('_') + 1)));
+  }
   s.bandwidth.amplitude_Nm = bw.number("amplitude_Nm", {0.01, 50.0});
   s.bandwidth.frequencies_Hz = bw.numbers("frequencies_Hz", {0.01, 0.25 / s.period_s}, 2, 64);
   s.bandwidth.min_cycles = bw.number("min_cycles", {2.0, 1000.0});
@@ -226,11 +241,26 @@ void read_bandwidth(config::Map bw, ArmScenario& s) {
   bw.finish();
 }
 
-/// `goniometer:` (E4): the sensor, its filter, the feedback and the movements.
+/// `goniometer:` (E4): the driven joints, the held posture, the sensor, its filter, the feedback and
+/// the movements.
 void read_goniometer(config::Map gon, ArmScenario& s) {
   ArmScenario::Goniometer& g = s.goniometer;
-  const double elbow_lo = s.limits.joints[1].min_angle_rad / kDeg, elbow_hi = s.limits.joints[1].max_angle_rad / kDeg;
-  g.sfe_rad = gon.number("sfe_deg", {s.limits.joints[0].min_angle_rad / kDeg, s.limits.joints[0].max_angle_rad / kDeg}) * kDeg;
+  const std::vector<std::string>& io = s.plant.actuated;
+  double lo = -180.0, hi = 180.0;  // the movements stay inside every driven joint's range, deg
+  for (const std::string& name : gon.choices("joints", io, 1, io.size())) {
+    const int j = torque_driven_joint(gon, "joints", name, s);
+    g.joints.push_back(j);
+    lo = std::max(lo, s.limits.joints[static_cast<std::size_t>(j)].min_angle_rad / kDeg);
+    hi = std::min(hi, s.limits.joints[static_cast<std::size_t>(j)].max_angle_rad / kDeg);
+  }
+  g.held_rad = read_angles(gon.map("angles_deg"), s, 0);
+  for (const int j : g.joints) {
+    if (!std::isnan(g.held_rad[static_cast<std::size_t>(j)])) {
+      gon.fail("angles_deg", fmt::format("expected the posture of the joints the goniometers do not drive, found {} (in joints: its "
+                                         "angle is the person's)", io[static_cast<std::size_t>(j)]));
+    }
+  }
+  if (lo > hi) gon.fail("joints", fmt::format("the driven joints' ranges do not overlap ([{}, {}] deg)", lo, hi));
   g.sample_rate_Hz = gon.number("sample_rate_Hz", {10.0, 1.0 / s.period_s});
   const double ratio = 1.0 / (g.sample_rate_Hz * s.period_s);
   if (std::abs(ratio - std::round(ratio)) > 1e-9) {
@@ -252,8 +282,8 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   for (config::Map item : gon.maps("movements", 1, 16)) {
     ArmScenario::Goniometer::Movement m;
     m.name = item.string("name");
-    m.from_rad = item.number("from_deg", {elbow_lo, elbow_hi}) * kDeg;
-    m.to_rad = item.number("to_deg", {elbow_lo, elbow_hi}) * kDeg;
+    m.from_rad = item.number("from_deg", {lo, hi}) * kDeg;
+    m.to_rad = item.number("to_deg", {lo, hi}) * kDeg;
     m.move_s = item.number("move_s", {0.05, 60.0});
     m.pause_s = item.number("pause_s", {0.0, 60.0});
     m.repetitions = static_cast<int>(item.integer("repetitions", 1, 1000));

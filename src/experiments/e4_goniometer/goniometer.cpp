@@ -22,7 +22,6 @@ namespace peha::experiments {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-constexpr int kElbow = 1;  // io joint of R_EFE (the second driven joint of the right arm)
 
 double quantize(double x, double step) { return step > 0.0 ? std::round(x / step) * step : x; }
 
@@ -81,6 +80,17 @@ GoniometerTrace synthesize_goniometer(const ArmScenario::Goniometer& g, const Ar
     trace.measured_rad.push_back(quantize(angle + g.noise_rad * noise(rng), g.resolution_rad));
   }
   return trace;
+}
+
+std::uint64_t goniometer_noise_seed(std::uint64_t seed, std::size_t k) noexcept {
+  return seed + 0x9E3779B97F4A7C15ull * k;  // the golden-ratio stride: distinct seeds, the first unchanged
+}
+
+std::vector<GoniometerTrace> synthesize_goniometers(const ArmScenario::Goniometer& g, const ArmScenario::Goniometer::Movement& m,
+                                                    std::uint64_t seed) {
+  std::vector<GoniometerTrace> traces;
+  for (std::size_t k = 0; k < g.joints.size(); ++k) traces.push_back(synthesize_goniometer(g, m, goniometer_noise_seed(seed, k)));
+  return traces;
 }
 
 GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sample_rate_Hz, double min_rad,
@@ -178,12 +188,46 @@ void write_goniometer_csv(const std::filesystem::path& path, const GoniometerTra
 
 const char* to_string(GoniometerVariant v) { return v == GoniometerVariant::kOpenLoop ? "open_loop" : "feedback"; }
 
-const std::vector<std::string>& goniometer_log_columns() {
-  static const std::vector<std::string> columns = {
-      "t_s", "operator_active", "person_elbow_deg", "goniometer_deg", "filtered_elbow_deg", "filtered_rate_degps",
-      "filtered_accel_degps2", "tau_elbow_cmd_Nm", "plant_elbow_deg", "elbow_encoder_deg", "plant_sfe_deg",
-      "tau_sfe_gravity_Nm", "tau_motor_cmd_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
-      "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_tension_min_N"};
+namespace {
+
+/// The io joints E4 holds (named in goniometer.angles_deg, not driven), in io order.
+std::vector<std::size_t> held_joints(const ArmScenario& scenario) {
+  std::vector<std::size_t> held;
+  for (std::size_t i = 0; i < scenario.goniometer.held_rad.size(); ++i) {
+    if (!std::isnan(scenario.goniometer.held_rad[i])) held.push_back(i);
+  }
+  return held;
+}
+
+/// "R" of "R_EFE": the side an io joint is on.
+std::string_view side_of(const std::string& io_joint) { return std::string_view(io_joint).substr(0, io_joint.find('_')); }
+
+}  // namespace
+
+std::vector<std::string> goniometer_log_columns(const ArmScenario& scenario) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  // One driven joint keeps the single-elbow names (tools/plot_goniometer.py, the videos read them).
+  auto prefix = [&](int joint) {
+    return g.joints.size() > 1 ? arm_log_prefix(scenario, static_cast<std::size_t>(joint)) + "_" : std::string();
+  };
+  std::vector<std::string> columns = {"t_s", "operator_active"};
+  for (const int j : g.joints) {
+    for (const char* c : {"person_elbow_deg", "goniometer_deg", "filtered_elbow_deg", "filtered_rate_degps", "filtered_accel_degps2",
+                          "tau_elbow_cmd_Nm", "plant_elbow_deg", "elbow_encoder_deg"}) {
+      columns.push_back(prefix(j) + c);
+    }
+  }
+  for (const std::size_t h : held_joints(scenario)) {
+    columns.push_back(fmt::format("plant_{}_deg", arm_log_prefix(scenario, h)));
+    columns.push_back(fmt::format("tau_{}_gravity_Nm", arm_log_prefix(scenario, h)));
+  }
+  for (const int j : g.joints) {
+    for (const char* c : {"tau_motor_cmd_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
+                          "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N"}) {
+      columns.push_back(prefix(j) + c);
+    }
+  }
+  columns.push_back("plant_tension_min_N");
   return columns;
 }
 
@@ -200,102 +244,152 @@ double goniometer_reading(const ArmScenario& scenario, const GoniometerTrace& tr
   return i < trace.measured_rad.size() ? trace.measured_rad[i] : trace.measured_rad.back();
 }
 
-sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace) {
+sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces) {
   const ArmScenario::Goniometer& g = scenario.goniometer;
+  if (traces.size() != g.joints.size()) {
+    throw std::invalid_argument(fmt::format("E4: {} goniometer traces for {} driven joints", traces.size(), g.joints.size()));
+  }
   sim::ArmPlantParams p = scenario.plant;
-  p.initial_q_rad[0] = g.sfe_rad;
-  p.initial_q_rad[1] = trace.truth_rad.front();
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // Every io joint the posture names at its angle, each driven joint where its person starts; the
+  // others (the wrists unless named) where the plant starts them, and free in the operator's hands.
+  std::vector<double> start = g.held_rad;
+  start.resize(scenario.plant.actuated.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t k = 0; k < g.joints.size(); ++k) start[static_cast<std::size_t>(g.joints[k])] = traces[k].truth_rad.front();
+  for (std::size_t i = 0; i < start.size(); ++i) {
+    if (!std::isnan(start[i])) p.initial_q_rad.at(static_cast<std::size_t>(scenario.controller.joints[i].model_joint)) = start[i];
+  }
   const double release_s = g.settle_s - 1.0;
   // The operator holds the arm where it starts while the compensation comes on, then lets go.
-  p.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, {g.sfe_rad, trace.truth_rad.front(), nan}});
+  p.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, start});
   return p;
 }
 
-GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
+GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces, GoniometerVariant variant,
                                 runtime::RowSink* log) {
-  if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size()) {
-    throw std::invalid_argument("run_goniometer: empty trace or truth/measured size mismatch");
+  if (traces.size() != scenario.goniometer.joints.size()) {
+    throw std::invalid_argument(fmt::format("run_goniometer: {} traces for {} driven joints", traces.size(), scenario.goniometer.joints.size()));
   }
-  sim::ArmBackend plant(goniometer_plant_params(scenario, trace));
+  for (const GoniometerTrace& trace : traces) {
+    if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size() ||
+        trace.measured_rad.size() != traces.front().measured_rad.size()) {
+      throw std::invalid_argument("run_goniometer: empty trace, truth/measured size mismatch or traces of different lengths");
+    }
+  }
+  sim::ArmBackend plant(goniometer_plant_params(scenario, traces));
   const double settle_s = scenario.goniometer.settle_s, rate_Hz = scenario.goniometer.sample_rate_Hz;
-  return run_goniometer_on(
-      scenario, trace.name, variant, goniometer_run_duration_s(scenario, trace), plant, &plant,
-      [&](double t) { return goniometer_reading(scenario, trace, t); },
-      [&](double t) { return sample_at(trace.truth_rad, rate_Hz, t - settle_s); }, log);
+  std::vector<GoniometerSource> readings, persons;
+  for (const GoniometerTrace& trace : traces) {
+    readings.push_back([&](double t) { return goniometer_reading(scenario, trace, t); });
+    persons.push_back([&](double t) { return sample_at(trace.truth_rad, rate_Hz, t - settle_s); });
+  }
+  return run_goniometer_on(scenario, traces.front().name, variant, goniometer_run_duration_s(scenario, traces.front()), plant, &plant,
+                           readings, persons, log);
 }
 
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::ArmBackend* sim, const GoniometerSource& reading,
-                                   const GoniometerSource& person, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
+                                   io::Backend& backend, const sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
+                                   const std::vector<GoniometerSource>& persons, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
   const ArmScenario::Goniometer& g = scenario.goniometer;
+  if (readings.size() != g.joints.size() || (!persons.empty() && persons.size() != g.joints.size())) {
+    throw std::invalid_argument(fmt::format("run_goniometer_on: {} readings and {} persons for {} driven joints", readings.size(),
+                                            persons.size(), g.joints.size()));
+  }
   const double period = scenario.period_s;
   const auto decimation = static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * period)));
   const double release_s = g.settle_s - 1.0;
   const double nan = std::numeric_limits<double>::quiet_NaN();
   control::ArmController controller(scenario.controller);
-  controller.set_mode(kElbow, control::ArmJointMode::kCommanded);
+  for (const int j : g.joints) controller.set_mode(j, control::ArmJointMode::kCommanded);
   const safety::JointModels joints = arm_joint_models(controller.model());
   safety::LimitedBackend limited(backend, scenario.limits, joints);
   safety::Envelope envelope;
-  control::FilteredDerivative derivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz);
   const models::ArmModel& arm = controller.model().arm;
   models::ArmData arm_data(arm);
   const auto dof = static_cast<Eigen::Index>(arm.joints.size());
   Eigen::VectorXd q = Eigen::VectorXd::Zero(dof), qd = Eigen::VectorXd::Zero(dof), qdd = Eigen::VectorXd::Zero(dof);
+  const auto steps = static_cast<std::size_t>(std::llround(duration_s / period));
+
+  /// One driven joint: its goniometer's filter and derivatives, its command and its trajectories.
+  struct Driven {
+    std::size_t io = 0;
+    int q = 0;  ///< model joint
+    control::FilteredDerivative derivative;
+    control::FilteredDerivative::Derivatives d{};
+    double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
+    std::vector<double> exo, truth;  ///< the exoskeleton's and the person's angle per cycle, rad
+    GoniometerJointResult r;
+  };
+  std::vector<Driven> driven;
+  driven.reserve(g.joints.size());
+  for (const int j : g.joints) {
+    const auto io = static_cast<std::size_t>(j);
+    driven.push_back({io, controller.model().joints[io].model_joint, control::FilteredDerivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz),
+                      {}, 0.0, 0.0, 0.0, std::vector<double>(steps + 1), std::vector<double>(steps + 1), {}});
+    driven.back().r.joint = arm_joint_names(scenario)[io];
+  }
+  const std::vector<std::size_t> held = held_joints(scenario);
+  std::vector<std::vector<double>> held_q(held.size(), std::vector<double>(steps + 1));  // per held joint, rad
 
   GoniometerResult r;
   r.name = name;
   r.variant = variant;
   const bool feedback = variant == GoniometerVariant::kFeedback;
-  r.filter_delay_s = derivative.group_delay_s(0.0);
-  const auto steps = static_cast<std::size_t>(std::llround(duration_s / period));
-  std::vector<double> exo(steps + 1), truth(steps + 1), sfe(steps + 1);
-  std::vector<double> row(goniometer_log_columns().size());
+  r.filter_delay_s = driven.front().derivative.group_delay_s(0.0);
+  std::vector<double> row(goniometer_log_columns(scenario).size());
   io::SensorState state;
   io::Command command;
-  control::FilteredDerivative::Derivatives d;
-  double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
   const auto wall_start = std::chrono::steady_clock::now();
   auto hold = [&](std::size_t k) {  // no new sample: the command is held
-    exo[k] = k ? exo[k - 1] : 0.0;
-    sfe[k] = k ? sfe[k - 1] : 0.0;
-    truth[k] = k ? truth[k - 1] : 0.0;
+    for (Driven& j : driven) {
+      j.exo[k] = k ? j.exo[k - 1] : 0.0;
+      j.truth[k] = k ? j.truth[k - 1] : 0.0;
+    }
+    for (std::vector<double>& h : held_q) h[k] = k ? h[k - 1] : 0.0;
   };
   std::vector<int> joints_q;  // model joint of each io joint
   for (const control::ArmActuatedJoint& j : controller.model().joints) joints_q.push_back(j.model_joint);
-  const int elbow_q = joints_q[static_cast<std::size_t>(kElbow)];
   auto step = [&](std::size_t k) {
     const double t = state.time_s;
     if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
-      goniometer = reading(t);
-      d = derivative.step(goniometer);
-      // The encoders of the driven joints into the model's joint vector (io and model indices differ
-      // once a body has passive joints before a driven one, or two arms); the elbow from the person.
+      // The encoders of the io joints into the model's joint vector (io and model indices differ
+      // once a body has passive joints before a driven one, or two arms); each driven joint from its
+      // person.
       for (int j = 0; j < state.joint_count && j < static_cast<int>(joints_q.size()); ++j) {
         q[joints_q[static_cast<std::size_t>(j)]] = state.joints[static_cast<std::size_t>(j)].angle_rad;
       }
-      q[elbow_q] = d.value;
-      qd[elbow_q] = d.rate;
-      qdd[elbow_q] = d.acceleration;
-      tau_id = models::inverse_dynamics(arm, arm_data, q, qd, qdd)[elbow_q];
+      for (std::size_t n = 0; n < driven.size(); ++n) {
+        Driven& j = driven[n];
+        j.goniometer = readings[n](t);
+        j.d = j.derivative.step(j.goniometer);
+        q[j.q] = j.d.value;
+        qd[j.q] = j.d.rate;
+        qdd[j.q] = j.d.acceleration;
+      }
+      const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
+      for (Driven& j : driven) j.tau_id = tau[j.q];
     }
-    tau_cmd = tau_id;
-    if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
-      tau_cmd += g.feedback_stiffness_Nm_per_rad * (d.value - state.joints[kElbow].angle_rad) +
-                 g.feedback_damping_Nms_per_rad * (d.rate - controller.diagnostics()[kElbow].velocity_radps);
+    for (Driven& j : driven) {
+      j.tau_cmd = j.tau_id;
+      if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
+        j.tau_cmd += g.feedback_stiffness_Nm_per_rad * (j.d.value - state.joints[j.io].angle_rad) +
+                     g.feedback_damping_Nms_per_rad * (j.d.rate - controller.diagnostics()[j.io].velocity_radps);
+      }
+      j.r.peak_torque_command_Nm = std::max(j.r.peak_torque_command_Nm, std::abs(j.tau_cmd));
+      controller.set_desired_torque(static_cast<int>(j.io), j.tau_cmd);
     }
-    r.peak_torque_command_Nm = std::max(r.peak_torque_command_Nm, std::abs(tau_cmd));
-    controller.set_desired_torque(kElbow, tau_cmd);
     controller.update(state, command);
   };
   auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
     const double t = state.time_s;
     const sim::ArmTruth* tr = sim ? &sim->sampled_truth() : nullptr;
     // Without the simulator: the exoskeleton by its encoders, the person by the goniometer.
-    exo[k] = tr ? tr->actuated_q_rad[kElbow] : state.joints[kElbow].angle_rad;
-    sfe[k] = tr ? tr->actuated_q_rad[0] : state.joints[0].angle_rad;
-    truth[k] = person ? person(t) : goniometer;
+    auto angle = [&](std::size_t io) { return tr ? tr->actuated_q_rad[io] : state.joints[io].angle_rad; };
+    for (std::size_t n = 0; n < driven.size(); ++n) {
+      Driven& j = driven[n];
+      j.exo[k] = angle(j.io);
+      j.truth[k] = persons.empty() ? j.goniometer : persons[n](t);
+    }
+    for (std::size_t h = 0; h < held.size(); ++h) held_q[h][k] = angle(held[h]);
     double tension_min = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       safety::JointSample j = arm_joint_sample(state, sent, tr, a);
@@ -304,16 +398,32 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       tension_min = std::min(tension_min, j.min_tension_N);
       r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
     }
-    if (log) {
+    if (log) {  // in goniometer_log_columns' order
       const auto& diag = controller.diagnostics();
-      const io::JointSensors& s = state.joints[kElbow];
-      const io::JointCommand& c = sent.joints[kElbow];
-      bool operator_active = tr ? tr->operator_active : t < release_s;
-      row = {t, operator_active ? 1.0 : 0.0, truth[k] / kDeg, goniometer / kDeg, d.value / kDeg, d.rate / kDeg,
-             d.acceleration / kDeg, tau_cmd, tr ? exo[k] / kDeg : nan, s.angle_rad / kDeg, sfe[k] / kDeg,
-             diag[0].torque_gravity_Nm, c.motor_torque_Nm, c.agonist_pressure_Pa * 1e-6,
-             c.antagonist_pressure_Pa * 1e-6, s.agonist_loadcell_N, s.antagonist_loadcell_N,
-             tr ? tr->actuators[kElbow].muscle_force_N[0] : nan, tr ? tr->actuators[kElbow].muscle_force_N[1] : nan, tension_min};
+      const bool operator_active = tr ? tr->operator_active : t < release_s;
+      std::size_t c = 0;
+      row[c++] = t;
+      row[c++] = operator_active ? 1.0 : 0.0;
+      for (const Driven& j : driven) {
+        for (const double v : {j.truth[k] / kDeg, j.goniometer / kDeg, j.d.value / kDeg, j.d.rate / kDeg, j.d.acceleration / kDeg, j.tau_cmd,
+                               tr ? j.exo[k] / kDeg : nan, state.joints[j.io].angle_rad / kDeg}) {
+          row[c++] = v;
+        }
+      }
+      for (std::size_t h = 0; h < held.size(); ++h) {
+        row[c++] = held_q[h][k] / kDeg;
+        row[c++] = diag[held[h]].torque_gravity_Nm;
+      }
+      for (const Driven& j : driven) {
+        const io::JointSensors& s = state.joints[j.io];
+        const io::JointCommand& cmd = sent.joints[j.io];
+        for (const double v : {cmd.motor_torque_Nm, cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_loadcell_N,
+                               s.antagonist_loadcell_N, tr ? tr->actuators[j.io].muscle_force_N[0] : nan,
+                               tr ? tr->actuators[j.io].muscle_force_N[1] : nan}) {
+          row[c++] = v;
+        }
+      }
+      row[c++] = tension_min;
       log->push_row(row);
     }
   };
@@ -326,35 +436,42 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
 
   // Tracking from the release to the end: raw error, and the lag that best aligns the two.
   const auto k0 = std::min(static_cast<std::size_t>(std::llround(release_s / period)), done);
-  const std::size_t steps_done = done;
-  double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
-  for (std::size_t k = k0; k <= steps_done; ++k) {
-    const double e = exo[k] - truth[k];
-    sum += e * e;
-    r.max_error_deg = std::max(r.max_error_deg, std::abs(e) / kDeg);
-    lo = std::min(lo, truth[k]);
-    hi = std::max(hi, truth[k]);
-    r.shoulder_excursion_deg = std::max(r.shoulder_excursion_deg, std::abs(sfe[k] - sfe[k0]) / kDeg);
-  }
-  r.rms_error_deg = std::sqrt(sum / static_cast<double>(steps_done - k0 + 1)) / kDeg;
-  r.range_deg = (hi - lo) / kDeg;
   const auto max_lag = static_cast<std::size_t>(std::llround(g.max_delay_s / period));
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t lag = 0; lag <= max_lag && k0 + lag < steps_done; ++lag) {
-    double s2 = 0.0;
-    for (std::size_t k = k0 + lag; k <= steps_done; ++k) {
-      const double e = exo[k] - truth[k - lag];
-      s2 += e * e;
+  for (Driven& j : driven) {
+    GoniometerJointResult& jr = j.r;
+    jr.min_wire_tension_N = envelope.joints[j.io].min_tension_N;
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
+    for (std::size_t k = k0; k <= done; ++k) {
+      const double e = j.exo[k] - j.truth[k];
+      sum += e * e;
+      jr.max_error_deg = std::max(jr.max_error_deg, std::abs(e) / kDeg);
+      lo = std::min(lo, j.truth[k]);
+      hi = std::max(hi, j.truth[k]);
+      for (std::size_t h = 0; h < held.size(); ++h) {  // the held joints of its own side
+        if (side_of(arm_joint_names(scenario)[held[h]]) != side_of(jr.joint)) continue;
+        jr.held_excursion_deg = std::max(jr.held_excursion_deg, std::abs(held_q[h][k] - held_q[h][k0]) / kDeg);
+      }
     }
-    const double rms = std::sqrt(s2 / static_cast<double>(steps_done - k0 - lag + 1));
-    if (rms < best) {
-      best = rms;
-      r.delay_s = static_cast<double>(lag) * period;
+    jr.rms_error_deg = std::sqrt(sum / static_cast<double>(done - k0 + 1)) / kDeg;
+    jr.range_deg = (hi - lo) / kDeg;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t lag = 0; lag <= max_lag && k0 + lag < done; ++lag) {
+      double s2 = 0.0;
+      for (std::size_t k = k0 + lag; k <= done; ++k) {
+        const double e = j.exo[k] - j.truth[k - lag];
+        s2 += e * e;
+      }
+      const double rms = std::sqrt(s2 / static_cast<double>(done - k0 - lag + 1));
+      if (rms < best) {
+        best = rms;
+        jr.delay_s = static_cast<double>(lag) * period;
+      }
     }
+    jr.rms_error_aligned_deg = best / kDeg;
+    r.verdict.at_most(jr.joint + " tracking RMS error", "deg", jr.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
+    r.verdict.at_most(jr.joint + " tracking max error", "deg", jr.max_error_deg, scenario.verdict.max_tracking_error_deg);
+    r.joints.push_back(jr);
   }
-  r.rms_error_aligned_deg = best / kDeg;
-  r.verdict.at_most("elbow tracking RMS error", "deg", r.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
-  r.verdict.at_most("elbow tracking max error", "deg", r.max_error_deg, scenario.verdict.max_tracking_error_deg);
   safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.within_limits = r.verdict.passed();
   return r;

@@ -4,9 +4,11 @@
 #include "peha/experiments/e4_goniometer/goniometer_realtime.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <numbers>
@@ -33,19 +35,24 @@ std::size_t find_movement(const ArmScenario::Goniometer& g, const std::string& n
   return index;
 }
 
-/// The person's movements: the recording, or the synthetic movements (only `only_case` if given;
-/// each drawn from seed + its index, as in a run of all). Empty (after a message): no such movement.
-std::vector<GoniometerTrace> person_traces(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
+/// The person's movements, each as one trace per driven joint: the recording (the same on every driven
+/// joint, inside each one's range), or the synthetic movements (only `only_case` if given; each drawn
+/// from seed + its index, as in a run of all). Empty (after a message): no such movement.
+std::vector<std::vector<GoniometerTrace>> person_traces(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
   const auto& g = scenario.goniometer;
-  std::vector<GoniometerTrace> traces;
+  std::vector<std::vector<GoniometerTrace>> traces;
   if (!request.goniometer_csv.empty()) {
-    traces.push_back(read_goniometer_csv(request.goniometer_csv, g.sample_rate_Hz, scenario.limits.joints[1].min_angle_rad,
-                                         scenario.limits.joints[1].max_angle_rad));
+    double lo = -std::numbers::pi, hi = std::numbers::pi;
+    for (const int j : g.joints) {
+      lo = std::max(lo, scenario.limits.joints[static_cast<std::size_t>(j)].min_angle_rad);
+      hi = std::min(hi, scenario.limits.joints[static_cast<std::size_t>(j)].max_angle_rad);
+    }
+    traces.emplace_back(g.joints.size(), read_goniometer_csv(request.goniometer_csv, g.sample_rate_Hz, lo, hi));
     return traces;
   }
   for (std::size_t i = 0; i < g.movements.size(); ++i) {
     if (request.only_case.empty() || g.movements[i].name == request.only_case) {
-      traces.push_back(synthesize_goniometer(g, g.movements[i], scenario.seed + i));
+      traces.push_back(synthesize_goniometers(g, g.movements[i], scenario.seed + i));
     }
   }
   if (traces.empty()) {
@@ -55,47 +62,74 @@ std::vector<GoniometerTrace> person_traces(const config::Document& doc, const Ar
   return traces;
 }
 
+/// "R_EFE, L_EFE": the driven joints; "R_SAA 0, R_SFE -90 deg": the held posture.
+std::string driven_names(const ArmScenario& scenario) {
+  std::vector<std::string> names;
+  for (const int j : scenario.goniometer.joints) names.push_back(arm_joint_names(scenario)[static_cast<std::size_t>(j)]);
+  return fmt::format("{}", fmt::join(names, ", "));
+}
+std::string held_posture(const ArmScenario& scenario) {
+  std::vector<std::string> held;
+  for (std::size_t i = 0; i < scenario.goniometer.held_rad.size(); ++i) {
+    const double q = scenario.goniometer.held_rad[i];
+    if (!std::isnan(q)) held.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], q * 180 / std::numbers::pi));
+  }
+  return held.empty() ? "none" : fmt::format("{} deg", fmt::join(held, ", "));
+}
+
 int run_in_process(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
   const auto& g = scenario.goniometer;
-  const std::vector<GoniometerTrace> traces = person_traces(doc, scenario, request);
-  if (traces.empty()) return 2;
+  const std::vector<std::vector<GoniometerTrace>> movements = person_traces(doc, scenario, request);
+  if (movements.empty()) return 2;
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   fmt::print("peha run: {} --experiment goniometer (E4)\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at {:.1f} Hz "
-             "(group delay {:.1f} ms); shoulder at {:.0f} deg on gravity compensation\n  {}\n",
+             "(group delay {:.1f} ms) on {}; held on gravity compensation: {}\n  {}\n",
              doc.name(), g.sample_rate_Hz, g.noise_rad * 180 / std::numbers::pi, g.filter_order, g.cutoff_Hz,
              control::group_delay_s(control::design_butterworth_lowpass(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz), 0.0) * 1e3,
-             g.sfe_rad * 180 / std::numbers::pi,
-             request.goniometer_csv.empty() ? "synthetic person: " + std::to_string(traces.size()) + " movement(s)"
-                                            : "recording: " + request.goniometer_csv.string());
+             driven_names(scenario), held_posture(scenario),
+             request.goniometer_csv.empty() ? "synthetic person: " + std::to_string(movements.size()) + " movement(s)"
+                                            : "recording: " + request.goniometer_csv.string() +
+                                                  (g.joints.size() > 1 ? " (on every driven joint)" : ""));
   std::ofstream summary(dir / "summary.csv");
-  summary << "movement,variant,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
-             "peak_muscle_force_N,min_wire_tension_N,min_wire_tension_limit_N,peak_motor_Nm,shoulder_excursion_deg,"
-             "max_tracking_rms_deg,max_tracking_error_deg,within_limits\n";
+  summary << "movement,variant,joint,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
+             "joint_min_wire_tension_N,joint_min_wire_tension_limit_N,held_excursion_deg,peak_muscle_force_N,min_wire_tension_N,"
+             "min_wire_tension_limit_N,peak_motor_Nm,max_tracking_rms_deg,max_tracking_error_deg,within_limits\n";
   std::vector<GoniometerResult> results;
-  for (const GoniometerTrace& trace : traces) {
-    const double duration_s = g.settle_s + trace.duration_s() + g.tail_s;
+  const std::vector<std::string> columns = goniometer_log_columns(scenario);
+  for (const std::vector<GoniometerTrace>& traces : movements) {
+    const GoniometerTrace& trace = traces.front();
+    const double duration_s = goniometer_run_duration_s(scenario, trace);
     fmt::print("  {}: {:.1f} s simulated ...\n", trace.name, duration_s);
     std::fflush(stdout);
-    runtime::CsvLog log(goniometer_log_columns(), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+    runtime::CsvLog log(columns, static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
     for (const auto variant : kVariants) {
       log.clear();
-      const GoniometerResult r = run_goniometer(scenario, trace, variant, &log);
+      const GoniometerResult r = run_goniometer(scenario, traces, variant, &log);
       log.write(dir / fmt::format("e4_{}_{}.csv", trace.name, to_string(variant)),
-                {fmt::format("case: E4 goniometer-driven elbow, movement {}, variant {}", trace.name, to_string(variant)),
+                {fmt::format("case: E4 goniometer-driven {}, movement {}, variant {}", driven_names(scenario), trace.name, to_string(variant)),
                  fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
-                 "person_* is the person's true elbow; plant_* columns are simulator truth the controller never sees"});
+                 "person_* is the person's true joint; plant_* columns are simulator truth the controller never sees"});
       double tension_limit = 0;
       for (const auto& c : r.verdict.checks) {
         if (c.figure.ends_with("lowest wire tension")) tension_limit = std::max(tension_limit, c.limit);
       }
-      summary << fmt::format("{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.1f},{:.2f},{:.2f},{:.3f},{:.4f},{:.3g},{:.3g},{}\n", r.name,
-                             to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3,
-                             r.rms_error_aligned_deg, r.peak_torque_command_Nm, r.peak_muscle_force_N, r.min_wire_tension_N,
-                             tension_limit, r.peak_motor_torque_Nm, r.shoulder_excursion_deg,
-                             scenario.verdict.max_tracking_rms_deg, scenario.verdict.max_tracking_error_deg, r.within_limits ? 1 : 0);
+      for (const GoniometerJointResult& j : r.joints) {
+        const safety::Check* own = r.verdict.find(j.joint + " lowest wire tension");
+        summary << fmt::format("{},{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.2f},{:.2f},{:.4f},{:.1f},{:.2f},{:.2f},{:.3f},{:.3g},{:.3g},{}\n",
+                               r.name, to_string(r.variant), j.joint, j.range_deg, j.rms_error_deg, j.max_error_deg, j.delay_s * 1e3,
+                               j.rms_error_aligned_deg, j.peak_torque_command_Nm, j.min_wire_tension_N, own ? own->limit : 0.0,
+                               j.held_excursion_deg, r.peak_muscle_force_N, r.min_wire_tension_N, tension_limit, r.peak_motor_torque_Nm,
+                               scenario.verdict.max_tracking_rms_deg, scenario.verdict.max_tracking_error_deg, r.within_limits ? 1 : 0);
+      }
       results.push_back(r);
     }
-    if (request.goniometer_csv.empty()) write_goniometer_csv(dir / fmt::format("goniometer_{}.csv", trace.name), trace);
+    if (request.goniometer_csv.empty()) {
+      for (std::size_t k = 0; k < traces.size(); ++k) {
+        // One recording per goniometer; the first keeps the single-joint name.
+        const std::string suffix = k == 0 ? "" : "_" + arm_log_prefix(scenario, static_cast<std::size_t>(g.joints[k]));
+        write_goniometer_csv(dir / fmt::format("goniometer_{}{}.csv", trace.name, suffix), traces[k]);
+      }
+    }
   }
   summary.close();  // the plotter reads it next
   const bool safe = print_goniometer_tables(results);
@@ -125,14 +159,16 @@ int run_on_board(const config::Document& doc, const ArmScenario& scenario, const
     results.push_back(run_goniometer_realtime(scenario, index, variant, realtime));
     print_realtime(results.back(), dir / fmt::format("timing_{}", to_string(variant)));
   }
-  fmt::print("\n{:<10} {:>9} {:>10} {:>10} {:>9} {:>12}   (person = the goniometer's reading, exo = the elbow encoder)\n",
-             "variant", "range", "RMS error", "max error", "delay", "RMS aligned");
+  fmt::print("\n{:<10} {:<7} {:>9} {:>10} {:>10} {:>9} {:>12}   (person = the goniometer's reading, exo = the joint's encoder)\n",
+             "variant", "joint", "range", "RMS error", "max error", "delay", "RMS aligned");
   for (const auto& rr : results) {
     const auto& r = rr.goniometer;
     safe = safe && r.within_limits && rr.faults == 0;
-    fmt::print("{:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg; verdict {}, faults {}\n{}",
-               to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
-               r.within_limits ? "OK" : "VIOLATED", rr.faults, r.verdict.failures());
+    for (const GoniometerJointResult& j : r.joints) {
+      fmt::print("{:<10} {:<7} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg\n", to_string(r.variant), j.joint,
+                 j.range_deg, j.rms_error_deg, j.max_error_deg, j.delay_s * 1e3, j.rms_error_aligned_deg);
+    }
+    fmt::print("{:<10} verdict {}, faults {}\n{}", to_string(r.variant), r.within_limits ? "OK" : "VIOLATED", rr.faults, r.verdict.failures());
   }
   return safe ? 0 : 3;
 }
@@ -140,12 +176,14 @@ int run_on_board(const config::Document& doc, const ArmScenario& scenario, const
 }  // namespace
 
 bool print_goniometer_tables(const std::vector<GoniometerResult>& results) {
-  fmt::print("\n{:<10} {:<10} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>10}\n", "movement", "variant", "range", "RMS error",
-             "max error", "delay", "RMS aligned", "peak tau", "SFE moved", "RTF");
+  fmt::print("\n{:<10} {:<10} {:<7} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>11} {:>7}\n", "movement", "variant", "joint", "range",
+             "RMS error", "max error", "delay", "RMS aligned", "peak tau", "min wire", "held moved", "RTF");
   for (const auto& r : results) {
-    fmt::print("{:<10} {:<10} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>7.2f} deg {:>10.1f}\n",
-               r.name, to_string(r.variant), r.range_deg, r.rms_error_deg, r.max_error_deg, r.delay_s * 1e3, r.rms_error_aligned_deg,
-               r.peak_torque_command_Nm, r.shoulder_excursion_deg, r.realtime_factor);
+    for (const GoniometerJointResult& j : r.joints) {
+      fmt::print("{:<10} {:<10} {:<7} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>9.1f} N {:>7.2f} deg {:>7.1f}\n",
+                 r.name, to_string(r.variant), j.joint, j.range_deg, j.rms_error_deg, j.max_error_deg, j.delay_s * 1e3,
+                 j.rms_error_aligned_deg, j.peak_torque_command_Nm, j.min_wire_tension_N, j.held_excursion_deg, r.realtime_factor);
+    }
   }
   bool safe = true;
   for (const auto& r : results) {

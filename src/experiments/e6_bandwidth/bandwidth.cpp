@@ -39,13 +39,16 @@ std::pair<double, bool> bandwidth_3dB_Hz(const std::vector<BodePoint>& bode) {
 BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   const ArmScenario::Bandwidth& b = scenario.bandwidth;
   sim::ArmPlantParams plant_params = scenario.plant;
-  plant_params.initial_q_rad[0] = b.sfe_rad;
-  plant_params.initial_q_rad[1] = b.efe_rad;
-  // A torque bench: shoulder and elbow locked (equality constraints), so the delivered torque is the
-  // actuator's, not a motion's.
-  plant_params.mjcf.joints[0].locked = plant_params.mjcf.joints[1].locked = true;
-  plant_params.mjcf.joints[0].locked_at_rad = b.sfe_rad;
-  plant_params.mjcf.joints[1].locked_at_rad = b.efe_rad;
+  // A torque bench: every joint the posture names (the swept one among them) locked by an equality
+  // constraint, so the delivered torque is the actuator's, not a motion's.
+  for (std::size_t i = 0; i < b.locked_rad.size(); ++i) {
+    if (std::isnan(b.locked_rad[i])) continue;
+    const auto q = static_cast<std::size_t>(scenario.controller.joints[i].model_joint);
+    plant_params.initial_q_rad.at(q) = b.locked_rad[i];
+    sim::ArmMjcfJoint& joint = plant_params.mjcf.joints.at(q);
+    joint.locked = true;
+    joint.locked_at_rad = b.locked_rad[i];
+  }
   sim::ArmBackend plant(plant_params);
   control::ArmControllerModel model = scenario.controller;
   model.allocation.use_motor = hybrid;

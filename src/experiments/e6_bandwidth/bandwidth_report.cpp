@@ -1,6 +1,7 @@
 #include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <fstream>
@@ -52,10 +53,14 @@ int run_bandwidth_experiment(const config::Document& doc, const ArmScenario& sce
   }
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   const auto& b = scenario.bandwidth;
-  fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} joint locked at SFE {:.0f} deg, EFE {:.0f} deg; gravity torque "
+  std::vector<std::string> locked;
+  for (std::size_t i = 0; i < b.locked_rad.size(); ++i) {
+    if (!std::isnan(b.locked_rad[i])) locked.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], b.locked_rad[i] * 180 / std::numbers::pi));
+  }
+  fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} swept; locked at {} deg; gravity torque "
              "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
-             doc.name(), arm_joint_names(scenario)[static_cast<std::size_t>(b.joint)], b.sfe_rad * 180 / std::numbers::pi,
-             b.efe_rad * 180 / std::numbers::pi, b.amplitude_Nm, b.frequencies_Hz.size());
+             doc.name(), arm_joint_names(scenario)[static_cast<std::size_t>(b.joint)], fmt::join(locked, ", "), b.amplitude_Nm,
+             b.frequencies_Hz.size());
   std::vector<BandwidthResult> results;
   for (bool hybrid : {false, true}) results.push_back(run_bandwidth(scenario, hybrid));
   const bool safe = write_bandwidth_report(dir / "bode.csv", results);  // closed: the plotter reads it next

@@ -297,11 +297,11 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   const std::string experiment = rows.empty() ? std::string("-") : rows.front().experiment;
   const std::string what =
       experiment == "E3"
-          ? fmt::format("E3 (postures) on the right arm: faults on the elbow {} (muscle faults on its agonist; supply faults and the "
-                        "e-stop hit the whole arm) at `holding` (1 s after the operator lets go of the first posture) and `moving` "
+          ? fmt::format("E3 (postures) on the arm scenario `{}`: faults on the elbow {} (muscle faults on its agonist; supply faults "
+                        "and the e-stop hit every joint) at `holding` (1 s after the operator lets go of the first posture) and `moving` "
                         "(the middle of the operator's move to the second). Force, speed and tension are the worst of the actuated "
-                        "joints R_SFE, R_EFE, R_WFE; the limits are every joint's",
-                        kE3FaultJoint)
+                        "joints (each figure names its joint); the limits are every joint's",
+                        scenario_name, kE3FaultJoint)
           : std::string("E1 on the one-DOF rig: muscle faults on the agonist, at `holding` (4 s, at rest), `push` (the middle of the "
                         "first push's move) and `after_release` (0.5 s after it lets go)");
   std::ofstream md(dir / "faults.md");

@@ -45,15 +45,23 @@ struct ArmScenario {
   double postures_stop_s = 0;
   /// E6: sine-sweep torque commands on one joint with the arm locked at a posture (a torque bench).
   struct Bandwidth {
-    int joint = 1;                      ///< io joint: one of the first two (`joint:` names it, e.g. R_EFE)
-    double sfe_rad = -1.5707963, efe_rad = 1.5707963;  ///< locked posture
+    int joint = 1;                      ///< io joint swept (`joint:` names it, e.g. R_EFE or L_SAA): a peha or pam_pair joint
+    /// The locked posture, one per io joint, rad; NaN = not locked (`angles_deg:`, by arm joint for
+    /// every side or by io joint, as E3's postures). The swept joint is always named.
+    std::vector<double> locked_rad;
     double amplitude_Nm = 2.0;          ///< sine amplitude on top of the gravity torque
     std::vector<double> frequencies_Hz;
     double min_cycles = 4, min_duration_s = 2.0;  ///< per frequency (the first cycle is not analysed)
   } bandwidth;
-  /// E4: the exoskeleton's elbow driven by a person's elbow angle, measured by a goniometer.
+  /// E4: the exoskeleton's joints (the elbows) driven by a person's joint angles, each measured by its
+  /// own goniometer.
   struct Goniometer {
-    double sfe_rad = -1.5707963;    ///< shoulder posture (held by gravity compensation)
+    /// The io joints driven by a goniometer each (`joints: [R_EFE, L_EFE]`), peha or pam_pair joints.
+    std::vector<int> joints;
+    /// The posture of the other joints, one per io joint, rad; NaN = not named (`angles_deg:`, by arm
+    /// joint for every side or by io joint, as E3's postures): the operator holds them there until
+    /// the release, then gravity compensation (or a constant pressure) holds them.
+    std::vector<double> held_rad;
     double sample_rate_Hz = 200;    ///< goniometer sampling
     double noise_rad = 0.0087;      ///< standard deviation of the goniometer's noise
     double resolution_rad = 0.0017; ///< quantisation step of its reading
@@ -63,13 +71,14 @@ struct ArmScenario {
                                     ///< the operator's hands hold the arm for the first settle_s - 1 s
     double tail_s = 2.0;            ///< the last angle is held this long after the recording ends
     double max_delay_s = 0.4;       ///< longest lag the delay estimate searches
-    /// Beyond the paper: a joint-space impedance from the exoskeleton's elbow encoder toward the
+    /// Beyond the paper: a joint-space impedance from each driven joint's encoder toward its
     /// filtered goniometer angle, added to the inverse-dynamics torque in the `feedback` variant:
     /// tau += K (q_person - q_exo) + D (qd_person - qd_exo). The paper's variant is pure replay.
     double feedback_stiffness_Nm_per_rad = 40.0;
     double feedback_damping_Nms_per_rad = 2.0;
     /// A synthetic movement: from_rad -> to_rad -> from_rad on minimum-jerk paths of move_s each,
-    /// pause_s at each end, `repetitions` times.
+    /// pause_s at each end, `repetitions` times (the same movement for every driven joint; inside
+    /// each one's range).
     struct Movement {
       std::string name;
       double from_rad = 0.7, to_rad = 1.75, move_s = 2.0, pause_s = 0.5;

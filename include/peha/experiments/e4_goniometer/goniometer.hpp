@@ -1,18 +1,19 @@
 #pragma once
 /// \file
-/// Experiment E4 (docs/right-arm.md, paper Section V): the exoskeleton's elbow follows a person's elbow.
-/// A goniometer on the person's elbow is sampled at 200 Hz (noise and quantisation included); its
-/// reading is low-passed by a Butterworth filter and differentiated (control::FilteredDerivative),
-/// and the inverse dynamics of the forearm + hand (the controller's own nominal arm model) turn
-/// angle, velocity and acceleration into the elbow's torque command. The shoulder keeps gravity
-/// compensation, the wrist is held at constant pressure. In the paper's variant the path is open
+/// Experiment E4 (docs/right-arm.md, docs/upper-body.md, paper Section V): the exoskeleton's elbow
+/// follows a person's elbow - or each of the scenario's `goniometer.joints` (both elbows of the upper
+/// body) its own goniometer. Each goniometer is sampled at 200 Hz (noise and quantisation included);
+/// its reading is low-passed by a Butterworth filter and differentiated (control::FilteredDerivative),
+/// and the inverse dynamics of the controller's own nominal arm model turn angle, velocity and
+/// acceleration into the driven joint's torque command. The other joints keep gravity compensation
+/// (the wrists their constant pressure) at the scenario's held posture. In the paper's variant the path is open
 /// loop: nothing feeds the exoskeleton's own elbow angle back, so the figures measure how well the
 /// torque chain (model, filter, allocation, Bowden compensation, valves) alone reproduces the
 /// person's movement. A second variant adds an impedance toward the person's angle (beyond the paper).
 ///
 /// The person's movement is either synthetic (minimum-jerk flexion/extension from the scenario's
 /// `goniometer.movements`) or a recorded goniometer CSV (`t_s` and `elbow_angle_deg` or
-/// `elbow_angle_rad`, sampled at the configured rate).
+/// `elbow_angle_rad`, sampled at the configured rate) that drives every driven joint alike.
 
 #include "peha/runtime/csv_log.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
@@ -37,6 +38,13 @@ struct GoniometerTrace {
 /// The synthetic person of a scenario movement; noise and quantisation drawn from `seed`.
 GoniometerTrace synthesize_goniometer(const ArmScenario::Goniometer& g, const ArmScenario::Goniometer::Movement& m,
                                       std::uint64_t seed);
+/// The person's movement `m` on every driven joint (goniometer.joints order): the same movement, each
+/// goniometer with its own noise - the first drawn from `seed` (a one-joint run is
+/// synthesize_goniometer's), the k-th from goniometer_noise_seed(seed, k).
+std::vector<GoniometerTrace> synthesize_goniometers(const ArmScenario::Goniometer& g, const ArmScenario::Goniometer::Movement& m,
+                                                    std::uint64_t seed);
+/// The noise seed of the k-th driven joint's goniometer: `seed` for k = 0.
+std::uint64_t goniometer_noise_seed(std::uint64_t seed, std::size_t k) noexcept;
 
 /// Reads a recorded goniometer CSV (`#` comment lines, a header with `t_s` and one of
 /// `elbow_angle_deg` / `elbow_angle_rad`, then rows). The samples must be evenly spaced at
@@ -48,38 +56,53 @@ GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sa
 /// Writes `trace.measured_rad` in the format read_goniometer_csv reads (t_s, elbow_angle_deg).
 void write_goniometer_csv(const std::filesystem::path& path, const GoniometerTrace& trace);
 
-/// How the elbow torque is made from the goniometer.
+/// How each driven joint's torque is made from its goniometer.
 enum class GoniometerVariant {
   kOpenLoop,  ///< the paper: inverse dynamics of the person's filtered movement, nothing fed back
   kFeedback,  ///< beyond the paper: + an impedance from the exoskeleton's encoder toward the person
 };
 const char* to_string(GoniometerVariant v);
 
+/// The figures of one driven joint (the elbows on the upper body) in an E4 run.
+struct GoniometerJointResult {
+  std::string joint;            ///< io joint, e.g. "R_EFE"
+  double rms_error_deg = 0;     ///< RMS of exo joint - person's joint from the release to the end
+  double max_error_deg = 0;     ///< largest |exo joint - person's joint| over the same window
+  double delay_s = 0;           ///< lag that best aligns the exo's joint with the person's
+  double rms_error_aligned_deg = 0;  ///< RMS error after shifting by delay_s (shape, not lag)
+  double range_deg = 0;         ///< the person's range of movement in the window
+  double peak_torque_command_Nm = 0;  ///< from the inverse dynamics (+ impedance)
+  double min_wire_tension_N = 0;      ///< this joint's wires, plant truth (load cells over the board)
+  /// Largest |q - q at release| of the held joints of its side (goniometer.angles_deg): do they hold?
+  double held_excursion_deg = 0;
+};
+
 struct GoniometerResult {
   std::string name;
   GoniometerVariant variant = GoniometerVariant::kOpenLoop;
-  double rms_error_deg = 0;     ///< RMS of exo elbow - person's elbow while the person moves and after
-  double max_error_deg = 0;     ///< largest |exo elbow - person's elbow| over the same window
-  double delay_s = 0;           ///< lag that best aligns the exo's elbow with the person's
-  double rms_error_aligned_deg = 0;  ///< RMS error after shifting by delay_s (shape, not lag)
-  double filter_delay_s = 0;    ///< the Butterworth's group delay at DC (part of delay_s)
-  double range_deg = 0;         ///< the person's range of movement in the window
-  double peak_torque_command_Nm = 0;  ///< elbow, from the inverse dynamics
+  std::vector<GoniometerJointResult> joints;  ///< one per driven joint, goniometer.joints order
+  double filter_delay_s = 0;    ///< the Butterworth's group delay at DC (part of each delay_s)
   double peak_muscle_force_N = 0;     ///< any muscle, plant truth
   double min_wire_tension_N = 0;      ///< any wire, plant truth
   double peak_motor_torque_Nm = 0;
-  double shoulder_excursion_deg = 0;  ///< largest |SFE - SFE at release|: does the shoulder hold?
   double realtime_factor = 0;
-  /// The safety envelope's checks (safety/verdict.hpp) and the tracking figures (RMS and max error)
-  /// against the scenario's `verdict:` thresholds.
+  /// The safety envelope's checks (safety/verdict.hpp) and each driven joint's tracking figures
+  /// ("R_EFE tracking RMS error", "... max error") against the scenario's `verdict:` thresholds.
   safety::Verdict verdict;
   bool within_limits = false;         ///< verdict.passed()
 };
 
-const std::vector<std::string>& goniometer_log_columns();
+/// The per-cycle log's columns: t_s, operator_active; per driven joint its goniometer, filter,
+/// command and angle (person_elbow_deg, ..., elbow_encoder_deg); per held joint its angle and gravity
+/// torque (plant_<joint>_deg, tau_<joint>_gravity_Nm); per driven joint its actuator (tau_motor_cmd_Nm,
+/// ..., plant_antagonist_force_N); plant_tension_min_N. With more than one driven joint each driven
+/// joint's columns start with its log name (arm_log_prefix: "r_efe_person_elbow_deg").
+std::vector<std::string> goniometer_log_columns(const ArmScenario& scenario);
 
-/// Runs E4 for one trace on the in-process simulated arm. `log` (optional) gets one row per cycle.
-GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTrace& trace, GoniometerVariant variant,
+/// Runs E4 on the in-process simulated arm, one trace per driven joint (goniometer.joints order, all
+/// of the same length). `log` (optional) gets one row per cycle. Throws std::invalid_argument on a
+/// wrong number of traces.
+GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces, GoniometerVariant variant,
                                 runtime::RowSink* log);
 
 /// The goniometer's reading (rad) at time t_s of an E4 run: the trace's first sample during
@@ -88,19 +111,21 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const GoniometerTra
 double goniometer_reading(const ArmScenario& scenario, const GoniometerTrace& trace, double t_s) noexcept;
 /// How long an E4 run of `trace` lasts: settle_s + the trace + tail_s.
 double goniometer_run_duration_s(const ArmScenario& scenario, const GoniometerTrace& trace);
-/// The simulated arm of an E4 run: shoulder at goniometer.sfe_deg, elbow where the person starts,
-/// the operator holding it until settle_s - 1.
-sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const GoniometerTrace& trace);
+/// The simulated arm of an E4 run: the held joints at goniometer.angles_deg, each driven joint where
+/// its person starts (traces in goniometer.joints order), the operator holding it until settle_s - 1.
+sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces);
 
 /// A goniometer angle (rad) as a function of the run's time (s).
 using GoniometerSource = std::function<double(double t_s)>;
 
-/// E4 on any backend. `reading` gives the goniometer (sampled every 1/sample_rate_Hz); `person`
-/// the person's true elbow for the figures (empty: the goniometer's reading is all that is known,
-/// as over the board). `sim` (optional) is the in-process arm for truth figures; without it the
-/// exoskeleton's elbow is its encoder and forces are the load cells'.
+/// E4 on any backend. `readings` give each driven joint's goniometer (goniometer.joints order, sampled
+/// every 1/sample_rate_Hz); `persons` the person's true joints for the figures (empty: the goniometers'
+/// readings are all that is known, as over the board). `sim` (optional) is the in-process arm for
+/// truth figures; without it the exoskeleton's joints are its encoders and forces are the load cells'.
+/// Throws std::invalid_argument on a wrong number of readings or persons.
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::ArmBackend* sim, const GoniometerSource& reading,
-                                   const GoniometerSource& person, runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
+                                   io::Backend& backend, const sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
+                                   const std::vector<GoniometerSource>& persons, runtime::RowSink* log,
+                                   const runtime::CycleHooks& hooks = {});
 
 }  // namespace peha::experiments

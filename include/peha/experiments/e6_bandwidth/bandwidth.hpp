@@ -1,8 +1,9 @@
 #pragma once
 /// \file
-/// Experiment E6: the torque bandwidth of one right-arm joint locked at a posture (a torque bench),
-/// PAM-only vs hybrid (PAMs + motor): sine torques at each frequency of the scenario's sweep, the
-/// delivered torque's gain and phase, and the -3 dB frequency.
+/// Experiment E6: the torque bandwidth of one arm joint (`bandwidth.joint`, any peha or pam_pair joint)
+/// with the arm locked at a posture (a torque bench), PAM-only vs hybrid (PAMs + motor): sine torques
+/// at each frequency of the scenario's sweep, the delivered torque's gain and phase, and the -3 dB
+/// frequency.
 
 #include "peha/experiments/arm/arm_scenario.hpp"
 
