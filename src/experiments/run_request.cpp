@@ -64,11 +64,12 @@ void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timin
   for (const auto& b : rr.boards) {
     const auto& s = b.link;
     fmt::print("  board '{}': {} commands, {} states accepted, replies later than receive_timeout {}, cycles without a new sample {}, "
-               "dropped {}; round trip mean {:.1f} us, max {:.1f} us ({} measured)\n",
+               "dropped {}; round trip median / p99 / p99.9 / max {:.1f} / {:.1f} / {:.1f} / {:.1f} us, mean {:.1f} us ({} measured)\n",
                b.name, s.commands_sent, s.received.accepted, s.late_replies, s.replies_missing,
                s.received.foreign_source + s.received.foreign_session + s.received.duplicate + s.received.stale + s.received.malformed +
                    s.received.unauthenticated,
-               s.rtt_count ? s.rtt_sum_s / static_cast<double>(s.rtt_count) * 1e6 : 0.0, s.rtt_max_s * 1e6, s.rtt_count);
+               b.rtt.percentile(50) * 1e6, b.rtt.percentile(99) * 1e6, b.rtt.percentile(99.9) * 1e6, s.rtt_max_s * 1e6,
+               s.rtt_count ? s.rtt_sum_s / static_cast<double>(s.rtt_count) * 1e6 : 0.0, s.rtt_count);
   }
   for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
   rr.timing.write_csv(timing_dir);

@@ -36,6 +36,8 @@ BoardsBackend::BoardsBackend(std::vector<BoardPart> boards, const std::vector<st
   info_.joint_names = joint_names;
   info_.period_s = period_s;
   samples_.resize(boards_.size());
+  rtt_.resize(boards_.size());
+  rtt_seen_.resize(boards_.size(), 0);
   commands_.resize(boards_.size());
   for (std::size_t b = 0; b < boards_.size(); ++b) commands_[b].joint_count = static_cast<int>(boards_[b].io_index.size());
 }
@@ -89,10 +91,24 @@ io::BackendStatus BoardsBackend::status() const noexcept {
   return s;
 }
 
+void BoardsBackend::record_rtt() noexcept {
+  for (std::size_t b = 0; b < boards_.size(); ++b) {
+    const UdpBackend& board = *boards_[b].backend;
+    if (board.stats().rtt_count == rtt_seen_[b]) continue;
+    rtt_seen_[b] = board.stats().rtt_count;
+    rtt_[b].add(board.last_rtt_s());
+  }
+}
+
 bool BoardsBackend::read(io::SensorState& state) noexcept {
-  if (boards_.size() == 1) return boards_[0].backend->read(state);
+  if (boards_.size() == 1) {
+    const bool fresh = boards_[0].backend->read(state);
+    record_rtt();
+    return fresh;
+  }
   bool all = true;
   for (std::size_t b = 0; b < boards_.size(); ++b) all = boards_[b].backend->read(samples_[b]) && all;  // each drains its socket
+  record_rtt();
   if (!all) return false;
   state.time_s = samples_[0].time_s;
   state.sequence = samples_[0].sequence;

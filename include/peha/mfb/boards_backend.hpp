@@ -15,6 +15,7 @@
 
 #include "peha/io/backend.hpp"
 #include "peha/mfb/udp_backend.hpp"
+#include "peha/runtime/timing_stats.hpp"
 
 #include <memory>
 #include <string>
@@ -59,14 +60,20 @@ class BoardsBackend final : public io::Backend {
   const UdpBackend& board(std::size_t b) const noexcept { return *boards_[b].backend; }
   /// The links' counters summed over the boards (the round trip's max over them).
   UdpLinkStats stats() const noexcept;
+  /// Board `b`'s round trips, one per cycle that brought a new one (read() records them).
+  const runtime::Histogram& board_rtt(std::size_t b) const noexcept { return rtt_[b]; }
 
  private:
+  void record_rtt() noexcept;
+
   std::vector<BoardPart> boards_;
   std::vector<std::string> labels_;        ///< "board 'name'" per board (BackendStatus::part points here)
   io::BackendInfo info_;
   double receive_timeout_s_;
   std::vector<io::SensorState> samples_;   ///< per board, preallocated
   std::vector<io::Command> commands_;      ///< per board, preallocated
+  std::vector<runtime::Histogram> rtt_;     ///< per board
+  std::vector<std::uint64_t> rtt_seen_;     ///< per board: its round trips counted when last recorded
 };
 
 }  // namespace peha::mfb

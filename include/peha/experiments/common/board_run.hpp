@@ -20,6 +20,7 @@ struct BoardRunResult : runtime::RealtimeRunResult {
   struct Board {
     std::string name;
     mfb::UdpLinkStats link;
+    runtime::Histogram rtt;  ///< its round trips (mfb::BoardsBackend::board_rtt)
   };
   std::vector<Board> boards;
 };
