@@ -6,6 +6,7 @@
 #include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 namespace peha::app {
 
@@ -22,11 +23,15 @@ int check_config(const std::filesystem::path& config) {
       return 0;
     }
     const ScenarioCheck checked = find_experiment(doc).check(config, doc);
-    if (const auto& link = checked.link) {  // the board's channel map must load for the backend's joints
-      const mfb::ChannelMap map = mfb::read_channel_map(config::Document::load_file(link->channel_map), checked.joints);
-      mfb::load_link_key(link->key_file);  // the pre-shared key both ends authenticate with: present, private, 32 bytes
-      fmt::print("  mfb: channel map {} ({} joints), watchdogs board {} ms / host {} ms, key file {} read\n", link->channel_map.string(),
-                 map.joint_count(), link->board_watchdog_s * 1e3, link->host_watchdog_s * 1e3, link->key_file.string());
+    if (const auto& link = checked.link) {  // each board's channel map must load for its joints
+      for (const mfb::BoardLink& b : link->boards) {
+        const std::vector<std::string>& joints = link->boards.size() == 1 ? checked.joints : b.joint_names;
+        const mfb::ChannelMap map = mfb::read_channel_map(config::Document::load_file(b.channel_map), joints);
+        mfb::load_link_key(b.key_file);  // the pre-shared key both ends authenticate with: present, private, 32 bytes
+        fmt::print("  mfb{}: channel map {} ({} joints: {}), watchdogs board {} ms / host {} ms, key file {} read\n",
+                   b.name.empty() ? "" : " board '" + b.name + "'", b.channel_map.string(), map.joint_count(), fmt::join(joints, " "),
+                   link->board_watchdog_s * 1e3, link->host_watchdog_s * 1e3, b.key_file.string());
+      }
     }
     return 0;
   } catch (const std::exception& e) {

@@ -3,11 +3,16 @@
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
 #include "peha/io/udp_socket.hpp"
+#include "peha/mfb/shared_plant.hpp"
 #include "peha/runtime/realtime.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <atomic>
+#include <thread>
+#include <vector>
 #include <csignal>
 #include <cstdio>
 #include <fstream>
@@ -77,6 +82,65 @@ int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const Emulato
   return 0;
 }
 
+/// A scenario on several boards: one BoardEmulator per board (its socket at --port + i, its channel
+/// map, its key, its watchdog), each in its own thread, all in front of one simulated body
+/// (mfb::SharedPlant). Stops them all together.
+int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
+  const std::size_t n = plant.link.boards.size();
+  const std::vector<std::string> io_joints = plant.make_plant()->info().joint_names;
+  mfb::EmulatorParams base = emulator_params(options, plant.period_s, plant.link);
+  // A cycle waits this long for a live board's command before the body steps without it (a lost
+  // command; the host's next cycle closes it sooner).
+  const double wait_s = 3.0 * plant.period_s;  // and a board without a command for 4 waits is not waited for
+  const auto body = mfb::SharedPlant::create(plant.make_plant, static_cast<int>(n), plant.period_s, wait_s);
+  std::vector<std::unique_ptr<mfb::BoardEmulator>> boards;
+  std::string where;
+  for (std::size_t b = 0; b < n; ++b) {
+    const mfb::BoardLink& link = plant.link.boards[b];
+    std::vector<int> io_index;
+    for (const std::string& joint : link.joint_names) {
+      io_index.push_back(static_cast<int>(std::find(io_joints.begin(), io_joints.end(), joint) - io_joints.begin()));
+    }
+    mfb::EmulatorParams p = base;
+    if (p.bind.port != 0) p.bind.port = static_cast<std::uint16_t>(options.port + static_cast<int>(b));
+    p.key = mfb::load_link_key(link.key_file);
+    p.faults.seed = options.fault_seed + b;  // each board's own draws
+    boards.push_back(std::make_unique<mfb::BoardEmulator>(p, plant.maps[b], [body, b, io_index] { return body->view(static_cast<int>(b), io_index); }));
+    boards.back()->set_step_hook([body, b](const mfb::CommandPacket* c) { body->note_command(static_cast<int>(b), c); });
+    where += fmt::format("{}udp://{} (board '{}': {})", b ? ", " : "", boards.back()->local().to_string(), link.name, fmt::join(link.joint_names, " "));
+  }
+  std::signal(SIGINT, on_stop_signal);
+  std::signal(SIGTERM, on_stop_signal);
+  runtime::RealtimeOptions rt;
+  rt.fifo_priority = options.fifo_priority;
+  rt.lock_memory = options.fifo_priority > 0;
+  rt.cpu = options.cpu;
+  fmt::print("peha mfb-emulator: listening on {} - {}, one body stepped once per host cycle with every board's command (waiting at most {} ms "
+             "for a late one), watchdog {} ms, vent {} s\n",
+             where, plant.what, wait_s * 1e3, base.watchdog_s * 1e3, base.vent_s);
+  std::fflush(stdout);
+  // Each board ends on the signal, its own --max-runtime/--sessions, or when another board ended.
+  std::atomic<bool> stop{false};
+  std::atomic<int> ended{0};
+  std::vector<std::thread> threads;
+  for (std::size_t b = 0; b < n; ++b) {
+    threads.emplace_back([&, b] {
+      (void)runtime::configure_realtime_thread(rt);  // its warnings were printed; the board runs best-effort without
+      boards[b]->run(stop);
+      ++ended;
+    });
+  }
+  while (!g_stop && ended == 0) {
+    const timespec pause{0, 5'000'000};
+    nanosleep(&pause, nullptr);
+  }
+  stop = true;
+  for (std::thread& t : threads) t.join();
+  fmt::print("peha mfb-emulator: stopped; the body took {} steps ({} host cycles without every board's command)\n", body->steps(), body->partial_steps());
+  for (std::size_t b = 0; b < n; ++b) fmt::print("board '{}':\n{}\n", plant.link.boards[b].name, boards[b]->stats().table());
+  return 0;
+}
+
 }  // namespace
 
 int mfb_emulator(const EmulatorOptions& options) {
@@ -84,6 +148,10 @@ int mfb_emulator(const EmulatorOptions& options) {
     const config::Document doc = config::Document::load_file(options.config);
     std::optional<BoardPlant> plant = find_experiment(doc).emulator(doc, options);
     if (!plant) return 2;
+    if (plant->link.boards.size() > 1) {
+      if (!options.truth_csv.empty()) throw std::runtime_error("mfb-emulator: --truth-csv records one board's plant; this scenario has several boards");
+      return serve_boards(*plant, options);
+    }
     mfb::EmulatorParams p = emulator_params(options, plant->period_s, plant->link);
     if (options.bind_retry_s > 0 && p.bind.port != 0) {
       // A rebooting board's successor: started while the old one still holds the port, it takes the
@@ -106,7 +174,7 @@ int mfb_emulator(const EmulatorOptions& options) {
         }
       }
     }
-    mfb::BoardEmulator board(p, std::move(plant->map), plant->make_plant);
+    mfb::BoardEmulator board(p, std::move(plant->maps.front()), plant->make_plant);
     if (plant->input_hook) board.set_input_hook(plant->input_hook);
     return serve(board, p, options, plant->what);
   });

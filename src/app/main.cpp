@@ -77,6 +77,9 @@ Command add_run(CLI::App& app) {
                       "Run on a multifunction board over UDP instead of the in-process simulator, e.g.\n"
                       "udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
                       "E1 and E5 (one case: --case), E3 postures, E4 goniometer (one movement: --case slow|brisk); not E6.\n"
+                      "A scenario on several boards (mfb: boards:, E3): one address per board in the boards: order,\n"
+                      "comma-separated (udp://10.0.0.2:50000,udp://10.0.0.3:50000,...), or one address: board i at its port + i\n"
+                      "(what 'peha mfb-emulator --port P' serves).\n"
                       "Runs in real time at the config's control period with timing statistics (docs/runtime.md)");
   s->rt_priority_opt =
       run_cmd->add_option("--rt-priority", s->rt_priority, "With --backend: SCHED_FIFO priority of the loop (0 = don't ask)")
@@ -232,12 +235,15 @@ Command add_mfb_emulator(CLI::App& app) {
       "DA codes to its valves and motor driver, encoder counts, through the config's channel map. Its own\n"
       "watchdog puts the outputs in a safe state (motor off, valves vented slowly) when no valid command\n"
       "arrives. Faults can be injected into the state packets it sends. Runs until Ctrl-C, --max-runtime\n"
-      "or --sessions.");
+      "or --sessions. A scenario on several boards (mfb: boards:, e.g. configs/upper_body.yaml) is served\n"
+      "from this one process: board i listens on --port + i (each with its channel map, key and watchdog,\n"
+      "in its own thread), all in front of one simulated body that steps once every board has its period's\n"
+      "command (docs/channel-maps.md).");
   emu_cmd->add_option("-c,--config", emu.config, "Scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
   emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (E1 payload, E5 clamp angle) to simulate (needed when the config\n"
                                                "has several). Right arm: postures (E3, the default) or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
-  emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed)")
+  emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed); several boards: board i at port + i")
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 65535));
   s->seed_opt = emu_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
   s->watchdog_opt = emu_cmd->add_option("--watchdog-ms", s->watchdog_ms, "Override the config's board_watchdog_ms")

@@ -49,7 +49,7 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOp
   }
   const sim::OneDofRigParams plant = experiments::e1_plant_params(scenario, *chosen);
   return BoardPlant{scenario.period_s, *scenario.link,
-                    mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names()),
+                    {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
                     [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
                     fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg)};
 }
@@ -105,7 +105,7 @@ std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorOp
   }
   const sim::OneDofRigParams plant = experiments::e5_plant_params(scenario, *chosen);
   return BoardPlant{scenario.period_s, *scenario.link,
-                    mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names()),
+                    {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
                     [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
                     fmt::format("one-DOF rig clamped, case {} ({} deg)", chosen->name, plant.initial_angle_rad * 57.29577951308232)};
 }
@@ -149,6 +149,7 @@ int run_arm(const config::Document& doc, const experiments::RunRequest& request,
     }
     realtime = experiments::realtime_options(request);
     if (!realtime) return 2;
+    if (!experiments::check_board_addresses(doc.name(), *scenario.link, *realtime)) return 2;
   }
   return run(doc, scenario, request, std::move(realtime));
 }
@@ -165,14 +166,15 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
     fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
     return std::nullopt;
   }
-  BoardPlant board{scenario->period_s, *scenario->link,
-                   mfb::read_channel_map(config::Document::load_file(scenario->link->channel_map),
-                                         experiments::arm_joint_names(*scenario)),
-                   {}, {}, {}};
+  BoardPlant board{scenario->period_s, *scenario->link, {}, {}, {}, {}};
+  for (const mfb::BoardLink& b : scenario->link->boards) {  // each board's map with its joints (all of them on one board)
+    board.maps.push_back(mfb::read_channel_map(config::Document::load_file(b.channel_map), b.joint_names));
+  }
   if (options.case_name.empty() || options.case_name == "postures") {
     const sim::ArmPlantParams plant = experiments::postures_plant_params(*scenario);
     board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
-    board.what = fmt::format("right arm with the operator's E3 script ({} postures)", scenario->postures.size());
+    board.what = fmt::format("{} joints with the operator's E3 script ({} postures)", experiments::arm_joint_names(*scenario).size(),
+                             scenario->postures.size());
     return board;
   }
   // E4: the arm where the person starts, and the person's goniometer on its AD channel.
@@ -180,8 +182,12 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
   for (std::size_t i = 0; i < g.movements.size(); ++i) {
     if (options.case_name != "goniometer_" + g.movements[i].name) continue;
     if (refuse_arm_faults(doc, *scenario, "E4 (goniometer)")) return std::nullopt;
+    if (board.maps.size() > 1) {
+      fmt::print(stderr, "error: {}: E4 (goniometer) runs on one board; this scenario has {} (mfb: boards:)\n", doc.name(), board.maps.size());
+      return std::nullopt;
+    }
     for (const int j : g.joints) {
-      if (!board.map.has_goniometer(j)) {
+      if (!board.maps[0].has_goniometer(j)) {
         fmt::print(stderr, "config error: {}: no {}.goniometer channel to put the person's joint on\n", scenario->link->channel_map.string(),
                    experiments::arm_joint_names(*scenario)[static_cast<std::size_t>(j)]);
         return std::nullopt;
@@ -191,7 +197,7 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
     const sim::ArmPlantParams plant = experiments::goniometer_plant_params(*scenario, traces);
     board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
     std::vector<mfb::AnalogChannel> channels;  // each driven joint's goniometer channel
-    for (const int j : g.joints) channels.push_back(board.map.joint(j).goniometer);
+    for (const int j : g.joints) channels.push_back(board.maps[0].joint(j).goniometer);
     board.input_hook = [scenario, traces, channels](double t_s, mfb::BoardInputs& in) {
       bool clamped = false;
       for (std::size_t k = 0; k < traces.size(); ++k) {

@@ -18,7 +18,15 @@ namespace peha::experiments {
 std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request) {
   runtime::RealtimeRunOptions o;
   try {
-    o.board = io::parse_udp_endpoint(request.backend);
+    // Several boards: comma-separated addresses, one per board of the scenario (or one: board i at port + i).
+    std::string rest = request.backend;
+    for (;;) {
+      const auto comma = rest.find(',');
+      o.boards.push_back(io::parse_udp_endpoint(rest.substr(0, comma)));
+      if (comma == std::string::npos) break;
+      rest = rest.substr(comma + 1);
+    }
+    o.board = o.boards.front();
     if (!request.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(request.telemetry);
     o.telemetry_remote = request.telemetry_remote;
   } catch (const std::invalid_argument& e) {
@@ -29,6 +37,16 @@ std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& re
   o.realtime.cpu = request.cpu;
   o.recover_after_s = request.recover_after_s.value_or(-1.0);
   return o;
+}
+
+bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& realtime) {
+  try {
+    (void)mfb::board_endpoints(link, realtime.boards.empty() ? std::vector<io::UdpEndpoint>{realtime.board} : realtime.boards);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: {}: {}\n", doc_name, e.what());
+    return false;
+  }
+  return true;
 }
 
 void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timing_dir) {
@@ -43,6 +61,16 @@ void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timin
              l.implausible_samples, l.clamped_outputs);
   fmt::print("  log: {} rows written ({} dropped) -> {}; {} fault dump(s); telemetry datagrams {}\n  lifecycle:\n", rr.logged_rows,
              rr.dropped_rows, rr.log_file, rr.fault_dumps.size(), rr.telemetry_datagrams);
+  for (const auto& b : rr.boards) {
+    const auto& s = b.link;
+    fmt::print("  board '{}': {} commands, {} states accepted, replies later than receive_timeout {}, cycles without a new sample {}, "
+               "dropped {}; round trip median / p99 / p99.9 / max {:.1f} / {:.1f} / {:.1f} / {:.1f} us, mean {:.1f} us ({} measured)\n",
+               b.name, s.commands_sent, s.received.accepted, s.late_replies, s.replies_missing,
+               s.received.foreign_source + s.received.foreign_session + s.received.duplicate + s.received.stale + s.received.malformed +
+                   s.received.unauthenticated,
+               b.rtt.percentile(50) * 1e6, b.rtt.percentile(99) * 1e6, b.rtt.percentile(99.9) * 1e6, s.rtt_max_s * 1e6,
+               s.rtt_count ? s.rtt_sum_s / static_cast<double>(s.rtt_count) * 1e6 : 0.0, s.rtt_count);
+  }
   for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
   rr.timing.write_csv(timing_dir);
 }

@@ -96,6 +96,7 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
   }
   io::Command command;
   map_.decode_outputs(applied_, command);
+  if (step_hook_) step_hook_(by_command ? &last_command_ : nullptr);
   plant_->write(command);
   plant_->read(state_);
   ++(by_command ? stats_.steps_on_command : stats_.steps_free_running);

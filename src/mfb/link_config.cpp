@@ -1,7 +1,9 @@
 #include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <fstream>
@@ -11,16 +13,106 @@
 
 namespace peha::mfb {
 
-LinkConfig read_link_config(config::Map map) {
+namespace {
+
+/// The io joints a board's channel map carries (its encoders' joints: every joint has exactly one),
+/// after checking that the map fits one board. config::Error at the map's field otherwise.
+std::vector<std::string> board_joints(const BoardLink& board, const std::vector<std::string>& io_joints) {
+  const config::Document doc = config::Document::load_file(board.channel_map);
+  config::Map root = doc.root();
+  struct Kind {
+    const char* key;
+    int channels;
+    const char* what;
+  };
+  for (const Kind& k : {Kind{"analog_inputs", kAdChannels, "AD"}, Kind{"analog_outputs", kDaChannels, "DA"},
+                        Kind{"encoders", kEncoderChannels, "encoder"}}) {
+    if (!root.has(k.key)) continue;  // the map reader names what is missing
+    const std::size_t n = root.maps(k.key, 0, 1000).size();
+    if (n > static_cast<std::size_t>(k.channels)) {
+      root.fail(k.key, fmt::format("board '{}' does not fit one board: it has {} {} channels, this map asks for {} (split its joints "
+                                   "over more boards: docs/channel-maps.md)",
+                                   board.name, k.channels, k.what, n));
+    }
+  }
+  std::vector<std::string> joints;
+  if (!root.has("encoders")) return joints;
+  for (config::Map item : root.maps("encoders", 0, kEncoderChannels)) {
+    const std::string joint = item.string("joint");
+    if (std::find(io_joints.begin(), io_joints.end(), joint) == io_joints.end()) {
+      item.fail("joint", fmt::format("board '{}': '{}' is not an io joint of the scenario (expected one of {})", board.name, joint,
+                                     fmt::join(io_joints, ", ")));
+    }
+    joints.push_back(joint);
+  }
+  return joints;
+}
+
+/// Gives each board its io joints (in io order) and reads its channel map with them: every io
+/// joint on exactly one board.
+void assign_joints(config::Map& map, LinkConfig& l, const std::vector<std::string>& io_joints) {
+  std::vector<int> board_of(io_joints.size(), -1);
+  for (std::size_t b = 0; b < l.boards.size(); ++b) {
+    for (const std::string& joint : board_joints(l.boards[b], io_joints)) {
+      const auto j = static_cast<std::size_t>(std::find(io_joints.begin(), io_joints.end(), joint) - io_joints.begin());
+      if (board_of[j] >= 0 && board_of[j] != static_cast<int>(b)) {
+        const BoardLink& first = l.boards[static_cast<std::size_t>(board_of[j])];
+        map.fail("boards", fmt::format("io joint '{}' is on two boards: '{}' ({}) and '{}' ({}); expected every io joint on exactly one board",
+                                       joint, first.name, first.channel_map.string(), l.boards[b].name, l.boards[b].channel_map.string()));
+      }
+      board_of[j] = static_cast<int>(b);
+    }
+  }
+  for (std::size_t j = 0; j < io_joints.size(); ++j) {
+    if (board_of[j] < 0) {
+      map.fail("boards", fmt::format("io joint '{}' is on no board: no board's channel map has an encoder for it; expected every io joint "
+                                     "({}) on exactly one board",
+                                     io_joints[j], fmt::join(io_joints, ", ")));
+    }
+    l.boards[static_cast<std::size_t>(board_of[j])].joint_names.push_back(io_joints[j]);
+  }
+  for (BoardLink& b : l.boards) {
+    if (b.joint_names.empty()) {
+      map.fail("boards", fmt::format("board '{}' ({}) carries no io joint; expected at least one", b.name, b.channel_map.string()));
+    }
+    (void)read_channel_map(config::Document::load_file(b.channel_map), b.joint_names);  // the rest of its schema
+  }
+}
+
+}  // namespace
+
+LinkConfig read_link_config(config::Map map, const std::vector<std::string>& io_joints) {
   LinkConfig l;
-  l.channel_map = map.path_value("channel_map");
-  l.key_file = map.path_value("key_file");
+  if (map.has("boards")) {
+    if (map.has("channel_map")) map.fail("channel_map", "give either channel_map (one board) or boards (several), not both");
+    const bool shared_key = map.has("key_file");
+    const std::filesystem::path key = shared_key ? map.path_value("key_file") : std::filesystem::path();
+    for (config::Map item : map.maps("boards", 1, kMaxBoards)) {
+      BoardLink b;
+      b.name = item.string("name");
+      for (const BoardLink& other : l.boards) {
+        if (other.name == b.name) item.fail("name", fmt::format("board name '{}' appears twice; expected one name per board", b.name));
+      }
+      b.channel_map = item.path_value("channel_map");
+      if (!shared_key && !item.has("key_file")) {
+        item.fail("", "missing key_file: give each board its key_file, or one key_file for all in the mfb: section");
+      }
+      b.key_file = item.has("key_file") ? item.path_value("key_file") : key;
+      item.finish();
+      l.boards.push_back(std::move(b));
+    }
+  } else {
+    l.boards.push_back({"", map.path_value("channel_map"), map.path_value("key_file"), io_joints});
+  }
+  l.channel_map = l.boards.front().channel_map;
+  l.key_file = l.boards.front().key_file;
   l.board_watchdog_s = map.number("board_watchdog_ms", {2.0, 10000.0}) * 1e-3;
   l.host_watchdog_s = map.number("host_watchdog_ms", {2.0, 10000.0}) * 1e-3;
   l.receive_timeout_s = map.number("receive_timeout_ms", {0.05, 100.0}) * 1e-3;
   l.vent_s = map.number("vent_s", {0.0, 60.0});
   l.recovery_ramp_s = map.number("recovery_ramp_s", {0.0, 60.0});
   map.finish();
+  if (!io_joints.empty() && l.boards.size() > 1) assign_joints(map, l, io_joints);
   return l;
 }
 
@@ -73,6 +165,11 @@ LinkKey load_link_key(const std::filesystem::path& path) {
 
 std::unique_ptr<UdpBackend> make_board_backend(const LinkConfig& link, const io::UdpEndpoint& board, double period_s,
                                                const std::vector<std::string>& joint_names) {
+  if (link.boards.size() > 1) {
+    throw std::runtime_error(fmt::format("this experiment runs on one board; the scenario's mfb: section has {} (boards:): run E3 "
+                                         "(--experiment postures) on several boards, or give the scenario one channel_map",
+                                         link.boards.size()));
+  }
   UdpBackendParams bp;
   bp.board = board;
   bp.period_s = period_s;
@@ -80,6 +177,53 @@ std::unique_ptr<UdpBackend> make_board_backend(const LinkConfig& link, const io:
   bp.joint_names = joint_names;
   bp.key = load_link_key(link.key_file);
   return std::make_unique<UdpBackend>(bp, read_channel_map(config::Document::load_file(link.channel_map), joint_names));
+}
+
+}  // namespace peha::mfb
+
+namespace peha::mfb {
+
+std::unique_ptr<BoardsBackend> make_boards_backend(const LinkConfig& link, const std::vector<io::UdpEndpoint>& boards, double period_s,
+                                                   const std::vector<std::string>& joint_names) {
+  const std::vector<io::UdpEndpoint> at = board_endpoints(link, boards);
+  std::vector<BoardPart> parts;
+  for (std::size_t b = 0; b < link.boards.size(); ++b) {
+    const BoardLink& board = link.boards[b];
+    // A single-board section read without the io joints drives them all.
+    const std::vector<std::string>& names = link.boards.size() == 1 && board.joint_names.empty() ? joint_names : board.joint_names;
+    BoardPart part;
+    part.name = board.name;
+    for (const std::string& n : names) {
+      const auto it = std::find(joint_names.begin(), joint_names.end(), n);
+      if (it == joint_names.end()) throw std::invalid_argument(fmt::format("board '{}' carries '{}', which is no io joint", board.name, n));
+      part.io_index.push_back(static_cast<int>(it - joint_names.begin()));
+    }
+    UdpBackendParams bp;
+    bp.board = at[b];
+    bp.period_s = period_s;
+    bp.receive_timeout_s = link.receive_timeout_s;
+    bp.joint_names = names;
+    bp.key = load_link_key(board.key_file);
+    part.backend = std::make_unique<UdpBackend>(bp, read_channel_map(config::Document::load_file(board.channel_map), names));
+    parts.push_back(std::move(part));
+  }
+  return std::make_unique<BoardsBackend>(std::move(parts), joint_names, period_s, link.receive_timeout_s);
+}
+
+std::vector<io::UdpEndpoint> board_endpoints(const LinkConfig& link, const std::vector<io::UdpEndpoint>& given) {
+  const std::size_t n = link.boards.size();
+  if (given.size() == n) return given;
+  if (given.size() != 1) {
+    throw std::invalid_argument(fmt::format("--backend: the scenario has {} board(s); expected {} address(es) (udp://A:P,udp://B:Q,...) "
+                                            "or one (board i at its port + i), found {}",
+                                            n, n, given.size()));
+  }
+  std::vector<io::UdpEndpoint> out;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (given[0].port + i > 65535) throw std::invalid_argument(fmt::format("--backend: port {} + {} is beyond 65535", given[0].port, i));
+    out.push_back({given[0].address, static_cast<std::uint16_t>(given[0].port + i)});
+  }
+  return out;
 }
 
 }  // namespace peha::mfb

@@ -5,6 +5,7 @@
 #include <spdlog/spdlog.h>
 
 #include <arpa/inet.h>
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <cmath>
@@ -133,6 +134,9 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       if (packet.echo_host_time_ns != 0) {
         last_rtt_s_ = static_cast<double>(last_sample_ns_ - static_cast<std::int64_t>(packet.echo_host_time_ns)) * 1e-9;
         ++rtt_samples_;
+        ++stats_.rtt_count;
+        stats_.rtt_sum_s += last_rtt_s_;
+        stats_.rtt_max_s = std::max(stats_.rtt_max_s, last_rtt_s_);
       }
       if (packet.ack_sequence == sequence_) {
         last_was_reply_ = true;
@@ -169,12 +173,23 @@ bool UdpBackend::read(io::SensorState& state) noexcept {
 }
 
 bool UdpBackend::write(const io::Command& command) noexcept {
-  if (!send_and_wait(command)) return false;
-  if (!last_was_reply_) ++stats_.late_replies;
+  if (!send(command)) return false;
+  await_reply(io::monotonic_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
   return true;
 }
 
+void UdpBackend::await_reply(std::int64_t deadline_ns) noexcept {
+  if (!last_was_reply_) drain(deadline_ns);
+  if (!last_was_reply_) ++stats_.late_replies;
+}
+
 bool UdpBackend::send_and_wait(const io::Command& command) noexcept {
+  if (!send(command)) return false;
+  drain(io::monotonic_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
+  return true;
+}
+
+bool UdpBackend::send(const io::Command& command) noexcept {
   CommandPacket packet;
   packet.session_id = session_;
   packet.sequence = ++sequence_;
@@ -197,10 +212,9 @@ bool UdpBackend::send_and_wait(const io::Command& command) noexcept {
     ++stats_.send_failures;
     return false;
   }
-  // The board answers each command with its next sample: wait for it here, so the round trip is
-  // measured when it happens and the next read() finds the sample ready.
+  // The board answers each command with its next sample: the caller waits for it (send_and_wait,
+  // await_reply), so the round trip is measured when it happens and the next read() finds it ready.
   last_was_reply_ = false;
-  drain(io::monotonic_ns() + static_cast<std::int64_t>(params_.receive_timeout_s * 1e9));
   return true;
 }
 

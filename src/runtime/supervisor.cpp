@@ -3,6 +3,7 @@
 #include "peha/io/udp_socket.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 namespace peha::runtime {
 
@@ -24,6 +25,12 @@ void Supervisor::fault(double t_s, const char* why) noexcept {
   if (on_fault) on_fault(why);
 }
 
+void Supervisor::fault(double t_s, const char* why, const char* part) noexcept {
+  if (!part) return fault(t_s, why);
+  std::snprintf(reason_, sizeof reason_, "%s on %s", why, part);
+  fault(t_s, reason_);
+}
+
 void Supervisor::raise(double t_s, const char* reason) noexcept {
   if (lifecycle_.state() != LifecycleState::kActive) return;
   lifecycle_.apply(Transition::kFault, t_s, reason);
@@ -43,13 +50,13 @@ void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state,
   switch (lifecycle_.state()) {
     case LifecycleState::kActive:
       if (silent) {
-        fault(t_s, "backend silent for longer than host_watchdog_ms");
+        fault(t_s, "backend silent for longer than host_watchdog_ms", status.part);
       } else if (status.estop) {
-        fault(t_s, "e-stop");
+        fault(t_s, "e-stop", status.part);
       } else if (status.rebooted) {
-        fault(t_s, "board reboot");
+        fault(t_s, "board reboot", status.part);
       } else if (status.watchdog_tripped) {
-        fault(t_s, "backend watchdog tripped");
+        fault(t_s, "backend watchdog tripped", status.part);
       }
       break;
     case LifecycleState::kFault: {

@@ -7,6 +7,8 @@
 #include "peha/runtime/child_process.hpp"
 #include "peha/runtime/csv_log.hpp"
 
+#include "../support/alloc_counter.hpp"
+
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -930,6 +932,117 @@ TEST(MfbEndToEnd, LinkFaultRowsReportMissedWhenTheWatchdogsAreTooLong) {
   EXPECT_GT(host.safe_ms, 900.0);
   EXPECT_FALSE(host.outcome_met());
   std::filesystem::remove_all(o.dir);
+}
+
+}  // namespace
+}  // namespace peha::runtime
+
+namespace peha::runtime {
+namespace {
+
+/// configs/upper_body.yaml shortened for a test: one posture (elbows_90: every PEHA joint of both
+/// arms loaded), 3 s of observation. In its own folder, with links to the folders it names.
+std::filesystem::path short_upper_body_config(const std::filesystem::path& dir) {
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  for (const char* sub : {"arm", "plant", "mfb"}) std::filesystem::create_directory_symlink(PEHA_SOURCE_DIR "/configs/" + std::string(sub), dir / sub);
+  YAML::Node root = YAML::LoadFile(PEHA_SOURCE_DIR "/configs/upper_body.yaml");
+  root["postures"]["observe_s"] = 3.0;
+  YAML::Node list = root["postures"]["list"];
+  YAML::Node one(YAML::NodeType::Sequence);
+  one.push_back(list[1]);  // elbows_90
+  root["postures"]["list"] = one;
+  const std::filesystem::path path = dir / "upper_body_short.yaml";
+  std::ofstream(path) << YAML::Dump(root) << "\n";
+  return path;
+}
+
+/// Every "udp://A.B.C.D:PORT" port in `line`, in order.
+std::vector<int> listening_ports(const std::string& line) {
+  std::vector<int> ports;
+  for (auto at = line.find("udp://"); at != std::string::npos; at = line.find("udp://", at + 6)) {
+    const auto colon = line.find(':', at + 6);
+    if (colon != std::string::npos) ports.push_back(std::atoi(line.c_str() + colon + 1));
+  }
+  return ports;
+}
+
+// E3 on the upper body over three boards (right arm, left arm, both shoulder abductions: one board
+// per arm does not fit), each its own UDP link from a BoardsBackend to one `peha mfb-emulator` that
+// serves all three in front of one simulated body. As in process (same scenario, seed): release
+// angles within 0.2 deg and drift within 0.1 deg of the in-process run's, on every PEHA joint.
+TEST(MfbEndToEnd, UpperBodyPosturesRunOnThreeBoardsAcrossUdpAsInProcess) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_upper_body_config_" + std::to_string(::getpid()));
+  const std::filesystem::path config = short_upper_body_config(dir);
+  experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
+  ASSERT_TRUE(s.link);
+  ASSERT_EQ(s.link->boards.size(), 3u);
+  ASSERT_EQ(s.postures.size(), 1u);
+  s.link->host_watchdog_s = kTestWatchdog_s;
+  const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::ArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
+
+  runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
+  const std::vector<int> ports = listening_ports(emulator.wait_for_line("listening on", 20.0));
+  ASSERT_EQ(ports.size(), 3u) << emulator.output();
+  RealtimeRunOptions o = options(ports[0], "upper_body");
+  for (const int port : ports) o.boards.push_back(io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port)));
+  const experiments::PosturesRealtimeResult udp = experiments::run_postures_realtime(s, o);
+  EXPECT_EQ(udp.faults, 0u) << lifecycle_text(udp) << udp.timing.table();
+  ASSERT_EQ(udp.boards.size(), 3u);
+  for (const auto& b : udp.boards) {
+    EXPECT_GT(b.link.rtt_count, 1000u) << b.name;  // every board answered the run's commands
+    EXPECT_GT(b.rtt.count(), 1000u) << b.name;
+    std::printf("board %s: %llu commands, %llu late replies, %llu cycles without a sample, RTT p99 %.1f us mean %.1f us max %.1f us\n", b.name.c_str(),
+                static_cast<unsigned long long>(b.link.commands_sent), static_cast<unsigned long long>(b.link.late_replies),
+                static_cast<unsigned long long>(b.link.replies_missing), b.rtt.percentile(99) * 1e6, b.link.rtt_sum_s / static_cast<double>(std::max<std::uint64_t>(b.link.rtt_count, 1)) * 1e6,
+                b.link.rtt_max_s * 1e6);
+  }
+  ASSERT_EQ(udp.postures.postures.size(), 1u);
+  const experiments::PostureResult& a = udp.postures.postures[0];
+  const experiments::PostureResult& b = local.postures[0];
+  ASSERT_EQ(a.joints.size(), b.joints.size());
+  ASSERT_EQ(a.joints.size(), 6u);  // SAA, SFE, EFE of both arms (the wrists are held, not compensated)
+  for (std::size_t j = 0; j < a.joints.size(); ++j) {
+    EXPECT_EQ(a.joints[j].joint, b.joints[j].joint);
+    EXPECT_NEAR(a.joints[j].released_deg, b.joints[j].released_deg, 0.2) << a.joints[j].joint;
+    EXPECT_NEAR(a.joints[j].drift_deg, b.joints[j].drift_deg, 0.1) << a.joints[j].joint;
+    std::printf("%s: released %.2f deg (in-process %.2f), drift %.3f deg (in-process %.3f)\n", a.joints[j].joint.c_str(), a.joints[j].released_deg,
+                b.joints[j].released_deg, a.joints[j].drift_deg, b.joints[j].drift_deg);
+  }
+  for (const safety::Check& c : udp.postures.verdict.checks) EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension")) << c.describe();
+  std::filesystem::remove_all(dir);
+}
+
+// The host's control step over three boards allocates nothing: 500 cycles of BoardsBackend::write
+// (three sends, one wait for all replies) and read (three samples put together) against the emulator.
+TEST(MfbEndToEnd, BoardsBackendAllocatesNothingPerCycle) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_boards_alloc_config_" + std::to_string(::getpid()));
+  const std::filesystem::path config = short_upper_body_config(dir);
+  const experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
+  runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
+  const std::vector<int> ports = listening_ports(emulator.wait_for_line("listening on", 20.0));
+  ASSERT_EQ(ports.size(), 3u) << emulator.output();
+  std::vector<io::UdpEndpoint> at;
+  for (const int port : ports) at.push_back(io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port)));
+  const auto backend = mfb::make_boards_backend(*s.link, at, s.period_s, experiments::arm_joint_names(s));
+  backend->configure();
+  backend->activate();
+  io::Command command;
+  command.joint_count = static_cast<int>(experiments::arm_joint_names(s).size());
+  io::SensorState state;
+  int samples = 0;
+  const std::size_t n = testing::allocations_during([&] {
+    for (int k = 0; k < 500; ++k) {
+      backend->write(command);
+      samples += backend->read(state) ? 1 : 0;
+      (void)backend->status();
+    }
+  });
+  EXPECT_EQ(n, 0u);
+  EXPECT_GT(samples, 250);  // most cycles put three replies together
+  EXPECT_EQ(state.joint_count, 8);
+  backend->deactivate();
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -189,7 +189,7 @@ TEST(AsyncCsvLog, RejectsBadColumnsAndUnwritablePaths) {
   EXPECT_THROW(AsyncCsvLog(dir / "a.csv", {}, {}), std::invalid_argument);
   EXPECT_THROW(AsyncCsvLog(dir / "a.csv", {"angle_rad", "t_s"}, {}), std::invalid_argument);  // time first
   EXPECT_THROW(AsyncCsvLog(dir / "a.csv", {"t_s", "a,b"}, {}), std::invalid_argument);
-  EXPECT_THROW(AsyncCsvLog(dir / "a.csv", std::vector<std::string>(65, "t_s"), {}), std::invalid_argument);
+  EXPECT_THROW(AsyncCsvLog(dir / "a.csv", std::vector<std::string>(AsyncCsvLog::kMaxColumns + 1, "t_s"), {}), std::invalid_argument);
   EXPECT_THROW(AsyncCsvLog(dir / "a.csv", kColumns, {}, 16, 0), std::invalid_argument);
   EXPECT_THROW(AsyncCsvLog(dir / "no_such_dir" / "a.csv", kColumns, {}), std::runtime_error);
 }

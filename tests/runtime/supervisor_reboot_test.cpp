@@ -75,5 +75,22 @@ TEST(SupervisorReboot, ABoardRestartFaultsTheRunWithItsOwnReasonAndNothingReArms
   EXPECT_EQ(board.activations, 2);
 }
 
+// A backend made of parts (several boards) says which part a fault comes from: the lifecycle's
+// reason names it.
+TEST(SupervisorReboot, AFaultNamesThePartOfTheBackendItComesFrom) {
+  FakeBoard board;
+  Supervisor supervisor(board, SupervisorParams{});
+  supervisor.start(0.0);
+  io::SensorState state;
+  io::Command command;
+  supervisor.supervise(1e-3, true, state, command);
+  board.status_.estop = true;
+  board.status_.part = "board 'left'";
+  supervisor.supervise(2e-3, true, state, command);
+  EXPECT_EQ(supervisor.lifecycle().state(), LifecycleState::kFault);
+  EXPECT_NE(supervisor.lifecycle().describe_history().find("-> fault (fault): e-stop on board 'left'"), std::string::npos)
+      << supervisor.lifecycle().describe_history();
+}
+
 }  // namespace
 }  // namespace peha::runtime

@@ -52,7 +52,9 @@ struct ScenarioCheck {
 struct BoardPlant {
   double period_s = 1e-3;
   mfb::LinkConfig link;
-  mfb::ChannelMap map;
+  /// One channel map per board of `link.boards` (one for a single-board scenario).
+  std::vector<mfb::ChannelMap> maps;
+  /// The whole body (every io joint), in its initial state; several boards share it (mfb::SharedPlant).
   std::function<std::unique_ptr<io::Backend>()> make_plant;
   std::function<void(double t_s, mfb::BoardInputs& inputs)> input_hook;  ///< empty: none
   std::string what;                                                       ///< printed when it listens

@@ -41,6 +41,9 @@ struct RunRequest {
 
 /// --backend, --telemetry and the real-time options; nullopt (after a message) when malformed.
 std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request);
+/// True if --backend gave one address per board of `link` or one for all (mfb::board_endpoints);
+/// otherwise prints why (naming the scenario `doc_name`) and returns false.
+bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& realtime);
 
 /// What a real-time run on the board measured, printed after its experiment's table; writes the
 /// timing statistics to `timing_dir`.

@@ -97,6 +97,10 @@ struct BackendStatus {
                                   ///< clock and is never silent, e.g. a simulator)
   double last_rtt_s = 0;          ///< round trip of the newest sample's command, s (0: not measured)
   std::uint64_t rtt_samples = 0;  ///< how many round trips were measured (a new one when it grows)
+  /// A backend made of parts (mfb::BoardsBackend: several boards): the part the fault above (or the
+  /// oldest sample) comes from, e.g. "board 'left'", for the supervisor's fault reason; nullptr:
+  /// the whole backend. Points to a string the backend owns for its lifetime.
+  const char* part = nullptr;
 };
 
 class Backend {

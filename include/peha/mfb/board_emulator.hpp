@@ -100,6 +100,10 @@ class BoardEmulator {
   /// Inputs the simulator does not have (e.g. a person's goniometer for E4): called with the
   /// simulated time (s) after the channel map has encoded the simulator's sensors, before sending.
   void set_input_hook(std::function<void(double t_s, BoardInputs& inputs)> hook) { input_hook_ = std::move(hook); }
+  /// Called right before each simulation step with the command it applies (nullptr: a free-running
+  /// step, no command came): a plant shared by several boards (mfb::SharedPlant) groups the boards'
+  /// steps by the host's cycle.
+  void set_step_hook(std::function<void(const CommandPacket* command)> hook) { step_hook_ = std::move(hook); }
   /// Serves until `stop` is set, max_runtime_s passes or `sessions` sessions have ended.
   void run(const std::atomic<bool>& stop);
   const EmulatorStats& stats() const noexcept { return stats_; }
@@ -132,6 +136,7 @@ class BoardEmulator {
   ChannelMap map_;
   std::function<std::unique_ptr<io::Backend>()> make_plant_;
   std::function<void(double, BoardInputs&)> input_hook_;
+  std::function<void(const CommandPacket*)> step_hook_;
   io::UdpSocket socket_;
   std::unique_ptr<io::Backend> plant_;
   CommandFilter filter_;

@@ -5,6 +5,7 @@
 
 #include "peha/config/reader.hpp"
 #include "peha/io/udp_socket.hpp"
+#include "peha/mfb/boards_backend.hpp"
 #include "peha/mfb/udp_backend.hpp"
 
 #include <filesystem>
@@ -14,11 +15,29 @@
 
 namespace peha::mfb {
 
+/// Most boards one scenario may run on (one host socket and one emulator thread each).
+inline constexpr int kMaxBoards = 8;
+
+/// One board of a scenario: its channel map, its key and the io joints its map carries.
+struct BoardLink {
+  std::string name;                    ///< `boards[i].name` ("" for the single-board form)
+  std::filesystem::path channel_map;   ///< resolved against the scenario's folder
+  std::filesystem::path key_file;      ///< the board's key (its own `key_file:` or the section's)
+  /// The io joints on this board, in io order (the channel map is read for these). Empty when the
+  /// section was read without the io joints (`read_link_config(map)`).
+  std::vector<std::string> joint_names;
+};
+
 struct LinkConfig {
+  /// The first board's channel map and key file (the single-board form's `channel_map:` and
+  /// `key_file:`): what a one-board experiment (E1, E4, E5) reads.
   std::filesystem::path channel_map;   ///< resolved against the scenario's folder
   /// The link's pre-shared key file (`key_file:`, resolved against the scenario's folder): 64 hex
   /// digits, readable by its owner only. Host and board read the same file (`load_link_key`).
   std::filesystem::path key_file;
+  /// Every board, in the order of `boards:` (one entry for the single-board form). The watchdogs,
+  /// timeouts and ramps below hold for each board's link.
+  std::vector<BoardLink> boards;
   double board_watchdog_s = 0.05;      ///< the board's: no command this long -> safe outputs
   double host_watchdog_s = 0.02;       ///< the host's: no sample this long -> fault
   double receive_timeout_s = 0.0008;   ///< how long a cycle waits for the board's reply
@@ -26,8 +45,14 @@ struct LinkConfig {
   double recovery_ramp_s = 1.0;        ///< after a recovery, commands ramp from safe to the controller's
 };
 
-/// Reads an `mfb:` mapping (finishes it).
-LinkConfig read_link_config(config::Map map);
+/// Reads an `mfb:` mapping (finishes it): either one board (`channel_map:`, `key_file:`) or several
+/// (`boards:` - a list of `{name, channel_map, key_file}`, each key_file defaulting to the section's).
+/// With `io_joints` (the scenario's io joints, in io order) the boards are checked against them:
+/// a multi-board section's maps are read, and config::Error (file, field, expected vs found)
+/// refuses a map that does not fit one board (more AD, DA or encoder channels than it has), a
+/// map's joint that is no io joint, an io joint on no board or on two; each board gets its joints
+/// (BoardLink::joint_names). A single-board section gets every io joint.
+LinkConfig read_link_config(config::Map map, const std::vector<std::string>& io_joints = {});
 
 /// Reads a link key file: 64 hex digits (the 32 key bytes), optionally surrounded by whitespace,
 /// and `#` comment lines. Throws std::runtime_error naming the file and what is wrong: missing,
@@ -38,7 +63,20 @@ LinkKey load_link_key(const std::filesystem::path& path);
 /// The host's UdpBackend for the board at `board`, for joints `joint_names` (channel map and key
 /// from `link`), not yet connected. Throws config::Error on a bad channel map, std::runtime_error
 /// on a bad key file or a board no interface of this machine reaches.
+/// Throws std::runtime_error if `link` has more than one board (for experiments that run on one).
 std::unique_ptr<UdpBackend> make_board_backend(const LinkConfig& link, const io::UdpEndpoint& board, double period_s,
                                                const std::vector<std::string>& joint_names);
+
+/// The host's backend over every board of `link` (read with the io joints: each board's
+/// joint_names), board i at `boards[i]` (board_endpoints), for io joints `joint_names`; not yet
+/// connected. Throws as make_board_backend, and std::invalid_argument when the boards' joints are
+/// not `joint_names` (a section read without them).
+std::unique_ptr<BoardsBackend> make_boards_backend(const LinkConfig& link, const std::vector<io::UdpEndpoint>& boards, double period_s,
+                                                   const std::vector<std::string>& joint_names);
+
+/// Where each board of `link` is, from --backend's addresses: one per board, in the order of
+/// `boards:`, or a single address for all of them - board i at its port + i. Throws
+/// std::invalid_argument naming the count expected and found otherwise.
+std::vector<io::UdpEndpoint> board_endpoints(const LinkConfig& link, const std::vector<io::UdpEndpoint>& given);
 
 }  // namespace peha::mfb

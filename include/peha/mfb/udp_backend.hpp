@@ -45,6 +45,9 @@ struct UdpLinkStats {
   std::uint64_t implausible_samples = 0;     ///< accepted packets whose AD codes were implausible
   std::uint64_t clamped_outputs = 0;         ///< DA codes clamped to 0..65535
   std::uint64_t oversized = 0;               ///< datagrams longer than any MFB packet
+  std::uint64_t rtt_count = 0;               ///< round trips measured (accepted samples echoing a send time)
+  double rtt_sum_s = 0;                      ///< their sum, s (mean = rtt_sum_s / rtt_count)
+  double rtt_max_s = 0;                      ///< the longest, s
 };
 
 class UdpBackend final : public io::Backend {
@@ -92,6 +95,11 @@ class UdpBackend final : public io::Backend {
   /// Encodes and sends one command with the current enable flag, then waits up to
   /// receive_timeout_s for the board's reply (noted for the next read()).
   bool write(const io::Command& command) noexcept override;
+  /// write() in two halves, for a host driving several boards in one cycle (mfb::BoardsBackend):
+  /// send() sends the command without waiting; await_reply() then waits until the board's reply
+  /// to it arrived or the monotonic clock reaches `deadline_ns`, and counts a late reply.
+  bool send(const io::Command& command) noexcept;
+  void await_reply(std::int64_t deadline_ns) noexcept;
 
   bool enabled() const noexcept { return enable_; }
   /// Status bits of the newest accepted state packet (kStatus...).
@@ -107,6 +115,8 @@ class UdpBackend final : public io::Backend {
   std::uint32_t session_id() const noexcept { return session_; }
   const ChannelMap& channel_map() const noexcept { return map_; }
   const io::UdpEndpoint& local() const noexcept { return socket_.local(); }
+  /// Where the board listens.
+  const io::UdpEndpoint& board() const noexcept { return params_.board; }
   /// The goniometer of io joint `joint` in the newest sample, rad (NaN if the map has none).
   double goniometer_rad(int joint) const noexcept { return map_.goniometer_rad(last_inputs_, joint); }
   /// A sample's e-stop input (from the last accepted packet's digital lines).

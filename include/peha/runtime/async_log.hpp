@@ -34,7 +34,9 @@ namespace peha::runtime {
 
 class AsyncCsvLog {
  public:
-  static constexpr std::size_t kMaxColumns = 64;       ///< width of a row slot
+  /// Width of a row slot: the upper body on the board logs 132 columns (8 io joints); 4096 slots of
+  /// 160 doubles are 5.2 MB.
+  static constexpr std::size_t kMaxColumns = 160;
   static constexpr std::size_t kMaxReasonChars = 127;  ///< longer fault reasons are truncated
 
   /// Opens `path` (throws std::runtime_error if it cannot), writes `comments` as `# ` lines and the

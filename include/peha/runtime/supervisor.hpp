@@ -64,6 +64,9 @@ class Supervisor {
 
  private:
   void fault(double t_s, const char* why) noexcept;
+  /// fault() with the backend's part named (BackendStatus::part: "e-stop on board 'left'").
+  void fault(double t_s, const char* why, const char* part) noexcept;
+  char reason_[96] = {};  ///< a fault reason with its part (the lifecycle copies it)
 
   io::Backend& backend_;
   SupervisorParams params_;

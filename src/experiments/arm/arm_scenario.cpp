@@ -393,7 +393,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   read_postures(root.map("postures"), s);
   s.faults = sim::read_plant_faults(root, s.plant.actuated, postures_duration_s(s));
   if (root.has("bandwidth")) read_bandwidth(root.map("bandwidth"), s);  // E6's section (optional)
-  if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"));
+  if (root.has("mfb")) s.link = mfb::read_link_config(root.map("mfb"), s.plant.actuated);  // one board or several: each io joint on one
   if (root.has("goniometer")) read_goniometer(root.map("goniometer"), s);  // E4's section (optional)
   if (root.has("identification")) read_identification(root.map("identification"), s);
   s.verdict = safety::read_verdict_thresholds(root);

@@ -172,7 +172,7 @@ bool check_board(const config::Document& doc, const E1Scenario& scenario, std::s
                request.backend);
     return false;
   }
-  return true;
+  return check_board_addresses(doc.name(), *scenario.link, *realtime);
 }
 
 }  // namespace

@@ -53,7 +53,13 @@ int run_postures_experiment(const config::Document& doc, const ArmScenario& scen
   std::optional<PosturesRealtimeResult> rr;
   if (realtime) {
     realtime->dir = dir;
-    fmt::print("  on the board at udp://{} in real time\n", realtime->board.to_string());
+    if (scenario.link->boards.size() == 1) {
+      fmt::print("  on the board at udp://{} in real time\n", realtime->board.to_string());
+    } else {
+      const std::vector<io::UdpEndpoint> at = mfb::board_endpoints(*scenario.link, realtime->boards);
+      fmt::print("  on {} boards in real time:", at.size());
+      for (std::size_t b = 0; b < at.size(); ++b) fmt::print(" {} at udp://{}{}", scenario.link->boards[b].name, at[b].to_string(), b + 1 < at.size() ? "," : "\n");
+    }
     std::fflush(stdout);
     rr = run_postures_realtime(scenario, *realtime);
     r = rr->postures;

@@ -89,7 +89,7 @@ int run_e5_experiment(const config::Document& doc, const RunRequest& request) {
       return 2;
     }
     realtime = realtime_options(request);
-    if (!realtime) return 2;
+    if (!realtime || !check_board_addresses(doc.name(), *scenario.link, *realtime)) return 2;
   }
 
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);

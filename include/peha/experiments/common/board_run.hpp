@@ -15,8 +15,18 @@ namespace peha::experiments {
 
 /// A real-time run on the board: the harness's figures and the host's link counters.
 struct BoardRunResult : runtime::RealtimeRunResult {
-  mfb::UdpLinkStats link;
+  mfb::UdpLinkStats link;  ///< summed over the boards when there are several
+  /// Each board's link, when the run drove several (mfb::BoardsBackend); empty on one board.
+  struct Board {
+    std::string name;
+    mfb::UdpLinkStats link;
+    runtime::Histogram rtt;  ///< its round trips (mfb::BoardsBackend::board_rtt)
+  };
+  std::vector<Board> boards;
 };
+
+/// `result.link` (and `result.boards` when there are several) from the run's backend.
+void record_links(const mfb::BoardsBackend& backend, BoardRunResult& result);
 
 /// The supervisor's parameters of a board run: watchdog and recovery ramp from the scenario's
 /// `mfb:` section, the unattended recovery from the command line.
