@@ -36,7 +36,6 @@ BoardsBackend::BoardsBackend(std::vector<BoardPart> boards, const std::vector<st
   info_.joint_names = joint_names;
   info_.period_s = period_s;
   samples_.resize(boards_.size());
-  rtt_.resize(boards_.size());
   rtt_seen_.resize(boards_.size(), 0);
   commands_.resize(boards_.size());
   for (std::size_t b = 0; b < boards_.size(); ++b) commands_[b].joint_count = static_cast<int>(boards_[b].io_index.size());
@@ -96,7 +95,7 @@ void BoardsBackend::record_rtt() noexcept {
     const UdpBackend& board = *boards_[b].backend;
     if (board.stats().rtt_count == rtt_seen_[b]) continue;
     rtt_seen_[b] = board.stats().rtt_count;
-    rtt_[b].add(board.last_rtt_s());
+    if (rtt_sink_) rtt_sink_->add(b, board.last_rtt_s());
   }
 }
 

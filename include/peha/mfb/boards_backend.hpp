@@ -15,7 +15,6 @@
 
 #include "peha/io/backend.hpp"
 #include "peha/mfb/udp_backend.hpp"
-#include "peha/runtime/timing_stats.hpp"
 
 #include <memory>
 #include <string>
@@ -60,8 +59,14 @@ class BoardsBackend final : public io::Backend {
   const UdpBackend& board(std::size_t b) const noexcept { return *boards_[b].backend; }
   /// The links' counters summed over the boards (the round trip's max over them).
   UdpLinkStats stats() const noexcept;
-  /// Board `b`'s round trips, one per cycle that brought a new one (read() records them).
-  const runtime::Histogram& board_rtt(std::size_t b) const noexcept { return rtt_[b]; }
+  /// Receives each board's round trips, one per cycle that brought a new one (read() reports them);
+  /// the statistics live in a higher layer (experiments: runtime::Histogram per board). Null: none.
+  class RttSink {
+   public:
+    virtual ~RttSink() = default;
+    virtual void add(std::size_t board, double rtt_s) noexcept = 0;
+  };
+  void set_rtt_sink(RttSink* sink) noexcept { rtt_sink_ = sink; }
 
  private:
   void record_rtt() noexcept;
@@ -72,7 +77,7 @@ class BoardsBackend final : public io::Backend {
   double receive_timeout_s_;
   std::vector<io::SensorState> samples_;   ///< per board, preallocated
   std::vector<io::Command> commands_;      ///< per board, preallocated
-  std::vector<runtime::Histogram> rtt_;     ///< per board
+  RttSink* rtt_sink_ = nullptr;
   std::vector<std::uint64_t> rtt_seen_;     ///< per board: its round trips counted when last recorded
 };
 

@@ -24,11 +24,11 @@ std::pair<double, std::string> first_lifecycle_fault(const std::vector<std::stri
   return {std::numeric_limits<double>::quiet_NaN(), ""};
 }
 
-void record_links(const mfb::BoardsBackend& backend, BoardRunResult& result) {
+void record_links(const mfb::BoardsBackend& backend, const BoardRtts& rtts, BoardRunResult& result) {
   result.link = backend.stats();
   result.boards.clear();
   if (backend.board_count() < 2) return;
-  for (std::size_t b = 0; b < backend.board_count(); ++b) result.boards.push_back({backend.board_name(b), backend.board(b).stats(), backend.board_rtt(b)});
+  for (std::size_t b = 0; b < backend.board_count(); ++b) result.boards.push_back({backend.board_name(b), backend.board(b).stats(), rtts.board(b)});
 }
 
 void add_link_fault_check(const runtime::RealtimeRunResult& run, safety::Verdict& verdict) {

@@ -15,6 +15,8 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
     where += fmt::format("{}{}udp://{}, session {:08x}", b ? "; " : "", name.empty() ? "" : "board '" + name + "' at ",
                          backend->board(b).board().to_string(), backend->board(b).session_id());
   }
+  BoardRtts rtts(backend->board_count());
+  backend->set_rtt_sink(&rtts);
   PosturesRealtimeResult res;
   {
     runtime::RealtimeHarness harness(*backend, supervisor_params(*scenario.link, options), options, scenario.period_s, postures_duration_s(scenario), "postures",
@@ -26,7 +28,7 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
     harness.finish(res);
     add_link_fault_check(res, res.postures.verdict);
     res.postures.within_limits = res.postures.verdict.passed();
-    record_links(*backend, res);
+    record_links(*backend, rtts, res);
   }
   return res;
 }

@@ -20,13 +20,28 @@ struct BoardRunResult : runtime::RealtimeRunResult {
   struct Board {
     std::string name;
     mfb::UdpLinkStats link;
-    runtime::Histogram rtt;  ///< its round trips (mfb::BoardsBackend::board_rtt)
+    runtime::Histogram rtt;  ///< its round trips (BoardRtts, from mfb::BoardsBackend's sink)
   };
   std::vector<Board> boards;
 };
 
-/// `result.link` (and `result.boards` when there are several) from the run's backend.
-void record_links(const mfb::BoardsBackend& backend, BoardRunResult& result);
+/// Each board's round trips during a run: set as the backend's sink (mfb::BoardsBackend::set_rtt_sink)
+/// before the run; allocation-free while it runs.
+class BoardRtts : public mfb::BoardsBackend::RttSink {
+ public:
+  explicit BoardRtts(std::size_t boards) : rtt_(boards) {}
+  void add(std::size_t board, double rtt_s) noexcept override {
+    if (board < rtt_.size()) rtt_[board].add(rtt_s);
+  }
+  const runtime::Histogram& board(std::size_t b) const { return rtt_.at(b); }
+
+ private:
+  std::vector<runtime::Histogram> rtt_;
+};
+
+/// `result.link` (and `result.boards` when there are several, with their round trips from `rtts`)
+/// from the run's backend.
+void record_links(const mfb::BoardsBackend& backend, const BoardRtts& rtts, BoardRunResult& result);
 
 /// The supervisor's parameters of a board run: watchdog and recovery ramp from the scenario's
 /// `mfb:` section, the unattended recovery from the command line.
