@@ -72,7 +72,7 @@ int faults(const FaultsOptions& options) {
     // The scenario's kind says which experiment's matrix runs, as for `peha run`.
     const std::string kind = find_experiment(doc).key;
     if (kind != "gravity_compensation_1dof" && kind != "arm") {
-      throw UsageError(fmt::format("{} is a {} scenario: peha faults runs E1 (gravity_compensation_1dof) or E3 (right_arm)", doc.name(), kind));
+      throw UsageError(fmt::format("{} is a {} scenario: peha faults runs E1 (gravity_compensation_1dof) or E3 (arm)", doc.name(), kind));
     }
     const bool arm = kind == "arm";
     if (options.link) {

@@ -35,7 +35,7 @@ Command add_run(CLI::App& app) {
              "Writes <out>/<run>/: one per-cycle CSV log per case (time first, units in column names),\n"
              "config.yaml (the config it ran with), summary.csv and plot.png; prints a summary table.\n"
              "The scenario's experiment: key picks the experiment (gravity_compensation_1dof = E1; max_force_ramp =\n"
-             "E5; wire_creep = the creep estimator off/on over 30 min of E1, docs/creep.md; right_arm = E3, E4 or E6 by\n"
+             "E5; wire_creep = the creep estimator off/on over 30 min of E1, docs/creep.md; arm = E3, E4 or E6 by\n"
              "--experiment); an option that experiment does not take is an error, never ignored.\n"
              "Exit code 0 = ran and every figure of the verdict held, 2 = bad config or an option the experiment\n"
              "does not take (nothing written), 3 = a figure failed (drift, excursion or a run to a stop after a\n"
@@ -61,7 +61,7 @@ Command add_run(CLI::App& app) {
   run_cmd->add_option("--antagonist-calibration", run.calibration[1], "E1 only: calibration YAML for the antagonist")
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--experiment", run.experiment,
-                      "Right-arm scenarios (configs/right_arm.yaml) only: the experiment to run.\n"
+                      "Arm scenarios (configs/right_arm.yaml, configs/upper_body.yaml) only: the experiment to run.\n"
                       "postures  = E3: move the arm with its mannequin to each posture, let go, measure the drift\n"
                       "goniometer = E4: a person's elbow, measured by a goniometer at 200 Hz, drives the exoskeleton's\n"
                       "             elbow (each of goniometer.joints) through Butterworth filter, derivatives and inverse\n"
@@ -98,17 +98,17 @@ Command add_run(CLI::App& app) {
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
       "without it, type r + Enter on the terminal to recover")->check(peha::app::decimal())->check(CLI::Range(0.0, 3600.0));
   run_cmd->add_option("--fault", run.faults,
-                      "E1 and the right arm's E3 (--experiment postures), in process only (repeatable): inject a plant\n"
+                      "E1 and an arm scenario's E3 (--experiment postures), in process only (repeatable): inject a plant\n"
                       "fault KIND@T[:TARGET[=VALUE]] at T s, TARGET [JOINT.]agonist|antagonist for muscle faults, JOINT\n"
                       "for the others (E1: joint; the arm: R_SFE|R_EFE|R_WFE; default the first), VALUE for loadcell_bias\n"
                       "(N), encoder_jump (deg), wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
   run_cmd->add_option("--gravity-identification", run.gravity_identification,
-                      "Right-arm scenarios only: the controller's gravity parameters identified on the rig (a file from\n"
+                      "Arm scenarios only: the controller's gravity parameters identified on the rig (a file from\n"
                       "peha identify-gravity) instead of the nominal arm model (docs/identification.md)")
       ->check(CLI::ExistingFile);
   s->trim_opt = run_cmd->add_option(
       "--force-trim-rate", s->trim, "Override the load-cell force trim's rate in 1/s (0 = the paper's pure feed-forward);\n"
-               "E1 and the right arm's experiments")
+               "E1 and an arm scenario's experiments")
       ->check(peha::app::decimal())->check(CLI::Range(0.0, 100.0));
   return {run_cmd, [s] {
             if (*s->seed_opt) s->run.seed = s->seed;
@@ -196,7 +196,7 @@ Command add_identify_gravity(CLI::App& app) {
   auto s = std::make_shared<State>();
   CLI::App* cmd = app.add_subcommand(
       "identify-gravity",
-      "Identify the right arm's gravity parameters on the rig (docs/identification.md): the arm's own\n"
+      "Identify an arm's (or the upper body's) gravity parameters on the rig (docs/identification.md): the arm's own\n"
       "controller plus a PD on the encoders sweeps the arm slowly up and down through each posture of the\n"
       "config's identification: section; while the wires slide, the load cells (minus their zero) through the\n"
       "pulley radius plus the motor command give each joint's torque, and the two directions give gravity and\n"
@@ -207,7 +207,7 @@ Command add_identify_gravity(CLI::App& app) {
       "Exit code 0 = written, 2 = bad config or an identification refused (a joint stuck in a window, a fault\n"
       "the supervisor latched, the fit's residual, a torque far from the nominal model's: a wrong lever, sign\n"
       "or channel; nothing written), 1 = other error.");
-  cmd->add_option("-c,--config", s->id.config, "Right-arm scenario YAML with an identification: section, e.g. configs/right_arm.yaml")
+  cmd->add_option("-c,--config", s->id.config, "Arm scenario YAML with an identification: section, e.g. configs/right_arm.yaml or configs/upper_body.yaml")
       ->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--out", s->id.out, "Identification YAML to write (folders are created), e.g. out/identification/gravity.yaml")
       ->required();
@@ -231,7 +231,7 @@ Command add_mfb_emulator(CLI::App& app) {
   CLI::App* emu_cmd = app.add_subcommand(
       "mfb-emulator",
       "Serve the multifunction board's side of the MFB protocol (docs/mfb-protocol.md) over UDP, with the\n"
-      "scenario's simulated plant behind it (the one-DOF rig or the right arm): AD codes from its sensors,\n"
+      "scenario's simulated plant behind it (the one-DOF rig, or an arm scenario's arm or upper body): AD codes from its sensors,\n"
       "DA codes to its valves and motor driver, encoder counts, through the config's channel map. Its own\n"
       "watchdog puts the outputs in a safe state (motor off, valves vented slowly) when no valid command\n"
       "arrives. Faults can be injected into the state packets it sends. Runs until Ctrl-C, --max-runtime\n"
@@ -241,7 +241,7 @@ Command add_mfb_emulator(CLI::App& app) {
       "command (docs/channel-maps.md).");
   emu_cmd->add_option("-c,--config", emu.config, "Scenario YAML with an mfb: section")->required()->check(CLI::ExistingFile);
   emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (E1 payload, E5 clamp angle) to simulate (needed when the config\n"
-                                               "has several). Right arm: postures (E3, the default) or goniometer_<movement> (E4)");
+                                               "has several). Arm scenarios: postures (E3, the default) or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed); several boards: board i at port + i")
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 65535));
@@ -288,7 +288,7 @@ Command add_mfb_emulator(CLI::App& app) {
 Command add_check_config(CLI::App& app) {
   auto check_path = std::make_shared<std::filesystem::path>();
   CLI::App* check_cmd = app.add_subcommand(
-      "check-config", "Parse and validate a scenario YAML (one-DOF rig or right arm, with its channel map if it has an\n"
+      "check-config", "Parse and validate a scenario YAML (one-DOF rig or arm scenario, with its channel map if it has an\n"
                       "mfb: section; or a robustness matrix with the scenarios it names) without running it. Unknown keys,\n"
                       "missing keys, wrong types and out-of-range values are reported with file:line:column, key path\n"
                       "and reason.");
@@ -339,7 +339,7 @@ Command add_faults(CLI::App& app) {
                 "stage on. Prints one line per fault; writes <out>/<run>/faults.md, faults.csv and faults.png. Exit code\n"
                 "0 = no false alarm, every fault detected within 5 cycles, no limit exceeded unless physics forbids it;\n"
                 "3 otherwise; 2 = bad input.");
-  cmd->add_option("-c,--config", o->config, "E1 or right-arm scenario YAML: configs/e1_one_dof.yaml, configs/right_arm.yaml")
+  cmd->add_option("-c,--config", o->config, "E1 or arm scenario YAML: configs/e1_one_dof.yaml, configs/right_arm.yaml, configs/upper_body.yaml")
       ->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--out", o->out_root, "Directory under which the run directory is created")->capture_default_str();
   cmd->add_option("-n,--name", o->run_name, "Run directory name (default: <config stem>-<UTC time>)")->check(peha::app::run_name());

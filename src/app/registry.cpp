@@ -110,11 +110,11 @@ std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorOp
                     fmt::format("one-DOF rig clamped, case {} ({} deg)", chosen->name, plant.initial_angle_rad * 57.29577951308232)};
 }
 
-// --- right_arm: E3 postures, E4 goniometer, E6 bandwidth ---
+// --- arm: E3 postures, E4 goniometer, E6 bandwidth ---
 
 ScenarioCheck check_arm(const std::filesystem::path& config, const config::Document& doc) {
   const experiments::ArmScenario s = experiments::read_arm_scenario(doc);
-  fmt::print("{}: OK\n  experiment right_arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
+  fmt::print("{}: OK\n  experiment arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
              "{} bandwidth frequencies (E6), control at {} Hz\n",
              config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
              s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);
@@ -124,7 +124,7 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
 using ArmRun = int (*)(const config::Document&, const experiments::ArmScenario&, const experiments::RunRequest&,
                        std::optional<runtime::RealtimeRunOptions>);
 
-/// A right-arm scenario's `faults:` list is E3's: the other experiments refuse it (with a message).
+/// An arm scenario's `faults:` list is E3's: the other experiments refuse it (with a message).
 bool refuse_arm_faults(const config::Document& doc, const experiments::ArmScenario& scenario, const char* what) {
   if (scenario.faults.empty()) return false;
   fmt::print(stderr, "config error: {}: its faults: list is injected in E3 (--experiment postures) only, not in {}: "
@@ -132,7 +132,7 @@ bool refuse_arm_faults(const config::Document& doc, const experiments::ArmScenar
   return true;
 }
 
-/// The right arm's scenario with the request's seed and force trim; over the board, its mfb:
+/// An arm scenario with the request's seed and force trim; over the board, its mfb:
 /// section and the real-time options are checked before `run` writes anything. `what` names the
 /// experiment; only E3 (`takes_faults`) takes the scenario's faults: list.
 int run_arm(const config::Document& doc, const experiments::RunRequest& request, ArmRun run, const char* what, bool takes_faults) {
@@ -209,18 +209,18 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
   }
   std::string cases = "postures";
   for (const auto& m : g.movements) cases += ", goniometer_" + m.name;
-  fmt::print(stderr, "error: the right arm's board serves --case {}; found '{}'\n", cases, options.case_name);
+  fmt::print(stderr, "error: the arm's board serves --case {}; found '{}'\n", cases, options.case_name);
   return std::nullopt;
 }
 
 const Refusal kNoArmCalibration[] = {
-    {"--agonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
-    {"--antagonist-calibration", "the right arm's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
+    {"--agonist-calibration", "an arm scenario's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
+    {"--antagonist-calibration", "an arm scenario's muscles have no calibration input yet (calibration files are for the one-DOF rig's E1)"},
 };
 const std::string kIdentificationElsewhere =
     "gravity identification files are for an arm scenario (peha identify-gravity)";
-const std::string kCsvElsewhere = "a recorded goniometer drives the right arm's E4 only (--experiment goniometer)";
-const std::string kFaultsElsewhere = "plant faults are injected in E1 and the right arm's E3 (--experiment postures)";
+const std::string kCsvElsewhere = "a recorded goniometer drives an arm scenario's E4 only (--experiment goniometer)";
+const std::string kFaultsElsewhere = "plant faults are injected in E1 and an arm scenario's E3 (--experiment postures)";
 
 std::vector<Refusal> arm_refusals(std::vector<Refusal> more) {
   more.insert(more.begin(), std::begin(kNoArmCalibration), std::end(kNoArmCalibration));
@@ -233,7 +233,7 @@ std::vector<ExperimentEntry> make_registry() {
                "E1: gravity compensation of the one-DOF PEHA rig with each payload (configs/e1_one_dof.yaml)",
                {{"", "E1 gravity compensation",
                  {"--case", "--agonist-calibration", "--antagonist-calibration", "--force-trim-rate", "--backend", "--fault"},
-                 {{"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (an arm scenario, --experiment goniometer)"},
+                 {{"--goniometer-csv", "a recorded goniometer drives an arm scenario's E4 (--experiment goniometer)"},
                   {"--gravity-identification", kIdentificationElsewhere}},
                  {{"--fault", "over the board the plant is the emulator's: give the faults in the scenario's faults: list"}},
                  experiments::run_e1_experiment}},
@@ -245,7 +245,7 @@ std::vector<ExperimentEntry> make_registry() {
                  {{"--backend", "the creep experiment judges the estimate against the plant's true creep: in-process only"},
                   {"--agonist-calibration", "the creep experiment runs the scenario's own muscle models"},
                   {"--antagonist-calibration", "the creep experiment runs the scenario's own muscle models"},
-                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (an arm scenario, --experiment goniometer)"},
+                  {"--goniometer-csv", "a recorded goniometer drives an arm scenario's E4 (--experiment goniometer)"},
                   {"--gravity-identification", kIdentificationElsewhere},
                   {"--fault", "the creep experiment's plant changes are its creep: section's variants"}},
                  {},
@@ -258,7 +258,7 @@ std::vector<ExperimentEntry> make_registry() {
                  {{"--agonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
                   {"--antagonist-calibration", "E5 tests the limits with the scenario's own muscle models (calibration files are for E1)"},
                   {"--force-trim-rate", "E5 has no force controller: its input is a pressure ramp"},
-                  {"--goniometer-csv", "a recorded goniometer drives the right arm's E4 (an arm scenario, --experiment goniometer)"},
+                  {"--goniometer-csv", "a recorded goniometer drives an arm scenario's E4 (--experiment goniometer)"},
                   {"--gravity-identification", kIdentificationElsewhere}},
                  {},
                  experiments::run_e5_experiment}},

@@ -47,16 +47,16 @@ ArmBackend::ArmBackend(const ArmPlantParams& params)
       encoder_frozen_(params.actuated.size(), 0) {
   mjModel* m = model_.get();
   if (params_.actuated.size() != params_.actuators.size() || params_.actuated.size() > io::kMaxJoints) {
-    throw std::invalid_argument("right arm: one actuator per actuated joint, at most io::kMaxJoints");
+    throw std::invalid_argument("arm plant: one actuator per actuated joint, at most io::kMaxJoints");
   }
   for (const PlantFault& f : params_.faults) {
     if (f.joint < 0 || static_cast<std::size_t>(f.joint) >= params_.actuated.size()) {
-      throw std::invalid_argument(fmt::format("right arm: fault {} targets actuated joint {}, the arm has {}",
+      throw std::invalid_argument(fmt::format("arm plant: fault {} targets actuated joint {}, the arm has {}",
                                               fault_kind_name(f.kind), f.joint, params_.actuated.size()));
     }
   }
   if (static_cast<int>(params_.initial_q_rad.size()) != m->nq) {
-    throw std::invalid_argument(fmt::format("right arm: initial_q has {} values, the model {} joints",
+    throw std::invalid_argument(fmt::format("arm plant: initial_q has {} values, the model {} joints",
                                             params_.initial_q_rad.size(), m->nq));
   }
   m->opt.timestep = params_.timestep_s;
@@ -64,7 +64,7 @@ ArmBackend::ArmBackend(const ArmPlantParams& params)
   data_.reset(mj_makeData(m));
   for (int i = 0; i < m->nq; ++i) data_->qpos[i] = params_.initial_q_rad[static_cast<std::size_t>(i)];
   for (std::size_t a = 0; a < params_.actuated.size(); ++a) {
-    const int joint = require_id(m, mjOBJ_JOINT, params_.actuated[a], "right arm");
+    const int joint = require_id(m, mjOBJ_JOINT, params_.actuated[a], "arm plant");
     const int dof = m->jnt_dofadr[joint];
     dof_.push_back(dof);
     joints_.emplace_back(params_.actuators[a], params_.timestep_s, data_->qpos[m->jnt_qposadr[joint]]);
@@ -86,7 +86,7 @@ ArmBackend::ArmBackend(const ArmPlantParams& params)
   truth_.bias_torque_Nm.assign(params_.actuated.size(), 0.0);
   truth_.actuated_q_rad.assign(params_.actuated.size(), 0.0);
   truth_.actuators.resize(params_.actuated.size());
-  info_.name = "sim:right_arm";
+  info_.name = "sim:arm";
   info_.period_s = params_.control_period_s;
   state_.joint_count = static_cast<int>(params_.actuated.size());
   sample();

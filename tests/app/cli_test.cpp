@@ -131,7 +131,7 @@ TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
   const struct {
     std::string args, detail;
   } refused[] = {
-      {"faults" + common + "/configs/e5_max_force.yaml", "peha faults runs E1 (gravity_compensation_1dof) or E3 (right_arm)"},
+      {"faults" + common + "/configs/e5_max_force.yaml", "peha faults runs E1 (gravity_compensation_1dof) or E3 (arm)"},
       {"faults --case payload_2.5kg" + common + "/configs/right_arm.yaml", "E3 has no cases"},
       {"faults --moment moving" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'moving' (it has holding|push|after_release)"},
       {"faults --moment push" + common + "/configs/right_arm.yaml", "E3 has no moment 'push' (it has holding|moving|elbow_flexed)"},
@@ -255,8 +255,8 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
       {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
        "in-process"},
       // Plant faults: E1 and E3 in process; on the arm named by its joints.
-      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "E1 and the right arm's E3"},
-      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "E1 and the right arm's E3"},
+      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "E1 and an arm scenario's E3"},
+      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "E1 and an arm scenario's E3"},
       {"run --experiment postures --backend udp://127.0.0.1:9 --fault estop@1" + arm, "--fault", "faults: list"},
       {"run --experiment postures --fault wire_break@9:joint.agonist" + arm, "--fault", "R_SFE|R_EFE|R_WFE"},
   };

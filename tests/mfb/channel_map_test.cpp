@@ -20,7 +20,7 @@ using ::testing::HasSubstr;
 
 constexpr double kPi = std::numbers::pi;
 
-// The backends' joints: sim:one_dof_rig reports "joint"; sim:right_arm the three actuated joints
+// The backends' joints: sim:one_dof_rig reports "joint"; sim:arm (the right arm) the three actuated joints
 // of the arm, in the order of models::kRightArmJointNames.
 const std::vector<std::string> kRigJoints = {"joint"};
 const std::vector<std::string> kArmJoints = {models::kRightArmJointNames[models::kSFE],

@@ -102,7 +102,7 @@ struct CalibrateCommandOptions {
 int calibrate(const CalibrateCommandOptions& options);
 
 struct IdentifyGravityOptions {
-  std::filesystem::path config;  ///< right-arm scenario with an identification: section
+  std::filesystem::path config;  ///< arm scenario with an identification: section
   std::filesystem::path out;     ///< identification YAML to write
   std::optional<std::uint64_t> seed;
 };
@@ -131,7 +131,7 @@ struct RobustnessOptions {
 int robustness(const RobustnessOptions& options);
 
 struct FaultsOptions {
-  std::filesystem::path config;           ///< E1 or right-arm scenario (configs/e1_one_dof.yaml, configs/right_arm.yaml)
+  std::filesystem::path config;           ///< E1 or arm scenario (configs/e1_one_dof.yaml, configs/right_arm.yaml, configs/upper_body.yaml)
   std::filesystem::path out_root = "out";
   std::string run_name;                   ///< default: <config stem>-<UTC time stamp>
   std::string case_name;                  ///< E1 case (default: the first)

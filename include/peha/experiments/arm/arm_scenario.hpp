@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The right arm's scenario (configs/right_arm.yaml): controller, limits, simulated plant and the
+/// An arm scenario (configs/right_arm.yaml, configs/upper_body.yaml): controller, limits, simulated plant and the
 /// sections of E3 (postures), E4 (goniometer) and E6 (bandwidth), read once and shared by the
 /// three experiments; and the per-joint sample their safety figures are computed from.
 

@@ -1,6 +1,6 @@
 #pragma once
 /// \file
-/// The right arm's E3 (postures) on the multifunction board over UDP, in real time: the same
+/// An arm scenario's E3 (postures) on the multifunction board over UDP, in real time: the same
 /// controller, limits and analysis as in-process (`run_postures_on`), inside a RealtimeHarness.
 
 #include "peha/experiments/common/board_run.hpp"

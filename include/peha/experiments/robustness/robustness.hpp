@@ -45,7 +45,7 @@ struct PlantVariant {
 enum class RobustnessMode {
   kE1Default,       ///< E1 with the scenario's controller (force trim on)
   kE1CalibratedFF,  ///< E1 on the paper's pure feed-forward after calibrating both muscles on the variant
-  kE3,              ///< E3 postures with the right arm's controller
+  kE3,              ///< E3 postures with the arm scenario's controller as shipped
   kE3Identified,    ///< E3 after identifying the arm's gravity parameters on the variant (peha identify-gravity)
 };
 /// Every mode, in the order the file's `modes:` and the table list them.
@@ -125,7 +125,7 @@ PlantVariant read_plant_variant(config::Map m);
 
 /// The plant of an E1 case under `v` (the controller is untouched).
 sim::OneDofRigParams e1_variant_plant(const E1Scenario& scenario, const E1Case& c, const PlantVariant& v);
-/// The right arm's plant under `v`.
+/// The arm scenario's plant under `v`.
 sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVariant& v);
 
 /// Runs the matrix; `progress(done, total, line)` after each case (from the worker threads, serialised).
