@@ -41,13 +41,19 @@ mfb::EmulatorParams emulator_params(const EmulatorOptions& options, double perio
   return p;
 }
 
-int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const EmulatorOptions& options, const std::string& what) {
+/// SIGINT and SIGTERM stop the board(s); the real-time set-up of each board's thread.
+runtime::RealtimeOptions stop_on_signals_and_realtime(const EmulatorOptions& options) {
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
   runtime::RealtimeOptions rt;
   rt.fifo_priority = options.fifo_priority;
   rt.lock_memory = options.fifo_priority > 0;
   rt.cpu = options.cpu;
+  return rt;
+}
+
+int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const EmulatorOptions& options, const std::string& what) {
+  const runtime::RealtimeOptions rt = stop_on_signals_and_realtime(options);
   const runtime::RealtimeReport report = runtime::configure_realtime_thread(rt);
   (void)report;  // its warnings were printed; the board runs best-effort without
   fmt::print("peha mfb-emulator: listening on udp://{} - {}, watchdog {} ms, vent {} s{}\n", board.local().to_string(), what,
@@ -109,12 +115,7 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
     boards.back()->set_step_hook([body, b](const mfb::CommandPacket* c) { body->note_command(static_cast<int>(b), c); });
     where += fmt::format("{}udp://{} (board '{}': {})", b ? ", " : "", boards.back()->local().to_string(), link.name, fmt::join(link.joint_names, " "));
   }
-  std::signal(SIGINT, on_stop_signal);
-  std::signal(SIGTERM, on_stop_signal);
-  runtime::RealtimeOptions rt;
-  rt.fifo_priority = options.fifo_priority;
-  rt.lock_memory = options.fifo_priority > 0;
-  rt.cpu = options.cpu;
+  const runtime::RealtimeOptions rt = stop_on_signals_and_realtime(options);
   fmt::print("peha mfb-emulator: listening on {} - {}, one body stepped once per host cycle with every board's command (waiting at most {} ms "
              "for a late one), watchdog {} ms, vent {} s\n",
              where, plant.what, wait_s * 1e3, base.watchdog_s * 1e3, base.vent_s);
