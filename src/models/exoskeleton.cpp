@@ -83,6 +83,14 @@ std::array<int, 3> check_arm(const std::vector<ArmJointSpec>& joints) {
 
 const char* side_prefix(ArmSide side) noexcept { return side == ArmSide::kRight ? "R" : "L"; }
 
+std::string_view without_side(std::string_view name) noexcept {
+  for (const ArmSide side : {ArmSide::kRight, ArmSide::kLeft}) {
+    const std::string_view prefix = side_prefix(side);
+    if (name.size() > prefix.size() + 1 && name.starts_with(prefix) && name[prefix.size()] == '_') return name.substr(prefix.size() + 1);
+  }
+  return name;
+}
+
 std::vector<ArmJointSpec> paper_right_arm_joints() {
   const Eigen::Vector3d flexion(0, -1, 0);  // positive turns +x toward +z (up)
   std::vector<ArmJointSpec> j(5);

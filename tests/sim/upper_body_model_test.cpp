@@ -29,6 +29,16 @@ int joint_index(const models::ArmModel& m, const std::string& name) {
   return -1;
 }
 
+// The side prefix comes off joint and body names alike, and only a side prefix does.
+TEST(UpperBody, WithoutSideStripsOnlyTheSidePrefix) {
+  EXPECT_EQ(models::without_side("R_SFE"), "SFE");
+  EXPECT_EQ(models::without_side("L_exo_forearm"), "exo_forearm");
+  EXPECT_EQ(models::without_side("exo_forearm"), "exo_forearm");  // a one-armed body's bodies
+  EXPECT_EQ(models::without_side("SFE"), "SFE");
+  EXPECT_EQ(models::without_side("R_"), "R_");
+  EXPECT_EQ(models::without_side("RX_SFE"), "RX_SFE");
+}
+
 TEST(UpperBody, ShippedFileBuildsBothArmsWithPrefixedJointsAndBodies) {
   const models::BodyConfig c = upper_body();
   const models::ArmModel m = c.controller.model();

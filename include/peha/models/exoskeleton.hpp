@@ -23,6 +23,7 @@
 #include "peha/models/arm.hpp"
 
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace peha::models {
@@ -30,6 +31,9 @@ namespace peha::models {
 enum class ArmSide { kRight, kLeft };
 /// "R" / "L": the prefix of that side's joint names ("R_SFE") and, on a two-armed body, its bodies.
 const char* side_prefix(ArmSide side) noexcept;
+/// `name` without its side prefix: "R_SFE" -> "SFE", "L_exo_forearm" -> "exo_forearm"; a name
+/// without one ("SFE", "exo_forearm" on a one-armed body) as it is.
+std::string_view without_side(std::string_view name) noexcept;
 
 /// Where along the arm a joint's axis passes: its origin is the shoulder centre, the elbow
 /// (upper-arm length beyond the last shoulder joint) or the wrist (forearm length beyond the last

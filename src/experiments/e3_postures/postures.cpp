@@ -1,5 +1,6 @@
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/common/release_checks.hpp"
+#include "peha/models/exoskeleton.hpp"
 
 #include "peha/safety/limited_backend.hpp"
 
@@ -33,7 +34,7 @@ std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint) {
   std::string name = scenario.plant.actuated[io_joint];
   bool two_sides = false;
   for (const std::string& n : scenario.plant.actuated) two_sides |= n[0] != scenario.plant.actuated[0][0];
-  if (!two_sides) name = name.substr(name.find('_') + 1);
+  if (!two_sides) name = std::string(models::without_side(name));
   for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return name;
 }
