@@ -156,42 +156,35 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
 }
 
 /// A per-joint map: a value per driven joint, by arm joint ("SFE": every side) or by io joint ("R_SFE":
-/// that side only, over the arm joint's value), each within `range`; NaN for joints not named.
-std::vector<double> read_angles_like(config::Map& item, const ArmScenario& s, const config::Range& range) {
+/// that side only, over the arm joint's value), joint i's within range(i); NaN for joints not named.
+template <class RangeOf>
+std::vector<double> read_joint_map(config::Map& item, const ArmScenario& s, RangeOf range) {
   std::vector<double> v(s.plant.actuated.size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t i = 0; i < v.size(); ++i) {
     const std::string& io_name = s.plant.actuated[i];
-    const std::string arm_name = io_name.substr(io_name.find('_') + 1);
+    const std::string_view arm_name = models::without_side(io_name);
     if (item.has(io_name)) {
-      v[i] = item.number(io_name, range);
+      v[i] = item.number(io_name, range(i));
     } else if (item.has(arm_name)) {
-      v[i] = item.number(arm_name, range);
+      v[i] = item.number(arm_name, range(i));
     }
   }
   item.finish();
   return v;
 }
 
-/// An `angles_deg:` map: a target per driven joint, by arm joint ("SFE": every side) or by io joint
-/// ("R_SFE": that side only, over the arm joint's value); each within its joint's range. Joints not
-/// named stay NaN (the operator leaves them free). At least `min_named` joints must be named.
+/// An `angles_deg:` map (read_joint_map, in rad): each within its joint's range. Joints not named stay
+/// NaN (the operator leaves them free). At least `min_named` joints must be named.
 std::vector<double> read_angles(config::Map item, const ArmScenario& s, std::size_t min_named) {
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  std::vector<double> q(s.plant.actuated.size(), nan);
-  std::size_t named = 0;
-  for (std::size_t i = 0; i < q.size(); ++i) {
-    const std::string& io_name = s.plant.actuated[i];
-    const std::string arm_name = io_name.substr(io_name.find('_') + 1);
+  std::vector<double> q = read_joint_map(item, s, [&](std::size_t i) {
     const safety::JointLimits& lim = s.limits.joints[i];
-    const config::Range range{lim.min_angle_rad / kDeg, lim.max_angle_rad / kDeg};
-    if (item.has(io_name)) {
-      q[i] = item.number(io_name, range) * kDeg;
-    } else if (item.has(arm_name)) {
-      q[i] = item.number(arm_name, range) * kDeg;
-    }
-    named += !std::isnan(q[i]);
+    return config::Range{lim.min_angle_rad / kDeg, lim.max_angle_rad / kDeg};
+  });
+  std::size_t named = 0;
+  for (double& v : q) {
+    v *= kDeg;
+    named += !std::isnan(v);
   }
-  item.finish();
   if (named < min_named) item.fail("", fmt::format("names {} joints, needs at least {}", named, min_named));
   return q;
 }
@@ -231,8 +224,7 @@ void read_bandwidth(config::Map bw, ArmScenario& s) {
   const auto swept = static_cast<std::size_t>(s.bandwidth.joint);
   if (std::isnan(s.bandwidth.locked_rad[swept])) {
     bw.fail("angles_deg", fmt::format("expected the swept joint {} among the locked joints (by {} or {}), found it missing",
-                                      s.plant.actuated[swept], s.plant.actuated[swept],
-                                      s.plant.actuated[swept].substr(s.plant.actuated[swept].find('_') + 1)));
+                                      s.plant.actuated[swept], s.plant.actuated[swept], models::without_side(s.plant.actuated[swept])));
   }
   s.bandwidth.amplitude_Nm = bw.number("amplitude_Nm", {0.01, 50.0});
   s.bandwidth.frequencies_Hz = bw.numbers("frequencies_Hz", {0.01, 0.25 / s.period_s}, 2, 64);
@@ -318,7 +310,7 @@ void read_identification(config::Map id, ArmScenario& s) {
   // The rig's PD per swept joint, by arm joint (every side) or io joint (one side).
   auto per_swept_joint = [&](const char* key, const config::Range& range) {
     config::Map m = id.map(key);
-    const std::vector<double> v = read_angles_like(m, s, range);
+    const std::vector<double> v = read_joint_map(m, s, [&](std::size_t) { return range; });
     std::vector<double> out;
     for (const std::size_t i : d.joints) {
       if (std::isnan(v[i])) m.fail(s.plant.actuated[i], fmt::format("the rig sweeps {}: give its value", s.plant.actuated[i]));
