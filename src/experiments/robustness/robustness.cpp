@@ -1,4 +1,5 @@
 #include "peha/experiments/robustness/robustness.hpp"
+#include "peha/models/exoskeleton.hpp"
 
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
@@ -25,6 +26,11 @@
 
 namespace peha::experiments {
 namespace {
+
+/// E3's modes run the arm scenario; the others E1's.
+bool is_e3(RobustnessMode m) noexcept { return m == RobustnessMode::kE3 || m == RobustnessMode::kE3Identified; }
+bool any_e3_mode(const std::vector<RobustnessMode>& modes) { return std::any_of(modes.begin(), modes.end(), is_e3); }
+bool any_e1_mode(const std::vector<RobustnessMode>& modes) { return !std::all_of(modes.begin(), modes.end(), is_e3); }
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
@@ -284,11 +290,8 @@ RobustnessConfig read_robustness(const config::Document& doc) {
   modes.finish();
   if (c.modes.empty()) root.fail("modes", "no mode is on: set one of " + robustness_mode_names() + " to true");
   // Each scenario is needed by the modes that run it only (a matrix of E3 modes names no E1 scenario).
-  const auto on = [&](RobustnessMode m) { return std::find(c.modes.begin(), c.modes.end(), m) != c.modes.end(); };
-  const bool any_e1 = on(RobustnessMode::kE1Default) || on(RobustnessMode::kE1CalibratedFF);
-  const bool any_e3 = on(RobustnessMode::kE3) || on(RobustnessMode::kE3Identified);
-  if (any_e1 || root.has("e1_scenario")) c.e1_config = root.path_value("e1_scenario");
-  if (any_e3 || root.has("arm_scenario")) c.arm_config = root.path_value("arm_scenario");
+  if (any_e1_mode(c.modes) || root.has("e1_scenario")) c.e1_config = root.path_value("e1_scenario");
+  if (any_e3_mode(c.modes) || root.has("arm_scenario")) c.arm_config = root.path_value("arm_scenario");
   if (root.has("seeds")) {
     for (double s : root.numbers("seeds", {0.0, 1e9}, 1, 16)) c.seeds.push_back(static_cast<std::uint64_t>(s));
   } else {
@@ -296,7 +299,7 @@ RobustnessConfig read_robustness(const config::Document& doc) {
   }
   if (root.has("e1_case")) c.e1_cases = {root.string("e1_case")};
   c.threads = static_cast<int>(root.integer("threads", 1, 64));
-  if (on(RobustnessMode::kE1CalibratedFF) || root.has("calibration_restarts")) {  // the calibrated mode's settings
+  if (std::find(c.modes.begin(), c.modes.end(), RobustnessMode::kE1CalibratedFF) != c.modes.end() || root.has("calibration_restarts")) {  // the calibrated mode's settings
     c.calibration_restarts = static_cast<int>(root.integer("calibration_restarts", 1, 1000));
     c.calibration_pseudo_inputs = static_cast<int>(root.integer("calibration_pseudo_inputs", 5, 500));
     c.calibration_spgp_iterations = static_cast<int>(root.integer("calibration_spgp_iterations", 1, 10000));
@@ -342,7 +345,7 @@ sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVa
   p.pressure_noise_Pa *= v.sensor_noise_scale;
   for (models::ArmBody& b : p.model.bodies) {
     // "exo_forearm", or "R_exo_forearm" on a body with both arms.
-    const std::string role = b.name.starts_with("R_") || b.name.starts_with("L_") ? b.name.substr(2) : b.name;
+    const std::string_view role = models::without_side(b.name);
     if (role.starts_with("exo_")) scale_body(b, v.link_mass_scale);
     if (role.starts_with("user_")) scale_body(b, v.payload_scale);
   }
@@ -354,9 +357,8 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
                                 const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
   E1Scenario e1;
   ArmScenario arm;
-  auto is_e3 = [](RobustnessMode m) { return m == RobustnessMode::kE3 || m == RobustnessMode::kE3Identified; };
-  const bool any_e1 = !std::all_of(config.modes.begin(), config.modes.end(), is_e3);
-  const bool any_e3 = std::any_of(config.modes.begin(), config.modes.end(), is_e3);
+  const bool any_e1 = any_e1_mode(config.modes);
+  const bool any_e3 = any_e3_mode(config.modes);
   std::vector<std::size_t> cases;
   if (any_e1) {
     e1 = read_e1(config::Document::load_file(config.e1_config));
