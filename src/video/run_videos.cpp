@@ -35,10 +35,22 @@ class Sampler {
   double w_ = 0;
 };
 
+/// The qpos address of the joint a log names `joint`: that joint, or ("sfe" on one arm) R_SFE, then
+/// L_SFE; "r_saa": R_SAA. -1 when the model has none.
+int joint_qpos(const mjModel* model, const std::string& joint) {
+  std::string upper = joint;
+  for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+  for (const std::string& name : {joint, upper, "R_" + upper, "L_" + upper}) {
+    const int id = mj_name2id(model, mjOBJ_JOINT, name.c_str());
+    if (id >= 0) return model->jnt_qposadr[id];
+  }
+  return -1;
+}
+
 int qpos_of(const mjModel* m, const std::string& joint) {
-  const int id = mj_name2id(m, mjOBJ_JOINT, joint.c_str());
-  if (id < 0) throw std::runtime_error(fmt::format("the model has no joint '{}' for the video", joint));
-  return m->jnt_qposadr[id];
+  const int q = joint_qpos(m, joint);
+  if (q < 0) throw std::runtime_error(fmt::format("the model has no joint '{}' for the video", joint));
+  return q;
 }
 
 std::vector<double>& derived(LogTable& log, const std::string& name, const std::string& from, double scale) {
@@ -126,18 +138,6 @@ struct LogJoint {
   int qpos = -1;
   std::string label;
 };
-
-/// The qpos address of the joint a log names `joint` ("sfe" on one arm: R_SFE, then L_SFE; "r_saa":
-/// R_SAA), or -1.
-int joint_qpos(const mjModel* model, const std::string& joint) {
-  std::string upper = joint;
-  for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-  for (const std::string& name : {upper, "R_" + upper, "L_" + upper}) {
-    const int id = mj_name2id(model, mjOBJ_JOINT, name.c_str());
-    if (id >= 0) return model->jnt_qposadr[id];
-  }
-  return -1;
-}
 
 /// Every joint with a column `<prefix><suffix>` whose prefix names a joint of `model` (an empty
 /// prefix is kept with qpos -1 for the caller to resolve), in the log's column order.
