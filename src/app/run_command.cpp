@@ -67,7 +67,7 @@ const RunVariant* choose_variant(const ExperimentEntry& entry, const RunOptions&
   }
   std::string names;
   for (const auto& v : entry.variants) names += (names.empty() ? "" : "|") + v.name;
-  fmt::print(stderr, "error: {} is a {} scenario: give --experiment {}\n", doc.name(), entry.kind, names);
+  fmt::print(stderr, "error: {} is an {} scenario: give --experiment {}\n", doc.name(), entry.kind, names);
   return nullptr;
 }
 

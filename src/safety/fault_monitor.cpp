@@ -13,7 +13,8 @@ constexpr const char* kFlagNames[kFaultFlagCount] = {
     "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
     "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
     "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
-    "joint_range",       "loadcell_step",        "estop",        "motor_disagrees",      "supply_low"};
+    "joint_range",       "loadcell_step",        "estop",        "motor_disagrees",      "supply_low",
+    "pressure_rise"};
 
 constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
@@ -36,6 +37,7 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kVent,    // estop: the hardware has already cut valves and motor (stop category 0)
     SafeAction::kHold,    // motor_disagrees: the muscles keep what they hold, the motor is switched off
     SafeAction::kDescend, // supply_low: air is left to brake with; lower the arm on it
+    SafeAction::kVent,    // pressure_rise: a valve fills by itself, as pressure_high, caught earlier
 };
 
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
@@ -75,6 +77,8 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 10});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
   p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 1}) * 1e6;
+  p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 1}) * 1e6;
+  p.pressure_rise_filter_s = m.number_or("pressure_rise_filter_s", p.pressure_rise_filter_s, {0.0005, 1});
   p.valve_dead_time_s = m.number_or("valve_dead_time_s", p.valve_dead_time_s, {0, 0.05});
   p.valve_lag_s = m.number_or("valve_lag_s", p.valve_lag_s, {1e-4, 2});
   p.valve_rate_Pa_per_s = m.number_or("valve_rate_MPa_per_s", p.valve_rate_Pa_per_s * 1e-6, {0.01, 100}) * 1e6;
@@ -125,7 +129,8 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.slow_delay_cycles = cycles(p.valve_slow_factor * p.valve_dead_time_s);
   pp.valve_alpha = alpha(p.valve_lag_s);
   pp.slow_valve_alpha = alpha(p.valve_slow_factor * p.valve_lag_s);
-  pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter
+  pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
+  pp.rise_alpha = alpha(p.pressure_rise_filter_s);
   return pp;
 }
 
@@ -300,7 +305,8 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       if (!outputs_follow || !synced_) {  // the valve model restarts from what is measured
         ms.delay.fill(pressure);
         ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
-        ms.pressure_low = ms.pressure_high = 0;
+        ms.pressure_low = ms.pressure_high = ms.rise = 0;
+        ms.has_excess = false;
         continue;
       }
       // Advance the valve model by one period with the delayed command (written by sent()).
@@ -319,6 +325,25 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
       if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, j, m, above, p.pressure_tolerance_Pa);
       if (ms.pressure_low >= p.confirm_cycles) ++low_muscles;
+      // Rise: the commands hold (both valve models have settled on the newest command), so the
+      // pressure should hold too. Only the
+      // excess over the upper edge counts (a pressure settling up to the envelope from below is not
+      // a rise); its level follows slowly, so a sensor's offset passes.
+      const double excess_Pa = std::max(above, 0.0);
+      const double newest_Pa = ms.delay[static_cast<std::size_t>(ms.head)];
+      const bool settled = std::abs(ms.predicted_Pa - newest_Pa) <= p.pressure_rise_Pa &&
+                           std::abs(ms.slow_predicted_Pa - newest_Pa) <= p.pressure_rise_Pa;
+      if (!ms.has_excess || !settled) {
+        ms.excess_fast_Pa = ms.excess_level_Pa = excess_Pa;
+        ms.has_excess = true;
+        ms.rise = 0;
+      } else {
+        ms.excess_fast_Pa += pp.rise_alpha * (excess_Pa - ms.excess_fast_Pa);
+        const double rise_Pa = ms.excess_fast_Pa - ms.excess_level_Pa;
+        ms.rise = rise_Pa > p.pressure_rise_Pa ? ms.rise + 1 : 0;
+        if (ms.rise >= p.confirm_cycles) raise(kFaultPressureRise, j, m, rise_Pa, p.pressure_rise_Pa);
+        ms.excess_level_Pa += pp.step_alpha * (ms.excess_fast_Pa - ms.excess_level_Pa);
+      }
     }
   }
   if (low_muscles >= 2) {

@@ -81,7 +81,9 @@ INSTANTIATE_TEST_SUITE_P(
                       // The wire's tension floor is armed once the wire is taut: a break is seen in 3 cycles
                       // (it was 13, as a disconnected cell, while the check had to be off).
                       Expect{"wire_break@3:agonist", safety::kFaultTensionFloor, 5, safety::SafeAction::kDescend},
-                      Expect{"valve_stuck_open@3:agonist", safety::kFaultPressureHigh, 60, safety::SafeAction::kVent},
+                      // The valve's 5 ms dead time and 30 ms lag: nothing shows for 5 cycles, 8 kPa after about 16
+                      // (22 measured; 43, as pressure_high, before the rise check).
+                      Expect{"valve_stuck_open@3:agonist", safety::kFaultPressureRise, 25, safety::SafeAction::kVent},
                       // The supply sensor on the valve manifold: a loss holds (no air to brake a descent
                       // with), half the supply descends on what is left. Both were unobservable at rest.
                       Expect{"supply_zero@3", safety::kFaultSupplyLoss, 3, safety::SafeAction::kHold},
@@ -245,6 +247,71 @@ TEST(FaultMonitor, AMotorThatDoesNotMakeItsTorqueIsRaisedAndALateSampleIsNot) {
   EXPECT_TRUE(flags_after_motor_commands(1.5, 30, false) & safety::kFaultMotorDisagrees);  // far beyond the 10-cycle window
   EXPECT_EQ(flags_after_motor_commands(0.2, 0, true), 0u);
   EXPECT_EQ(flags_after_motor_commands(1.5, 0, true, false), 0u);  // no monitor (NaN): not checked
+}
+
+struct PressureRun {
+  std::uint32_t flags = 0;
+  double latched_at_s = -1;  ///< the first fault's time (-1: none)
+};
+
+/// E1's agonist held at a command of 0.1 MPa for 3 s while its sensor reads `offset_Pa` above it and,
+/// from 1.5 s, rises by itself at `fill_Pa_per_s` (a valve filling with its command holding). With
+/// `step_to_Pa` > 0 the command instead steps there at 1.5 s and the pressure follows as a valve twice
+/// as slow as the model (the envelope's slow edge).
+PressureRun run_pressure(double offset_Pa, double fill_Pa_per_s, std::uint32_t disabled = 0, double step_to_Pa = 0) {
+  safety::MonitorParams p;
+  p.enabled = true;
+  p.disabled_checks = disabled;
+  safety::FaultMonitor monitor(p, 1e-3);
+  E1JointView view;
+  io::SensorState& state = view.state;
+  double command_Pa = 0.1e6, setpoint_Pa = 0.1e6, slow_Pa = 0.1e6;
+  std::vector<double> commands;
+  PressureRun run;
+  for (int k = 0; k < 3000; ++k) {
+    state.time_s = 1e-3 * k;
+    const double noise = 0.01 * (k % 7);
+    const double after_s = std::max(0.0, state.time_s - 1.5);
+    if (step_to_Pa > 0 && after_s > 0) command_Pa = step_to_Pa;
+    commands.push_back(command_Pa);
+    // The slow valve: dead time 10 ms, rate 2 MPa/s, lag 60 ms.
+    const double delayed = commands[static_cast<std::size_t>(std::max(0, k - 10))];
+    setpoint_Pa += std::clamp(delayed - setpoint_Pa, -2000.0, 2000.0);
+    slow_Pa += (1.0 - std::exp(-1e-3 / 0.06)) * (setpoint_Pa - slow_Pa);
+    const double wobble_Pa = 300.0 * ((k * 7919) % 11 - 5) / 5.0;  // +-300 Pa, never repeating a code for long
+    state.joints[0].agonist_pressure_Pa = slow_Pa + offset_Pa + fill_Pa_per_s * after_s + wobble_Pa;
+    state.joints[0].antagonist_pressure_Pa = 0.1e6 + wobble_Pa;
+    state.joints[0].agonist_loadcell_N = state.joints[0].antagonist_loadcell_N = 60.0 + noise;
+    view.check(monitor, true);
+    if (monitor.flags() && run.latched_at_s < 0) run.latched_at_s = monitor.first().time_s;
+    io::Command c;
+    c.joint_count = 1;
+    c.joints[0].agonist_pressure_Pa = command_Pa;
+    c.joints[0].antagonist_pressure_Pa = 0.1e6;
+    monitor.sent(c);
+  }
+  run.flags = monitor.flags();
+  return run;
+}
+
+// A pressure that rises by itself while the commands hold is a valve filling: pressure_rise (vent)
+// catches a 1 MPa/s fill about 14 cycles in, where the wide 60 kPa envelope check needs 63; a sensor's constant offset and a commanded step followed by a slow valve raise nothing.
+TEST(FaultMonitor, APressureRisingWhileTheCommandsHoldIsRaisedLongBeforeTheEnvelopeTolerance) {
+  const PressureRun fill = run_pressure(0.0, 1e6);
+  EXPECT_TRUE(fill.flags & safety::kFaultPressureRise);
+  EXPECT_EQ(safety::safe_action(safety::kFaultPressureRise), safety::SafeAction::kVent);
+  EXPECT_GT(fill.latched_at_s, 1.5);
+  EXPECT_LE(fill.latched_at_s, 1.5 + 0.016);
+  // The broken supervisor without the rise check sees the same fill only at the 60 kPa tolerance
+  // (the load cell, which does not follow this synthetic fill, is not judged here).
+  const PressureRun without = run_pressure(0.0, 1e6, safety::kFaultPressureRise | safety::kFaultLoadcellStep | safety::kFaultLoadcellDisagrees);
+  EXPECT_TRUE(without.flags & safety::kFaultPressureHigh);
+  EXPECT_GE(without.latched_at_s, 1.5 + 0.060);
+  constexpr std::uint32_t kPressureFlags = safety::kFaultPressureRise | safety::kFaultPressureHigh | safety::kFaultPressureLow;
+  EXPECT_EQ(run_pressure(0.04e6, 0.0).flags, 0u);                              // a sensor offset of 40 kPa
+  EXPECT_EQ(run_pressure(0.0, 0.0, 0, 0.3e6).flags & kPressureFlags, 0u);      // a commanded step, a slow valve
+  // 50 kPa/s: the rise's level follows it (the envelope check judges it, at 60 kPa).
+  EXPECT_EQ(run_pressure(0.0, 0.05e6).flags & safety::kFaultPressureRise, 0u);
 }
 
 TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {

@@ -20,7 +20,10 @@
 ///   slower: a worn or cold valve is not a fault), outside that envelope by more than
 ///   pressure_tolerance_Pa for confirm_cycles: high
 ///   (a valve filling by itself), low (a valve or sensor that does not follow; on two or more
-///   muscles at once: supply loss), above supply;
+///   muscles at once: supply loss), above supply; and, while the two valve models agree within
+///   pressure_rise_Pa (the commands hold, so the valve should too), a rise of the pressure above the
+///   envelope's upper edge by more than pressure_rise_Pa against its recent level, for confirm_cycles
+///   (pressure_rise: a valve that fills by itself, seen long before it leaves the wide tolerance);
 /// - encoder: a step above encoder_max_step_rad in one sample (jump), the same count for
 ///   encoder_frozen_cycles right after moving faster than encoder_frozen_speed_radps (frozen);
 ///   joint speed above max_joint_speed_radps, angle beyond the range by range_margin_rad;
@@ -76,8 +79,9 @@ enum FaultFlag : std::uint32_t {
   kFaultEstop = 1u << 17,
   kFaultMotorDisagrees = 1u << 18,
   kFaultSupplyLow = 1u << 19,
+  kFaultPressureRise = 1u << 20,
 };
-inline constexpr int kFaultFlagCount = 20;
+inline constexpr int kFaultFlagCount = 21;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -121,6 +125,13 @@ struct MonitorParams {
   double tension_floor_fraction = 0.3;        ///< of the joint's pretension: a wire near slack (the verdict judges 0.5)
   double pressure_tolerance_Pa = 0.06e6;
   double pressure_over_supply_Pa = 0.05e6;    ///< measured above supply by more than this
+  /// pressure_rise: while the modelled and the slow valve agree within this, the pressure's excess
+  /// over the envelope's upper edge (max(0, P - upper edge), low-passed with pressure_rise_filter_s)
+  /// may rise at most this much above its recent level (low-passed with loadcell_step_filter_s).
+  /// 8 kPa: 6 sigma of the filtered excess with 3x the pressure sensors' 1 kPa noise; a sensor's
+  /// offset is in the level and passes.
+  double pressure_rise_Pa = 0.008e6;
+  double pressure_rise_filter_s = 0.003;
   double valve_dead_time_s = 0.005;           ///< the valve's dynamics as the supervisor models them
   double valve_lag_s = 0.03;
   double valve_rate_Pa_per_s = 4e6;
@@ -232,6 +243,9 @@ class FaultMonitor {
     double disagreement_level_N = 0;  ///< low-passed (cell - model) for the step check
     bool has_level = false;
     int step = 0;
+    double excess_fast_Pa = 0, excess_level_Pa = 0;  ///< the rise check's filtered excess and its level
+    bool has_excess = false;
+    int rise = 0;
   };
   /// The descend governor of one joint (docs/safety.md): state from the fault on, output per sample.
   struct Governor {
@@ -264,7 +278,7 @@ class FaultMonitor {
   /// and the first-order filters' factors per period (derived once, not per sample).
   struct PerPeriod {
     int delay_cycles = 0, slow_delay_cycles = 0;
-    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0;
+    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, rise_alpha = 0;
   };
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
 
