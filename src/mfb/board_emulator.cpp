@@ -43,6 +43,13 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
   plant_ = make_plant_();
   plant_->activate();  // the plant is the world behind the board's outputs: always driven
   plant_->read(state_);
+  for (int j = 0; j < map_.joint_count(); ++j) {
+    if (map_.joint(j).redundant_encoder.channel >= 0 && !std::isfinite(state_.joints[static_cast<std::size_t>(j)].redundant_angle_rad)) {
+      throw std::invalid_argument(fmt::format("mfb-emulator: the channel map has a redundant encoder for joint '{}' (counter {}), but the "
+                                              "scenario's plant measures none: set plant joint_encoder_counts_per_rev (docs/configuration.md)",
+                                              map_.joint_names()[static_cast<std::size_t>(j)], map_.joint(j).redundant_encoder.channel));
+    }
+  }
   applied_ = map_.safe_outputs();
 }
 

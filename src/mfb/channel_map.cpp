@@ -206,9 +206,11 @@ void read_encoders(config::Map& root, const std::vector<std::string>& names,
       item.fail("channel", fmt::format("encoder channel {} is already used by joint '{}'", channel,
                                        names[static_cast<std::size_t>(used_by[static_cast<std::size_t>(channel)])]));
     }
-    EncoderChannel& e = joints[static_cast<std::size_t>(joint)].encoder;
+    const bool redundant = item.boolean_or("redundant", false);
+    EncoderChannel& e = redundant ? joints[static_cast<std::size_t>(joint)].redundant_encoder : joints[static_cast<std::size_t>(joint)].encoder;
     if (e.channel >= 0) {
-      item.fail("joint", fmt::format("joint '{}' already has encoder channel {} (exactly one per joint)", name, e.channel));
+      item.fail("joint", fmt::format("joint '{}' already has {} encoder channel {} (one, and at most one redundant, per joint)", name,
+                                     redundant ? "a redundant" : "its", e.channel));
     }
     used_by[static_cast<std::size_t>(channel)] = joint;
     e.channel = channel;
@@ -222,7 +224,7 @@ void read_encoders(config::Map& root, const std::vector<std::string>& names,
   }
   for (std::size_t j = 0; j < names.size(); ++j) {
     if (joints[j].encoder.channel < 0) {
-      root.fail("encoders", fmt::format("no encoder for joint '{}' (every joint needs exactly one)", names[j]));
+      root.fail("encoders", fmt::format("no encoder for joint '{}' (every joint needs exactly one that is not redundant)", names[j]));
     }
   }
 }
@@ -341,6 +343,9 @@ bool ChannelMap::decode_inputs(const BoardInputs& in, io::SensorState& out) cons
     s.antagonist_pressure_Pa = ad(c.antagonist_pressure);
     s.supply_pressure_Pa = c.supply_pressure.mapped() ? ad(c.supply_pressure) : std::numeric_limits<double>::quiet_NaN();
     s.motor_torque_Nm = c.motor_torque_monitor.mapped() ? ad(c.motor_torque_monitor) : std::numeric_limits<double>::quiet_NaN();
+    s.redundant_angle_rad = c.redundant_encoder.channel >= 0
+                                ? c.redundant_encoder.to_rad(in.encoder[static_cast<std::size_t>(c.redundant_encoder.channel)])
+                                : std::numeric_limits<double>::quiet_NaN();
   }
   return true;
 }
@@ -396,6 +401,9 @@ void ChannelMap::encode_inputs(const io::SensorState& s, bool estop, BoardInputs
     put(c.supply_pressure, js.supply_pressure_Pa);
     put(c.motor_torque_monitor, js.motor_torque_Nm);
     out.encoder[static_cast<std::size_t>(c.encoder.channel)] = c.encoder.to_counts(js.angle_rad);
+    if (c.redundant_encoder.channel >= 0) {
+      out.encoder[static_cast<std::size_t>(c.redundant_encoder.channel)] = c.redundant_encoder.to_counts(js.redundant_angle_rad);
+    }
   }
   estop_.set(out.digital_in, estop);
 }

@@ -14,7 +14,7 @@ constexpr const char* kFlagNames[kFaultFlagCount] = {
     "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
     "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
     "joint_range",       "loadcell_step",        "estop",        "motor_disagrees",      "supply_low",
-    "pressure_rise"};
+    "pressure_rise",     "encoder_disagrees"};
 
 constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
@@ -38,6 +38,7 @@ constexpr SafeAction kActions[kFaultFlagCount] = {
     SafeAction::kHold,    // motor_disagrees: the muscles keep what they hold, the motor is switched off
     SafeAction::kDescend, // supply_low: air is left to brake with; lower the arm on it
     SafeAction::kVent,    // pressure_rise: a valve fills by itself, as pressure_high, caught earlier
+    SafeAction::kHold,    // encoder_disagrees: which encoder lies is unknown: no angle to govern a descent with
 };
 
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
@@ -86,6 +87,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.encoder_max_step_rad = m.number_or("encoder_max_step_deg", p.encoder_max_step_rad / kDeg, {0.01, 90}) * kDeg;
   p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 1000}));
   p.encoder_frozen_speed_radps = m.number_or("encoder_frozen_speed_degps", p.encoder_frozen_speed_radps / kDeg, {0.1, 1000}) * kDeg;
+  p.encoder_disagree_rad = m.number_or("encoder_disagree_deg", p.encoder_disagree_rad / kDeg, {0.01, 90}) * kDeg;
   p.max_joint_speed_radps = m.number_or("max_joint_speed_degps", p.max_joint_speed_radps / kDeg, {1, 2000}) * kDeg;
   p.range_margin_rad = m.number_or("range_margin_deg", p.range_margin_rad / kDeg, {0, 45}) * kDeg;
   p.supply_low_fraction = m.number_or("supply_low_fraction", p.supply_low_fraction, {0, 1});
@@ -197,6 +199,12 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       }
     } else {
       js.last_change_t_s = s.time_s;
+    }
+    // The redundant encoder on the joint's axis: the two angles stay together while both count.
+    if (std::isfinite(in.redundant_angle_rad)) {
+      const double apart_rad = in.angle_rad - in.redundant_angle_rad;
+      js.encoder_apart = std::abs(apart_rad) > p.encoder_disagree_rad ? js.encoder_apart + 1 : 0;
+      if (js.encoder_apart >= p.confirm_cycles) raise(kFaultEncoderDisagrees, j, -1, apart_rad, p.encoder_disagree_rad);
     }
     js.last_angle_rad = in.angle_rad;
     js.last_t_s = s.time_s;

@@ -153,6 +153,7 @@ void ArmBackend::sample() noexcept {
     const double angle = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
     truth_.actuated_q_rad[a] = angle;
     if (!encoder_frozen_[a]) s.angle_rad = encoder_angle_rad(angle + encoder_offset_rad_[a], params_.encoder_counts_per_rev);
+    s.redundant_angle_rad = redundant_encoder_angle_rad(angle, params_.joint_encoder_counts_per_rev);
     joints_[a].sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   }
   state_.time_s = d->time;

@@ -26,6 +26,7 @@ OneDofRigParams read_one_dof_rig(config::Map& plant, double control_period_s, do
   p.pressure_range_Pa = pressure.number("range_MPa", {0.1, 2.0}) * 1e6;
   pressure.finish();
   p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  p.joint_encoder_counts_per_rev = plant.number_or("joint_encoder_counts_per_rev", 0.0, {0, 1e9});
   p.unknown_payload_kg = plant.number_or("unknown_payload_kg", 0.0, {-20.0, 20.0});
   p.joint = read_peha_joint_plant(plant, supply_pressure_Pa, /*has_motor=*/true);
   plant.finish();
@@ -148,6 +149,7 @@ void OneDofRigBackend::sample() noexcept {
   static_cast<PehaJointTruth&>(truth_) = joint_.truth();
   io::JointSensors& s = state_.joints[0];
   if (!encoder_frozen_) s.angle_rad = encoder_angle_rad(angle + encoder_offset_rad_, params_.encoder_counts_per_rev);
+  s.redundant_angle_rad = redundant_encoder_angle_rad(angle, params_.joint_encoder_counts_per_rev);
   joint_.sense(params_.pressure_noise_Pa, params_.pressure_range_Pa, rng_, s);
   state_.time_s = d->time;
   ++state_.sequence;

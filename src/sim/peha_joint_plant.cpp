@@ -80,6 +80,10 @@ double quantize_16bit_offset_binary(double value, double half_range) noexcept {
   return -half_range + code * step;
 }
 
+double redundant_encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept {
+  return counts_per_rev > 0 ? encoder_angle_rad(angle_rad, counts_per_rev) : std::numeric_limits<double>::quiet_NaN();
+}
+
 double encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept {
   const double counts_per_rad = counts_per_rev / (2.0 * std::numbers::pi);
   return std::floor(angle_rad * counts_per_rad) / counts_per_rad;

@@ -272,6 +272,29 @@ TEST(E3, AControllerNanOnTheElbowIsCaughtInItsCycleAndHeld) {
   EXPECT_FALSE(r.within_limits);
 }
 
+// An encoder that freezes while its joint is still is unobservable until the joint turns; then the
+// redundant encoder on the joint's axis parts from it. The elbow's encoder freezes at 8.5 s; the
+// elbow first moves at the third posture (about 31.5 s): encoder_disagrees (hold) within the 2 deg
+// and 3 cycles. Without the redundant encoder the same run went on blind to 46 s, the elbow drifting
+// 50 deg from what its encoder said, until a wire's tension floor latched.
+TEST(E3, AnEncoderFrozenAtRestIsCaughtByTheRedundantEncoderWhenTheJointFirstTurns) {
+  ArmScenario s = shipped();
+  s.postures_stop_s = 40.0;
+  s.faults = {sim::parse_fault_spec("encoder_frozen@8.5:R_EFE", arm_joint_names(s), postures_duration_s(s))};
+  const PosturesResult r = run_postures(s, nullptr);
+  ASSERT_EQ(r.faults, 1u) << r.fault_reason;
+  EXPECT_TRUE(r.fault_flags & safety::kFaultEncoderDisagrees) << r.fault_reason;
+  EXPECT_EQ(r.fault_reason.find("encoder_disagrees joint 1"), 0u) << r.fault_reason;  // the first fault
+  EXPECT_NE(r.fault_reason.find("-> hold"), std::string::npos) << r.fault_reason;
+  const double at_s = std::stod(r.fault_reason.substr(r.fault_reason.find(" at ") + 4));
+  EXPECT_GT(at_s, 31.0) << r.fault_reason;  // not before the elbow moves
+  EXPECT_LT(at_s, 32.0) << r.fault_reason;
+  // The broken supervisor: without the joint-side encoder nothing is seen in the same 40 s.
+  ArmScenario blind = s;
+  blind.plant.joint_encoder_counts_per_rev = 0.0;
+  EXPECT_EQ(run_postures(blind, nullptr).fault_flags & safety::kFaultEncoderDisagrees, 0u);
+}
+
 // A right-arm scenario's optional faults: list is E3's: read against the arm's joints and E3's script
 // length, put into E3's plant by postures_plant_params, not into the plant E4 and E6 start from.
 TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
@@ -340,7 +363,7 @@ TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
   };
   using ::testing::HasSubstr;
   const std::string passive = error_after("joints: [R_EFE]", "joints: [R_WR]");
-  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:261:"));  // file and line of the list item
+  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:262:"));  // file and line of the list item
   EXPECT_THAT(passive, HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'R_WR'"));
   EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [L_EFE]"), HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'L_EFE'"));
   EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [R_EFE, R_WFE]"),

@@ -510,14 +510,39 @@ TEST(ChannelMapReader, RejectsAJointWithoutItsRequiredSignals) {
       "  - {channel: 4, signal: hip.antagonist_valve, unit: Pa, scale: 20, offset: 0}\n"
       "encoders:");
   EXPECT_EQ(error_of(two, {"knee", "hip"}).find("configs/mfb/knee.yaml:18:3: encoders: no encoder for joint 'hip' "
-                                                "(every joint needs exactly one)"),
+                                                "(every joint needs exactly one that is not redundant)"),
             0u)
       << error_of(two, {"knee", "hip"});
 }
 
 TEST(ChannelMapReader, RejectsASecondEncoderForAJoint) {
   EXPECT_THAT(error_after("digital:", "  - {channel: 1, joint: knee, counts_per_rev: 500, gear: 1, sign: 1, offset_deg: 0}\ndigital:"),
-              HasSubstr("knee.yaml:13:25: encoders[1].joint: joint 'knee' already has encoder channel 0 (exactly one per joint)"));
+              HasSubstr("knee.yaml:13:25: encoders[1].joint: joint 'knee' already has its encoder channel 0 (one, and at most one redundant, per joint)"));
+  // One redundant encoder per joint is accepted; a second is not, and a redundant one alone is no encoder.
+  const std::string redundant = "  - {channel: 1, joint: knee, counts_per_rev: 16384, gear: 1, sign: 1, offset_deg: 0, redundant: true}\n";
+  EXPECT_EQ(error_of(replaced(kKnee, "digital:", redundant + "digital:")), "");
+  EXPECT_THAT(error_after("digital:", redundant + "  - {channel: 2, joint: knee, counts_per_rev: 16384, gear: 1, sign: 1, offset_deg: 0, redundant: true}\ndigital:"),
+              HasSubstr("encoders[2].joint: joint 'knee' already has a redundant encoder channel 1"));
+}
+
+// The redundant joint-side encoder is decoded beside the primary one (NaN where a joint has none)
+// and written back by the emulator's encode_inputs.
+TEST(ChannelMap, ARedundantEncoderIsDecodedBesideThePrimaryAndEncodedBack) {
+  BoardInputs in;
+  in.encoder[0] = 70000 / 4;
+  io::SensorState s;
+  ASSERT_TRUE(load(kKnee).decode_inputs(in, s));
+  EXPECT_TRUE(std::isnan(s.joints[0].redundant_angle_rad));
+  const ChannelMap m = load(replaced(kKnee, "digital:",
+                                     "  - {channel: 1, joint: knee, counts_per_rev: 16384, gear: 1, sign: 1, offset_deg: 0, redundant: true}\ndigital:"));
+  in.encoder[1] = 16384 / 8;
+  ASSERT_TRUE(m.decode_inputs(in, s));
+  EXPECT_NEAR(s.joints[0].angle_rad, kPi / 2, 1e-12);
+  EXPECT_NEAR(s.joints[0].redundant_angle_rad, kPi / 4, 1e-12);
+  BoardInputs back;
+  m.encode_inputs(s, false, back);
+  EXPECT_EQ(back.encoder[0], 70000 / 4);
+  EXPECT_EQ(back.encoder[1], 16384 / 8);
 }
 
 TEST(ChannelMapReader, RejectsAZeroOrNonFiniteScale) {

@@ -314,6 +314,41 @@ TEST(FaultMonitor, APressureRisingWhileTheCommandsHoldIsRaisedLongBeforeTheEnvel
   EXPECT_EQ(run_pressure(0.0, 0.05e6).flags & safety::kFaultPressureRise, 0u);
 }
 
+/// The cycle at which encoder_disagrees latches (-1: never) while the joint turns at 10 deg/s from
+/// 0.5 s, its encoder frozen at 0, the redundant encoder reading `redundant` (NaN: none) of the turn.
+int encoder_disagrees_cycle(double redundant_gain, bool has_redundant = true) {
+  safety::MonitorParams p;
+  p.enabled = true;
+  safety::FaultMonitor monitor(p, 1e-3);
+  E1JointView view;
+  io::SensorState& state = view.state;
+  state.joints[0].agonist_pressure_Pa = state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  for (int k = 0; k < 1500; ++k) {
+    state.time_s = 1e-3 * k;
+    const double noise_N = 0.01 * (k % 7);
+    state.joints[0].agonist_loadcell_N = state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
+    const double turned_rad = std::max(0.0, state.time_s - 0.5) * 10.0 * 3.14159265358979 / 180.0;
+    state.joints[0].angle_rad = 0.0;  // frozen
+    state.joints[0].redundant_angle_rad = has_redundant ? redundant_gain * turned_rad : std::numeric_limits<double>::quiet_NaN();
+    view.check(monitor, true);
+    if (monitor.flags() & safety::kFaultEncoderDisagrees) return k;
+  }
+  return -1;
+}
+
+// The redundant joint-side encoder against the primary: a frozen encoder on a turning joint is
+// raised once the two part by 2 deg (at 10 deg/s: 200 ms after the turn began, + 3 confirm cycles);
+// two encoders within 2 deg (here the redundant one reads 10 % of the turn: 1 deg at the end), or
+// no redundant encoder, raise nothing. Its safe state is hold: which encoder lies is unknown.
+TEST(FaultMonitor, TwoEncodersOfOneJointThatPartAreRaisedAndHeld) {
+  const int at = encoder_disagrees_cycle(1.0);
+  EXPECT_GE(at, 700);
+  EXPECT_LE(at, 704);
+  EXPECT_EQ(safety::safe_action(safety::kFaultEncoderDisagrees), safety::SafeAction::kHold);
+  EXPECT_EQ(encoder_disagrees_cycle(0.1), -1);
+  EXPECT_EQ(encoder_disagrees_cycle(1.0, false), -1);
+}
+
 TEST(FaultMonitor, ADisconnectIsRaisedOnlyWhereAWireMayNotGoSlack) {
   EXPECT_TRUE(flags_after_a_taut_wire_reads_zero(true) & safety::kFaultLoadcellDisconnected);
   EXPECT_FALSE(flags_after_a_taut_wire_reads_zero(false) & safety::kFaultLoadcellDisconnected);

@@ -38,6 +38,9 @@ struct JointSensors {
   double supply_pressure_Pa = std::numeric_limits<double>::quiet_NaN();
   /// The motor driver's current monitor as torque at the joint (current x torque constant x gear), Nm.
   double motor_torque_Nm = std::numeric_limits<double>::quiet_NaN();
+  /// A second encoder of the same joint, on the joint's own axis (angle_rad counts the motor shaft
+  /// through the gear), rad: the supervisor's cross-check of the angle (a frozen or slipping encoder).
+  double redundant_angle_rad = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct SensorState {

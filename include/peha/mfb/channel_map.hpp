@@ -103,6 +103,7 @@ struct JointChannels {
   AnalogChannel motor;                ///< optional: torque at the joint (after the gear), Nm
   // counter
   EncoderChannel encoder;
+  EncoderChannel redundant_encoder;   ///< optional (`redundant: true`): a second encoder on the joint's axis
 };
 
 class ChannelMap;

@@ -26,7 +26,10 @@
 ///   (pressure_rise: a valve that fills by itself, seen long before it leaves the wide tolerance);
 /// - encoder: a step above encoder_max_step_rad in one sample (jump), the same count for
 ///   encoder_frozen_cycles right after moving faster than encoder_frozen_speed_radps (frozen);
-///   joint speed above max_joint_speed_radps, angle beyond the range by range_margin_rad;
+///   joint speed above max_joint_speed_radps, angle beyond the range by range_margin_rad; where the
+///   joint has a redundant encoder on its axis (io::JointSensors::redundant_angle_rad finite), the
+///   two angles apart by more than encoder_disagree_rad for confirm_cycles (encoder_disagrees: a
+///   frozen, slipping or miscounting encoder, seen as soon as the joint has turned that far);
 /// - supply (where the backend measures it: io::JointSensors::supply_pressure_Pa finite), for
 ///   confirm_cycles: below supply_lost_fraction x the joint's configured supply, supply_loss (hold:
 ///   no air to brake a descent with); below supply_low_fraction x, supply_low (descend on what is left);
@@ -80,8 +83,9 @@ enum FaultFlag : std::uint32_t {
   kFaultMotorDisagrees = 1u << 18,
   kFaultSupplyLow = 1u << 19,
   kFaultPressureRise = 1u << 20,
+  kFaultEncoderDisagrees = 1u << 21,
 };
-inline constexpr int kFaultFlagCount = 21;
+inline constexpr int kFaultFlagCount = 22;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -140,6 +144,9 @@ struct MonitorParams {
   double encoder_max_step_rad = 0.02;
   int encoder_frozen_cycles = 5;
   double encoder_frozen_speed_radps = 0.2;
+  /// The encoder and the redundant joint-side encoder may differ by this much (the gear's backlash
+  /// and the two resolutions), rad: 2 deg.
+  double encoder_disagree_rad = 0.0349;
   double max_joint_speed_radps = 1.57;        ///< 90 deg/s: a falling link (nominal runs peak below 40)
   double range_margin_rad = 0.08;
   /// The supply sensor below this x the configured supply: supply_low (0.6: the half supply of a
@@ -264,6 +271,7 @@ class FaultMonitor {
     double filtered_speed_radps = 0;
     double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
+    int encoder_apart = 0;  ///< consecutive samples the two encoders disagree
     int supply_low = 0, supply_lost = 0, motor_off = 0;  ///< consecutive samples failing the supply and motor checks
     /// The motor torque of the commands sent while the outputs followed, a ring of the last
     /// kMotorWindow (newest at motor_head; motor_sent counts them, up to kMotorWindow).

@@ -55,6 +55,8 @@ struct ArmPlantParams {
   double pressure_noise_Pa = 1000;
   double pressure_range_Pa = 1.0e6;
   double encoder_counts_per_rev = 70000;
+  /// The redundant encoder on each actuated joint's axis, counts per revolution (0: none).
+  double joint_encoder_counts_per_rev = 0;
   OperatorParams operator_hands;
   std::uint64_t seed = 1;
   /// Plant-only: faults injected at their time (sim/plant_faults.hpp; PlantFault::joint indexes

@@ -63,6 +63,8 @@ struct OneDofRigParams {
   double pressure_noise_Pa = 1000;     ///< standard deviation of the pressure sensors' noise
   double pressure_range_Pa = 1.0e6;    ///< full scale of the pressure sensors' AD channels
   double encoder_counts_per_rev = 70000;  ///< joint counts per revolution (motor encoder x gear)
+  /// The redundant encoder on the joint's axis, counts per revolution (0: none; io redundant_angle_rad NaN).
+  double joint_encoder_counts_per_rev = 0;
   FingerParams finger;
   std::uint64_t seed = 1;
   /// Plant-only: faults injected at their time (sim/plant_faults.hpp); never told to the controller.

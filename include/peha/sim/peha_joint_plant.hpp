@@ -175,6 +175,9 @@ double quantize_16bit_offset_binary(double value, double half_range) noexcept;
 
 /// What an incremental encoder with `counts_per_rev` reports for `angle_rad` (floored to a count).
 double encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept;
+/// The redundant joint-side encoder's reading (io::JointSensors::redundant_angle_rad): NaN without
+/// one (counts_per_rev 0). The injected encoder faults hit the primary encoder only.
+double redundant_encoder_angle_rad(double angle_rad, double counts_per_rev) noexcept;
 
 /// Minimum-jerk blend 10 s^3 - 15 s^4 + 6 s^5 of s in [0, 1] (clamped): the path a person's hand takes.
 double minimum_jerk(double s) noexcept;

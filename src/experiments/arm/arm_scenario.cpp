@@ -118,6 +118,7 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
   p.mjcf.timestep_s = p.timestep_s;
   p.control_period_s = s.period_s;
   p.encoder_counts_per_rev = plant.number("encoder_counts_per_rev", {16, 1e9});
+  p.joint_encoder_counts_per_rev = plant.number_or("joint_encoder_counts_per_rev", 0.0, {0, 1e9});
   p.unknown_hand_payload_kg = plant.number_or("unknown_hand_payload_kg", 0.0, {-20.0, 20.0});  // plant-only
   config::Map pressure = plant.map("pressure_sensor");
   p.pressure_noise_Pa = pressure.number("noise_MPa", {0.0, 0.1}) * 1e6;
