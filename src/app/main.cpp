@@ -345,8 +345,8 @@ Command add_faults(CLI::App& app) {
   cmd->add_option("-n,--name", o->run_name, "Run directory name (default: <config stem>-<UTC time>)")->check(peha::app::run_name());
   cmd->add_option("--case", o->case_name, "E1 case (default: the first); E3 has none");
   cmd->add_option("--fault-kind", o->kinds, "Only these fault kinds (repeatable)");
-  cmd->add_option("--moment", o->moments, "Only these moments (repeatable): E1 holding|push|after_release, E3 holding|moving|elbow_flexed")
-      ->check(CLI::IsMember({"holding", "push", "after_release", "moving", "elbow_flexed"}));
+  cmd->add_option("--moment", o->moments, "Only these moments (repeatable): E1 holding|push|after_release, E3 holding|moving|elbow_moving|elbow_flexed")
+      ->check(CLI::IsMember({"holding", "push", "after_release", "moving", "elbow_moving", "elbow_flexed"}));
   cmd->add_flag("!--no-plot", o->plot, "Do not render faults.png (no Python needed)");
   cmd->add_flag("--link", o->link,
                 "Instead of the in-process matrix: E1's link faults over UDP (docs/safety.md \"The link's faults\"): starts\n"

@@ -62,11 +62,12 @@ TEST(FaultMatrix, HoldingRowsNameTheFlagTheCyclesAndThePlantsFigures) {
 TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndHoldAfterASupplyLoss) {
   const ArmScenario s = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
   const std::vector<FaultMoment> moments = e3_fault_moments(s);
-  ASSERT_EQ(moments.size(), 3u);
+  ASSERT_EQ(moments.size(), 4u);
   EXPECT_NEAR(moments[0].time_s, 8.5, 1e-9);   // first posture released at 7.5 s
   EXPECT_NEAR(moments[1].time_s, 18.75, 1e-9); // second move from 17.5 s, 2.5 s long
-  EXPECT_EQ(moments[2].name, "elbow_flexed");  // elbow_90, the first posture with the elbow flexed, released at 48 s
-  EXPECT_NEAR(moments[2].time_s, 49.0, 1e-9);
+  EXPECT_EQ(moments[2].name, "elbow_moving");  // the middle of the move into elbow_90
+  EXPECT_EQ(moments[3].name, "elbow_flexed");  // elbow_90, the first posture with the elbow flexed, released at 48 s
+  EXPECT_NEAR(moments[3].time_s, 49.0, 1e-9);
   FaultMatrixOptions o;
   o.kinds = {sim::FaultKind::kLoadcellStuck, sim::FaultKind::kSupplyZero};
   o.moments = {"holding", "moving"};

@@ -235,11 +235,16 @@ std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
   const sim::OperatorMove& first = moves[1];
   const sim::OperatorMove& second = moves[2];
   std::vector<FaultMoment> moments = {{"holding", first.start_s + first.duration_s + 1.0}, {"moving", second.start_s + 0.5 * second.move_s}};
-  // And 1 s after the release of the first posture with the elbow flexed (>= 45 deg): at the other
-  // two the elbow is straight, at its range's end, where a descent has no room to act.
+  // The faulted joint (the elbow) on the operator's first move that flexes it by 45 deg or more:
+  // `elbow_moving`, the middle of that move (the elbow itself turning: at `moving` the shoulder
+  // moves and the elbow stays straight), and `elbow_flexed`, 1 s after its release (at the other
+  // moments the elbow is straight, at its range's end, where a descent has no room to act).
+  const std::vector<std::string>& joints = arm_joint_names(scenario);
+  const auto elbow = static_cast<std::size_t>(std::find(joints.begin(), joints.end(), kE3FaultJoint) - joints.begin());
   for (std::size_t i = 1; i < moves.size(); ++i) {
     const sim::OperatorMove& m = moves[i];
-    if (m.target_rad.size() > 1 && std::isfinite(m.target_rad[1]) && m.target_rad[1] >= 45.0 * kDeg) {
+    if (elbow < m.target_rad.size() && std::isfinite(m.target_rad[elbow]) && m.target_rad[elbow] >= 45.0 * kDeg) {
+      moments.push_back({"elbow_moving", m.start_s + 0.5 * m.move_s});
       moments.push_back({"elbow_flexed", m.start_s + m.duration_s + 1.0});
       break;
     }

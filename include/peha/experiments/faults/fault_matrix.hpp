@@ -31,7 +31,8 @@ std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario);
 
 /// The E3 moments: `holding` (1 s after the operator lets go of the first posture), `moving` (the
 /// middle of the operator's move to the second posture) and, when a posture flexes the elbow by 45 deg
-/// or more, `elbow_flexed` (1 s after the first such posture's release). Throws
+/// or more, `elbow_moving` (the middle of the operator's move into the first such posture: the
+/// faulted elbow itself turning) and `elbow_flexed` (1 s after its release). Throws
 /// std::invalid_argument when the scenario has fewer than two postures.
 std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario);
 
