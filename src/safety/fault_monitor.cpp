@@ -451,9 +451,13 @@ void FaultMonitor::govern(JointState& js, const models::JointModel& model, doubl
   const double wanted_radps = down * p.descent_speed_radps * taper;
   // > 0: descending faster than wanted (more force); < 0: slower or held (bleed).
   const double excess_radps = down * (js.filtered_speed_radps - wanted_radps);
-  // Integral: bleeds at most descent_force_rate (while held, or pushed the other way), gains while too fast.
+  // Integral: bleeds at most descent_force_rate while the joint is held, gains while too fast; while
+  // someone lifts the joint (it moves up faster than the descent speed) the force is kept: bled, the
+  // carrying muscle lost its wire's tension under an operator flexing the elbow (1.0-2.5 N).
   const double ki = p.descent_force_rate_N_per_s / p.descent_speed_radps;
-  g.force_N = std::clamp(g.force_N + ki * std::max(excess_radps, -p.descent_speed_radps) * period_s_, g.floor_N, g.ceiling_N);
+  const bool lifted = !p.bleed_while_lifted && down * js.filtered_speed_radps < -p.descent_speed_radps;
+  const double integrand = lifted ? 0.0 : std::max(excess_radps, -p.descent_speed_radps);
+  g.force_N = std::clamp(g.force_N + ki * integrand * period_s_, g.floor_N, g.ceiling_N);
   const double wanted_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
   const double force_N = std::min(wanted_N, g.command_N + p.descent_force_slew_N_per_s * period_s_);
   g.command_N = force_N;

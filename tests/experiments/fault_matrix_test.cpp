@@ -159,6 +159,33 @@ TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
   EXPECT_GT(moving_row(no_slew).peak_speed_degps, 110.0);  // measured 145 (the wrist)
 }
 
+// The descend governor while the operator flexes the elbow (a stuck load cell in the middle of the
+// move into elbow_90): the carrying flexor keeps its force while the joint is lifted, so its wire
+// stays taut (the lowest wire of the arm is the wrist's, 11.2 N measured) and the wrist swings at
+// 89 deg/s. The old governor bled the flexor while the operator lifted: its wire fell to 1.1 N and
+// the wrist whipped to 288 deg/s.
+TEST(FaultMatrix, E3DescendKeepsTheFlexorTautWhileTheOperatorFlexesTheElbow) {
+  const ArmScenario shipped = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  auto row = [](ArmScenario s) {
+    FaultMatrixOptions o;
+    o.kinds = {sim::FaultKind::kLoadcellStuck};
+    o.moments = {"elbow_moving"};
+    const std::vector<FaultRow> rows = run_fault_matrix(std::move(s), o);
+    EXPECT_EQ(rows.size(), 2u);
+    return rows.back();
+  };
+  const FaultRow r = row(shipped);
+  EXPECT_EQ(r.safe_state, "descend");
+  EXPECT_EQ(r.limits_exceeded, 0);
+  EXPECT_GE(r.min_tension_N, 8.0);
+  EXPECT_LE(r.peak_speed_degps, 120.0);
+  ArmScenario old = shipped;
+  old.limits.monitor.bleed_while_lifted = true;
+  const FaultRow o = row(old);
+  EXPECT_LT(o.min_tension_N, 3.0);
+  EXPECT_EQ(o.min_tension_joint, "R_EFE");
+}
+
 // A moment the experiment does not have is an error, not an empty matrix.
 TEST(FaultMatrix, AMomentTheExperimentLacksIsRefused) {
   const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));

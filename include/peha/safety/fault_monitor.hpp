@@ -104,6 +104,9 @@ struct MonitorParams {
   /// FaultFlag bits whose safe state is vent instead of the designed one. Only for tests that show a
   /// wrong safe state failing its row of the fault matrix; never set by a scenario.
   std::uint32_t vent_instead = 0;
+  /// Tests only: the descend governor's old integral, which bled the carrying force also while
+  /// someone lifted the joint (the elbow's flexor fell to 1.0-2.5 N under an operator flexing it).
+  bool bleed_while_lifted = false;
   /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
   /// this long and the wire was taut since: start-up vents and recovery ramps slacken wires on purpose.
   double tension_arm_s = 1.0;
