@@ -127,6 +127,19 @@ TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndHoldAfterASupplyLoss) {
   std::filesystem::remove_all(dir);
 }
 
+/// The shipped right-arm scenario.
+ArmScenario shipped_arm() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
+
+/// E3's fault matrix on `s` with one fault kind at one moment: the faulted row (after the nominal one).
+FaultRow e3_row(ArmScenario s, sim::FaultKind kind, const char* moment) {
+  FaultMatrixOptions o;
+  o.kinds = {kind};
+  o.moments = {moment};
+  const std::vector<FaultRow> rows = run_fault_matrix(std::move(s), o);
+  EXPECT_EQ(rows.size(), 2u);
+  return rows.back();
+}
+
 // The descend safe state while the operator carries the arm down (a stuck elbow cell at `moving`):
 // the governor takes the operator's move for a fall and brakes the shoulder. It governs only the
 // actuated joints - the constant-pressure wrist keeps its held pressures - and its force rises at
@@ -135,15 +148,8 @@ TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndHoldAfterASupplyLoss) {
 // it to 376 deg/s (64 from `holding`); without the slew limit the shoulder's braking step whips the
 // ungoverned wrist to 145.
 TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
-  const ArmScenario shipped = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
-  auto moving_row = [](ArmScenario s) {
-    FaultMatrixOptions o;
-    o.kinds = {sim::FaultKind::kLoadcellStuck};
-    o.moments = {"moving"};
-    const std::vector<FaultRow> rows = run_fault_matrix(std::move(s), o);
-    EXPECT_EQ(rows.size(), 2u);
-    return rows.back();
-  };
+  const ArmScenario shipped = shipped_arm();
+  auto moving_row = [](ArmScenario s) { return e3_row(std::move(s), sim::FaultKind::kLoadcellStuck, "moving"); };
   const FaultRow r = moving_row(shipped);
   EXPECT_EQ(r.safe_state, "descend");
   EXPECT_EQ(r.limits_exceeded, 0);
@@ -165,15 +171,8 @@ TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
 // 89 deg/s. The old governor bled the flexor while the operator lifted: its wire fell to 1.1 N and
 // the wrist whipped to 288 deg/s.
 TEST(FaultMatrix, E3DescendKeepsTheFlexorTautWhileTheOperatorFlexesTheElbow) {
-  const ArmScenario shipped = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
-  auto row = [](ArmScenario s) {
-    FaultMatrixOptions o;
-    o.kinds = {sim::FaultKind::kLoadcellStuck};
-    o.moments = {"elbow_moving"};
-    const std::vector<FaultRow> rows = run_fault_matrix(std::move(s), o);
-    EXPECT_EQ(rows.size(), 2u);
-    return rows.back();
-  };
+  auto row = [](ArmScenario s) { return e3_row(std::move(s), sim::FaultKind::kLoadcellStuck, "elbow_moving"); };
+  const ArmScenario shipped = shipped_arm();
   const FaultRow r = row(shipped);
   EXPECT_EQ(r.safe_state, "descend");
   EXPECT_EQ(r.limits_exceeded, 0);

@@ -207,15 +207,24 @@ TEST(FaultMonitor, ALoadCellStepIsRaisedButASlowDriftIsNot) {
   EXPECT_FALSE(flags_after_a_cell_moves(60.0, 0.0) & safety::kFaultLoadcellStep);  // below the 100 N step
 }
 
+/// A monitor with the default parameters (stage on) on E1's joint, both muscles at 0.1 MPa.
+struct MonitoredE1 {
+  safety::FaultMonitor monitor{[] {
+    safety::MonitorParams p;
+    p.enabled = true;
+    return p;
+  }(), 1e-3};
+  E1JointView view;
+  MonitoredE1() { view.state.joints[0].agonist_pressure_Pa = view.state.joints[0].antagonist_pressure_Pa = 0.1e6; }
+};
+
 /// Flags after 1 s of commands of `commanded_Nm` on E1's motor while the driver's monitor reads
 /// what the command of `latency_cycles` before asked for (`dead`: 0 Nm whatever the command).
 std::uint32_t flags_after_motor_commands(double commanded_Nm, int latency_cycles, bool dead, bool has_monitor = true) {
-  safety::MonitorParams p;
-  p.enabled = true;
-  safety::FaultMonitor monitor(p, 1e-3);
-  E1JointView view;
+  MonitoredE1 e1;
+  safety::FaultMonitor& monitor = e1.monitor;
+  E1JointView& view = e1.view;
   io::SensorState& state = view.state;
-  state.joints[0].agonist_pressure_Pa = state.joints[0].antagonist_pressure_Pa = 0.1e6;
   std::vector<double> sent;
   for (int k = 0; k < 1000; ++k) {
     state.time_s = 1e-3 * k;
@@ -317,12 +326,10 @@ TEST(FaultMonitor, APressureRisingWhileTheCommandsHoldIsRaisedLongBeforeTheEnvel
 /// The cycle at which encoder_disagrees latches (-1: never) while the joint turns at 10 deg/s from
 /// 0.5 s, its encoder frozen at 0, the redundant encoder reading `redundant` (NaN: none) of the turn.
 int encoder_disagrees_cycle(double redundant_gain, bool has_redundant = true) {
-  safety::MonitorParams p;
-  p.enabled = true;
-  safety::FaultMonitor monitor(p, 1e-3);
-  E1JointView view;
+  MonitoredE1 e1;
+  safety::FaultMonitor& monitor = e1.monitor;
+  E1JointView& view = e1.view;
   io::SensorState& state = view.state;
-  state.joints[0].agonist_pressure_Pa = state.joints[0].antagonist_pressure_Pa = 0.1e6;
   for (int k = 0; k < 1500; ++k) {
     state.time_s = 1e-3 * k;
     const double noise_N = 0.01 * (k % 7);
