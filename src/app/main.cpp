@@ -335,10 +335,10 @@ Command add_faults(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "faults", "Run the fault matrix (docs/safety.md): every fault the simulated plant can inject, at several moments\n"
                 "of E1 (holding, during a push, after a release) or, for an arm scenario, of E3 on the elbow R_EFE\n"
-                "(holding a posture, while the operator moves the arm), in process with the supervisor's plausibility\n"
-                "stage on. Prints one line per fault; writes <out>/<run>/faults.md, faults.csv and faults.png. Exit code\n"
-                "0 = no false alarm, every fault detected within 5 cycles, no limit exceeded unless physics forbids it;\n"
-                "3 otherwise; 2 = bad input.");
+                "(holding a posture, while the operator moves the arm, while the elbow itself moves, with the elbow\n"
+                "flexed), in process with the supervisor's plausibility stage on. Prints one line per fault; writes\n"
+                "<out>/<run>/faults.md, faults.csv and faults.png. Exit code 0 = no false alarm, every fault detected\n"
+                "within 5 cycles, no limit exceeded unless physics forbids it; 3 otherwise; 2 = bad input.");
   cmd->add_option("-c,--config", o->config, "E1 or arm scenario YAML: configs/e1_one_dof.yaml, configs/right_arm.yaml, configs/upper_body.yaml")
       ->required()->check(CLI::ExistingFile);
   cmd->add_option("-o,--out", o->out_root, "Directory under which the run directory is created")->capture_default_str();

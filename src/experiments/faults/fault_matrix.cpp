@@ -309,8 +309,10 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   const std::string what =
       experiment == "E3"
           ? fmt::format("E3 (postures) on the arm scenario `{}`: faults on the elbow {} (muscle faults on its agonist; supply faults "
-                        "and the e-stop hit every joint) at `holding` (1 s after the operator lets go of the first posture) and `moving` "
-                        "(the middle of the operator's move to the second). Force, speed and tension are the worst of the actuated "
+                        "and the e-stop hit every joint) at `holding` (1 s after the operator lets go of the first posture), `moving` "
+                        "(the middle of the operator's move to the second), and, where a posture flexes the elbow by 45 deg or more, "
+                        "`elbow_moving` (the middle of the move into the first such posture) and `elbow_flexed` (1 s after its "
+                        "release). Force, speed and tension are the worst of the actuated "
                         "joints (each figure names its joint); the limits are every joint's",
                         scenario_name, kE3FaultJoint)
           : std::string("E1 on the one-DOF rig: muscle faults on the agonist, at `holding` (4 s, at rest), `push` (the middle of the "
