@@ -2,10 +2,12 @@
 """Fault matrix picture (`peha faults --config configs/e1_one_dof.yaml` or `configs/right_arm.yaml`).
 
 Reads RUN_DIR/faults.csv and writes RUN_DIR/faults.png: one row per fault kind, one column per
-moment (E1: holding, push, after_release; E3: holding, moving). Each cell is coloured by the control cycles from the fault to
-its detection (green <= 5, amber later, red not detected) and shows the flag that caught it and the
-safe state; a black frame marks a limit exceeded, a dashed one an incomplete log. Run with
-/usr/bin/python3.
+moment (E1: holding, push, after_release; E3: holding, moving, elbow_moving, elbow_flexed). Each cell
+is coloured by the control cycles from the fault to its detection (green <= 5, amber later) or, when
+nothing detected it, grey if no limit was exceeded over the row's 5 s (a fault the sensors cannot see
+while it changes nothing: a frozen encoder on a still joint) and red if one was; it shows the flag
+that caught it and the safe state; a black frame marks a limit exceeded, a dashed one an incomplete
+log. Run with /usr/bin/python3.
 """
 import argparse
 import csv
@@ -40,7 +42,8 @@ def main():
         x, y = moments.index(r["moment"]), faults.index(r["fault"])
         cycles = r["detection_cycles"]
         if r["detected"] != "1":
-            colour, text = "#e06666", "not detected"
+            harmless = r["limits_exceeded"] == "0"
+            colour, text = ("#cccccc", "not detected\n(no limit exceeded)") if harmless else ("#e06666", "not detected")
         else:
             c = float(cycles)
             colour = "#93c47d" if c <= float(r.get("prompt_cycles", 5) or 5) else "#f6b26b"
@@ -70,7 +73,7 @@ def main():
             scenario = os.path.basename(first.strip()[len("# peha run copy of "):])
     e3_where = f"E3 on {scenario or 'the arm scenario'} in process, faults on R_EFE"
     where = {"E1": "E1 in process", "E3": e3_where}.get(experiment, experiment)
-    title = (f"Fault matrix, {where}\ndetection: green <= 5 cycles (a stuck cell: its window), amber later, red none; frame = limit exceeded\n"
+    title = (f"Fault matrix, {where}\ndetection: green <= 5 cycles (a stuck cell: its window), amber later; none: grey (no limit exceeded) or red;\nframe = limit exceeded "
              "(dotted where physics forbids any safe state to keep it, solid = a miss of the designed outcome)")
     if nominal:
         title += "\nnominal run without a fault: " + ("faulted by " + nominal[0]["flag"] if nominal[0]["detected"] == "1" else "no fault")
