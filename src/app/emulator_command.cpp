@@ -156,7 +156,15 @@ int mfb_emulator(const EmulatorOptions& options) {
     mfb::EmulatorParams p = emulator_params(options, plant->period_s, plant->link);
     if (options.bind_retry_s > 0 && p.bind.port != 0) {
       // A rebooting board's successor: started while the old one still holds the port, it takes the
-      // port the moment it is free (a real board is back within milliseconds of its reset).
+      // port the moment it is free (a real board is back within milliseconds of its reset). Its plant
+      // is built before the wait, so that taking over costs a bind, not a MuJoCo model's compilation
+      // (under load that took longer than the host's 20 ms watchdog: `backend silent` instead of
+      // `board reboot` in the link matrix's reboot row).
+      auto prebuilt = std::make_shared<std::unique_ptr<io::Backend>>(plant->make_plant());
+      plant->make_plant = [prebuilt, fresh = plant->make_plant]() -> std::unique_ptr<io::Backend> {
+        if (*prebuilt) return std::move(*prebuilt);
+        return fresh();
+      };
       const std::int64_t give_up = io::monotonic_ns() + static_cast<std::int64_t>(options.bind_retry_s * 1e9);
       bool told = false;
       for (;;) {
