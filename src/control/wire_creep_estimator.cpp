@@ -26,6 +26,7 @@ CreepEstimatorParams read_creep_estimator(config::Map map) {
   p.max_correction_m = map.number_or("max_correction_mm", p.max_correction_m * 1e3, {0.0, 50.0}) * 1e-3;
   p.alert_m = map.number_or("alert_mm", p.alert_m * 1e3, {0.0, 50.0}) * 1e-3;
   p.alert_sigmas = map.number_or("alert_sigmas", p.alert_sigmas, {0.0, 10.0});
+  p.alert_scale_fraction = map.number_or("alert_scale_fraction", p.alert_scale_fraction, {0.0, 1.0});
   p.slack_force_N = map.number_or("slack_force_N", p.slack_force_N, {0.0, 1000.0});
   p.slack_model_force_N = map.number_or("slack_model_force_N", p.slack_model_force_N, {0.0, 5000.0});
   p.slack_s = map.number_or("slack_s", p.slack_s, {0.0, 60.0});
@@ -197,8 +198,9 @@ void update_creep_estimator(const models::JointModel& joint, const CreepEstimato
 
     // creep_recalibrate: the change is past the threshold with n_sigma confidence.
     const std::uint32_t creep_bit = i == 0 ? kCreepRecalibrateAgonist : kCreepRecalibrateAntagonist;
+    const double scale_m = p.alert_scale_fraction * s.length_change_m;
     if (s.referenced && !(d.alerts & creep_bit) &&
-        std::abs(s.length_change_m) - p.alert_sigmas * std::sqrt(s.variance_m2) > p.alert_m) {
+        std::abs(s.length_change_m) - p.alert_sigmas * std::sqrt(s.variance_m2 + scale_m * scale_m) > p.alert_m) {
       d.alerts |= creep_bit;
       d.alert_time_s[i] = in.time_s;
     }

@@ -69,6 +69,10 @@ struct CreepEstimatorParams {
   // Alerts.
   double alert_m = 0.001;            ///< creep_recalibrate when |length_change| - n_sigma sigma exceeds this, m
   double alert_sigmas = 2.0;         ///< n_sigma: the alert needs this much confidence
+  /// The estimate's scale uncertainty (1 sigma, a fraction of |length_change|) added to the filter's
+  /// sigma for the alert: the calibrated model's slope in contraction reads the creep 1.04-1.2x (the
+  /// filter's own sigma does not know it; without it the antagonist's alert came 61-73 s early).
+  double alert_scale_fraction = 0.1;
   double slack_force_N = 10.0;       ///< wire_slack: load cell below this, N ...
   double slack_model_force_N = 40.0; ///< ... while the model at the measured pressure expects more than this, N
   double slack_s = 0.2;              ///< ... for this long, s
