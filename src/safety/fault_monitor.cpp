@@ -334,9 +334,8 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, j, m, above, p.pressure_tolerance_Pa);
       if (ms.pressure_low >= p.confirm_cycles) ++low_muscles;
       // Rise: the commands hold (both valve models have settled on the newest command), so the
-      // pressure should hold too. Only the
-      // excess over the upper edge counts (a pressure settling up to the envelope from below is not
-      // a rise); its level follows slowly, so a sensor's offset passes.
+      // pressure should hold too. Only the excess over the upper edge counts (a pressure settling up
+      // to the envelope from below is not a rise); its level follows slowly, so a sensor's offset passes.
       const double excess_Pa = std::max(above, 0.0);
       const double newest_Pa = ms.delay[static_cast<std::size_t>(ms.head)];
       const bool settled = std::abs(ms.predicted_Pa - newest_Pa) <= p.pressure_rise_Pa &&

@@ -1,6 +1,7 @@
 #include "peha/config/reader.hpp"
 
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "../support/replaced.hpp"
 
 #include <gtest/gtest.h>
 #include <gmock/gmock.h>
@@ -25,10 +26,7 @@ std::string e1_text() {
 /// Replaces the first occurrence of `from` in the E1 config by `to` and parses it as if it were
 /// configs/e1_one_dof.yaml (so relative paths resolve). Returns the error message ("" if none).
 std::string e1_error_after(const std::string& from, const std::string& to) {
-  std::string text = e1_text();
-  const auto pos = text.find(from);
-  EXPECT_NE(pos, std::string::npos) << from;
-  if (pos != std::string::npos) text.replace(pos, from.size(), to);
+  const std::string text = testing::replaced(e1_text(), from, to);
   // One file per test: CTest runs tests in parallel, and relative paths must resolve from configs/.
   const std::string path = std::string(PEHA_SOURCE_DIR "/configs/mutated_") +
                            ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".yaml";

@@ -3,6 +3,7 @@
 #include "peha/models/anthropometry.hpp"
 
 #include "../support/alloc_counter.hpp"
+#include "../support/replaced.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -53,12 +54,7 @@ digital:
   estop_input: {line: 0, active: low}
 )";
 
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const auto pos = text.find(from);
-  EXPECT_NE(pos, std::string::npos) << from;
-  if (pos != std::string::npos) text.replace(pos, from.size(), to);
-  return text;
-}
+using testing::replaced;
 
 ChannelMap load(const std::string& text, const std::vector<std::string>& joints = {"knee"}) {
   return read_channel_map(config::Document::load_string(text, "configs/mfb/knee.yaml"), joints);

@@ -4,6 +4,7 @@
 #include "peha/mfb/link_config.hpp"
 
 #include "peha/experiments/arm/arm_scenario.hpp"
+#include "../support/replaced.hpp"
 
 #include <unistd.h>
 
@@ -50,11 +51,8 @@ std::string refusal(const std::string& section, const std::vector<std::string>& 
   return "";
 }
 
-const std::string kThreeBoards = R"(  boards:
-    - {name: right, channel_map: upper_body_right.yaml}
-    - {name: left, channel_map: upper_body_left.yaml}
-    - {name: shoulders, channel_map: upper_body_shoulders.yaml}
-  key_file: dev_link.key
+/// The link's settings after its board list, as the shipped scenarios have them.
+const std::string kLinkSettings = R"(  key_file: dev_link.key
   board_watchdog_ms: 50.0
   host_watchdog_ms: 20.0
   receive_timeout_ms: 0.8
@@ -62,22 +60,16 @@ const std::string kThreeBoards = R"(  boards:
   recovery_ramp_s: 1.0
 )";
 
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const auto pos = text.find(from);
-  EXPECT_NE(pos, std::string::npos) << from;
-  if (pos != std::string::npos) text.replace(pos, from.size(), to);
-  return text;
-}
+const std::string kThreeBoards = R"(  boards:
+    - {name: right, channel_map: upper_body_right.yaml}
+    - {name: left, channel_map: upper_body_left.yaml}
+    - {name: shoulders, channel_map: upper_body_shoulders.yaml}
+)" + kLinkSettings;
+
+using testing::replaced;
 
 TEST(LinkConfig, SingleBoardFormDrivesEveryIoJointOnOneBoard) {
-  const LinkConfig l = read(R"(  channel_map: right_arm.yaml
-  key_file: dev_link.key
-  board_watchdog_ms: 50.0
-  host_watchdog_ms: 20.0
-  receive_timeout_ms: 0.8
-  vent_s: 2.0
-  recovery_ramp_s: 1.0
-)", {"R_SFE", "R_EFE", "R_WFE"});
+  const LinkConfig l = read("  channel_map: right_arm.yaml\n" + kLinkSettings, {"R_SFE", "R_EFE", "R_WFE"});
   ASSERT_EQ(l.boards.size(), 1u);
   EXPECT_EQ(l.boards[0].name, "");
   EXPECT_EQ(l.boards[0].joint_names, (std::vector<std::string>{"R_SFE", "R_EFE", "R_WFE"}));

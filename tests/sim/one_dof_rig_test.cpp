@@ -1,5 +1,6 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/sim/one_dof_rig.hpp"
+#include "../support/replaced.hpp"
 
 #include <gtest/gtest.h>
 
@@ -26,10 +27,7 @@ std::string e1_text() {
 
 /// The E1 scenario with `from` replaced by `to` (once), read as if it were the shipped file.
 OneDofRigParams rig_with(const std::string& from, const std::string& to) {
-  std::string text = e1_text();
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  text.replace(at, from.size(), to);
+  std::string text = testing::replaced(e1_text(), from, to);
   // The file's relative paths made absolute: a string document resolves them against ".".
   for (const auto& [relative, absolute] : {std::pair<std::string, std::string>{"law: plant/", "law: " PEHA_SOURCE_DIR "/configs/plant/"},
                                            {"model: ../models/", "model: " PEHA_SOURCE_DIR "/models/"}}) {

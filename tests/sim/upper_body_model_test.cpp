@@ -5,6 +5,7 @@
 
 #include "peha/models/exoskeleton.hpp"
 #include "peha/sim/arm_mjcf.hpp"
+#include "../support/replaced.hpp"
 
 #include <gtest/gtest.h>
 
@@ -171,12 +172,7 @@ std::string read_error(const std::string& text) {
   return "";
 }
 
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  EXPECT_NE(at, std::string::npos) << from;
-  if (at != std::string::npos) text.replace(at, from.size(), to);
-  return text;
-}
+using testing::replaced;
 
 TEST(UpperBody, RejectsABadJointListNamingTheJoint) {
   const std::string text = upper_body_text();

@@ -228,6 +228,14 @@ std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& o
   return matrix_rows("E1", {"nominal", 4.0}, moments, options, s.limits.monitor, 0, target, run_one, progress);
 }
 
+namespace {
+/// The io index of kE3FaultJoint in `scenario` (the joint count when the arm has no such joint).
+std::size_t e3_fault_joint(const ArmScenario& scenario) {
+  const std::vector<std::string>& joints = arm_joint_names(scenario);
+  return static_cast<std::size_t>(std::find(joints.begin(), joints.end(), kE3FaultJoint) - joints.begin());
+}
+}  // namespace
+
 std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
   // The operator's script: "start" (the hold while compensation comes on), then one move per posture.
   const std::vector<sim::OperatorMove> moves = postures_plant_params(scenario).operator_hands.moves;
@@ -239,8 +247,7 @@ std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
   // `elbow_moving`, the middle of that move (the elbow itself turning: at `moving` the shoulder
   // moves and the elbow stays straight), and `elbow_flexed`, 1 s after its release (at the other
   // moments the elbow is straight, at its range's end, where a descent has no room to act).
-  const std::vector<std::string>& joints = arm_joint_names(scenario);
-  const auto elbow = static_cast<std::size_t>(std::find(joints.begin(), joints.end(), kE3FaultJoint) - joints.begin());
+  const std::size_t elbow = e3_fault_joint(scenario);
   for (std::size_t i = 1; i < moves.size(); ++i) {
     const sim::OperatorMove& m = moves[i];
     if (elbow < m.target_rad.size() && std::isfinite(m.target_rad[elbow]) && m.target_rad[elbow] >= 45.0 * kDeg) {
@@ -257,8 +264,8 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& 
   s.limits.monitor.enabled = true;
   s.faults.clear();  // the matrix injects its own
   const std::vector<std::string>& joints = arm_joint_names(s);
-  const auto elbow = std::find(joints.begin(), joints.end(), kE3FaultJoint);
-  if (elbow == joints.end()) throw std::invalid_argument(fmt::format("peha faults: the arm has no joint {}", kE3FaultJoint));
+  const std::size_t elbow = e3_fault_joint(s);
+  if (elbow == joints.size()) throw std::invalid_argument(fmt::format("peha faults: the arm has no joint {}", kE3FaultJoint));
   const std::vector<FaultMoment> all = e3_fault_moments(s);
   const std::vector<FaultMoment> moments = select_fault_moments(all, options.moments, "E3");
   double end_s = 0;  // the nominal run covers every faulted run's span
@@ -274,12 +281,12 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& 
     const auto rows = static_cast<std::size_t>(std::llround(postures_duration_s(run) / run.period_s)) + 1;
     return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);
   };
-  const std::string joint = *elbow;
+  const std::string joint = joints[elbow];
   auto target = [&joint](sim::FaultKind kind) {
     if (kind == sim::FaultKind::kSupplyZero || kind == sim::FaultKind::kSupplyHalf || kind == sim::FaultKind::kEstop) return std::string("arm");
     return sim::fault_targets_muscle(kind) ? joint + ".agonist" : joint;
   };
-  return matrix_rows("E3", {"nominal", all.front().time_s}, moments, options, s.limits.monitor, static_cast<int>(elbow - joints.begin()), target, run_one,
+  return matrix_rows("E3", {"nominal", all.front().time_s}, moments, options, s.limits.monitor, static_cast<int>(elbow), target, run_one,
                      progress);
 }
 
