@@ -14,6 +14,9 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
 
 namespace peha::bench {
 namespace {
@@ -75,10 +78,18 @@ BENCHMARK(BM_E1CaseFull)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealT
 /// the controlled plant roughly does) so the state stays in the same regime. Counter us_per_period:
 /// MuJoCo's own time per 1 ms control period; BM_SimulatedRigStep / BM_SimulatedArmStep minus this
 /// is peha's plant (muscles, valves, cables, motor, sensors, lifecycle) on top of it.
+/// With frictionloss_Nm > 0, a friction-loss constraint of that bound on each dof in
+/// friction_dofs (every dof when empty), as the plant sets for its joints' and cables' stiction:
+/// MuJoCo's own step for the model as the plant runs it (one more constraint row per driven joint).
 void bare_mujoco_loop(benchmark::State& state, mjModel* m, double timestep_s, double period_s,
-                      const std::vector<double>& initial_q, double frictionloss_Nm = 0.0) {
+                      const std::vector<double>& initial_q, double frictionloss_Nm = 0.0,
+                      const std::vector<int>& friction_dofs = {}) {
   m->opt.timestep = timestep_s;
-  for (int i = 0; i < m->nv; ++i) m->dof_frictionloss[i] += frictionloss_Nm;
+  for (int i = 0; i < m->nv; ++i) {
+    if (friction_dofs.empty() || std::find(friction_dofs.begin(), friction_dofs.end(), i) != friction_dofs.end()) {
+      m->dof_frictionloss[i] += frictionloss_Nm;
+    }
+  }
   const int substeps = static_cast<int>(std::lround(period_s / timestep_s));
   sim::DataPtr data(mj_makeData(m));
   mjData* d = data.get();
@@ -114,16 +125,28 @@ void BM_BareMujocoRigStepWithFriction(benchmark::State& state) {
 }
 BENCHMARK(BM_BareMujocoRigStepWithFriction)->UseRealTime();
 
-/// MuJoCo alone on an arm scenario's generated MJCF (configs/<file>).
-void bare_arm_loop(benchmark::State& state, const char* file) {
+/// MuJoCo alone on an arm scenario's generated MJCF (configs/<file>); with frictionloss_Nm > 0 a
+/// friction-loss row on each driven joint, as the plant puts there.
+void bare_arm_loop(benchmark::State& state, const char* file, double frictionloss_Nm = 0.0) {
   const experiments::ArmScenario s =
       experiments::read_arm_scenario(config::Document::load_file(std::string(PEHA_SOURCE_DIR "/configs/") + file));
   sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
-  bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad);
+  std::vector<int> driven_dofs;
+  for (const std::string& name : s.plant.actuated) {
+    const int joint = mj_name2id(model.get(), mjOBJ_JOINT, name.c_str());
+    if (joint < 0) throw std::runtime_error("bare_arm_loop: no joint '" + name + "' in the generated MJCF");
+    driven_dofs.push_back(model->jnt_dofadr[joint]);
+  }
+  bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad,
+                   frictionloss_Nm, driven_dofs);
 }
 
 void BM_BareMujocoArmStep(benchmark::State& state) { bare_arm_loop(state, "right_arm.yaml"); }
 BENCHMARK(BM_BareMujocoArmStep)->UseRealTime();
+
+/// The same with a friction-loss row on each driven joint (5 Nm), as the plant runs the model.
+void BM_BareMujocoArmStepWithFriction(benchmark::State& state) { bare_arm_loop(state, "right_arm.yaml", 5.0); }
+BENCHMARK(BM_BareMujocoArmStepWithFriction)->UseRealTime();
 
 void BM_BareMujocoUpperBodyStep(benchmark::State& state) { bare_arm_loop(state, "upper_body.yaml"); }
 BENCHMARK(BM_BareMujocoUpperBodyStep)->UseRealTime();

@@ -77,6 +77,8 @@ def main(argv: list[str] | None = None) -> int:
         return None if b is None else b.get(key)
 
     rows = []  # (figure, measured, target, met)
+    # Why a target that is not met cannot be met on this machine or with this physics, by figure.
+    out_of_reach: dict[str, str] = {}
 
     # 1. LM restarts: peha calibrate on the recorded 15000 rows against SciPy's MINPACK LM.
     if scipy1 is not None:
@@ -170,18 +172,38 @@ def main(argv: list[str] | None = None) -> int:
 
     # 6. Plants over bare MuJoCo: overhead from CPU time (single-threaded), real-time factor from
     # wall time (its definition) and, for a machine to itself, from CPU time.
-    for label, plant_name, bare_name, rtf_target in (("rig", "BM_SimulatedRigStep", "BM_BareMujocoRigStep", 500),
-                                                     ("arm", "BM_SimulatedArmStep", "BM_BareMujocoArmStep", 200)):
-        plant, bare = gb.get(plant_name), gb.get(bare_name)
+    # The same model with the friction-loss rows the plant puts on its driven joints: MuJoCo's own
+    # step as the plant runs it (plus, for the arm, the controller and limits its benchmark runs in
+    # the same loop). When that alone takes the 50 % budget (1.5x the bare step) or the real-time
+    # factor's whole period, no plant code however fast meets the target: the verdict says so.
+    for label, plant_name, bare_name, friction_name, loop_name, rtf_target in (
+            ("rig", "BM_SimulatedRigStep", "BM_BareMujocoRigStep", "BM_BareMujocoRigStepWithFriction", None, 500),
+            ("arm", "BM_SimulatedArmStep", "BM_BareMujocoArmStep", "BM_BareMujocoArmStepWithFriction", "BM_ArmControlStep", 200)):
+        plant, bare, friction = gb.get(plant_name), gb.get(bare_name), gb.get(friction_name)
         if plant is None or bare is None:
             continue
         p_us, b_us = seconds(plant, "cpu_time") * 1e6, seconds(bare, "cpu_time") * 1e6
         overhead = (p_us - b_us) / b_us
         rtf_wall, rtf_cpu = 1e3 / (seconds(plant) * 1e6), 1e3 / p_us
-        rows.append((f"Simulated {label}: plant over bare mj_step, real-time factor",
-                     f"{fmt(p_us, ' us')} CPU per 1 ms vs MuJoCo alone {fmt(b_us, ' us')}: overhead "
-                     f"{fmt(100 * overhead, ' %')}; RTF {fmt(rtf_wall, 'x')} wall, {fmt(rtf_cpu, 'x')} by CPU time",
-                     f"overhead <= 50 %, RTF >= {rtf_target}x", overhead <= 0.5 and rtf_wall >= rtf_target))
+        figure = f"Simulated {label}: plant over bare mj_step, real-time factor"
+        measured = (f"{fmt(p_us, ' us')} CPU per 1 ms vs MuJoCo alone {fmt(b_us, ' us')}: overhead "
+                    f"{fmt(100 * overhead, ' %')}; RTF {fmt(rtf_wall, 'x')} wall, {fmt(rtf_cpu, 'x')} by CPU time")
+        met = overhead <= 0.5 and rtf_wall >= rtf_target
+        if friction is not None:
+            floor_us = f_us = seconds(friction, "cpu_time") * 1e6
+            budget_us, period_us = 1.5 * b_us, 1e3 / rtf_target
+            measured += f". MuJoCo with the friction-loss rows the plant puts on its driven joints: {fmt(f_us, ' us')}"
+            loop = gb.get(loop_name) if loop_name else None
+            if loop is not None:
+                c_us = seconds(loop, "cpu_time") * 1e6
+                floor_us += c_us
+                measured += f", plus the controller and limits in the same loop {fmt(c_us, ' us')} ({loop_name})"
+            measured += (f": {fmt(floor_us, ' us')} before any plant code, against {fmt(budget_us, ' us')} for the "
+                         f"whole at 50 % overhead and {fmt(period_us, ' us')} at {rtf_target}x")
+            if not met and (floor_us >= budget_us or floor_us >= period_us):
+                out_of_reach[figure] = ("out of reach with the plant's physics: MuJoCo's own step for the model "
+                                        "takes the budget before any plant code")
+        rows.append((figure, measured, f"overhead <= 50 %, RTF >= {rtf_target}x", met))
 
     # 6b. The upper body (issue 14): both arms, 8 driven joints. No overhead target of its own; the
     # board emulator must run it in real time beside the host on the same two cores: RTF >= 10x.
@@ -220,8 +242,11 @@ def main(argv: list[str] | None = None) -> int:
             measured += (f". Machine floor (bare timer loop, same set-up, run just before): wake-up latency median "
                          f"{fmt(floor['wake_median_us'], ' us')}, p99.9 {fmt(floor['wake_p999_us'], ' us')}, max "
                          f"{fmt(floor['wake_max_us'], ' us')}; deadline misses {fmt(floor['miss_rate_pct'], ' %', 2)}{bursts(floor)}")
-        rows.append((label, measured, "RTT p99.9 <= 200 us, misses <= 0.01 %",
-                     b["rtt_p999_us"] <= 200 and b["miss_rate_pct"] <= 0.01))
+        met = b["rtt_p999_us"] <= 200 and b["miss_rate_pct"] <= 0.01
+        if not met and floor is not None and floor["miss_rate_pct"] > 0.01:
+            out_of_reach[label] = (f"out of reach on this machine: the bare timer loop alone misses "
+                                   f"{fmt(floor['miss_rate_pct'], ' %', 2)}")
+        rows.append((label, measured, "RTT p99.9 <= 200 us, misses <= 0.01 %", met))
 
     context = gb_report.get("context", {})
     load_now = os.getloadavg()
@@ -230,7 +255,8 @@ def main(argv: list[str] | None = None) -> int:
         "host": platform.node(),
         "machine": {"cpus": context.get("num_cpus"), "mhz_per_cpu": context.get("mhz_per_cpu"),
                     "load_avg_at_bench_start": context.get("load_avg"), "load_avg_at_report": list(load_now)},
-        "targets": [{"figure": f, "measured": m, "target": t, "met": met} for f, m, t, met in rows],
+        "targets": [{"figure": f, "measured": m, "target": t, "met": met, **({"out_of_reach": out_of_reach[f]} if f in out_of_reach else {})}
+                    for f, m, t, met in rows],
         "peha_bench": gb_report,
         "soak": soak_report,
         "lm_vs_scipy_1_process": scipy1,
@@ -245,7 +271,10 @@ def main(argv: list[str] | None = None) -> int:
              f"(other builds on the machine inflate wall times).", "",
              "| figure | measured | target | met |", "|---|---|---|---|"]
     for f, m, t, met in rows:
-        lines.append(f"| {f} | {m} | {t} | {'-' if met is None else ('yes' if met else '**no**')} |")
+        verdict = '-' if met is None else ('yes' if met else '**no**')
+        if f in out_of_reach:
+            verdict += f": {out_of_reach[f]}"
+        lines.append(f"| {f} | {m} | {t} | {verdict} |")
     lines += ["", END]
     table = "\n".join(lines)
     doc = args.doc.read_text() if args.doc.exists() else f"# Performance\n\n{BEGIN}\n{END}\n"

@@ -70,6 +70,48 @@ class BenchReportTest(unittest.TestCase):
                       "p99.9 250 us, max 2e+04 us; deadline misses 0.035 %", doc)
         verdicts = {t["figure"]: t["met"] for t in json.loads((self.dir / "bench.json").read_text())["targets"]}
         self.assertFalse(verdicts["UDP loop 60 s at 1 kHz (make bench)"])  # misses 0.036 % > 0.01 %
+        # The floor alone misses 0.035 %: the row says the target is out of reach on this machine.
+        targets = {t["figure"]: t for t in json.loads((self.dir / "bench.json").read_text())["targets"]}
+        self.assertIn("the bare timer loop alone misses 0.035 %", targets["UDP loop 60 s at 1 kHz (make bench)"]["out_of_reach"])
+        self.assertIn("| **no**: out of reach on this machine: the bare timer loop alone misses 0.035 % |", doc)
+
+    def test_a_loop_that_misses_more_than_a_quiet_floor_is_not_excused(self):
+        report = json.loads((self.dir / "peha_bench.json").read_text())
+        misses = dict(overruns=2.0, max_burst=2.0, burst_miss_pct=50.0, late_wake_overruns=0.0)
+        report["benchmarks"] += [
+            gb_entry("BM_TimerFloor1kHz60s/iterations:1/real_time", 60.0, 1.0, "s", cycles=59980.0, wake_median_us=25.0,
+                     wake_p999_us=90.0, wake_max_us=900.0, miss_rate_pct=0.005, fifo=1.0, **misses),
+            gb_entry("BM_MfbLoopback1kHz60s/iterations:1/real_time", 60.0, 3.0, "s", cycles=59979.0, rtt_median_us=40.0,
+                     rtt_p999_us=90.0, rtt_max_us=400.0, miss_rate_pct=0.036, faults=0.0, fifo=1.0, **misses),
+        ]
+        (self.dir / "peha_bench.json").write_text(json.dumps(report))
+        self.assertEqual(bench_report.main(["--dir", str(self.dir), "--doc", str(self.doc)]), 0)
+        row = {t["figure"]: t for t in json.loads((self.dir / "bench.json").read_text())["targets"]}["UDP loop 60 s at 1 kHz (make bench)"]
+        self.assertFalse(row["met"])
+        self.assertNotIn("out_of_reach", row)
+
+    def _plant_row(self, friction_cpu_ns):
+        report = json.loads((self.dir / "peha_bench.json").read_text())
+        report["benchmarks"] += [
+            gb_entry("BM_SimulatedRigStep", 3300.0, 3200.0),
+            gb_entry("BM_BareMujocoRigStep", 1150.0, 1130.0),
+            gb_entry("BM_BareMujocoRigStepWithFriction", friction_cpu_ns + 20.0, friction_cpu_ns),
+        ]
+        (self.dir / "peha_bench.json").write_text(json.dumps(report))
+        self.assertEqual(bench_report.main(["--dir", str(self.dir), "--doc", str(self.doc)]), 0)
+        targets = {t["figure"]: t for t in json.loads((self.dir / "bench.json").read_text())["targets"]}
+        return targets["Simulated rig: plant over bare mj_step, real-time factor"]
+
+    def test_a_plant_whose_mujoco_step_alone_takes_the_budget_is_out_of_reach(self):
+        row = self._plant_row(1800.0)  # 1.8 us > 1.5 x 1.13 us
+        self.assertFalse(row["met"])
+        self.assertIn("MuJoCo's own step for the model takes the budget", row["out_of_reach"])
+        self.assertIn("1.8 us: 1.8 us before any plant code, against 1.69 us for the whole at 50 % overhead and 2 us at 500x", row["measured"])
+
+    def test_a_slow_plant_with_room_in_the_budget_is_only_not_met(self):
+        row = self._plant_row(1200.0)  # MuJoCo with friction leaves 0.5 us: the plant's own code is to blame
+        self.assertFalse(row["met"])
+        self.assertNotIn("out_of_reach", row)
 
     def test_missing_benchmark_json_is_an_error(self):
         (self.dir / "peha_bench.json").unlink()
