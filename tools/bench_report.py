@@ -237,15 +237,23 @@ def main(argv: list[str] | None = None) -> int:
         measured = (f"RTT median {fmt(b['rtt_median_us'], ' us')}, p99.9 {fmt(b['rtt_p999_us'], ' us')}, max "
                     f"{fmt(b['rtt_max_us'], ' us')}; deadline misses {fmt(b['miss_rate_pct'], ' %', 2)}{bursts(b)}; "
                     f"{int(b['cycles'])} cycles, {int(b.get('faults', 0))} fault(s), SCHED_FIFO {'yes' if b.get('fifo') else 'no'}")
+        on_time = b.get("on_time_miss_pct")
+        if on_time is not None:
+            measured += f"; misses by cycles that woke on time (the loop's own at most) {fmt(on_time, ' %', 2)}"
         floor = source.get(floor_name)
         if floor is not None:
             measured += (f". Machine floor (bare timer loop, same set-up, run just before): wake-up latency median "
                          f"{fmt(floor['wake_median_us'], ' us')}, p99.9 {fmt(floor['wake_p999_us'], ' us')}, max "
                          f"{fmt(floor['wake_max_us'], ' us')}; deadline misses {fmt(floor['miss_rate_pct'], ' %', 2)}{bursts(floor)}")
         met = b["rtt_p999_us"] <= 200 and b["miss_rate_pct"] <= 0.01
-        if not met and floor is not None and floor["miss_rate_pct"] > 0.01:
+        # Out of reach only where the machine misses the target by itself and the loop's own share
+        # (when measured) is within it: a loop that misses more on its own is not excused.
+        if not met and b["rtt_p999_us"] <= 200 and floor is not None and floor["miss_rate_pct"] > 0.01 and \
+                (on_time is None or on_time <= 0.01):
             out_of_reach[label] = (f"out of reach on this machine: the bare timer loop alone misses "
                                    f"{fmt(floor['miss_rate_pct'], ' %', 2)}")
+            if on_time is not None:
+                out_of_reach[label] += f"; the loop's own misses {fmt(on_time, ' %', 2)}"
         rows.append((label, measured, "RTT p99.9 <= 200 us, misses <= 0.01 %", met))
 
     context = gb_report.get("context", {})
