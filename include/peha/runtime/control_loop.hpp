@@ -29,6 +29,9 @@ struct CycleHooks {
   /// After the write, with the command as sent: timing, telemetry, progress. Returning false ends
   /// the run. Called from the control loop: must not block or allocate.
   std::function<bool(const io::SensorState&, const io::Command& sent)> after;
+  /// Once, right after the last cycle, on the loop's thread, before the experiment works on its
+  /// results: what the loop alone did ends here (a real-time harness's thread counters).
+  std::function<void()> done;
 };
 
 /// Runs cycles k = 0..steps on `backend`: wait, read; with a new sample `step(k)` computes
@@ -66,6 +69,7 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
     if (fresh) observe(k, backend.sent(), backend.flags());
     if (hooks.after && !hooks.after(state, backend.sent())) break;
   }
+  if (hooks.done) hooks.done();
   const std::size_t last = std::min(k, steps);
   if (own) own->finish(static_cast<double>(last) * period_s, "experiment finished");
   return last;

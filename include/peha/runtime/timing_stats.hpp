@@ -78,8 +78,9 @@ struct LoopTiming {
   /// further ones are counted in `overruns` only).
   std::vector<OverrunEvent> overrun_events;
   std::uint64_t max_burst = 0;        ///< most deadlines one overrun skipped
-  /// The loop thread's own counters over the loop (getrusage(RUSAGE_THREAD) deltas): page faults
-  /// (minor: no disk; major: read from disk) and involuntary context switches (preempted).
+  /// The loop thread's own counters over the loop, its first cycle to its last (getrusage(
+  /// RUSAGE_THREAD) deltas): page faults (minor: no disk; major: read from disk) and involuntary
+  /// context switches (preempted).
   std::uint64_t minor_faults = 0, major_faults = 0, involuntary_switches = 0;
   std::uint64_t cycles = 0;           ///< cycles run
   std::uint64_t overruns = 0;         ///< cycles whose work ran past the next deadline
