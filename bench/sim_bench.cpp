@@ -14,7 +14,6 @@
 #include <cmath>
 #include <cstddef>
 #include <optional>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -78,18 +77,14 @@ BENCHMARK(BM_E1CaseFull)->Unit(benchmark::kMillisecond)->Iterations(3)->UseRealT
 /// the controlled plant roughly does) so the state stays in the same regime. Counter us_per_period:
 /// MuJoCo's own time per 1 ms control period; BM_SimulatedRigStep / BM_SimulatedArmStep minus this
 /// is peha's plant (muscles, valves, cables, motor, sensors, lifecycle) on top of it.
-/// With frictionloss_Nm > 0, a friction-loss constraint of that bound on each dof in
-/// friction_dofs (every dof when empty), as the plant sets for its joints' and cables' stiction:
-/// MuJoCo's own step for the model as the plant runs it (one more constraint row per driven joint).
+/// With friction_dofs, a friction-loss constraint of frictionloss_Nm on each of those dofs, as the
+/// plant sets for its joints' and cables' stiction: MuJoCo's own step for the model as the plant
+/// runs it (one more constraint row per driven joint).
 void bare_mujoco_loop(benchmark::State& state, mjModel* m, double timestep_s, double period_s,
                       const std::vector<double>& initial_q, double frictionloss_Nm = 0.0,
                       const std::vector<int>& friction_dofs = {}) {
   m->opt.timestep = timestep_s;
-  for (int i = 0; i < m->nv; ++i) {
-    if (friction_dofs.empty() || std::find(friction_dofs.begin(), friction_dofs.end(), i) != friction_dofs.end()) {
-      m->dof_frictionloss[i] += frictionloss_Nm;
-    }
-  }
+  for (int dof : friction_dofs) m->dof_frictionloss[dof] += frictionloss_Nm;
   const int substeps = static_cast<int>(std::lround(period_s / timestep_s));
   sim::DataPtr data(mj_makeData(m));
   mjData* d = data.get();
@@ -115,13 +110,14 @@ void BM_BareMujocoRigStep(benchmark::State& state) {
 }
 BENCHMARK(BM_BareMujocoRigStep)->UseRealTime();
 
-/// The same, with a friction-loss constraint on every joint as the plant sets for the cables'
+/// The same, with a friction-loss constraint on the joint as the plant sets for the cables'
 /// stiction (5 Nm): MuJoCo's own step for the model as the plant runs it (one more constraint row
-/// per joint for its solver).
+/// for its solver).
 void BM_BareMujocoRigStepWithFriction(benchmark::State& state) {
   const sim::OneDofRigParams params = heavy_plant_params();
   sim::ModelPtr model = sim::load_mjcf(params.model_file);
-  bare_mujoco_loop(state, model.get(), params.timestep_s, params.control_period_s, {params.initial_angle_rad}, 5.0);
+  const int dof = model->jnt_dofadr[sim::require_id(model.get(), mjOBJ_JOINT, "joint", params.model_file.string())];
+  bare_mujoco_loop(state, model.get(), params.timestep_s, params.control_period_s, {params.initial_angle_rad}, 5.0, {dof});
 }
 BENCHMARK(BM_BareMujocoRigStepWithFriction)->UseRealTime();
 
@@ -133,9 +129,7 @@ void bare_arm_loop(benchmark::State& state, const char* file, double frictionlos
   sim::ModelPtr model = sim::load_arm_mjcf(sim::arm_mjcf(s.plant.model, s.plant.mjcf));
   std::vector<int> driven_dofs;
   for (const std::string& name : s.plant.actuated) {
-    const int joint = mj_name2id(model.get(), mjOBJ_JOINT, name.c_str());
-    if (joint < 0) throw std::runtime_error("bare_arm_loop: no joint '" + name + "' in the generated MJCF");
-    driven_dofs.push_back(model->jnt_dofadr[joint]);
+    driven_dofs.push_back(model->jnt_dofadr[sim::require_id(model.get(), mjOBJ_JOINT, name, file)]);
   }
   bare_mujoco_loop(state, model.get(), s.plant.timestep_s, s.plant.control_period_s, s.plant.initial_q_rad,
                    frictionloss_Nm, driven_dofs);

@@ -117,10 +117,7 @@ CycleHooks RealtimeHarness::start() {
   hooks.after = [this](const io::SensorState& state, const io::Command& sent) { return after(state, sent); };
   // The loop's counters end with its last cycle: the experiment's analysis after it (tens of MB of
   // results, each new page a minor fault under mlockall) is not the loop's.
-  hooks.done = [this] {
-    counters_at_end_ = thread_counters();
-    loop_done_ = true;
-  };
+  hooks.done = [this] { counters_at_end_ = thread_counters(); };
   return hooks;
 }
 
@@ -165,7 +162,7 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   for (int i = 0; i < 5; ++i) backend_.write(idle);
   std::signal(SIGINT, previous_sigint_);
   std::signal(SIGTERM, previous_sigterm_);
-  const ThreadCounters end = loop_done_ ? counters_at_end_ : thread_counters();
+  const ThreadCounters end = counters_at_end_ ? *counters_at_end_ : thread_counters();
   result_.timing.minor_faults = end.minor_faults - counters_at_start_.minor_faults;
   result_.timing.major_faults = end.major_faults - counters_at_start_.major_faults;
   result_.timing.involuntary_switches = end.involuntary_switches - counters_at_start_.involuntary_switches;

@@ -134,15 +134,18 @@ std::string lifecycle_text(const RealtimeRunResult& r) {
 }
 
 /// E1 in a RealtimeHarness on `backend`, as run_e1_realtime does, with the test's say over the
-/// hooks: `adjust` may wrap them (a freeze at some cycle).
+/// hooks: `adjust` may wrap them (a freeze at some cycle); `before_finish` runs on the loop's thread
+/// after the experiment, before the harness winds down.
 experiments::E1RealtimeResult run_e1_in_harness(const experiments::E1Scenario& s, const RealtimeRunOptions& o, mfb::UdpBackend& backend,
-                                   const std::function<void(CycleHooks&)>& adjust = {}) {
+                                   const std::function<void(CycleHooks&)>& adjust = {},
+                                   const std::function<void()>& before_finish = {}) {
   const experiments::E1Case& c = s.cases.front();
   experiments::E1RealtimeResult r;
   RealtimeHarness harness(backend, experiments::supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", experiments::e1_log_columns(), {});
   CycleHooks hooks = harness.start();
   if (adjust) adjust(hooks);
   r.e1 = experiments::run_e1_on(s, c, backend, nullptr, &harness.sink(), hooks);
+  if (before_finish) before_finish();
   harness.finish(r);
   r.link = backend.stats();
   return r;
@@ -330,21 +333,14 @@ TEST(MfbEndToEnd, PageFaultsAfterTheLastCycleAreNotCountedAsTheLoops) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const experiments::E1Scenario s = scenario(2.0);
-  const experiments::E1Case& c = s.cases.front();
   const RealtimeRunOptions o = options(emulator.port, "faults_after_loop");
   const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
-  experiments::E1RealtimeResult r;
   std::size_t touched_pages = 0;
-  {
-    RealtimeHarness harness(*backend, experiments::supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv",
-                            experiments::e1_log_columns(), {});
-    const CycleHooks hooks = harness.start();
-    r.e1 = experiments::run_e1_on(s, c, *backend, nullptr, &harness.sink(), hooks);
+  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, *backend, {}, [&] {
     constexpr std::size_t kBytes = std::size_t{64} << 20;
     std::vector<char> results(kBytes, 1);  // new pages, written: faulted in on this thread
     for (std::size_t i = 0; i < results.size(); i += 4096) touched_pages += results[i] == 1 ? 1 : 0;
-    harness.finish(r);
-  }
+  });
   ASSERT_EQ(touched_pages, 16384u);
   EXPECT_GT(r.timing.cycles, 1900u);
   EXPECT_LT(r.timing.minor_faults, 2000u) << r.timing.table();  // the loop's own: 0 in the soaks

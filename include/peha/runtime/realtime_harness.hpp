@@ -105,8 +105,7 @@ class RealtimeHarness {
   std::int64_t cycle_start_ns_ = 0, last_wake_ns_ = 0;
   double wake_late_s_ = 0;  ///< how late the current cycle woke
   ThreadCounters counters_at_start_;
-  ThreadCounters counters_at_end_;  ///< at the loop's last cycle (CycleHooks::done)
-  bool loop_done_ = false;
+  std::optional<ThreadCounters> counters_at_end_;  ///< at the loop's last cycle (CycleHooks::done)
   static constexpr std::size_t kOverrunEventsListed = 4096;
   std::uint64_t rtt_samples_ = 0;     ///< backend's round trips already in the statistics
   std::atomic<bool> done_{false};
