@@ -189,8 +189,8 @@ void mfb_loopback(benchmark::State& state, const std::string& name, double durat
       state.SkipWithError("mfb-emulator did not start");
       return;
     }
-    runtime::RealtimeRunOptions o;
-    o.board = io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port));
+    experiments::HardwareRunOptions o;
+    o.backend = hardware::BackendUri::parse("udp://127.0.0.1:" + std::to_string(port));
     o.quiet = true;
     o.realtime.cpu = setup.host_cpu;
     o.realtime.wake_spin_ns = setup.spin_ns;

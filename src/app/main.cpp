@@ -2,6 +2,7 @@
 #include "peha/sim/plant_faults.hpp"
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
+#include "peha/app/hardware_flags.hpp"
 #include "peha/experiments/faults/link_faults.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
 
@@ -74,8 +75,11 @@ Command add_run(CLI::App& app) {
                       "it drives every joint of goniometer.joints")
       ->check(CLI::ExistingFile);
   run_cmd->add_option("--backend", run.backend,
-                      "Run on a multifunction board over UDP instead of the in-process simulator, e.g.\n"
-                      "udp://127.0.0.1:50000 (a board, or 'peha mfb-emulator'); needs the config's mfb: section.\n"
+                      "The hardware the run drives (docs/runtime.md, 'One hardware door'):\n"
+                      "sim: (the default) the in-process simulated plant;\n"
+                      "replay:<log.csv> a recorded E1 or E5 log's sensor columns fed to the controller, one row a cycle,\n"
+                      "its commands written beside the recorded ones (replay_<case>.csv); one case: --case;\n"
+                      "udp://A.B.C.D:PORT a multifunction board (or 'peha mfb-emulator'); needs the config's mfb: section.\n"
                       "E1 and E5 (one case: --case), E3 postures, E4 goniometer (one movement: --case slow|brisk); not E6.\n"
                       "A scenario on several boards (mfb: boards:, E3): one address per board in the boards: order,\n"
                       "comma-separated (udp://10.0.0.2:50000,udp://10.0.0.3:50000,...), or one address: board i at its port + i\n"
@@ -133,14 +137,17 @@ Command add_record_calibration(CLI::App& app) {
       "Drive the paper's triangle-wave pressure excitation on one muscle (the other constant or in\n"
       "antiphase, the link moving with its payload), then the section's operating_points segments (further\n"
       "triangles that visit where the controller works), and log t_s, pressure_MPa, angle_rad, contraction,\n"
-      "force_N, wire_velocity_mps at 250 Hz to a calibration CSV. Runs on the simulated rig; the\n"
-      "excitation is the config's calibration.<muscle> section.");
+      "force_N, wire_velocity_mps at 250 Hz to a calibration CSV. Runs on the simulated rig, or on the\n"
+      "board with --backend udp://... (the operator pins the link for the tare and each clamped segment;\n"
+      "'peha mfb-emulator --case calibration_<muscle>' serves the simulated rig so); the excitation is the\n"
+      "config's calibration.<muscle> section. Exit code 3 = the run on the board faulted (nothing written).");
   record_cmd->add_option("-c,--config", record.config, "Rig scenario YAML with a calibration: section")
       ->required()->check(CLI::ExistingFile);
   record_cmd->add_option("-m,--muscle", record.muscle, "Which muscle to excite")
       ->required()->check(CLI::IsMember({"agonist", "antagonist"}));
   record_cmd->add_option("-o,--out", record.out, "Calibration CSV to write (folders are created)")->required();
   s->seed_opt = record_cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
+  peha::app::add_hardware_flags(*record_cmd, record.hardware, "the simulated rig");
   return {record_cmd, [s] {
             if (*s->seed_opt) s->record.seed = s->seed;
             return peha::app::record_calibration(s->record);
@@ -202,7 +209,8 @@ Command add_identify_gravity(CLI::App& app) {
       "pulley radius plus the motor command give each joint's torque, and the two directions give gravity and\n"
       "the cables' friction ratio. A linear least squares on the gravity regressor tau = Y(q) theta, from the\n"
       "nominal model, gives theta, its std and the residual. Runs on the simulated arm (only what the rig\n"
-      "measures is read). Use the file with peha run --gravity-identification FILE or the arm config's\n"
+      "measures is read), or on the board(s) with --backend udp://... ('peha mfb-emulator --case identification'\n"
+      "serves the simulated arm so). Use the file with peha run --gravity-identification FILE or the arm config's\n"
       "controller.gravity_identification key.\n"
       "Exit code 0 = written, 2 = bad config or an identification refused (a joint stuck in a window, a fault\n"
       "the supervisor latched, the fit's residual, a torque far from the nominal model's: a wrong lever, sign\n"
@@ -212,6 +220,7 @@ Command add_identify_gravity(CLI::App& app) {
   cmd->add_option("-o,--out", s->id.out, "Identification YAML to write (folders are created), e.g. out/identification/gravity.yaml")
       ->required();
   s->seed_opt = cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
+  peha::app::add_hardware_flags(*cmd, s->id.hardware, "the simulated arm");
   return {cmd, [s] {
             if (*s->seed_opt) s->id.seed = s->seed;
             return peha::app::identify_gravity(s->id);

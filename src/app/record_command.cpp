@@ -1,16 +1,19 @@
-// `peha record-calibration`: the triangle-wave excitation of one muscle on the simulated rig, logged
-// to a calibration CSV.
+// `peha record-calibration`: the triangle-wave excitation of one muscle on the rig (the simulated
+// one, or a board through the hardware door), logged to a calibration CSV.
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
+#include "peha/app/hardware_flags.hpp"
 #include "peha/calibration/dataset.hpp"
 #include "peha/experiments/calibration_recording/excitation.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/e1_gravity/e1_realtime.hpp"
 #include "peha/experiments/run_request.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <memory>
 
 namespace peha::app {
@@ -29,23 +32,52 @@ int record_calibration(const RecordOptions& options) {
     const experiments::ExcitationParams& e = *scenario.excitation[index];
     sim::OneDofRigParams plant_params = scenario.plant;
     if (options.seed) plant_params.seed = *options.seed;
-    fmt::print("peha record-calibration: {} of the simulated rig ({}), {:.0f} s at {:.0f} Hz\n"
-               "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
-               options.muscle, doc.name(), e.total_duration_s(), e.sample_rate_Hz, e.min_pressure_Pa * 1e-6,
-               e.max_pressure_Pa * 1e-6, e.period_s, e.duration_s, e.other_pressure_at_min_Pa * 1e-6, e.other_pressure_Pa * 1e-6,
-               e.payload_kg);
-    for (const experiments::ExcitationSegment& g : e.segments) {
-      fmt::print("  then operating points: triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa\n",
-                 g.min_pressure_Pa * 1e-6, g.max_pressure_Pa * 1e-6, g.period_s, g.duration_s, g.other_pressure_at_min_Pa * 1e-6,
-                 g.other_pressure_Pa * 1e-6);
+    std::optional<experiments::HardwareRunOptions> hw = experiments::realtime_options(hardware_request(options.hardware, options.config));
+    if (!hw) return 2;
+    if (hw->backend.kind == hardware::BackendKind::kReplay) {
+      fmt::print(stderr, "error: --backend {}: a recording excites a plant, and a replayed log answers no command: record on sim: or "
+                         "udp://\n", hw->backend.text);
+      return 2;
     }
-    const calibration::Dataset data = experiments::record_e1_muscle(
-        scenario, plant_params, index,
-        [&, bar = std::make_shared<experiments::ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
+    const bool on_board = hw->backend.kind == hardware::BackendKind::kBoards;
+    if (on_board && !scenario.link) {
+      fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(), hw->backend.text);
+      return 2;
+    }
+    if (on_board && !experiments::check_board_addresses(doc.name(), *scenario.link, *hw)) return 2;
+    fmt::print("peha record-calibration: {} of {} ({}), {:.0f} s at {:.0f} Hz\n"
+               "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
+               options.muscle, on_board ? hw->backend.describe() : "the simulated rig", doc.name(), e.total_duration_s(), e.sample_rate_Hz,
+               e.min_pressure_Pa * 1e-6, e.max_pressure_Pa * 1e-6, e.period_s, e.duration_s, e.other_pressure_at_min_Pa * 1e-6,
+               e.other_pressure_Pa * 1e-6, e.payload_kg);
+    for (const experiments::ExcitationSegment& g : e.segments) {
+      fmt::print("  then operating points: triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa{}\n",
+                 g.min_pressure_Pa * 1e-6, g.max_pressure_Pa * 1e-6, g.period_s, g.duration_s, g.other_pressure_at_min_Pa * 1e-6,
+                 g.other_pressure_Pa * 1e-6, std::isfinite(g.clamp_angle_rad) && on_board ? fmt::format(", the link pinned at {:.0f} deg", g.clamp_angle_rad * 180.0 / 3.14159265358979323846) : "");
+    }
+    calibration::Dataset data;
+    if (on_board) {
+      // The board's per-cycle log and timing go beside the CSV; nothing is written under `out` until the run succeeded.
+      hw->dir = options.out.parent_path().empty() ? std::filesystem::path(".") : options.out.parent_path();
+      std::filesystem::create_directories(hw->dir);
+      const std::filesystem::path cycles = std::filesystem::path(options.out).replace_extension(".cycles.csv");
+      experiments::E1RecordingRealtimeResult r = experiments::record_e1_muscle_realtime(scenario, index, *hw, cycles);
+      experiments::print_realtime(r, hw->dir / fmt::format("timing_calibration_{}", options.muscle));
+      if (!r.verdict.passed()) {
+        fmt::print(stderr, "error: the recording faulted ({}): data recorded across a fault is no calibration's; {} not written\n",
+                   r.verdict.failures(), options.out.string());
+        return 3;
+      }
+      data = std::move(r.data);
+    } else {
+      data = experiments::record_e1_muscle(
+          scenario, plant_params, index,
+          [&, bar = std::make_shared<experiments::ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
+    }
     if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
     calibration::write_dataset(
         options.out, data,
-        {fmt::format("peha record-calibration: muscle {} of the simulated one-DOF rig", options.muscle),
+        {fmt::format("peha record-calibration: muscle {} of {}", options.muscle, on_board ? hw->backend.describe() : "the simulated one-DOF rig"),
          fmt::format("config: {}; seed {}", options.config.string(), plant_params.seed),
          "contraction = rigid-wire contraction from the joint encoder with the controller's nominal geometry",
          "force_N = load cell at the muscle; pressure_MPa = valve pressure sensor (gauge)"});

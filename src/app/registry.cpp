@@ -1,5 +1,6 @@
 #include "peha/app/registry.hpp"
 
+#include "peha/experiments/arm_identification/arm_identification.hpp"
 #include "peha/experiments/creep/creep.hpp"
 #include "peha/experiments/e1_gravity/e1_report.hpp"
 #include "peha/experiments/e3_postures/postures_report.hpp"
@@ -34,9 +35,27 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOp
     fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
     return std::nullopt;
   }
+  // The calibration recording: the rig with the excitation's payload, pinned where the operator pins it.
+  for (int m = 0; m < 2; ++m) {
+    const std::string name = std::string("calibration_") + (m == 0 ? "agonist" : "antagonist");
+    if (options.case_name != name) continue;
+    if (!scenario.excitation[m]) {
+      fmt::print(stderr, "config error: {}: no calibration.{} section to serve --case {}\n", doc.name(), m == 0 ? "agonist" : "antagonist", name);
+      return std::nullopt;
+    }
+    const sim::OneDofRigParams plant = experiments::e1_recording_plant_params(scenario, scenario.plant, m);
+    return BoardPlant{scenario.period_s, *scenario.link,
+                      {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
+                      [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
+                      fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped segments)",
+                                  m == 0 ? "agonist" : "antagonist", scenario.excitation[m]->payload_kg)};
+  }
+  std::string cases;
+  for (const auto& c : scenario.cases) cases += c.name + ", ";
+  cases += "calibration_agonist, calibration_antagonist";
   if (options.case_name.empty() && scenario.cases.size() > 1) {
     fmt::print(stderr, "error: {} has {} cases: give --case NAME (the payload the simulated rig carries; the host's "
-                       "peha run --backend needs the same --case)\n", doc.name(), scenario.cases.size());
+                       "peha run --backend needs the same --case): {}\n", doc.name(), scenario.cases.size(), cases);
     return std::nullopt;
   }
   const experiments::E1Case* chosen = &scenario.cases.front();
@@ -44,7 +63,7 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOp
     if (c.name == options.case_name) chosen = &c;
   }
   if (!options.case_name.empty() && chosen->name != options.case_name) {
-    fmt::print(stderr, "error: no case named '{}' in {}\n", options.case_name, doc.name());
+    fmt::print(stderr, "error: no case named '{}' in {} (it has {})\n", options.case_name, doc.name(), cases);
     return std::nullopt;
   }
   const sim::OneDofRigParams plant = experiments::e1_plant_params(scenario, *chosen);
@@ -122,7 +141,7 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
 }
 
 using ArmRun = int (*)(const config::Document&, const experiments::ArmScenario&, const experiments::RunRequest&,
-                       std::optional<runtime::RealtimeRunOptions>);
+                       std::optional<experiments::HardwareRunOptions>);
 
 /// An arm scenario's `faults:` list is E3's: the other experiments refuse it (with a message).
 bool refuse_arm_faults(const config::Document& doc, const experiments::ArmScenario& scenario, const char* what) {
@@ -141,21 +160,19 @@ int run_arm(const config::Document& doc, const experiments::RunRequest& request,
   if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
   if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;
   if (!request.gravity_identification.empty()) experiments::use_gravity_identification(scenario, request.gravity_identification);
-  std::optional<runtime::RealtimeRunOptions> realtime;
-  if (!request.backend.empty()) {
-    if (!scenario.link) {
-      fmt::print(stderr, "config error: {}: --backend needs an mfb: section (channel map, watchdogs)\n", doc.name());
-      return 2;
-    }
-    realtime = experiments::realtime_options(request);
-    if (!realtime) return 2;
-    if (!experiments::check_board_addresses(doc.name(), *scenario.link, *realtime)) return 2;
+  hardware::BackendUri uri;
+  std::optional<experiments::HardwareRunOptions> realtime;
+  if (!experiments::check_hardware(doc.name(), scenario.link ? &*scenario.link : nullptr, 1, request, uri, realtime)) return 2;
+  if (uri.kind == hardware::BackendKind::kReplay) {
+    fmt::print(stderr, "error: --backend {}: an arm's logs do not record its pressure sensors yet, so they cannot be replayed; replay "
+                       "runs E1 and E5 logs (docs/runtime.md)\n", uri.text);
+    return 2;
   }
   return run(doc, scenario, request, std::move(realtime));
 }
 
 int run_bandwidth(const config::Document& doc, const experiments::ArmScenario& scenario, const experiments::RunRequest& request,
-                  std::optional<runtime::RealtimeRunOptions>) {
+                  std::optional<experiments::HardwareRunOptions>) {
   return experiments::run_bandwidth_experiment(doc, scenario, request);
 }
 
@@ -169,6 +186,17 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
   BoardPlant board{scenario->period_s, *scenario->link, {}, {}, {}, {}};
   for (const mfb::BoardLink& b : scenario->link->boards) {  // each board's map with its joints (all of them on one board)
     board.maps.push_back(mfb::read_channel_map(config::Document::load_file(b.channel_map), b.joint_names));
+  }
+  if (options.case_name == "identification") {  // peha identify-gravity's procedure: the operator holds the start posture, then the rig sweeps
+    if (!scenario->identification) {
+      fmt::print(stderr, "config error: {}: no identification: section to serve --case identification\n", doc.name());
+      return std::nullopt;
+    }
+    const sim::ArmPlantParams plant = experiments::identification_plant_params(experiments::identification_scenario(*scenario), scenario->plant);
+    board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
+    board.what = fmt::format("{} joints for peha identify-gravity ({} postures)", experiments::arm_joint_names(*scenario).size(),
+                             scenario->identification->postures.size());
+    return board;
   }
   if (options.case_name.empty() || options.case_name == "postures") {
     const sim::ArmPlantParams plant = experiments::postures_plant_params(*scenario);
@@ -207,7 +235,7 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
     board.what = fmt::format("arm, E4: a person's movement '{}' on the goniometer channel of each driven joint", g.movements[i].name);
     return board;
   }
-  std::string cases = "postures";
+  std::string cases = "postures, identification";
   for (const auto& m : g.movements) cases += ", goniometer_" + m.name;
   fmt::print(stderr, "error: the arm's board serves --case {}; found '{}'\n", cases, options.case_name);
   return std::nullopt;

@@ -12,6 +12,11 @@
 namespace peha::app {
 namespace {
 
+/// --backend chose other hardware than the default simulated plant (`sim:` is the default said aloud).
+bool other_backend(const RunOptions& o) { return !o.backend.empty() && o.backend != "sim:" && o.backend != "sim"; }
+/// --backend chose boards over UDP: a real-time run.
+bool on_board(const RunOptions& o) { return o.backend.starts_with("udp://"); }
+
 /// The options given on the command line that not every experiment takes, in --help order.
 std::vector<std::string> checked_options_given(const RunOptions& o) {
   std::vector<std::string> given;
@@ -20,7 +25,7 @@ std::vector<std::string> checked_options_given(const RunOptions& o) {
       {"--agonist-calibration", !o.calibration[0].empty()},
       {"--antagonist-calibration", !o.calibration[1].empty()},
       {"--goniometer-csv", !o.goniometer_csv.empty()},
-      {"--backend", !o.backend.empty()},
+      {"--backend", other_backend(o)},
       {"--force-trim-rate", o.force_trim_rate_1ps.has_value()},
       {"--fault", !o.faults.empty()},
       {"--gravity-identification", !o.gravity_identification.empty()},
@@ -86,14 +91,14 @@ std::string refused_option(const ExperimentEntry& entry, const RunVariant& varia
   const std::string what = fmt::format("{}: experiment {}{}", doc.name(), entry.key,
                                        variant.name.empty() ? "" : " --experiment " + variant.name);
   const std::vector<std::string> realtime = realtime_options_given(options);
-  if (!realtime.empty() && options.backend.empty()) {
+  if (!realtime.empty() && !on_board(options)) {
     return fmt::format("{} applies to real-time runs on the board only: give --backend udp://A.B.C.D:PORT too", realtime.front());
   }
   for (const std::string& option : checked_options_given(options)) {
     if (std::find(variant.accepts.begin(), variant.accepts.end(), option) == variant.accepts.end()) {
       return fmt::format("{} does not take {}: {}", what, option, reason_for(variant.refusals, option, variant));
     }
-    if (!options.backend.empty()) {
+    if (other_backend(options)) {
       for (const auto& r : variant.refused_on_board) {
         if (r.option == option) return fmt::format("{} with --backend does not take {}: {}", what, option, r.reason);
       }

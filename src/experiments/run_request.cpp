@@ -15,18 +15,10 @@ extern char** environ;
 
 namespace peha::experiments {
 
-std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request) {
-  runtime::RealtimeRunOptions o;
+std::optional<HardwareRunOptions> realtime_options(const RunRequest& request) {
+  HardwareRunOptions o;
   try {
-    // Several boards: comma-separated addresses, one per board of the scenario (or one: board i at port + i).
-    std::string rest = request.backend;
-    for (;;) {
-      const auto comma = rest.find(',');
-      o.boards.push_back(io::parse_udp_endpoint(rest.substr(0, comma)));
-      if (comma == std::string::npos) break;
-      rest = rest.substr(comma + 1);
-    }
-    o.board = o.boards.front();
+    o.backend = hardware::BackendUri::parse(request.backend);
     if (!request.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(request.telemetry);
     o.telemetry_remote = request.telemetry_remote;
   } catch (const std::invalid_argument& e) {
@@ -39,14 +31,37 @@ std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& re
   return o;
 }
 
-bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& realtime) {
+bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const HardwareRunOptions& realtime) {
   try {
-    (void)mfb::board_endpoints(link, realtime.boards.empty() ? std::vector<io::UdpEndpoint>{realtime.board} : realtime.boards);
+    (void)mfb::board_endpoints(link, realtime.backend.boards);
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "error: {}: {}\n", doc_name, e.what());
     return false;
   }
   return true;
+}
+
+/// The run's hardware, checked before anything is written: over the board one case, the mfb:
+/// section and the addresses; a replay one case (a log is one run). False (after a message) when
+/// the request cannot run; `realtime` is set only for a run on boards.
+bool check_hardware(const std::string& doc_name, const mfb::LinkConfig* link, std::size_t cases, const RunRequest& request,
+                    hardware::BackendUri& uri, std::optional<HardwareRunOptions>& realtime) {
+  std::optional<HardwareRunOptions> options = realtime_options(request);
+  if (!options) return false;
+  uri = options->backend;
+  if (uri.kind == hardware::BackendKind::kSim) return true;
+  if (cases > 1) {
+    fmt::print(stderr, "error: --backend {} runs one case (a board serves one plant, a log recorded one run; with peha "
+                       "mfb-emulator the same --case): give --case NAME; {} has {} cases\n", uri.text, doc_name, cases);
+    return false;
+  }
+  if (uri.kind == hardware::BackendKind::kReplay) return true;
+  if (!link) {
+    fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc_name, uri.text);
+    return false;
+  }
+  realtime = std::move(options);
+  return check_board_addresses(doc_name, *link, *realtime);
 }
 
 void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timing_dir) {
@@ -73,6 +88,14 @@ void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timin
   }
   for (const auto& e : rr.lifecycle) fmt::print("    {}\n", e);
   rr.timing.write_csv(timing_dir);
+}
+
+void print_replay(const hardware::ReplayBackend& replay, const std::filesystem::path& commands_csv) {
+  replay.write_commands(commands_csv, {fmt::format("replay of {}: recorded_* the log's commands, replayed_* this run's", replay.info().name)});
+  const hardware::ReplayBackend::Difference d = replay.max_difference();
+  fmt::print("  replay: {} of {} recorded rows fed to the controller; its commands vs the recorded ones: max |pressure difference| "
+             "{:.4g} MPa, max |motor torque difference| {:.4g} Nm -> {}\n",
+             replay.replayed(), replay.rows(), d.pressure_MPa, d.motor_Nm, commands_csv.string());
 }
 
 namespace {

@@ -163,52 +163,9 @@ LinkKey load_link_key(const std::filesystem::path& path) {
   return key;
 }
 
-std::unique_ptr<UdpBackend> make_board_backend(const LinkConfig& link, const io::UdpEndpoint& board, double period_s,
-                                               const std::vector<std::string>& joint_names) {
-  if (link.boards.size() > 1) {
-    throw std::runtime_error(fmt::format("this experiment runs on one board; the scenario's mfb: section has {} (boards:): run E3 "
-                                         "(--experiment postures) on several boards, or give the scenario one channel_map",
-                                         link.boards.size()));
-  }
-  UdpBackendParams bp;
-  bp.board = board;
-  bp.period_s = period_s;
-  bp.receive_timeout_s = link.receive_timeout_s;
-  bp.joint_names = joint_names;
-  bp.key = load_link_key(link.key_file);
-  return std::make_unique<UdpBackend>(bp, read_channel_map(config::Document::load_file(link.channel_map), joint_names));
-}
-
 }  // namespace peha::mfb
 
 namespace peha::mfb {
-
-std::unique_ptr<BoardsBackend> make_boards_backend(const LinkConfig& link, const std::vector<io::UdpEndpoint>& boards, double period_s,
-                                                   const std::vector<std::string>& joint_names) {
-  const std::vector<io::UdpEndpoint> at = board_endpoints(link, boards);
-  std::vector<BoardPart> parts;
-  for (std::size_t b = 0; b < link.boards.size(); ++b) {
-    const BoardLink& board = link.boards[b];
-    // A single-board section read without the io joints drives them all.
-    const std::vector<std::string>& names = link.boards.size() == 1 && board.joint_names.empty() ? joint_names : board.joint_names;
-    BoardPart part;
-    part.name = board.name;
-    for (const std::string& n : names) {
-      const auto it = std::find(joint_names.begin(), joint_names.end(), n);
-      if (it == joint_names.end()) throw std::invalid_argument(fmt::format("board '{}' carries '{}', which is no io joint", board.name, n));
-      part.io_index.push_back(static_cast<int>(it - joint_names.begin()));
-    }
-    UdpBackendParams bp;
-    bp.board = at[b];
-    bp.period_s = period_s;
-    bp.receive_timeout_s = link.receive_timeout_s;
-    bp.joint_names = names;
-    bp.key = load_link_key(board.key_file);
-    part.backend = std::make_unique<UdpBackend>(bp, read_channel_map(config::Document::load_file(board.channel_map), names));
-    parts.push_back(std::move(part));
-  }
-  return std::make_unique<BoardsBackend>(std::move(parts), joint_names, period_s, link.receive_timeout_s);
-}
 
 std::vector<io::UdpEndpoint> board_endpoints(const LinkConfig& link, const std::vector<io::UdpEndpoint>& given) {
   const std::size_t n = link.boards.size();

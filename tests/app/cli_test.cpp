@@ -194,7 +194,7 @@ TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
   EXPECT_THAT(no_case.output, HasSubstr("give --case NAME"));
   const Result host_no_case = run("run --no-plot --backend udp://127.0.0.1:9" + config);
   EXPECT_EQ(host_no_case.code, 2) << host_no_case.output;
-  EXPECT_THAT(host_no_case.output, HasSubstr("--backend runs one case"));
+  EXPECT_THAT(host_no_case.output, HasSubstr("--backend udp://127.0.0.1:9 runs one case"));
   const Result bad_url = run("run --no-plot --case payload_2.5kg --backend udp://localhost:9" + config);
   EXPECT_EQ(bad_url.code, 2) << bad_url.output;
   EXPECT_THAT(bad_url.output, HasSubstr("'localhost' is not a numeric IPv4 address"));
@@ -207,7 +207,7 @@ TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
   EXPECT_THAT(e4.output, HasSubstr("give --case NAME (slow, brisk)"));
   const Result board_case = run("mfb-emulator --case nonsense" + arm);
   EXPECT_EQ(board_case.code, 2) << board_case.output;
-  EXPECT_THAT(board_case.output, HasSubstr("--case postures, goniometer_slow, goniometer_brisk"));
+  EXPECT_THAT(board_case.output, HasSubstr("--case postures, identification, goniometer_slow, goniometer_brisk"));
   const Result run_help = run("run --help");
   for (const char* option : {"--backend", "--rt-priority", "--cpu", "--telemetry", "--recover-after"}) {
     EXPECT_THAT(run_help.output, HasSubstr(option));

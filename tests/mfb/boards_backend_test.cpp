@@ -3,7 +3,8 @@
 // fault or silence of one board is the whole backend's, naming that board.
 #include "peha/mfb/boards_backend.hpp"
 
-#include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/hardware/door.hpp"
 #include "peha/mfb/link_config.hpp"
 
 #include <gtest/gtest.h>
@@ -59,18 +60,20 @@ struct ThreeBoards : ::testing::Test {
   experiments::ArmScenario scenario =
       experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
   std::array<PlayedBoard, 3> boards;
-  std::unique_ptr<BoardsBackend> backend;
+  hardware::Hardware hw;
+  BoardsBackend* backend = nullptr;
   io::Command command;
   io::SensorState state;
 
   ThreeBoards() {
-    std::vector<io::UdpEndpoint> at;
+    std::string at;
     for (int b = 0; b < 3; ++b) {
       boards[static_cast<std::size_t>(b)].key = load_link_key(scenario.link->boards[static_cast<std::size_t>(b)].key_file);
       boards[static_cast<std::size_t>(b)].index = b;
-      at.push_back(boards[static_cast<std::size_t>(b)].socket.local());
+      at += (b ? ",udp://" : "udp://") + boards[static_cast<std::size_t>(b)].socket.local().to_string();
     }
-    backend = make_boards_backend(*scenario.link, at, scenario.period_s, experiments::arm_joint_names(scenario));
+    hw = hardware::open_backend(hardware::BackendUri::parse(at), experiments::arm_hardware(scenario, scenario.plant));
+    backend = hw.boards;
     command.joint_count = 8;
   }
   /// One cycle: the host sends (and waits its receive timeout), the boards answer, the host reads.

@@ -1,6 +1,7 @@
 // The mfb: section on one board or several: every io joint on exactly one board, each map fitting
 // one board (16 AD, 8 DA, 8 encoders); the refusals name the file, the field, what was expected and
 // what was found.
+#include "peha/hardware/door.hpp"
 #include "peha/mfb/link_config.hpp"
 
 #include "peha/experiments/arm/arm_scenario.hpp"
@@ -182,7 +183,16 @@ TEST(LinkConfig, BoardAddressesAreOnePerBoardOrConsecutivePorts) {
 
 TEST(LinkConfig, OneBoardExperimentsRefuseSeveralBoards) {
   const LinkConfig l = read(kThreeBoards);
-  EXPECT_THROW(make_board_backend(l, io::parse_udp_endpoint("udp://127.0.0.1:9000"), 1e-3, kUpperBody), std::runtime_error);
+  hardware::HardwareRequest request;
+  request.joint_names = kUpperBody;
+  request.link = &l;
+  request.one_board = true;
+  try {
+    (void)hardware::open_backend(hardware::BackendUri::parse("udp://127.0.0.1:9000"), request);
+    FAIL() << "a one-board experiment opened three boards";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_THAT(e.what(), HasSubstr("this experiment runs on one board; the scenario's mfb: section has 3"));
+  }
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // The whole hardware path on one machine: `peha mfb-emulator` in its own process, the host's
 // real-time loop talking real UDP to it over loopback. Each test runs a few seconds of real time.
+#include "peha/hardware/door.hpp"
 #include "peha/mfb/udp_backend.hpp"
 #include "peha/mfb/link_config.hpp"
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
@@ -108,9 +109,9 @@ struct Emulator {
   }
 };
 
-RealtimeRunOptions options(int port, const std::string& name) {
-  RealtimeRunOptions o;
-  o.board = io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port));
+experiments::HardwareRunOptions options(int port, const std::string& name) {
+  experiments::HardwareRunOptions o;
+  o.backend = hardware::BackendUri::parse("udp://127.0.0.1:" + std::to_string(port));
   o.realtime.fifo_priority = 0;  // tests share the machine: no SCHED_FIFO
   o.realtime.lock_memory = false;
   o.quiet = true;
@@ -119,6 +120,11 @@ RealtimeRunOptions options(int port, const std::string& name) {
   std::filesystem::remove_all(o.dir);
   std::filesystem::create_directories(o.dir);
   return o;
+}
+
+/// The host's backend for E1's first case on the board `o.backend`, through the door.
+hardware::Hardware open_board(const experiments::E1Scenario& s, const experiments::HardwareRunOptions& o) {
+  return hardware::open_backend(o.backend, experiments::e1_hardware(s, s.cases.front()));
 }
 
 /// Column `name` of a CSV written by a log (comment lines skipped).
@@ -136,18 +142,18 @@ std::string lifecycle_text(const RealtimeRunResult& r) {
 /// E1 in a RealtimeHarness on `backend`, as run_e1_realtime does, with the test's say over the
 /// hooks: `adjust` may wrap them (a freeze at some cycle); `before_finish` runs on the loop's thread
 /// after the experiment, before the harness winds down.
-experiments::E1RealtimeResult run_e1_in_harness(const experiments::E1Scenario& s, const RealtimeRunOptions& o, mfb::UdpBackend& backend,
+experiments::E1RealtimeResult run_e1_in_harness(const experiments::E1Scenario& s, const RealtimeRunOptions& o, hardware::Hardware& hw,
                                    const std::function<void(CycleHooks&)>& adjust = {},
                                    const std::function<void()>& before_finish = {}) {
   const experiments::E1Case& c = s.cases.front();
   experiments::E1RealtimeResult r;
-  RealtimeHarness harness(backend, experiments::supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", experiments::e1_log_columns(), {});
+  RealtimeHarness harness(*hw.backend, experiments::supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", experiments::e1_log_columns(), {});
   CycleHooks hooks = harness.start();
   if (adjust) adjust(hooks);
-  r.e1 = experiments::run_e1_on(s, c, backend, nullptr, &harness.sink(), hooks);
+  r.e1 = experiments::run_e1_on(s, c, *hw.backend, nullptr, &harness.sink(), hooks);
   if (before_finish) before_finish();
   harness.finish(r);
-  r.link = backend.stats();
+  r.link = hw.boards->stats();
   return r;
 }
 
@@ -165,7 +171,7 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
 
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const RealtimeRunOptions o = options(emulator.port, "agree");
+  const experiments::HardwareRunOptions o = options(emulator.port, "agree");
   const experiments::E1RealtimeResult udp = experiments::run_e1_realtime(s, c, o);
   EXPECT_EQ(udp.faults, 0u);
   EXPECT_LE(udp.e1.missed_samples, 500u);  // a loaded machine may miss a few replies (< 5 %); the command is held
@@ -279,11 +285,11 @@ TEST(MfbEndToEnd, ASetUpLongerThanTheBoardWatchdogDoesNotFaultTheRun) {
   Emulator emulator({"--watchdog-ms", "100"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const experiments::E1Scenario s = scenario(1.0);
-  const RealtimeRunOptions o = options(emulator.port, "slow_setup");
-  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
-  backend->connect();
+  const experiments::HardwareRunOptions o = options(emulator.port, "slow_setup");
+  hardware::Hardware hw = open_board(s, o);
+  hw.boards->board(0).connect();
   std::this_thread::sleep_for(std::chrono::milliseconds(400));  // the board's watchdog fires meanwhile
-  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, *backend);
+  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, hw);
   EXPECT_EQ(r.faults, 0u) << lifecycle_text(r);
   EXPECT_GT(r.timing.rtt.count(), 900u);  // ~1000 cycles, answered
   EXPECT_LT(r.timing.rtt.percentile(50), 0.1);  // the free-running samples of the pause were not taken as replies
@@ -306,10 +312,10 @@ TEST(MfbEndToEnd, AWholeMachineFreezeIsNotTakenForASilentBoard) {
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   experiments::E1Scenario s = scenario(2.0);
   s.link->host_watchdog_s = 0.02;  // the shipped value: what is tested
-  const RealtimeRunOptions o = options(emulator.port, "freeze");
-  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+  const experiments::HardwareRunOptions o = options(emulator.port, "freeze");
+  hardware::Hardware hw = open_board(s, o);
   int cycle = 0;
-  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, *backend, [&](CycleHooks& hooks) {
+  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, hw, [&](CycleHooks& hooks) {
     hooks.wait = [&, wait = hooks.wait] {
       if (++cycle == 1000) {
         ::kill(emulator.process.pid(), SIGSTOP);
@@ -333,10 +339,10 @@ TEST(MfbEndToEnd, PageFaultsAfterTheLastCycleAreNotCountedAsTheLoops) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const experiments::E1Scenario s = scenario(2.0);
-  const RealtimeRunOptions o = options(emulator.port, "faults_after_loop");
-  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+  const experiments::HardwareRunOptions o = options(emulator.port, "faults_after_loop");
+  hardware::Hardware hw = open_board(s, o);
   std::size_t touched_pages = 0;
-  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, *backend, {}, [&] {
+  const experiments::E1RealtimeResult r = run_e1_in_harness(s, o, hw, {}, [&] {
     constexpr std::size_t kBytes = std::size_t{64} << 20;
     std::vector<char> results(kBytes, 1);  // new pages, written: faulted in on this thread
     for (std::size_t i = 0; i < results.size(); i += 4096) touched_pages += results[i] == 1 ? 1 : 0;
@@ -384,7 +390,7 @@ TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
   Emulator emulator({"--estop-at", "1.0", "--estop-for", "0.4"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const experiments::E1Scenario s = scenario(4.0);
-  RealtimeRunOptions o = options(emulator.port, "estop");
+  experiments::HardwareRunOptions o = options(emulator.port, "estop");
   o.recover_after_s = 0.8;
   const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
   // The e-stop latches the supervisor's `estop` flag (named in the log and the verdict) and the
@@ -512,7 +518,7 @@ TEST(MfbEndToEnd, ANewSessionAfterAHostLossIsNotArmedUntilTheOperatorArms) {
   Emulator emulator({"--watchdog-ms", "50"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const experiments::E1Scenario s = scenario(1.0);
-  const io::UdpEndpoint board{0x7F000001u, static_cast<std::uint16_t>(emulator.port)};
+  const experiments::HardwareRunOptions o = options(emulator.port, "host_loss");
   io::Command cmd;
   cmd.joint_count = 1;
   io::SensorState state;
@@ -524,14 +530,16 @@ TEST(MfbEndToEnd, ANewSessionAfterAHostLossIsNotArmedUntilTheOperatorArms) {
     }
   };
   {
-    const auto first = mfb::make_board_backend(*s.link, board, s.period_s, sim::one_dof_rig_joint_names());
-    first->connect();
-    first->activate();
-    cycles(*first, 100);
-    ASSERT_TRUE(first->status().active);
+    hardware::Hardware hw = open_board(s, o);
+    mfb::UdpBackend& first = hw.boards->board(0);
+    first.connect();
+    first.activate();
+    cycles(first, 100);
+    ASSERT_TRUE(first.status().active);
   }  // the host dies: no more commands
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  const auto second = mfb::make_board_backend(*s.link, board, s.period_s, sim::one_dof_rig_joint_names());
+  hardware::Hardware hw = open_board(s, o);
+  mfb::UdpBackend* second = &hw.boards->board(0);
   second->connect();
   EXPECT_TRUE(second->board_status() & mfb::kStatusHostLost) << int(second->board_status());
   second->activate();  // what the supervisor's start() does
@@ -554,9 +562,10 @@ TEST(MfbEndToEnd, ARunAfterAHostLossStartsInFaultAndRunsOnAfterTheOperatorsRecov
   Emulator emulator({"--watchdog-ms", "50"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   const experiments::E1Scenario s = scenario(2.0);
-  RealtimeRunOptions o = options(emulator.port, "after_host_loss");
+  experiments::HardwareRunOptions o = options(emulator.port, "after_host_loss");
   {
-    const auto lost = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
+    hardware::Hardware hw = open_board(s, o);
+    mfb::UdpBackend* lost = &hw.boards->board(0);
     lost->connect();
     lost->activate();
     io::Command cmd;
@@ -1010,8 +1019,10 @@ TEST(MfbEndToEnd, UpperBodyPosturesRunOnThreeBoardsAcrossUdpAsInProcess) {
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
   const std::vector<int> ports = listening_ports(emulator.wait_for_line("listening on", 20.0));
   ASSERT_EQ(ports.size(), 3u) << emulator.output();
-  RealtimeRunOptions o = options(ports[0], "upper_body");
-  for (const int port : ports) o.boards.push_back(io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port)));
+  experiments::HardwareRunOptions o = options(ports[0], "upper_body");
+  std::string all;
+  for (const int port : ports) all += (all.empty() ? "" : ",") + ("udp://127.0.0.1:" + std::to_string(port));
+  o.backend = hardware::BackendUri::parse(all);
   const experiments::PosturesRealtimeResult udp = experiments::run_postures_realtime(s, o);
   EXPECT_EQ(udp.faults, 0u) << lifecycle_text(udp) << udp.timing.table();
   ASSERT_EQ(udp.boards.size(), 3u);
@@ -1048,9 +1059,10 @@ TEST(MfbEndToEnd, BoardsBackendAllocatesNothingPerCycle) {
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
   const std::vector<int> ports = listening_ports(emulator.wait_for_line("listening on", 20.0));
   ASSERT_EQ(ports.size(), 3u) << emulator.output();
-  std::vector<io::UdpEndpoint> at;
-  for (const int port : ports) at.push_back(io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(port)));
-  const auto backend = mfb::make_boards_backend(*s.link, at, s.period_s, experiments::arm_joint_names(s));
+  std::string at;
+  for (const int port : ports) at += (at.empty() ? "" : ",") + ("udp://127.0.0.1:" + std::to_string(port));
+  const hardware::Hardware hw = hardware::open_backend(hardware::BackendUri::parse(at), experiments::arm_hardware(s, s.plant));
+  io::Backend* backend = hw.backend.get();
   backend->configure();
   backend->activate();
   io::Command command;

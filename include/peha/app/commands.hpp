@@ -65,14 +65,23 @@ int mfb_emulator(const EmulatorOptions& options);
 /// and every figure of the verdict held, 2 bad input, 3 a figure of the verdict failed, 1 other errors).
 int run(const RunOptions& options);
 
+/// Where a procedure runs (`--backend` and the real-time options over a board), as `peha run` takes them.
+struct HardwareFlags {
+  std::string backend;                    ///< hardware::BackendUri text ("" = sim:)
+  int fifo_priority = 80;                 ///< SCHED_FIFO priority of the loop on hardware (0 = don't ask)
+  int cpu = -1;                           ///< pin the loop to this CPU (-1 = don't)
+  std::optional<double> recover_after_s;  ///< unattended operator: recover this long after a fault
+};
+
 struct RecordOptions {
   std::filesystem::path config;  ///< rig scenario YAML with a `calibration:` section
   std::string muscle;            ///< "agonist" or "antagonist"
   std::filesystem::path out;     ///< calibration CSV to write
   std::optional<std::uint64_t> seed;
+  HardwareFlags hardware;        ///< the simulated rig (default) or a board
 };
 
-/// `peha record-calibration`: runs the triangle-wave excitation on the simulated rig, writes the CSV.
+/// `peha record-calibration`: runs the triangle-wave excitation on the rig (simulated or a board), writes the CSV.
 int record_calibration(const RecordOptions& options);
 
 struct CalibrateCommandOptions {
@@ -105,6 +114,7 @@ struct IdentifyGravityOptions {
   std::filesystem::path config;  ///< arm scenario with an identification: section
   std::filesystem::path out;     ///< identification YAML to write
   std::optional<std::uint64_t> seed;
+  HardwareFlags hardware;        ///< the simulated arm (default) or its boards
 };
 
 /// `peha identify-gravity`: the rig procedure on the simulated arm, the fit, the file (docs/identification.md).

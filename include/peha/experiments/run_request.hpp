@@ -26,7 +26,8 @@ struct RunRequest {
   std::filesystem::path goniometer_csv;         ///< E4: a recorded goniometer CSV instead of the synthetic movements
   std::filesystem::path gravity_identification; ///< right arm: identified gravity parameters (peha identify-gravity)
   bool plot = true;                             ///< render the figures with tools/*.py
-  /// The real-time run on the board: "udp://A.B.C.D:PORT" (empty: in-process) and its options.
+  /// The hardware (hardware::BackendUri): "" or "sim:" in process, "udp://A.B.C.D:PORT[,...]" a
+  /// real-time run on the board(s), "replay:<log.csv>" a recorded run fed to the controller.
   std::string backend;
   std::string telemetry;                        ///< "udp://A.B.C.D:PORT" of a PlotJuggler server (empty: off)
   bool telemetry_remote = false;                ///< allow a non-loopback telemetry destination
@@ -39,15 +40,27 @@ struct RunRequest {
   std::function<std::filesystem::path(std::uint64_t seed)> open_run_dir;
 };
 
-/// --backend, --telemetry and the real-time options; nullopt (after a message) when malformed.
-std::optional<runtime::RealtimeRunOptions> realtime_options(const RunRequest& request);
+/// --backend (through hardware::BackendUri), --telemetry and the real-time options; nullopt (after
+/// a message) when malformed.
+std::optional<HardwareRunOptions> realtime_options(const RunRequest& request);
 /// True if --backend gave one address per board of `link` or one for all (mfb::board_endpoints);
 /// otherwise prints why (naming the scenario `doc_name`) and returns false.
-bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& realtime);
+bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const HardwareRunOptions& realtime);
+
+/// The run's hardware (--backend, through the door), checked before anything is written: on boards
+/// or a replay one case of the `cases` selected (a board serves one plant, a log is one run), on
+/// boards the scenario's mfb: section `link` and one address per board. False (after a message,
+/// naming the scenario `doc_name`) when the request cannot run; `realtime` is set only on boards.
+bool check_hardware(const std::string& doc_name, const mfb::LinkConfig* link, std::size_t cases, const RunRequest& request,
+                    hardware::BackendUri& uri, std::optional<HardwareRunOptions>& realtime);
 
 /// What a real-time run on the board measured, printed after its experiment's table; writes the
 /// timing statistics to `timing_dir`.
 void print_realtime(const BoardRunResult& rr, const std::filesystem::path& timing_dir);
+
+/// What a replay (--backend replay:<log.csv>) gave: rows replayed, the largest difference of the
+/// controller's commands from the recorded ones; writes both side by side to `commands_csv`.
+void print_replay(const hardware::ReplayBackend& replay, const std::filesystem::path& commands_csv);
 
 /// Renders a figure with one of tools/*.py on Debian's Python: `tool dir args...`. A failed plot is
 /// a warning: the data files it would read are complete either way.

@@ -57,6 +57,7 @@ class BoardsBackend final : public io::Backend {
   std::size_t board_count() const noexcept { return boards_.size(); }
   const std::string& board_name(std::size_t b) const noexcept { return boards_[b].name; }
   const UdpBackend& board(std::size_t b) const noexcept { return *boards_[b].backend; }
+  UdpBackend& board(std::size_t b) noexcept { return *boards_[b].backend; }
   /// The links' counters summed over the boards (the round trip's max over them).
   UdpLinkStats stats() const noexcept;
   /// Receives each board's round trips, one per cycle that brought a new one (read() reports them);

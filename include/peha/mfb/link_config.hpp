@@ -60,20 +60,6 @@ LinkConfig read_link_config(config::Map map, const std::vector<std::string>& io_
 /// not exactly 64 hex digits, or all zero.
 LinkKey load_link_key(const std::filesystem::path& path);
 
-/// The host's UdpBackend for the board at `board`, for joints `joint_names` (channel map and key
-/// from `link`), not yet connected. Throws config::Error on a bad channel map, std::runtime_error
-/// on a bad key file or a board no interface of this machine reaches.
-/// Throws std::runtime_error if `link` has more than one board (for experiments that run on one).
-std::unique_ptr<UdpBackend> make_board_backend(const LinkConfig& link, const io::UdpEndpoint& board, double period_s,
-                                               const std::vector<std::string>& joint_names);
-
-/// The host's backend over every board of `link` (read with the io joints: each board's
-/// joint_names), board i at `boards[i]` (board_endpoints), for io joints `joint_names`; not yet
-/// connected. Throws as make_board_backend, and std::invalid_argument when the boards' joints are
-/// not `joint_names` (a section read without them).
-std::unique_ptr<BoardsBackend> make_boards_backend(const LinkConfig& link, const std::vector<io::UdpEndpoint>& boards, double period_s,
-                                                   const std::vector<std::string>& joint_names);
-
 /// Where each board of `link` is, from --backend's addresses: one per board, in the order of
 /// `boards:`, or a single address for all of them - board i at its port + i. Throws
 /// std::invalid_argument naming the count expected and found otherwise.

@@ -29,10 +29,6 @@
 namespace peha::runtime {
 
 struct RealtimeRunOptions {
-  io::UdpEndpoint board;                       ///< from --backend udp://A.B.C.D:PORT (for the experiment's backend)
-  /// Every address --backend gave (`udp://A:P,udp://B:Q`: one per board of a multi-board scenario,
-  /// mfb::board_endpoints); boards.front() == board. Empty: `board` alone.
-  std::vector<io::UdpEndpoint> boards;
   RealtimeOptions realtime;                    ///< SCHED_FIFO priority, CPU, mlockall
   std::optional<io::UdpEndpoint> telemetry;    ///< PlotJuggler UDP server, if streaming
   double telemetry_rate_Hz = 100;

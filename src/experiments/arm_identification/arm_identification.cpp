@@ -1,6 +1,7 @@
 #include "peha/experiments/arm_identification/arm_identification.hpp"
 
 #include "peha/experiments/common/mujoco_lock.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/models/gravity_parameters.hpp"
 #include "peha/safety/limited_backend.hpp"
 
@@ -105,6 +106,13 @@ sim::ArmPlantParams identification_plant_params(const ArmScenario& scenario, con
 
 ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim::ArmPlantParams& plant_params,
                                              const std::function<void(const std::string&)>& progress) {
+  const ArmScenario scenario = identification_scenario(given);
+  const hardware::Hardware plant = hardware::open_backend(hardware::BackendUri{}, arm_hardware(scenario, identification_plant_params(scenario, plant_params)));
+  IdentificationRecording recording = record_identification(scenario, *plant.backend, progress);
+  return fit_identification(scenario, recording);
+}
+
+ArmScenario identification_scenario(const ArmScenario& given) {
   // Always from the body file's prior, whatever identification the scenario's controller already
   // uses: the rig's gravity compensation and the fit's prior do not depend on an earlier result (a
   // rerun on the shipped config reproduces the shipped file, and the robustness matrix identifies
@@ -112,6 +120,30 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   ArmScenario scenario = given;
   scenario.controller.arm = scenario.nominal_arm;
   if (!scenario.identification) throw config::Error("the arm scenario has no identification: section (docs/identification.md)");
+  return scenario;
+}
+
+double identification_duration_s(const ArmScenario& scenario) {
+  double t = kStartHold_s;
+  for (const Leg& l : legs_of(*scenario.identification)) t += l.move_s + l.hold_s;
+  return t;
+}
+
+std::vector<std::string> identification_log_columns(const ArmScenario& scenario) {
+  std::vector<std::string> c = {"t_s"};
+  for (std::size_t j = 0; j < scenario.controller.joints.size(); ++j) {
+    for (const char* f : {"angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa",
+                          "tau_motor_cmd_Nm"}) {
+      c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
+    }
+  }
+  c.push_back("limit_flags");
+  return c;
+}
+
+IdentificationRecording record_identification(const ArmScenario& scenario, io::Backend& backend,
+                                              const std::function<void(const std::string&)>& progress, const runtime::CycleHooks& hooks,
+                                              runtime::RowSink* log) {
   const ArmScenario::Identification& id = *scenario.identification;
   const std::vector<std::size_t>& swept = id.joints;  // io joints the rig sweeps and measures
   const std::size_t n = swept.size(), io_count = scenario.controller.joints.size();
@@ -124,27 +156,17 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   }
   const double duration_s = t;
 
-  std::unique_ptr<sim::ArmBackend> owned;
-  {
-    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
-    owned = std::make_unique<sim::ArmBackend>(identification_plant_params(scenario, plant_params));
-  }
-  sim::ArmBackend& plant = *owned;
-  control::ArmController controller(scenario.controller);
+  IdentificationRecording rec;
+  rec.controller = std::make_unique<control::ArmController>(scenario.controller);
+  control::ArmController& controller = *rec.controller;
   for (const std::size_t i : swept) controller.set_mode(i, control::ArmJointMode::kCommanded);
   const safety::JointModels joints = arm_joint_models(controller.model());
-  safety::LimitedBackend limited(plant, scenario.limits, joints);
+  safety::LimitedBackend limited(backend, scenario.limits, joints);
 
-  // Per posture and side: sums over the averaging window (q per io joint; the rest per swept joint).
-  struct Sums {
-    std::vector<double> q;
-    std::vector<std::array<double, 2>> force;
-    std::vector<double> motor, speed;
-    double n = 0;
-  };
-  const Sums empty{std::vector<double>(io_count, 0.0), std::vector<std::array<double, 2>>(n, {0.0, 0.0}), std::vector<double>(n, 0.0),
-                   std::vector<double>(n, 0.0), 0.0};
-  std::vector<std::array<Sums, 2>> sums(id.postures.size(), {empty, empty});
+  const IdentificationRecording::Sums empty{std::vector<double>(io_count, 0.0), std::vector<std::array<double, 2>>(n, {0.0, 0.0}),
+                                            std::vector<double>(n, 0.0), std::vector<double>(n, 0.0), 0.0};
+  std::vector<std::array<IdentificationRecording::Sums, 2>>& sums = rec.sums;
+  sums.assign(id.postures.size(), {empty, empty});
   std::vector<double> start_q(n, 0.0);
   bool started = false;
   std::size_t leg = 0;
@@ -202,12 +224,27 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
     }
     controller.update(state, command);
   };
-  auto observe = [&](std::size_t, const io::Command& sent, std::uint32_t) {
+  std::vector<double> row(log ? identification_log_columns(scenario).size() : 0);
+  auto observe = [&](std::size_t, const io::Command& sent, std::uint32_t flags) {
+    if (log) {
+      std::size_t c = 0;
+      row[c++] = state.time_s;
+      for (std::size_t i = 0; i < io_count; ++i) {
+        const io::JointSensors& js = state.joints[i];
+        const io::JointCommand& jc = sent.joints[i];
+        for (const double v : {js.angle_rad, js.agonist_loadcell_N, js.antagonist_loadcell_N, jc.agonist_pressure_Pa * 1e-6,
+                               jc.antagonist_pressure_Pa * 1e-6, jc.motor_torque_Nm}) {
+          row[c++] = v;
+        }
+      }
+      row[c] = static_cast<double>(flags);
+      log->push_row(row);
+    }
     if (!started) return;
     const Leg& l = legs[leg];
     const double in_leg_s = state.time_s - leg_start_s[leg];
     if (l.posture < 0 || in_leg_s < l.window_from_s || in_leg_s >= l.window_to_s) return;
-    Sums& s = sums[static_cast<std::size_t>(l.posture)][static_cast<std::size_t>(l.side)];
+    IdentificationRecording::Sums& s = sums[static_cast<std::size_t>(l.posture)][static_cast<std::size_t>(l.side)];
     for (std::size_t i = 0; i < io_count; ++i) s.q[i] += state.joints[i].angle_rad;
     for (std::size_t k = 0; k < n; ++k) {
       const std::size_t j = swept[k];
@@ -225,20 +262,32 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
     }
   };
   const auto wall_start = std::chrono::steady_clock::now();
-  runtime::run_cycles(limited, {}, steps, state, command, step, hold, observe);
+  runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
+  rec.faults = limited.monitor().count();
+  rec.fault_reason = limited.monitor().run_reason();
+  rec.duration_s = duration_s;
+  rec.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  return rec;
+}
+
+ArmIdentificationResult fit_identification(const ArmScenario& scenario, const IdentificationRecording& rec) {
   // A fault the supervisor latched changed the outputs (hold, descend or vent): the torques measured
   // after it are not the controller's, and a fit to them would be wrong without saying why.
-  if (limited.monitor().count()) {
+  if (rec.faults) {
     throw calibration::GravityIdentificationRejected(
         fmt::format("the supervisor latched {} fault(s) during the identification run (first: {}); the measurements after it are "
                     "not the controller's. Find the fault (docs/safety.md) and run again",
-                    limited.monitor().count(), limited.monitor().run_reason()));
+                    rec.faults, rec.fault_reason));
   }
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const ArmScenario::Identification& id = *scenario.identification;
+  const std::vector<std::size_t>& swept = id.joints;
+  const std::size_t n = swept.size(), io_count = scenario.controller.joints.size();
+  const control::ArmController& controller = *rec.controller;
+  const std::vector<std::array<IdentificationRecording::Sums, 2>>& sums = rec.sums;
 
   ArmIdentificationResult r;
-  r.duration_s = duration_s;
-  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
+  r.duration_s = rec.duration_s;
+  r.realtime_factor = rec.duration_s / std::max(rec.wall_s, 1e-9);
   for (const std::size_t j : swept) r.joint_names.push_back(scenario.plant.actuated[j]);
   const int dof = scenario.controller.arm.dof();
   auto model_joint = [&](std::size_t io_joint) { return scenario.controller.joints[io_joint].model_joint; };
@@ -251,7 +300,7 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
     sample.q_rad = Eigen::VectorXd::Zero(dof);  // the passive wrist joints are taken at 0, as the controller does
     sample.tau_Nm = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n));
     for (int side = 0; side < 2; ++side) {
-      const Sums& s = sums[p][static_cast<std::size_t>(side)];
+      const IdentificationRecording::Sums& s = sums[p][static_cast<std::size_t>(side)];
       if (s.n < 1) throw std::runtime_error(fmt::format("identification: posture '{}' was not measured (run too short?)", m.name));
       m.q_deg[side].resize(io_count);
       for (std::size_t i = 0; i < io_count; ++i) {
@@ -339,6 +388,22 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& given, const sim
   r.fit = calibration::identify_gravity(arm, r.samples, o);
   r.identified = models::with_gravity_parameters(scenario.controller.arm, r.fit.theta);
   return r;
+}
+
+IdentificationRealtimeResult record_identification_realtime(const ArmScenario& scenario, const HardwareRunOptions& options,
+                                                            const std::filesystem::path& cycles_log,
+                                                            const std::function<void(const std::string&)>& progress) {
+  if (!scenario.link) throw std::runtime_error("the scenario has no mfb: section (channel map, watchdogs): see docs/runtime.md");
+  IdentificationRealtimeResult res;
+  static_cast<BoardRunResult&>(res) = run_on_hardware(
+      arm_hardware(scenario, identification_plant_params(scenario, scenario.plant)), *scenario.link, options,
+      {"identification", identification_duration_s(scenario), cycles_log, identification_log_columns(scenario),
+       {"peha identify-gravity: the rig procedure, every control cycle"}},
+      [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {
+        res.recording = record_identification(scenario, *hw.backend, progress, hooks, &sink);
+        return res.verdict;
+      });
+  return res;
 }
 
 }  // namespace peha::experiments

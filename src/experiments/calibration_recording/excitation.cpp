@@ -3,6 +3,7 @@
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/runtime/control_loop.hpp"
 
+#include <array>
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
@@ -93,9 +94,16 @@ double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept {
   return g.other_pressure_at_min_Pa + (g.other_pressure_Pa - g.other_pressure_at_min_Pa) * triangle_unit(g.period_s, t);
 }
 
+const std::vector<std::string>& recording_log_columns() {
+  static const std::vector<std::string> columns = {"t_s", "angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_MPa",
+                                                   "antagonist_pressure_MPa", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa",
+                                                   "limit_flags"};
+  return columns;
+}
+
 calibration::Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
                           const ExcitationParams& excitation, const safety::LimitsModel& limits,
-                          const std::function<void(double)>& progress) {
+                          const std::function<void(double)>& progress, const runtime::CycleHooks& hooks, runtime::RowSink* log) {
   const double period_s = backend.info().period_s;
   const double ratio = 1.0 / (excitation.sample_rate_Hz * period_s);
   const auto every = static_cast<long>(std::lround(ratio));
@@ -117,7 +125,8 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
   io::SensorState state;
   io::Command command;
   command.joint_count = 1;
-  const double t0 = [&] { backend.read(state); return state.time_s; }();
+  double t0 = 0.0;  // the first sample's time: the data's time starts at 0
+  bool have_t0 = false;
   // The tare: vented for vent_s, then the recorded muscle's load cell averaged over tare_s.
   const auto start_steps = static_cast<long>(std::llround(excitation.excitation_start_s() / period_s));
   const auto vent_steps = static_cast<long>(std::llround(excitation.vent_s / period_s));
@@ -127,6 +136,7 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
   auto step = [&](std::size_t kk) {
     const auto k = static_cast<long>(kk);
     const io::JointSensors& s = state.joints[0];
+    if (!have_t0) t0 = state.time_s, have_t0 = true;
     const double omega = velocity.update(s.angle_rad, k == 0 ? 0.0 : period_s);
     const double reading_N = side > 0 ? s.agonist_loadcell_N : s.antagonist_loadcell_N;
     if (k < start_steps) {
@@ -158,8 +168,15 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
     }
   };
   auto hold = [](std::size_t) {};
-  auto observe = [](std::size_t, const io::Command&, std::uint32_t) {};
-  runtime::run_cycles(limited, {}, static_cast<std::size_t>(steps), state, command, step, hold, observe);
+  std::array<double, 9> row{};
+  auto observe = [&](std::size_t, const io::Command& sent, std::uint32_t flags) {
+    if (!log) return;
+    const io::JointSensors& s = state.joints[0];
+    row = {state.time_s, s.angle_rad, s.agonist_loadcell_N, s.antagonist_loadcell_N, s.agonist_pressure_Pa * 1e-6, s.antagonist_pressure_Pa * 1e-6,
+           sent.joints[0].agonist_pressure_Pa * 1e-6, sent.joints[0].antagonist_pressure_Pa * 1e-6, static_cast<double>(flags)};
+    log->push_row(row);
+  };
+  runtime::run_cycles(limited, hooks, static_cast<std::size_t>(steps), state, command, step, hold, observe);
   if (progress) progress(1.0);
   return data;
 }

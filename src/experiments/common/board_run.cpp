@@ -2,6 +2,7 @@
 
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <string>
 
 namespace peha::experiments {
@@ -29,6 +30,32 @@ void record_links(const mfb::BoardsBackend& backend, const BoardRtts& rtts, Boar
   result.boards.clear();
   if (backend.board_count() < 2) return;
   for (std::size_t b = 0; b < backend.board_count(); ++b) result.boards.push_back({backend.board_name(b), backend.board(b).stats(), rtts.board(b)});
+}
+
+BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const mfb::LinkConfig& link, const HardwareRunOptions& options,
+                               const HardwareRunLog& log, const HardwareLoop& loop) {
+  hardware::Hardware hw = hardware::open_backend(options.backend, request);
+  std::optional<BoardRtts> rtts;
+  if (hw.boards) {
+    rtts.emplace(hw.boards->board_count());
+    hw.boards->set_rtt_sink(&*rtts);
+  }
+  std::vector<std::string> comments = log.comments;
+  comments.insert(comments.begin(), "on " + hw.where());
+  BoardRunResult result;
+  {
+    runtime::RealtimeHarness harness(*hw.backend, supervisor_params(link, options), options, request.period_s, log.duration_s, log.label, log.file,
+                                     log.columns, comments);
+    const runtime::CycleHooks hooks = harness.start();
+    safety::Verdict& verdict = loop(hw, harness.sink(), hooks);
+    harness.finish(result);
+    add_link_fault_check(result, verdict);
+  }
+  if (hw.boards) {
+    record_links(*hw.boards, *rtts, result);
+    hw.boards->set_rtt_sink(nullptr);
+  }
+  return result;
 }
 
 void add_link_fault_check(const runtime::RealtimeRunResult& run, safety::Verdict& verdict) {

@@ -145,8 +145,20 @@ sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c
   return p;
 }
 
-calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
-                                      const std::function<void(double)>& progress) {
+hardware::HardwareRequest e1_hardware(const E1Scenario& scenario, const E1Case& c) {
+  hardware::HardwareRequest r;
+  r.period_s = scenario.period_s;
+  r.joint_names = sim::one_dof_rig_joint_names();
+  r.link = scenario.link ? &*scenario.link : nullptr;
+  r.one_board = true;
+  r.simulate = [plant = e1_plant_params(scenario, c)]() -> std::unique_ptr<io::Backend> {
+    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
+    return std::make_unique<sim::OneDofRigBackend>(plant);
+  };
+  return r;
+}
+
+sim::OneDofRigParams e1_recording_plant_params(const E1Scenario& scenario, sim::OneDofRigParams plant, int index) {
   const auto& e = scenario.excitation[index];
   if (!e) throw config::Error(fmt::format("no calibration.{} section (the excitation to run)", index == 0 ? "agonist" : "antagonist"));
   plant.payload_kg = e->payload_kg;
@@ -184,16 +196,28 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
     }
     segment_start_s += g.duration_s;
   }
-  std::unique_ptr<sim::OneDofRigBackend> rig;
-  {
-    const std::lock_guard lock(mujoco_load_mutex());
-    rig = std::make_unique<sim::OneDofRigBackend>(plant);
-  }
+  return plant;
+}
+
+safety::LimitsModel e1_recording_limits(const E1Scenario& scenario) {
   // The excitation sweeps one muscle's pressure far from the controller's model on purpose: the
   // plausibility stage (tuned for control) would stop it; off for the recording until tuned for it.
   safety::LimitsModel limits = scenario.limits;
   limits.monitor.enabled = false;
-  return record_excitation(*rig, scenario.controller.joint, index == 0 ? +1 : -1, *e, limits, progress);
+  return limits;
+}
+
+calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
+                                      const std::function<void(double)>& progress) {
+  E1Case recording{"calibration", scenario.excitation[index] ? scenario.excitation[index]->payload_kg : 0.0};
+  hardware::HardwareRequest request = e1_hardware(scenario, recording);
+  request.simulate = [plant = e1_recording_plant_params(scenario, plant, index)]() -> std::unique_ptr<io::Backend> {
+    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
+    return std::make_unique<sim::OneDofRigBackend>(plant);
+  };
+  const hardware::Hardware rig = hardware::open_backend(hardware::BackendUri{}, request);
+  return record_excitation(*rig.backend, scenario.controller.joint, index == 0 ? +1 : -1, *scenario.excitation[index],
+                           e1_recording_limits(scenario), progress);
 }
 
 double e1_plant_gravity_torque_Nm(const sim::OneDofRigParams& plant, double angle_rad) {

@@ -141,38 +141,24 @@ bool print_e1_table(const std::vector<E1Result>& results) {
 
 namespace {
 
-/// One case with one model variant, in-process: its per-cycle log e1_<case>.csv.
-E1Result run_in_process(const E1Scenario& scenario, const E1Case& c, const RunRequest& request, const std::filesystem::path& dir) {
+/// One case with one model variant in process, on the simulated rig or a replayed log (the door's
+/// sim: or replay:): its per-cycle log e1_<case>.csv; a replay also writes the commands beside the
+/// recorded ones (replay_<case>.csv).
+E1Result run_in_process(const E1Scenario& scenario, const E1Case& c, const RunRequest& request, const std::filesystem::path& dir,
+                        const hardware::BackendUri& uri) {
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
   runtime::CsvLog log(e1_log_columns(), rows);
-  E1Result r = run_e1_case(scenario, c, &log);
+  const hardware::Hardware hw = hardware::open_backend(uri, e1_hardware(scenario, c));
+  E1Result r = run_e1_on(scenario, c, *hw.backend, dynamic_cast<const sim::OneDofRigBackend*>(hw.backend.get()), &log);
   const std::filesystem::path log_path = dir / fmt::format("e1_{}.csv", c.name);
-  log.write(log_path, {fmt::format("case: {} ({} kg payload)", c.name, c.payload_kg),
-                       fmt::format("config: {}", request.config.string()),
-                       fmt::format("seed: {}", scenario.seed),
-                       "pressures gauge; plant_* columns are simulator truth the controller never sees"});
-  fmt::print("{:.1f} s simulated at {:.1f}x real time -> {}\n", r.simulated_s, r.realtime_factor, log_path.string());
+  std::vector<std::string> comments = {fmt::format("case: {} ({} kg payload)", c.name, c.payload_kg),
+                                       fmt::format("config: {}", request.config.string()), fmt::format("seed: {}", scenario.seed),
+                                       "pressures gauge; plant_* columns are simulator truth the controller never sees"};
+  if (hw.replay) comments.back() = "pressures gauge; replayed from " + uri.replay_log.string() + ": the sensors are the log's, plant_* columns NaN";
+  log.write(log_path, comments);
+  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", r.simulated_s, hw.replay ? "replayed" : "simulated", r.realtime_factor, log_path.string());
+  if (hw.replay) print_replay(*hw.replay, dir / fmt::format("replay_{}.csv", c.name));
   return r;
-}
-
-/// Over the board: the endpoint and the mfb: section, checked before anything is written. False
-/// (after a message) when the request cannot run.
-bool check_board(const config::Document& doc, const E1Scenario& scenario, std::size_t cases, const RunRequest& request,
-                 std::optional<runtime::RealtimeRunOptions>& realtime) {
-  if (request.backend.empty()) return true;
-  if (cases > 1) {
-    fmt::print(stderr, "error: --backend runs one case against the board's plant: give --case NAME (the board's payload; "
-                       "with peha mfb-emulator the same --case); {} has {} cases\n", doc.name(), cases);
-    return false;
-  }
-  realtime = realtime_options(request);
-  if (!realtime) return false;
-  if (!scenario.link) {
-    fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(),
-               request.backend);
-    return false;
-  }
-  return check_board_addresses(doc.name(), *scenario.link, *realtime);
 }
 
 }  // namespace
@@ -198,8 +184,9 @@ int run_e1_experiment(const config::Document& doc, const RunRequest& request) {
     }
   }
   const std::vector<E1Variant> variants = e1_variants(scenario, request.calibration);
-  std::optional<runtime::RealtimeRunOptions> realtime;
-  if (!check_board(doc, scenario, cases.size(), request, realtime)) return 2;
+  hardware::BackendUri uri;
+  std::optional<HardwareRunOptions> realtime;
+  if (!check_hardware(doc.name(), scenario.link ? &*scenario.link : nullptr, cases.size(), request, uri, realtime)) return 2;
 
   // Only now, with everything loaded and checked, does the run leave a trace on disk.
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
@@ -222,12 +209,12 @@ int run_e1_experiment(const config::Document& doc, const RunRequest& request) {
     fmt::print("  [{}/{}] {} ... ", i + 1, runs.size(), c.name);
     std::fflush(stdout);
     if (!realtime) {
-      results.push_back(run_in_process(variant->scenario, c, request, dir));
+      results.push_back(run_in_process(variant->scenario, c, request, dir, uri));
       if (results.back().faults) fmt::print("    SUPERVISOR FAULT: {}\n", results.back().fault_reason);
       continue;
     }
     realtime->dir = dir;
-    fmt::print("on the board at udp://{} in real time\n", realtime->board.to_string());
+    fmt::print("on {} in real time\n", uri.describe());
     std::fflush(stdout);
     const E1RealtimeResult rr = run_e1_realtime(variant->scenario, c, *realtime);
     results.push_back(rr.e1);

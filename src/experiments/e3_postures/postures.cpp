@@ -1,4 +1,5 @@
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/release_checks.hpp"
 #include "peha/models/exoskeleton.hpp"
 
@@ -52,6 +53,20 @@ std::vector<std::string> arm_log_columns(const ArmScenario& scenario) {
   c.push_back("limit_flags");
   c.push_back("fault_flags");
   return c;
+}
+
+hardware::HardwareRequest arm_hardware(const ArmScenario& scenario, const sim::ArmPlantParams& plant, bool one_board) {
+  hardware::HardwareRequest r;
+  r.period_s = scenario.period_s;
+  r.joint_names = arm_joint_names(scenario);
+  for (std::size_t j = 0; j < r.joint_names.size(); ++j) r.log_prefixes.push_back(arm_log_prefix(scenario, j) + "_");
+  r.link = scenario.link ? &*scenario.link : nullptr;
+  r.one_board = one_board;
+  r.simulate = [plant]() -> std::unique_ptr<io::Backend> {
+    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
+    return std::make_unique<sim::ArmBackend>(plant);
+  };
+  return r;
 }
 
 sim::ArmPlantParams postures_plant_params(const ArmScenario& scenario) {

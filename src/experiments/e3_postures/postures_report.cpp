@@ -35,7 +35,7 @@ void write_postures_summary(const std::filesystem::path& path, const PosturesRes
 }
 
 int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario_read, const RunRequest& request,
-                            std::optional<runtime::RealtimeRunOptions> realtime) {
+                            std::optional<HardwareRunOptions> realtime) {
   ArmScenario scenario = scenario_read;
   for (const std::string& spec : request.faults) {
     try {
@@ -54,9 +54,9 @@ int run_postures_experiment(const config::Document& doc, const ArmScenario& scen
   if (realtime) {
     realtime->dir = dir;
     if (scenario.link->boards.size() == 1) {
-      fmt::print("  on the board at udp://{} in real time\n", realtime->board.to_string());
+      fmt::print("  on {} in real time\n", realtime->backend.describe());
     } else {
-      const std::vector<io::UdpEndpoint> at = mfb::board_endpoints(*scenario.link, realtime->boards);
+      const std::vector<io::UdpEndpoint> at = mfb::board_endpoints(*scenario.link, realtime->backend.boards);
       fmt::print("  on {} boards in real time:", at.size());
       for (std::size_t b = 0; b < at.size(); ++b) fmt::print(" {} at udp://{}{}", scenario.link->boards[b].name, at[b].to_string(), b + 1 < at.size() ? "," : "\n");
     }

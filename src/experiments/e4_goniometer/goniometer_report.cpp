@@ -140,7 +140,7 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
 }
 
 int run_on_board(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
-                 runtime::RealtimeRunOptions realtime) {
+                 HardwareRunOptions realtime) {
   const auto& g = scenario.goniometer;
   const std::size_t index = find_movement(g, request.only_case);
   if (index == g.movements.size()) {
@@ -150,8 +150,8 @@ int run_on_board(const config::Document& doc, const ArmScenario& scenario, const
   }
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   realtime.dir = dir;
-  fmt::print("peha run: {} --experiment goniometer (E4) on the board at udp://{}, movement {}, both variants\n", doc.name(),
-             realtime.board.to_string(), g.movements[index].name);
+  fmt::print("peha run: {} --experiment goniometer (E4) on {}, movement {}, both variants\n", doc.name(),
+             realtime.backend.describe(), g.movements[index].name);
   std::fflush(stdout);
   bool safe = true;
   std::vector<GoniometerRealtimeResult> results;
@@ -195,7 +195,7 @@ bool print_goniometer_tables(const std::vector<GoniometerResult>& results) {
 }
 
 int run_goniometer_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
-                              std::optional<runtime::RealtimeRunOptions> realtime) {
+                              std::optional<HardwareRunOptions> realtime) {
   if (scenario.goniometer.movements.empty()) {
     fmt::print(stderr, "error: {} has no goniometer: section (E4's sensor, filter and movements; docs/right-arm.md)\n", doc.name());
     return 2;

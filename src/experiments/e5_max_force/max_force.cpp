@@ -100,6 +100,19 @@ sim::OneDofRigParams e5_plant_params(const E5Scenario& scenario, const E5Case& c
   return p;
 }
 
+hardware::HardwareRequest e5_hardware(const E5Scenario& scenario, const E5Case& c) {
+  hardware::HardwareRequest r;
+  r.period_s = scenario.period_s;
+  r.joint_names = sim::one_dof_rig_joint_names();
+  r.link = scenario.link ? &*scenario.link : nullptr;
+  r.one_board = true;
+  r.simulate = [plant = e5_plant_params(scenario, c)]() -> std::unique_ptr<io::Backend> {
+    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
+    return std::make_unique<sim::OneDofRigBackend>(plant);
+  };
+  return r;
+}
+
 E5Result run_e5_case(const E5Scenario& scenario, const E5Case& c, runtime::RowSink* log) {
   std::unique_ptr<sim::OneDofRigBackend> plant;
   {

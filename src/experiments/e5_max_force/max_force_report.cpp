@@ -51,16 +51,20 @@ bool print_e5_table(const std::vector<E5Result>& results) {
 
 namespace {
 
-E5Result run_in_process(const E5Scenario& scenario, const E5Case& c, const RunRequest& request, const std::filesystem::path& dir) {
+/// One case in process, on the simulated clamped rig or a replayed log (the door's sim: or replay:).
+E5Result run_in_process(const E5Scenario& scenario, const E5Case& c, const RunRequest& request, const std::filesystem::path& dir,
+                        const hardware::BackendUri& uri) {
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
   runtime::CsvLog log(e5_log_columns(), rows);
-  E5Result r = run_e5_case(scenario, c, &log);
+  const hardware::Hardware hw = hardware::open_backend(uri, e5_hardware(scenario, c));
+  E5Result r = run_e5_on(scenario, c, *hw.backend, dynamic_cast<const sim::OneDofRigBackend*>(hw.backend.get()), &log);
   const std::filesystem::path log_path = dir / fmt::format("e5_{}.csv", c.name);
   log.write(log_path, {fmt::format("case: {} (clamp at {} deg)", c.name, r.locked_angle_deg), fmt::format("config: {}", request.config.string()),
                        fmt::format("seed: {}", scenario.seed),
                        "pressures gauge; stop: 0 none, 1 force ceiling, 2 supply, 3 rate limit, 4 supervisor; "
                        "plant_* columns are simulator truth the controller never sees"});
-  fmt::print("{:.1f} s simulated at {:.1f}x real time -> {}\n", r.simulated_s, r.realtime_factor, log_path.string());
+  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", r.simulated_s, hw.replay ? "replayed" : "simulated", r.realtime_factor, log_path.string());
+  if (hw.replay) print_replay(*hw.replay, dir / fmt::format("replay_{}.csv", c.name));
   return r;
 }
 
@@ -77,20 +81,9 @@ int run_e5_experiment(const config::Document& doc, const RunRequest& request) {
     fmt::print(stderr, "error: no case named '{}' in {}\n", request.only_case, doc.name());
     return 2;
   }
-  std::optional<runtime::RealtimeRunOptions> realtime;
-  if (!request.backend.empty()) {
-    if (cases.size() > 1) {
-      fmt::print(stderr, "error: --backend runs one case against the board's plant: give --case NAME (with peha mfb-emulator the "
-                         "same --case); {} has {} cases\n", doc.name(), cases.size());
-      return 2;
-    }
-    if (!scenario.link) {
-      fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(), request.backend);
-      return 2;
-    }
-    realtime = realtime_options(request);
-    if (!realtime || !check_board_addresses(doc.name(), *scenario.link, *realtime)) return 2;
-  }
+  hardware::BackendUri uri;
+  std::optional<HardwareRunOptions> realtime;
+  if (!check_hardware(doc.name(), scenario.link ? &*scenario.link : nullptr, cases.size(), request, uri, realtime)) return 2;
 
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   fmt::print("peha run: {}\n  {}\n  {} case(s), {} ramped at {} MPa/s from {} s, {:.1f} s each, seed {}, output {}\n", doc.name(),
@@ -102,11 +95,11 @@ int run_e5_experiment(const config::Document& doc, const RunRequest& request) {
     fmt::print("  [{}/{}] {} ... ", i + 1, cases.size(), c.name);
     std::fflush(stdout);
     if (!realtime) {
-      results.push_back(run_in_process(scenario, c, request, dir));
+      results.push_back(run_in_process(scenario, c, request, dir, uri));
       continue;
     }
     realtime->dir = dir;
-    fmt::print("on the board at udp://{} in real time\n", realtime->board.to_string());
+    fmt::print("on {} in real time\n", uri.describe());
     std::fflush(stdout);
     const E5RealtimeResult rr = run_e5_realtime(scenario, c, *realtime);
     results.push_back(rr.e5);

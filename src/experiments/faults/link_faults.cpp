@@ -141,8 +141,8 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   s.limits.monitor.enabled = true;
   s.duration_s = t_inject + options.after_fault_s;
   if (options.host_watchdog_ms) s.link->host_watchdog_s = *options.host_watchdog_ms * 1e-3;
-  runtime::RealtimeRunOptions o;
-  o.board = io::parse_udp_endpoint(fmt::format("udp://127.0.0.1:{}", emulator.port));
+  HardwareRunOptions o;
+  o.backend = hardware::BackendUri::parse(fmt::format("udp://127.0.0.1:{}", emulator.port));
   o.realtime.fifo_priority = 0;  // both processes share the machine's cores: no SCHED_FIFO
   o.realtime.lock_memory = false;
   o.quiet = true;
@@ -150,51 +150,51 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   std::filesystem::remove_all(o.dir);
   std::filesystem::create_directories(o.dir);
 
-  const auto backend = mfb::make_board_backend(*s.link, o.board, s.period_s, sim::one_dof_rig_joint_names());
-  // The spoofer's datagram, made before the run (the loop only sends it).
+  // The spoofer: its socket and the key made before the run (the loop only sends).
   io::UdpSocket stranger({0x7F000001u, 0});
+  const mfb::LinkKey key = mfb::load_link_key(s.link->key_file);
   std::array<std::uint8_t, mfb::kMaxPacketSize> spoof{};
   std::size_t spoof_bytes = 0;
-  if (fault.signal == LinkFault::Signal::kSpoof) {
-    mfb::StatePacket fake;
-    fake.session_id = backend->session_id();
-    fake.sequence = 0x7FFFFFF0u;
-    fake.encoder[0] = 12345;  // a wild angle if it were applied
-    spoof_bytes = mfb::encode(fake, mfb::load_link_key(s.link->key_file), spoof);
-  }
   std::int64_t kill_ns = 0, fault_ns = 0;  // host monotonic clock: the injection, the first fault
   E1RealtimeResult r;
   const auto inject_cycle = static_cast<std::uint64_t>(std::llround(t_inject / s.period_s));
   const auto resume_cycle = inject_cycle + static_cast<std::uint64_t>(std::llround(kStall_s / s.period_s));
-  {
-    runtime::RealtimeHarness harness(*backend, supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", e1_log_columns(),
-                                     {fmt::format("peha faults --link: {} ({})", fault.name, fault.injects)});
-    runtime::CycleHooks hooks = harness.start();
-    if (hooks.supervisor) {  // when the run faulted, on the host's clock (the board's events are on the same clock)
-      hooks.supervisor->on_fault = [&fault_ns, then = hooks.supervisor->on_fault](const char* why) {
-        if (fault_ns == 0) fault_ns = io::monotonic_ns();
-        if (then) then(why);
-      };
-    }
-    if (fault.signal != LinkFault::Signal::kNone) {
-      hooks.wait = [&, wait = hooks.wait, cycle = std::uint64_t{0}]() mutable {
-        if (cycle == inject_cycle && (fault.signal == LinkFault::Signal::kKill || fault.signal == LinkFault::Signal::kReboot)) {
-          kill_ns = io::monotonic_ns();
-          emulator.process.signal(SIGKILL);
+  static_cast<BoardRunResult&>(r) = run_on_hardware(
+      e1_hardware(s, c), *s.link, o,
+      {c.name, s.duration_s, o.dir / "e1.csv", e1_log_columns(), {fmt::format("peha faults --link: {} ({})", fault.name, fault.injects)}},
+      [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {
+        const mfb::UdpBackend& board = hw.boards->board(0);
+        if (fault.signal == LinkFault::Signal::kSpoof) {
+          mfb::StatePacket fake;
+          fake.session_id = board.session_id();
+          fake.sequence = 0x7FFFFFF0u;
+          fake.encoder[0] = 12345;  // a wild angle if it were applied
+          spoof_bytes = mfb::encode(fake, key, spoof);
         }
-        if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kStall) emulator.process.signal(SIGSTOP);
-        if (cycle == resume_cycle && fault.signal == LinkFault::Signal::kStall) emulator.process.signal(SIGCONT);
-        if (cycle >= inject_cycle && spoof_bytes > 0) {
-          stranger.send_to(backend->local(), std::span<const std::uint8_t>(spoof.data(), spoof_bytes));
+        if (hooks.supervisor) {  // when the run faulted, on the host's clock (the board's events are on the same clock)
+          hooks.supervisor->on_fault = [&fault_ns, then = hooks.supervisor->on_fault](const char* why) {
+            if (fault_ns == 0) fault_ns = io::monotonic_ns();
+            if (then) then(why);
+          };
         }
-        ++cycle;
-        wait();
-      };
-    }
-    r.e1 = run_e1_on(s, c, *backend, nullptr, &harness.sink(), hooks);
-    harness.finish(r);
-    r.link = backend->stats();
-  }
+        if (fault.signal != LinkFault::Signal::kNone) {
+          hooks.wait = [&, wait = hooks.wait, cycle = std::uint64_t{0}]() mutable {
+            if (cycle == inject_cycle && (fault.signal == LinkFault::Signal::kKill || fault.signal == LinkFault::Signal::kReboot)) {
+              kill_ns = io::monotonic_ns();
+              emulator.process.signal(SIGKILL);
+            }
+            if (cycle == inject_cycle && fault.signal == LinkFault::Signal::kStall) emulator.process.signal(SIGSTOP);
+            if (cycle == resume_cycle && fault.signal == LinkFault::Signal::kStall) emulator.process.signal(SIGCONT);
+            if (cycle >= inject_cycle && spoof_bytes > 0) {
+              stranger.send_to(board.local(), std::span<const std::uint8_t>(spoof.data(), spoof_bytes));
+            }
+            ++cycle;
+            wait();
+          };
+        }
+        r.e1 = run_e1_on(s, c, *hw.backend, nullptr, &sink, hooks);
+        return r.e1.verdict;
+      });
 
   // The board's side of the injection, on the host's monotonic clock (the emulator prints it).
   std::int64_t inject_ns = kill_ns;

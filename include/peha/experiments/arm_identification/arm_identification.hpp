@@ -11,9 +11,17 @@
 /// and k, solved per posture and joint. Nothing of the plant's truth is read.
 
 #include "peha/calibration/gravity_identification.hpp"
+#include "peha/control/arm_controller.hpp"
+#include "peha/experiments/common/board_run.hpp"
 #include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/io/backend.hpp"
+#include "peha/runtime/control_loop.hpp"
+#include "peha/runtime/csv_log.hpp"
 
+#include <array>
+#include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -51,11 +59,55 @@ struct ArmIdentificationResult {
 /// compensation comes on (as E3), and no operator after.
 sim::ArmPlantParams identification_plant_params(const ArmScenario& scenario, const sim::ArmPlantParams& plant);
 
+/// What the procedure's run measured, before the fit: per posture and sweep (0 up, 1 down) the sums
+/// over its averaging window (q per io joint; forces, motor and speed per swept joint).
+struct IdentificationRecording {
+  struct Sums {
+    std::vector<double> q;
+    std::vector<std::array<double, 2>> force;
+    std::vector<double> motor, speed;
+    double n = 0;
+  };
+  std::vector<std::array<Sums, 2>> sums;
+  std::unique_ptr<control::ArmController> controller;  ///< the rig's controller (its model and load-cell zeros)
+  std::uint64_t faults = 0;        ///< faults the plausibility monitor latched during the run
+  std::string fault_reason;
+  double duration_s = 0, wall_s = 0;
+};
+
+/// The scenario the procedure runs: `given` with the body file's arm model (the fit's prior), whatever
+/// identification its controller uses. Throws config::Error without an `identification:` section.
+ArmScenario identification_scenario(const ArmScenario& given);
+/// How long the procedure runs, s.
+double identification_duration_s(const ArmScenario& scenario);
+/// Runs the procedure on `backend` (the simulated arm, or the boards in real time with the
+/// harness's `hooks`) for `scenario` (from identification_scenario); only what the rig measures is read.
+IdentificationRecording record_identification(const ArmScenario& scenario, io::Backend& backend,
+                                              const std::function<void(const std::string&)>& progress = {},
+                                              const runtime::CycleHooks& hooks = {}, runtime::RowSink* log = nullptr);
+/// The per-cycle log of the procedure on hardware: t_s, per io joint (arm_log_prefix) the encoder,
+/// both load cells and the commands sent, limit_flags.
+std::vector<std::string> identification_log_columns(const ArmScenario& scenario);
+/// The fit of a recording. Throws calibration::GravityIdentificationRejected as identify_arm_gravity.
+ArmIdentificationResult fit_identification(const ArmScenario& scenario, const IdentificationRecording& recording);
+
 /// Runs the procedure on the in-process arm `plant` (the truth is not read) and fits. Throws
 /// calibration::GravityIdentificationRejected when a joint stuck in a window (moved slower than
 /// min_speed_fraction x the reference), a fault was latched, or the fit's checks fail; config::Error
 /// without an `identification:` section. `progress` gets one line per posture.
 ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const sim::ArmPlantParams& plant,
                                              const std::function<void(const std::string&)>& progress = {});
+
+/// The procedure on the hardware `options.backend` (the arm's board or boards) in real time, through
+/// the lifecycle supervisor; every cycle logged to `cycles_log` (arm_log_columns, with NaN for what
+/// the rig does not measure). `verdict` holds the link faults; the caller fits `recording` only
+/// when it passed. `scenario` from identification_scenario.
+struct IdentificationRealtimeResult : BoardRunResult {
+  IdentificationRecording recording;
+  safety::Verdict verdict;
+};
+IdentificationRealtimeResult record_identification_realtime(const ArmScenario& scenario, const HardwareRunOptions& options,
+                                                            const std::filesystem::path& cycles_log,
+                                                            const std::function<void(const std::string&)>& progress = {});
 
 }  // namespace peha::experiments

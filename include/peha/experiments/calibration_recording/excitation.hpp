@@ -11,6 +11,8 @@
 #include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/runtime/control_loop.hpp"
+#include "peha/runtime/csv_log.hpp"
 #include "peha/safety/limits.hpp"
 
 #include <functional>
@@ -102,8 +104,14 @@ double other_pressure_Pa(const ExcitationParams& e, double t_s) noexcept;
 /// Runs the excitation of muscle `side` (+1 agonist, -1 antagonist) of joint 0 on `backend` and
 /// returns the logged data (contraction from the controller's rigid-wire geometry, wire velocity
 /// from a filtered encoder difference, forces less the tare's zero; no rows during the tare). `progress(fraction)` is called about once per second of data.
+/// In real time on hardware `hooks` are the harness's (runtime::RealtimeHarness) and `log` its
+/// per-cycle log (recording_log_columns()); in process both are empty.
 calibration::Dataset record_excitation(io::Backend& backend, const models::JointModel& joint, int side,
                           const ExcitationParams& excitation, const safety::LimitsModel& limits,
-                          const std::function<void(double)>& progress = {});
+                          const std::function<void(double)>& progress = {}, const runtime::CycleHooks& hooks = {},
+                          runtime::RowSink* log = nullptr);
+
+/// The per-cycle log of a recording on hardware: what the sensors gave and what was sent.
+const std::vector<std::string>& recording_log_columns();
 
 }  // namespace peha::experiments

@@ -1,12 +1,16 @@
 #pragma once
 /// \file
-/// What every experiment's run on the multifunction board shares: the supervision parameters from
-/// the scenario's `mfb:` section and the command line, and the result with the link's counters.
+/// What every experiment's run on hardware shares: the one run function (`run_on_hardware`: the
+/// door's backend inside a RealtimeHarness), the supervision parameters from the scenario's `mfb:`
+/// section and the command line, and the result with the link's counters.
 
+#include "peha/hardware/door.hpp"
 #include "peha/mfb/link_config.hpp"
 #include "peha/runtime/realtime_harness.hpp"
 #include "peha/safety/verdict.hpp"
 
+#include <filesystem>
+#include <functional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -24,6 +28,34 @@ struct BoardRunResult : runtime::RealtimeRunResult {
   };
   std::vector<Board> boards;
 };
+
+/// A run on hardware: which backend (`--backend`, through the one door) and the real-time options.
+struct HardwareRunOptions : runtime::RealtimeRunOptions {
+  hardware::BackendUri backend;
+};
+
+/// The log of a run on hardware, and what its progress line says.
+struct HardwareRunLog {
+  std::string label;                 ///< the case, for the progress line
+  double duration_s = 0;
+  std::filesystem::path file;
+  std::vector<std::string> columns;
+  std::vector<std::string> comments; ///< the run's; the door's "on <where>" line is added
+};
+
+/// The experiment's loop on the opened hardware: its run_*_on with the harness's sink and hooks (a
+/// copy: a fault-injection run may wrap them). Returns its verdict, to which the run's link faults
+/// are added.
+using HardwareLoop = std::function<safety::Verdict&(hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks)>;
+
+/// The one way every experiment runs on hardware in real time: opens `options.backend` for
+/// `request` through the door (hardware::open_backend), runs `loop` in a RealtimeHarness (1 kHz
+/// absolute deadlines, the lifecycle supervisor with the scenario's watchdog and recovery ramp from
+/// `link`, the writer-thread log with fault dumps, telemetry), adds the run's lifecycle faults to
+/// the verdict `loop` returns (add_link_fault_check), and returns the harness's and the links'
+/// figures. Throws (set-up) as the door does, or when no board answers.
+BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const mfb::LinkConfig& link, const HardwareRunOptions& options,
+                               const HardwareRunLog& log, const HardwareLoop& loop);
 
 /// Each board's round trips during a run: set as the backend's sink (mfb::BoardsBackend::set_rtt_sink)
 /// before the run; allocation-free while it runs.

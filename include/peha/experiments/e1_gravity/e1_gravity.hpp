@@ -5,6 +5,7 @@
 /// and down with a finger and lets go; with feed-forward compensation only (no position feedback) it
 /// should stay where it was left. The scenario is entirely configuration (configs/e1_one_dof.yaml).
 
+#include "peha/hardware/door.hpp"
 #include "peha/experiments/calibration_recording/excitation.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/control/one_dof_gravity.hpp"
@@ -139,6 +140,11 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSi
 E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
                    runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
 
+/// What a case declares to the hardware door (hardware::open_backend): the rig's one joint, the
+/// scenario's period and mfb: section (one board), its simulated rig with the case's payload (sim:),
+/// the log's unprefixed sensor columns (replay:).
+hardware::HardwareRequest e1_hardware(const E1Scenario& scenario, const E1Case& c);
+
 /// The controller's model of a case (the scenario's, with the case's payload).
 control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c);
 /// The simulated rig's parameters for a case (the scenario's plant with the case's payload).
@@ -160,6 +166,14 @@ void use_calibration_loadcell_zero(E1Scenario& scenario);
 /// config::Error when the scenario has no such section.
 calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
                                       const std::function<void(double)>& progress = {});
+/// The simulated rig of the calibration recording of muscle `index`: `plant` with the excitation's
+/// payload, no finger pushes, and the clamp for the tare and each clamped segment - what the
+/// operator's pin does on the real rig (also what `peha mfb-emulator --case calibration_<muscle>`
+/// serves). Throws config::Error when the scenario has no such section.
+sim::OneDofRigParams e1_recording_plant_params(const E1Scenario& scenario, sim::OneDofRigParams plant, int index);
+/// The limits of a recording: the scenario's, with the plausibility monitor off (the excitation
+/// sweeps a muscle far from the controller's model on purpose).
+safety::LimitsModel e1_recording_limits(const E1Scenario& scenario);
 
 /// The torque (Nm) that holds the plant's link still at `angle_rad` against gravity (MuJoCo's
 /// qfrc_bias at rest, the plant's MJCF with its payload): the truth the static torque error is a

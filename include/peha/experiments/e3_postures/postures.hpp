@@ -5,6 +5,7 @@
 /// should stay where they were left. The figures, per gravity-compensated joint and posture: drift
 /// over observe_s after each release, excursion, distance to a stop, static torque error.
 
+#include "peha/hardware/door.hpp"
 #include "peha/experiments/arm/arm_scenario.hpp"
 
 #include <string>
@@ -57,6 +58,11 @@ std::vector<std::size_t> gravity_joints(const ArmScenario& scenario);
 std::vector<std::string> arm_log_columns(const ArmScenario& scenario);
 /// "sfe" for the single arm's R_SFE, "r_sfe" / "l_sfe" on a two-armed body.
 std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
+
+/// What an arm run declares to the hardware door (hardware::open_backend): the io joints, the
+/// scenario's period and mfb: section, the simulated arm `plant` (sim:), each joint's log prefix
+/// (replay:). `one_board`: the run's board-side inputs live on one board (E4's goniometer).
+hardware::HardwareRequest arm_hardware(const ArmScenario& scenario, const sim::ArmPlantParams& plant, bool one_board = false);
 
 /// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log);

@@ -13,7 +13,7 @@ struct PosturesRealtimeResult : BoardRunResult {
   PosturesResult postures;  ///< figures from the board's sensors (encoders, load cells)
 };
 
-/// Runs E3 on the board at `options.board`; throws (set-up) without an `mfb:` section or a board.
-PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const runtime::RealtimeRunOptions& options);
+/// Runs E3 on the hardware `options.backend` (boards over UDP) in real time; throws (set-up) without an `mfb:` section or a board.
+PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const HardwareRunOptions& options);
 
 }  // namespace peha::experiments

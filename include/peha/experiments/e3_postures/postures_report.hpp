@@ -18,6 +18,6 @@ void write_postures_summary(const std::filesystem::path& path, const PosturesRes
 /// `peha run --experiment postures`: `scenario` is read and overridden (seed, force trim);
 /// `realtime` set runs it on the board. Exit code 0 (every safety figure held) or 3.
 int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
-                            std::optional<runtime::RealtimeRunOptions> realtime);
+                            std::optional<HardwareRunOptions> realtime);
 
 }  // namespace peha::experiments

@@ -18,6 +18,6 @@ struct GoniometerRealtimeResult : BoardRunResult {
 /// lasts. One session per call (the emulator resets its arm). Throws (set-up) without an `mfb:`
 /// section, a driven joint's goniometer channel or a board.
 GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, std::size_t movement, GoniometerVariant variant,
-                                                 const runtime::RealtimeRunOptions& options);
+                                                 const HardwareRunOptions& options);
 
 }  // namespace peha::experiments

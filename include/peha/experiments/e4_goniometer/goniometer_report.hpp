@@ -19,6 +19,6 @@ bool print_goniometer_tables(const std::vector<GoniometerResult>& results);
 /// `peha run --experiment goniometer`: `scenario` is read and overridden (seed, force trim);
 /// `realtime` set runs it on the board. Exit code 0 (every safety figure held), 2 (bad request) or 3.
 int run_goniometer_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request,
-                              std::optional<runtime::RealtimeRunOptions> realtime);
+                              std::optional<HardwareRunOptions> realtime);
 
 }  // namespace peha::experiments

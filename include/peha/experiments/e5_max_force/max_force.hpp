@@ -8,6 +8,7 @@
 /// the limit, pressure at the limit) and which mechanism stopped it. The scenario is entirely
 /// configuration (configs/e5_max_force.yaml).
 
+#include "peha/hardware/door.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/mfb/link_config.hpp"
 #include "peha/models/joint.hpp"
@@ -100,6 +101,9 @@ const std::vector<std::string>& e5_log_columns();
 
 /// The simulated rig of a case: the scenario's plant, clamped at the case's angle.
 sim::OneDofRigParams e5_plant_params(const E5Scenario& scenario, const E5Case& c);
+/// What a case declares to the hardware door: the rig's one joint, the scenario's period and mfb:
+/// section (one board), the clamped rig (sim:), the log's unprefixed sensor columns (replay:).
+hardware::HardwareRequest e5_hardware(const E5Scenario& scenario, const E5Case& c);
 
 /// One case on the in-process simulated rig. `log` (optional) receives one row per cycle.
 E5Result run_e5_case(const E5Scenario& scenario, const E5Case& c, runtime::RowSink* log);

@@ -13,8 +13,8 @@ struct E5RealtimeResult : BoardRunResult {
   E5Result e5;  ///< figures from the board's sensors (E5Result::from_truth is false)
 };
 
-/// Runs one E5 case on the board at `options.board`. Throws (set-up) if the scenario has no `mfb:`
+/// Runs one E5 case on the hardware `options.backend` (boards over UDP) in real time. Throws (set-up) if the scenario has no `mfb:`
 /// section, the channel map is bad, or no board answers within the connect timeout.
-E5RealtimeResult run_e5_realtime(const E5Scenario& scenario, const E5Case& c, const runtime::RealtimeRunOptions& options);
+E5RealtimeResult run_e5_realtime(const E5Scenario& scenario, const E5Case& c, const HardwareRunOptions& options);
 
 }  // namespace peha::experiments
