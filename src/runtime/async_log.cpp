@@ -1,5 +1,7 @@
 #include "peha/runtime/async_log.hpp"
 
+#include "peha/runtime/csv_log.hpp"
+
 #include <fmt/compile.h>
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -15,7 +17,7 @@ namespace {
 
 constexpr std::size_t kFileBufferBytes = 1 << 20;
 constexpr std::size_t kPendingFaultRequests = 8;
-constexpr std::size_t kMaxValueChars = 32;  // "{:.9g}" of a double needs at most 16
+constexpr std::size_t kMaxValueChars = kMaxLogValueChars;
 constexpr auto kIdleFlushInterval = std::chrono::milliseconds(250);
 
 void check_columns(const std::vector<std::string>& columns) {
@@ -39,7 +41,7 @@ std::size_t format_row(const double* values, std::size_t n, char* out) noexcept 
   char* p = out;
   for (std::size_t c = 0; c < n; ++c) {
     if (c) *p++ = ',';
-    p = fmt::format_to(p, FMT_COMPILE("{:.9g}"), values[c]);
+    p = format_log_value(p, c, values[c]);
   }
   *p++ = '\n';
   return static_cast<std::size_t>(p - out);

@@ -1,5 +1,6 @@
 #include "peha/runtime/csv_log.hpp"
 
+#include <fmt/compile.h>
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -33,6 +34,10 @@ std::size_t CsvLog::column(const std::string& name) const {
   throw std::out_of_range(fmt::format("log has no column '{}'", name));
 }
 
+char* format_log_value(char* out, std::size_t column, double value) noexcept {
+  return column == 0 ? fmt::format_to(out, FMT_COMPILE("{}"), value) : fmt::format_to(out, FMT_COMPILE("{:.9g}"), value);
+}
+
 void CsvLog::write(const std::filesystem::path& path, const std::vector<std::string>& comments) const {
   std::ofstream out(path);
   if (!out) throw std::runtime_error(fmt::format("{}: cannot write log", path.string()));
@@ -43,7 +48,8 @@ void CsvLog::write(const std::filesystem::path& path, const std::vector<std::str
     line.clear();
     for (std::size_t c = 0; c < columns_.size(); ++c) {
       if (c) line += ',';
-      line += fmt::format("{:.9g}", values_[r * columns_.size() + c]);
+      char text[kMaxLogValueChars];
+      line.append(text, format_log_value(text, c, values_[r * columns_.size() + c]));
     }
     out << line << '\n';
   }

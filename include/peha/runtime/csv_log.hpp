@@ -45,6 +45,14 @@ class CsvLog final : public RowSink {
   std::size_t row_offset_ = 0;
 };
 
+/// Longest text format_log_value writes (a double's shortest round-trip form is at most 24 characters).
+inline constexpr std::size_t kMaxLogValueChars = 32;
+/// Writes one value of a log row at `out` (at most kMaxLogValueChars) and returns the end: the first
+/// column, the time stamp, in its shortest form that reads back to the same double (a replay feeds
+/// the controller exactly the time it saw: a simulator's 0.8999999999999563 s is not 0.9 s at a
+/// schedule's edge); every other column in 9 significant digits. noexcept, no allocation.
+char* format_log_value(char* out, std::size_t column, double value) noexcept;
+
 /// Reads the columns `names` of a log in this format (`# ` comment lines, the column names, rows;
 /// CsvLog::write, AsyncCsvLog), one vector per name in that order; a name the file lacks gives an
 /// empty vector. Throws std::runtime_error on a file it cannot open or a cell that is not a number.
