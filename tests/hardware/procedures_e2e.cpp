@@ -163,5 +163,80 @@ TEST(ProceduresOverTheBoard, RecordCalibrateAndRunE1AsInProcess) {
   std::filesystem::remove_all(dir);
 }
 
+// The arm's gravity identification on the board and in process: the shipped procedure cut to four
+// postures (44 s of real time on the rig), then E3 at one posture (elbow_90, 3 s of watching) with
+// each identification. The identification over the board must give the controller a gravity model
+// as right as the process's (plant truth, in process), and E3 on the board with it must hold as E3
+// in process does.
+TEST(ProceduresOverTheBoard, IdentifyGravityAndRunE3AsInProcess) {
+  const std::filesystem::path dir = test_dir("identification");
+  YAML::Node root = YAML::LoadFile(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
+  root["mfb"]["host_watchdog_ms"] = 250.0;
+  YAML::Node four(YAML::NodeType::Sequence);
+  for (YAML::Node p : root["identification"]["postures"]) {
+    const std::string name = p["name"].as<std::string>();
+    if (name == "forward_15" || name == "elbow_90" || name == "raised_flexed" || name == "low_flexed") four.push_back(p);
+  }
+  root["identification"]["postures"] = four;
+  YAML::Node one(YAML::NodeType::Sequence);
+  one.push_back(root["postures"]["list"][3]);  // elbow_90
+  root["postures"]["list"] = one;
+  root["postures"]["observe_s"] = 3.0;
+  const std::filesystem::path config = dir / "right_arm_short.yaml";
+  std::ofstream(config) << YAML::Dump(root) << "\n";
+
+  std::string out;
+  ASSERT_EQ(peha({"identify-gravity", "--config", config.string(), "--out", (dir / "sim" / "gravity.yaml").string()}, out), 0) << out;
+  {
+    Emulator board(config, "identification");
+    ASSERT_GT(board.port, 0) << board.process.output();
+    ASSERT_EQ(peha({"identify-gravity", "--config", config.string(), "--out", (dir / "board" / "gravity.yaml").string(), "--backend", board.uri(),
+                    "--rt-priority", "0"}, out), 0)
+        << out;
+    EXPECT_NE(out.find("inactive -> finalized (run ended)"), std::string::npos) << out;
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / "board" / "gravity.cycles.csv"));
+
+  ArmScenario s = read_arm_scenario(config::Document::load_file(config));
+  ASSERT_EQ(s.postures.size(), 1u);
+  auto with = [&](const char* where) {
+    ArmScenario w = s;
+    use_gravity_identification(w, dir / where / "gravity.yaml");
+    return w;
+  };
+  auto in_process = [&](const ArmScenario& scenario) {
+    const hardware::Hardware arm = hardware::open_backend(hardware::BackendUri{}, arm_hardware(scenario, postures_plant_params(scenario)));
+    return run_postures_on(scenario, *arm.backend, dynamic_cast<const sim::ArmBackend*>(arm.backend.get()), nullptr);
+  };
+  const PosturesResult local = in_process(with("sim"));
+  const PosturesResult board_identification = in_process(with("board"));
+  Emulator arm_board(config, "postures");
+  ASSERT_GT(arm_board.port, 0) << arm_board.process.output();
+  const PosturesRealtimeResult udp = run_postures_realtime(with("board"), board_options(arm_board, dir / "e3_board"));
+  EXPECT_EQ(udp.faults, 0u);
+
+  const PostureResult& a = local.postures.at(0);
+  const PostureResult& b = board_identification.postures.at(0);
+  const PostureResult& u = udp.postures.postures.at(0);
+  ASSERT_EQ(a.joints.size(), b.joints.size());
+  ASSERT_EQ(a.joints.size(), u.joints.size());
+  for (std::size_t j = 0; j < a.joints.size(); ++j) {
+    std::printf("E3 %s %s: model gravity error (plant truth) %+.2f %% with the process's identification, %+.2f %% with the board's; "
+                "static torque error %+.2f / %+.2f %%; released %.2f deg in process, %.2f deg over the board; drift %.3f / %.3f deg\n",
+                a.name.c_str(), a.joints[j].joint.c_str(), a.joints[j].model_gravity_error_pct, b.joints[j].model_gravity_error_pct,
+                a.joints[j].static_torque_error_pct, b.joints[j].static_torque_error_pct, a.joints[j].released_deg, u.joints[j].released_deg,
+                a.joints[j].drift_deg, u.joints[j].drift_deg);
+    // Tolerances: the identified model within 2 points of gravity of the process's; E3 on the board
+    // released within 0.5 deg and drifting within 0.2 deg of E3 in process.
+    EXPECT_NEAR(b.joints[j].model_gravity_error_pct, a.joints[j].model_gravity_error_pct, 2.0) << a.joints[j].joint;
+    EXPECT_NEAR(b.joints[j].static_torque_error_pct, a.joints[j].static_torque_error_pct, 2.0) << a.joints[j].joint;
+    EXPECT_NEAR(u.joints[j].released_deg, a.joints[j].released_deg, 0.5) << a.joints[j].joint;
+    EXPECT_NEAR(u.joints[j].drift_deg, a.joints[j].drift_deg, 0.2) << a.joints[j].joint;
+  }
+  EXPECT_TRUE(board_identification.within_limits) << board_identification.verdict.failures();
+  EXPECT_EQ(udp.postures.within_limits, local.within_limits) << udp.postures.verdict.failures() << "\nin process:\n" << local.verdict.failures();
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
 }  // namespace peha::experiments
