@@ -36,6 +36,8 @@ RULES = {
                  "the one hardware door: a backend chosen by URI (sim:, udp://, replay:), built in one place"),
     "experiments": ({"hardware", "runtime", "mfb", "sim", "safety", "io", "control", "calibration", "models", "config"},
                     "experiment procedures composed from every layer below the app"),
+    "api": ({"experiments", "hardware", "runtime", "mfb", "sim", "safety", "io", "control", "calibration", "models", "config"},
+            "the public API for a user's own controller (peha::api::Exoskeleton::control): every procedure's machinery around a callback"),
     "video": ({"sim", "io", "models", "config"},
               "offscreen MuJoCo rendering of a run's logs and ffmpeg encoding (peha run --video)"),
     "app": (ALL, "the command-line front end: wires everything together"),

@@ -163,7 +163,7 @@ class CheckLayersTest(unittest.TestCase):
     def test_rule_table_is_as_specified_and_acyclic(self):
         rules = {k: v[0] for k, v in check_layers.RULES.items()}
         self.assertEqual(list(rules), ["config", "models", "calibration", "control", "io", "safety", "sim",
-                                       "mfb", "runtime", "hardware", "experiments", "video", "app"])
+                                       "mfb", "runtime", "hardware", "experiments", "api", "video", "app"])
         self.assertEqual(rules["config"], set())
         # The door sits between the experiments and every kind of hardware below it.
         self.assertIn("hardware", rules["experiments"])

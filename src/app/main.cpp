@@ -252,7 +252,8 @@ Command add_mfb_emulator(CLI::App& app) {
   emu_cmd->add_option("--case", emu.case_name, "One-DOF rig: the case whose plant (E1 payload, E5 clamp angle) to simulate (needed when the config\n"
                                                "has several), or calibration_agonist|calibration_antagonist (the rig pinned as peha\n"
                                                "record-calibration needs it). Arm scenarios: postures (E3, the default), identification (peha\n"
-                                               "identify-gravity) or goniometer_<movement> (E4)");
+                                               "identify-gravity), free (the arm alone: a user's own controller, docs/user-controller.md)\n"
+                                               "or goniometer_<movement> (E4)");
   emu_cmd->add_option("--bind", emu.bind, "IPv4 address to listen on")->capture_default_str();
   emu_cmd->add_option("-p,--port", emu.port, "UDP port (0 = any free port; the one taken is printed); several boards: board i at port + i")
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 65535));

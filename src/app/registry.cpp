@@ -187,6 +187,12 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
   for (const mfb::BoardLink& b : scenario->link->boards) {  // each board's map with its joints (all of them on one board)
     board.maps.push_back(mfb::read_channel_map(config::Document::load_file(b.channel_map), b.joint_names));
   }
+  if (options.case_name == "free") {  // the arm alone, nobody holding it: a user's own controller (peha::api::Exoskeleton)
+    const sim::ArmPlantParams plant = scenario->plant;
+    board.make_plant = [plant] { return std::make_unique<sim::ArmBackend>(plant); };
+    board.what = fmt::format("{} joints, nobody holding the arm (a user's own controller)", experiments::arm_joint_names(*scenario).size());
+    return board;
+  }
   if (options.case_name == "identification") {  // peha identify-gravity's procedure: the operator holds the start posture, then the rig sweeps
     if (!scenario->identification) {
       fmt::print(stderr, "config error: {}: no identification: section to serve --case identification\n", doc.name());
@@ -235,7 +241,7 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorO
     board.what = fmt::format("arm, E4: a person's movement '{}' on the goniometer channel of each driven joint", g.movements[i].name);
     return board;
   }
-  std::string cases = "postures, identification";
+  std::string cases = "postures, identification, free";
   for (const auto& m : g.movements) cases += ", goniometer_" + m.name;
   fmt::print(stderr, "error: the arm's board serves --case {}; found '{}'\n", cases, options.case_name);
   return std::nullopt;

@@ -207,7 +207,7 @@ TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
   EXPECT_THAT(e4.output, HasSubstr("give --case NAME (slow, brisk)"));
   const Result board_case = run("mfb-emulator --case nonsense" + arm);
   EXPECT_EQ(board_case.code, 2) << board_case.output;
-  EXPECT_THAT(board_case.output, HasSubstr("--case postures, identification, goniometer_slow, goniometer_brisk"));
+  EXPECT_THAT(board_case.output, HasSubstr("--case postures, identification, free, goniometer_slow, goniometer_brisk"));
   const Result run_help = run("run --help");
   for (const char* option : {"--backend", "--rt-priority", "--cpu", "--telemetry", "--recover-after"}) {
     EXPECT_THAT(run_help.output, HasSubstr(option));

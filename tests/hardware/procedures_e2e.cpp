@@ -9,6 +9,7 @@
 #include "peha/experiments/e3_postures/postures_realtime.hpp"
 #include "peha/hardware/door.hpp"
 #include "peha/runtime/child_process.hpp"
+#include "peha/runtime/csv_log.hpp"
 
 #include <gtest/gtest.h>
 #include <yaml-cpp/yaml.h>
@@ -235,6 +236,39 @@ TEST(ProceduresOverTheBoard, IdentifyGravityAndRunE3AsInProcess) {
   }
   EXPECT_TRUE(board_identification.within_limits) << board_identification.verdict.failures();
   EXPECT_EQ(udp.postures.within_limits, local.within_limits) << udp.postures.verdict.failures() << "\nin process:\n" << local.verdict.failures();
+  std::filesystem::remove_all(dir);
+}
+
+// A user's own controller (examples/pd_gravity.cpp through peha::api::Exoskeleton::control) as a
+// lab runs it: on the simulated arm, then on the board against `peha mfb-emulator --case free` (the
+// arm alone). Both hold the arm through the start-up, follow a 10 deg move and pass the verdict.
+TEST(UserControllerOverTheBoard, ThePdExampleRunsOnTheSimulatorAndOnTheBoard) {
+  const std::filesystem::path dir = test_dir("user_controller");
+  YAML::Node root = YAML::LoadFile(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
+  root["mfb"]["host_watchdog_ms"] = 250.0;
+  const std::filesystem::path config = dir / "right_arm.yaml";
+  std::ofstream(config) << YAML::Dump(root) << "\n";
+  auto example = [&](const std::vector<std::string>& extra, std::string& output) {
+    std::vector<std::string> argv = {PEHA_PD_EXAMPLE, "--config", config.string()};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    runtime::ChildProcess p(argv);
+    const int status = p.wait(60.0);
+    output = p.output();
+    return status;
+  };
+  std::string sim, board;
+  EXPECT_EQ(example({"--log", (dir / "sim.csv").string()}, sim), 0) << sim;
+  EXPECT_NE(sim.find("verdict: PASSED"), std::string::npos) << sim;
+  Emulator arm(config, "free");
+  ASSERT_GT(arm.port, 0) << arm.process.output();
+  EXPECT_EQ(example({"--backend", arm.uri(), "--rt-priority", "0", "--log", (dir / "board.csv").string()}, board), 0) << board;
+  EXPECT_NE(board.find("verdict: PASSED"), std::string::npos) << board;
+  std::printf("%s\n%s\n", sim.c_str(), board.c_str());
+  // The board run's log is the same format, and replayable: the sensors of every joint are in it.
+  const auto cols = runtime::read_csv_log_columns(dir / "board.csv", {"t_s", "efe_angle_rad", "efe_agonist_pressure_MPa"});
+  EXPECT_GT(cols[0].size(), 5000u);
+  EXPECT_EQ(cols[1].size(), cols[0].size());
+  EXPECT_EQ(cols[2].size(), cols[0].size());
   std::filesystem::remove_all(dir);
 }
 
