@@ -1,14 +1,18 @@
 // The peha command line as a user meets it: help texts, exit codes, the run directory.
 #include <gtest/gtest.h>
+#include "peha/runtime/csv_log.hpp"
+
 #include <gmock/gmock.h>
 
 #include <algorithm>
+#include <cmath>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <vector>
 
 namespace {
@@ -180,6 +184,47 @@ namespace {
 
 // The hardware path's command line: the emulator documents itself; a run over the board needs one
 // case (the board's payload) on both sides and a well-formed address, or exits 2 before touching
+
+// docs/runtime.md's replay, as a lab types it: E1's first case, then its log replayed into the same
+// controller through --backend replay:, which writes the commands beside the recorded ones and
+// gives them back; what cannot be replayed is refused before anything runs.
+TEST(Cli, AnE1LogReplayedThroughTheDoorGivesItsCommandsBack) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_cli_replay_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(out);
+  const std::string e1 = std::string(" --config ") + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml --no-plot --case payload_2.5kg --out " + out.string();
+  const Result recorded = run("run" + e1 + " --name e1");
+  ASSERT_EQ(recorded.code, 0) << recorded.output;
+  const Result replayed = run("run" + e1 + " --name e1_replayed --backend replay:" + (out / "e1" / "e1_payload_2.5kg.csv").string());
+  EXPECT_EQ(replayed.code, 0) << replayed.output;
+  EXPECT_THAT(replayed.output, HasSubstr("replay: 34001 of 34001 recorded rows fed to the controller"));
+  const auto cols = peha::runtime::read_csv_log_columns(out / "e1_replayed" / "replay_payload_2.5kg.csv",
+                                                  {"recorded_agonist_pressure_cmd_MPa", "replayed_agonist_pressure_cmd_MPa",
+                                                   "recorded_tau_motor_cmd_Nm", "replayed_tau_motor_cmd_Nm"});
+  ASSERT_EQ(cols[0].size(), 34001u);
+  double pressure = 0, motor = 0;
+  for (std::size_t i = 0; i < cols[0].size(); ++i) {
+    pressure = std::max(pressure, std::abs(cols[1][i] - cols[0][i]));
+    motor = std::max(motor, std::abs(cols[3][i] - cols[2][i]));
+  }
+  EXPECT_LT(pressure, 1e-6);  // MPa: the log's 9 digits
+  EXPECT_LT(motor, 1e-4);     // Nm
+  // Both cases from one log, an arm's log, a recording: refused with the reason, exit code 2.
+  const Result two_cases = run(std::string("run --no-plot --config ") + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml --out " + out.string() +
+                               " --backend replay:" + (out / "e1" / "e1_payload_2.5kg.csv").string());
+  EXPECT_EQ(two_cases.code, 2);
+  EXPECT_THAT(two_cases.output, HasSubstr("runs one case"));
+  const Result arm = run(std::string("run --no-plot --experiment postures --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml --out " +
+                         out.string() + " --backend replay:x.csv");
+  EXPECT_EQ(arm.code, 2);
+  EXPECT_THAT(arm.output, HasSubstr("do not record its pressure sensors yet"));
+  const Result recording = run(std::string("record-calibration --muscle agonist --config ") + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml --out " +
+                               (out / "a.csv").string() + " --backend replay:x.csv");
+  EXPECT_EQ(recording.code, 2);
+  EXPECT_THAT(recording.output, HasSubstr("a recording excites a plant"));
+  EXPECT_FALSE(std::filesystem::exists(out / "a.csv"));
+  std::filesystem::remove_all(out);
+}
+
 // anything.
 TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
   const Result help = run("mfb-emulator --help");
