@@ -28,5 +28,6 @@ inline std::vector<double> to_vector(const Array& a) {
 void bind_models(py::module_& m);
 void bind_calibration(py::module_& m);
 void bind_sim(py::module_& m);
+void bind_api(py::module_& m);
 
 }  // namespace peha::python

@@ -12,4 +12,5 @@ PYBIND11_MODULE(_core, m) {
   peha::python::bind_models(m);
   peha::python::bind_calibration(m);
   peha::python::bind_sim(m);
+  peha::python::bind_api(m);
 }
