@@ -1,5 +1,7 @@
 #include "peha/experiments/e5_max_force/max_force_realtime.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <stdexcept>
@@ -13,7 +15,7 @@ E5RealtimeResult run_e5_realtime(const E5Scenario& scenario, const E5Case& c, co
   {
     runtime::RealtimeHarness harness(*backend, supervisor_params(*scenario.link, options), options, scenario.period_s, scenario.duration_s,
                                      c.name, options.dir / fmt::format("e5_{}.csv", c.name), e5_log_columns(),
-                                     {fmt::format("case: {} (clamp at {} deg) on the MFB at udp://{}", c.name, c.locked_angle_rad * 57.29577951308232,
+                                     {fmt::format("case: {} (clamp at {} deg) on the MFB at udp://{}", c.name, c.locked_angle_rad * models::kDegPerRad,
                                                   options.board.to_string()),
                                       fmt::format("session {:08x}; plant_* columns are NaN: the host sees only the board's sensors",
                                                   backend->session_id())});
