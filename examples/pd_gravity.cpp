@@ -11,6 +11,7 @@
 // how far each joint ended from its target. Exit code 0 when the verdict passed and every joint is
 // within --tolerance-deg, 3 otherwise, 2 on bad input.
 #include "peha/api/exoskeleton.hpp"
+#include "peha/models/units.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -19,6 +20,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 
 int main(int argc, char** argv) {
   CLI::App app{"A joint-space PD + gravity controller on a peha arm, through peha::api::Exoskeleton::control"};
@@ -53,7 +55,7 @@ int main(int argc, char** argv) {
           // The step as a 1 s cosine ramp from half time: a jump in the target would jump the torque and
           // let a wire go slack while the muscles' pressures follow.
           const double ramp = std::clamp(s.time_s - 0.5 * duration_s, 0.0, 1.0);
-          const double step_rad = step_deg * 3.14159265358979323846 / 180.0 * 0.5 * (1.0 - std::cos(3.14159265358979323846 * ramp));
+          const double step_rad = peha::models::deg_to_rad(step_deg) * 0.5 * (1.0 - std::cos(std::numbers::pi * ramp));
           for (std::size_t j = 0; j < n; ++j) {
             const auto& js = s.joints[j];
             tau.tau_Nm[j] = js.gravity_torque_Nm;
@@ -70,7 +72,7 @@ int main(int argc, char** argv) {
     bool on_target = started;
     for (std::size_t j = 0; j < n; ++j) {
       if (!exo.torque_controlled(j)) continue;  // a joint the scenario holds at constant pressure (a passive wrist)
-      const double error_deg = last[j] * 180.0 / 3.14159265358979323846;
+      const double error_deg = peha::models::rad_to_deg(last[j]);
       on_target = on_target && std::abs(error_deg) <= tolerance_deg;
       fmt::print("  {:<8} final error {:+.2f} deg (tolerance {:.1f})\n", exo.joint_names()[j], error_deg, tolerance_deg);
     }

@@ -5,6 +5,7 @@
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/experiments/calibration_recording/acceptance.hpp"
 #include "peha/experiments/run_request.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 
@@ -75,7 +76,7 @@ int calibrate(const CalibrateCommandOptions& options) {
                                        range.max_angle_rad);
       }
       fmt::print("closed-loop check on the rig ({}): holds at", options.scenario.string());
-      for (double a : s.acceptance->angles_rad) fmt::print(" {:.0f}", a * 180.0 / 3.14159265358979323846);
+      for (double a : s.acceptance->angles_rad) fmt::print(" {:.0f}", models::rad_to_deg(a));
       fmt::print(" deg x {} payload(s), {:.1f} s each, pure feed-forward\n", s.cases.size(), s.acceptance->hold_s);
       check = experiments::run_acceptance_check(s, *s.acceptance, [](const experiments::E1Scenario& sc, const experiments::E1Case& c) {
         return experiments::e1_plant_params(sc, c);

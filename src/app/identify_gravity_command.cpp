@@ -4,6 +4,7 @@
 #include "peha/app/hardware_flags.hpp"
 #include "peha/calibration/gravity_identification.hpp"
 #include "peha/experiments/arm_identification/arm_identification.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 
@@ -27,12 +28,11 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     }
     if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
     const auto& id = *scenario.identification;
-    constexpr double kDeg = 180.0 / 3.14159265358979323846;
     std::string swept;
     for (const std::size_t i : id.joints) swept += (swept.empty() ? "" : " ") + scenario.plant.actuated[i];
     fmt::print("peha identify-gravity: {} ({} postures, each swept up and down over +-{:.1f} deg at {:.1f} deg/s on {}; prior: the body "
                "file's arm model{})\n",
-               options.config.string(), id.postures.size(), id.sweep_rad * kDeg, id.sweep_speed_radps * kDeg, swept,
+               options.config.string(), id.postures.size(), id.sweep_rad * models::kDegPerRad, id.sweep_speed_radps * models::kDegPerRad, swept,
                scenario.gravity_identification_file.empty() ? std::string()
                                                             : ", not " + scenario.gravity_identification_file.string() + " (the config's)");
     std::optional<experiments::HardwareRunOptions> hw = experiments::realtime_options(hardware_request(options.hardware, options.config));

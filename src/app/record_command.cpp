@@ -8,6 +8,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 #include "peha/experiments/run_request.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 
 #include <fmt/format.h>
@@ -53,7 +54,7 @@ int record_calibration(const RecordOptions& options) {
     for (const experiments::ExcitationSegment& g : e.segments) {
       fmt::print("  then operating points: triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa{}\n",
                  g.min_pressure_Pa * 1e-6, g.max_pressure_Pa * 1e-6, g.period_s, g.duration_s, g.other_pressure_at_min_Pa * 1e-6,
-                 g.other_pressure_Pa * 1e-6, std::isfinite(g.clamp_angle_rad) && on_board ? fmt::format(", the link pinned at {:.0f} deg", g.clamp_angle_rad * 180.0 / 3.14159265358979323846) : "");
+                 g.other_pressure_Pa * 1e-6, std::isfinite(g.clamp_angle_rad) && on_board ? fmt::format(", the link pinned at {:.0f} deg", models::rad_to_deg(g.clamp_angle_rad)) : "");
     }
     calibration::Dataset data;
     if (on_board) {

@@ -7,6 +7,7 @@
 #include "peha/experiments/e4_goniometer/goniometer_report.hpp"
 #include "peha/experiments/e5_max_force/max_force_report.hpp"
 #include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 #include "peha/sim/arm_plant.hpp"
@@ -126,7 +127,7 @@ std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorOp
   return BoardPlant{scenario.period_s, *scenario.link,
                     {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
                     [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
-                    fmt::format("one-DOF rig clamped, case {} ({} deg)", chosen->name, plant.initial_angle_rad * 57.29577951308232)};
+                    fmt::format("one-DOF rig clamped, case {} ({} deg)", chosen->name, plant.initial_angle_rad * models::kDegPerRad)};
 }
 
 // --- arm: E3 postures, E4 goniometer, E6 bandwidth ---

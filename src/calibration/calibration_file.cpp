@@ -3,6 +3,7 @@
 #include "peha/calibration/dataset.hpp"
 #include "peha/config/atomic_file.hpp"
 #include "peha/config/reader.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 #include <yaml-cpp/yaml.h>
@@ -10,7 +11,6 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <numbers>
 #include <limits>
 #include <stdexcept>
 
@@ -229,7 +229,7 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
       const double force_N = ceiling_N * j / (n - 1);
       const double u = eps + p.eps0 + force_N / p.k_N;
       const double g = models::gain_N_per_Pa(p, u);
-      const std::string at = fmt::format("at joint angle {:.1f} deg (contraction {:.4f}) and {:.0f} N", angle * 180.0 / std::numbers::pi, eps, force_N);
+      const std::string at = fmt::format("at joint angle {:.1f} deg (contraction {:.4f}) and {:.0f} N", models::rad_to_deg(angle), eps, force_N);
       if (!std::isfinite(g) || g <= p.min_gain_N_per_Pa) {
         reject(fmt::format("g(u) = {:.4g} N/Pa <= 0 {}: the model says the muscle cannot pull there, and the "
                            "controller would command full supply", g, at));

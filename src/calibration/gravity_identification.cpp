@@ -2,17 +2,16 @@
 
 #include "peha/config/atomic_file.hpp"
 #include "peha/models/gravity_parameters.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace peha::calibration {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kBig = 1e6;
 
 std::string joined(const std::vector<std::string>& v) {
@@ -177,7 +176,7 @@ void write_gravity_identification(const std::filesystem::path& path, const model
     for (std::size_t s = 0; s < samples.size(); ++s) {
       const auto i = static_cast<Eigen::Index>(s);
       out << fmt::format("  - {{name: \"{}\", q_deg: {}, measured_Nm: {}, identified_Nm: {}, nominal_Nm: {}}}\n", samples[s].name,
-                         list(samples[s].q_rad, 1 / kDeg, "{:.4f}"), list(samples[s].tau_Nm, 1, "{:.5f}"),
+                         list(samples[s].q_rad, models::kDegPerRad, "{:.4f}"), list(samples[s].tau_Nm, 1, "{:.5f}"),
                          list(fit.predicted_Nm.row(i).transpose(), 1, "{:.5f}"), list(fit.prior_Nm.row(i).transpose(), 1, "{:.5f}"));
     }
   });

@@ -1,8 +1,9 @@
 #include "peha/control/wire_creep_estimator.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <algorithm>
 #include <cmath>
-#include <numbers>
 
 namespace peha::control {
 
@@ -21,7 +22,7 @@ CreepEstimatorParams read_creep_estimator(config::Map map) {
   p.pressure_noise_Pa = map.number_or("pressure_noise_MPa", p.pressure_noise_Pa * 1e-6, {0.0, 0.1}) * 1e6;
   p.min_pressure_Pa = map.number_or("min_pressure_MPa", p.min_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
   p.min_force_N = map.number_or("min_force_N", p.min_force_N, {0.1, 5000.0});
-  p.max_speed_radps = map.number_or("max_speed_degps", p.max_speed_radps * 180.0 / std::numbers::pi, {0.0, 1000.0}) * std::numbers::pi / 180.0;
+  p.max_speed_radps = models::deg_to_rad(map.number_or("max_speed_degps", models::rad_to_deg(p.max_speed_radps), {0.0, 1000.0}));
   p.settle_tolerance_Pa = map.number_or("settle_tolerance_MPa", p.settle_tolerance_Pa * 1e-6, {0.0, 1.0}) * 1e6;
   p.max_correction_m = map.number_or("max_correction_mm", p.max_correction_m * 1e3, {0.0, 50.0}) * 1e-3;
   p.alert_m = map.number_or("alert_mm", p.alert_m * 1e3, {0.0, 50.0}) * 1e-3;

@@ -1,5 +1,7 @@
 #include "peha/mfb/channel_map.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -22,7 +24,7 @@ struct Unit {
 constexpr Unit kForceUnits[] = {{"N", 1.0}};
 constexpr Unit kPressureUnits[] = {{"Pa", 1.0}, {"kPa", 1e3}, {"MPa", 1e6}, {"bar", 1e5}};
 constexpr Unit kTorqueUnits[] = {{"Nm", 1.0}};
-constexpr Unit kAngleUnits[] = {{"rad", 1.0}, {"deg", std::numbers::pi / 180.0}};
+constexpr Unit kAngleUnits[] = {{"rad", 1.0}, {"deg", models::kRadPerDeg}};
 
 struct Dimension {
   std::string_view what;  ///< for messages: "a pressure unit"
@@ -218,7 +220,7 @@ void read_encoders(config::Map& root, const std::vector<std::string>& names,
     e.gear = item.number("gear", {1e-3, 1e6});
     e.sign = static_cast<int>(item.integer("sign", -1, 1));
     if (e.sign == 0) item.fail("sign", "expected +1 or -1, found 0");
-    e.offset_rad = item.number("offset_deg", {-360.0, 360.0}) * std::numbers::pi / 180.0;
+    e.offset_rad = models::deg_to_rad(item.number("offset_deg", {-360.0, 360.0}));
     e.rad_per_count = e.sign * 2.0 * std::numbers::pi / (e.counts_per_rev * e.gear);
     item.finish();
   }

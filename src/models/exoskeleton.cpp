@@ -1,5 +1,7 @@
 #include "peha/models/exoskeleton.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <array>
@@ -10,7 +12,6 @@
 namespace peha::models {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kSteelDensity_kg_per_m3 = 7850.0;
 
 void require(bool ok, const std::string& what) {
@@ -94,11 +95,11 @@ std::string_view without_side(std::string_view name) noexcept {
 std::vector<ArmJointSpec> paper_right_arm_joints() {
   const Eigen::Vector3d flexion(0, -1, 0);  // positive turns +x toward +z (up)
   std::vector<ArmJointSpec> j(5);
-  j[0] = {"SFE", "", JointSite::kShoulder, flexion, true, -100 * kDeg, 60 * kDeg, false, 0, 0.05};
-  j[1] = {"EFE", "SFE", JointSite::kElbow, flexion, true, 0, 135 * kDeg, false, 0, 0.05};
-  j[2] = {"WFE", "EFE", JointSite::kWrist, flexion, true, -60 * kDeg, 60 * kDeg, false, 0, 0.05};
-  j[3] = {"WR", "WFE", JointSite::kWrist, Eigen::Vector3d::UnitX(), false, -80 * kDeg, 80 * kDeg, true, 0, 0.05};
-  j[4] = {"WAA", "WR", JointSite::kWrist, Eigen::Vector3d::UnitZ(), false, -30 * kDeg, 20 * kDeg, false, 0, 0.05};
+  j[0] = {"SFE", "", JointSite::kShoulder, flexion, true, deg_to_rad(-100), deg_to_rad(60), false, 0, 0.05};
+  j[1] = {"EFE", "SFE", JointSite::kElbow, flexion, true, 0, deg_to_rad(135), false, 0, 0.05};
+  j[2] = {"WFE", "EFE", JointSite::kWrist, flexion, true, deg_to_rad(-60), deg_to_rad(60), false, 0, 0.05};
+  j[3] = {"WR", "WFE", JointSite::kWrist, Eigen::Vector3d::UnitX(), false, deg_to_rad(-80), deg_to_rad(80), true, 0, 0.05};
+  j[4] = {"WAA", "WR", JointSite::kWrist, Eigen::Vector3d::UnitZ(), false, deg_to_rad(-30), deg_to_rad(20), false, 0, 0.05};
   return j;
 }
 
@@ -189,11 +190,11 @@ std::vector<ArmJointSpec> read_arm_joints(config::Map& map) {
     j.active = !item.boolean_or("passive", false);
     const std::vector<double> range = item.numbers("range_deg", {-180.0, 180.0}, 2, 2);
     if (!(range[0] < range[1])) item.fail("range_deg", fmt::format("needs min < max, found [{}, {}]", range[0], range[1]));
-    j.min_angle_rad = range[0] * kDeg;
-    j.max_angle_rad = range[1] * kDeg;
+    j.min_angle_rad = deg_to_rad(range[0]);
+    j.max_angle_rad = deg_to_rad(range[1]);
     if (item.has("locked_deg")) {
       j.locked = true;
-      j.locked_at_rad = item.number("locked_deg", {range[0], range[1]}) * kDeg;
+      j.locked_at_rad = deg_to_rad(item.number("locked_deg", {range[0], range[1]}));
     }
     j.damping_Nms_per_rad = item.number_or("damping_Nms_per_rad", j.damping_Nms_per_rad, {0.0, 100.0});
     item.finish();

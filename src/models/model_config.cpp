@@ -1,6 +1,6 @@
 #include "peha/models/model_config.hpp"
 
-#include <numbers>
+#include "peha/models/units.hpp"
 
 namespace peha::models {
 
@@ -19,7 +19,7 @@ TendonSpringParams read_tendon_spring(config::Map map) {
 BowdenParams read_bowden(config::Map map) {
   BowdenParams p;
   p.friction_coefficient = map.number("friction_coefficient", {0.0, 1.0});
-  p.wrap_angle_rad = map.number("wrap_angle_deg", {0.0, 1080.0}) * std::numbers::pi / 180.0;
+  p.wrap_angle_rad = deg_to_rad(map.number("wrap_angle_deg", {0.0, 1080.0}));
   p.sigmoid_gain_s_per_m = map.number("sigmoid_gain_s_per_m", {0.0, 1e6});
   map.finish();
   return p;

@@ -1,5 +1,7 @@
 #include "peha/runtime/realtime_harness.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -7,7 +9,6 @@
 #include <csignal>
 #include <cmath>
 #include <cstdio>
-#include <numbers>
 #include <poll.h>
 #include <unistd.h>
 
@@ -134,7 +135,7 @@ bool RealtimeHarness::after(const io::SensorState& state, const io::Command& cmd
     for (int j = 0; j < state.joint_count && k + 6 <= telemetry_values_.size(); ++j) {
       const auto& s = state.joints[static_cast<std::size_t>(j)];
       const auto& o = cmd.joints[static_cast<std::size_t>(j)];
-      for (double v : {s.angle_rad * 180.0 / std::numbers::pi, s.agonist_loadcell_N, s.antagonist_loadcell_N, o.agonist_pressure_Pa * 1e-6,
+      for (double v : {models::rad_to_deg(s.angle_rad), s.agonist_loadcell_N, s.antagonist_loadcell_N, o.agonist_pressure_Pa * 1e-6,
                        o.antagonist_pressure_Pa * 1e-6, o.motor_torque_Nm}) {
         telemetry_values_[k++] = v;
       }

@@ -1,5 +1,7 @@
 #include "peha/safety/fault_monitor.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -64,7 +66,7 @@ const char* safe_action_name(SafeAction a) noexcept {
 
 void read_monitor_params(config::Map& root, MonitorParams& p) {
   if (!root.has("supervisor")) return;
-  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  using models::deg_to_rad, models::rad_to_deg;
   config::Map m = root.map("supervisor");
   p.enabled = m.boolean_or("enabled", p.enabled);
   p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 60});
@@ -84,23 +86,23 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.valve_lag_s = m.number_or("valve_lag_s", p.valve_lag_s, {1e-4, 2});
   p.valve_rate_Pa_per_s = m.number_or("valve_rate_MPa_per_s", p.valve_rate_Pa_per_s * 1e-6, {0.01, 100}) * 1e6;
   p.valve_slow_factor = m.number_or("valve_slow_factor", p.valve_slow_factor, {1.0, 10.0});
-  p.encoder_max_step_rad = m.number_or("encoder_max_step_deg", p.encoder_max_step_rad / kDeg, {0.01, 90}) * kDeg;
+  p.encoder_max_step_rad = deg_to_rad(m.number_or("encoder_max_step_deg", rad_to_deg(p.encoder_max_step_rad), {0.01, 90}));
   p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 1000}));
-  p.encoder_frozen_speed_radps = m.number_or("encoder_frozen_speed_degps", p.encoder_frozen_speed_radps / kDeg, {0.1, 1000}) * kDeg;
-  p.encoder_disagree_rad = m.number_or("encoder_disagree_deg", p.encoder_disagree_rad / kDeg, {0.01, 90}) * kDeg;
-  p.max_joint_speed_radps = m.number_or("max_joint_speed_degps", p.max_joint_speed_radps / kDeg, {1, 2000}) * kDeg;
-  p.range_margin_rad = m.number_or("range_margin_deg", p.range_margin_rad / kDeg, {0, 45}) * kDeg;
+  p.encoder_frozen_speed_radps = deg_to_rad(m.number_or("encoder_frozen_speed_degps", rad_to_deg(p.encoder_frozen_speed_radps), {0.1, 1000}));
+  p.encoder_disagree_rad = deg_to_rad(m.number_or("encoder_disagree_deg", rad_to_deg(p.encoder_disagree_rad), {0.01, 90}));
+  p.max_joint_speed_radps = deg_to_rad(m.number_or("max_joint_speed_degps", rad_to_deg(p.max_joint_speed_radps), {1, 2000}));
+  p.range_margin_rad = deg_to_rad(m.number_or("range_margin_deg", rad_to_deg(p.range_margin_rad), {0, 45}));
   p.supply_low_fraction = m.number_or("supply_low_fraction", p.supply_low_fraction, {0, 1});
   p.supply_lost_fraction = m.number_or("supply_lost_fraction", p.supply_lost_fraction, {0, p.supply_low_fraction});
   p.motor_tolerance_Nm = m.number_or("motor_tolerance_Nm", p.motor_tolerance_Nm, {0.001, 100});
   p.motor_window_cycles = static_cast<int>(m.number_or("motor_window_cycles", p.motor_window_cycles, {1, FaultMonitor::kMotorWindow}));
-  p.descent_speed_radps = m.number_or("descent_speed_degps", p.descent_speed_radps / kDeg, {0.5, 180}) * kDeg;
+  p.descent_speed_radps = deg_to_rad(m.number_or("descent_speed_degps", rad_to_deg(p.descent_speed_radps), {0.5, 180}));
   p.descent_force_rate_N_per_s = m.number_or("descent_force_rate_N_per_s", p.descent_force_rate_N_per_s, {1, 5000});
   p.descent_gain_N_per_radps = m.number_or("descent_gain_N_per_radps", p.descent_gain_N_per_radps, {0, 20000});
   p.descent_force_slew_N_per_s = m.number_or("descent_force_slew_N_per_s", p.descent_force_slew_N_per_s, {10, 1e6});
   p.descent_floor_fraction = m.number_or("descent_floor_fraction", p.descent_floor_fraction, {0, 1});
   p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
-  p.descent_stop_margin_rad = m.number_or("descent_stop_margin_deg", p.descent_stop_margin_rad / kDeg, {0.5, 45}) * kDeg;
+  p.descent_stop_margin_rad = deg_to_rad(m.number_or("descent_stop_margin_deg", rad_to_deg(p.descent_stop_margin_rad), {0.5, 45}));
   p.speed_filter_Hz = m.number_or("speed_filter_Hz", p.speed_filter_Hz, {0.5, 200});
   m.finish();
 }

@@ -1,11 +1,12 @@
 #include "peha/safety/verdict.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 namespace peha::safety {
 
@@ -125,7 +126,7 @@ double Envelope::min_tension_N() const noexcept {
 
 void add_envelope_checks(const LimitsModel& model, const JointModels& joints, const std::vector<std::string>& names,
                          const Envelope& envelope, const VerdictThresholds& thresholds, Verdict& v) {
-  constexpr double kDeg = 180.0 / std::numbers::pi;
+  using models::kDegPerRad;
   for (int i = 0; i < model.joint_count; ++i) {
     const auto j = static_cast<std::size_t>(i);
     const models::JointModel& jm = *joints[j];
@@ -140,10 +141,10 @@ void add_envelope_checks(const LimitsModel& model, const JointModels& joints, co
     v.at_most(name + " highest pressure", "MPa", e.max_pressure_Pa * 1e-6, jm.supply_pressure_Pa * 1e-6);
     v.at_most(name + " peak motor torque", "Nm", e.peak_motor_torque_Nm, (jm.has_motor ? jm.motor_max_torque_Nm : 0.0) + 1e-12);
     const JointLimits& lim = model.joints[j];
-    v.within(name + " lowest angle", "deg", e.min_angle_rad * kDeg, (lim.min_angle_rad - kRangeTolerance_rad) * kDeg,
-             (lim.max_angle_rad + kRangeTolerance_rad) * kDeg);
-    v.within(name + " highest angle", "deg", e.max_angle_rad * kDeg, (lim.min_angle_rad - kRangeTolerance_rad) * kDeg,
-             (lim.max_angle_rad + kRangeTolerance_rad) * kDeg);
+    v.within(name + " lowest angle", "deg", e.min_angle_rad * kDegPerRad, (lim.min_angle_rad - kRangeTolerance_rad) * kDegPerRad,
+             (lim.max_angle_rad + kRangeTolerance_rad) * kDegPerRad);
+    v.within(name + " highest angle", "deg", e.max_angle_rad * kDegPerRad, (lim.min_angle_rad - kRangeTolerance_rad) * kDegPerRad,
+             (lim.max_angle_rad + kRangeTolerance_rad) * kDegPerRad);
   }
 }
 

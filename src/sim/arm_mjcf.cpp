@@ -8,7 +8,6 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <random>
 #include <stdexcept>
 
@@ -16,8 +15,6 @@
 
 namespace peha::sim {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 /// Shortest text that reads back to the same double.
 std::string num(double v) {

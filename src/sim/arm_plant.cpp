@@ -1,5 +1,7 @@
 #include "peha/sim/arm_plant.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -9,8 +11,6 @@
 
 namespace peha::sim {
 namespace {
-
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 /// The plant's bodies with `unknown_kg` added to every hand's payload body ("payload", or "R_payload"
 /// and "L_payload" on a body with both arms): still a steel sphere at the hand's centre of mass (as
@@ -177,7 +177,7 @@ void ArmBackend::apply_faults(double t_s) noexcept {
       case FaultKind::kSupplyHalf:
         for (PehaJointPlant& j : joints_) apply_joint_fault(f, j.faults());  // one supply feeds every joint
         break;
-      case FaultKind::kEncoderJump: encoder_offset_rad_[a] += f.value * kDegToRad; break;
+      case FaultKind::kEncoderJump: encoder_offset_rad_[a] += models::deg_to_rad(f.value); break;
       case FaultKind::kEncoderFrozen: encoder_frozen_[a] = 1; break;
       case FaultKind::kEstop: gate_.estop(); break;
       default: apply_joint_fault(f, joints_[a].faults()); break;

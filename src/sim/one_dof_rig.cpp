@@ -1,17 +1,16 @@
 #include "peha/sim/one_dof_rig.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <stdexcept>
 
 namespace peha::sim {
 namespace {
-
-constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 }  // namespace
 
@@ -168,7 +167,7 @@ void OneDofRigBackend::apply_faults(double t_s) noexcept {
     fault_applied_[i] = 1;
     apply_joint_fault(f, joint_.faults());
     switch (f.kind) {
-      case FaultKind::kEncoderJump: encoder_offset_rad_ += f.value * kDegToRad; break;
+      case FaultKind::kEncoderJump: encoder_offset_rad_ += models::deg_to_rad(f.value); break;
       case FaultKind::kEncoderFrozen: encoder_frozen_ = true; break;
       case FaultKind::kEstop: gate_.estop(); break;
       default: break;

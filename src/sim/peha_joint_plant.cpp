@@ -1,5 +1,7 @@
 #include "peha/sim/peha_joint_plant.hpp"
 
+#include "peha/models/units.hpp"
+
 #include "plant_muscle_law.hpp"
 
 #include <fmt/format.h>
@@ -11,14 +13,12 @@
 namespace peha::sim {
 namespace {
 
-constexpr double kDegToRad = std::numbers::pi / 180.0;
-
 CablePlantParams read_cable(config::Map map) {
   CablePlantParams c;
   c.kinetic_friction = map.number("kinetic_friction", {0.0, 1.0});
   c.static_friction = map.number("static_friction", {c.kinetic_friction, 1.0});
   c.stribeck_velocity_mps = map.number("stribeck_velocity_mps", {1e-6, 1.0});
-  c.wrap_angle_rad = map.number("wrap_angle_deg", {0.0, 1080.0}) * kDegToRad;
+  c.wrap_angle_rad = models::deg_to_rad(map.number("wrap_angle_deg", {0.0, 1080.0}));
   c.wire_stiffness_N_per_m = map.number("wire_stiffness_N_per_m", {1e3, 1e8});
   c.initial_slack_m = map.number("initial_slack_mm", {0.0, 50.0}) * 1e-3;
   c.creep_m_per_N_s = map.number("creep_m_per_N_s", {0.0, 1e-6});

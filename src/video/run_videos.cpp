@@ -1,18 +1,17 @@
 #include "peha/video/run_videos.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
 #include <fstream>
-#include <numbers>
 #include <sstream>
 #include <stdexcept>
 
 namespace peha::video {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 /// Linear interpolation of a column at time t (clamped to the log's ends).
 class Sampler {
@@ -170,7 +169,7 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
   if (log.has("plant_angle_rad") && log.has("finger_force_N")) {  // E1, the one-DOF rig
     const int q = qpos_of(model, "joint");
     const int tip = mj_name2id(model, mjOBJ_SITE, "tip");
-    const auto& angle_deg = derived(log, "video_angle_deg", "plant_angle_rad", 1 / kDeg);
+    const auto& angle_deg = derived(log, "video_angle_deg", "plant_angle_rad", models::kDegPerRad);
     o.inset = {{"angle / deg", &t, &angle_deg, blue}, {"finger / N", &t, &log.at("finger_force_N"), orange}};
     o.inset_title = "link angle and finger force";
     return [=](double time, mjData* d, Frame& f) {
@@ -183,7 +182,7 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
       const double finger = s(L->at("finger_force_N"));
       const bool active = s.nearest(L->at("finger_active")) > 0.5;
       f.overlay_names = "time\nangle\nfinger\nF agonist / antagonist\np agonist / antagonist\nmotor";
-      f.overlay_values = fmt::format("{:.2f} s\n{:.2f} deg\n{}\n{}\n{:.2f} Nm", time, angle / kDeg,
+      f.overlay_values = fmt::format("{:.2f} s\n{:.2f} deg\n{}\n{}\n{:.2f} Nm", time, models::rad_to_deg(angle),
                                      active ? fmt::format("{:.1f} N", finger) : std::string("released"),
                                      muscle_lines(s(L->at("plant_agonist_force_N")), s(L->at("plant_antagonist_force_N")),
                                                   s(L->at("agonist_pressure_MPa")), s(L->at("antagonist_pressure_MPa"))),
@@ -211,7 +210,7 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
     o.inset.clear();
     for (std::size_t k = 0; k < e3.size() && k < 2; ++k) {
       o.inset.push_back({fmt::format("{} / deg", e3[k].label), &t,
-                         &derived(log, "video_" + e3[k].prefix + "deg", e3[k].prefix + "plant_angle_rad", 1 / kDeg), k == 0 ? blue : orange});
+                         &derived(log, "video_" + e3[k].prefix + "deg", e3[k].prefix + "plant_angle_rad", models::kDegPerRad), k == 0 ? blue : orange});
     }
     o.inset_title = e3.size() > 1 ? fmt::format("{} and {} angles", e3[0].label, e3[1].label) : e3[0].label + " angle";
     const bool compact = e3.size() > 3;  // two arms: one line per joint
@@ -226,10 +225,10 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
         d->qpos[j.qpos] = angle;
         if (compact) {
           names += fmt::format("\n{}", j.label);
-          values += fmt::format("\n{:.1f} deg  {:.0f} / {:.0f} N", angle / kDeg, c("plant_agonist_force_N"), c("plant_antagonist_force_N"));
+          values += fmt::format("\n{:.1f} deg  {:.0f} / {:.0f} N", models::rad_to_deg(angle), c("plant_agonist_force_N"), c("plant_antagonist_force_N"));
         } else {
           names += fmt::format("\n{} angle\n  F agonist / antagonist\n  p cmd", j.label);
-          values += fmt::format("\n{:.1f} deg\n{:.0f} N / {:.0f} N\n{:.3f} / {:.3f} MPa", angle / kDeg, c("plant_agonist_force_N"),
+          values += fmt::format("\n{:.1f} deg\n{:.0f} N / {:.0f} N\n{:.3f} / {:.3f} MPa", models::rad_to_deg(angle), c("plant_agonist_force_N"),
                                 c("plant_antagonist_force_N"), c("agonist_pressure_cmd_MPa"), c("antagonist_pressure_cmd_MPa"));
         }
       }
@@ -259,12 +258,12 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
       const Sampler& s = *sample;
       std::string names = "time", values = fmt::format("{:.2f} s", time);
       for (const auto& [q, column] : held) {
-        if (const double deg = s(L->at(column)); std::isfinite(deg)) d->qpos[q] = deg * kDeg;
+        if (const double deg = s(L->at(column)); std::isfinite(deg)) d->qpos[q] = models::deg_to_rad(deg);
       }
       for (const LogJoint& j : driven) {
         auto c = [&](const char* what) { return s(L->at(j.prefix + what)); };
         const double elbow = c("plant_elbow_deg");
-        d->qpos[j.qpos] = (std::isfinite(elbow) ? elbow : c("elbow_encoder_deg")) * kDeg;  // board: encoder
+        d->qpos[j.qpos] = models::deg_to_rad(std::isfinite(elbow) ? elbow : c("elbow_encoder_deg"));  // board: encoder
         const std::string who = driven.size() > 1 ? j.label + " " : std::string();
         names += fmt::format("\n{}person\n{}exo\n  F agonist / antagonist\n  p cmd\n  motor", who, who);
         values += fmt::format("\n{:.1f} deg\n{:.1f} deg\n{}\n{:.2f} Nm", c("person_elbow_deg"), elbow,

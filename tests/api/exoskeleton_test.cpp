@@ -2,6 +2,7 @@
 // the verdict around it passes a sound controller and fails a wrong one, the callback sees the
 // sensors and the model, `finished` ends the run, and what cannot run is refused at set-up.
 #include "peha/api/exoskeleton.hpp"
+#include "peha/models/units.hpp"
 
 #include "../support/alloc_counter.hpp"
 
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <filesystem>
 #include <memory>
+#include <numbers>
 
 #include <unistd.h>
 
@@ -39,7 +41,7 @@ TorqueController pd(double stiffness, const Exoskeleton& exo, double& last_error
       const JointState& js = s.joints[j];
       tau.tau_Nm[j] = js.gravity_torque_Nm;
       const double progress = move_s > 0 ? std::clamp((s.time_s - 4.0) / move_s, 0.0, 1.0) : (s.time_s >= 4.0 ? 1.0 : 0.0);
-      const double goal = (*target)[j] + move_deg * 3.14159265358979323846 / 180.0 * 0.5 * (1.0 - std::cos(3.14159265358979323846 * progress));
+      const double goal = (*target)[j] + models::deg_to_rad(move_deg) * 0.5 * (1.0 - std::cos(std::numbers::pi * progress));
       if (*started) tau.tau_Nm[j] += stiffness * (goal - js.angle_rad) - 0.1 * stiffness * js.velocity_radps;
       if (exo.torque_controlled(j)) last_error_rad = std::max(last_error_rad, std::abs(goal - js.angle_rad));
     }
@@ -56,7 +58,7 @@ TEST(UserController, APdWithGravityHoldsTheArmWithinEveryLimit) {
   EXPECT_TRUE(r.passed) << r.verdict.failures();
   EXPECT_EQ(r.faults, 0u);
   EXPECT_EQ(r.cycles, 4001u);
-  EXPECT_LT(error_rad * 180.0 / 3.14159265358979323846, 3.0);
+  EXPECT_LT(models::rad_to_deg(error_rad), 3.0);
 }
 
 // A PD whose target jumps 10 deg jumps the torque faster than the muscles' valves follow: the

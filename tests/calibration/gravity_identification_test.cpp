@@ -4,6 +4,7 @@
 
 #include "peha/models/exoskeleton.hpp"
 #include "peha/models/gravity_parameters.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 #include <gmock/gmock.h>
@@ -11,14 +12,12 @@
 
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <unistd.h>
 
 namespace peha::calibration {
 namespace {
 
 using ::testing::HasSubstr;
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 models::BodyConfig shipped_arm() {
   return models::read_body(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml"));
@@ -26,7 +25,7 @@ models::BodyConfig shipped_arm() {
 
 Eigen::VectorXd q_of(double sfe, double efe, double wfe) {
   Eigen::VectorXd q = Eigen::VectorXd::Zero(5);
-  q << sfe * kDeg, efe * kDeg, wfe * kDeg, 0, 0;
+  q << models::deg_to_rad(sfe), models::deg_to_rad(efe), models::deg_to_rad(wfe), 0, 0;
   return q;
 }
 

@@ -4,13 +4,13 @@
 // rest from the plant's truth, and the lowest wire tension. Shared by the Bowden-stability and the
 // load-cell tests.
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/models/units.hpp"
 
 #include <algorithm>
 #include <array>
 #include <cstdio>
 #include <cmath>
 #include <limits>
-#include <numbers>
 #include <span>
 #include <string>
 #include <vector>
@@ -103,7 +103,7 @@ inline E1Figures run_e1_figures(const experiments::E1Scenario& scenario, const e
         const double a = row[angle_col];
         window_min = std::min(window_min, a);
         window_max = std::max(window_max, a);
-        f.worst_swing_back_deg = std::max(f.worst_swing_back_deg, std::min(window_max - a, a - window_min) * 180.0 / std::numbers::pi);
+        f.worst_swing_back_deg = std::max(f.worst_swing_back_deg, models::rad_to_deg(std::min(window_max - a, a - window_min)));
         if (!std::isnan(previous_angle) && t > previous_t) {
           f.max_speed_after_release_radps = std::max(f.max_speed_after_release_radps, std::abs(a - previous_angle) / (t - previous_t));
         }
@@ -118,7 +118,7 @@ inline E1Figures run_e1_figures(const experiments::E1Scenario& scenario, const e
       ++n;
     }
     if (n == 0) continue;
-    if ((highest - lowest) * 180.0 / std::numbers::pi > 0.02) f.settled = false;
+    if (models::rad_to_deg(highest - lowest) > 0.02) f.settled = false;
     f.worst_static_error_pct = std::max(f.worst_static_error_pct, 100.0 * std::abs(constraint_sum / gravity_sum));
   }
   return f;

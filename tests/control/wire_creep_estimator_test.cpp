@@ -3,12 +3,12 @@
 // a known creep, the gate, the alerts and the bound of the correction.
 #include "peha/control/wire_creep_estimator.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numbers>
 #include <random>
 #include <utility>
 #include <vector>
@@ -38,7 +38,7 @@ TEST(WireCreepEstimator, InversionRecoversTheOffsetTheForwardModelWasGiven) {
     for (double pressure_MPa : {0.08, 0.15, 0.3, 0.5}) {
       for (double angle_deg : {-20.0, 0.0, 25.0}) {
         for (double offset_mm : {-2.0, 0.0, 1.0, 5.0}) {
-          const double angle = angle_deg * std::numbers::pi / 180.0;
+          const double angle = models::deg_to_rad(angle_deg);
           const double eps = models::rigid_contraction(m, joint.pulley_radius_m, side, angle);
           const double force = models::forward_force_N(m.pam, pressure_MPa * 1e6, eps + offset_mm * 1e-3 / m.rest_length_m);
           if (force < 5.0) continue;  // no pull there: nothing to invert
@@ -293,7 +293,7 @@ TEST(WireCreepEstimator, ConfigReadsMillimetresAndRejectsUnknownKeys) {
   const control::CreepEstimatorParams p = control::read_creep_estimator(doc.root().map("creep_estimator"));
   EXPECT_TRUE(p.enabled);
   EXPECT_DOUBLE_EQ(p.alert_m, 0.0015);
-  EXPECT_NEAR(p.max_speed_radps, 2.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(p.max_speed_radps, models::deg_to_rad(2.0), 1e-12);
   EXPECT_DOUBLE_EQ(p.min_pressure_Pa, 0.06e6);
   const config::Document bad = config::Document::load_string("creep_estimator: {enabled: true, alert_m: 0.001}\n", "test.yaml");
   EXPECT_THROW(control::read_creep_estimator(bad.root().map("creep_estimator")), config::Error);

@@ -3,6 +3,7 @@
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
 #include "peha/experiments/robustness/robustness.hpp"
+#include "peha/models/units.hpp"
 
 #include "../support/alloc_counter.hpp"
 #include "../support/edited_config.hpp"
@@ -325,23 +326,22 @@ TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
 // every side, or by io joint). The right arm holds its shoulder and drives its elbow; the upper body
 // drives both elbows with both shoulders held, and sweeps the left elbow.
 TEST(ArmScenario, E4AndE6ReadTheirJointsAndPosturesByName) {
-  constexpr double kDeg = 3.14159265358979323846 / 180.0;
   const ArmScenario right = shipped();
   EXPECT_EQ(right.goniometer.joints, std::vector<int>{1});
   ASSERT_EQ(right.goniometer.held_rad.size(), 3u);
-  EXPECT_NEAR(right.goniometer.held_rad[0], -90 * kDeg, 1e-12);
+  EXPECT_NEAR(right.goniometer.held_rad[0], models::deg_to_rad(-90), 1e-12);
   EXPECT_TRUE(std::isnan(right.goniometer.held_rad[1]));
   EXPECT_TRUE(std::isnan(right.goniometer.held_rad[2]));  // the wrist: where the plant starts it
   EXPECT_EQ(right.bandwidth.joint, 1);
-  EXPECT_NEAR(right.bandwidth.locked_rad[0], -90 * kDeg, 1e-12);
-  EXPECT_NEAR(right.bandwidth.locked_rad[1], 90 * kDeg, 1e-12);
+  EXPECT_NEAR(right.bandwidth.locked_rad[0], models::deg_to_rad(-90), 1e-12);
+  EXPECT_NEAR(right.bandwidth.locked_rad[1], models::deg_to_rad(90), 1e-12);
   EXPECT_TRUE(std::isnan(right.bandwidth.locked_rad[2]));
   const ArmScenario upper = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
   EXPECT_EQ(upper.goniometer.joints, (std::vector<int>{2, 6}));  // R_EFE, L_EFE
   for (const std::size_t shoulder : {0u, 4u}) EXPECT_NEAR(upper.goniometer.held_rad[shoulder], 0.0, 1e-12);      // SAA
-  for (const std::size_t shoulder : {1u, 5u}) EXPECT_NEAR(upper.goniometer.held_rad[shoulder], -90 * kDeg, 1e-12);  // SFE
+  for (const std::size_t shoulder : {1u, 5u}) EXPECT_NEAR(upper.goniometer.held_rad[shoulder], models::deg_to_rad(-90), 1e-12);  // SFE
   EXPECT_EQ(upper.bandwidth.joint, 6);  // L_EFE
-  EXPECT_NEAR(upper.bandwidth.locked_rad[2], 90 * kDeg, 1e-12);
+  EXPECT_NEAR(upper.bandwidth.locked_rad[2], models::deg_to_rad(90), 1e-12);
 }
 
 // A goniometer or bandwidth section naming a joint the arm cannot drive by torque is refused at load

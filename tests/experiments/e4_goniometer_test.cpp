@@ -3,6 +3,7 @@
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
 
 #include "peha/calibration/dataset.hpp"
+#include "peha/models/units.hpp"
 
 #include <gmock/gmock.h>
 #include "../support/verdict_checks.hpp"
@@ -14,13 +15,11 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <numbers>
 #include <sys/wait.h>
 
 namespace peha::experiments {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
 
@@ -162,7 +161,7 @@ TEST(E4, GoniometerCsvRoundTripsAndRejectsBadRecordings) {
   write_goniometer_csv(dir / "rec.csv", t);
   const GoniometerTrace back = read_goniometer_csv(dir / "rec.csv", 200.0, lo, hi);
   ASSERT_EQ(back.measured_rad.size(), t.measured_rad.size());
-  for (std::size_t k = 0; k < t.measured_rad.size(); ++k) EXPECT_NEAR(back.measured_rad[k], t.measured_rad[k], 1e-4 * kDeg);
+  for (std::size_t k = 0; k < t.measured_rad.size(); ++k) EXPECT_NEAR(back.measured_rad[k], t.measured_rad[k], models::deg_to_rad(1e-4));
   EXPECT_EQ(back.truth_rad, back.measured_rad);
   EXPECT_EQ(back.name, "rec");
 

@@ -5,6 +5,7 @@
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 #include "peha/models/gravity_parameters.hpp"
+#include "peha/models/units.hpp"
 
 #include "../support/edited_config.hpp"
 #include "../support/verdict_checks.hpp"
@@ -44,7 +45,7 @@ TEST(UpperBodyScenario, DrivesBothArmsFromTheJointList) {
   EXPECT_EQ(arm_log_prefix(s, 5), "l_sfe");
   // A posture names joints for both arms or one side.
   const ArmPosture& raise = s.postures.back();
-  EXPECT_NEAR(raise.target_rad[0], 60 * 3.14159265358979 / 180, 1e-12);  // R_SAA
+  EXPECT_NEAR(raise.target_rad[0], models::deg_to_rad(60), 1e-12);  // R_SAA
   EXPECT_NEAR(raise.target_rad[4], 0.0, 1e-12);                           // L_SAA
   EXPECT_TRUE(std::isnan(raise.target_rad[3]));                           // the wrists are left free
 }

@@ -1,6 +1,7 @@
 #include "peha/mfb/channel_map.hpp"
 
 #include "peha/models/anthropometry.hpp"
+#include "peha/models/units.hpp"
 
 #include "../support/alloc_counter.hpp"
 #include "../support/replaced.hpp"
@@ -227,7 +228,7 @@ TEST(ChannelMap, EncoderAngleFollowsCountsGearSignAndOffset) {
   EXPECT_NEAR(s.joints[0].angle_rad, -kPi / 2, 1e-12);
 
   ASSERT_TRUE(load(replaced(kKnee, "offset_deg: 0", "offset_deg: 10")).decode_inputs(in, s));
-  EXPECT_NEAR(s.joints[0].angle_rad, kPi / 2 + 10 * kPi / 180, 1e-12);
+  EXPECT_NEAR(s.joints[0].angle_rad, kPi / 2 + models::deg_to_rad(10), 1e-12);
 
   // Gear 7 instead of 35: five times the angle per count.
   ASSERT_TRUE(load(replaced(kKnee, "gear: 35", "gear: 7")).decode_inputs(in, s));
@@ -405,7 +406,7 @@ TEST(ChannelMap, GoniometerIsReadInItsUnitAndConvertedToRadians) {
   ASSERT_TRUE(m.has_goniometer(0));
   BoardInputs in;
   in.ad[4] = 65535;
-  EXPECT_NEAR(m.goniometer_rad(in, 0), 135 * kPi / 180, 1e-12);
+  EXPECT_NEAR(m.goniometer_rad(in, 0), models::deg_to_rad(135), 1e-12);
   io::SensorState s;
   s.joint_count = 1;
   s.joints[0].angle_rad = 0.5;

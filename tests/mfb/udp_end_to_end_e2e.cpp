@@ -5,6 +5,7 @@
 #include "peha/mfb/link_config.hpp"
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 
+#include "peha/models/units.hpp"
 #include "peha/runtime/child_process.hpp"
 #include "peha/runtime/csv_log.hpp"
 
@@ -31,7 +32,6 @@
 namespace peha::runtime {
 namespace {
 
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 // Tests share a loaded 2-core machine with other tests, and neither side runs SCHED_FIFO here: a
 // process may be descheduled for tens of ms. The watchdogs are therefore 250 ms in these tests
@@ -189,8 +189,8 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
     ++compared;
   }
   EXPECT_GT(compared, 9000u);
-  RecordProperty("max_angle_difference_deg", std::to_string(worst / kDeg));
-  EXPECT_LT(worst / kDeg, 0.05);
+  RecordProperty("max_angle_difference_deg", std::to_string(models::rad_to_deg(worst)));
+  EXPECT_LT(models::rad_to_deg(worst), 0.05);
   ASSERT_EQ(udp.e1.releases.size(), local.releases.size());
   for (std::size_t i = 0; i < local.releases.size(); ++i) {
     EXPECT_NEAR(udp.e1.releases[i].angle_deg, local.releases[i].angle_deg, 0.05) << local.releases[i].push;
@@ -200,7 +200,7 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
   EXPECT_NEAR(udp.e1.peak_muscle_force_N[1], local.peak_muscle_force_N[1], 0.05 * local.peak_muscle_force_N[1]);
   std::printf("agreement UDP vs in-process over %zu cycles: max angle difference %.4f deg; peak forces %.1f/%.1f vs %.1f/%.1f N; "
               "missed samples %llu\n",
-              compared, worst / kDeg, udp.e1.peak_muscle_force_N[0], udp.e1.peak_muscle_force_N[1], local.peak_muscle_force_N[0],
+              compared, models::rad_to_deg(worst), udp.e1.peak_muscle_force_N[0], udp.e1.peak_muscle_force_N[1], local.peak_muscle_force_N[0],
               local.peak_muscle_force_N[1], static_cast<unsigned long long>(udp.e1.missed_samples));
   EXPECT_TRUE(udp.e1.within_limits);
   // Timing was measured: one round trip per answered command, the loop's period around 1 ms.

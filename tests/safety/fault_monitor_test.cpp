@@ -4,6 +4,7 @@
 // raises nothing; with the check disabled (a broken supervisor) the same fault goes unseen.
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/experiments/faults/fault_matrix.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/fault_monitor.hpp"
 #include "peha/sim/plant_faults.hpp"
 
@@ -334,7 +335,7 @@ int encoder_disagrees_cycle(double redundant_gain, bool has_redundant = true) {
     state.time_s = 1e-3 * k;
     const double noise_N = 0.01 * (k % 7);
     state.joints[0].agonist_loadcell_N = state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
-    const double turned_rad = std::max(0.0, state.time_s - 0.5) * 10.0 * 3.14159265358979 / 180.0;
+    const double turned_rad = models::deg_to_rad(std::max(0.0, state.time_s - 0.5) * 10.0);
     state.joints[0].angle_rad = 0.0;  // frozen
     state.joints[0].redundant_angle_rad = has_redundant ? redundant_gain * turned_rad : std::numeric_limits<double>::quiet_NaN();
     view.check(monitor, true);

@@ -1,6 +1,7 @@
 #include "peha/sim/arm_mjcf.hpp"
 
 #include "peha/models/anthropometry.hpp"
+#include "peha/models/units.hpp"
 
 #include <gtest/gtest.h>
 
@@ -79,7 +80,7 @@ TEST(ArmMjcf, LoadsWithTheModelsJointsAndBodies) {
   EXPECT_DOUBLE_EQ(s.m->opt.timestep, 0.0005);
   EXPECT_DOUBLE_EQ(s.m->opt.gravity[2], -9.81);
   // Options reach the joints; R_WR is clamped by an equality constraint (nv stays 5).
-  EXPECT_NEAR(s.m->jnt_range[2 * models::kEFE + 1], 135.0 * kPi / 180.0, 1e-12);
+  EXPECT_NEAR(s.m->jnt_range[2 * models::kEFE + 1], models::deg_to_rad(135.0), 1e-12);
   EXPECT_DOUBLE_EQ(s.m->dof_damping[models::kWAA], 0.05);
   EXPECT_EQ(s.m->neq, 1);
   for (int g = 0; g < s.m->ngeom; ++g) {

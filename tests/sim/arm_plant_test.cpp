@@ -1,5 +1,6 @@
 // The right arm's plant-only knobs: a mass in the hand the controller is not told, and injected faults.
 #include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/arm_plant.hpp"
 
 #include <gtest/gtest.h>
@@ -38,7 +39,7 @@ TEST(RightArmPlant, UnknownHandPayloadWeighsInTheHand) {
   const double nominal = shoulder_after_fall_rad(0.0);
   const double heavier = shoulder_after_fall_rad(2.0);
   EXPECT_LT(nominal, 0.0);  // the arm falls
-  EXPECT_GT(heavier, nominal + 1.0 * std::numbers::pi / 180.0);
+  EXPECT_GT(heavier, nominal + models::deg_to_rad(1.0));
   EXPECT_THROW(shoulder_after_fall_rad(-0.5), std::invalid_argument);  // the shipped hand holds 0 kg
 }
 
@@ -132,19 +133,18 @@ TEST(ArmPlantFaults, ASupplyFaultHitsEveryJoint) {
 // An encoder jump offsets its joint's reading by the jump (10 deg, within a count); a frozen encoder
 // repeats its reading while the joint moves (the arm swings under 0.3 MPa on every muscle).
 TEST(ArmPlantFaults, EncoderFaultsShowInTheirJointsReadingOnly) {
-  constexpr double kDeg = std::numbers::pi / 180.0;
   ArmUnderFault run({fault(FaultKind::kEncoderJump, 0.05, 1, 0, 10.0), fault(FaultKind::kEncoderFrozen, 0.05, 0)});
   for (int k = 0; k < 49; ++k) run.cycle();
   const double count_rad = 2.0 * std::numbers::pi / run.params.encoder_counts_per_rev;
   EXPECT_NEAR(run.state.joints[1].angle_rad, run.arm->truth().q_rad[1], count_rad);  // before the fault
   for (int k = 0; k < 200; ++k) run.cycle();
   const ArmTruth& t = run.arm->truth();
-  EXPECT_NEAR(run.state.joints[1].angle_rad - t.q_rad[1], 10.0 * kDeg, count_rad);
+  EXPECT_NEAR(run.state.joints[1].angle_rad - t.q_rad[1], models::deg_to_rad(10.0), count_rad);
   EXPECT_NEAR(run.state.joints[2].angle_rad, t.q_rad[2], count_rad);
   const double frozen = run.state.joints[0].angle_rad;
   for (int k = 0; k < 200; ++k) run.cycle();
   EXPECT_EQ(run.state.joints[0].angle_rad, frozen);
-  EXPECT_GT(std::abs(run.arm->truth().q_rad[0] - frozen), 1.0 * kDeg);  // the shoulder did move
+  EXPECT_GT(std::abs(run.arm->truth().q_rad[0] - frozen), models::deg_to_rad(1.0));  // the shoulder did move
 }
 
 // A broken wire carries nothing from its time on; the e-stop cuts the outputs through the gate; a

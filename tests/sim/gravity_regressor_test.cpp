@@ -3,17 +3,16 @@
 #include "../support/alloc_counter.hpp"
 #include "peha/models/exoskeleton.hpp"
 #include "peha/models/gravity_parameters.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 
 #include <gtest/gtest.h>
 
-#include <numbers>
 #include <vector>
 
 namespace peha::models {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 BodyConfig shipped_arm() { return read_body(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/right_arm_body.yaml")); }
 
@@ -23,7 +22,7 @@ std::vector<Eigen::VectorXd> postures() {
                                                         {20, 60, -17, 0, 0},   {45, 120, 30, 0, 0},  {-100, 5, 0, 0, 0},
                                                         {-30, 100, 10, 20, -15}}) {
     Eigen::VectorXd q(5);
-    for (int i = 0; i < 5; ++i) q[i] = a[static_cast<std::size_t>(i)] * kDeg;
+    for (int i = 0; i < 5; ++i) q[i] = deg_to_rad(a[static_cast<std::size_t>(i)]);
     out.push_back(q);
   }
   return out;
@@ -59,7 +58,7 @@ TEST(GravityRegressor, MatchesMujocosGravityOfThePlantArm) {
     mj_forward(m.get(), d.get());
     gravity_regressor(plant, data, q, Y);
     const Eigen::VectorXd tau = Y * theta;
-    for (int i = 0; i < plant.dof(); ++i) EXPECT_NEAR(tau[i], d->qfrc_bias[i], 1e-9) << "joint " << i << " at q " << q.transpose() / kDeg;
+    for (int i = 0; i < plant.dof(); ++i) EXPECT_NEAR(tau[i], d->qfrc_bias[i], 1e-9) << "joint " << i << " at q " << q.transpose() * kDegPerRad;
   }
 }
 

@@ -4,6 +4,7 @@
 // and the description's checks.
 
 #include "peha/models/exoskeleton.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 #include "../support/replaced.hpp"
 
@@ -16,7 +17,6 @@
 namespace peha {
 namespace {
 
-constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 models::BodyConfig upper_body() {
   return models::read_body(config::Document::load_file(PEHA_SOURCE_DIR "/configs/arm/upper_body_body.yaml"));
@@ -83,7 +83,7 @@ TEST(UpperBody, LeftArmIsTheMirrorImageOfTheRight) {
   }
   // A real arm: holding both arms out forward takes more shoulder torque than hanging them.
   Eigen::VectorXd forward = Eigen::VectorXd::Zero(12), hanging = forward;
-  hanging[1] = hanging[7] = -90 * kDeg;
+  hanging[1] = hanging[7] = models::deg_to_rad(-90);
   EXPECT_GT(models::gravity_torque(m, data, forward)[1], 15.0);
   EXPECT_NEAR(models::gravity_torque(m, data, hanging)[1], 0.0, 1e-9);
 }
@@ -93,9 +93,9 @@ TEST(UpperBody, OneArmsPostureNeverLoadsTheOtherArm) {
   const models::ArmModel m = upper_body().controller.model();
   models::ArmData data(m);
   Eigen::VectorXd q = Eigen::VectorXd::Zero(12);
-  q << 20 * kDeg, -30 * kDeg, 80 * kDeg, 10 * kDeg, 0, 0, 0, -90 * kDeg, 0, 0, 0, 0;
+  q << models::deg_to_rad(20), models::deg_to_rad(-30), models::deg_to_rad(80), models::deg_to_rad(10), 0, 0, 0, models::deg_to_rad(-90), 0, 0, 0, 0;
   const Eigen::VectorXd before = models::gravity_torque(m, data, q);
-  q.tail(6) << 60 * kDeg, 10 * kDeg, 120 * kDeg, -40 * kDeg, 0, 5 * kDeg;
+  q.tail(6) << models::deg_to_rad(60), models::deg_to_rad(10), models::deg_to_rad(120), models::deg_to_rad(-40), 0, models::deg_to_rad(5);
   const Eigen::VectorXd after = models::gravity_torque(m, data, q);
   EXPECT_EQ((after.head(6) - before.head(6)).cwiseAbs().maxCoeff(), 0.0);
   EXPECT_GT((after.tail(6) - before.tail(6)).cwiseAbs().maxCoeff(), 1.0);

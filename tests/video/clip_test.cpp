@@ -1,6 +1,7 @@
 // The video layer: a 2 s clip of the one-DOF rig from a log, checked with ffprobe (duration, size,
 // frame count) and by the pixels of a decoded frame (not blank: the link and the overlay are there).
 #include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/arm_mjcf.hpp"
 #include "peha/sim/mujoco_model.hpp"
 #include "peha/video/clip.hpp"
@@ -44,7 +45,7 @@ std::filesystem::path write_log(const std::filesystem::path& dir) {
        "agonist_pressure_MPa,antagonist_pressure_MPa,tau_motor_cmd_Nm\n";
   for (int k = 0; k <= 2000; ++k) {
     const double t = k * 1e-3;
-    const double angle = (-10.0 + 30.0 * 0.5 * (1 - std::cos(M_PI * t / 2))) * M_PI / 180;
+    const double angle = models::deg_to_rad(-10.0 + 30.0 * 0.5 * (1 - std::cos(M_PI * t / 2)));
     f << t << ',' << angle << ',' << (t < 1 ? 20.0 : 0.0) << ',' << (t < 1 ? 1 : 0) << ',' << 400 + 50 * t << ",100,"
       << 0.25 << ',' << 0.26 << ',' << 0.5 << '\n';
   }

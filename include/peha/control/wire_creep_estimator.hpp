@@ -32,6 +32,7 @@
 
 #include "peha/config/reader.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/models/units.hpp"
 
 #include <cmath>
 #include <cstdint>
@@ -134,8 +135,8 @@ CreepMeasurement measure_wire_offset(const models::MuscleModel& m, double pulley
 inline constexpr int kCreepAngleBins = 20;   ///< over [-50, 50) deg; outside: no sample
 inline constexpr int kCreepForceBins = 10;   ///< of CreepEstimatorParams::force_bin_N each; the last takes the rest
 inline constexpr int kCreepBins = kCreepAngleBins * kCreepForceBins;
-inline constexpr double kCreepAngleBinLow_rad = -50.0 * 3.14159265358979323846 / 180.0;
-inline constexpr double kCreepAngleBinWidth_rad = 5.0 * 3.14159265358979323846 / 180.0;
+inline constexpr double kCreepAngleBinLow_rad = models::deg_to_rad(-50.0);
+inline constexpr double kCreepAngleBinWidth_rad = models::deg_to_rad(5.0);
 
 /// The bin of an operating point (angle, force), or -1 outside the grid.
 int creep_bin(double angle_rad, double force_N, double force_bin_N) noexcept;

@@ -6,6 +6,7 @@
 #include "peha/models/exoskeleton.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/models/model_config.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 
@@ -14,12 +15,10 @@
 #include <complex>
 #include <cmath>
 #include <limits>
-#include <numbers>
 
 namespace peha::experiments {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 /// Pressure and rate limits of the `limits:` section (shared by every actuated joint).
 struct ArmLimits {
   double supply_Pa = 0, rate_Pa_per_s = 0, motor_rate_Nm_per_s = 0;
@@ -77,8 +76,8 @@ void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const 
     config::Map j = joints.map(name);
     control::ArmActuatedJoint joint;
     const std::string kind = j.choice("actuator", {"peha", "pam_pair", "constant_pressure"});
-    const double lo = j.number("min_angle_deg", {-180.0, 180.0}) * kDeg;
-    const double hi = j.number("max_angle_deg", {lo / kDeg, 180.0}) * kDeg;
+    const double lo = models::deg_to_rad(j.number("min_angle_deg", {-180.0, 180.0}));
+    const double hi = models::deg_to_rad(j.number("max_angle_deg", {models::rad_to_deg(lo), 180.0}));
     if (kind == "constant_pressure") {
       joint.mode = control::ArmJointMode::kHoldPressure;
       joint.hold_pressure_Pa = j.number("hold_pressure_MPa", {0.0, l.supply_Pa * 1e-6}) * 1e6;
@@ -128,7 +127,9 @@ void read_arm_plant(config::Map plant, config::Map op, const models::BodyConfig&
   config::Map q0 = plant.map("initial_angles_deg");
   std::vector<double> per_arm;
   for (const models::ArmJointSpec& j : body.plant.arm_joints) {
-    per_arm.push_back(q0.number_or(j.name, j.locked ? j.locked_at_rad / kDeg : 0.0, {j.min_angle_rad / kDeg, j.max_angle_rad / kDeg}) * kDeg);
+    const double default_deg = j.locked ? models::rad_to_deg(j.locked_at_rad) : 0.0;
+    const config::Range range_deg{models::rad_to_deg(j.min_angle_rad), models::rad_to_deg(j.max_angle_rad)};
+    per_arm.push_back(models::deg_to_rad(q0.number_or(j.name, default_deg, range_deg)));
   }
   q0.finish();
   for (std::size_t side = 0; side < body.plant.sides.size(); ++side) p.initial_q_rad.insert(p.initial_q_rad.end(), per_arm.begin(), per_arm.end());
@@ -179,11 +180,11 @@ std::vector<double> read_joint_map(config::Map& item, const ArmScenario& s, Rang
 std::vector<double> read_angles(config::Map item, const ArmScenario& s, std::size_t min_named) {
   std::vector<double> q = read_joint_map(item, s, [&](std::size_t i) {
     const safety::JointLimits& lim = s.limits.joints[i];
-    return config::Range{lim.min_angle_rad / kDeg, lim.max_angle_rad / kDeg};
+    return config::Range{models::rad_to_deg(lim.min_angle_rad), models::rad_to_deg(lim.max_angle_rad)};
   });
   std::size_t named = 0;
   for (double& v : q) {
-    v *= kDeg;
+    v = models::deg_to_rad(v);
     named += !std::isnan(v);
   }
   if (named < min_named) item.fail("", fmt::format("names {} joints, needs at least {}", named, min_named));
@@ -243,8 +244,8 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   for (const std::string& name : gon.choices("joints", io, 1, io.size())) {
     const int j = torque_driven_joint(gon, "joints", name, s);
     g.joints.push_back(j);
-    lo = std::max(lo, s.limits.joints[static_cast<std::size_t>(j)].min_angle_rad / kDeg);
-    hi = std::min(hi, s.limits.joints[static_cast<std::size_t>(j)].max_angle_rad / kDeg);
+    lo = std::max(lo, models::rad_to_deg(s.limits.joints[static_cast<std::size_t>(j)].min_angle_rad));
+    hi = std::min(hi, models::rad_to_deg(s.limits.joints[static_cast<std::size_t>(j)].max_angle_rad));
   }
   g.held_rad = read_angles(gon.map("angles_deg"), s, 0);
   for (const int j : g.joints) {
@@ -259,8 +260,8 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   if (std::abs(ratio - std::round(ratio)) > 1e-9) {
     gon.fail("sample_rate_Hz", fmt::format("must divide the control rate {} Hz, found {} Hz", 1.0 / s.period_s, g.sample_rate_Hz));
   }
-  g.noise_rad = gon.number("noise_deg", {0.0, 10.0}) * kDeg;
-  g.resolution_rad = gon.number("resolution_deg", {0.0, 5.0}) * kDeg;
+  g.noise_rad = models::deg_to_rad(gon.number("noise_deg", {0.0, 10.0}));
+  g.resolution_rad = models::deg_to_rad(gon.number("resolution_deg", {0.0, 5.0}));
   config::Map filter = gon.map("filter");
   g.filter_order = static_cast<int>(filter.integer("order", 1, control::kButterworthMaxOrder));
   g.cutoff_Hz = filter.number("cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
@@ -275,8 +276,8 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   for (config::Map item : gon.maps("movements", 1, 16)) {
     ArmScenario::Goniometer::Movement m;
     m.name = item.string("name");
-    m.from_rad = item.number("from_deg", {lo, hi}) * kDeg;
-    m.to_rad = item.number("to_deg", {lo, hi}) * kDeg;
+    m.from_rad = models::deg_to_rad(item.number("from_deg", {lo, hi}));
+    m.to_rad = models::deg_to_rad(item.number("to_deg", {lo, hi}));
     m.move_s = item.number("move_s", {0.05, 60.0});
     m.pause_s = item.number("pause_s", {0.0, 60.0});
     m.repetitions = static_cast<int>(item.integer("repetitions", 1, 1000));
@@ -289,10 +290,10 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
 /// `identification:` (peha identify-gravity): the postures, the sweeps and the fit's checks.
 void read_identification(config::Map id, ArmScenario& s) {
   ArmScenario::Identification& d = s.identification.emplace();
-  d.sweep_rad = id.number("sweep_deg", {1.0, 30.0}) * kDeg;
-  d.sweep_speed_radps = id.number("sweep_speed_deg_per_s", {0.5, 90.0}) * kDeg;
+  d.sweep_rad = models::deg_to_rad(id.number("sweep_deg", {1.0, 30.0}));
+  d.sweep_speed_radps = models::deg_to_rad(id.number("sweep_speed_deg_per_s", {0.5, 90.0}));
   d.ramp_s = id.number("ramp_s", {0.05, 10.0});
-  d.window_rad = id.number("window_deg", {0.1, d.sweep_rad / kDeg}) * kDeg;
+  d.window_rad = models::deg_to_rad(id.number("window_deg", {0.1, models::rad_to_deg(d.sweep_rad)}));
   d.move_s = id.number("move_s", {0.2, 60.0});
   d.settle_s = id.number("settle_s", {0.0, 60.0});
   d.min_speed_fraction = id.number("min_speed_fraction", {0.0, 1.0});
@@ -302,7 +303,7 @@ void read_identification(config::Map id, ArmScenario& s) {
   if (d.sweep_rad - d.window_rad < 0.5 * d.sweep_speed_radps * d.ramp_s) {
     id.fail("window_deg", fmt::format("the reference is still speeding up inside the window: sweep_deg - window_deg = {:.2f} deg must be at "
                                       "least half a ramp at cruise speed ({:.2f} deg); widen the sweep, narrow the window or shorten ramp_s",
-                                      (d.sweep_rad - d.window_rad) / kDeg, 0.5 * d.sweep_speed_radps * d.ramp_s / kDeg));
+                                      models::rad_to_deg(d.sweep_rad - d.window_rad), models::rad_to_deg(0.5 * d.sweep_speed_radps * d.ramp_s)));
   }
   // The swept joints: those whose actuator follows a torque (PEHA, PAM pair).
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
@@ -342,11 +343,12 @@ void read_identification(config::Map id, ArmScenario& s) {
         continue;
       }
       if (std::isnan(a.target_rad[i])) item.fail("angles_deg", fmt::format("names no angle for {}; the rig sweeps every PEHA and PAM-pair joint", io_name));
-      const double lo = lim.min_angle_rad + d.sweep_rad + kDeg, hi = lim.max_angle_rad - d.sweep_rad - kDeg;
+      const double lo = lim.min_angle_rad + d.sweep_rad + models::kRadPerDeg, hi = lim.max_angle_rad - d.sweep_rad - models::kRadPerDeg;
       if (a.target_rad[i] < lo || a.target_rad[i] > hi) {
         item.fail("angles_deg", fmt::format("{} at {:.1f} deg: its sweep of +-{:.1f} deg must stay 1 deg inside the joint's range, so the "
                                             "posture must lie in [{:.1f}, {:.1f}] deg",
-                                            io_name, a.target_rad[i] / kDeg, d.sweep_rad / kDeg, lo / kDeg, hi / kDeg));
+                                            io_name, models::rad_to_deg(a.target_rad[i]), models::rad_to_deg(d.sweep_rad),
+                                            models::rad_to_deg(lo), models::rad_to_deg(hi)));
       }
     }
     item.finish();

@@ -3,6 +3,7 @@
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/models/gravity_parameters.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
@@ -19,7 +20,6 @@
 namespace peha::experiments {
 namespace {
 
-constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr double kStartHold_s = 2.0;  // the operator holds the start posture while compensation comes on (as E3)
 
 /// One leg of the rig's reference: a move to `target` (one angle per swept joint) over move_s (minimum
@@ -304,7 +304,7 @@ ArmIdentificationResult fit_identification(const ArmScenario& scenario, const Id
       if (s.n < 1) throw std::runtime_error(fmt::format("identification: posture '{}' was not measured (run too short?)", m.name));
       m.q_deg[side].resize(io_count);
       for (std::size_t i = 0; i < io_count; ++i) {
-        m.q_deg[side][i] = s.q[i] / s.n / kDeg;
+        m.q_deg[side][i] = models::rad_to_deg(s.q[i] / s.n);
         sample.q_rad[model_joint(i)] += 0.5 * s.q[i] / s.n;
       }
       for (std::size_t k = 0; k < n; ++k) {
@@ -345,7 +345,7 @@ ArmIdentificationResult fit_identification(const ArmScenario& scenario, const Id
   Eigen::MatrixXd Y(dof, models::gravity_parameter_count(arm));
   auto gravity_Nm = [&](const Eigen::VectorXd& theta, const std::vector<double>& q_deg) -> Eigen::VectorXd {  // per swept joint
     Eigen::VectorXd q = Eigen::VectorXd::Zero(dof);
-    for (std::size_t i = 0; i < io_count; ++i) q[model_joint(i)] = q_deg[i] * kDeg;
+    for (std::size_t i = 0; i < io_count; ++i) q[model_joint(i)] = models::deg_to_rad(q_deg[i]);
     models::gravity_regressor(arm, data, q, Y);
     const Eigen::VectorXd all = Y * theta;
     Eigen::VectorXd g(static_cast<Eigen::Index>(n));

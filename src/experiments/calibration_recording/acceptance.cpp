@@ -1,6 +1,7 @@
 #include "peha/experiments/calibration_recording/acceptance.hpp"
 
 #include "peha/experiments/common/mujoco_lock.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 
@@ -8,7 +9,6 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <numbers>
 
 namespace peha::experiments {
 namespace {
@@ -132,7 +132,7 @@ AcceptanceResult run_acceptance_check(const E1Scenario& scenario, const Calibrat
         p.contraction[m] = models::rigid_contraction(m == 0 ? joint.agonist : joint.antagonist, joint.pulley_radius_m,
                                                      m == 0 ? +1 : -1, p.angle_deg);
       }
-      p.angle_deg *= 180.0 / std::numbers::pi;
+      p.angle_deg *= models::kDegPerRad;
       r.points.push_back(p);
     }
   }

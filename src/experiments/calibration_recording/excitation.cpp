@@ -1,11 +1,11 @@
 #include "peha/experiments/calibration_recording/excitation.hpp"
 
 #include "peha/control/one_dof_gravity.hpp"
+#include "peha/models/units.hpp"
 #include "peha/runtime/control_loop.hpp"
 
 #include <array>
 #include <cmath>
-#include <numbers>
 #include <stdexcept>
 #include <utility>
 
@@ -34,7 +34,7 @@ ExcitationParams read_excitation(config::Map map) {
       g.duration_s = m.number("duration_s", {g.period_s, 3600.0});
       g.other_pressure_Pa = m.number("other_pressure_MPa", {0.0, 1.0}) * 1e6;
       g.other_pressure_at_min_Pa = m.number_or("other_pressure_at_min_MPa", g.other_pressure_Pa * 1e-6, {0.0, 1.0}) * 1e6;
-      if (m.has("clamp_angle_deg")) g.clamp_angle_rad = m.number("clamp_angle_deg", {-90.0, 90.0}) * 3.14159265358979323846 / 180.0;
+      if (m.has("clamp_angle_deg")) g.clamp_angle_rad = models::deg_to_rad(m.number("clamp_angle_deg", {-90.0, 90.0}));
       m.finish();
       e.segments.push_back(g);
     }
@@ -51,7 +51,7 @@ double ExcitationParams::total_duration_s() const noexcept {
 
 CalibrationAcceptance read_calibration_acceptance(config::Map map) {
   CalibrationAcceptance a;
-  for (double deg : map.numbers("angles_deg", {-90.0, 90.0}, 1, 16)) a.angles_rad.push_back(deg * std::numbers::pi / 180.0);
+  for (double deg : map.numbers("angles_deg", {-90.0, 90.0}, 1, 16)) a.angles_rad.push_back(models::deg_to_rad(deg));
   a.hold_s = map.number("hold_s", {0.5, 60.0});
   a.settle_s = map.number("settle_s", {0.0, a.hold_s - 0.1});
   a.max_force_tracking_rms_N = map.number("max_force_tracking_rms_N", {0.1, 2000.0});

@@ -1,13 +1,13 @@
 #include "peha/experiments/common/release_checks.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <algorithm>
-#include <numbers>
 
 namespace peha::experiments {
 
 StopDistance stop_distance(const std::vector<double>& angle_rad, std::size_t k0, std::size_t k1, double min_rad, double max_rad) {
-  constexpr double kDeg = 180.0 / std::numbers::pi;
-  auto distance = [&](double a) { return std::min(a - min_rad, max_rad - a) * kDeg; };
+  auto distance = [&](double a) { return std::min(a - min_rad, max_rad - a) * models::kDegPerRad; };
   StopDistance d;
   d.at_release_deg = distance(angle_rad[k0]);
   d.closest_deg = d.at_release_deg;

@@ -2,6 +2,7 @@
 
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
@@ -12,14 +13,12 @@
 #include <cstdio>
 #include <fstream>
 #include <limits>
-#include <numbers>
 #include <optional>
 
 namespace peha::experiments {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 CreepSettings read_creep_section(config::Map m, double duration_s) {
   CreepSettings c;
@@ -185,7 +184,7 @@ CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVari
     if (++in_sample == per_sample) {
       CreepSample smp;
       smp.t_s = state.time_s;
-      smp.angle_deg = t.angle_rad / kDeg;
+      smp.angle_deg = models::rad_to_deg(t.angle_rad);
       for (int i = 0; i < 2; ++i) {
         smp.truth_m[i] = t.creep_m[i] - r.truth_at_reference_m[i];
         smp.estimate_m[i] = d.creep.muscle[i].referenced ? d.creep.muscle[i].length_change_m : 0.0;
@@ -254,7 +253,7 @@ CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVari
     torque = -torque / static_cast<double>(span + 1);
     CreepRelease rel;
     rel.time_s = static_cast<double>(k0) * sc.period_s;
-    rel.angle_deg = angle[k1] / kDeg;
+    rel.angle_deg = models::rad_to_deg(angle[k1]);
     rel.static_torque_error_pct = 100.0 * torque / std::abs(e1_plant_gravity_torque_Nm(plant_params, angle[k1]));
     r.releases.push_back(rel);
     if (rel.time_s >= quarter_s) {

@@ -4,6 +4,7 @@
 #include "peha/experiments/common/scenario_header.hpp"
 
 #include "peha/models/model_config.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
@@ -14,12 +15,9 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
-#include <numbers>
 
 namespace peha::experiments {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 sim::FingerParams read_finger(config::Map map, double duration_s, std::vector<int>& probe_direction) {
   sim::FingerParams f;
@@ -41,7 +39,7 @@ sim::FingerParams read_finger(config::Map map, double duration_s, std::vector<in
       p.move_s = p.duration_s;
     } else {
       p.move_s = push.number("move_s", {0.01, p.duration_s});
-      p.target_angle_rad = push.number("target_angle_deg", {-90.0, 90.0}) * kDeg;
+      p.target_angle_rad = models::deg_to_rad(push.number("target_angle_deg", {-90.0, 90.0}));
     }
     if (probe != 0 && p.hold) push.fail("breakaway", "a breakaway probe pushes one way: it cannot be a hold");
     push.finish();
@@ -68,7 +66,7 @@ E1Scenario read_e1(const config::Document& doc, const char* experiment, const st
   s.period_s = run.number("control_period_s", {1e-4, 0.1});
   s.duration_s = run.number("duration_s", {0.1, 3600.0});
   s.drift_window_s = run.number("drift_window_s", {0.1, 60.0});
-  const double initial_angle = run.number("initial_angle_deg", {-90.0, 90.0}) * kDeg;
+  const double initial_angle = models::deg_to_rad(run.number("initial_angle_deg", {-90.0, 90.0}));
   run.finish();
 
   config::Map limits = root.map("limits");
@@ -185,7 +183,7 @@ sim::OneDofRigParams e1_recording_plant_params(const E1Scenario& scenario, sim::
   for (const ExcitationSegment& g : e->segments) {
     if (std::isfinite(g.clamp_angle_rad)) {
       sim::FingerPush p;
-      p.name = fmt::format("clamp_{:.0f}deg", g.clamp_angle_rad * 180.0 / 3.14159265358979323846);
+      p.name = fmt::format("clamp_{:.0f}deg", models::rad_to_deg(g.clamp_angle_rad));
       p.start_s = segment_start_s;
       p.duration_s = g.duration_s;
       p.move_s = std::min(1.0, 0.5 * g.duration_s);
@@ -344,8 +342,8 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   std::copy(std::begin(limited.data().counts), std::end(limited.data().counts), std::begin(r.limit_counts));
   const auto [lowest, highest] = std::minmax_element(angle_truth.begin(), angle_truth.end());
-  r.min_angle_deg = *lowest / kDeg;
-  r.max_angle_deg = *highest / kDeg;
+  r.min_angle_deg = models::rad_to_deg(*lowest);
+  r.max_angle_deg = models::rad_to_deg(*highest);
   const safety::Envelope::Joint& e = envelope.joints[0];
   r.peak_muscle_force_N[0] = e.peak_muscle_force_N[0];
   r.peak_muscle_force_N[1] = e.peak_muscle_force_N[1];
@@ -383,12 +381,12 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     E1Release rel;
     rel.push = push.name;
     rel.time_s = k0 * scenario.period_s;
-    rel.angle_deg = angle_truth[k0] / kDeg;
+    rel.angle_deg = models::rad_to_deg(angle_truth[k0]);
     const std::size_t k1 = std::min(k0 + window, done);
     std::size_t last = k0;
     for (std::size_t k = k0; k <= k1 && !(k > k0 && finger_on[k]); ++k) {
-      rel.max_excursion_deg = std::max(rel.max_excursion_deg, std::abs(angle_truth[k] - angle_truth[k0]) / kDeg);
-      rel.drift_deg = (angle_truth[k] - angle_truth[k0]) / kDeg;
+      rel.max_excursion_deg = std::max(rel.max_excursion_deg, models::rad_to_deg(std::abs(angle_truth[k] - angle_truth[k0])));
+      rel.drift_deg = models::rad_to_deg(angle_truth[k] - angle_truth[k0]);
       last = k;
     }
     const StopDistance stop = stop_distance(angle_truth, k0, last, range.min_angle_rad, range.max_angle_rad);
@@ -431,7 +429,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     double peak = 0;
     for (std::size_t k = k0; k <= k1; ++k) {
       peak = std::max(peak, std::abs(finger_force[k]));
-      if (std::abs(angle_truth[k] - angle_truth[k0]) / kDeg > kBreakaway_deg) {
+      if (models::rad_to_deg(std::abs(angle_truth[k] - angle_truth[k0])) > kBreakaway_deg) {
         force[side] = peak;
         break;
       }

@@ -3,6 +3,7 @@
 #include "peha/experiments/common/release_checks.hpp"
 #include "peha/models/exoskeleton.hpp"
 
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
@@ -14,15 +15,8 @@
 #include <cmath>
 #include <complex>
 #include <limits>
-#include <numbers>
 
 namespace peha::experiments {
-namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
-
-}  // namespace
-
 std::vector<std::size_t> gravity_joints(const ArmScenario& scenario) {
   std::vector<std::size_t> out;
   for (std::size_t i = 0; i < scenario.controller.joints.size(); ++i) {
@@ -207,12 +201,12 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       const std::size_t io_joint = judged[j];
       PostureJointResult f;
       f.joint = arm_joint_names(scenario)[io_joint];
-      f.target_deg = scenario.postures[i].target_rad[io_joint] / kDeg;
+      f.target_deg = models::rad_to_deg(scenario.postures[i].target_rad[io_joint]);
       const std::vector<double>& a = angle[j];
-      f.released_deg = a[k0] / kDeg;
-      f.drift_deg = (a[k1] - a[k0]) / kDeg;
+      f.released_deg = models::rad_to_deg(a[k0]);
+      f.drift_deg = models::rad_to_deg(a[k1] - a[k0]);
       const safety::JointLimits& range = scenario.limits.joints[io_joint];
-      for (std::size_t k = k0; k <= k1; ++k) f.max_excursion_deg = std::max(f.max_excursion_deg, std::abs(a[k] - a[k0]) / kDeg);
+      for (std::size_t k = k0; k <= k1; ++k) f.max_excursion_deg = std::max(f.max_excursion_deg, models::rad_to_deg(std::abs(a[k] - a[k0])));
       const StopDistance stop = stop_distance(a, k0, k1, range.min_angle_rad, range.max_angle_rad);
       f.stop_distance_deg = stop.closest_deg;
       add_release_checks(p.name + " " + f.joint, f.drift_deg, f.max_excursion_deg, stop, scenario.verdict, r.verdict);

@@ -3,6 +3,7 @@
 #include "peha/calibration/dataset.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
@@ -13,15 +14,12 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <numbers>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 
 namespace peha::experiments {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 double quantize(double x, double step) { return step > 0.0 ? std::round(x / step) * step : x; }
 
@@ -121,7 +119,7 @@ GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sa
       take(col_t);
     } else if (h == "elbow_angle_deg") {
       take(col_angle);
-      scale = kDeg;
+      scale = models::kRadPerDeg;
     } else if (h == "elbow_angle_rad") {
       take(col_angle);
       scale = 1.0;
@@ -158,7 +156,7 @@ GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sa
     if (angle < min_rad - 1e-12 || angle > max_rad + 1e-12) {
       throw calibration::DataError(fmt::format("{}:{}:{}: {} = {} is outside the exoskeleton's elbow range [{:.1f}, {:.1f}] deg", file,
                                            line_no, col_angle + 1, header[static_cast<std::size_t>(col_angle)], v[1],
-                                           min_rad / kDeg, max_rad / kDeg));
+                                           models::rad_to_deg(min_rad), models::rad_to_deg(max_rad)));
     }
     if (!times.empty()) {
       const double dt = v[0] - times.back();
@@ -181,7 +179,7 @@ void write_goniometer_csv(const std::filesystem::path& path, const GoniometerTra
                      trace.sample_rate_Hz);
   out << "t_s,elbow_angle_deg\n";
   for (std::size_t k = 0; k < trace.measured_rad.size(); ++k) {
-    out << fmt::format("{:.4f},{:.4f}\n", static_cast<double>(k) / trace.sample_rate_Hz, trace.measured_rad[k] / kDeg);
+    out << fmt::format("{:.4f},{:.4f}\n", static_cast<double>(k) / trace.sample_rate_Hz, models::rad_to_deg(trace.measured_rad[k]));
   }
   if (!out) throw calibration::DataError(fmt::format("{}: write failed", path.string()));
 }
@@ -404,14 +402,16 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       std::size_t c = 0;
       row[c++] = t;
       row[c++] = operator_active ? 1.0 : 0.0;
+      using models::rad_to_deg;
       for (const Driven& j : driven) {
-        for (const double v : {j.truth[k] / kDeg, j.goniometer / kDeg, j.d.value / kDeg, j.d.rate / kDeg, j.d.acceleration / kDeg, j.tau_cmd,
-                               tr ? j.exo[k] / kDeg : nan, state.joints[j.io].angle_rad / kDeg}) {
+        for (const double v : {rad_to_deg(j.truth[k]), rad_to_deg(j.goniometer), rad_to_deg(j.d.value), rad_to_deg(j.d.rate),
+                               rad_to_deg(j.d.acceleration), j.tau_cmd, tr ? rad_to_deg(j.exo[k]) : nan,
+                               rad_to_deg(state.joints[j.io].angle_rad)}) {
           row[c++] = v;
         }
       }
       for (std::size_t h = 0; h < held.size(); ++h) {
-        row[c++] = held_q[h][k] / kDeg;
+        row[c++] = rad_to_deg(held_q[h][k]);
         row[c++] = diag[held[h]].torque_gravity_Nm;
       }
       for (const Driven& j : driven) {
@@ -444,16 +444,16 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
     for (std::size_t k = k0; k <= done; ++k) {
       const double e = j.exo[k] - j.truth[k];
       sum += e * e;
-      jr.max_error_deg = std::max(jr.max_error_deg, std::abs(e) / kDeg);
+      jr.max_error_deg = std::max(jr.max_error_deg, models::rad_to_deg(std::abs(e)));
       lo = std::min(lo, j.truth[k]);
       hi = std::max(hi, j.truth[k]);
       for (std::size_t h = 0; h < held.size(); ++h) {  // the held joints of its own side
         if (side_of(arm_joint_names(scenario)[held[h]]) != side_of(jr.joint)) continue;
-        jr.held_excursion_deg = std::max(jr.held_excursion_deg, std::abs(held_q[h][k] - held_q[h][k0]) / kDeg);
+        jr.held_excursion_deg = std::max(jr.held_excursion_deg, models::rad_to_deg(std::abs(held_q[h][k] - held_q[h][k0])));
       }
     }
-    jr.rms_error_deg = std::sqrt(sum / static_cast<double>(done - k0 + 1)) / kDeg;
-    jr.range_deg = (hi - lo) / kDeg;
+    jr.rms_error_deg = models::rad_to_deg(std::sqrt(sum / static_cast<double>(done - k0 + 1)));
+    jr.range_deg = models::rad_to_deg(hi - lo);
     double best = std::numeric_limits<double>::infinity();
     for (std::size_t lag = 0; lag <= max_lag && k0 + lag < done; ++lag) {
       double s2 = 0.0;
@@ -467,7 +467,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
         jr.delay_s = static_cast<double>(lag) * period;
       }
     }
-    jr.rms_error_aligned_deg = best / kDeg;
+    jr.rms_error_aligned_deg = models::rad_to_deg(best);
     r.verdict.at_most(jr.joint + " tracking RMS error", "deg", jr.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
     r.verdict.at_most(jr.joint + " tracking max error", "deg", jr.max_error_deg, scenario.verdict.max_tracking_error_deg);
     r.joints.push_back(jr);

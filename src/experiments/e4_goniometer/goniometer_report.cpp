@@ -2,6 +2,7 @@
 
 #include "peha/control/butterworth.hpp"
 #include "peha/experiments/e4_goniometer/goniometer_realtime.hpp"
+#include "peha/models/units.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -72,7 +73,7 @@ std::string held_posture(const ArmScenario& scenario) {
   std::vector<std::string> held;
   for (std::size_t i = 0; i < scenario.goniometer.held_rad.size(); ++i) {
     const double q = scenario.goniometer.held_rad[i];
-    if (!std::isnan(q)) held.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], q * 180 / std::numbers::pi));
+    if (!std::isnan(q)) held.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], models::rad_to_deg(q)));
   }
   return held.empty() ? "none" : fmt::format("{} deg", fmt::join(held, ", "));
 }
@@ -84,7 +85,7 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   fmt::print("peha run: {} --experiment goniometer (E4)\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at {:.1f} Hz "
              "(group delay {:.1f} ms) on {}; held on gravity compensation: {}\n  {}\n",
-             doc.name(), g.sample_rate_Hz, g.noise_rad * 180 / std::numbers::pi, g.filter_order, g.cutoff_Hz,
+             doc.name(), g.sample_rate_Hz, models::rad_to_deg(g.noise_rad), g.filter_order, g.cutoff_Hz,
              control::group_delay_s(control::design_butterworth_lowpass(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz), 0.0) * 1e3,
              driven_names(scenario), held_posture(scenario),
              request.goniometer_csv.empty() ? "synthetic person: " + std::to_string(movements.size()) + " movement(s)"

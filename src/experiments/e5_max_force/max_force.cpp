@@ -3,6 +3,7 @@
 #include "peha/experiments/common/scenario_header.hpp"
 
 #include "peha/models/model_config.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
@@ -13,15 +14,8 @@
 #include <cmath>
 #include <limits>
 #include <memory>
-#include <numbers>
 
 namespace peha::experiments {
-namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
-
-}  // namespace
-
 const char* to_string(E5Stop stop) noexcept {
   switch (stop) {
     case E5Stop::kNone: return "none (the ramp's own pressure went out)";
@@ -77,7 +71,7 @@ E5Scenario read_e5(const config::Document& doc) {
   for (config::Map c : root.maps("cases", 1, 16)) {
     E5Case e;
     e.name = c.string("name");
-    e.locked_angle_rad = c.number("locked_angle_deg", {jl.min_angle_rad / kDeg, jl.max_angle_rad / kDeg}) * kDeg;
+    e.locked_angle_rad = models::deg_to_rad(c.number("locked_angle_deg", {models::rad_to_deg(jl.min_angle_rad), models::rad_to_deg(jl.max_angle_rad)}));
     c.finish();
     s.cases.push_back(e);
   }
@@ -135,7 +129,7 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
   E5Result r;
   r.case_name = c.name;
   r.muscle = side == 0 ? "agonist" : "antagonist";
-  r.locked_angle_deg = c.locked_angle_rad / kDeg;
+  r.locked_angle_deg = models::rad_to_deg(c.locked_angle_rad);
   r.limit_N = models::force_ceiling_N(ramped);
   r.from_truth = sim != nullptr;
 
@@ -168,7 +162,7 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
     force[k] = side == 0 ? s.agonist_loadcell_N : s.antagonist_loadcell_N;
     pressure[k] = side == 0 ? s.agonist_pressure_Pa : s.antagonist_pressure_Pa;
     sent_pressure[k] = side == 0 ? out.agonist_pressure_Pa : out.antagonist_pressure_Pa;
-    r.max_clamp_deflection_deg = std::max(r.max_clamp_deflection_deg, std::abs(s.angle_rad - c.locked_angle_rad) / kDeg);
+    r.max_clamp_deflection_deg = std::max(r.max_clamp_deflection_deg, models::rad_to_deg(std::abs(s.angle_rad - c.locked_angle_rad)));
     const double eps = models::rigid_contraction(ramped, jm.pulley_radius_m, side == 0 ? +1 : -1, s.angle_rad);
     const safety::PressureBand band = safety::pressure_band(ramped, jm, eps);
     // What capped the ramp this cycle (the supervisor shapes before the limits, the gate after).

@@ -1,6 +1,7 @@
 #include "peha/experiments/e6_bandwidth/bandwidth.hpp"
 
 #include "peha/control/arm_controller.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
 
 #include <fmt/format.h>
@@ -16,8 +17,6 @@
 
 namespace peha::experiments {
 namespace {
-
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 /// Where the gain first falls below 1/sqrt(2), log-interpolated; the highest frequency if it never
 /// does, the lowest if it is below already there (both with reached = false).
@@ -124,9 +123,9 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   runtime::run_cycles(limited, {}, end - 1, state, command, step, hold, observe);
   for (const Segment& sg : segments) {
     const std::complex<double> H = sg.Y / sg.U;
-    r.bode.push_back({sg.frequency_Hz, std::abs(H), std::arg(H) * 180.0 / std::numbers::pi});
+    r.bode.push_back({sg.frequency_Hz, std::abs(H), models::rad_to_deg(std::arg(H))});
     const std::complex<double> H_joint = sg.Y_joint / sg.U;
-    r.bode_at_joint.push_back({sg.frequency_Hz, std::abs(H_joint), std::arg(H_joint) * 180.0 / std::numbers::pi});
+    r.bode_at_joint.push_back({sg.frequency_Hz, std::abs(H_joint), models::rad_to_deg(std::arg(H_joint))});
   }
   const safety::Envelope::Joint& e = envelope.joints[bench];
   r.min_wire_tension_N = e.min_tension_N;

@@ -1,11 +1,12 @@
 #include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
 
+#include "peha/models/units.hpp"
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 #include <cmath>
 #include <fstream>
-#include <numbers>
 
 namespace peha::experiments {
 
@@ -55,7 +56,7 @@ int run_bandwidth_experiment(const config::Document& doc, const ArmScenario& sce
   const auto& b = scenario.bandwidth;
   std::vector<std::string> locked;
   for (std::size_t i = 0; i < b.locked_rad.size(); ++i) {
-    if (!std::isnan(b.locked_rad[i])) locked.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], b.locked_rad[i] * 180 / std::numbers::pi));
+    if (!std::isnan(b.locked_rad[i])) locked.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], models::rad_to_deg(b.locked_rad[i])));
   }
   fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} swept; locked at {} deg; gravity torque "
              "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",

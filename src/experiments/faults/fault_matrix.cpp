@@ -1,6 +1,7 @@
 #include "peha/experiments/faults/fault_matrix.hpp"
 
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/models/units.hpp"
 #include "peha/safety/fault_monitor.hpp"
 
 #include <fmt/format.h>
@@ -10,14 +11,12 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
-#include <numbers>
 #include <stdexcept>
 
 namespace peha::experiments {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 /// Keeps the few log columns the matrix reads, one vector each (the run is short: a few thousand
 /// rows): time and fault flags, and per joint (its columns named by a prefix: "" on E1, "sfe_", ...
@@ -98,7 +97,7 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
   for (std::size_t k = std::max<std::size_t>(k0, 1); k < n; ++k) {
     double speed = 0;  // the fastest joint's
     for (std::size_t j = 0; j < log.joints(); ++j) {
-      const double joint_speed = std::abs(log.angle(j)[k] - log.angle(j)[k - 1]) / r.period_s / kDeg;
+      const double joint_speed = models::rad_to_deg(std::abs(log.angle(j)[k] - log.angle(j)[k - 1]) / r.period_s);
       speed = std::max(speed, joint_speed);
       if (joint_speed > row.peak_speed_degps) row.peak_speed_degps = joint_speed, row.peak_speed_joint = log.joint_name(j);
       const double force = std::max(log.force(j, 0)[k], log.force(j, 1)[k]);
@@ -250,7 +249,7 @@ std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
   const std::size_t elbow = e3_fault_joint(scenario);
   for (std::size_t i = 1; i < moves.size(); ++i) {
     const sim::OperatorMove& m = moves[i];
-    if (elbow < m.target_rad.size() && std::isfinite(m.target_rad[elbow]) && m.target_rad[elbow] >= 45.0 * kDeg) {
+    if (elbow < m.target_rad.size() && std::isfinite(m.target_rad[elbow]) && m.target_rad[elbow] >= models::deg_to_rad(45.0)) {
       moments.push_back({"elbow_moving", m.start_s + 0.5 * m.move_s});
       moments.push_back({"elbow_flexed", m.start_s + m.duration_s + 1.0});
       break;

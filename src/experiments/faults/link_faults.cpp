@@ -3,6 +3,7 @@
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 #include "peha/experiments/faults/fault_matrix.hpp"
 #include "peha/mfb/udp_backend.hpp"
+#include "peha/models/units.hpp"
 #include "peha/runtime/child_process.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/safety/verdict.hpp"
@@ -16,7 +17,6 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
-#include <numbers>
 #include <optional>
 #include <chrono>
 #include <thread>
@@ -26,7 +26,6 @@ namespace peha::experiments {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr double kDeg = std::numbers::pi / 180.0;
 
 /// `peha mfb-emulator` as a child process, with the port it names once it listens; signalled by the
 /// row (stall, kill), ended with SIGTERM (the ChildProcess kills what is left).
@@ -234,7 +233,7 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   row.min_tension_N = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < n; ++k) {
     if (cols[0][k] < from_s) continue;
-    if (k < cols[1].size() && std::isfinite(cols[1][k])) row.peak_speed_degps = std::max(row.peak_speed_degps, std::abs(cols[1][k]) / kDeg);
+    if (k < cols[1].size() && std::isfinite(cols[1][k])) row.peak_speed_degps = std::max(row.peak_speed_degps, models::rad_to_deg(std::abs(cols[1][k])));
     for (int m : {2, 3}) {
       if (k >= cols[static_cast<std::size_t>(m)].size() || !std::isfinite(cols[static_cast<std::size_t>(m)][k])) continue;
       row.peak_force_N = std::max(row.peak_force_N, cols[static_cast<std::size_t>(m)][k]);
@@ -331,7 +330,8 @@ LinkFaultRow run_host_killed(const E1Scenario& scenario, const E1Case& c, const 
     row.peak_force_N = std::max({row.peak_force_N, cols[3][k], cols[4][k]});
     row.min_tension_N = std::min({row.min_tension_N, cols[3][k], cols[4][k]});
     if (k >= kSpeedWindow && cols[0][k] > cols[0][k - kSpeedWindow]) {
-      row.peak_speed_degps = std::max(row.peak_speed_degps, std::abs(cols[2][k] - cols[2][k - kSpeedWindow]) / (cols[0][k] - cols[0][k - kSpeedWindow]) / kDeg);
+      const double speed_radps = std::abs(cols[2][k] - cols[2][k - kSpeedWindow]) / (cols[0][k] - cols[0][k - kSpeedWindow]);
+      row.peak_speed_degps = std::max(row.peak_speed_degps, models::rad_to_deg(speed_radps));
     }
   }
   if (!std::isfinite(row.min_tension_N)) row.min_tension_N = kNaN;
@@ -344,8 +344,8 @@ LinkFaultRow run_host_killed(const E1Scenario& scenario, const E1Case& c, const 
     if (first < n && (angle < range.min_angle_rad - safety::kRangeTolerance_rad || angle > range.max_angle_rad + safety::kRangeTolerance_rad)) {
       ++row.limits_exceeded;
       row.limits += fmt::format("{}joint {} {:.2f} deg outside [{:.2f}, {:.2f}] deg (board's plant)", row.limits.empty() ? "" : "; ", what,
-                                angle / kDeg, (range.min_angle_rad - safety::kRangeTolerance_rad) / kDeg,
-                                (range.max_angle_rad + safety::kRangeTolerance_rad) / kDeg);
+                                models::rad_to_deg(angle), models::rad_to_deg(range.min_angle_rad - safety::kRangeTolerance_rad),
+                                models::rad_to_deg(range.max_angle_rad + safety::kRangeTolerance_rad));
     }
   }
   if (row.limits_exceeded > 0) {
