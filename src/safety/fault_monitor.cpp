@@ -9,48 +9,23 @@
 namespace peha::safety {
 namespace {
 
-constexpr const char* kFlagNames[kFaultFlagCount] = {
-    "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
-    "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
-    "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
-    "joint_range",       "loadcell_step",        "estop",        "motor_disagrees",      "supply_low",
-    "pressure_rise",     "encoder_disagrees"};
-
-constexpr SafeAction kActions[kFaultFlagCount] = {
-    SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
-    SafeAction::kVent,    // nonfinite_sample: nothing to govern a descent with
-    SafeAction::kVent,    // force_ceiling: relieve the wire now
-    SafeAction::kDescend, // load-cell faults: the encoder still governs a slow descent
-    SafeAction::kDescend,
-    SafeAction::kDescend,
-    SafeAction::kDescend,
-    SafeAction::kDescend, // tension_floor: a broken or slipped wire
-    SafeAction::kVent,    // pressure_high: a valve fills by itself; the dump valve vents past it
-    SafeAction::kDescend, // pressure_low: a valve or sensor that does not follow
-    SafeAction::kHold,    // supply_loss: the check valves keep the air; with no supply a descent cannot be braked
-    SafeAction::kVent,    // pressure_over_supply
-    SafeAction::kHold,    // encoder faults: no angle or speed to govern a descent with, and venting drops a
-    SafeAction::kHold,    // loaded arm (the fault matrix: 115-414 deg/s): keep what the muscles hold, motor off
-    SafeAction::kDescend, // joint_speed: the governor brakes the motion and lowers the joint slowly
-    SafeAction::kDescend, // joint_range: back inside the range, then down to its end, slowly
-    SafeAction::kDescend, // loadcell_step: a load-cell fault as the others
-    SafeAction::kVent,    // estop: the hardware has already cut valves and motor (stop category 0)
-    SafeAction::kHold,    // motor_disagrees: the muscles keep what they hold, the motor is switched off
-    SafeAction::kDescend, // supply_low: air is left to brake with; lower the arm on it
-    SafeAction::kVent,    // pressure_rise: a valve fills by itself, as pressure_high, caught earlier
-    SafeAction::kHold,    // encoder_disagrees: which encoder lies is unknown: no angle to govern a descent with
-};
-
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
+
+/// The flag's row of kChecks (its lowest bit's), or null for none or a bit past the table.
+const CheckInfo* row_of(std::uint32_t flag) noexcept {
+  return flag && index_of(flag) < kFaultFlagCount ? &kChecks[static_cast<std::size_t>(index_of(flag))] : nullptr;
+}
 
 }  // namespace
 
 const char* fault_flag_name(std::uint32_t flag) noexcept {
-  return flag && index_of(flag) < kFaultFlagCount ? kFlagNames[index_of(flag)] : "none";
+  const CheckInfo* row = row_of(flag);
+  return row ? row->name : "none";
 }
 
 SafeAction safe_action(std::uint32_t flag) noexcept {
-  return flag && index_of(flag) < kFaultFlagCount ? kActions[index_of(flag)] : SafeAction::kNone;
+  const CheckInfo* row = row_of(flag);
+  return row ? row->action : SafeAction::kNone;
 }
 
 const char* safe_action_name(SafeAction a) noexcept {

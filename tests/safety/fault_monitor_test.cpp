@@ -9,6 +9,8 @@
 
 #include <cmath>
 #include <limits>
+#include <set>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -109,6 +111,26 @@ TEST(FaultSpec, ParsesStrictlyAndNamesWhatIsWrong) {
   EXPECT_THROW(sim::parse_fault_spec("encoder_jump@20", joints, 10.0), std::invalid_argument);        // after the run
   EXPECT_THROW(sim::parse_fault_spec("motor_fault@1:joint=3", joints, 10.0), std::invalid_argument);  // takes no value
   EXPECT_THROW(sim::parse_fault_spec("wire_break@1:elbow.agonist", joints, 10.0), std::invalid_argument);
+}
+
+// The check table (safety::kChecks, also a static_assert): one row per flag at its bit's index, each
+// name once, every flag with a safe state; fault_flag_name and safe_action read it.
+TEST(FaultMonitor, EveryFlagHasOneRowOfTheCheckTableInBitOrder) {
+  std::set<std::string> names;
+  for (int i = 0; i < safety::kFaultFlagCount; ++i) {
+    const std::uint32_t flag = 1u << i;
+    const safety::CheckInfo& row = safety::kChecks[static_cast<std::size_t>(i)];
+    EXPECT_EQ(row.flag, flag);
+    EXPECT_TRUE(names.insert(row.name).second) << row.name;
+    EXPECT_STREQ(safety::fault_flag_name(flag), row.name);
+    EXPECT_EQ(safety::safe_action(flag), row.action);
+    EXPECT_NE(row.action, safety::SafeAction::kNone) << row.name;
+    EXPECT_NE(row.parameter, nullptr) << row.name;
+  }
+  const std::uint32_t past_the_table = 1u << safety::kFaultFlagCount;
+  EXPECT_STREQ(safety::fault_flag_name(0), "none");
+  EXPECT_STREQ(safety::fault_flag_name(past_the_table), "none");
+  EXPECT_EQ(safety::safe_action(past_the_table), safety::SafeAction::kNone);
 }
 
 }  // namespace

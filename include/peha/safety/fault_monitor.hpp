@@ -90,6 +90,68 @@ inline constexpr int kFaultFlagCount = 22;
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
 
+/// One check's row: its flag, the name logs and reasons use, its designed safe state, and the
+/// MonitorParams field its threshold is made of ("" where no field sets it).
+struct CheckInfo {
+  FaultFlag flag;
+  const char* name;
+  SafeAction action;
+  const char* parameter;
+};
+
+/// Every flag's row, at its bit's index; why each safe state: docs/safety.md.
+inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
+    // The controller cannot be trusted: keep what the muscles hold.
+    {kFaultNonFiniteCommand, "nonfinite_command", SafeAction::kHold, ""},
+    // Nothing to govern a descent with.
+    {kFaultNonFiniteSample, "nonfinite_sample", SafeAction::kVent, ""},
+    // Relieve the wire now (the threshold: the muscle's own ceiling, models::force_ceiling_N).
+    {kFaultForceCeiling, "force_ceiling", SafeAction::kVent, ""},
+    // Load-cell faults: the encoder still governs a slow descent.
+    {kFaultLoadcellDisconnected, "loadcell_disconnected", SafeAction::kDescend, "loadcell_disconnected_N"},
+    {kFaultLoadcellSaturated, "loadcell_saturated", SafeAction::kDescend, "loadcell_saturated_N"},
+    {kFaultLoadcellStuck, "loadcell_stuck", SafeAction::kDescend, "loadcell_stuck_cycles"},
+    {kFaultLoadcellDisagrees, "loadcell_disagrees", SafeAction::kDescend, "loadcell_tolerance_N"},  // + _fraction x the model
+    // A broken or slipped wire.
+    {kFaultTensionFloor, "tension_floor", SafeAction::kDescend, "tension_floor_fraction"},
+    // A valve fills by itself: the dump valve vents past it.
+    {kFaultPressureHigh, "pressure_high", SafeAction::kVent, "pressure_tolerance_Pa"},
+    // A valve or sensor that does not follow.
+    {kFaultPressureLow, "pressure_low", SafeAction::kDescend, "pressure_tolerance_Pa"},
+    // The check valves keep the air; with no supply a descent cannot be braked.
+    {kFaultSupplyLoss, "supply_loss", SafeAction::kHold, "supply_lost_fraction"},
+    {kFaultPressureOverSupply, "pressure_over_supply", SafeAction::kVent, "pressure_over_supply_Pa"},
+    // Encoder faults: no angle or speed to govern a descent with, and venting drops a loaded arm (the
+    // fault matrix: 115-414 deg/s): keep what the muscles hold, motor off.
+    {kFaultEncoderJump, "encoder_jump", SafeAction::kHold, "encoder_max_step_rad"},
+    {kFaultEncoderFrozen, "encoder_frozen", SafeAction::kHold, "encoder_frozen_speed_radps"},
+    // The governor brakes the motion and lowers the joint slowly.
+    {kFaultJointSpeed, "joint_speed", SafeAction::kDescend, "max_joint_speed_radps"},
+    // Back inside the range, then down to its end, slowly.
+    {kFaultJointRange, "joint_range", SafeAction::kDescend, "range_margin_rad"},
+    // A load-cell fault as the others.
+    {kFaultLoadcellStep, "loadcell_step", SafeAction::kDescend, "loadcell_step_N"},
+    // The hardware has already cut valves and motor (stop category 0).
+    {kFaultEstop, "estop", SafeAction::kVent, ""},
+    // The muscles keep what they hold, the motor is switched off.
+    {kFaultMotorDisagrees, "motor_disagrees", SafeAction::kHold, "motor_tolerance_Nm"},
+    // Air is left to brake with: lower the arm on it.
+    {kFaultSupplyLow, "supply_low", SafeAction::kDescend, "supply_low_fraction"},
+    // A valve fills by itself, as pressure_high, caught earlier.
+    {kFaultPressureRise, "pressure_rise", SafeAction::kVent, "pressure_rise_Pa"},
+    // Which encoder lies is unknown: no angle to govern a descent with.
+    {kFaultEncoderDisagrees, "encoder_disagrees", SafeAction::kHold, "encoder_disagree_rad"},
+}};
+
+/// Every flag has exactly one row, at its bit's index (fault_flag_name and safe_action index by bit).
+constexpr bool checks_in_bit_order() noexcept {
+  for (int i = 0; i < kFaultFlagCount; ++i) {
+    if (kChecks[static_cast<std::size_t>(i)].flag != (1u << i)) return false;
+  }
+  return true;
+}
+static_assert(checks_in_bit_order(), "kChecks: one row per FaultFlag, in bit order");
+
 const char* fault_flag_name(std::uint32_t single_flag) noexcept;  ///< "loadcell_stuck", ...
 SafeAction safe_action(std::uint32_t single_flag) noexcept;
 const char* safe_action_name(SafeAction a) noexcept;                ///< "hold", "descend", "vent"
