@@ -89,7 +89,7 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
     for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
   }
   flags_ |= flag;
-  const SafeAction a = (params_.vent_instead & flag) ? SafeAction::kVent : safe_action(flag);
+  const SafeAction a = (overrides_.vented & flag) ? SafeAction::kVent : safe_action(flag);
   if (a > action_) action_ = a;
   if (first_.flag == flag) {
     std::snprintf(reason_, sizeof reason_, "%s joint %d%s: %.4g (threshold %.4g) at %.3f s -> %s", fault_flag_name(flag), joint,
@@ -429,7 +429,7 @@ void FaultMonitor::govern(JointState& js, const models::JointModel& model, doubl
   // someone lifts the joint (it moves up faster than the descent speed) the force is kept: bled, the
   // carrying muscle lost its wire's tension under an operator flexing the elbow (1.0-2.5 N).
   const double ki = p.descent_force_rate_N_per_s / p.descent_speed_radps;
-  const bool lifted = !p.bleed_while_lifted && down * js.filtered_speed_radps < -p.descent_speed_radps;
+  const bool lifted = !overrides_.governor_bleeds_while_lifted && down * js.filtered_speed_radps < -p.descent_speed_radps;
   const double integrand = lifted ? 0.0 : std::max(excess_radps, -p.descent_speed_radps);
   g.force_N = std::clamp(g.force_N + ki * integrand * period_s_, g.floor_N, g.ceiling_N);
   const double wanted_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);

@@ -93,7 +93,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(FaultMonitor, BrokenSupervisorWithTheCheckDisabledMissesTheFault) {
   experiments::E1Scenario s = short_e1();
-  s.limits.monitor.disabled_checks = safety::kFaultLoadcellStuck | safety::kFaultLoadcellDisagrees;
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStuck | safety::kFaultLoadcellDisagrees;
   const auto r = run_with(s, "loadcell_stuck@3:agonist");
   EXPECT_EQ(r.fault_flags & safety::kFaultLoadcellStuck, 0u);
   // The test above (loadcell_stuck detected within its 8-cycle window) would fail on this supervisor.
@@ -292,8 +292,7 @@ struct PressureRun {
 PressureRun run_pressure(double offset_Pa, double fill_Pa_per_s, std::uint32_t disabled = 0, double step_to_Pa = 0) {
   safety::MonitorParams p;
   p.enabled = true;
-  p.disabled_checks = disabled;
-  safety::FaultMonitor monitor(p, 1e-3);
+  safety::FaultMonitor monitor(p, 1e-3, {.unchecked = disabled});
   E1JointView view;
   io::SensorState& state = view.state;
   double command_Pa = 0.1e6, setpoint_Pa = 0.1e6, slow_Pa = 0.1e6;
@@ -420,7 +419,7 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
   EXPECT_TRUE(governed.physics_forbids.empty());
 
   experiments::E1Scenario wrong = e1();
-  wrong.limits.monitor.vent_instead = safety::kFaultLoadcellStuck;
+  wrong.limits.test_overrides.vented = safety::kFaultLoadcellStuck;
   const experiments::FaultRow vented = matrix_row(wrong, sim::FaultKind::kLoadcellStuck);
   EXPECT_EQ(vented.safe_state, "vent");
   EXPECT_GE(vented.limits_exceeded, 1);  // the link leaves the range
@@ -433,7 +432,7 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
 // threshold and hold, the link reached the stop (1 limit).
 TEST(Descend, ARunawayCaughtByItsSpeedIsBrakedInsideTheRange) {
   experiments::E1Scenario s = e1();
-  s.limits.monitor.disabled_checks = safety::kFaultLoadcellStep;
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStep;
   const experiments::FaultRow r = matrix_row(std::move(s), sim::FaultKind::kLoadcellBias);
   EXPECT_EQ(r.flag, "joint_speed");
   EXPECT_EQ(r.safe_state, "descend");

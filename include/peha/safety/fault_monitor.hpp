@@ -161,14 +161,6 @@ struct MonitorParams {
   /// On by default: every scenario runs with the stage (docs/safety.md); `supervisor: {enabled:
   /// false}` exists for measuring an unprotected controller, and a run that uses it says why.
   bool enabled = true;
-  /// FaultFlag bits not checked (tests of a broken supervisor set some; none by default).
-  std::uint32_t disabled_checks = 0;
-  /// FaultFlag bits whose safe state is vent instead of the designed one. Only for tests that show a
-  /// wrong safe state failing its row of the fault matrix; never set by a scenario.
-  std::uint32_t vent_instead = 0;
-  /// Tests only: the descend governor's old integral, which bled the carrying force also while
-  /// someone lifted the joint (the elbow's flexor fell to 1.0-2.5 N under an operator flexing it).
-  bool bleed_while_lifted = false;
   /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
   /// this long and the wire was taut since: start-up vents and recovery ramps slacken wires on purpose.
   double tension_arm_s = 1.0;
@@ -247,6 +239,17 @@ struct MonitorParams {
   std::array<bool, io::kMaxJoints> governed = all_joints(true);
 };
 
+/// A deliberately broken supervisor: what a test or benchmark changes in the designed one, to show
+/// what the designed one is needed for (its fault-matrix row fails with the change). Not part of a
+/// scenario: no YAML key sets it, MonitorParams does not hold it; the default changes nothing.
+struct CheckOverrides {
+  std::uint32_t unchecked = 0;  ///< FaultFlag bits not checked
+  std::uint32_t vented = 0;     ///< FaultFlag bits whose safe state is vent instead of their kChecks row's
+  /// The descend governor's old integral, which bled the carrying force also while someone lifted the
+  /// joint (the elbow's flexor fell to 1.0-2.5 N under an operator flexing it).
+  bool governor_bleeds_while_lifted = false;
+};
+
 /// Reads the scenario root's optional `supervisor:` section into `p` (keys absent keep their
 /// defaults; unknown keys and out-of-range values throw config::Error). Does not finish `root`.
 void read_monitor_params(config::Map& root, MonitorParams& p);
@@ -267,8 +270,9 @@ class FaultMonitor {
   static constexpr int kMaxDelay = 64;  ///< valve dead time in cycles, at most
   static constexpr int kMotorWindow = 16;  ///< commands kept for the motor check, at most
 
-  FaultMonitor(const MonitorParams& params, double period_s) noexcept
-      : params_(params), period_s_(period_s), per_period_(per_period(params, period_s)) {}
+  /// `overrides`: the designed supervisor (default) or a test's broken one (CheckOverrides).
+  FaultMonitor(const MonitorParams& params, double period_s, const CheckOverrides& overrides = {}) noexcept
+      : params_(params), overrides_(overrides), period_s_(period_s), per_period_(per_period(params, period_s)) {}
 
   /// Checks a new sample against the joint set-ups and the angle range.
   void check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
@@ -300,7 +304,7 @@ class FaultMonitor {
 
  private:
   void raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept;
-  bool on(std::uint32_t flag) const noexcept { return params_.enabled && !(params_.disabled_checks & flag); }
+  bool on(std::uint32_t flag) const noexcept { return params_.enabled && !(overrides_.unchecked & flag); }
 
   struct MuscleState {
     double last_loadcell_N = -1;
@@ -356,6 +360,7 @@ class FaultMonitor {
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
 
   MonitorParams params_;
+  CheckOverrides overrides_;
   double period_s_;
   PerPeriod per_period_;
   std::array<JointState, io::kMaxJoints> joints_{};
