@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 namespace peha::safety {
 namespace {
@@ -109,6 +110,20 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
   return pp;
+}
+
+DescendGovernorModel FaultMonitor::governor_model(const MonitorParams& p, double period_s, const CheckOverrides& o) noexcept {
+  // An operator lifting the joint moves it up faster than it is let down (the old integral: never).
+  const double lift_speed_radps = o.governor_bleeds_while_lifted ? std::numeric_limits<double>::infinity() : p.descent_speed_radps;
+  return {.speed_radps = p.descent_speed_radps,
+          .force_rate_N_per_s = p.descent_force_rate_N_per_s,
+          .gain_N_per_radps = p.descent_gain_N_per_radps,
+          .floor_fraction = p.descent_floor_fraction,
+          .force_slew_N_per_s = p.descent_force_slew_N_per_s,
+          .damping_Nms_per_rad = p.descent_damping_Nms_per_rad,
+          .stop_margin_rad = p.descent_stop_margin_rad,
+          .lift_speed_radps = lift_speed_radps,
+          .period_s = period_s};
 }
 
 void FaultMonitor::clear() noexcept {
@@ -339,12 +354,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     }
   }
   synced_ = outputs_follow;
-  if (action_ == SafeAction::kDescend) {
-    for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
-      const auto ji = static_cast<std::size_t>(j);
-      if (p.governed[ji] && models[ji] && std::isfinite(s.joints[ji].angle_rad)) govern(joints_[ji], *models[ji], s.joints[ji].angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
-    }
-  }
+  if (action_ == SafeAction::kDescend) govern(s, models, min_angle_rad, max_angle_rad);
 }
 
 bool FaultMonitor::check_command(const io::Command& c, double t_s) noexcept {
@@ -385,7 +395,7 @@ void FaultMonitor::shape(io::Command& c) const noexcept {
   if (action_ != SafeAction::kDescend) return;
   io::copy_used(c, held_);
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
-    const Governor& g = joints_[static_cast<std::size_t>(j)].governor;
+    const DescendGovernorData& g = joints_[static_cast<std::size_t>(j)].governor;
     if (!g.started) continue;  // no joint model: hold
     io::JointCommand& o = c.joints[static_cast<std::size_t>(j)];
     o.agonist_pressure_Pa = g.pressure_Pa[0];
@@ -394,55 +404,17 @@ void FaultMonitor::shape(io::Command& c) const noexcept {
   }
 }
 
-void FaultMonitor::govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad,
-                          double max_angle_rad) noexcept {
-  const MonitorParams& p = params_;
-  Governor& g = js.governor;
-  const auto ji = static_cast<std::size_t>(&js - joints_.data());
-  const io::JointCommand& held = held_.joints[ji];
-  const double held_Pa[2] = {held.agonist_pressure_Pa, held.antagonist_pressure_Pa};
-  const models::MuscleModel* mm[2] = {&model.agonist, &model.antagonist};
-  double eps[2];
-  for (int m = 0; m < 2; ++m) eps[m] = models::rigid_contraction(*mm[m], model.pulley_radius_m, m == 0 ? +1 : -1, angle_rad);
-  if (!g.started) {
-    // The carrying muscle is the one whose force (by the pressure model, at the pressures held) wins:
-    // it holds the load, so the joint descends when it relaxes. It starts from what it held.
-    double held_N[2];
-    for (int m = 0; m < 2; ++m) held_N[m] = models::forward_force_N(mm[m]->pam, std::max(0.0, held_Pa[m]), eps[m]);
-    g.carrying = held_N[0] >= held_N[1] ? 0 : 1;
-    g.force_N = held_N[g.carrying];
-    g.other_force_N = std::max(model.pretension_N, held_N[1 - g.carrying]);
-    g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
-    g.floor_N = std::min(g.ceiling_N, std::max(model.pretension_N, p.descent_floor_fraction * g.force_N));
-    g.command_N = g.force_N;
-    g.started = true;
+void FaultMonitor::govern(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
+                          const std::array<double, io::kMaxJoints>& min_angle_rad,
+                          const std::array<double, io::kMaxJoints>& max_angle_rad) noexcept {
+  for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
+    const auto ji = static_cast<std::size_t>(j);
+    const double angle_rad = s.joints[ji].angle_rad;
+    if (!params_.governed[ji] || !models[ji] || !std::isfinite(angle_rad)) continue;
+    JointState& js = joints_[ji];
+    const DescentSample sample{angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]};
+    govern_descent(governor_, *models[ji], held_.joints[ji], sample, js.governor);
   }
-  // Descending = toward the range's end the carrying muscle lets go to (the agonist lifts toward +).
-  const double down = g.carrying == 0 ? -1.0 : +1.0;
-  const double room_rad = g.carrying == 0 ? angle_rad - (min_angle_rad + p.descent_stop_margin_rad)
-                                          : (max_angle_rad - p.descent_stop_margin_rad) - angle_rad;
-  const double taper = std::clamp(room_rad / (2.0 * p.descent_stop_margin_rad), 0.0, 1.0);  // slows to a stop near the end
-  const double wanted_radps = down * p.descent_speed_radps * taper;
-  // > 0: descending faster than wanted (more force); < 0: slower or held (bleed).
-  const double excess_radps = down * (js.filtered_speed_radps - wanted_radps);
-  // Integral: bleeds at most descent_force_rate while the joint is held, gains while too fast; while
-  // someone lifts the joint (it moves up faster than the descent speed) the force is kept: bled, the
-  // carrying muscle lost its wire's tension under an operator flexing the elbow (1.0-2.5 N).
-  const double ki = p.descent_force_rate_N_per_s / p.descent_speed_radps;
-  const bool lifted = !overrides_.governor_bleeds_while_lifted && down * js.filtered_speed_radps < -p.descent_speed_radps;
-  const double integrand = lifted ? 0.0 : std::max(excess_radps, -p.descent_speed_radps);
-  g.force_N = std::clamp(g.force_N + ki * integrand * period_s_, g.floor_N, g.ceiling_N);
-  const double wanted_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
-  const double force_N = std::min(wanted_N, g.command_N + p.descent_force_slew_N_per_s * period_s_);
-  g.command_N = force_N;
-  const auto c = static_cast<std::size_t>(g.carrying);
-  const models::InverseResult r = models::muscle_pressure(*mm[c], force_N, eps[c], model.supply_pressure_Pa);
-  g.pressure_Pa[c] = r.pressure_Pa;
-  // The other muscle keeps the force it held (by the model at the new angle): its wire stays taut.
-  const auto o = 1 - c;
-  g.pressure_Pa[o] = models::muscle_pressure(*mm[o], g.other_force_N, eps[o], model.supply_pressure_Pa).pressure_Pa;
-  const double motor_max = model.has_motor ? model.motor_max_torque_Nm : 0.0;
-  g.motor_Nm = std::clamp(-p.descent_damping_Nms_per_rad * js.filtered_speed_radps, -motor_max, motor_max);
 }
 
 }  // namespace peha::safety

@@ -40,14 +40,14 @@
 /// - a non-finite sample.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
-/// While descending, check_sample also runs the governor (govern): the carrying muscle's force by
-/// the pressure model, a PI law on the filtered joint speed toward descent_speed_radps, tapering to
-/// a stop inside the range; the other muscle keeps its held force; the motor damps. shape() copies it.
+/// While descending, check_sample also runs the descend governor of every governed joint
+/// (descend_governor.hpp); shape() sends its command.
 /// noexcept and allocation-free after construction.
 
 #include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/safety/descend_governor.hpp"
 
 #include <array>
 #include <cstdint>
@@ -272,7 +272,11 @@ class FaultMonitor {
 
   /// `overrides`: the designed supervisor (default) or a test's broken one (CheckOverrides).
   FaultMonitor(const MonitorParams& params, double period_s, const CheckOverrides& overrides = {}) noexcept
-      : params_(params), overrides_(overrides), period_s_(period_s), per_period_(per_period(params, period_s)) {}
+      : params_(params),
+        overrides_(overrides),
+        period_s_(period_s),
+        per_period_(per_period(params, period_s)),
+        governor_(governor_model(params, period_s, overrides)) {}
 
   /// Checks a new sample against the joint set-ups and the angle range.
   void check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
@@ -323,17 +327,6 @@ class FaultMonitor {
     bool has_excess = false;
     int rise = 0;
   };
-  /// The descend governor of one joint (docs/safety.md): state from the fault on, output per sample.
-  struct Governor {
-    bool started = false;
-    int carrying = 0;             ///< 0 agonist (descends toward negative angles), 1 antagonist
-    double force_N = 0;           ///< the bled (integral) part of the carrying force
-    double command_N = 0;         ///< the carrying force commanded last (its rise is slew-limited)
-    double floor_N = 0, ceiling_N = 0;
-    double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
-    std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)
-    double motor_Nm = 0;
-  };
   struct JointState {
     std::array<MuscleState, 2> muscle{};
     double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
@@ -347,9 +340,10 @@ class FaultMonitor {
     std::array<double, kMotorWindow> sent_motor_Nm{};
     int motor_head = 0, motor_sent = 0;
     bool has_previous = false;
-    Governor governor{};
+    DescendGovernorData governor{};
   };
-  void govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  void govern(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
+              const std::array<double, io::kMaxJoints>& min_angle_rad, const std::array<double, io::kMaxJoints>& max_angle_rad) noexcept;
 
   /// What the thresholds and the period fix for every sample: the valve models' dead times in cycles
   /// and the first-order filters' factors per period (derived once, not per sample).
@@ -358,11 +352,13 @@ class FaultMonitor {
     double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, rise_alpha = 0;
   };
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
+  static DescendGovernorModel governor_model(const MonitorParams& p, double period_s, const CheckOverrides& o) noexcept;
 
   MonitorParams params_;
   CheckOverrides overrides_;
   double period_s_;
   PerPeriod per_period_;
+  DescendGovernorModel governor_;
   std::array<JointState, io::kMaxJoints> joints_{};
   bool synced_ = false;
   SafeAction action_ = SafeAction::kNone;
