@@ -40,8 +40,10 @@
 /// - a non-finite sample.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
-/// While descending, check_sample also runs the descend governor of every governed joint
-/// (descend_governor.hpp); shape() sends its command.
+/// check_sample runs one small function per check family, always in the same order (a sample's first
+/// raise is the fault it names). Each flag's name, safe state and threshold parameter are one row of
+/// kChecks. While descending, check_sample also runs the descend governor of every governed
+/// joint (descend_governor.hpp); shape() sends its command.
 /// noexcept and allocation-free after construction.
 
 #include "peha/config/reader.hpp"
@@ -342,6 +344,26 @@ class FaultMonitor {
     bool has_previous = false;
     DescendGovernorData governor{};
   };
+  struct MuscleSample;  ///< one muscle of one sample and what its checks derive from it (fault_monitor.cpp)
+  MuscleSample muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model, const JointState& js,
+                             double t_s, bool outputs_follow) const noexcept;
+
+  // The check families, in the order check_sample runs them (their raises name a sample's first fault).
+  bool check_finite(int j, const io::JointSensors& in) noexcept;
+  void check_encoder(int j, const io::JointSensors& in, double t_s, JointState& js) noexcept;
+  void check_speed(int j, const JointState& js) noexcept;
+  void check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept;
+  void check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept;
+  void check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
+  void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
+  bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
+  void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
+  void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
+  void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
+  bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
+  void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;
+  void check_low_pressures(int low_muscles, int joint_count) noexcept;
   void govern(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
               const std::array<double, io::kMaxJoints>& min_angle_rad, const std::array<double, io::kMaxJoints>& max_angle_rad) noexcept;
 
