@@ -345,25 +345,26 @@ class FaultMonitor {
     DescendGovernorData governor{};
   };
   struct MuscleSample;  ///< one muscle of one sample and what its checks derive from it (fault_monitor.cpp)
-  MuscleSample muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model, const JointState& js,
-                             double t_s, bool outputs_follow) const noexcept;
+  inline MuscleSample muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model, const JointState& js,
+                                    double t_s, bool outputs_follow) const noexcept;
 
   // The check families, in the order check_sample runs them (their raises name a sample's first fault).
-  bool check_finite(int j, const io::JointSensors& in) noexcept;
-  void check_encoder(int j, const io::JointSensors& in, double t_s, JointState& js) noexcept;
-  void check_speed(int j, const JointState& js) noexcept;
-  void check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept;
-  void check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept;
-  void check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
-  void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
-  void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
-  bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
-  void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
-  void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
-  void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
-  bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
-  void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;
-  void check_low_pressures(int low_muscles, int joint_count) noexcept;
+  // Inline: each has one caller, in fault_monitor.cpp, and folds back into it (no call per check per sample).
+  inline bool check_finite(int j, const io::JointSensors& in) noexcept;
+  inline void check_encoder(int j, const io::JointSensors& in, double t_s, JointState& js) noexcept;
+  inline void check_speed(int j, const JointState& js) noexcept;
+  inline void check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept;
+  inline void check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept;
+  inline void check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  inline void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
+  inline void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
+  inline bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;
+  inline void check_low_pressures(int low_muscles, int joint_count) noexcept;
   void govern(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
               const std::array<double, io::kMaxJoints>& min_angle_rad, const std::array<double, io::kMaxJoints>& max_angle_rad) noexcept;
 
