@@ -177,8 +177,9 @@ void supervisor_step(benchmark::State& state, bool descending) {
   params.enabled = true;
   // The recording does not follow the governor's commands (open loop): the checks that compare the
   // pressures (or the motor monitor) with the commands would latch, which is not what is timed here.
-  if (descending) params.disabled_checks = safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss | safety::kFaultMotorDisagrees;
-  std::optional<safety::FaultMonitor> monitor(std::in_place, params, s.period_s);
+  safety::CheckOverrides overrides;
+  if (descending) overrides.unchecked = safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss | safety::kFaultMotorDisagrees;
+  std::optional<safety::FaultMonitor> monitor(std::in_place, params, s.period_s, overrides);
   std::array<const models::JointModel*, io::kMaxJoints> joints{};
   joints[0] = &s.controller.joint;
   std::array<double, io::kMaxJoints> min_angle{}, max_angle{};
@@ -201,7 +202,7 @@ void supervisor_step(benchmark::State& state, bool descending) {
     if (++k == samples.size()) {
       state.PauseTiming();
       k = first;
-      monitor.emplace(params, s.period_s);
+      monitor.emplace(params, s.period_s, overrides);
       state.ResumeTiming();
     }
   }

@@ -7,52 +7,28 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 namespace peha::safety {
 namespace {
 
-constexpr const char* kFlagNames[kFaultFlagCount] = {
-    "nonfinite_command", "nonfinite_sample", "force_ceiling",  "loadcell_disconnected", "loadcell_saturated",
-    "loadcell_stuck",    "loadcell_disagrees", "tension_floor", "pressure_high",         "pressure_low",
-    "supply_loss",       "pressure_over_supply", "encoder_jump", "encoder_frozen",       "joint_speed",
-    "joint_range",       "loadcell_step",        "estop",        "motor_disagrees",      "supply_low",
-    "pressure_rise",     "encoder_disagrees"};
-
-constexpr SafeAction kActions[kFaultFlagCount] = {
-    SafeAction::kHold,    // nonfinite_command: the controller cannot be trusted; keep what the muscles hold
-    SafeAction::kVent,    // nonfinite_sample: nothing to govern a descent with
-    SafeAction::kVent,    // force_ceiling: relieve the wire now
-    SafeAction::kDescend, // load-cell faults: the encoder still governs a slow descent
-    SafeAction::kDescend,
-    SafeAction::kDescend,
-    SafeAction::kDescend,
-    SafeAction::kDescend, // tension_floor: a broken or slipped wire
-    SafeAction::kVent,    // pressure_high: a valve fills by itself; the dump valve vents past it
-    SafeAction::kDescend, // pressure_low: a valve or sensor that does not follow
-    SafeAction::kHold,    // supply_loss: the check valves keep the air; with no supply a descent cannot be braked
-    SafeAction::kVent,    // pressure_over_supply
-    SafeAction::kHold,    // encoder faults: no angle or speed to govern a descent with, and venting drops a
-    SafeAction::kHold,    // loaded arm (the fault matrix: 115-414 deg/s): keep what the muscles hold, motor off
-    SafeAction::kDescend, // joint_speed: the governor brakes the motion and lowers the joint slowly
-    SafeAction::kDescend, // joint_range: back inside the range, then down to its end, slowly
-    SafeAction::kDescend, // loadcell_step: a load-cell fault as the others
-    SafeAction::kVent,    // estop: the hardware has already cut valves and motor (stop category 0)
-    SafeAction::kHold,    // motor_disagrees: the muscles keep what they hold, the motor is switched off
-    SafeAction::kDescend, // supply_low: air is left to brake with; lower the arm on it
-    SafeAction::kVent,    // pressure_rise: a valve fills by itself, as pressure_high, caught earlier
-    SafeAction::kHold,    // encoder_disagrees: which encoder lies is unknown: no angle to govern a descent with
-};
-
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
+
+/// The flag's row of kChecks (its lowest bit's), or null for none or a bit past the table.
+const CheckInfo* row_of(std::uint32_t flag) noexcept {
+  return flag && index_of(flag) < kFaultFlagCount ? &kChecks[static_cast<std::size_t>(index_of(flag))] : nullptr;
+}
 
 }  // namespace
 
 const char* fault_flag_name(std::uint32_t flag) noexcept {
-  return flag && index_of(flag) < kFaultFlagCount ? kFlagNames[index_of(flag)] : "none";
+  const CheckInfo* row = row_of(flag);
+  return row ? row->name : "none";
 }
 
 SafeAction safe_action(std::uint32_t flag) noexcept {
-  return flag && index_of(flag) < kFaultFlagCount ? kActions[index_of(flag)] : SafeAction::kNone;
+  const CheckInfo* row = row_of(flag);
+  return row ? row->action : SafeAction::kNone;
 }
 
 const char* safe_action_name(SafeAction a) noexcept {
@@ -116,7 +92,7 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
     for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
   }
   flags_ |= flag;
-  const SafeAction a = (params_.vent_instead & flag) ? SafeAction::kVent : safe_action(flag);
+  const SafeAction a = (overrides_.vented & flag) ? SafeAction::kVent : safe_action(flag);
   if (a > action_) action_ = a;
   if (first_.flag == flag) {
     std::snprintf(reason_, sizeof reason_, "%s joint %d%s: %.4g (threshold %.4g) at %.3f s -> %s", fault_flag_name(flag), joint,
@@ -138,6 +114,20 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   return pp;
 }
 
+DescendGovernorModel FaultMonitor::governor_model(const MonitorParams& p, double period_s, const CheckOverrides& o) noexcept {
+  // An operator lifting the joint moves it up faster than it is let down (the old integral: never).
+  const double lift_speed_radps = o.governor_bleeds_while_lifted ? std::numeric_limits<double>::infinity() : p.descent_speed_radps;
+  return {.speed_radps = p.descent_speed_radps,
+          .force_rate_N_per_s = p.descent_force_rate_N_per_s,
+          .gain_N_per_radps = p.descent_gain_N_per_radps,
+          .floor_fraction = p.descent_floor_fraction,
+          .force_slew_N_per_s = p.descent_force_slew_N_per_s,
+          .damping_Nms_per_rad = p.descent_damping_Nms_per_rad,
+          .stop_margin_rad = p.descent_stop_margin_rad,
+          .lift_speed_radps = lift_speed_radps,
+          .period_s = period_s};
+}
+
 void FaultMonitor::clear() noexcept {
   flags_ = 0;
   action_ = SafeAction::kNone;
@@ -157,219 +147,328 @@ void FaultMonitor::clear() noexcept {
   }
 }
 
+/// One muscle of one sample and what its checks derive from it, once.
+struct FaultMonitor::MuscleSample {
+  int joint = 0, muscle = 0;  ///< muscle: 0 agonist, 1 antagonist
+  double cell_N = 0, pressure_Pa = 0;
+  double ceiling_N = 0;    ///< the muscle's force ceiling
+  double model_N = 0;      ///< the pressure model's force at the measured pressure and angle
+  double tolerance_N = 0;  ///< how far the load cell may read from model_N
+  double floor_N = 0;      ///< the wire's tension floor
+  double taut_N = 0;       ///< at or above: the wire is taut (arms its slack checks)
+  double supply_Pa = 0;
+  bool tension_checked = false;
+  bool outputs_follow = false;
+  bool arming = false;  ///< the outputs have followed for tension_arm_s: a taut wire arms its slack checks
+};
+
 void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
                                 const std::array<double, io::kMaxJoints>& min_angle_rad,
                                 const std::array<double, io::kMaxJoints>& max_angle_rad, bool outputs_follow) noexcept {
   t_s_ = s.time_s;
   sequence_ = s.sequence;
-  const MonitorParams& p = params_;
-  if (!p.enabled) return;
-  const PerPeriod& pp = per_period_;
-  int low_muscles = 0;
+  if (!params_.enabled) return;
+  int low_muscles = 0;  // muscles whose pressure stays below the valve's envelope (two or more: the supply)
   for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
     const auto ji = static_cast<std::size_t>(j);
     const io::JointSensors& in = s.joints[ji];
     JointState& js = joints_[ji];
-    const models::JointModel* model = models[ji];
-    const double cells[2] = {in.agonist_loadcell_N, in.antagonist_loadcell_N};
-    const double pressures[2] = {in.agonist_pressure_Pa, in.antagonist_pressure_Pa};
-    if (!std::isfinite(in.angle_rad) || !std::isfinite(cells[0]) || !std::isfinite(cells[1]) || !std::isfinite(pressures[0]) ||
-        !std::isfinite(pressures[1])) {
-      raise(kFaultNonFiniteSample, j, -1, 0.0, 0.0);
-      continue;
-    }
-    // Encoder: jump, speed, frozen, range.
-    if (js.has_previous) {
-      const double dt = std::max(s.time_s - js.last_t_s, period_s_);
-      const double step = in.angle_rad - js.last_angle_rad;
-      if (std::abs(step) > p.encoder_max_step_rad) raise(kFaultEncoderJump, j, -1, std::abs(step), p.encoder_max_step_rad);
-      js.speed_radps = step / dt;
-      const double a = 1.0 - std::exp(-dt * 2.0 * 3.14159265358979323846 * p.speed_filter_Hz);
-      if (std::abs(step) <= p.encoder_max_step_rad) js.filtered_speed_radps += a * (js.speed_radps - js.filtered_speed_radps);
-      if (std::abs(js.speed_radps) > p.max_joint_speed_radps && std::abs(step) <= p.encoder_max_step_rad) {
-        raise(kFaultJointSpeed, j, -1, std::abs(js.speed_radps), p.max_joint_speed_radps);
-      }
-      if (step == 0.0) {
-        ++js.same_angle;
-        if (js.same_angle >= p.encoder_frozen_cycles && std::abs(js.last_change_speed_radps) > p.encoder_frozen_speed_radps) {
-          raise(kFaultEncoderFrozen, j, -1, js.last_change_speed_radps, p.encoder_frozen_speed_radps);
-        }
-      } else {
-        js.last_change_speed_radps = step / std::max(s.time_s - js.last_change_t_s, dt);
-        js.last_change_t_s = s.time_s;
-        js.same_angle = 0;
-      }
-    } else {
-      js.last_change_t_s = s.time_s;
-    }
-    // The redundant encoder on the joint's axis: the two angles stay together while both count.
-    if (std::isfinite(in.redundant_angle_rad)) {
-      const double apart_rad = in.angle_rad - in.redundant_angle_rad;
-      js.encoder_apart = std::abs(apart_rad) > p.encoder_disagree_rad ? js.encoder_apart + 1 : 0;
-      if (js.encoder_apart >= p.confirm_cycles) raise(kFaultEncoderDisagrees, j, -1, apart_rad, p.encoder_disagree_rad);
-    }
-    js.last_angle_rad = in.angle_rad;
-    js.last_t_s = s.time_s;
-    js.has_previous = true;
-    if (in.angle_rad < min_angle_rad[ji] - p.range_margin_rad) raise(kFaultJointRange, j, -1, in.angle_rad, min_angle_rad[ji] - p.range_margin_rad);
-    if (in.angle_rad > max_angle_rad[ji] + p.range_margin_rad) raise(kFaultJointRange, j, -1, in.angle_rad, max_angle_rad[ji] + p.range_margin_rad);
+    if (!check_finite(j, in)) continue;
+    check_encoder(j, in, s.time_s, js);
+    check_range(j, in.angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
     if (!outputs_follow) {
       js.follow_since_s = -1;
     } else if (js.follow_since_s < 0) {
       js.follow_since_s = s.time_s;
     }
+    const models::JointModel* model = models[ji];
     if (!model) continue;
-    // Supply, where it is measured: a sensor on the valve manifold sees a failing compressor at once,
-    // also at rest, where the check valves keep the muscles' air and no pressure sensor moves.
-    if (std::isfinite(in.supply_pressure_Pa)) {
-      const double low_Pa = p.supply_low_fraction * model->supply_pressure_Pa;
-      const double lost_Pa = p.supply_lost_fraction * model->supply_pressure_Pa;
-      js.supply_low = in.supply_pressure_Pa < low_Pa ? js.supply_low + 1 : 0;
-      js.supply_lost = in.supply_pressure_Pa < lost_Pa ? js.supply_lost + 1 : 0;
-      // A supply gone at once is a loss, not also a low supply (descend is the stronger safe state).
-      if (js.supply_lost >= p.confirm_cycles) {
-        raise(kFaultSupplyLoss, j, -1, in.supply_pressure_Pa, lost_Pa);
-      } else if (js.supply_low >= p.confirm_cycles && in.supply_pressure_Pa >= lost_Pa) {
-        raise(kFaultSupplyLow, j, -1, in.supply_pressure_Pa, low_Pa);
-      }
-    }
-    // Motor, where the driver's current monitor is read: the torque it makes against the span of the
-    // commands sent while the outputs followed over the last motor_window_cycles (the link's latency).
-    if (!outputs_follow) js.motor_sent = 0;
-    const int window = std::clamp(p.motor_window_cycles, 1, kMotorWindow);
-    if (model->has_motor && outputs_follow && std::isfinite(in.motor_torque_Nm) && js.motor_sent >= window) {
-      double lo_Nm = js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], hi_Nm = lo_Nm;
-      for (int k = 1; k < window; ++k) {
-        const double c = js.sent_motor_Nm[static_cast<std::size_t>((js.motor_head + kMotorWindow - k) % kMotorWindow)];
-        lo_Nm = std::min(lo_Nm, c);
-        hi_Nm = std::max(hi_Nm, c);
-      }
-      const double off_Nm = std::max(lo_Nm - in.motor_torque_Nm, in.motor_torque_Nm - hi_Nm);
-      js.motor_off = off_Nm > p.motor_tolerance_Nm ? js.motor_off + 1 : 0;
-      if (js.motor_off >= p.confirm_cycles) {
-        raise(kFaultMotorDisagrees, j, -1, in.motor_torque_Nm - js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], p.motor_tolerance_Nm);
-      }
-    } else {
-      js.motor_off = 0;
-    }
+    check_supply(j, in, *model, js);
+    check_motor(j, in, *model, outputs_follow, js);
     for (int m = 0; m < 2; ++m) {
-      MuscleState& ms = js.muscle[static_cast<std::size_t>(m)];
-      const models::MuscleModel& mm = m == 0 ? model->agonist : model->antagonist;
-      const double cell = cells[m], pressure = pressures[m];
-      // Load cell. Above the ceiling: a real over-force (the pressure model agrees, within the
-      // disagreement tolerance) is relieved at once (vent); a reading the pressure model cannot
-      // explain is a load-cell fault (descend on the model) - venting a loaded arm drops it.
-      const double ceiling = models::force_ceiling_N(mm);
-      const double eps = models::rigid_contraction(mm, model->pulley_radius_m, m == 0 ? +1 : -1, in.angle_rad);
-      const double model_N = models::forward_force_N(mm.pam, pressure, eps);
-      const double tolerance = p.loadcell_tolerance_N + p.loadcell_tolerance_fraction * std::abs(model_N);
-      if (cell > ceiling) {
-        if (model_N >= ceiling - tolerance) {
-          raise(kFaultForceCeiling, j, m, cell, ceiling);
-        } else {
-          raise(kFaultLoadcellDisagrees, j, m, cell - model_N, tolerance);
-        }
-      }
-      // A wire is checked for slack (and its cell for a disconnect) once it has been taut since the
-      // outputs began to follow: after a vent or at start-up the wires are slack by design.
-      const double floor_N = p.tension_floor_fraction * model->pretension_N;
-      if (!outputs_follow) ms.taut = false;
-      if (outputs_follow && s.time_s - js.follow_since_s >= p.tension_arm_s &&
-          cell >= std::max(floor_N, p.tension_taut_fraction * model->pretension_N)) {
-        ms.taut = true;
-      }
-      // On a joint whose wires may go slack by design (tension not checked: the constant-pressure
-      // wrist) a slack wire reads code 0 as a disconnected cell does: not observable, not raised
-      // (the arm's identification moved the wrist slack and latched it on muscles -15 %).
-      ms.disconnected = p.tension_checked[ji] && ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
-      ms.saturated = cell >= p.loadcell_saturated_N ? ms.saturated + 1 : 0;
-      if (ms.disconnected >= p.confirm_cycles) raise(kFaultLoadcellDisconnected, j, m, cell, p.loadcell_disconnected_N);
-      if (ms.saturated >= p.confirm_cycles) raise(kFaultLoadcellSaturated, j, m, cell, p.loadcell_saturated_N);
-      // Stuck: a taut wire's live cell never repeats itself (noise); a slack wire's cell may sit at code 0.
-      ms.same_loadcell = ms.taut && cell > p.loadcell_disconnected_N && cell == ms.last_loadcell_N ? ms.same_loadcell + 1 : 0;
-      ms.last_loadcell_N = cell;
-      if (ms.same_loadcell + 1 >= p.loadcell_stuck_cycles) raise(kFaultLoadcellStuck, j, m, cell, p.loadcell_stuck_cycles);
-      ms.disagree = std::abs(cell - model_N) > tolerance ? ms.disagree + 1 : 0;
-      if (ms.disagree >= p.confirm_cycles) raise(kFaultLoadcellDisagrees, j, m, cell - model_N, tolerance);
-      ms.low_tension = p.tension_checked[ji] && ms.taut && cell < floor_N ? ms.low_tension + 1 : 0;
-      if (ms.low_tension >= p.confirm_cycles) raise(kFaultTensionFloor, j, m, cell, floor_N);
-      // Step (after the floor, so that a wire break that trips both is named by its floor): the cell leaves the pressure model's company at once. The model follows the measured
-      // pressure, so a real force change moves both; a bias or a slipped clamp moves the cell alone.
-      const double disagreement_N = cell - model_N;
-      // Armed with the slack checks (outputs followed for tension_arm_s, wire taut since): a start-up
-      // vent or refill moves the pressure faster than the muscle's force follows it.
-      if (!ms.has_level || !outputs_follow || !ms.taut) {
-        ms.disagreement_level_N = disagreement_N;
-        ms.has_level = true;
-        ms.step = 0;
-      } else {
-        const double jump_N = disagreement_N - ms.disagreement_level_N;
-        ms.step = std::abs(jump_N) > p.loadcell_step_N ? ms.step + 1 : 0;
-        if (ms.step >= p.confirm_cycles) raise(kFaultLoadcellStep, j, m, jump_N, p.loadcell_step_N);
-        ms.disagreement_level_N += pp.step_alpha * jump_N;
-      }
-      // Pressure sensor against the valve's dynamics.
-      if (pressure > model->supply_pressure_Pa + p.pressure_over_supply_Pa) {
-        raise(kFaultPressureOverSupply, j, m, pressure, model->supply_pressure_Pa + p.pressure_over_supply_Pa);
-      }
-      if (!outputs_follow || !synced_) {  // the valve model restarts from what is measured
-        ms.delay.fill(pressure);
-        ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
-        ms.pressure_low = ms.pressure_high = ms.rise = 0;
-        ms.has_excess = false;
-        continue;
-      }
-      // Advance the valve model by one period with the delayed command (written by sent()).
-      const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.delay_cycles) % kMaxDelay)];
-      const double max_step = p.valve_rate_Pa_per_s * period_s_;
-      ms.setpoint_Pa += std::clamp(delayed - ms.setpoint_Pa, -max_step, max_step);
-      ms.predicted_Pa += pp.valve_alpha * (ms.setpoint_Pa - ms.predicted_Pa);
-      // The envelope's slow valve: the same command, later, slower, lagging more.
-      const double slow_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.slow_delay_cycles) % kMaxDelay)];
-      const double slow_step = max_step / p.valve_slow_factor;
-      ms.slow_setpoint_Pa += std::clamp(slow_delayed - ms.slow_setpoint_Pa, -slow_step, slow_step);
-      ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
-      const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
-      const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
-      ms.pressure_high = above > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
-      ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
-      if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, j, m, above, p.pressure_tolerance_Pa);
-      if (ms.pressure_low >= p.confirm_cycles) ++low_muscles;
-      // Rise: the commands hold (both valve models have settled on the newest command), so the
-      // pressure should hold too. Only the excess over the upper edge counts (a pressure settling up
-      // to the envelope from below is not a rise); its level follows slowly, so a sensor's offset passes.
-      const double excess_Pa = std::max(above, 0.0);
-      const double newest_Pa = ms.delay[static_cast<std::size_t>(ms.head)];
-      const bool settled = std::abs(ms.predicted_Pa - newest_Pa) <= p.pressure_rise_Pa &&
-                           std::abs(ms.slow_predicted_Pa - newest_Pa) <= p.pressure_rise_Pa;
-      if (!ms.has_excess || !settled) {
-        ms.excess_fast_Pa = ms.excess_level_Pa = excess_Pa;
-        ms.has_excess = true;
-        ms.rise = 0;
-      } else {
-        ms.excess_fast_Pa += pp.rise_alpha * (excess_Pa - ms.excess_fast_Pa);
-        const double rise_Pa = ms.excess_fast_Pa - ms.excess_level_Pa;
-        ms.rise = rise_Pa > p.pressure_rise_Pa ? ms.rise + 1 : 0;
-        if (ms.rise >= p.confirm_cycles) raise(kFaultPressureRise, j, m, rise_Pa, p.pressure_rise_Pa);
-        ms.excess_level_Pa += pp.step_alpha * (ms.excess_fast_Pa - ms.excess_level_Pa);
-      }
+      const MuscleSample x = muscle_sample(j, m, in, *model, js, s.time_s, outputs_follow);
+      if (check_muscle(x, js.muscle[static_cast<std::size_t>(m)])) ++low_muscles;
     }
   }
+  check_low_pressures(low_muscles, s.joint_count);
+  synced_ = outputs_follow;
+  if (action_ == SafeAction::kDescend) govern(s, models, min_angle_rad, max_angle_rad);
+}
+
+/// A non-finite sample: no other check can read it.
+bool FaultMonitor::check_finite(int j, const io::JointSensors& in) noexcept {
+  if (std::isfinite(in.angle_rad) && std::isfinite(in.agonist_loadcell_N) && std::isfinite(in.antagonist_loadcell_N) &&
+      std::isfinite(in.agonist_pressure_Pa) && std::isfinite(in.antagonist_pressure_Pa)) {
+    return true;
+  }
+  raise(kFaultNonFiniteSample, j, -1, 0.0, 0.0);
+  return false;
+}
+
+/// Encoder: one sample's step (jump; a jump measures no speed), the speed it measures (joint_speed,
+/// and the filtered speed the governor reads), a count that stops (frozen), the redundant encoder.
+void FaultMonitor::check_encoder(int j, const io::JointSensors& in, double t_s, JointState& js) noexcept {
+  const MonitorParams& p = params_;
+  if (js.has_previous) {
+    const double dt_s = std::max(t_s - js.last_t_s, period_s_);
+    const double step_rad = in.angle_rad - js.last_angle_rad;
+    const bool measured = std::abs(step_rad) <= p.encoder_max_step_rad;
+    if (!measured) raise(kFaultEncoderJump, j, -1, std::abs(step_rad), p.encoder_max_step_rad);
+    js.speed_radps = step_rad / dt_s;
+    if (measured) {
+      const double a = 1.0 - std::exp(-dt_s * 2.0 * 3.14159265358979323846 * p.speed_filter_Hz);
+      js.filtered_speed_radps += a * (js.speed_radps - js.filtered_speed_radps);
+      check_speed(j, js);
+    }
+    check_frozen(j, step_rad, dt_s, t_s, js);
+  } else {
+    js.last_change_t_s = t_s;
+  }
+  check_redundant_encoder(j, in, js);
+  js.last_angle_rad = in.angle_rad;
+  js.last_t_s = t_s;
+  js.has_previous = true;
+}
+
+/// The same count for encoder_frozen_cycles right after moving faster than encoder_frozen_speed.
+void FaultMonitor::check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept {
+  const MonitorParams& p = params_;
+  if (step_rad != 0.0) {
+    js.last_change_speed_radps = step_rad / std::max(t_s - js.last_change_t_s, dt_s);
+    js.last_change_t_s = t_s;
+    js.same_angle = 0;
+    return;
+  }
+  ++js.same_angle;
+  if (js.same_angle >= p.encoder_frozen_cycles && std::abs(js.last_change_speed_radps) > p.encoder_frozen_speed_radps) {
+    raise(kFaultEncoderFrozen, j, -1, js.last_change_speed_radps, p.encoder_frozen_speed_radps);
+  }
+}
+
+/// The redundant encoder on the joint's axis: the two angles stay together while both count.
+void FaultMonitor::check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept {
+  if (!std::isfinite(in.redundant_angle_rad)) return;
+  const double apart_rad = in.angle_rad - in.redundant_angle_rad;
+  js.encoder_apart = std::abs(apart_rad) > params_.encoder_disagree_rad ? js.encoder_apart + 1 : 0;
+  if (js.encoder_apart >= params_.confirm_cycles) raise(kFaultEncoderDisagrees, j, -1, apart_rad, params_.encoder_disagree_rad);
+}
+
+/// Speed: a falling link (one sample is enough; its step was not a jump).
+void FaultMonitor::check_speed(int j, const JointState& js) noexcept {
+  if (std::abs(js.speed_radps) > params_.max_joint_speed_radps) {
+    raise(kFaultJointSpeed, j, -1, std::abs(js.speed_radps), params_.max_joint_speed_radps);
+  }
+}
+
+/// Range: the angle beyond either end by more than range_margin.
+void FaultMonitor::check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept {
+  const double lo_rad = min_angle_rad - params_.range_margin_rad;
+  const double hi_rad = max_angle_rad + params_.range_margin_rad;
+  if (angle_rad < lo_rad) raise(kFaultJointRange, j, -1, angle_rad, lo_rad);
+  if (angle_rad > hi_rad) raise(kFaultJointRange, j, -1, angle_rad, hi_rad);
+}
+
+/// Supply, where it is measured: a sensor on the valve manifold sees a failing compressor at once,
+/// also at rest, where the check valves keep the muscles' air and no pressure sensor moves.
+void FaultMonitor::check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept {
+  if (!std::isfinite(in.supply_pressure_Pa)) return;
+  const MonitorParams& p = params_;
+  const double low_Pa = p.supply_low_fraction * model.supply_pressure_Pa;
+  const double lost_Pa = p.supply_lost_fraction * model.supply_pressure_Pa;
+  js.supply_low = in.supply_pressure_Pa < low_Pa ? js.supply_low + 1 : 0;
+  js.supply_lost = in.supply_pressure_Pa < lost_Pa ? js.supply_lost + 1 : 0;
+  // A supply gone at once is a loss, not also a low supply (descend is the stronger safe state).
+  if (js.supply_lost >= p.confirm_cycles) {
+    raise(kFaultSupplyLoss, j, -1, in.supply_pressure_Pa, lost_Pa);
+  } else if (js.supply_low >= p.confirm_cycles && in.supply_pressure_Pa >= lost_Pa) {
+    raise(kFaultSupplyLow, j, -1, in.supply_pressure_Pa, low_Pa);
+  }
+}
+
+/// Motor, where the driver's current monitor is read: the torque it makes against the span of the
+/// commands sent while the outputs followed over the last motor_window_cycles (the link's latency).
+void FaultMonitor::check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow,
+                               JointState& js) noexcept {
+  const MonitorParams& p = params_;
+  if (!outputs_follow) js.motor_sent = 0;
+  const int window = std::clamp(p.motor_window_cycles, 1, kMotorWindow);
+  if (!model.has_motor || !outputs_follow || !std::isfinite(in.motor_torque_Nm) || js.motor_sent < window) {
+    js.motor_off = 0;
+    return;
+  }
+  double lo_Nm = js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], hi_Nm = lo_Nm;
+  for (int k = 1; k < window; ++k) {
+    const double c = js.sent_motor_Nm[static_cast<std::size_t>((js.motor_head + kMotorWindow - k) % kMotorWindow)];
+    lo_Nm = std::min(lo_Nm, c);
+    hi_Nm = std::max(hi_Nm, c);
+  }
+  const double off_Nm = std::max(lo_Nm - in.motor_torque_Nm, in.motor_torque_Nm - hi_Nm);
+  js.motor_off = off_Nm > p.motor_tolerance_Nm ? js.motor_off + 1 : 0;
+  if (js.motor_off >= p.confirm_cycles) {
+    raise(kFaultMotorDisagrees, j, -1, in.motor_torque_Nm - js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], p.motor_tolerance_Nm);
+  }
+}
+
+FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model,
+                                                       const JointState& js, double t_s, bool outputs_follow) const noexcept {
+  const MonitorParams& p = params_;
+  const models::MuscleModel& mm = m == 0 ? model.agonist : model.antagonist;
+  MuscleSample x;
+  x.joint = j;
+  x.muscle = m;
+  x.cell_N = m == 0 ? in.agonist_loadcell_N : in.antagonist_loadcell_N;
+  x.pressure_Pa = m == 0 ? in.agonist_pressure_Pa : in.antagonist_pressure_Pa;
+  x.ceiling_N = models::force_ceiling_N(mm);
+  const double eps = models::rigid_contraction(mm, model.pulley_radius_m, m == 0 ? +1 : -1, in.angle_rad);
+  x.model_N = models::forward_force_N(mm.pam, x.pressure_Pa, eps);
+  x.tolerance_N = p.loadcell_tolerance_N + p.loadcell_tolerance_fraction * std::abs(x.model_N);
+  x.floor_N = p.tension_floor_fraction * model.pretension_N;
+  x.taut_N = std::max(x.floor_N, p.tension_taut_fraction * model.pretension_N);
+  x.supply_Pa = model.supply_pressure_Pa;
+  x.tension_checked = p.tension_checked[static_cast<std::size_t>(j)];
+  x.outputs_follow = outputs_follow;
+  x.arming = outputs_follow && t_s - js.follow_since_s >= p.tension_arm_s;
+  return x;
+}
+
+/// One muscle's checks, in their order; true when its pressure has stayed below the valve's
+/// envelope for confirm_cycles (pressure_low, or with another muscle a supply loss).
+bool FaultMonitor::check_muscle(const MuscleSample& x, MuscleState& ms) noexcept {
+  // Tension: a wire's slack checks (and its cell's disconnect) arm once it has been taut since the
+  // outputs began to follow: after a vent or at start-up the wires are slack by design.
+  if (!x.outputs_follow) ms.taut = false;
+  if (x.arming && x.cell_N >= x.taut_N) ms.taut = true;
+  check_load_cell(x, ms);
+  check_tension_floor(x, ms);
+  check_load_cell_step(x, ms);
+  return check_valve(x, ms);
+}
+
+/// Load cell: above the muscle's force ceiling, disconnected, saturated, stuck, or disagreeing with
+/// the pressure model.
+void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept {
+  const MonitorParams& p = params_;
+  const int j = x.joint, m = x.muscle;
+  const double cell = x.cell_N;
+  // Above the ceiling: a real over-force (the pressure model agrees, within the disagreement
+  // tolerance) is relieved at once (vent); a reading the pressure model cannot explain is a load-cell
+  // fault (descend on the model) - venting a loaded arm drops it.
+  if (cell > x.ceiling_N) {
+    if (x.model_N >= x.ceiling_N - x.tolerance_N) {
+      raise(kFaultForceCeiling, j, m, cell, x.ceiling_N);
+    } else {
+      raise(kFaultLoadcellDisagrees, j, m, cell - x.model_N, x.tolerance_N);
+    }
+  }
+  // On a joint whose wires may go slack by design (tension not checked: the constant-pressure
+  // wrist) a slack wire reads code 0 as a disconnected cell does: not observable, not raised
+  // (the arm's identification moved the wrist slack and latched it on muscles -15 %).
+  ms.disconnected = x.tension_checked && ms.taut && cell <= p.loadcell_disconnected_N ? ms.disconnected + 1 : 0;
+  ms.saturated = cell >= p.loadcell_saturated_N ? ms.saturated + 1 : 0;
+  if (ms.disconnected >= p.confirm_cycles) raise(kFaultLoadcellDisconnected, j, m, cell, p.loadcell_disconnected_N);
+  if (ms.saturated >= p.confirm_cycles) raise(kFaultLoadcellSaturated, j, m, cell, p.loadcell_saturated_N);
+  // Stuck: a taut wire's live cell never repeats itself (noise); a slack wire's cell may sit at code 0.
+  ms.same_loadcell = ms.taut && cell > p.loadcell_disconnected_N && cell == ms.last_loadcell_N ? ms.same_loadcell + 1 : 0;
+  ms.last_loadcell_N = cell;
+  if (ms.same_loadcell + 1 >= p.loadcell_stuck_cycles) raise(kFaultLoadcellStuck, j, m, cell, p.loadcell_stuck_cycles);
+  ms.disagree = std::abs(cell - x.model_N) > x.tolerance_N ? ms.disagree + 1 : 0;
+  if (ms.disagree >= p.confirm_cycles) raise(kFaultLoadcellDisagrees, j, m, cell - x.model_N, x.tolerance_N);
+}
+
+/// Tension: a taut wire's load cell below tension_floor_fraction x pretension (a wire near slack).
+void FaultMonitor::check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept {
+  ms.low_tension = x.tension_checked && ms.taut && x.cell_N < x.floor_N ? ms.low_tension + 1 : 0;
+  if (ms.low_tension >= params_.confirm_cycles) raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
+}
+
+/// Load-cell step (after the floor, so that a wire break that trips both is named by its floor): the
+/// cell leaves the pressure model's company at once. The model follows the measured pressure, so a
+/// real force change moves both; a bias or a slipped clamp moves the cell alone. Armed with the slack
+/// checks: a start-up vent or refill moves the pressure faster than the muscle's force follows it.
+void FaultMonitor::check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept {
+  const double disagreement_N = x.cell_N - x.model_N;
+  if (!ms.has_level || !x.outputs_follow || !ms.taut) {
+    ms.disagreement_level_N = disagreement_N;
+    ms.has_level = true;
+    ms.step = 0;
+    return;
+  }
+  const double jump_N = disagreement_N - ms.disagreement_level_N;
+  ms.step = std::abs(jump_N) > params_.loadcell_step_N ? ms.step + 1 : 0;
+  if (ms.step >= params_.confirm_cycles) raise(kFaultLoadcellStep, x.joint, x.muscle, jump_N, params_.loadcell_step_N);
+  ms.disagreement_level_N += per_period_.step_alpha * jump_N;
+}
+
+/// Valve: the pressure sensor against what the valve makes of the commands sent (sent() writes them
+/// into the delay line): above supply, above or below the envelope of the modelled and the slow valve.
+/// True when the pressure has stayed below the envelope for confirm_cycles.
+bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept {
+  const MonitorParams& p = params_;
+  const PerPeriod& pp = per_period_;
+  const double pressure = x.pressure_Pa;
+  if (pressure > x.supply_Pa + p.pressure_over_supply_Pa) {
+    raise(kFaultPressureOverSupply, x.joint, x.muscle, pressure, x.supply_Pa + p.pressure_over_supply_Pa);
+  }
+  if (!x.outputs_follow || !synced_) {  // the valve model restarts from what is measured
+    ms.delay.fill(pressure);
+    ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
+    ms.pressure_low = ms.pressure_high = ms.rise = 0;
+    ms.has_excess = false;
+    return false;
+  }
+  // Advance the valve model by one period with the delayed command.
+  const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.delay_cycles) % kMaxDelay)];
+  const double max_step = p.valve_rate_Pa_per_s * period_s_;
+  ms.setpoint_Pa += std::clamp(delayed - ms.setpoint_Pa, -max_step, max_step);
+  ms.predicted_Pa += pp.valve_alpha * (ms.setpoint_Pa - ms.predicted_Pa);
+  // The envelope's slow valve: the same command, later, slower, lagging more.
+  const double slow_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.slow_delay_cycles) % kMaxDelay)];
+  const double slow_step = max_step / p.valve_slow_factor;
+  ms.slow_setpoint_Pa += std::clamp(slow_delayed - ms.slow_setpoint_Pa, -slow_step, slow_step);
+  ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
+  const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
+  const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
+  ms.pressure_high = above > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+  ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
+  if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, above, p.pressure_tolerance_Pa);
+  check_pressure_rise(x, above, ms);
+  return ms.pressure_low >= p.confirm_cycles;
+}
+
+/// Rise: the commands hold (both valve models have settled on the newest command), so the pressure
+/// should hold too. Only the excess over the upper edge counts (a pressure settling up to the
+/// envelope from below is not a rise); its level follows slowly, so a sensor's offset passes.
+void FaultMonitor::check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept {
+  const MonitorParams& p = params_;
+  const double excess_Pa = std::max(above_Pa, 0.0);
+  const double newest_Pa = ms.delay[static_cast<std::size_t>(ms.head)];
+  const bool settled = std::abs(ms.predicted_Pa - newest_Pa) <= p.pressure_rise_Pa &&
+                       std::abs(ms.slow_predicted_Pa - newest_Pa) <= p.pressure_rise_Pa;
+  if (!ms.has_excess || !settled) {
+    ms.excess_fast_Pa = ms.excess_level_Pa = excess_Pa;
+    ms.has_excess = true;
+    ms.rise = 0;
+    return;
+  }
+  ms.excess_fast_Pa += per_period_.rise_alpha * (excess_Pa - ms.excess_fast_Pa);
+  const double rise_Pa = ms.excess_fast_Pa - ms.excess_level_Pa;
+  ms.rise = rise_Pa > p.pressure_rise_Pa ? ms.rise + 1 : 0;
+  if (ms.rise >= p.confirm_cycles) raise(kFaultPressureRise, x.joint, x.muscle, rise_Pa, p.pressure_rise_Pa);
+  ms.excess_level_Pa += per_period_.step_alpha * (ms.excess_fast_Pa - ms.excess_level_Pa);
+}
+
+/// Pressures below the envelope: on two or more muscles at once the supply is lost (also where no
+/// supply sensor is read); on one, that muscle's valve or sensor does not follow.
+void FaultMonitor::check_low_pressures(int low_muscles, int joint_count) noexcept {
   if (low_muscles >= 2) {
     raise(kFaultSupplyLoss, -1, -1, low_muscles, 2);
-  } else if (low_muscles == 1) {
-    for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
-      for (int m = 0; m < 2; ++m) {
-        const MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
-        if (ms.pressure_low >= p.confirm_cycles) raise(kFaultPressureLow, j, m, ms.predicted_Pa, p.pressure_tolerance_Pa);
-      }
-    }
+    return;
   }
-  synced_ = outputs_follow;
-  if (action_ == SafeAction::kDescend) {
-    for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
-      const auto ji = static_cast<std::size_t>(j);
-      if (p.governed[ji] && models[ji] && std::isfinite(s.joints[ji].angle_rad)) govern(joints_[ji], *models[ji], s.joints[ji].angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
+  if (low_muscles != 1) return;
+  for (int j = 0; j < joint_count && j < io::kMaxJoints; ++j) {
+    for (int m = 0; m < 2; ++m) {
+      const MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
+      if (ms.pressure_low >= params_.confirm_cycles) raise(kFaultPressureLow, j, m, ms.predicted_Pa, params_.pressure_tolerance_Pa);
     }
   }
 }
@@ -412,7 +511,7 @@ void FaultMonitor::shape(io::Command& c) const noexcept {
   if (action_ != SafeAction::kDescend) return;
   io::copy_used(c, held_);
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
-    const Governor& g = joints_[static_cast<std::size_t>(j)].governor;
+    const DescendGovernorData& g = joints_[static_cast<std::size_t>(j)].governor;
     if (!g.started) continue;  // no joint model: hold
     io::JointCommand& o = c.joints[static_cast<std::size_t>(j)];
     o.agonist_pressure_Pa = g.pressure_Pa[0];
@@ -421,55 +520,17 @@ void FaultMonitor::shape(io::Command& c) const noexcept {
   }
 }
 
-void FaultMonitor::govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad,
-                          double max_angle_rad) noexcept {
-  const MonitorParams& p = params_;
-  Governor& g = js.governor;
-  const auto ji = static_cast<std::size_t>(&js - joints_.data());
-  const io::JointCommand& held = held_.joints[ji];
-  const double held_Pa[2] = {held.agonist_pressure_Pa, held.antagonist_pressure_Pa};
-  const models::MuscleModel* mm[2] = {&model.agonist, &model.antagonist};
-  double eps[2];
-  for (int m = 0; m < 2; ++m) eps[m] = models::rigid_contraction(*mm[m], model.pulley_radius_m, m == 0 ? +1 : -1, angle_rad);
-  if (!g.started) {
-    // The carrying muscle is the one whose force (by the pressure model, at the pressures held) wins:
-    // it holds the load, so the joint descends when it relaxes. It starts from what it held.
-    double held_N[2];
-    for (int m = 0; m < 2; ++m) held_N[m] = models::forward_force_N(mm[m]->pam, std::max(0.0, held_Pa[m]), eps[m]);
-    g.carrying = held_N[0] >= held_N[1] ? 0 : 1;
-    g.force_N = held_N[g.carrying];
-    g.other_force_N = std::max(model.pretension_N, held_N[1 - g.carrying]);
-    g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
-    g.floor_N = std::min(g.ceiling_N, std::max(model.pretension_N, p.descent_floor_fraction * g.force_N));
-    g.command_N = g.force_N;
-    g.started = true;
+void FaultMonitor::govern(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
+                          const std::array<double, io::kMaxJoints>& min_angle_rad,
+                          const std::array<double, io::kMaxJoints>& max_angle_rad) noexcept {
+  for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
+    const auto ji = static_cast<std::size_t>(j);
+    const double angle_rad = s.joints[ji].angle_rad;
+    if (!params_.governed[ji] || !models[ji] || !std::isfinite(angle_rad)) continue;
+    JointState& js = joints_[ji];
+    const DescentSample sample{angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]};
+    govern_descent(governor_, *models[ji], held_.joints[ji], sample, js.governor);
   }
-  // Descending = toward the range's end the carrying muscle lets go to (the agonist lifts toward +).
-  const double down = g.carrying == 0 ? -1.0 : +1.0;
-  const double room_rad = g.carrying == 0 ? angle_rad - (min_angle_rad + p.descent_stop_margin_rad)
-                                          : (max_angle_rad - p.descent_stop_margin_rad) - angle_rad;
-  const double taper = std::clamp(room_rad / (2.0 * p.descent_stop_margin_rad), 0.0, 1.0);  // slows to a stop near the end
-  const double wanted_radps = down * p.descent_speed_radps * taper;
-  // > 0: descending faster than wanted (more force); < 0: slower or held (bleed).
-  const double excess_radps = down * (js.filtered_speed_radps - wanted_radps);
-  // Integral: bleeds at most descent_force_rate while the joint is held, gains while too fast; while
-  // someone lifts the joint (it moves up faster than the descent speed) the force is kept: bled, the
-  // carrying muscle lost its wire's tension under an operator flexing the elbow (1.0-2.5 N).
-  const double ki = p.descent_force_rate_N_per_s / p.descent_speed_radps;
-  const bool lifted = !p.bleed_while_lifted && down * js.filtered_speed_radps < -p.descent_speed_radps;
-  const double integrand = lifted ? 0.0 : std::max(excess_radps, -p.descent_speed_radps);
-  g.force_N = std::clamp(g.force_N + ki * integrand * period_s_, g.floor_N, g.ceiling_N);
-  const double wanted_N = std::clamp(g.force_N + p.descent_gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
-  const double force_N = std::min(wanted_N, g.command_N + p.descent_force_slew_N_per_s * period_s_);
-  g.command_N = force_N;
-  const auto c = static_cast<std::size_t>(g.carrying);
-  const models::InverseResult r = models::muscle_pressure(*mm[c], force_N, eps[c], model.supply_pressure_Pa);
-  g.pressure_Pa[c] = r.pressure_Pa;
-  // The other muscle keeps the force it held (by the model at the new angle): its wire stays taut.
-  const auto o = 1 - c;
-  g.pressure_Pa[o] = models::muscle_pressure(*mm[o], g.other_force_N, eps[o], model.supply_pressure_Pa).pressure_Pa;
-  const double motor_max = model.has_motor ? model.motor_max_torque_Nm : 0.0;
-  g.motor_Nm = std::clamp(-p.descent_damping_Nms_per_rad * js.filtered_speed_radps, -motor_max, motor_max);
 }
 
 }  // namespace peha::safety

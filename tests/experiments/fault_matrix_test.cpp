@@ -179,7 +179,7 @@ TEST(FaultMatrix, E3DescendKeepsTheFlexorTautWhileTheOperatorFlexesTheElbow) {
   EXPECT_GE(r.min_tension_N, 8.0);
   EXPECT_LE(r.peak_speed_degps, 120.0);
   ArmScenario old = shipped;
-  old.limits.monitor.bleed_while_lifted = true;
+  old.limits.test_overrides.governor_bleeds_while_lifted = true;
   const FaultRow o = row(old);
   EXPECT_LT(o.min_tension_N, 3.0);
   EXPECT_EQ(o.min_tension_joint, "R_EFE");

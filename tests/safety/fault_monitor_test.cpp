@@ -10,6 +10,8 @@
 
 #include <cmath>
 #include <limits>
+#include <set>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -92,7 +94,7 @@ INSTANTIATE_TEST_SUITE_P(
 
 TEST(FaultMonitor, BrokenSupervisorWithTheCheckDisabledMissesTheFault) {
   experiments::E1Scenario s = short_e1();
-  s.limits.monitor.disabled_checks = safety::kFaultLoadcellStuck | safety::kFaultLoadcellDisagrees;
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStuck | safety::kFaultLoadcellDisagrees;
   const auto r = run_with(s, "loadcell_stuck@3:agonist");
   EXPECT_EQ(r.fault_flags & safety::kFaultLoadcellStuck, 0u);
   // The test above (loadcell_stuck detected within its 8-cycle window) would fail on this supervisor.
@@ -110,6 +112,26 @@ TEST(FaultSpec, ParsesStrictlyAndNamesWhatIsWrong) {
   EXPECT_THROW(sim::parse_fault_spec("encoder_jump@20", joints, 10.0), std::invalid_argument);        // after the run
   EXPECT_THROW(sim::parse_fault_spec("motor_fault@1:joint=3", joints, 10.0), std::invalid_argument);  // takes no value
   EXPECT_THROW(sim::parse_fault_spec("wire_break@1:elbow.agonist", joints, 10.0), std::invalid_argument);
+}
+
+// The check table (safety::kChecks, also a static_assert): one row per flag at its bit's index, each
+// name once, every flag with a safe state; fault_flag_name and safe_action read it.
+TEST(FaultMonitor, EveryFlagHasOneRowOfTheCheckTableInBitOrder) {
+  std::set<std::string> names;
+  for (int i = 0; i < safety::kFaultFlagCount; ++i) {
+    const std::uint32_t flag = 1u << i;
+    const safety::CheckInfo& row = safety::kChecks[static_cast<std::size_t>(i)];
+    EXPECT_EQ(row.flag, flag);
+    EXPECT_TRUE(names.insert(row.name).second) << row.name;
+    EXPECT_STREQ(safety::fault_flag_name(flag), row.name);
+    EXPECT_EQ(safety::safe_action(flag), row.action);
+    EXPECT_NE(row.action, safety::SafeAction::kNone) << row.name;
+    EXPECT_NE(row.parameter, nullptr) << row.name;
+  }
+  const std::uint32_t past_the_table = 1u << safety::kFaultFlagCount;
+  EXPECT_STREQ(safety::fault_flag_name(0), "none");
+  EXPECT_STREQ(safety::fault_flag_name(past_the_table), "none");
+  EXPECT_EQ(safety::safe_action(past_the_table), safety::SafeAction::kNone);
 }
 
 }  // namespace
@@ -271,8 +293,7 @@ struct PressureRun {
 PressureRun run_pressure(double offset_Pa, double fill_Pa_per_s, std::uint32_t disabled = 0, double step_to_Pa = 0) {
   safety::MonitorParams p;
   p.enabled = true;
-  p.disabled_checks = disabled;
-  safety::FaultMonitor monitor(p, 1e-3);
+  safety::FaultMonitor monitor(p, 1e-3, {.unchecked = disabled});
   E1JointView view;
   io::SensorState& state = view.state;
   double command_Pa = 0.1e6, setpoint_Pa = 0.1e6, slow_Pa = 0.1e6;
@@ -399,7 +420,7 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
   EXPECT_TRUE(governed.physics_forbids.empty());
 
   experiments::E1Scenario wrong = e1();
-  wrong.limits.monitor.vent_instead = safety::kFaultLoadcellStuck;
+  wrong.limits.test_overrides.vented = safety::kFaultLoadcellStuck;
   const experiments::FaultRow vented = matrix_row(wrong, sim::FaultKind::kLoadcellStuck);
   EXPECT_EQ(vented.safe_state, "vent");
   EXPECT_GE(vented.limits_exceeded, 1);  // the link leaves the range
@@ -412,7 +433,7 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
 // threshold and hold, the link reached the stop (1 limit).
 TEST(Descend, ARunawayCaughtByItsSpeedIsBrakedInsideTheRange) {
   experiments::E1Scenario s = e1();
-  s.limits.monitor.disabled_checks = safety::kFaultLoadcellStep;
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStep;
   const experiments::FaultRow r = matrix_row(std::move(s), sim::FaultKind::kLoadcellBias);
   EXPECT_EQ(r.flag, "joint_speed");
   EXPECT_EQ(r.safe_state, "descend");

@@ -40,14 +40,16 @@
 /// - a non-finite sample.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
-/// While descending, check_sample also runs the governor (govern): the carrying muscle's force by
-/// the pressure model, a PI law on the filtered joint speed toward descent_speed_radps, tapering to
-/// a stop inside the range; the other muscle keeps its held force; the motor damps. shape() copies it.
+/// check_sample runs one small function per check family, always in the same order (a sample's first
+/// raise is the fault it names). Each flag's name, safe state and threshold parameter are one row of
+/// kChecks. While descending, check_sample also runs the descend governor of every governed
+/// joint (descend_governor.hpp); shape() sends its command.
 /// noexcept and allocation-free after construction.
 
 #include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/safety/descend_governor.hpp"
 
 #include <array>
 #include <cstdint>
@@ -90,6 +92,68 @@ inline constexpr int kFaultFlagCount = 22;
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
 
+/// One check's row: its flag, the name logs and reasons use, its designed safe state, and the
+/// MonitorParams field its threshold is made of ("" where no field sets it).
+struct CheckInfo {
+  FaultFlag flag;
+  const char* name;
+  SafeAction action;
+  const char* parameter;
+};
+
+/// Every flag's row, at its bit's index; why each safe state: docs/safety.md.
+inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
+    // The controller cannot be trusted: keep what the muscles hold.
+    {kFaultNonFiniteCommand, "nonfinite_command", SafeAction::kHold, ""},
+    // Nothing to govern a descent with.
+    {kFaultNonFiniteSample, "nonfinite_sample", SafeAction::kVent, ""},
+    // Relieve the wire now (the threshold: the muscle's own ceiling, models::force_ceiling_N).
+    {kFaultForceCeiling, "force_ceiling", SafeAction::kVent, ""},
+    // Load-cell faults: the encoder still governs a slow descent.
+    {kFaultLoadcellDisconnected, "loadcell_disconnected", SafeAction::kDescend, "loadcell_disconnected_N"},
+    {kFaultLoadcellSaturated, "loadcell_saturated", SafeAction::kDescend, "loadcell_saturated_N"},
+    {kFaultLoadcellStuck, "loadcell_stuck", SafeAction::kDescend, "loadcell_stuck_cycles"},
+    {kFaultLoadcellDisagrees, "loadcell_disagrees", SafeAction::kDescend, "loadcell_tolerance_N"},  // + _fraction x the model
+    // A broken or slipped wire.
+    {kFaultTensionFloor, "tension_floor", SafeAction::kDescend, "tension_floor_fraction"},
+    // A valve fills by itself: the dump valve vents past it.
+    {kFaultPressureHigh, "pressure_high", SafeAction::kVent, "pressure_tolerance_Pa"},
+    // A valve or sensor that does not follow.
+    {kFaultPressureLow, "pressure_low", SafeAction::kDescend, "pressure_tolerance_Pa"},
+    // The check valves keep the air; with no supply a descent cannot be braked.
+    {kFaultSupplyLoss, "supply_loss", SafeAction::kHold, "supply_lost_fraction"},
+    {kFaultPressureOverSupply, "pressure_over_supply", SafeAction::kVent, "pressure_over_supply_Pa"},
+    // Encoder faults: no angle or speed to govern a descent with, and venting drops a loaded arm (the
+    // fault matrix: 115-414 deg/s): keep what the muscles hold, motor off.
+    {kFaultEncoderJump, "encoder_jump", SafeAction::kHold, "encoder_max_step_rad"},
+    {kFaultEncoderFrozen, "encoder_frozen", SafeAction::kHold, "encoder_frozen_speed_radps"},
+    // The governor brakes the motion and lowers the joint slowly.
+    {kFaultJointSpeed, "joint_speed", SafeAction::kDescend, "max_joint_speed_radps"},
+    // Back inside the range, then down to its end, slowly.
+    {kFaultJointRange, "joint_range", SafeAction::kDescend, "range_margin_rad"},
+    // A load-cell fault as the others.
+    {kFaultLoadcellStep, "loadcell_step", SafeAction::kDescend, "loadcell_step_N"},
+    // The hardware has already cut valves and motor (stop category 0).
+    {kFaultEstop, "estop", SafeAction::kVent, ""},
+    // The muscles keep what they hold, the motor is switched off.
+    {kFaultMotorDisagrees, "motor_disagrees", SafeAction::kHold, "motor_tolerance_Nm"},
+    // Air is left to brake with: lower the arm on it.
+    {kFaultSupplyLow, "supply_low", SafeAction::kDescend, "supply_low_fraction"},
+    // A valve fills by itself, as pressure_high, caught earlier.
+    {kFaultPressureRise, "pressure_rise", SafeAction::kVent, "pressure_rise_Pa"},
+    // Which encoder lies is unknown: no angle to govern a descent with.
+    {kFaultEncoderDisagrees, "encoder_disagrees", SafeAction::kHold, "encoder_disagree_rad"},
+}};
+
+/// Every flag has exactly one row, at its bit's index (fault_flag_name and safe_action index by bit).
+constexpr bool checks_in_bit_order() noexcept {
+  for (int i = 0; i < kFaultFlagCount; ++i) {
+    if (kChecks[static_cast<std::size_t>(i)].flag != (1u << i)) return false;
+  }
+  return true;
+}
+static_assert(checks_in_bit_order(), "kChecks: one row per FaultFlag, in bit order");
+
 const char* fault_flag_name(std::uint32_t single_flag) noexcept;  ///< "loadcell_stuck", ...
 SafeAction safe_action(std::uint32_t single_flag) noexcept;
 const char* safe_action_name(SafeAction a) noexcept;                ///< "hold", "descend", "vent"
@@ -99,14 +163,6 @@ struct MonitorParams {
   /// On by default: every scenario runs with the stage (docs/safety.md); `supervisor: {enabled:
   /// false}` exists for measuring an unprotected controller, and a run that uses it says why.
   bool enabled = true;
-  /// FaultFlag bits not checked (tests of a broken supervisor set some; none by default).
-  std::uint32_t disabled_checks = 0;
-  /// FaultFlag bits whose safe state is vent instead of the designed one. Only for tests that show a
-  /// wrong safe state failing its row of the fault matrix; never set by a scenario.
-  std::uint32_t vent_instead = 0;
-  /// Tests only: the descend governor's old integral, which bled the carrying force also while
-  /// someone lifted the joint (the elbow's flexor fell to 1.0-2.5 N under an operator flexing it).
-  bool bleed_while_lifted = false;
   /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
   /// this long and the wire was taut since: start-up vents and recovery ramps slacken wires on purpose.
   double tension_arm_s = 1.0;
@@ -185,6 +241,17 @@ struct MonitorParams {
   std::array<bool, io::kMaxJoints> governed = all_joints(true);
 };
 
+/// A deliberately broken supervisor: what a test or benchmark changes in the designed one, to show
+/// what the designed one is needed for (its fault-matrix row fails with the change). Not part of a
+/// scenario: no YAML key sets it, MonitorParams does not hold it; the default changes nothing.
+struct CheckOverrides {
+  std::uint32_t unchecked = 0;  ///< FaultFlag bits not checked
+  std::uint32_t vented = 0;     ///< FaultFlag bits whose safe state is vent instead of their kChecks row's
+  /// The descend governor's old integral, which bled the carrying force also while someone lifted the
+  /// joint (the elbow's flexor fell to 1.0-2.5 N under an operator flexing it).
+  bool governor_bleeds_while_lifted = false;
+};
+
 /// Reads the scenario root's optional `supervisor:` section into `p` (keys absent keep their
 /// defaults; unknown keys and out-of-range values throw config::Error). Does not finish `root`.
 void read_monitor_params(config::Map& root, MonitorParams& p);
@@ -205,8 +272,13 @@ class FaultMonitor {
   static constexpr int kMaxDelay = 64;  ///< valve dead time in cycles, at most
   static constexpr int kMotorWindow = 16;  ///< commands kept for the motor check, at most
 
-  FaultMonitor(const MonitorParams& params, double period_s) noexcept
-      : params_(params), period_s_(period_s), per_period_(per_period(params, period_s)) {}
+  /// `overrides`: the designed supervisor (default) or a test's broken one (CheckOverrides).
+  FaultMonitor(const MonitorParams& params, double period_s, const CheckOverrides& overrides = {}) noexcept
+      : params_(params),
+        overrides_(overrides),
+        period_s_(period_s),
+        per_period_(per_period(params, period_s)),
+        governor_(governor_model(params, period_s, overrides)) {}
 
   /// Checks a new sample against the joint set-ups and the angle range.
   void check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
@@ -238,7 +310,7 @@ class FaultMonitor {
 
  private:
   void raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept;
-  bool on(std::uint32_t flag) const noexcept { return params_.enabled && !(params_.disabled_checks & flag); }
+  bool on(std::uint32_t flag) const noexcept { return params_.enabled && !(overrides_.unchecked & flag); }
 
   struct MuscleState {
     double last_loadcell_N = -1;
@@ -257,17 +329,6 @@ class FaultMonitor {
     bool has_excess = false;
     int rise = 0;
   };
-  /// The descend governor of one joint (docs/safety.md): state from the fault on, output per sample.
-  struct Governor {
-    bool started = false;
-    int carrying = 0;             ///< 0 agonist (descends toward negative angles), 1 antagonist
-    double force_N = 0;           ///< the bled (integral) part of the carrying force
-    double command_N = 0;         ///< the carrying force commanded last (its rise is slew-limited)
-    double floor_N = 0, ceiling_N = 0;
-    double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
-    std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)
-    double motor_Nm = 0;
-  };
   struct JointState {
     std::array<MuscleState, 2> muscle{};
     double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
@@ -281,9 +342,31 @@ class FaultMonitor {
     std::array<double, kMotorWindow> sent_motor_Nm{};
     int motor_head = 0, motor_sent = 0;
     bool has_previous = false;
-    Governor governor{};
+    DescendGovernorData governor{};
   };
-  void govern(JointState& js, const models::JointModel& model, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  struct MuscleSample;  ///< one muscle of one sample and what its checks derive from it (fault_monitor.cpp)
+  inline MuscleSample muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model, const JointState& js,
+                                    double t_s, bool outputs_follow) const noexcept;
+
+  // The check families, in the order check_sample runs them (their raises name a sample's first fault).
+  // Inline: each has one caller, in fault_monitor.cpp, and folds back into it (no call per check per sample).
+  inline bool check_finite(int j, const io::JointSensors& in) noexcept;
+  inline void check_encoder(int j, const io::JointSensors& in, double t_s, JointState& js) noexcept;
+  inline void check_speed(int j, const JointState& js) noexcept;
+  inline void check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept;
+  inline void check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept;
+  inline void check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  inline void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
+  inline void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
+  inline bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;
+  inline void check_low_pressures(int low_muscles, int joint_count) noexcept;
+  void govern(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& joints,
+              const std::array<double, io::kMaxJoints>& min_angle_rad, const std::array<double, io::kMaxJoints>& max_angle_rad) noexcept;
 
   /// What the thresholds and the period fix for every sample: the valve models' dead times in cycles
   /// and the first-order filters' factors per period (derived once, not per sample).
@@ -292,10 +375,13 @@ class FaultMonitor {
     double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, rise_alpha = 0;
   };
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
+  static DescendGovernorModel governor_model(const MonitorParams& p, double period_s, const CheckOverrides& o) noexcept;
 
   MonitorParams params_;
+  CheckOverrides overrides_;
   double period_s_;
   PerPeriod per_period_;
+  DescendGovernorModel governor_;
   std::array<JointState, io::kMaxJoints> joints_{};
   bool synced_ = false;
   SafeAction action_ = SafeAction::kNone;

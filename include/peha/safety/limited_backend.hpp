@@ -21,7 +21,7 @@ class LimitedBackend final : public io::Backend {
  public:
   /// `limits` and `joints` (the joint set-ups the controller runs with) must outlive this.
   LimitedBackend(io::Backend& inner, const LimitsModel& limits, const JointModels& joints) noexcept
-      : inner_(inner), limits_(limits), joints_(joints), monitor_(limits.monitor, limits.period_s) {
+      : inner_(inner), limits_(limits), joints_(joints), monitor_(limits.monitor, limits.period_s, limits.test_overrides) {
     for (std::size_t j = 0; j < io::kMaxJoints; ++j) {
       min_angle_[j] = limits.joints[j].min_angle_rad;
       max_angle_[j] = limits.joints[j].max_angle_rad;

@@ -52,6 +52,9 @@ struct LimitsModel {
   std::array<JointLimits, io::kMaxJoints> joints{};
   double period_s = 1e-3;
   MonitorParams monitor;  ///< the supervisor's plausibility checks at the same boundary (fault_monitor.hpp)
+  /// Tests and benchmarks only: a deliberately broken supervisor (a check off, a wrong safe state, the
+  /// governor's old integral). No scenario reads or writes it; the default is the designed supervisor.
+  CheckOverrides test_overrides;
 };
 
 /// The joint set-ups a limits pass reads (force ceilings, supply, pretension, pressure model, motor

@@ -1,0 +1,59 @@
+#pragma once
+/// \file
+/// The descend safe state's speed governor of one joint (docs/safety.md "descend"). The carrying
+/// muscle - the one whose force, by the pressure model at the pressures held at the fault, is the
+/// larger - gets a PI law on the joint's filtered speed toward descent_speed, tapering to a stop
+/// stop_margin inside the range; its force becomes a pressure through the same pressure model the
+/// limits use. The other muscle keeps the force it held (its wire stays taut); the motor damps.
+/// safety::FaultMonitor runs it on every sample while its action is descend and shape() sends it.
+/// noexcept and allocation-free.
+
+#include "peha/io/backend.hpp"
+#include "peha/models/joint.hpp"
+
+#include <array>
+
+namespace peha::safety {
+
+/// The governor's law, fixed for a run: safety::FaultMonitor builds it from MonitorParams' descent_*
+/// keys (their defaults and the figures behind them are there).
+struct DescendGovernorModel {
+  double speed_radps = 0;            ///< the joint descends at this speed, never much faster
+  double force_rate_N_per_s = 0;     ///< how fast the carrying force is bled while the joint does not descend
+  double gain_N_per_radps = 0;       ///< force added per rad/s the joint descends too fast (proportional)
+  double floor_fraction = 0;         ///< the bled force never below this x the force held at the fault
+  double force_slew_N_per_s = 0;     ///< the carrying force rises at most this fast
+  double damping_Nms_per_rad = 0;    ///< motor torque = -this x joint speed (within the rating)
+  double stop_margin_rad = 0;        ///< the descent stops this far inside the range's end
+  /// Moving up faster than this, the joint is lifted (an operator): the carrying force is kept, not
+  /// bled - bled, the elbow's flexor fell to 1.0-2.5 N under an operator flexing it. The descent
+  /// speed; +inf only for the test that shows the old integral (CheckOverrides).
+  double lift_speed_radps = 0;
+  double period_s = 0;
+};
+
+/// One joint's governor: state from the fault on (started on its first sample), output per sample.
+struct DescendGovernorData {
+  bool started = false;
+  int carrying = 0;             ///< 0 agonist (descends toward negative angles), 1 antagonist
+  double force_N = 0;           ///< the bled (integral) part of the carrying force
+  double command_N = 0;         ///< the carrying force commanded last (its rise is slew-limited)
+  double floor_N = 0, ceiling_N = 0;
+  double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
+  std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)
+  double motor_Nm = 0;
+};
+
+/// What the governor reads of one sample.
+struct DescentSample {
+  double angle_rad = 0;
+  double speed_radps = 0;  ///< the encoder's low-passed speed (the monitor's)
+  double min_angle_rad = 0, max_angle_rad = 0;
+};
+
+/// One period of the governor: `held` is the joint's command before the fault (which muscle carries,
+/// the forces it starts from); writes data.pressure_Pa and data.motor_Nm.
+void govern_descent(const DescendGovernorModel& model, const models::JointModel& joint, const io::JointCommand& held,
+                    const DescentSample& sample, DescendGovernorData& data) noexcept;
+
+}  // namespace peha::safety

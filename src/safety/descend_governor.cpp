@@ -1,0 +1,64 @@
+#include "peha/safety/descend_governor.hpp"
+
+#include <algorithm>
+
+namespace peha::safety {
+namespace {
+
+/// The carrying muscle is the one whose force (by the pressure model, at the pressures held) wins:
+/// it holds the load, so the joint descends when it relaxes. It starts from what it held.
+void start_descent(const DescendGovernorModel& model, const models::JointModel& joint, const io::JointCommand& held,
+                   const double (&eps)[2], DescendGovernorData& g) noexcept {
+  const double held_Pa[2] = {held.agonist_pressure_Pa, held.antagonist_pressure_Pa};
+  const models::MuscleModel* mm[2] = {&joint.agonist, &joint.antagonist};
+  double held_N[2];
+  for (int m = 0; m < 2; ++m) held_N[m] = models::forward_force_N(mm[m]->pam, std::max(0.0, held_Pa[m]), eps[m]);
+  g.carrying = held_N[0] >= held_N[1] ? 0 : 1;
+  g.force_N = held_N[g.carrying];
+  g.other_force_N = std::max(joint.pretension_N, held_N[1 - g.carrying]);
+  g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
+  g.floor_N = std::min(g.ceiling_N, std::max(joint.pretension_N, model.floor_fraction * g.force_N));
+  g.command_N = g.force_N;
+  g.started = true;
+}
+
+/// The carrying muscle's force this period: a PI law on how much faster than wanted the joint descends.
+double carrying_force_N(const DescendGovernorModel& model, const DescentSample& sample, DescendGovernorData& g) noexcept {
+  // Descending = toward the range's end the carrying muscle lets go to (the agonist lifts toward +).
+  const double down = g.carrying == 0 ? -1.0 : +1.0;
+  const double room_rad = g.carrying == 0 ? sample.angle_rad - (sample.min_angle_rad + model.stop_margin_rad)
+                                          : (sample.max_angle_rad - model.stop_margin_rad) - sample.angle_rad;
+  const double taper = std::clamp(room_rad / (2.0 * model.stop_margin_rad), 0.0, 1.0);  // slows to a stop near the end
+  const double wanted_radps = down * model.speed_radps * taper;
+  // > 0: descending faster than wanted (more force); < 0: slower or held (bleed).
+  const double excess_radps = down * (sample.speed_radps - wanted_radps);
+  // Integral: bleeds at most force_rate while the joint is held, gains while too fast, kept while
+  // someone lifts the joint (DescendGovernorModel::lift_speed_radps).
+  const double ki = model.force_rate_N_per_s / model.speed_radps;
+  const bool lifted = down * sample.speed_radps < -model.lift_speed_radps;
+  const double integrand = lifted ? 0.0 : std::max(excess_radps, -model.speed_radps);
+  g.force_N = std::clamp(g.force_N + ki * integrand * model.period_s, g.floor_N, g.ceiling_N);
+  const double wanted_N = std::clamp(g.force_N + model.gain_N_per_radps * std::max(0.0, excess_radps), 0.0, g.ceiling_N);
+  g.command_N = std::min(wanted_N, g.command_N + model.force_slew_N_per_s * model.period_s);
+  return g.command_N;
+}
+
+}  // namespace
+
+void govern_descent(const DescendGovernorModel& model, const models::JointModel& joint, const io::JointCommand& held,
+                    const DescentSample& sample, DescendGovernorData& g) noexcept {
+  const models::MuscleModel* mm[2] = {&joint.agonist, &joint.antagonist};
+  double eps[2];
+  for (int m = 0; m < 2; ++m) eps[m] = models::rigid_contraction(*mm[m], joint.pulley_radius_m, m == 0 ? +1 : -1, sample.angle_rad);
+  if (!g.started) start_descent(model, joint, held, eps, g);
+  const double force_N = carrying_force_N(model, sample, g);
+  const auto c = static_cast<std::size_t>(g.carrying);
+  g.pressure_Pa[c] = models::muscle_pressure(*mm[c], force_N, eps[c], joint.supply_pressure_Pa).pressure_Pa;
+  // The other muscle keeps the force it held (by the model at the new angle): its wire stays taut.
+  const auto o = 1 - c;
+  g.pressure_Pa[o] = models::muscle_pressure(*mm[o], g.other_force_N, eps[o], joint.supply_pressure_Pa).pressure_Pa;
+  const double motor_max = joint.has_motor ? joint.motor_max_torque_Nm : 0.0;
+  g.motor_Nm = std::clamp(-model.damping_Nms_per_rad * sample.speed_radps, -motor_max, motor_max);
+}
+
+}  // namespace peha::safety
