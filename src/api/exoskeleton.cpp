@@ -91,7 +91,7 @@ struct UserLoop {
       return go && !finished;
     };
     const auto steps = static_cast<std::size_t>(std::llround(duration_s / period_s));
-    const std::size_t done = runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
+    const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
     experiments::add_arm_envelope_checks(scenario, joints, envelope, result.verdict);
     safety::add_supervisor_check(limited.monitor(), result.verdict);
     result.cycles = done + 1;
@@ -158,7 +158,7 @@ ControlResult Exoskeleton::control(const TorqueController& controller, double du
     o.dir = log.empty() ? std::filesystem::temp_directory_path() : (log.parent_path().empty() ? std::filesystem::path(".") : log.parent_path());
     const std::filesystem::path file = log.empty() ? o.dir / fmt::format("peha_user_control_{}.csv", ::getpid()) : log;
     const experiments::BoardRunResult run = experiments::run_on_hardware(
-        request, *scenario_.link, o, {"control", duration_s, file, user_log_columns(scenario_), {"peha::api::Exoskeleton::control"}},
+        request, scenario_.lifecycle, o, {"control", duration_s, file, user_log_columns(scenario_), {"peha::api::Exoskeleton::control"}},
         [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {
           loop.run(*hw.backend, duration_s, &sink, hooks, result);
           return result.verdict;

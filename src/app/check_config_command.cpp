@@ -30,7 +30,7 @@ int check_config(const std::filesystem::path& config) {
         mfb::load_link_key(b.key_file);  // the pre-shared key both ends authenticate with: present, private, 32 bytes
         fmt::print("  mfb{}: channel map {} ({} joints: {}), watchdogs board {} ms / host {} ms, key file {} read\n",
                    b.name.empty() ? "" : " board '" + b.name + "'", b.channel_map.string(), map.joint_count(), fmt::join(joints, " "),
-                   link->board_watchdog_s * 1e3, link->host_watchdog_s * 1e3, b.key_file.string());
+                   link->board_watchdog_s * 1e3, checked.lifecycle.host_watchdog_s * 1e3, b.key_file.string());
       }
     }
     return 0;

@@ -41,7 +41,7 @@ int link_faults(const FaultsOptions& options, const config::Document& doc) {
   o.seed = e1.seed;
   o.dir = run_dir.create(e1.seed);
   fmt::print("peha faults --link: {} (E1 over UDP to `peha mfb-emulator` in its own process, plausibility stage on, watchdogs host {:g} ms / "
-             "board {:g} ms); output {}\n", doc.name(), e1.link->host_watchdog_s * 1e3, e1.link->board_watchdog_s * 1e3, o.dir.string());
+             "board {:g} ms); output {}\n", doc.name(), e1.lifecycle.host_watchdog_s * 1e3, e1.link->board_watchdog_s * 1e3, o.dir.string());
   std::fflush(stdout);
   std::size_t n = 0;
   auto print_row = [&](const experiments::LinkFaultRow& r) {

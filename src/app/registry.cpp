@@ -26,7 +26,7 @@ ScenarioCheck check_e1(const std::filesystem::path& config, const config::Docume
              "plant model {}\n",
              config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
              s.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.link};
+  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
 }
 
 std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOptions& options) {
@@ -83,7 +83,7 @@ ScenarioCheck check_creep(const std::filesystem::path& config, const config::Doc
              "estimator off/on, plant model {}\n",
              config.string(), s.e1.description, s.e1.duration_s, 1.0 / s.e1.period_s, s.e1.plant.finger.pushes.size(),
              s.creep.variants.size(), s.creep.force_trim_rates_1ps.size(), s.e1.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.e1.link};
+  return {sim::one_dof_rig_joint_names(), s.e1.link, s.e1.lifecycle};
 }
 
 std::optional<BoardPlant> creep_board(const config::Document& doc, const EmulatorOptions&) {
@@ -100,7 +100,7 @@ ScenarioCheck check_e5(const std::filesystem::path& config, const config::Docume
   fmt::print("{}: OK\n  experiment max_force_ramp: {}\n  {} case(s), {} ramped at {} MPa/s, {} s at {} Hz, plant model {}\n",
              config.string(), s.description, s.cases.size(), s.ramp.muscle == 0 ? "agonist" : "antagonist", s.ramp.rate_Pa_per_s * 1e-6,
              s.duration_s, 1.0 / s.period_s, s.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.link};
+  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
 }
 
 std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorOptions& options) {
@@ -138,7 +138,7 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
              "{} bandwidth frequencies (E6), control at {} Hz\n",
              config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
              s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);
-  return {experiments::arm_joint_names(s), s.link};
+  return {experiments::arm_joint_names(s), s.link, s.lifecycle};
 }
 
 using ArmRun = int (*)(const config::Document&, const experiments::ArmScenario&, const experiments::RunRequest&,

@@ -7,6 +7,16 @@
 
 namespace peha::runtime {
 
+SupervisorParams read_lifecycle(config::Map& root) {
+  SupervisorParams p;
+  if (!root.has("lifecycle")) return p;
+  config::Map m = root.map("lifecycle");
+  p.host_watchdog_s = m.number_or("host_watchdog_ms", p.host_watchdog_s * 1e3, {2.0, 1000.0}) * 1e-3;
+  p.recovery_ramp_s = m.number_or("recovery_ramp_s", p.recovery_ramp_s, {0.0, 60.0});
+  m.finish();
+  return p;
+}
+
 void Supervisor::start(double t_s) {
   // The handshake comes last in set-up, right before the enable edge: from a board's first answer
   // until an enabled command it holds its safe outputs and its plant vents; set-up in between would

@@ -41,9 +41,13 @@ const char* safe_action_name(SafeAction a) noexcept {
 }
 
 void read_monitor_params(config::Map& root, MonitorParams& p) {
-  if (!root.has("supervisor")) return;
+  // Two fault authorities shared the word: the plausibility monitor (here) and the lifecycle
+  // supervisor (runtime::Supervisor, the scenario's lifecycle:).
+  root.refuse_moved("supervisor", "the plausibility monitor's thresholds are the plausibility: section now (the lifecycle "
+                                  "supervisor's watchdog and recovery ramp are lifecycle:)");
+  if (!root.has("plausibility")) return;
   using models::deg_to_rad, models::rad_to_deg;
-  config::Map m = root.map("supervisor");
+  config::Map m = root.map("plausibility");
   p.enabled = m.boolean_or("enabled", p.enabled);
   p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 60});
   p.tension_taut_fraction = m.number_or("tension_taut_fraction", p.tension_taut_fraction, {0, 2});

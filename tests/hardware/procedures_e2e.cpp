@@ -81,7 +81,7 @@ TEST(ProceduresOverTheBoard, RecordCalibrateAndRunE1AsInProcess) {
   const std::filesystem::path dir = test_dir("calibration");
   YAML::Node root = YAML::LoadFile(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
   root["plant"]["model"] = PEHA_SOURCE_DIR "/models/one_dof_rig.xml";
-  root["mfb"]["host_watchdog_ms"] = 250.0;
+  root["lifecycle"]["host_watchdog_ms"] = 250.0;
   for (const char* m : {"agonist", "antagonist"}) {
     YAML::Node c = root["calibration"][m];
     c["duration_s"] = 12.0;
@@ -180,7 +180,7 @@ TEST(ProceduresOverTheBoard, RecordCalibrateAndRunE1AsInProcess) {
 TEST(ProceduresOverTheBoard, IdentifyGravityAndRunE3AsInProcess) {
   const std::filesystem::path dir = test_dir("identification");
   YAML::Node root = YAML::LoadFile(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
-  root["mfb"]["host_watchdog_ms"] = 250.0;
+  root["lifecycle"]["host_watchdog_ms"] = 250.0;
   YAML::Node four(YAML::NodeType::Sequence);
   for (YAML::Node p : root["identification"]["postures"]) {
     const std::string name = p["name"].as<std::string>();
@@ -253,7 +253,7 @@ TEST(ProceduresOverTheBoard, IdentifyGravityAndRunE3AsInProcess) {
 TEST(UserControllerOverTheBoard, ThePdExampleRunsOnTheSimulatorAndOnTheBoard) {
   const std::filesystem::path dir = test_dir("user_controller");
   YAML::Node root = YAML::LoadFile(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
-  root["mfb"]["host_watchdog_ms"] = 250.0;
+  root["lifecycle"]["host_watchdog_ms"] = 250.0;
   const std::filesystem::path config = dir / "right_arm.yaml";
   std::ofstream(config) << YAML::Dump(root) << "\n";
   auto example = [&](const std::vector<std::string>& extra, std::string& output) {

@@ -55,10 +55,8 @@ std::string refusal(const std::string& section, const std::vector<std::string>& 
 /// The link's settings after its board list, as the shipped scenarios have them.
 const std::string kLinkSettings = R"(  key_file: dev_link.key
   board_watchdog_ms: 50.0
-  host_watchdog_ms: 20.0
   receive_timeout_ms: 0.8
   vent_s: 2.0
-  recovery_ramp_s: 1.0
 )";
 
 const std::string kThreeBoards = R"(  boards:
@@ -179,6 +177,16 @@ TEST(LinkConfig, BoardAddressesAreOnePerBoardOrConsecutivePorts) {
     EXPECT_THAT(e.what(), HasSubstr("the scenario has 3 board(s); expected 3 address(es)"));
     EXPECT_THAT(e.what(), HasSubstr("found 2"));
   }
+}
+
+// The host's watchdog and the recovery ramp are the lifecycle supervisor's (the scenario's
+// lifecycle:, in process too): an older mfb: section that still has them is refused, naming where
+// they went, instead of being half read.
+TEST(LinkConfig, TheLifecycleKeysOfAnOlderSectionAreRefusedNamingTheirNewPlace) {
+  EXPECT_THAT(refusal("  channel_map: right_arm.yaml\n" + kLinkSettings + "  host_watchdog_ms: 20.0\n", {"R_SFE", "R_EFE", "R_WFE"}),
+              HasSubstr("mfb.host_watchdog_ms: this key moved: give it as lifecycle.host_watchdog_ms"));
+  EXPECT_THAT(refusal("  channel_map: right_arm.yaml\n" + kLinkSettings + "  recovery_ramp_s: 1.0\n", {"R_SFE", "R_EFE", "R_WFE"}),
+              HasSubstr("mfb.recovery_ramp_s: this key moved: give it as lifecycle.recovery_ramp_s"));
 }
 
 TEST(LinkConfig, OneBoardExperimentsRefuseSeveralBoards) {

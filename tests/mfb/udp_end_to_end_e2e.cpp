@@ -41,7 +41,7 @@ constexpr double kTestWatchdog_s = 0.25;
 experiments::E1Scenario scenario(double duration_s) {
   experiments::E1Scenario s = experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
   s.duration_s = duration_s;
-  s.link->host_watchdog_s = kTestWatchdog_s;
+  s.lifecycle.host_watchdog_s = kTestWatchdog_s;
   return s;
 }
 
@@ -147,7 +147,7 @@ experiments::E1RealtimeResult run_e1_in_harness(const experiments::E1Scenario& s
                                    const std::function<void()>& before_finish = {}) {
   const experiments::E1Case& c = s.cases.front();
   experiments::E1RealtimeResult r;
-  RealtimeHarness harness(*hw.backend, experiments::supervisor_params(*s.link, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", experiments::e1_log_columns(), {});
+  RealtimeHarness harness(*hw.backend, experiments::supervisor_params(s.lifecycle, o), o, s.period_s, s.duration_s, c.name, o.dir / "e1.csv", experiments::e1_log_columns(), {});
   CycleHooks hooks = harness.start();
   if (adjust) adjust(hooks);
   r.e1 = experiments::run_e1_on(s, c, *hw.backend, nullptr, &harness.sink(), hooks);
@@ -311,7 +311,7 @@ TEST(MfbEndToEnd, AWholeMachineFreezeIsNotTakenForASilentBoard) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   experiments::E1Scenario s = scenario(2.0);
-  s.link->host_watchdog_s = 0.02;  // the shipped value: what is tested
+  s.lifecycle.host_watchdog_s = 0.02;  // the shipped value: what is tested
   const experiments::HardwareRunOptions o = options(emulator.port, "freeze");
   hardware::Hardware hw = open_board(s, o);
   int cycle = 0;
@@ -358,7 +358,7 @@ TEST(MfbEndToEnd, HostNoticesWhenTheBoardStops) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   experiments::E1Scenario s = scenario(3.0);
-  s.link->host_watchdog_s = 0.05;  // what is tested: the host notices within 50 ms
+  s.lifecycle.host_watchdog_s = 0.05;  // what is tested: the host notices within 50 ms
   std::thread killer([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(1500));
     emulator.process.stop(SIGKILL);
@@ -417,7 +417,7 @@ TEST(MfbEndToEnd, RecoversFromAnEstopOnTheOperatorsCommandWithoutAJump) {
   ASSERT_GT(recovered_at, 1.5);
   double worst_step = 0;
   for (std::size_t i = 1; i < p.size(); ++i) {
-    if (t[i] > recovered_at && t[i] < recovered_at + s.link->recovery_ramp_s) worst_step = std::max(worst_step, std::abs(p[i] - p[i - 1]));
+    if (t[i] > recovered_at && t[i] < recovered_at + s.lifecycle.recovery_ramp_s) worst_step = std::max(worst_step, std::abs(p[i] - p[i - 1]));
   }
   EXPECT_LT(worst_step, 0.01);  // MPa per cycle: a ramp of ~0.3 MPa over 1 s is 0.0003 per cycle
   // The e-stop vents the muscles (the load cells' tension falls below the floor of 0.5 x
@@ -714,7 +714,7 @@ TEST(MfbEndToEnd, RightArmPosturesRunAcrossUdpAsInProcess) {
   const std::filesystem::path config = short_arm_config(dir);
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
   ASSERT_EQ(s.postures.size(), 1u);
-  s.link->host_watchdog_s = kTestWatchdog_s;
+  s.lifecycle.host_watchdog_s = kTestWatchdog_s;
   const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::ArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
 
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});
@@ -777,7 +777,7 @@ namespace {
 TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   const std::filesystem::path config = short_arm_config(std::filesystem::temp_directory_path() / ("peha_mfb_arm_config_e4_" + std::to_string(::getpid())));
   experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
-  s.link->host_watchdog_s = kTestWatchdog_s;
+  s.lifecycle.host_watchdog_s = kTestWatchdog_s;
   ASSERT_EQ(s.goniometer.movements.size(), 1u);
   const experiments::GoniometerTrace trace = experiments::synthesize_goniometer(s.goniometer, s.goniometer.movements[0], s.seed);
   const experiments::GoniometerResult local = experiments::run_goniometer(s, {trace}, experiments::GoniometerVariant::kFeedback, nullptr);
@@ -879,7 +879,7 @@ experiments::LinkFaultOptions link_fault_options(const std::string& tag, std::ve
 // no limit is exceeded). The rows' files are written as the command writes them.
 TEST(MfbEndToEnd, LinkFaultRowsMeasureLossAndAKilledBoard) {
   experiments::E1Scenario s = scenario(4.0);
-  s.link->host_watchdog_s = 0.05;
+  s.lifecycle.host_watchdog_s = 0.05;
   experiments::LinkFaultOptions o = link_fault_options("faults", {"loss_5pct", "loss_burst_all", "board_killed"});
   const std::vector<experiments::LinkFaultRow> rows = experiments::run_link_faults(s, o);
   ASSERT_EQ(rows.size(), 4u);
@@ -934,7 +934,7 @@ TEST(MfbEndToEnd, LinkFaultRowsRebootAndHostKilledMeetTheirDesignedOutcomes) {
   EXPECT_EQ(reboot.fault, "board_reboot");
   EXPECT_TRUE(reboot.detected);
   EXPECT_EQ(reboot.by, "board reboot");
-  EXPECT_LT(reboot.detection_ms, s.link->host_watchdog_s * 1e3);  // before the silence could be noticed
+  EXPECT_LT(reboot.detection_ms, s.lifecycle.host_watchdog_s * 1e3);  // before the silence could be noticed
   EXPECT_TRUE(reboot.outcome_met());
   EXPECT_EQ(host.fault, "host_killed");
   EXPECT_TRUE(host.detected) << host.by;
@@ -1013,7 +1013,7 @@ TEST(MfbEndToEnd, UpperBodyPosturesRunOnThreeBoardsAcrossUdpAsInProcess) {
   ASSERT_TRUE(s.link);
   ASSERT_EQ(s.link->boards.size(), 3u);
   ASSERT_EQ(s.postures.size(), 1u);
-  s.link->host_watchdog_s = kTestWatchdog_s;
+  s.lifecycle.host_watchdog_s = kTestWatchdog_s;
   const experiments::PosturesResult local = experiments::run_postures_on(s, *std::make_unique<sim::ArmBackend>(experiments::postures_plant_params(s)), nullptr, nullptr);
 
   runtime::ChildProcess emulator({PEHA_BINARY, "mfb-emulator", "--config", config.string(), "--port", "0", "--rt-priority", "0", "--watchdog-ms", "250"});

@@ -11,6 +11,7 @@
 #include "peha/mfb/board_emulator.hpp"
 #include "peha/mfb/channel_map.hpp"
 #include "peha/mfb/link_config.hpp"
+#include "peha/runtime/supervisor.hpp"
 
 #include <filesystem>
 #include <functional>
@@ -46,6 +47,7 @@ struct RunVariant {
 struct ScenarioCheck {
   std::vector<std::string> joints;
   std::optional<mfb::LinkConfig> link;
+  runtime::SupervisorParams lifecycle;  ///< the scenario's `lifecycle:` (printed with the board's watchdog)
 };
 
 /// The simulated plant behind `peha mfb-emulator`, with what the board needs to serve it.

@@ -101,6 +101,11 @@ class Map {
 
   /// Throws if the mapping holds a key that was never read.
   void finish() const;
+  /// Refuses a key an older scenario format had (config::Error naming where it went: `now`), so an
+  /// old file is not half read.
+  void refuse_moved(std::string_view key, std::string_view now) const {
+    if (has(key)) fail(key, "this key moved: " + std::string(now));
+  }
 
   /// Throws `Error` about `key` (or the map itself when `key` is empty) with `reason`.
   [[noreturn]] void fail(std::string_view key, const std::string& reason) const;

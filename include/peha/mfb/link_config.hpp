@@ -35,14 +35,13 @@ struct LinkConfig {
   /// The link's pre-shared key file (`key_file:`, resolved against the scenario's folder): 64 hex
   /// digits, readable by its owner only. Host and board read the same file (`load_link_key`).
   std::filesystem::path key_file;
-  /// Every board, in the order of `boards:` (one entry for the single-board form). The watchdogs,
-  /// timeouts and ramps below hold for each board's link.
+  /// Every board, in the order of `boards:` (one entry for the single-board form). The watchdog,
+  /// timeout and vent below hold for each board's link; the host's watchdog and the recovery ramp
+  /// are the lifecycle supervisor's (the scenario's `lifecycle:`, runtime::read_lifecycle).
   std::vector<BoardLink> boards;
   double board_watchdog_s = 0.05;      ///< the board's: no command this long -> safe outputs
-  double host_watchdog_s = 0.02;       ///< the host's: no sample this long -> fault
   double receive_timeout_s = 0.0008;   ///< how long a cycle waits for the board's reply
   double vent_s = 2.0;                 ///< the board's controlled venting after its watchdog fired
-  double recovery_ramp_s = 1.0;        ///< after a recovery, commands ramp from safe to the controller's
 };
 
 /// Reads an `mfb:` mapping (finishes it): either one board (`channel_map:`, `key_file:`) or several

@@ -23,9 +23,11 @@ namespace peha::runtime {
 struct CycleHooks {
   /// Before reading the backend: e.g. sleep to the next absolute deadline.
   std::function<void()> wait;
-  /// The run's supervisor (a real-time harness's). Null: run_cycles starts its own with default
-  /// parameters on the backend and finishes it after the last cycle (in-process runs).
+  /// The run's supervisor (a real-time harness's). Null: run_cycles starts its own with `lifecycle`
+  /// on the backend and finishes it after the last cycle (in-process runs).
   Supervisor* supervisor = nullptr;
+  /// The parameters of the supervisor run_cycles starts itself (the scenario's `lifecycle:`).
+  SupervisorParams lifecycle;
   /// After the write, with the command as sent: timing, telemetry, progress. Returning false ends
   /// the run. Called from the control loop: must not block or allocate.
   std::function<bool(const io::SensorState&, const io::Command& sent)> after;
@@ -33,6 +35,13 @@ struct CycleHooks {
   /// results: what the loop alone did ends here (a real-time harness's thread counters).
   std::function<void()> done;
 };
+
+/// `hooks` with the scenario's `lifecycle` for the supervisor run_cycles starts itself in process
+/// (a harness's own supervisor, configured from the same section, is left as it is).
+inline CycleHooks with_lifecycle(CycleHooks hooks, const SupervisorParams& lifecycle) {
+  hooks.lifecycle = lifecycle;
+  return hooks;
+}
 
 /// Runs cycles k = 0..steps on `backend`: wait, read; with a new sample `step(k)` computes
 /// `command`, without one `hold(k)` and the previous command goes out again (it also feeds a board's
@@ -46,7 +55,7 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
   const double period_s = backend.info().period_s;
   std::optional<Supervisor> own;
   if (!hooks.supervisor) {
-    own.emplace(backend, SupervisorParams{});
+    own.emplace(backend, hooks.lifecycle);
     own->start(0.0);
   }
   Supervisor& supervisor = hooks.supervisor ? *hooks.supervisor : *own;

@@ -20,6 +20,7 @@
 ///   limited.
 /// finish(): deactivate -> inactive -> finalized. noexcept and allocation-free in the loop.
 
+#include "peha/config/reader.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/runtime/lifecycle.hpp"
 
@@ -29,11 +30,17 @@
 
 namespace peha::runtime {
 
+/// The lifecycle supervisor's parameters: the scenario's `lifecycle:` section (read_lifecycle), the
+/// same in process and on the board; recover_after_s from the command line.
 struct SupervisorParams {
   double host_watchdog_s = 0.02;  ///< no new sample this long (and kSilentCycles cycles) -> fault
   double recovery_ramp_s = 1.0;   ///< after a recovery, commands ramp from safe to the controller's
   double recover_after_s = -1.0;  ///< unattended operator: recover this long after a fault (< 0: only on request)
 };
+
+/// Reads the scenario's optional `lifecycle:` section (`host_watchdog_ms`, `recovery_ramp_s`; the
+/// defaults above when absent) and finishes it.
+SupervisorParams read_lifecycle(config::Map& root);
 
 class Supervisor {
  public:

@@ -158,9 +158,9 @@ const char* fault_flag_name(std::uint32_t single_flag) noexcept;  ///< "loadcell
 SafeAction safe_action(std::uint32_t single_flag) noexcept;
 const char* safe_action_name(SafeAction a) noexcept;                ///< "hold", "descend", "vent"
 
-/// Thresholds (the scenario's optional `supervisor:` section; docs/safety.md).
+/// Thresholds (the scenario's optional `plausibility:` section; docs/safety.md).
 struct MonitorParams {
-  /// On by default: every scenario runs with the stage (docs/safety.md); `supervisor: {enabled:
+  /// On by default: every scenario runs with the stage (docs/safety.md); `plausibility: {enabled:
   /// false}` exists for measuring an unprotected controller, and a run that uses it says why.
   bool enabled = true;
   /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
@@ -252,7 +252,7 @@ struct CheckOverrides {
   bool governor_bleeds_while_lifted = false;
 };
 
-/// Reads the scenario root's optional `supervisor:` section into `p` (keys absent keep their
+/// Reads the scenario root's optional `plausibility:` section (the old name `supervisor:` is refused, naming it) into `p` (keys absent keep their
 /// defaults; unknown keys and out-of-range values throw config::Error). Does not finish `root`.
 void read_monitor_params(config::Map& root, MonitorParams& p);
 

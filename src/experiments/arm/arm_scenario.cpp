@@ -399,6 +399,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   // The supervisor's plausibility stage (docs/safety.md), on unless the scenario says otherwise. A
   // constant-pressure hold keeps no pretension by design: its wires are not held to the tension floor.
   safety::read_monitor_params(root, s.limits.monitor);
+  s.lifecycle = runtime::read_lifecycle(root);
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
     if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) {
       s.limits.monitor.tension_checked[i] = false;

@@ -262,7 +262,7 @@ IdentificationRecording record_identification(const ArmScenario& scenario, io::B
     }
   };
   const auto wall_start = std::chrono::steady_clock::now();
-  runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
+  runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
   rec.faults = limited.monitor().count();
   rec.fault_reason = limited.monitor().run_reason();
   rec.duration_s = duration_s;
@@ -396,7 +396,7 @@ IdentificationRealtimeResult record_identification_realtime(const ArmScenario& s
   if (!scenario.link) throw std::runtime_error("the scenario has no mfb: section (channel map, watchdogs): see docs/runtime.md");
   IdentificationRealtimeResult res;
   static_cast<BoardRunResult&>(res) = run_on_hardware(
-      arm_hardware(scenario, identification_plant_params(scenario, scenario.plant)), *scenario.link, options,
+      arm_hardware(scenario, identification_plant_params(scenario, scenario.plant)), scenario.lifecycle, options,
       {"identification", identification_duration_s(scenario), cycles_log, identification_log_columns(scenario),
        {"peha identify-gravity: the rig procedure, every control cycle"}},
       [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {

@@ -7,10 +7,8 @@
 
 namespace peha::experiments {
 
-runtime::SupervisorParams supervisor_params(const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& options) noexcept {
-  runtime::SupervisorParams p;
-  p.host_watchdog_s = link.host_watchdog_s;
-  p.recovery_ramp_s = link.recovery_ramp_s;
+runtime::SupervisorParams supervisor_params(const runtime::SupervisorParams& lifecycle, const runtime::RealtimeRunOptions& options) noexcept {
+  runtime::SupervisorParams p = lifecycle;
   p.recover_after_s = options.recover_after_s;
   return p;
 }
@@ -32,8 +30,8 @@ void record_links(const mfb::BoardsBackend& backend, const BoardRtts& rtts, Boar
   for (std::size_t b = 0; b < backend.board_count(); ++b) result.boards.push_back({backend.board_name(b), backend.board(b).stats(), rtts.board(b)});
 }
 
-BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const mfb::LinkConfig& link, const HardwareRunOptions& options,
-                               const HardwareRunLog& log, const HardwareLoop& loop) {
+BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const runtime::SupervisorParams& lifecycle,
+                               const HardwareRunOptions& options, const HardwareRunLog& log, const HardwareLoop& loop) {
   hardware::Hardware hw = hardware::open_backend(options.backend, request);
   std::optional<BoardRtts> rtts;
   if (hw.boards) {
@@ -44,7 +42,7 @@ BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const m
   comments.insert(comments.begin(), "on " + hw.where());
   BoardRunResult result;
   {
-    runtime::RealtimeHarness harness(*hw.backend, supervisor_params(link, options), options, request.period_s, log.duration_s, log.label, log.file,
+    runtime::RealtimeHarness harness(*hw.backend, supervisor_params(lifecycle, options), options, request.period_s, log.duration_s, log.label, log.file,
                                      log.columns, comments);
     const runtime::CycleHooks hooks = harness.start();
     safety::Verdict& verdict = loop(hw, harness.sink(), hooks);

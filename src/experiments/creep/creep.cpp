@@ -199,7 +199,7 @@ CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVari
     }
     for (int i = 0; i < 2; ++i) r.final_truth_m[i] = t.creep_m[i];
   };
-  const std::size_t done = runtime::run_cycles(limited, {}, steps, state, command, step, hold, observe);
+  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle({}, sc.lifecycle), steps, state, command, step, hold, observe);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = static_cast<double>(done) * sc.period_s;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);

@@ -96,6 +96,7 @@ E1Scenario read_e1(const config::Document& doc, const char* experiment, const st
   s.plant.finger = read_finger(root.map("finger"), s.duration_s, s.probe_direction);
   s.verdict = safety::read_verdict_thresholds(root);
   safety::read_monitor_params(root, s.limits.monitor);
+  s.lifecycle = runtime::read_lifecycle(root);
   s.plant.faults = sim::read_plant_faults(root, sim::one_dof_rig_joint_names(), s.duration_s);
 
   for (config::Map c : root.maps("cases", 1, 16)) {
@@ -215,7 +216,7 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
   };
   const hardware::Hardware rig = hardware::open_backend(hardware::BackendUri{}, request);
   return record_excitation(*rig.backend, scenario.controller.joint, index == 0 ? +1 : -1, *scenario.excitation[index],
-                           e1_recording_limits(scenario), progress);
+                           e1_recording_limits(scenario), progress, runtime::with_lifecycle({}, scenario.lifecycle));
 }
 
 double e1_plant_gravity_torque_Nm(const sim::OneDofRigParams& plant, double angle_rad) {
@@ -334,7 +335,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
       log->push_row(row);
     }
   };
-  angle_truth.resize(runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe) + 1);
+  angle_truth.resize(runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = angle_truth.size() - 1;  // a run ended early analyses what it has
   r.simulated_s = static_cast<double>(done) * scenario.period_s;

@@ -8,7 +8,7 @@ E1RealtimeResult run_e1_realtime(const E1Scenario& scenario, const E1Case& c, co
   if (!scenario.link) throw std::runtime_error("the scenario has no mfb: section (channel map, watchdogs): see docs/runtime.md");
   E1RealtimeResult res;
   static_cast<BoardRunResult&>(res) = run_on_hardware(
-      e1_hardware(scenario, c), *scenario.link, options,
+      e1_hardware(scenario, c), scenario.lifecycle, options,
       {c.name, scenario.duration_s, options.dir / fmt::format("e1_{}.csv", c.name), e1_log_columns(),
        {fmt::format("case: {} (payload {} kg)", c.name, c.payload_kg),
         "plant_* and finger columns are NaN: the host sees only the board's sensors"}},
@@ -28,7 +28,7 @@ E1RecordingRealtimeResult record_e1_muscle_realtime(const E1Scenario& scenario, 
   if (!e) throw config::Error(fmt::format("no calibration.{} section (the excitation to run)", muscle));
   E1RecordingRealtimeResult res;
   static_cast<BoardRunResult&>(res) = run_on_hardware(
-      e1_hardware(scenario, {fmt::format("calibration_{}", muscle), e->payload_kg}), *scenario.link, options,
+      e1_hardware(scenario, {fmt::format("calibration_{}", muscle), e->payload_kg}), scenario.lifecycle, options,
       {fmt::format("calibration_{}", muscle), e->total_duration_s(), cycles_log, recording_log_columns(),
        {fmt::format("peha record-calibration: muscle {}, every control cycle (the calibration CSV has the 250 Hz rows)", muscle)}},
       [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {

@@ -183,7 +183,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       log->push_row(row);
     }
   };
-  const std::size_t done = runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
+  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.peak_muscle_force_N = envelope.peak_muscle_force_N();

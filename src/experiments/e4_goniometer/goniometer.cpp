@@ -427,7 +427,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       log->push_row(row);
     }
   };
-  const std::size_t done = runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
+  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   r.peak_muscle_force_N = envelope.peak_muscle_force_N();

@@ -67,6 +67,7 @@ E5Scenario read_e5(const config::Document& doc) {
   s.plant.seed = s.seed;
   s.verdict = safety::read_verdict_thresholds(root);
   safety::read_monitor_params(root, s.limits.monitor);  // the supervisor's plausibility stage (docs/safety.md)
+  s.lifecycle = runtime::read_lifecycle(root);
 
   for (config::Map c : root.maps("cases", 1, 16)) {
     E5Case e;
@@ -197,7 +198,7 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
       log->push_row(row);
     }
   };
-  const std::size_t done = runtime::run_cycles(limited, hooks, steps, state, command, step, hold, observe);
+  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   r.simulated_s = static_cast<double>(done) * scenario.period_s;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);

@@ -139,7 +139,7 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   E1Scenario s = scenario;
   s.limits.monitor.enabled = true;
   s.duration_s = t_inject + options.after_fault_s;
-  if (options.host_watchdog_ms) s.link->host_watchdog_s = *options.host_watchdog_ms * 1e-3;
+  if (options.host_watchdog_ms) s.lifecycle.host_watchdog_s = *options.host_watchdog_ms * 1e-3;
   HardwareRunOptions o;
   o.backend = hardware::BackendUri::parse(fmt::format("udp://127.0.0.1:{}", emulator.port));
   o.realtime.fifo_priority = 0;  // both processes share the machine's cores: no SCHED_FIFO
@@ -159,7 +159,7 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   const auto inject_cycle = static_cast<std::uint64_t>(std::llround(t_inject / s.period_s));
   const auto resume_cycle = inject_cycle + static_cast<std::uint64_t>(std::llround(kStall_s / s.period_s));
   static_cast<BoardRunResult&>(r) = run_on_hardware(
-      e1_hardware(s, c), *s.link, o,
+      e1_hardware(s, c), s.lifecycle, o,
       {c.name, s.duration_s, o.dir / "e1.csv", e1_log_columns(), {fmt::format("peha faults --link: {} ({})", fault.name, fault.injects)}},
       [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {
         const mfb::UdpBackend& board = hw.boards->board(0);

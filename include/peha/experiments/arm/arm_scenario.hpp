@@ -29,6 +29,8 @@ struct ArmPosture {
 struct ArmScenario {
   std::string description;
   std::optional<mfb::LinkConfig> link;   ///< optional `mfb:` section: the board link
+  /// The lifecycle supervisor's parameters (`lifecycle:`): the same in process and on the board.
+  runtime::SupervisorParams lifecycle;
   std::uint64_t seed = 1;
   double period_s = 1e-3;
   control::ArmControllerModel controller;

@@ -50,12 +50,12 @@ using HardwareLoop = std::function<safety::Verdict&(hardware::Hardware& hw, runt
 
 /// The one way every experiment runs on hardware in real time: opens `options.backend` for
 /// `request` through the door (hardware::open_backend), runs `loop` in a RealtimeHarness (1 kHz
-/// absolute deadlines, the lifecycle supervisor with the scenario's watchdog and recovery ramp from
-/// `link`, the writer-thread log with fault dumps, telemetry), adds the run's lifecycle faults to
+/// absolute deadlines, the lifecycle supervisor with the scenario's `lifecycle` (its watchdog and
+/// recovery ramp, as in process), the writer-thread log with fault dumps, telemetry), adds the run's lifecycle faults to
 /// the verdict `loop` returns (add_link_fault_check), and returns the harness's and the links'
 /// figures. Throws (set-up) as the door does, or when no board answers.
-BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const mfb::LinkConfig& link, const HardwareRunOptions& options,
-                               const HardwareRunLog& log, const HardwareLoop& loop);
+BoardRunResult run_on_hardware(const hardware::HardwareRequest& request, const runtime::SupervisorParams& lifecycle,
+                               const HardwareRunOptions& options, const HardwareRunLog& log, const HardwareLoop& loop);
 
 /// Each board's round trips during a run: set as the backend's sink (mfb::BoardsBackend::set_rtt_sink)
 /// before the run; allocation-free while it runs.
@@ -75,9 +75,9 @@ class BoardRtts : public mfb::BoardsBackend::RttSink {
 /// from the run's backend.
 void record_links(const mfb::BoardsBackend& backend, const BoardRtts& rtts, BoardRunResult& result);
 
-/// The supervisor's parameters of a board run: watchdog and recovery ramp from the scenario's
-/// `mfb:` section, the unattended recovery from the command line.
-runtime::SupervisorParams supervisor_params(const mfb::LinkConfig& link, const runtime::RealtimeRunOptions& options) noexcept;
+/// The supervisor's parameters of a run on hardware: the scenario's `lifecycle`, the unattended
+/// recovery from the command line.
+runtime::SupervisorParams supervisor_params(const runtime::SupervisorParams& lifecycle, const runtime::RealtimeRunOptions& options) noexcept;
 
 /// The first "-> fault (reason)" entry of a run's lifecycle (RealtimeRunResult::lifecycle, entries
 /// "t_s  from -> to (reason)"): its time, s, and reason (NaN and "" when the run never faulted).

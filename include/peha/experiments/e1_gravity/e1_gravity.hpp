@@ -52,6 +52,8 @@ struct E1Scenario {
   std::optional<experiments::CalibrationAcceptance> acceptance;
   /// Optional `mfb:` section: how the scenario runs on the multifunction board over UDP.
   std::optional<mfb::LinkConfig> link;
+  /// The lifecycle supervisor's parameters (`lifecycle:`): the same in process and on the board.
+  runtime::SupervisorParams lifecycle;
 };
 
 /// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.

@@ -52,6 +52,8 @@ struct E5Scenario {
   sim::OneDofRigParams plant;        ///< model file with the "lock" clamp; initial angle set per case
   std::vector<E5Case> cases;
   std::optional<mfb::LinkConfig> link;  ///< optional `mfb:` section: the run over the board
+  /// The lifecycle supervisor's parameters (`lifecycle:`): the same in process and on the board.
+  runtime::SupervisorParams lifecycle;
 };
 
 /// Reads a whole E5 scenario file; throws config::Error on anything the schema does not accept.
