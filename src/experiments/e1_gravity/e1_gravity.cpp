@@ -243,106 +243,75 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSi
   return run_e1_on(scenario, c, plant, &plant, log);
 }
 
-E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
-                   runtime::RowSink* log, const runtime::CycleHooks& hooks) {
-  const control::OneDofControllerModel model = e1_controller_model(scenario, c);
-  control::OneDofGravityController controller(model);
-  const safety::JointModels joints{&model.joint};  // the controller's joint set-up, shared with the limits
-  safety::LimitedBackend limited(backend, scenario.limits, joints);
-  safety::Envelope envelope;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+namespace {
 
-  E1Result r;
-  r.case_name = c.name;
-  r.payload_kg = c.payload_kg;
-  r.from_truth = sim != nullptr;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-  const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
-  std::vector<double> angle_truth(steps + 1);
-  std::vector<char> finger_on(steps + 1);
-  std::vector<double> finger_force(steps + 1);
-  std::vector<double> constraint(steps + 1, nan);  // plant truth: torque MuJoCo's friction/limits hold
-  // Without the simulator's truth, the finger is where the scenario's schedule puts it.
-  for (std::size_t k = 0; k <= steps; ++k) {
-    const double t = static_cast<double>(k) * scenario.period_s;
-    for (const auto& push : scenario.plant.finger.pushes) finger_on[k] |= t >= push.start_s && t < push.start_s + push.duration_s;
-  }
-  io::SensorState state;
-  io::Command command;
-  double tracking_sum[2] = {0, 0};
+/// What E1's loop records per cycle for the analysis after it; preallocated for the whole run.
+struct E1Trace {
+  std::vector<double> angle_rad;        ///< plant truth, else the encoder
+  std::vector<char> finger_on;          ///< the finger touches the link (truth, else the schedule)
+  std::vector<double> finger_force_N;   ///< plant truth (NaN without it)
+  std::vector<double> constraint_Nm;    ///< plant truth: the torque MuJoCo's friction and limits hold
+  double tracking_sum_N2[2] = {0, 0};   ///< sum of (force request - load cell)^2 per muscle after 1 s
   std::size_t tracking_count = 0;
-  std::array<double, 26> row{};
-  const auto wall_start = std::chrono::steady_clock::now();
-  auto hold = [&](std::size_t k) {  // no new sample: the command is held
-    ++r.missed_samples;
-    angle_truth[k] = k > 0 ? angle_truth[k - 1] : 0.0;
-  };
-  // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command here,
-  // before the supervisor: the test driver's part of the plant's fault injection.
-  const sim::ControllerNanInjection controller_nan(scenario.plant.faults);
-  auto step = [&](std::size_t) {
-    controller.update(state, command);
-    controller_nan.apply(state.time_s, command);
-  };
-  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t flags) {
-    const io::JointSensors& s = state.joints[0];
-    const io::JointCommand& cmd = sent.joints[0];
-    const sim::OneDofRigTruth* t = sim ? &sim->sampled_truth() : nullptr;
-    safety::JointSample j;
-    if (t) {
-      angle_truth[k] = t->angle_rad;
-      finger_on[k] = t->finger_active;
-      finger_force[k] = t->finger_force_N;
-      constraint[k] = t->constraint_torque_Nm;
-      j = {{t->muscle_force_N[0], t->muscle_force_N[1]}, std::min(t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]),
-           {t->pressure_Pa[0], t->pressure_Pa[1]}, t->motor_torque_Nm, t->angle_rad};
-    } else {
-      angle_truth[k] = s.angle_rad;
-      finger_force[k] = nan;
-      j = {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),
-           {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, cmd.motor_torque_Nm, s.angle_rad};
-    }
-    // The start-up tare vents both muscles on purpose (the hand holds the link): the wires are slack
-    // until the tare is done and the muscles have filled again (refill_s). Their tension is not judged
-    // then; every other figure is.
-    const control::OneDofDiagnostics& startup = controller.diagnostics();
-    if (controller.wires_slack_on_purpose(state.time_s)) {
-      j.min_tension_N = std::numeric_limits<double>::infinity();
-      r.tare_slack_s = state.time_s;
-    }
-    r.loadcell_tare_N[0] = startup.loadcell_offset_N[0];
-    r.loadcell_tare_N[1] = startup.loadcell_offset_N[1];
-    envelope.observe(0, j);
-    if (state.time_s >= 1.0) {  // after the start-up transient
-      const auto& a = controller.diagnostics().allocation;
-      const double e1 = a.agonist_force_cmd_N - s.agonist_loadcell_N;
-      const double e2 = a.antagonist_force_cmd_N - s.antagonist_loadcell_N;
-      tracking_sum[0] += e1 * e1;
-      tracking_sum[1] += e2 * e2;
-      ++tracking_count;
-    }
 
-    if (log) {
-      const auto& d = controller.diagnostics();
-      row = {state.time_s, s.angle_rad, d.velocity_radps, t ? t->finger_force_N : nan, finger_on[k] ? 1.0 : 0.0,
-             d.tau_desired_Nm, d.allocation.tau_pam_cmd_Nm, d.allocation.tau_pam_measured_Nm, cmd.motor_torque_Nm,
-             d.allocation.agonist_force_cmd_N, d.allocation.antagonist_force_cmd_N, s.agonist_loadcell_N, s.antagonist_loadcell_N,
-             cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
-             s.antagonist_pressure_Pa * 1e-6, t ? t->angle_rad : nan, t ? t->pulley_tension_min_N[0] : nan,
-             t ? t->pulley_tension_min_N[1] : nan, t ? t->muscle_force_N[0] : nan, t ? t->muscle_force_N[1] : nan,
-             t ? t->cable_friction_Nm : nan, t ? t->constraint_torque_Nm : nan, static_cast<double>(flags),
-             static_cast<double>(limited.monitor().flags())};
-      log->push_row(row);
+  E1Trace(const E1Scenario& scenario, std::size_t steps)
+      : angle_rad(steps + 1), finger_on(steps + 1), finger_force_N(steps + 1), constraint_Nm(steps + 1, kNaN) {
+    // Without the simulator's truth, the finger is where the scenario's schedule puts it.
+    for (std::size_t k = 0; k <= steps; ++k) {
+      const double t = static_cast<double>(k) * scenario.period_s;
+      for (const auto& push : scenario.plant.finger.pushes) finger_on[k] |= t >= push.start_s && t < push.start_s + push.duration_s;
     }
-  };
-  angle_truth.resize(runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe) + 1);
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  const std::size_t done = angle_truth.size() - 1;  // a run ended early analyses what it has
-  r.simulated_s = static_cast<double>(done) * scenario.period_s;
-  for (int i = 0; i < 2; ++i) r.force_tracking_rms_N[i] = tracking_count ? std::sqrt(tracking_sum[i] / tracking_count) : 0.0;
-  r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
+  }
+
+  /// Static torque error at rest: what the friction holds, averaged over the last second before k1.
+  double static_error_Nm(double period_s, std::size_t k1) const {
+    const auto span = static_cast<std::size_t>(std::llround(1.0 / period_s));
+    const std::size_t k0 = k1 > span ? k1 - span : 0;
+    double sum = 0;
+    for (std::size_t k = k0; k <= k1; ++k) sum += constraint_Nm[k];
+    return -sum / static_cast<double>(k1 - k0 + 1);
+  }
+};
+
+/// The envelope's sample of cycle `k` (plant truth when there is a simulator, else the sensors),
+/// recorded into `trace`.
+safety::JointSample observe_e1_sample(const io::JointSensors& s, const io::JointCommand& cmd, const sim::OneDofRigTruth* t, std::size_t k,
+                                      E1Trace& trace) noexcept {
+  if (t) {
+    trace.angle_rad[k] = t->angle_rad;
+    trace.finger_on[k] = t->finger_active;
+    trace.finger_force_N[k] = t->finger_force_N;
+    trace.constraint_Nm[k] = t->constraint_torque_Nm;
+    return {{t->muscle_force_N[0], t->muscle_force_N[1]}, std::min(t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]),
+            {t->pressure_Pa[0], t->pressure_Pa[1]}, t->motor_torque_Nm, t->angle_rad};
+  }
+  trace.angle_rad[k] = s.angle_rad;
+  trace.finger_force_N[k] = kNaN;
+  return {{s.agonist_loadcell_N, s.antagonist_loadcell_N}, std::min(s.agonist_loadcell_N, s.antagonist_loadcell_N),
+          {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, cmd.motor_torque_Nm, s.angle_rad};
+}
+
+/// One row of e1_log_columns().
+void e1_log_row(const io::SensorState& state, const io::JointCommand& cmd, const control::OneDofDiagnostics& d, const sim::OneDofRigTruth* t,
+                bool finger_on, std::uint32_t limit_flags, std::uint32_t fault_flags, std::array<double, 26>& row) noexcept {
+  const io::JointSensors& s = state.joints[0];
+  row = {state.time_s, s.angle_rad, d.velocity_radps, t ? t->finger_force_N : kNaN, finger_on ? 1.0 : 0.0,
+         d.tau_desired_Nm, d.allocation.tau_pam_cmd_Nm, d.allocation.tau_pam_measured_Nm, cmd.motor_torque_Nm,
+         d.allocation.agonist_force_cmd_N, d.allocation.antagonist_force_cmd_N, s.agonist_loadcell_N, s.antagonist_loadcell_N,
+         cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
+         s.antagonist_pressure_Pa * 1e-6, t ? t->angle_rad : kNaN, t ? t->pulley_tension_min_N[0] : kNaN,
+         t ? t->pulley_tension_min_N[1] : kNaN, t ? t->muscle_force_N[0] : kNaN, t ? t->muscle_force_N[1] : kNaN,
+         t ? t->cable_friction_Nm : kNaN, t ? t->constraint_torque_Nm : kNaN, static_cast<double>(limit_flags),
+         static_cast<double>(fault_flags)};
+}
+
+/// The envelope's figures, the range reached and the supervisor's faults into `r` and its verdict.
+void add_e1_envelope(const E1Scenario& scenario, const safety::JointModels& joints, const safety::Envelope& envelope,
+                     const safety::LimitedBackend& limited, const E1Trace& trace, E1Result& r) {
   std::copy(std::begin(limited.data().counts), std::end(limited.data().counts), std::begin(r.limit_counts));
-  const auto [lowest, highest] = std::minmax_element(angle_truth.begin(), angle_truth.end());
+  const auto [lowest, highest] = std::minmax_element(trace.angle_rad.begin(), trace.angle_rad.end());
   r.min_angle_deg = models::rad_to_deg(*lowest);
   r.max_angle_deg = models::rad_to_deg(*highest);
   const safety::Envelope::Joint& e = envelope.joints[0];
@@ -351,49 +320,47 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   r.min_wire_tension_N = e.min_tension_N;
   r.max_pressure_MPa = e.max_pressure_Pa * 1e-6;
   r.peak_motor_torque_Nm = e.peak_motor_torque_Nm;
-  const safety::VerdictThresholds& th = scenario.verdict;
-  r.verdict.thresholds = th;
-  safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, th, r.verdict);
+  r.verdict.thresholds = scenario.verdict;
+  safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, scenario.verdict, r.verdict);
   r.fault_flags = limited.monitor().flags();
   r.faults = limited.monitor().count();
   r.fault_reason = limited.monitor().run_reason();
   safety::add_supervisor_check(limited.monitor(), r.verdict);
+}
 
-  const sim::OneDofRigParams plant = sim ? sim->params() : e1_plant_params(scenario, c);
+int probe_of(const E1Scenario& scenario, std::size_t push) {
+  return push < scenario.probe_direction.size() ? scenario.probe_direction[push] : 0;
+}
+
+/// Releases: the instants the finger lets go; drift over the window that follows, the distance to a
+/// stop and (plant truth) the static torque error, each judged; then the peak finger force of the
+/// pushes that move the link.
+void add_e1_releases(const E1Scenario& scenario, const sim::OneDofRigParams& plant, const E1Trace& trace, std::size_t done, E1Result& r) {
+  const safety::VerdictThresholds& th = scenario.verdict;
   const safety::JointLimits& range = scenario.limits.joints[0];
-  // Static torque error at rest: what the friction holds, averaged over the last second before k1.
-  auto static_error_Nm = [&](std::size_t k1) {
-    const auto span = static_cast<std::size_t>(std::llround(1.0 / scenario.period_s));
-    const std::size_t k0 = k1 > span ? k1 - span : 0;
-    double sum = 0;
-    for (std::size_t k = k0; k <= k1; ++k) sum += constraint[k];
-    return -sum / static_cast<double>(k1 - k0 + 1);
-  };
-
-  // Releases: the instants the finger lets go; drift over the window that follows.
   const auto window = static_cast<std::size_t>(std::llround(scenario.drift_window_s / scenario.period_s));
   const auto& pushes = scenario.plant.finger.pushes;
-  auto probe_of = [&](std::size_t i) { return i < scenario.probe_direction.size() ? scenario.probe_direction[i] : 0; };
+  const std::vector<double>& angle = trace.angle_rad;
   for (std::size_t i = 0; i < pushes.size(); ++i) {
     const auto& push = pushes[i];
-    if (probe_of(i) != 0) continue;
+    if (probe_of(scenario, i) != 0) continue;
     const auto k0 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
     if (k0 > done) continue;
     E1Release rel;
     rel.push = push.name;
     rel.time_s = k0 * scenario.period_s;
-    rel.angle_deg = models::rad_to_deg(angle_truth[k0]);
+    rel.angle_deg = models::rad_to_deg(angle[k0]);
     const std::size_t k1 = std::min(k0 + window, done);
     std::size_t last = k0;
-    for (std::size_t k = k0; k <= k1 && !(k > k0 && finger_on[k]); ++k) {
-      rel.max_excursion_deg = std::max(rel.max_excursion_deg, models::rad_to_deg(std::abs(angle_truth[k] - angle_truth[k0])));
-      rel.drift_deg = models::rad_to_deg(angle_truth[k] - angle_truth[k0]);
+    for (std::size_t k = k0; k <= k1 && !(k > k0 && trace.finger_on[k]); ++k) {
+      rel.max_excursion_deg = std::max(rel.max_excursion_deg, models::rad_to_deg(std::abs(angle[k] - angle[k0])));
+      rel.drift_deg = models::rad_to_deg(angle[k] - angle[k0]);
       last = k;
     }
-    const StopDistance stop = stop_distance(angle_truth, k0, last, range.min_angle_rad, range.max_angle_rad);
+    const StopDistance stop = stop_distance(angle, k0, last, range.min_angle_rad, range.max_angle_rad);
     rel.stop_distance_deg = stop.closest_deg;
-    rel.gravity_torque_Nm = e1_plant_gravity_torque_Nm(plant, angle_truth[last]);
-    rel.static_torque_error_Nm = r.from_truth ? static_error_Nm(last) : nan;
+    rel.gravity_torque_Nm = e1_plant_gravity_torque_Nm(plant, angle[last]);
+    rel.static_torque_error_Nm = r.from_truth ? trace.static_error_Nm(scenario.period_s, last) : kNaN;
     rel.static_torque_error_pct = 100.0 * rel.static_torque_error_Nm / std::abs(rel.gravity_torque_Nm);
     r.releases.push_back(rel);
 
@@ -405,50 +372,127 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   }
   for (std::size_t i = 0; i < pushes.size(); ++i) {
     const auto& push = pushes[i];
-    if (push.hold || probe_of(i) != 0) continue;
+    if (push.hold || probe_of(scenario, i) != 0) continue;
     const auto k0 = static_cast<std::size_t>(std::llround(push.start_s / scenario.period_s));
     const auto k1 = static_cast<std::size_t>(std::llround((push.start_s + push.duration_s) / scenario.period_s));
     for (std::size_t k = k0; k <= std::min(k1, done); ++k) {
-      r.peak_finger_force_N = std::max(r.peak_finger_force_N, std::abs(finger_force[k]));
+      r.peak_finger_force_N = std::max(r.peak_finger_force_N, std::abs(trace.finger_force_N[k]));
     }
   }
+}
 
-  // Breakaway probes: the finger force when the link has moved kBreakaway_deg from where the probe began.
+/// Breakaway probes: the finger force when the link has moved kBreakaway_deg from where the probe
+/// began, up and down; their difference is the static torque error a person measures on hardware.
+void add_e1_breakaway(const E1Scenario& scenario, const sim::OneDofRigParams& plant, const E1Trace& trace, std::size_t done, E1Result& r) {
   constexpr double kBreakaway_deg = 0.1;
-  double force[2] = {nan, nan}, gravity[2] = {nan, nan}, truth[2] = {nan, nan};
+  const auto& pushes = scenario.plant.finger.pushes;
+  double force[2] = {kNaN, kNaN}, gravity[2] = {kNaN, kNaN}, truth[2] = {kNaN, kNaN};
   bool ran[2] = {false, false};
   for (std::size_t i = 0; i < pushes.size(); ++i) {
-    const int dir = probe_of(i);
+    const int dir = probe_of(scenario, i);
     if (dir == 0 || !r.from_truth) continue;
     const int side = dir > 0 ? 0 : 1;
     const auto k0 = static_cast<std::size_t>(std::llround(pushes[i].start_s / scenario.period_s));
     const auto k1 = std::min(done, static_cast<std::size_t>(std::llround((pushes[i].start_s + pushes[i].duration_s) / scenario.period_s)));
     if (k0 == 0 || k0 > done) continue;
     ran[side] = true;
-    gravity[side] = e1_plant_gravity_torque_Nm(plant, angle_truth[k0 - 1]);
-    truth[side] = 100.0 * static_error_Nm(k0 - 1) / std::abs(gravity[side]);
+    gravity[side] = e1_plant_gravity_torque_Nm(plant, trace.angle_rad[k0 - 1]);
+    truth[side] = 100.0 * trace.static_error_Nm(scenario.period_s, k0 - 1) / std::abs(gravity[side]);
     double peak = 0;
     for (std::size_t k = k0; k <= k1; ++k) {
-      peak = std::max(peak, std::abs(finger_force[k]));
-      if (models::rad_to_deg(std::abs(angle_truth[k] - angle_truth[k0])) > kBreakaway_deg) {
+      peak = std::max(peak, std::abs(trace.finger_force_N[k]));
+      if (models::rad_to_deg(std::abs(trace.angle_rad[k] - trace.angle_rad[k0])) > kBreakaway_deg) {
         force[side] = peak;
         break;
       }
     }
   }
-  if (ran[0] && ran[1]) {
-    E1Breakaway& b = r.breakaway;
-    const double lever = scenario.plant.finger.lever_m;
-    b.force_up_N = force[0];
-    b.force_down_N = force[1];
-    b.measured = !std::isnan(force[0]) && !std::isnan(force[1]);
-    b.friction_band_Nm = (force[0] + force[1]) * lever / 2.0;
-    b.torque_error_Nm = (force[1] - force[0]) * lever / 2.0;
-    b.torque_error_pct = 100.0 * b.torque_error_Nm / (0.5 * (std::abs(gravity[0]) + std::abs(gravity[1])));
-    b.truth_error_pct = 0.5 * (truth[0] + truth[1]);
+  if (!(ran[0] && ran[1])) return;
+  E1Breakaway& b = r.breakaway;
+  const double lever = scenario.plant.finger.lever_m;
+  b.force_up_N = force[0];
+  b.force_down_N = force[1];
+  b.measured = !std::isnan(force[0]) && !std::isnan(force[1]);
+  b.friction_band_Nm = (force[0] + force[1]) * lever / 2.0;
+  b.torque_error_Nm = (force[1] - force[0]) * lever / 2.0;
+  b.torque_error_pct = 100.0 * b.torque_error_Nm / (0.5 * (std::abs(gravity[0]) + std::abs(gravity[1])));
+  b.truth_error_pct = 0.5 * (truth[0] + truth[1]);
+}
+
+}  // namespace
+
+E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
+                   runtime::RowSink* log, const runtime::CycleHooks& hooks) {
+  const control::OneDofControllerModel model = e1_controller_model(scenario, c);
+  control::OneDofGravityController controller(model);
+  const safety::JointModels joints{&model.joint};  // the controller's joint set-up, shared with the limits
+  safety::LimitedBackend limited(backend, scenario.limits, joints);
+  safety::Envelope envelope;
+
+  E1Result r;
+  r.case_name = c.name;
+  r.payload_kg = c.payload_kg;
+  r.from_truth = sim != nullptr;
+
+  const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
+  E1Trace trace(scenario, steps);
+  io::SensorState state;
+  io::Command command;
+  std::array<double, 26> row{};
+  const auto wall_start = std::chrono::steady_clock::now();
+  auto hold = [&](std::size_t k) {  // no new sample: the command is held
+    ++r.missed_samples;
+    trace.angle_rad[k] = k > 0 ? trace.angle_rad[k - 1] : 0.0;
+  };
+  // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command here,
+  // before the supervisor: the test driver's part of the plant's fault injection.
+  const sim::ControllerNanInjection controller_nan(scenario.plant.faults);
+  auto step = [&](std::size_t) {
+    controller.update(state, command);
+    controller_nan.apply(state.time_s, command);
+  };
+  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t flags) {
+    const io::JointSensors& s = state.joints[0];
+    const sim::OneDofRigTruth* t = sim ? &sim->sampled_truth() : nullptr;
+    safety::JointSample j = observe_e1_sample(s, sent.joints[0], t, k, trace);
+    // The start-up tare vents both muscles on purpose (the hand holds the link): the wires are slack
+    // until the tare is done and the muscles have filled again (refill_s). Their tension is not judged
+    // then; every other figure is.
+    const control::OneDofDiagnostics& d = controller.diagnostics();
+    if (controller.wires_slack_on_purpose(state.time_s)) {
+      j.min_tension_N = std::numeric_limits<double>::infinity();
+      r.tare_slack_s = state.time_s;
+    }
+    r.loadcell_tare_N[0] = d.loadcell_offset_N[0];
+    r.loadcell_tare_N[1] = d.loadcell_offset_N[1];
+    envelope.observe(0, j);
+    if (state.time_s >= 1.0) {  // after the start-up transient
+      const double e1 = d.allocation.agonist_force_cmd_N - s.agonist_loadcell_N;
+      const double e2 = d.allocation.antagonist_force_cmd_N - s.antagonist_loadcell_N;
+      trace.tracking_sum_N2[0] += e1 * e1;
+      trace.tracking_sum_N2[1] += e2 * e2;
+      ++trace.tracking_count;
+    }
+    if (log) {
+      e1_log_row(state, sent.joints[0], d, t, trace.finger_on[k], flags, limited.monitor().flags(), row);
+      log->push_row(row);
+    }
+  };
+  trace.angle_rad.resize(runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold,
+                                             observe) + 1);
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  const std::size_t done = trace.angle_rad.size() - 1;  // a run ended early analyses what it has
+  r.simulated_s = static_cast<double>(done) * scenario.period_s;
+  for (int i = 0; i < 2; ++i) {
+    r.force_tracking_rms_N[i] = trace.tracking_count ? std::sqrt(trace.tracking_sum_N2[i] / trace.tracking_count) : 0.0;
   }
+  r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
+  add_e1_envelope(scenario, joints, envelope, limited, trace, r);
+  const sim::OneDofRigParams plant = sim ? sim->params() : e1_plant_params(scenario, c);
+  add_e1_releases(scenario, plant, trace, done, r);
+  add_e1_breakaway(scenario, plant, trace, done, r);
   r.within_limits = r.verdict.passed();
-  if (!r.from_truth) r.peak_finger_force_N = nan;  // the finger is the simulator's secret
+  if (!r.from_truth) r.peak_finger_force_N = kNaN;  // the finger is the simulator's secret
   return r;
 }
 
