@@ -141,6 +141,42 @@ std::vector<std::string> identification_log_columns(const ArmScenario& scenario)
   return c;
 }
 
+namespace {
+
+/// One row of identification_log_columns().
+void identification_log_row(const io::SensorState& state, const io::Command& sent, std::size_t io_count, std::uint32_t flags,
+                            std::vector<double>& row) noexcept {
+  std::size_t c = 0;
+  row[c++] = state.time_s;
+  for (std::size_t i = 0; i < io_count; ++i) {
+    const io::JointSensors& js = state.joints[i];
+    const io::JointCommand& jc = sent.joints[i];
+    for (const double v : {js.angle_rad, js.agonist_loadcell_N, js.antagonist_loadcell_N, jc.agonist_pressure_Pa * 1e-6,
+                           jc.antagonist_pressure_Pa * 1e-6, jc.motor_torque_Nm}) {
+      row[c++] = v;
+    }
+  }
+  row[c] = static_cast<double>(flags);
+}
+
+/// One sample of an averaging window into its sums: every encoder, and per swept joint the load
+/// cells less their zero, the motor's command and the filtered speed.
+void add_to_window(IdentificationRecording::Sums& s, const io::SensorState& state, const io::Command& sent,
+                   const control::ArmController& controller, const std::vector<std::size_t>& swept) noexcept {
+  for (std::size_t i = 0; i < s.q.size(); ++i) s.q[i] += state.joints[i].angle_rad;
+  for (std::size_t k = 0; k < swept.size(); ++k) {
+    const std::size_t j = swept[k];
+    const io::JointSensors& js = state.joints[j];
+    s.force[k][0] += js.agonist_loadcell_N - controller.loadcell_offset_N(j, 0);
+    s.force[k][1] += js.antagonist_loadcell_N - controller.loadcell_offset_N(j, 1);
+    s.motor[k] += sent.joints[j].motor_torque_Nm;
+    s.speed[k] += controller.diagnostics()[j].velocity_radps;
+  }
+  s.n += 1;
+}
+
+}  // namespace
+
 IdentificationRecording record_identification(const ArmScenario& scenario, io::Backend& backend,
                                               const std::function<void(const std::string&)>& progress, const runtime::CycleHooks& hooks,
                                               runtime::RowSink* log) {
@@ -227,34 +263,14 @@ IdentificationRecording record_identification(const ArmScenario& scenario, io::B
   std::vector<double> row(log ? identification_log_columns(scenario).size() : 0);
   auto observe = [&](std::size_t, const io::Command& sent, std::uint32_t flags) {
     if (log) {
-      std::size_t c = 0;
-      row[c++] = state.time_s;
-      for (std::size_t i = 0; i < io_count; ++i) {
-        const io::JointSensors& js = state.joints[i];
-        const io::JointCommand& jc = sent.joints[i];
-        for (const double v : {js.angle_rad, js.agonist_loadcell_N, js.antagonist_loadcell_N, jc.agonist_pressure_Pa * 1e-6,
-                               jc.antagonist_pressure_Pa * 1e-6, jc.motor_torque_Nm}) {
-          row[c++] = v;
-        }
-      }
-      row[c] = static_cast<double>(flags);
+      identification_log_row(state, sent, io_count, flags, row);
       log->push_row(row);
     }
     if (!started) return;
     const Leg& l = legs[leg];
     const double in_leg_s = state.time_s - leg_start_s[leg];
     if (l.posture < 0 || in_leg_s < l.window_from_s || in_leg_s >= l.window_to_s) return;
-    IdentificationRecording::Sums& s = sums[static_cast<std::size_t>(l.posture)][static_cast<std::size_t>(l.side)];
-    for (std::size_t i = 0; i < io_count; ++i) s.q[i] += state.joints[i].angle_rad;
-    for (std::size_t k = 0; k < n; ++k) {
-      const std::size_t j = swept[k];
-      const io::JointSensors& js = state.joints[j];
-      s.force[k][0] += js.agonist_loadcell_N - controller.loadcell_offset_N(j, 0);
-      s.force[k][1] += js.antagonist_loadcell_N - controller.loadcell_offset_N(j, 1);
-      s.motor[k] += sent.joints[j].motor_torque_Nm;
-      s.speed[k] += controller.diagnostics()[j].velocity_radps;
-    }
-    s.n += 1;
+    add_to_window(sums[static_cast<std::size_t>(l.posture)][static_cast<std::size_t>(l.side)], state, sent, controller, swept);
     if (progress && l.side == 1 && l.posture != reported && in_leg_s >= l.window_to_s - 2 * scenario.period_s) {
       reported = l.posture;
       progress(fmt::format("posture {}/{} '{}' measured sweeping up and down", l.posture + 1, id.postures.size(),

@@ -117,6 +117,86 @@ std::vector<std::string> emulator_argv(const LinkFaultOptions& options, const E1
   return argv;
 }
 
+/// The row's detection and the plant's figures after the injection, from the run's log and lifecycle.
+LinkFaultRow detect_from_log(const E1Scenario& s, const LinkFault& fault, double t_inject, const E1RealtimeResult& r, std::int64_t inject_ns,
+                             std::int64_t fault_ns) {
+  LinkFaultRow row;
+  row.fault = fault.name;
+  row.injects = fault.injects;
+  row.expect_detection = fault.expect_detection;
+  row.expect_by = fault.expect_by;
+  row.fault_time_s = fault.from_start ? 0.0 : t_inject;
+  const auto [fault_t, reason] = first_lifecycle_fault(r.lifecycle);
+  row.detected = r.faults > 0 || r.e1.faults > 0;
+  row.by = row.detected ? (reason.empty() ? r.e1.fault_reason : reason) : "-";
+  row.detection_ms = !fault.from_start && std::isfinite(fault_t) ? (fault_t - t_inject) * 1e3 : kNaN;
+  if (inject_ns != 0) row.detection_ms = fault_ns != 0 ? static_cast<double>(fault_ns - inject_ns) * 1e-6 : kNaN;
+  const auto cols = runtime::read_csv_log_columns(r.log_file, {"t_s", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "fault_flags"});
+  const std::size_t n = cols[0].size();
+  if (fault.board_clock) {
+    row.detection_ms = kNaN;
+    for (std::size_t k = 0; k < n && k < cols[4].size(); ++k) {
+      if (cols[0][k] >= t_inject - 0.5 * s.period_s && cols[4][k] != 0 && std::isfinite(cols[4][k])) {
+        row.detection_ms = (cols[0][k] - t_inject) * 1e3;
+        break;
+      }
+    }
+  }
+  row.detection_cycles = row.detection_ms / (s.period_s * 1e3);
+  // The host's fault disables the outputs in the same cycle (LimitedBackend's safe state, or the
+  // board disarming on the disabled command); the board's own e-stop and stall are disarmed on the board.
+  row.safe_ms = row.detected ? row.detection_ms : kNaN;
+  const double from_s = std::max(row.fault_time_s, r.e1.tare_slack_s);
+  row.min_tension_N = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < n; ++k) {
+    if (cols[0][k] < from_s) continue;
+    if (k < cols[1].size() && std::isfinite(cols[1][k])) row.peak_speed_degps = std::max(row.peak_speed_degps, models::rad_to_deg(std::abs(cols[1][k])));
+    for (int m : {2, 3}) {
+      if (k >= cols[static_cast<std::size_t>(m)].size() || !std::isfinite(cols[static_cast<std::size_t>(m)][k])) continue;
+      row.peak_force_N = std::max(row.peak_force_N, cols[static_cast<std::size_t>(m)][k]);
+      row.min_tension_N = std::min(row.min_tension_N, cols[static_cast<std::size_t>(m)][k]);
+    }
+  }
+  if (!std::isfinite(row.min_tension_N)) row.min_tension_N = kNaN;
+  return row;
+}
+
+/// One row of the link matrix from its run: detection, the limits exceeded (and why physics forbids
+/// them), the log's completeness and the link's counters.
+LinkFaultRow link_fault_row(const E1Scenario& s, const LinkFault& fault, double t_inject, const E1RealtimeResult& r, std::int64_t inject_ns,
+                            std::int64_t fault_ns) {
+  LinkFaultRow row = detect_from_log(s, fault, t_inject, r, inject_ns, fault_ns);
+  for (const safety::Check& ch : r.e1.verdict.checks) {
+    const bool envelope = ch.figure.ends_with("peak force") || ch.figure.ends_with("highest pressure") || ch.figure.ends_with("peak motor torque") ||
+                          ch.figure.ends_with("lowest angle") || ch.figure.ends_with("highest angle");
+    if (envelope && !ch.passed()) ++row.limits_exceeded, row.limits += (row.limits.empty() ? "" : "; ") + ch.describe();
+  }
+  if (row.limits_exceeded > 0 && fault.name == "estop") row.physics_forbids = physics_forbids(sim::FaultKind::kEstop);
+  if (row.limits_exceeded > 0 && fault.expect_detection && fault.emulator_args.size() > 1 && fault.emulator_args.front() == "--loss-burst-at") {
+    row.physics_forbids = "a burst longer than host_watchdog_ms faults the host, which disables its outputs: the board vents both muscles "
+                          "(motor off), and the payload falls to its stop - the host sees it once the samples return (a silent link is a stop category 0, "
+                          "as the stall row)";
+  }
+  if (row.limits_exceeded > 0 && fault.signal == LinkFault::Signal::kStall) {
+    row.physics_forbids = "the stalled board runs again with no command for longer than its watchdog: it disarms its outputs itself (stop "
+                          "category 0, as the e-stop), and the host, faulted on the silent backend, keeps them disabled: no output is left "
+                          "to govern a descent";
+  }
+  const auto expected_rows = static_cast<std::uint64_t>(std::llround(s.duration_s / s.period_s));
+  // A row per cycle with a new sample; a cycle without one holds the command and logs nothing.
+  row.log_complete = r.dropped_rows == 0 && r.logged_rows + r.e1.missed_samples >= expected_rows;
+  const mfb::ReceiveCounters& rc = r.link.received;
+  row.lost = r.link.replies_missing;
+  row.late = r.link.late_replies;
+  row.corrupt = rc.malformed;
+  row.duplicate = rc.duplicate;
+  row.stale = rc.stale;
+  row.foreign = rc.foreign_session + rc.foreign_source;
+  row.unauthenticated = rc.unauthenticated;
+  row.accepted = rc.accepted;
+  return row;
+}
+
 LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaultOptions& options, const LinkFault& fault) {
   const double t_inject = options.fault_at_s;
   std::vector<std::string> argv = emulator_argv(options, c);
@@ -203,73 +283,7 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   }
   if (successor) (void)successor->stop(SIGTERM, 2.0);
 
-  LinkFaultRow row;
-  row.fault = fault.name;
-  row.injects = fault.injects;
-  row.expect_detection = fault.expect_detection;
-  row.expect_by = fault.expect_by;
-  row.fault_time_s = fault.from_start ? 0.0 : t_inject;
-  const auto [fault_t, reason] = first_lifecycle_fault(r.lifecycle);
-  row.detected = r.faults > 0 || r.e1.faults > 0;
-  row.by = row.detected ? (reason.empty() ? r.e1.fault_reason : reason) : "-";
-  row.detection_ms = !fault.from_start && std::isfinite(fault_t) ? (fault_t - t_inject) * 1e3 : kNaN;
-  if (inject_ns != 0) row.detection_ms = fault_ns != 0 ? static_cast<double>(fault_ns - inject_ns) * 1e-6 : kNaN;
-  const auto cols = runtime::read_csv_log_columns(r.log_file, {"t_s", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "fault_flags"});
-  const std::size_t n = cols[0].size();
-  if (fault.board_clock) {
-    row.detection_ms = kNaN;
-    for (std::size_t k = 0; k < n && k < cols[4].size(); ++k) {
-      if (cols[0][k] >= t_inject - 0.5 * s.period_s && cols[4][k] != 0 && std::isfinite(cols[4][k])) {
-        row.detection_ms = (cols[0][k] - t_inject) * 1e3;
-        break;
-      }
-    }
-  }
-  row.detection_cycles = row.detection_ms / (s.period_s * 1e3);
-  // The host's fault disables the outputs in the same cycle (LimitedBackend's safe state, or the
-  // board disarming on the disabled command); the board's own e-stop and stall are disarmed on the board.
-  row.safe_ms = row.detected ? row.detection_ms : kNaN;
-  const double from_s = std::max(row.fault_time_s, r.e1.tare_slack_s);
-  row.min_tension_N = std::numeric_limits<double>::infinity();
-  for (std::size_t k = 0; k < n; ++k) {
-    if (cols[0][k] < from_s) continue;
-    if (k < cols[1].size() && std::isfinite(cols[1][k])) row.peak_speed_degps = std::max(row.peak_speed_degps, models::rad_to_deg(std::abs(cols[1][k])));
-    for (int m : {2, 3}) {
-      if (k >= cols[static_cast<std::size_t>(m)].size() || !std::isfinite(cols[static_cast<std::size_t>(m)][k])) continue;
-      row.peak_force_N = std::max(row.peak_force_N, cols[static_cast<std::size_t>(m)][k]);
-      row.min_tension_N = std::min(row.min_tension_N, cols[static_cast<std::size_t>(m)][k]);
-    }
-  }
-  if (!std::isfinite(row.min_tension_N)) row.min_tension_N = kNaN;
-  for (const safety::Check& ch : r.e1.verdict.checks) {
-    const bool envelope = ch.figure.ends_with("peak force") || ch.figure.ends_with("highest pressure") || ch.figure.ends_with("peak motor torque") ||
-                          ch.figure.ends_with("lowest angle") || ch.figure.ends_with("highest angle");
-    if (envelope && !ch.passed()) ++row.limits_exceeded, row.limits += (row.limits.empty() ? "" : "; ") + ch.describe();
-  }
-  if (row.limits_exceeded > 0 && fault.name == "estop") row.physics_forbids = physics_forbids(sim::FaultKind::kEstop);
-  if (row.limits_exceeded > 0 && fault.expect_detection && fault.emulator_args.size() > 1 && fault.emulator_args.front() == "--loss-burst-at") {
-    row.physics_forbids = "a burst longer than host_watchdog_ms faults the host, which disables its outputs: the board vents both muscles "
-                          "(motor off), and the payload falls to its stop - the host sees it once the samples return (a silent link is a stop category 0, "
-                          "as the stall row)";
-  }
-  if (row.limits_exceeded > 0 && fault.signal == LinkFault::Signal::kStall) {
-    row.physics_forbids = "the stalled board runs again with no command for longer than its watchdog: it disarms its outputs itself (stop "
-                          "category 0, as the e-stop), and the host, faulted on the silent backend, keeps them disabled: no output is left "
-                          "to govern a descent";
-  }
-  const auto expected_rows = static_cast<std::uint64_t>(std::llround(s.duration_s / s.period_s));
-  // A row per cycle with a new sample; a cycle without one holds the command and logs nothing.
-  row.log_complete = r.dropped_rows == 0 && r.logged_rows + r.e1.missed_samples >= expected_rows;
-  const mfb::ReceiveCounters& rc = r.link.received;
-  row.lost = r.link.replies_missing;
-  row.late = r.link.late_replies;
-  row.corrupt = rc.malformed;
-  row.duplicate = rc.duplicate;
-  row.stale = rc.stale;
-  row.foreign = rc.foreign_session + rc.foreign_source;
-  row.unauthenticated = rc.unauthenticated;
-  row.accepted = rc.accepted;
-  return row;
+  return link_fault_row(s, fault, t_inject, r, inject_ns, fault_ns);
 }
 
 /// The host killed: `peha run` over UDP in its own process, SIGKILLed once its run has been live for
