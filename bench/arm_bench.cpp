@@ -1,6 +1,7 @@
 // The right arm's control step (J^T G over 5 joints and 9 bodies + three allocations + limits) and
 // one control period of the simulated arm (MuJoCo + three PehaJointPlants), on states recorded from
 // the simulated arm holding a loaded posture.
+#include "peha/api/exoskeleton.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/calibration/spgp.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
@@ -92,6 +93,28 @@ void simulated_step(benchmark::State& state, const experiments::ArmScenario& sc)
 
 void BM_SimulatedArmStep(benchmark::State& state) { simulated_step(state, scenario()); }
 BENCHMARK(BM_SimulatedArmStep)->UseRealTime();
+
+/// A user's controller through peha::api::Exoskeleton::control on the simulated arm (a gravity
+/// callback): per cycle the same plant, controller and limits as BM_SimulatedArmStep, plus what the
+/// API adds around the callback (the plausibility monitor, the lifecycle supervisor, the loop, the
+/// state it builds). Time per item = one control period; compare with BM_SimulatedArmStep.
+void BM_UserControllerArmCycle(benchmark::State& state) {
+  api::Exoskeleton exo(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
+  std::uint64_t cycles = 0;
+  for (auto _ : state) {
+    const api::ControlResult r = exo.control(
+        [](const api::ArmState& s, double) {
+          api::JointTorques tau;
+          for (int j = 0; j < s.joint_count; ++j) tau.tau_Nm[static_cast<std::size_t>(j)] = s.joints[static_cast<std::size_t>(j)].gravity_torque_Nm;
+          return tau;
+        },
+        2.0);
+    cycles += r.cycles;
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(cycles));
+  state.counters["us_per_cycle"] = benchmark::Counter(static_cast<double>(cycles) * 1e-6, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_UserControllerArmCycle)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 /// The upper body (configs/upper_body.yaml): both arms, 8 driven joints, 12 model joints (issue 14's
 /// simulation real-time factor).
