@@ -29,49 +29,62 @@ ScenarioCheck check_e1(const std::filesystem::path& config, const config::Docume
   return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
 }
 
+/// The emulator's plant: the one the hardware door simulates for `request` (exactly what a sim: run
+/// of the same case drives), behind the scenario's one board.
+BoardPlant board_for(const mfb::LinkConfig& link, double period_s, const hardware::HardwareRequest& request, std::string what) {
+  return BoardPlant{period_s, link, {mfb::read_channel_map(config::Document::load_file(link.channel_map), request.joint_names)},
+                    request.simulate, {}, std::move(what)};
+}
+
+/// The index of the case --case names among `names` (the only one when none is given); nullopt after
+/// a message listing the cases (`meaning`: what a case is, for the message).
+std::optional<std::size_t> chosen_case(const config::Document& doc, const std::vector<std::string>& names, const std::string& given,
+                                       const char* meaning, const std::string& also) {
+  std::string cases;
+  for (const auto& n : names) cases += (cases.empty() ? "" : ", ") + n;
+  if (!also.empty()) cases += ", " + also;
+  if (given.empty() && names.size() > 1) {
+    fmt::print(stderr, "error: {} has {} cases: give --case NAME ({}; the host's peha run --backend needs the same --case): {}\n", doc.name(),
+               names.size(), meaning, cases);
+    return std::nullopt;
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (given.empty() || names[i] == given) return i;
+  }
+  fmt::print(stderr, "error: no case named '{}' in {} (it has {})\n", given, doc.name(), cases);
+  return std::nullopt;
+}
+
+/// The scenario's mfb: section, or nullopt after a message.
+bool has_link(const config::Document& doc, const std::optional<mfb::LinkConfig>& link) {
+  if (!link) fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+  return link.has_value();
+}
+
 std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorOptions& options) {
   experiments::E1Scenario scenario = experiments::read_e1(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
-  if (!scenario.link) {
-    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
-    return std::nullopt;
-  }
+  if (!has_link(doc, scenario.link)) return std::nullopt;
   // The calibration recording: the rig with the excitation's payload, pinned where the operator pins it.
   for (int m = 0; m < 2; ++m) {
-    const std::string name = std::string("calibration_") + (m == 0 ? "agonist" : "antagonist");
-    if (options.case_name != name) continue;
+    const char* muscle = m == 0 ? "agonist" : "antagonist";
+    if (options.case_name != std::string("calibration_") + muscle) continue;
     if (!scenario.excitation[m]) {
-      fmt::print(stderr, "config error: {}: no calibration.{} section to serve --case {}\n", doc.name(), m == 0 ? "agonist" : "antagonist", name);
+      fmt::print(stderr, "config error: {}: no calibration.{} section to serve --case {}\n", doc.name(), muscle, options.case_name);
       return std::nullopt;
     }
-    const sim::OneDofRigParams plant = experiments::e1_recording_plant_params(scenario, scenario.plant, m);
-    return BoardPlant{scenario.period_s, *scenario.link,
-                      {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
-                      [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
-                      fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped segments)",
-                                  m == 0 ? "agonist" : "antagonist", scenario.excitation[m]->payload_kg)};
+    return board_for(*scenario.link, scenario.period_s, experiments::e1_recording_hardware(scenario, scenario.plant, m),
+                     fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped segments)",
+                                 muscle, scenario.excitation[m]->payload_kg));
   }
-  std::string cases;
-  for (const auto& c : scenario.cases) cases += c.name + ", ";
-  cases += "calibration_agonist, calibration_antagonist";
-  if (options.case_name.empty() && scenario.cases.size() > 1) {
-    fmt::print(stderr, "error: {} has {} cases: give --case NAME (the payload the simulated rig carries; the host's "
-                       "peha run --backend needs the same --case): {}\n", doc.name(), scenario.cases.size(), cases);
-    return std::nullopt;
-  }
-  const experiments::E1Case* chosen = &scenario.cases.front();
-  for (const auto& c : scenario.cases) {
-    if (c.name == options.case_name) chosen = &c;
-  }
-  if (!options.case_name.empty() && chosen->name != options.case_name) {
-    fmt::print(stderr, "error: no case named '{}' in {} (it has {})\n", options.case_name, doc.name(), cases);
-    return std::nullopt;
-  }
-  const sim::OneDofRigParams plant = experiments::e1_plant_params(scenario, *chosen);
-  return BoardPlant{scenario.period_s, *scenario.link,
-                    {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
-                    [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
-                    fmt::format("one-DOF rig, case {} ({} kg)", chosen->name, chosen->payload_kg)};
+  std::vector<std::string> names;
+  for (const auto& c : scenario.cases) names.push_back(c.name);
+  const std::optional<std::size_t> i =
+      chosen_case(doc, names, options.case_name, "the payload the simulated rig carries", "calibration_agonist, calibration_antagonist");
+  if (!i) return std::nullopt;
+  const experiments::E1Case& c = scenario.cases[*i];
+  return board_for(*scenario.link, scenario.period_s, experiments::e1_hardware(scenario, c),
+                   fmt::format("one-DOF rig, case {} ({} kg)", c.name, c.payload_kg));
 }
 
 // --- wire_creep: the creep estimator's long E1-like run on the one-DOF rig ---
@@ -106,28 +119,14 @@ ScenarioCheck check_e5(const std::filesystem::path& config, const config::Docume
 std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorOptions& options) {
   experiments::E5Scenario scenario = experiments::read_e5(doc);
   if (options.seed) scenario.plant.seed = scenario.seed = *options.seed;
-  if (!scenario.link) {
-    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
-    return std::nullopt;
-  }
-  if (options.case_name.empty() && scenario.cases.size() > 1) {
-    fmt::print(stderr, "error: {} has {} cases: give --case NAME (the clamp's angle; the host's peha run --backend needs the same "
-                       "--case)\n", doc.name(), scenario.cases.size());
-    return std::nullopt;
-  }
-  const experiments::E5Case* chosen = &scenario.cases.front();
-  for (const auto& c : scenario.cases) {
-    if (c.name == options.case_name) chosen = &c;
-  }
-  if (!options.case_name.empty() && chosen->name != options.case_name) {
-    fmt::print(stderr, "error: no case named '{}' in {}\n", options.case_name, doc.name());
-    return std::nullopt;
-  }
-  const sim::OneDofRigParams plant = experiments::e5_plant_params(scenario, *chosen);
-  return BoardPlant{scenario.period_s, *scenario.link,
-                    {mfb::read_channel_map(config::Document::load_file(scenario.link->channel_map), sim::one_dof_rig_joint_names())},
-                    [plant] { return std::make_unique<sim::OneDofRigBackend>(plant); }, {},
-                    fmt::format("one-DOF rig clamped, case {} ({} deg)", chosen->name, plant.initial_angle_rad * models::kDegPerRad)};
+  if (!has_link(doc, scenario.link)) return std::nullopt;
+  std::vector<std::string> names;
+  for (const auto& c : scenario.cases) names.push_back(c.name);
+  const std::optional<std::size_t> i = chosen_case(doc, names, options.case_name, "the clamp's angle", "");
+  if (!i) return std::nullopt;
+  const experiments::E5Case& c = scenario.cases[*i];
+  return board_for(*scenario.link, scenario.period_s, experiments::e5_hardware(scenario, c),
+                   fmt::format("one-DOF rig clamped, case {} ({} deg)", c.name, models::rad_to_deg(c.locked_angle_rad)));
 }
 
 // --- arm: E3 postures, E4 goniometer, E6 bandwidth ---
@@ -180,10 +179,7 @@ int run_bandwidth(const config::Document& doc, const experiments::ArmScenario& s
 std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorOptions& options) {
   auto scenario = std::make_shared<experiments::ArmScenario>(experiments::read_arm_scenario(doc));
   if (options.seed) scenario->plant.seed = scenario->seed = *options.seed;
-  if (!scenario->link) {
-    fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
-    return std::nullopt;
-  }
+  if (!has_link(doc, scenario->link)) return std::nullopt;
   BoardPlant board{scenario->period_s, *scenario->link, {}, {}, {}, {}};
   for (const mfb::BoardLink& b : scenario->link->boards) {  // each board's map with its joints (all of them on one board)
     board.maps.push_back(mfb::read_channel_map(config::Document::load_file(b.channel_map), b.joint_names));

@@ -206,15 +206,18 @@ safety::LimitsModel e1_recording_limits(const E1Scenario& scenario) {
   return limits;
 }
 
+hardware::HardwareRequest e1_recording_hardware(const E1Scenario& scenario, const sim::OneDofRigParams& plant, int index) {
+  hardware::HardwareRequest request = e1_hardware(scenario, {"calibration", 0.0});
+  request.simulate = [pinned = e1_recording_plant_params(scenario, plant, index)]() -> std::unique_ptr<io::Backend> {
+    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
+    return std::make_unique<sim::OneDofRigBackend>(pinned);
+  };
+  return request;
+}
+
 calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
                                       const std::function<void(double)>& progress) {
-  E1Case recording{"calibration", scenario.excitation[index] ? scenario.excitation[index]->payload_kg : 0.0};
-  hardware::HardwareRequest request = e1_hardware(scenario, recording);
-  request.simulate = [plant = e1_recording_plant_params(scenario, plant, index)]() -> std::unique_ptr<io::Backend> {
-    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
-    return std::make_unique<sim::OneDofRigBackend>(plant);
-  };
-  const hardware::Hardware rig = hardware::open_backend(hardware::BackendUri{}, request);
+  const hardware::Hardware rig = hardware::open_backend(hardware::BackendUri{}, e1_recording_hardware(scenario, plant, index));
   return record_excitation(*rig.backend, scenario.controller.joint, index == 0 ? +1 : -1, *scenario.excitation[index],
                            e1_recording_limits(scenario), progress, runtime::with_lifecycle({}, scenario.lifecycle));
 }

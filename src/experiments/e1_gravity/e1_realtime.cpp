@@ -28,7 +28,7 @@ E1RecordingRealtimeResult record_e1_muscle_realtime(const E1Scenario& scenario, 
   if (!e) throw config::Error(fmt::format("no calibration.{} section (the excitation to run)", muscle));
   E1RecordingRealtimeResult res;
   static_cast<BoardRunResult&>(res) = run_on_hardware(
-      e1_hardware(scenario, {fmt::format("calibration_{}", muscle), e->payload_kg}), scenario.lifecycle, options,
+      e1_recording_hardware(scenario, scenario.plant, index), scenario.lifecycle, options,
       {fmt::format("calibration_{}", muscle), e->total_duration_s(), cycles_log, recording_log_columns(),
        {fmt::format("peha record-calibration: muscle {}, every control cycle (the calibration CSV has the 250 Hz rows)", muscle)}},
       [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {

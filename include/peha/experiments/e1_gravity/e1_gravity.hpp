@@ -173,6 +173,9 @@ calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRig
 /// operator's pin does on the real rig (also what `peha mfb-emulator --case calibration_<muscle>`
 /// serves). Throws config::Error when the scenario has no such section.
 sim::OneDofRigParams e1_recording_plant_params(const E1Scenario& scenario, sim::OneDofRigParams plant, int index);
+/// What the calibration recording of muscle `index` declares to the hardware door: E1's rig, its
+/// simulated form the pinned rig of e1_recording_plant_params with `plant`.
+hardware::HardwareRequest e1_recording_hardware(const E1Scenario& scenario, const sim::OneDofRigParams& plant, int index);
 /// The limits of a recording: the scenario's, with the plausibility monitor off (the excitation
 /// sweeps a muscle far from the controller's model on purpose).
 safety::LimitsModel e1_recording_limits(const E1Scenario& scenario);
