@@ -1,5 +1,6 @@
 #include "peha/control/arm_controller.hpp"
 
+#include "peha/control/joint_step.hpp"
 
 namespace peha::control {
 
@@ -56,6 +57,7 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
   }
 
   command.joint_count = static_cast<int>(model_.joints.size());
+  const bool slack = wires_slack_on_purpose(state.time_s);
   for (std::size_t i = 0; i < model_.joints.size(); ++i) {
     const ArmActuatedJoint& j = model_.joints[i];
     const io::JointSensors& s = state.joints[i];
@@ -68,16 +70,14 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
       continue;
     }
     d.tau_desired_Nm = j.mode == ArmJointMode::kCommanded ? commanded_[i] : d.torque_gravity_Nm;
-    AllocationInput in;
-    in.tau_desired_Nm = d.tau_desired_Nm;
-    in.angle_rad = s.angle_rad;
-    in.velocity_radps = d.velocity_radps;
-    in.agonist_loadcell_N = s.agonist_loadcell_N;
-    in.antagonist_loadcell_N = s.antagonist_loadcell_N;
-    in.agonist_pressure_Pa = s.agonist_pressure_Pa;
-    in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
-    in.dt_s = dt_s > 0.0 ? dt_s : model_.allocation.period_s;
-    allocate(j.actuator, model_.allocation, allocation_data_[i], in, d.allocation);
+    JointStepInput step;
+    step.tau_desired_Nm = d.tau_desired_Nm;
+    step.velocity_radps = d.velocity_radps;
+    step.time_s = state.time_s;
+    step.dt_s = dt_s > 0.0 ? dt_s : model_.allocation.period_s;
+    step.after_startup = was_starting;
+    step.tension_expected = !slack;
+    step_joint(j.actuator, model_.allocation, model_.creep, s, step, allocation_data_[i], d.creep, d.allocation_input, d.allocation);
     c.agonist_pressure_Pa = d.allocation.agonist_pressure_Pa;
     c.antagonist_pressure_Pa = d.allocation.antagonist_pressure_Pa;
     c.motor_torque_Nm = d.allocation.tau_motor_cmd_Nm;

@@ -1,5 +1,7 @@
 #include "peha/control/one_dof_gravity.hpp"
 
+#include "peha/control/joint_step.hpp"
+
 #include <cmath>
 #include <numbers>
 
@@ -65,40 +67,14 @@ void OneDofGravityController::update(const io::SensorState& state, io::Command& 
     allocation_data_.bumpless_start = false;  // the valves start from vented, the trim from 0
   }
 
-  // The creep estimator (before the allocation: its correction shapes this step's command). It sees
-  // what the allocation sees: tared load cells, measured pressures, the encoder, the last command.
-  if (model_.creep.enabled) {
-    CreepEstimatorInput c;
-    c.angle_rad = s.angle_rad;
-    c.velocity_radps = diag_.velocity_radps;
-    c.loadcell_N[0] = s.agonist_loadcell_N - allocation_data_.loadcell_offset_N[0];
-    c.loadcell_N[1] = s.antagonist_loadcell_N - allocation_data_.loadcell_offset_N[1];
-    c.pressure_Pa[0] = s.agonist_pressure_Pa;
-    c.pressure_Pa[1] = s.antagonist_pressure_Pa;
-    c.previous_pressure_cmd_Pa[0] = was_starting ? -1.0 : diag_.allocation.agonist_pressure_Pa;  // none yet: not settled
-    c.previous_pressure_cmd_Pa[1] = was_starting ? -1.0 : diag_.allocation.antagonist_pressure_Pa;
-    c.loadcell_ok[0] = allocation_data_.loadcell_ok[0];
-    c.loadcell_ok[1] = allocation_data_.loadcell_ok[1];
-    c.tension_expected = !wires_slack_on_purpose(state.time_s);
-    c.time_s = state.time_s;
-    c.dt_s = first || !(dt_s > 0.0) ? model_.allocation.period_s : dt_s;
-    update_creep_estimator(model_.joint, model_.creep, diag_.creep, c);
-    for (int i = 0; i < 2; ++i) {
-      const double L0 = i == 0 ? model_.joint.agonist.rest_length_m : model_.joint.antagonist.rest_length_m;
-      allocation_data_.contraction_offset[i] = creep_correction_m(model_.creep, diag_.creep, i) / L0;
-    }
-  }
-
-  AllocationInput& in = diag_.allocation_input;
-  in.tau_desired_Nm = diag_.tau_desired_Nm;
-  in.angle_rad = s.angle_rad;
-  in.velocity_radps = diag_.velocity_radps;
-  in.agonist_loadcell_N = s.agonist_loadcell_N;
-  in.antagonist_loadcell_N = s.antagonist_loadcell_N;
-  in.agonist_pressure_Pa = s.agonist_pressure_Pa;
-  in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
-  in.dt_s = first || !(dt_s > 0.0) ? model_.allocation.period_s : dt_s;
-  allocate(model_.joint, model_.allocation, allocation_data_, in, diag_.allocation);
+  JointStepInput step;
+  step.tau_desired_Nm = diag_.tau_desired_Nm;
+  step.velocity_radps = diag_.velocity_radps;
+  step.time_s = state.time_s;
+  step.dt_s = first || !(dt_s > 0.0) ? model_.allocation.period_s : dt_s;
+  step.after_startup = was_starting;
+  step.tension_expected = !wires_slack_on_purpose(state.time_s);
+  step_joint(model_.joint, model_.allocation, model_.creep, s, step, allocation_data_, diag_.creep, diag_.allocation_input, diag_.allocation);
 
   command.joints[0].agonist_pressure_Pa = diag_.allocation.agonist_pressure_Pa;
   command.joints[0].antagonist_pressure_Pa = diag_.allocation.antagonist_pressure_Pa;

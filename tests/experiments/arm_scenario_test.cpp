@@ -143,6 +143,36 @@ TEST(ArmController, StepAllocatesNothing) {
   EXPECT_EQ(n, 0u);
 }
 
+// The arm runs the same joint step as E1's controller (control/joint_step.hpp), the wire-creep
+// estimator included: on, it runs on every allocated joint once the start-up is over (its clock of
+// taut wires runs; the hanging arm's operating points lie outside the grid E1's rig taught it, so it
+// takes no reference here), not on the wrist's constant-pressure hold; still allocation-free. Off
+// (the shipped default) nothing of it runs.
+TEST(ArmController, RunsTheCreepEstimatorOnEveryAllocatedJointWhenOn) {
+  ArmScenario s = shipped();
+  s.controller.creep.enabled = true;
+  sim::ArmBackend plant(s.plant);
+  control::ArmController controller(s.controller);
+  control::ArmController shipped_controller(shipped().controller);
+  safety::LimitedBackend limited(plant, s.limits, arm_joint_models(controller.model()));
+  limited.activate();
+  io::SensorState state;
+  io::Command command, shipped_command;
+  std::size_t n = 0;
+  for (int k = 0; k < 5000; ++k) {
+    limited.read(state);
+    n += testing::allocations_during([&] { controller.update(state, command); });
+    shipped_controller.update(state, shipped_command);
+    limited.write(command);
+  }
+  EXPECT_EQ(n, 0u);
+  for (std::size_t j = 0; j < 2; ++j) {  // shoulder, elbow: taut since the start-up ended (~3 s)
+    EXPECT_GT(controller.diagnostics()[j].creep.tension_time_s, 1.0) << j;
+    EXPECT_EQ(shipped_controller.diagnostics()[j].creep.tension_time_s, 0.0) << j;
+  }
+  EXPECT_EQ(controller.diagnostics()[2].creep.tension_time_s, 0.0);  // the wrist's hold
+}
+
 }  // namespace
 }  // namespace peha::experiments
 

@@ -33,6 +33,9 @@ struct ArmControllerModel {
   models::ArmModel arm;                 ///< nominal rigid bodies (exo + user arm + payload)
   std::vector<ArmActuatedJoint> joints; ///< io joint i = joints[i]
   AllocationParams allocation;
+  /// Online tracking of wire creep and slack on every allocated joint (wire_creep_estimator.hpp;
+  /// off by default), as E1's controller: the same joint step (joint_step.hpp).
+  CreepEstimatorParams creep;
   double velocity_cutoff_Hz = 20.0;
 };
 
@@ -41,7 +44,9 @@ struct ArmJointDiagnostics {
   double velocity_radps = 0;
   double torque_gravity_Nm = 0;  ///< J^T G component
   double tau_desired_Nm = 0;
+  AllocationInput allocation_input;  ///< what the allocation was given
   AllocationOutput allocation;
+  CreepEstimatorData creep;          ///< the creep estimator's state after this step (ArmControllerModel::creep)
 };
 
 class ArmController {

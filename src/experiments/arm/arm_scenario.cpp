@@ -62,6 +62,7 @@ void read_arm_controller(config::Map ctl, const models::BodyConfig& body, const 
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
   double pretension_N = 0;
   s.controller.allocation = control::read_allocation(ctl.map("allocation"), pretension_N);
+  if (ctl.has("creep_estimator")) s.controller.creep = control::read_creep_estimator(ctl.map("creep_estimator"));
   s.controller.allocation.period_s = s.period_s;
   const std::vector<IoJoint> io = io_joints(body.controller);
   if (io.empty() || io.size() > static_cast<std::size_t>(io::kMaxJoints)) {
