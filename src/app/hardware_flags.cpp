@@ -2,6 +2,8 @@
 
 #include "peha/app/cli_checks.hpp"
 
+#include <fmt/format.h>
+
 namespace peha::app {
 
 void add_hardware_flags(CLI::App& cmd, HardwareFlags& flags, const std::string& what) {
@@ -26,6 +28,27 @@ experiments::RunRequest hardware_request(const HardwareFlags& flags, const std::
   r.cpu = flags.cpu;
   r.recover_after_s = flags.recover_after_s;
   return r;
+}
+
+std::optional<experiments::HardwareRunOptions> procedure_hardware(const HardwareFlags& flags, const std::filesystem::path& config,
+                                                                  const std::optional<mfb::LinkConfig>& link, const char* why_no_replay,
+                                                                  const std::filesystem::path& out) {
+  std::optional<experiments::HardwareRunOptions> hw = experiments::realtime_options(hardware_request(flags, config));
+  if (!hw) return std::nullopt;
+  if (hw->backend.kind == hardware::BackendKind::kReplay) {
+    fmt::print(stderr, "error: --backend {}: {}, and a replayed log answers no command: run it on sim: or udp://\n", hw->backend.text,
+               why_no_replay);
+    return std::nullopt;
+  }
+  if (hw->backend.kind != hardware::BackendKind::kBoards) return hw;
+  if (!link) {
+    fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", config.string(), hw->backend.text);
+    return std::nullopt;
+  }
+  if (!experiments::check_board_addresses(config.string(), *link, *hw)) return std::nullopt;
+  hw->dir = out.parent_path().empty() ? std::filesystem::path(".") : out.parent_path();
+  std::filesystem::create_directories(hw->dir);
+  return hw;
 }
 
 }  // namespace peha::app

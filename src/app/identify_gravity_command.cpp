@@ -35,27 +35,16 @@ int identify_gravity(const IdentifyGravityOptions& options) {
                options.config.string(), id.postures.size(), id.sweep_rad * models::kDegPerRad, id.sweep_speed_radps * models::kDegPerRad, swept,
                scenario.gravity_identification_file.empty() ? std::string()
                                                             : ", not " + scenario.gravity_identification_file.string() + " (the config's)");
-    std::optional<experiments::HardwareRunOptions> hw = experiments::realtime_options(hardware_request(options.hardware, options.config));
+    std::optional<experiments::HardwareRunOptions> hw =
+        procedure_hardware(options.hardware, options.config, scenario.link, "the procedure moves the arm", options.out);
     if (!hw) return 2;
-    if (hw->backend.kind == hardware::BackendKind::kReplay) {
-      fmt::print(stderr, "error: --backend {}: the procedure moves the arm, and a replayed log answers no command: run it on sim: or "
-                         "udp://\n", hw->backend.text);
-      return 2;
-    }
     const bool on_board = hw->backend.kind == hardware::BackendKind::kBoards;
-    if (on_board && !scenario.link) {
-      fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", options.config.string(), hw->backend.text);
-      return 2;
-    }
-    if (on_board && !experiments::check_board_addresses(options.config.string(), *scenario.link, *hw)) return 2;
     const auto progress = [](const std::string& line) { fmt::print("  {}\n", line); };
     experiments::ArmIdentificationResult r;
     try {
       if (on_board) {
         // The board's per-cycle log and timing go beside the identification file, which is written only after a clean run.
         fmt::print("  on {} in real time\n", hw->backend.describe());
-        hw->dir = options.out.parent_path().empty() ? std::filesystem::path(".") : options.out.parent_path();
-        std::filesystem::create_directories(hw->dir);
         const experiments::ArmScenario procedure = experiments::identification_scenario(scenario);
         const experiments::IdentificationRealtimeResult rr = experiments::record_identification_realtime(
             procedure, *hw, std::filesystem::path(options.out).replace_extension(".cycles.csv"), progress);

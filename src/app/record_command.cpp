@@ -33,19 +33,10 @@ int record_calibration(const RecordOptions& options) {
     const experiments::ExcitationParams& e = *scenario.excitation[index];
     sim::OneDofRigParams plant_params = scenario.plant;
     if (options.seed) plant_params.seed = *options.seed;
-    std::optional<experiments::HardwareRunOptions> hw = experiments::realtime_options(hardware_request(options.hardware, options.config));
+    std::optional<experiments::HardwareRunOptions> hw =
+        procedure_hardware(options.hardware, options.config, scenario.link, "a recording excites a plant", options.out);
     if (!hw) return 2;
-    if (hw->backend.kind == hardware::BackendKind::kReplay) {
-      fmt::print(stderr, "error: --backend {}: a recording excites a plant, and a replayed log answers no command: record on sim: or "
-                         "udp://\n", hw->backend.text);
-      return 2;
-    }
     const bool on_board = hw->backend.kind == hardware::BackendKind::kBoards;
-    if (on_board && !scenario.link) {
-      fmt::print(stderr, "config error: {}: --backend {} needs an mfb: section (channel map, watchdogs)\n", doc.name(), hw->backend.text);
-      return 2;
-    }
-    if (on_board && !experiments::check_board_addresses(doc.name(), *scenario.link, *hw)) return 2;
     fmt::print("peha record-calibration: {} of {} ({}), {:.0f} s at {:.0f} Hz\n"
                "  triangle {:.2f}..{:.2f} MPa, period {:.1f} s, {:.0f} s; other muscle {:.2f}..{:.2f} MPa (antiphase); payload {} kg\n",
                options.muscle, on_board ? hw->backend.describe() : "the simulated rig", doc.name(), e.total_duration_s(), e.sample_rate_Hz,
@@ -58,9 +49,7 @@ int record_calibration(const RecordOptions& options) {
     }
     calibration::Dataset data;
     if (on_board) {
-      // The board's per-cycle log and timing go beside the CSV; nothing is written under `out` until the run succeeded.
-      hw->dir = options.out.parent_path().empty() ? std::filesystem::path(".") : options.out.parent_path();
-      std::filesystem::create_directories(hw->dir);
+      // The board's per-cycle log and timing go beside the CSV (hw->dir); the CSV only after a clean run.
       const std::filesystem::path cycles = std::filesystem::path(options.out).replace_extension(".cycles.csv");
       experiments::E1RecordingRealtimeResult r = experiments::record_e1_muscle_realtime(scenario, index, *hw, cycles);
       experiments::print_realtime(r, hw->dir / fmt::format("timing_calibration_{}", options.muscle));

@@ -144,17 +144,21 @@ sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c
   return p;
 }
 
-hardware::HardwareRequest e1_hardware(const E1Scenario& scenario, const E1Case& c) {
+hardware::HardwareRequest one_dof_rig_hardware(double period_s, const std::optional<mfb::LinkConfig>& link, const sim::OneDofRigParams& plant) {
   hardware::HardwareRequest r;
-  r.period_s = scenario.period_s;
+  r.period_s = period_s;
   r.joint_names = sim::one_dof_rig_joint_names();
-  r.link = scenario.link ? &*scenario.link : nullptr;
+  r.link = link ? &*link : nullptr;
   r.one_board = true;
-  r.simulate = [plant = e1_plant_params(scenario, c)]() -> std::unique_ptr<io::Backend> {
+  r.simulate = [plant]() -> std::unique_ptr<io::Backend> {
     const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
     return std::make_unique<sim::OneDofRigBackend>(plant);
   };
   return r;
+}
+
+hardware::HardwareRequest e1_hardware(const E1Scenario& scenario, const E1Case& c) {
+  return one_dof_rig_hardware(scenario.period_s, scenario.link, e1_plant_params(scenario, c));
 }
 
 sim::OneDofRigParams e1_recording_plant_params(const E1Scenario& scenario, sim::OneDofRigParams plant, int index) {
@@ -207,12 +211,7 @@ safety::LimitsModel e1_recording_limits(const E1Scenario& scenario) {
 }
 
 hardware::HardwareRequest e1_recording_hardware(const E1Scenario& scenario, const sim::OneDofRigParams& plant, int index) {
-  hardware::HardwareRequest request = e1_hardware(scenario, {"calibration", 0.0});
-  request.simulate = [pinned = e1_recording_plant_params(scenario, plant, index)]() -> std::unique_ptr<io::Backend> {
-    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
-    return std::make_unique<sim::OneDofRigBackend>(pinned);
-  };
-  return request;
+  return one_dof_rig_hardware(scenario.period_s, scenario.link, e1_recording_plant_params(scenario, plant, index));
 }
 
 calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,

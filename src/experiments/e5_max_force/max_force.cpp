@@ -1,5 +1,6 @@
 #include "peha/experiments/e5_max_force/max_force.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
+#include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 
 #include "peha/models/model_config.hpp"
@@ -96,16 +97,7 @@ sim::OneDofRigParams e5_plant_params(const E5Scenario& scenario, const E5Case& c
 }
 
 hardware::HardwareRequest e5_hardware(const E5Scenario& scenario, const E5Case& c) {
-  hardware::HardwareRequest r;
-  r.period_s = scenario.period_s;
-  r.joint_names = sim::one_dof_rig_joint_names();
-  r.link = scenario.link ? &*scenario.link : nullptr;
-  r.one_board = true;
-  r.simulate = [plant = e5_plant_params(scenario, c)]() -> std::unique_ptr<io::Backend> {
-    const std::lock_guard lock(mujoco_load_mutex());  // MuJoCo's model loading is not thread-safe
-    return std::make_unique<sim::OneDofRigBackend>(plant);
-  };
-  return r;
+  return one_dof_rig_hardware(scenario.period_s, scenario.link, e5_plant_params(scenario, c));
 }
 
 E5Result run_e5_case(const E5Scenario& scenario, const E5Case& c, runtime::RowSink* log) {

@@ -142,6 +142,11 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSi
 E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
                    runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
 
+/// What a run on the one-DOF rig declares to the hardware door: its one joint, `period_s`, the
+/// scenario's `link` (one board), the simulated rig `plant` (sim:), unprefixed log columns (replay:).
+/// E1's, E5's and the recording's requests.
+hardware::HardwareRequest one_dof_rig_hardware(double period_s, const std::optional<mfb::LinkConfig>& link, const sim::OneDofRigParams& plant);
+
 /// What a case declares to the hardware door (hardware::open_backend): the rig's one joint, the
 /// scenario's period and mfb: section (one board), its simulated rig with the case's payload (sim:),
 /// the log's unprefixed sensor columns (replay:).
