@@ -129,6 +129,158 @@ E1Scenario creep_calibrated_scenario(const CreepScenario& cs, const PlantVariant
   return s;
 }
 
+namespace {
+
+/// One creep run: the controller's update as its per-cycle step; as its per-cycle observation the
+/// angle and constraint torque (for the releases), and the force-tracking error and gating gathered
+/// into a CreepSample every sample_s. Every buffer, the samples' too, is sized before the loop: step,
+/// hold and observe allocate nothing.
+struct CreepCaseRun {
+  CreepCaseRun(const CreepScenario& s, const E1Scenario& sc, const sim::OneDofRigBackend& plant,
+               control::OneDofGravityController& controller, const PlantVariant& v, double trim_1ps, bool estimator, std::size_t steps)
+      : plant(plant),
+        controller(controller),
+        estimator(estimator),
+        per_sample(std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(s.creep.sample_s / sc.period_s)))),
+        angle(steps + 1, 0.0),
+        constraint(steps + 1, kNaN) {
+    r.variant = v.name;
+    r.force_trim_rate_1ps = trim_1ps;
+    r.estimator = estimator;
+    r.name = fmt::format("{}_trim{:g}_{}", v.name, trim_1ps, estimator ? "on" : "off");
+    r.min_wire_tension_N = std::numeric_limits<double>::infinity();
+    r.samples.reserve((steps + 1) / per_sample);  // at most one per per_sample observed cycles
+  }
+
+  void step(const io::SensorState& state, io::Command& command) { controller.update(state, command); }
+  void hold(std::size_t k) { angle[k] = k > 0 ? angle[k - 1] : 0.0; }
+
+  void observe(std::size_t k, const io::SensorState& state) {
+    const sim::OneDofRigTruth& t = plant.sampled_truth();
+    const io::JointSensors& sens = state.joints[0];
+    const control::OneDofDiagnostics& d = controller.diagnostics();
+    angle[k] = t.angle_rad;
+    constraint[k] = t.constraint_torque_Nm;
+    if (!controller.wires_slack_on_purpose(state.time_s)) {
+      r.min_wire_tension_N = std::min({r.min_wire_tension_N, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]});
+    }
+    const double e0 = d.allocation.agonist_force_cmd_N - (sens.agonist_loadcell_N - d.loadcell_offset_N[0]);
+    const double e1 = d.allocation.antagonist_force_cmd_N - (sens.antagonist_loadcell_N - d.loadcell_offset_N[1]);
+    tracking_sum_N2[0] += e0 * e0;
+    tracking_sum_N2[1] += e1 * e1;
+    for (int i = 0; i < 2; ++i) {
+      gated[i] += d.creep.muscle[i].gated ? 1.0 : 0.0;
+      if (estimator && !referenced[i] && d.creep.muscle[i].referenced) {
+        referenced[i] = true;
+        r.reference_time_s[i] = state.time_s;
+        r.truth_at_reference_m[i] = t.creep_m[i];
+      }
+    }
+    if (++in_sample == per_sample) close_sample(state.time_s, t, d);
+    for (int i = 0; i < 2; ++i) r.final_truth_m[i] = t.creep_m[i];
+  }
+
+  const sim::OneDofRigBackend& plant;
+  control::OneDofGravityController& controller;
+  const bool estimator;
+  const std::size_t per_sample;                ///< observed cycles per CreepSample
+  std::vector<double> angle, constraint;       ///< per cycle, plant truth: rad, Nm
+  double tracking_sum_N2[2] = {0, 0}, gated[2] = {0, 0};  ///< over the sample so far
+  std::size_t in_sample = 0;
+  bool referenced[2] = {false, false};         ///< the estimator has taken its reference
+  CreepRun r;                                  ///< the samples and the running figures
+
+ private:
+  /// The sample's means into a CreepSample; the sums start again.
+  void close_sample(double t_s, const sim::OneDofRigTruth& t, const control::OneDofDiagnostics& d) {
+    CreepSample smp;
+    smp.t_s = t_s;
+    smp.angle_deg = models::rad_to_deg(t.angle_rad);
+    for (int i = 0; i < 2; ++i) {
+      smp.truth_m[i] = t.creep_m[i] - r.truth_at_reference_m[i];
+      smp.estimate_m[i] = d.creep.muscle[i].referenced ? d.creep.muscle[i].length_change_m : 0.0;
+      smp.sigma_m[i] = control::creep_sigma_m(d.creep, i);
+      smp.tracking_rms_N[i] = std::sqrt(tracking_sum_N2[i] / static_cast<double>(in_sample));
+      smp.gated_fraction[i] = gated[i] / static_cast<double>(in_sample);
+      tracking_sum_N2[i] = gated[i] = 0;
+    }
+    smp.alerts = d.creep.alerts;
+    r.samples.push_back(smp);
+    in_sample = 0;
+  }
+};
+
+/// The estimate against the truth (change since the reference) after the convergence window, and
+/// when the truth crossed the alert threshold.
+void estimate_figures(const CreepScenario& s, const E1Scenario& sc, const CreepCaseRun& run, CreepRun& r) {
+  const double alert_m = sc.controller.creep.alert_m;
+  for (int i = 0; i < 2; ++i) {
+    double sum = 0, worst = 0;
+    std::size_t n = 0;
+    for (const CreepSample& smp : r.samples) {
+      if (r.truth_cross_s[i] < 0 && run.referenced[i] && std::abs(smp.truth_m[i]) > alert_m) r.truth_cross_s[i] = smp.t_s;
+      if (!run.estimator || smp.t_s < s.creep.convergence_s) continue;
+      const double e = smp.estimate_m[i] - smp.truth_m[i];
+      sum += e * e;
+      worst = std::max(worst, std::abs(e));
+      ++n;
+    }
+    r.estimate_rms_m[i] = run.estimator && n ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
+    r.estimate_max_m[i] = run.estimator && n ? worst : kNaN;
+  }
+}
+
+/// Force tracking over the last quarter of the run.
+void tracking_figures(CreepRun& r) {
+  const double quarter_s = 0.75 * r.simulated_s;
+  for (int i = 0; i < 2; ++i) {
+    double sum = 0;
+    std::size_t n = 0;
+    for (const CreepSample& smp : r.samples) {
+      if (smp.t_s < quarter_s) continue;
+      sum += smp.tracking_rms_N[i] * smp.tracking_rms_N[i];
+      ++n;
+    }
+    r.tracking_rms_last_quarter_N[i] = n ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
+  }
+}
+
+/// Static torque error after each release: the friction's torque over the last second before the
+/// next push (or the run's end), as E1 measures it, % of the plant's gravity torque there; the last
+/// quarter's worst and mean.
+void release_figures(const E1Scenario& sc, const sim::OneDofRigParams& plant_params, const CreepCaseRun& run, std::size_t done,
+                     CreepRun& r) {
+  const double quarter_s = 0.75 * r.simulated_s;
+  const auto& pushes = sc.plant.finger.pushes;
+  const auto span = static_cast<std::size_t>(std::llround(1.0 / sc.period_s));
+  double worst = 0, sum = 0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < pushes.size(); ++i) {
+    if (pushes[i].hold || sc.probe_direction[i] != 0) continue;
+    const auto k0 = static_cast<std::size_t>(std::llround((pushes[i].start_s + pushes[i].duration_s) / sc.period_s));
+    std::size_t k1 = done;
+    if (i + 1 < pushes.size()) k1 = std::min(done, static_cast<std::size_t>(std::llround(pushes[i + 1].start_s / sc.period_s)) - 1);
+    if (k0 >= done || k1 <= k0 + span) continue;
+    double torque = 0;
+    for (std::size_t k = k1 - span; k <= k1; ++k) torque += run.constraint[k];
+    torque = -torque / static_cast<double>(span + 1);
+    CreepRelease rel;
+    rel.time_s = static_cast<double>(k0) * sc.period_s;
+    rel.angle_deg = models::rad_to_deg(run.angle[k1]);
+    rel.static_torque_error_pct = 100.0 * torque / std::abs(e1_plant_gravity_torque_Nm(plant_params, run.angle[k1]));
+    r.releases.push_back(rel);
+    if (rel.time_s >= quarter_s) {
+      worst = std::max(worst, std::abs(rel.static_torque_error_pct));
+      sum += rel.static_torque_error_pct;
+      ++n;
+    }
+  }
+  r.static_error_last_quarter_max_pct = n ? worst : kNaN;
+  r.static_error_last_quarter_mean_pct = n ? sum / static_cast<double>(n) : kNaN;
+}
+
+}  // namespace
+
 CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVariant& v, double trim_1ps, bool estimator,
                         const control::OneDofControllerModel* controller_model) {
   E1Scenario sc = s.e1;
@@ -142,128 +294,25 @@ CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVari
   const safety::JointModels joints{&model.joint};
   safety::LimitedBackend limited(plant, sc.limits, joints);
 
-  CreepRun r;
-  r.variant = v.name;
-  r.force_trim_rate_1ps = trim_1ps;
-  r.estimator = estimator;
-  r.name = fmt::format("{}_trim{:g}_{}", v.name, trim_1ps, estimator ? "on" : "off");
-  r.min_wire_tension_N = std::numeric_limits<double>::infinity();
-
   const auto steps = static_cast<std::size_t>(std::llround(sc.duration_s / sc.period_s));
-  const auto per_sample = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(s.creep.sample_s / sc.period_s)));
-  std::vector<double> angle(steps + 1, 0.0), constraint(steps + 1, kNaN);
-  double trk_sum[2] = {0, 0}, gated[2] = {0, 0};
-  std::size_t in_sample = 0;
-  bool referenced[2] = {false, false};
+  CreepCaseRun run(s, sc, plant, controller, v, trim_1ps, estimator, steps);
   io::SensorState state;
   io::Command command;
   const auto wall_start = std::chrono::steady_clock::now();
-  auto step = [&](std::size_t) { controller.update(state, command); };
-  auto hold = [&](std::size_t k) { angle[k] = k > 0 ? angle[k - 1] : 0.0; };
-  auto observe = [&](std::size_t k, const io::Command&, std::uint32_t) {
-    const sim::OneDofRigTruth& t = plant.sampled_truth();
-    const io::JointSensors& sens = state.joints[0];
-    const control::OneDofDiagnostics& d = controller.diagnostics();
-    angle[k] = t.angle_rad;
-    constraint[k] = t.constraint_torque_Nm;
-    if (!controller.wires_slack_on_purpose(state.time_s)) {
-      r.min_wire_tension_N = std::min({r.min_wire_tension_N, t.pulley_tension_min_N[0], t.pulley_tension_min_N[1]});
-    }
-    const double e0 = d.allocation.agonist_force_cmd_N - (sens.agonist_loadcell_N - d.loadcell_offset_N[0]);
-    const double e1 = d.allocation.antagonist_force_cmd_N - (sens.antagonist_loadcell_N - d.loadcell_offset_N[1]);
-    trk_sum[0] += e0 * e0;
-    trk_sum[1] += e1 * e1;
-    for (int i = 0; i < 2; ++i) {
-      gated[i] += d.creep.muscle[i].gated ? 1.0 : 0.0;
-      if (estimator && !referenced[i] && d.creep.muscle[i].referenced) {
-        referenced[i] = true;
-        r.reference_time_s[i] = state.time_s;
-        r.truth_at_reference_m[i] = t.creep_m[i];
-      }
-    }
-    if (++in_sample == per_sample) {
-      CreepSample smp;
-      smp.t_s = state.time_s;
-      smp.angle_deg = models::rad_to_deg(t.angle_rad);
-      for (int i = 0; i < 2; ++i) {
-        smp.truth_m[i] = t.creep_m[i] - r.truth_at_reference_m[i];
-        smp.estimate_m[i] = d.creep.muscle[i].referenced ? d.creep.muscle[i].length_change_m : 0.0;
-        smp.sigma_m[i] = control::creep_sigma_m(d.creep, i);
-        smp.tracking_rms_N[i] = std::sqrt(trk_sum[i] / static_cast<double>(in_sample));
-        smp.gated_fraction[i] = gated[i] / static_cast<double>(in_sample);
-        trk_sum[i] = gated[i] = 0;
-      }
-      smp.alerts = d.creep.alerts;
-      r.samples.push_back(smp);
-      in_sample = 0;
-    }
-    for (int i = 0; i < 2; ++i) r.final_truth_m[i] = t.creep_m[i];
-  };
-  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle({}, sc.lifecycle), steps, state, command, step, hold, observe);
+  const std::size_t done = runtime::run_cycles(
+      limited, runtime::with_lifecycle({}, sc.lifecycle), steps, state, command, [&](std::size_t) { run.step(state, command); },
+      [&](std::size_t k) { run.hold(k); }, [&](std::size_t k, const io::Command&, std::uint32_t) { run.observe(k, state); });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  CreepRun r = std::move(run.r);  // the samples; the figures follow
   r.simulated_s = static_cast<double>(done) * sc.period_s;
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   r.faults = limited.monitor().count();
   r.fault_reason = limited.monitor().run_reason();
   const control::CreepEstimatorData& cd = controller.diagnostics().creep;
   for (int i = 0; i < 4; ++i) r.alert_time_s[i] = cd.alert_time_s[i];
-
-  // The estimate against the truth (change since the reference) after the convergence window.
-  const double alert_m = sc.controller.creep.alert_m;
-  for (int i = 0; i < 2; ++i) {
-    double sum = 0, worst = 0;
-    std::size_t n = 0;
-    for (const CreepSample& smp : r.samples) {
-      if (r.truth_cross_s[i] < 0 && referenced[i] && std::abs(smp.truth_m[i]) > alert_m) r.truth_cross_s[i] = smp.t_s;
-      if (!estimator || smp.t_s < s.creep.convergence_s) continue;
-      const double e = smp.estimate_m[i] - smp.truth_m[i];
-      sum += e * e;
-      worst = std::max(worst, std::abs(e));
-      ++n;
-    }
-    r.estimate_rms_m[i] = estimator && n ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
-    r.estimate_max_m[i] = estimator && n ? worst : kNaN;
-  }
-  // Tracking over the last quarter.
-  const double quarter_s = 0.75 * r.simulated_s;
-  for (int i = 0; i < 2; ++i) {
-    double sum = 0;
-    std::size_t n = 0;
-    for (const CreepSample& smp : r.samples) {
-      if (smp.t_s < quarter_s) continue;
-      sum += smp.tracking_rms_N[i] * smp.tracking_rms_N[i];
-      ++n;
-    }
-    r.tracking_rms_last_quarter_N[i] = n ? std::sqrt(sum / static_cast<double>(n)) : kNaN;
-  }
-  // Static torque error after each release: the friction's torque over the last second before the
-  // next push (or the run's end), as E1 measures it, % of the plant's gravity torque there.
-  const auto& pushes = sc.plant.finger.pushes;
-  const auto span = static_cast<std::size_t>(std::llround(1.0 / sc.period_s));
-  double worst = 0, sum = 0;
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < pushes.size(); ++i) {
-    if (pushes[i].hold || sc.probe_direction[i] != 0) continue;
-    const auto k0 = static_cast<std::size_t>(std::llround((pushes[i].start_s + pushes[i].duration_s) / sc.period_s));
-    std::size_t k1 = done;
-    if (i + 1 < pushes.size()) k1 = std::min(done, static_cast<std::size_t>(std::llround(pushes[i + 1].start_s / sc.period_s)) - 1);
-    if (k0 >= done || k1 <= k0 + span) continue;
-    double torque = 0;
-    for (std::size_t k = k1 - span; k <= k1; ++k) torque += constraint[k];
-    torque = -torque / static_cast<double>(span + 1);
-    CreepRelease rel;
-    rel.time_s = static_cast<double>(k0) * sc.period_s;
-    rel.angle_deg = models::rad_to_deg(angle[k1]);
-    rel.static_torque_error_pct = 100.0 * torque / std::abs(e1_plant_gravity_torque_Nm(plant_params, angle[k1]));
-    r.releases.push_back(rel);
-    if (rel.time_s >= quarter_s) {
-      worst = std::max(worst, std::abs(rel.static_torque_error_pct));
-      sum += rel.static_torque_error_pct;
-      ++n;
-    }
-  }
-  r.static_error_last_quarter_max_pct = n ? worst : kNaN;
-  r.static_error_last_quarter_mean_pct = n ? sum / static_cast<double>(n) : kNaN;
+  estimate_figures(s, sc, run, r);
+  tracking_figures(r);
+  release_figures(sc, plant_params, run, done, r);
   return r;
 }
 

@@ -1,4 +1,5 @@
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/common/log_row.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/release_checks.hpp"
 #include "peha/models/exoskeleton.hpp"
@@ -103,50 +104,46 @@ PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) 
   return run_postures_on(scenario, plant, &plant, log);
 }
 
-PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::ArmBackend* sim, runtime::RowSink* log,
-                               const runtime::CycleHooks& hooks) {
-  const std::vector<double> release_s = postures_release_times_s(scenario);
-  const double duration_s = postures_duration_s(scenario);
-  const sim::ArmPlantParams script = postures_plant_params(scenario);  // where the operator's hands are, by the clock
-  control::ArmController controller(scenario.controller);
-  const safety::JointModels joints = arm_joint_models(controller.model());
-  safety::LimitedBackend limited(backend, scenario.limits, joints);
-  safety::Envelope envelope;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
+namespace {
 
-  PosturesResult r;
-  const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
-  // Per judged joint and cycle: its angle, and from the plant's truth the constraint torque (friction,
-  // stops), the gravity torque, and the controller's model of it.
-  const std::vector<std::size_t> judged = gravity_joints(scenario);
-  const std::size_t n_judged = judged.size();
-  std::vector<std::vector<double>> angle(n_judged, std::vector<double>(steps + 1, 0.0));
-  std::vector<std::vector<double>> held(n_judged, std::vector<double>(steps + 1, nan));
-  std::vector<std::vector<double>> gravity(n_judged, std::vector<double>(steps + 1, nan));
-  std::vector<std::vector<double>> model_gravity(n_judged, std::vector<double>(steps + 1, nan));
-  io::SensorState state;
-  io::Command command;
-  std::vector<double> row(arm_log_columns(scenario).size());
-  const auto wall_start = std::chrono::steady_clock::now();
-  auto hold = [&](std::size_t k) {  // no new sample: the command is held
-    for (std::vector<double>& a : angle) a[k] = k ? a[k - 1] : 0.0;
-  };
-  // An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command on its
-  // joint here, before the supervisor: the test driver's part of the plant's fault injection (as E1).
-  const sim::ControllerNanInjection controller_nan(scenario.faults);
-  auto step = [&](std::size_t) {
+/// A joint's block of arm_log_columns (the same names, in order).
+struct ArmJointColumns {
+  double angle_rad, plant_angle_rad, tau_gravity_Nm, tau_desired_Nm, tau_motor_cmd_Nm, operator_torque_Nm, agonist_pressure_cmd_MPa,
+      antagonist_pressure_cmd_MPa, agonist_loadcell_N, antagonist_loadcell_N, plant_agonist_force_N, plant_antagonist_force_N,
+      plant_gravity_Nm, plant_constraint_Nm, plant_agonist_tension_N, plant_antagonist_tension_N;
+};
+
+/// One E3 run: the controller, its per-cycle step and observation (the judged joints' angles and
+/// torques, the envelope, the log row), and the buffers analyse_postures reads. Every buffer is sized
+/// here, before the loop: step, hold and observe allocate nothing.
+struct PosturesRun {
+  PosturesRun(const ArmScenario& scenario, const sim::ArmBackend* sim, std::size_t steps)
+      : scenario(scenario),
+        sim(sim),
+        script(postures_plant_params(scenario)),
+        controller(scenario.controller),
+        joints(arm_joint_models(controller.model())),
+        controller_nan(scenario.faults),
+        judged(gravity_joints(scenario)),
+        angle(judged.size(), std::vector<double>(steps + 1, 0.0)),
+        held(judged.size(), std::vector<double>(steps + 1, kNaN)),
+        gravity(judged.size(), std::vector<double>(steps + 1, kNaN)),
+        model_gravity(judged.size(), std::vector<double>(steps + 1, kNaN)),
+        row(arm_log_columns(scenario).size()) {}
+
+  void step(const io::SensorState& state, io::Command& command) {
     controller.update(state, command);
     controller_nan.apply(state.time_s, command);
-  };
-  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
+  }
+
+  void hold(std::size_t k) {  // no new sample: the command is held
+    for (std::vector<double>& a : angle) a[k] = k ? a[k - 1] : 0.0;
+  }
+
+  void observe(std::size_t k, const io::SensorState& state, const io::Command& sent, std::uint32_t limit_flags, std::uint32_t fault_flags,
+               runtime::RowSink* log) {
     const sim::ArmTruth* truth = sim ? &sim->sampled_truth() : nullptr;
-    bool operator_active = false;
-    if (truth) {
-      operator_active = truth->operator_active;
-    } else {
-      for (const auto& m : script.operator_hands.moves) operator_active |= state.time_s >= m.start_s && state.time_s < m.start_s + m.duration_s;
-    }
-    for (std::size_t j = 0; j < n_judged; ++j) {
+    for (std::size_t j = 0; j < judged.size(); ++j) {
       const std::size_t a = judged[j];
       if (truth) {
         held[j][k] = truth->constraint_torque_Nm[a];
@@ -160,36 +157,113 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       // The start-up tare vents the muscles on purpose (the operator holds the arm): tension not judged.
       if (controller.wires_slack_on_purpose(state.time_s)) j.min_tension_N = std::numeric_limits<double>::infinity();
       envelope.observe(a, j);
-      if (truth) r.peak_operator_torque_Nm = std::max(r.peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
+      if (truth) peak_operator_torque_Nm = std::max(peak_operator_torque_Nm, std::abs(truth->operator_torque_Nm[a]));
     }
     if (log) {
-      std::size_t col = 0;
-      row[col++] = state.time_s;
-      row[col++] = operator_active ? 1.0 : 0.0;
-      const auto& diag = controller.diagnostics();
-      for (std::size_t a = 0; a < scenario.controller.joints.size(); ++a) {
-        const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
-        const double values[] = {state.joints[a].angle_rad, truth ? truth->actuated_q_rad[a] : nan, diag[a].torque_gravity_Nm, diag[a].tau_desired_Nm,
-                                 sent.joints[a].motor_torque_Nm, truth ? truth->operator_torque_Nm[a] : nan,
-                                 sent.joints[a].agonist_pressure_Pa * 1e-6, sent.joints[a].antagonist_pressure_Pa * 1e-6,
-                                 state.joints[a].agonist_loadcell_N, state.joints[a].antagonist_loadcell_N, j ? j->muscle_force_N[0] : nan,
-                                 j ? j->muscle_force_N[1] : nan, truth ? truth->bias_torque_Nm[a] : nan,
-                                 truth ? truth->constraint_torque_Nm[a] : nan, j ? j->pulley_tension_min_N[0] : nan,
-                                 j ? j->pulley_tension_min_N[1] : nan};
-        for (double v : values) row[col++] = v;
-      }
-      row[col++] = static_cast<double>(limit_flags);
-      row[col++] = static_cast<double>(limited.monitor().flags());
+      write_row(state, sent, truth, limit_flags, fault_flags);
       log->push_row(row);
     }
-  };
-  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
-  r.peak_muscle_force_N = envelope.peak_muscle_force_N();
-  r.min_wire_tension_N = envelope.min_tension_N();
-  add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
+  }
 
+  const ArmScenario& scenario;
+  const sim::ArmBackend* sim;
+  const sim::ArmPlantParams script;  ///< where the operator's hands are, by the clock
+  control::ArmController controller;
+  const safety::JointModels joints;
+  /// An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command on its
+  /// joint here, before the supervisor: the test driver's part of the plant's fault injection (as E1).
+  const sim::ControllerNanInjection controller_nan;
+  /// Per judged joint and cycle: its angle (rad), and from the plant's truth the constraint torque
+  /// (friction, stops), the gravity torque, and the controller's model of it (Nm).
+  const std::vector<std::size_t> judged;
+  std::vector<std::vector<double>> angle, held, gravity, model_gravity;
+  safety::Envelope envelope;
+  double peak_operator_torque_Nm = 0;
+  std::vector<double> row;  ///< the log row, in arm_log_columns' order
+
+ private:
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+  /// The log row, in arm_log_columns' order.
+  void write_row(const io::SensorState& state, const io::Command& sent, const sim::ArmTruth* truth, std::uint32_t limit_flags,
+                 std::uint32_t fault_flags) {
+    bool operator_active = false;
+    if (truth) {
+      operator_active = truth->operator_active;
+    } else {
+      for (const auto& m : script.operator_hands.moves) operator_active |= state.time_s >= m.start_s && state.time_s < m.start_s + m.duration_s;
+    }
+    std::size_t col = 0;
+    row[col++] = state.time_s;
+    row[col++] = operator_active ? 1.0 : 0.0;
+    const auto& diag = controller.diagnostics();
+    for (std::size_t a = 0; a < scenario.controller.joints.size(); ++a) {
+      const sim::PehaJointTruth* j = truth ? &truth->actuators[a] : nullptr;
+      const io::JointSensors& s = state.joints[a];
+      const io::JointCommand& cmd = sent.joints[a];
+      put_columns(row, col, ArmJointColumns{
+          .angle_rad = s.angle_rad, .plant_angle_rad = truth ? truth->actuated_q_rad[a] : kNaN, .tau_gravity_Nm = diag[a].torque_gravity_Nm,
+          .tau_desired_Nm = diag[a].tau_desired_Nm, .tau_motor_cmd_Nm = cmd.motor_torque_Nm,
+          .operator_torque_Nm = truth ? truth->operator_torque_Nm[a] : kNaN, .agonist_pressure_cmd_MPa = cmd.agonist_pressure_Pa * 1e-6,
+          .antagonist_pressure_cmd_MPa = cmd.antagonist_pressure_Pa * 1e-6, .agonist_loadcell_N = s.agonist_loadcell_N,
+          .antagonist_loadcell_N = s.antagonist_loadcell_N, .plant_agonist_force_N = j ? j->muscle_force_N[0] : kNaN,
+          .plant_antagonist_force_N = j ? j->muscle_force_N[1] : kNaN, .plant_gravity_Nm = truth ? truth->bias_torque_Nm[a] : kNaN,
+          .plant_constraint_Nm = truth ? truth->constraint_torque_Nm[a] : kNaN,
+          .plant_agonist_tension_N = j ? j->pulley_tension_min_N[0] : kNaN, .plant_antagonist_tension_N = j ? j->pulley_tension_min_N[1] : kNaN});
+    }
+    row[col++] = static_cast<double>(limit_flags);
+    row[col++] = static_cast<double>(fault_flags);
+  }
+};
+
+/// One judged joint (index j of run.judged) after the release of posture i, over cycles k0..k1: its
+/// drift, excursion and distance to its stops, and its static torque error; the checks into `verdict`.
+PostureJointResult analyse_posture_joint(const PosturesRun& run, std::size_t i, std::size_t j, std::size_t k0, std::size_t k1,
+                                         safety::Verdict& verdict) {
+  const ArmScenario& scenario = run.scenario;
+  const std::string& posture = scenario.postures[i].name;
+  const std::size_t io_joint = run.judged[j];
+  PostureJointResult f;
+  f.joint = arm_joint_names(scenario)[io_joint];
+  f.target_deg = models::rad_to_deg(scenario.postures[i].target_rad[io_joint]);
+  const std::vector<double>& a = run.angle[j];
+  f.released_deg = models::rad_to_deg(a[k0]);
+  f.drift_deg = models::rad_to_deg(a[k1] - a[k0]);
+  const safety::JointLimits& range = scenario.limits.joints[io_joint];
+  for (std::size_t k = k0; k <= k1; ++k) f.max_excursion_deg = std::max(f.max_excursion_deg, models::rad_to_deg(std::abs(a[k] - a[k0])));
+  const StopDistance stop = stop_distance(a, k0, k1, range.min_angle_rad, range.max_angle_rad);
+  f.stop_distance_deg = stop.closest_deg;
+  add_release_checks(posture + " " + f.joint, f.drift_deg, f.max_excursion_deg, stop, scenario.verdict, verdict);
+  // Static torque error at rest (truth): what the friction and stops hold over the window's last
+  // second; the controller's torque error is its negative (M qdd = tau + constraint - bias).
+  const auto span = std::min(k1 - k0, static_cast<std::size_t>(std::llround(1.0 / scenario.period_s)));
+  double held_sum = 0, gravity_sum = 0, model_sum = 0;
+  for (std::size_t k = k1 - span; k <= k1; ++k) {
+    held_sum += run.held[j][k];
+    gravity_sum += run.gravity[j][k];
+    model_sum += run.model_gravity[j][k];
+  }
+  const double n = static_cast<double>(span + 1);
+  f.gravity_torque_Nm = gravity_sum / n;
+  f.static_torque_error_pct = 100.0 * (-held_sum / n) / std::abs(f.gravity_torque_Nm);
+  f.model_gravity_error_pct = 100.0 * (model_sum - gravity_sum) / n / std::abs(f.gravity_torque_Nm);
+  if (run.sim && std::abs(f.gravity_torque_Nm) >= scenario.verdict.min_gravity_torque_Nm) {
+    verdict.at_most(posture + " " + f.joint + " |static torque error|", "% of gravity", std::abs(f.static_torque_error_pct),
+                    scenario.verdict.max_static_torque_error_pct);
+  }
+  return f;
+}
+
+/// E3's figures and verdict from a run's buffers, `done` its last cycle: each posture over the
+/// observe_s window after its release.
+PosturesResult analyse_postures(const PosturesRun& run, std::size_t done, const safety::FaultMonitor& monitor) {
+  const ArmScenario& scenario = run.scenario;
+  PosturesResult r;
+  r.peak_operator_torque_Nm = run.peak_operator_torque_Nm;
+  r.peak_muscle_force_N = run.envelope.peak_muscle_force_N();
+  r.min_wire_tension_N = run.envelope.min_tension_N();
+  add_arm_envelope_checks(scenario, run.joints, run.envelope, r.verdict);
+  const std::vector<double> release_s = postures_release_times_s(scenario);
   const auto window = static_cast<std::size_t>(std::llround(scenario.observe_s / scenario.period_s));
   for (std::size_t i = 0; i < scenario.postures.size(); ++i) {
     PostureResult p;
@@ -197,45 +271,37 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     const auto k0 = static_cast<std::size_t>(std::llround(release_s[i] / scenario.period_s));
     if (k0 > done) continue;  // a run ended early analyses what it has
     const std::size_t k1 = std::min(k0 + window, done);
-    for (std::size_t j = 0; j < n_judged; ++j) {
-      const std::size_t io_joint = judged[j];
-      PostureJointResult f;
-      f.joint = arm_joint_names(scenario)[io_joint];
-      f.target_deg = models::rad_to_deg(scenario.postures[i].target_rad[io_joint]);
-      const std::vector<double>& a = angle[j];
-      f.released_deg = models::rad_to_deg(a[k0]);
-      f.drift_deg = models::rad_to_deg(a[k1] - a[k0]);
-      const safety::JointLimits& range = scenario.limits.joints[io_joint];
-      for (std::size_t k = k0; k <= k1; ++k) f.max_excursion_deg = std::max(f.max_excursion_deg, models::rad_to_deg(std::abs(a[k] - a[k0])));
-      const StopDistance stop = stop_distance(a, k0, k1, range.min_angle_rad, range.max_angle_rad);
-      f.stop_distance_deg = stop.closest_deg;
-      add_release_checks(p.name + " " + f.joint, f.drift_deg, f.max_excursion_deg, stop, scenario.verdict, r.verdict);
-      // Static torque error at rest (truth): what the friction and stops hold over the window's last
-      // second; the controller's torque error is its negative (M qdd = tau + constraint - bias).
-      const auto span = std::min(k1 - k0, static_cast<std::size_t>(std::llround(1.0 / scenario.period_s)));
-      double held_sum = 0, gravity_sum = 0, model_sum = 0;
-      for (std::size_t k = k1 - span; k <= k1; ++k) {
-        held_sum += held[j][k];
-        gravity_sum += gravity[j][k];
-        model_sum += model_gravity[j][k];
-      }
-      const double n = static_cast<double>(span + 1);
-      f.gravity_torque_Nm = gravity_sum / n;
-      f.static_torque_error_pct = 100.0 * (-held_sum / n) / std::abs(f.gravity_torque_Nm);
-      f.model_gravity_error_pct = 100.0 * (model_sum - gravity_sum) / n / std::abs(f.gravity_torque_Nm);
-      if (sim && std::abs(f.gravity_torque_Nm) >= scenario.verdict.min_gravity_torque_Nm) {
-        r.verdict.at_most(p.name + " " + f.joint + " |static torque error|", "% of gravity", std::abs(f.static_torque_error_pct),
-                          scenario.verdict.max_static_torque_error_pct);
-      }
-      p.joints.push_back(f);
-    }
+    for (std::size_t j = 0; j < run.judged.size(); ++j) p.joints.push_back(analyse_posture_joint(run, i, j, k0, k1, r.verdict));
     r.postures.push_back(p);
   }
-  r.fault_flags = limited.monitor().flags();
-  r.faults = limited.monitor().count();
-  r.fault_reason = limited.monitor().run_reason();
-  safety::add_supervisor_check(limited.monitor(), r.verdict);
+  r.fault_flags = monitor.flags();
+  r.faults = monitor.count();
+  r.fault_reason = monitor.run_reason();
+  safety::add_supervisor_check(monitor, r.verdict);
   r.within_limits = r.verdict.passed();
+  return r;
+}
+
+}  // namespace
+
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::ArmBackend* sim, runtime::RowSink* log,
+                               const runtime::CycleHooks& hooks) {
+  const double duration_s = postures_duration_s(scenario);
+  const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
+  PosturesRun run(scenario, sim, steps);
+  safety::LimitedBackend limited(backend, scenario.limits, run.joints);
+  io::SensorState state;
+  io::Command command;
+  const auto wall_start = std::chrono::steady_clock::now();
+  const std::size_t done = runtime::run_cycles(
+      limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, [&](std::size_t) { run.step(state, command); },
+      [&](std::size_t k) { run.hold(k); },
+      [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
+        run.observe(k, state, sent, limit_flags, limited.monitor().flags(), log);
+      });
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  PosturesResult r = analyse_postures(run, done, limited.monitor());
+  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   return r;
 }
 

@@ -2,6 +2,7 @@
 
 #include "peha/calibration/dataset.hpp"
 #include "peha/control/butterworth.hpp"
+#include "peha/experiments/common/log_row.hpp"
 #include "peha/models/joint.hpp"
 #include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
@@ -284,88 +285,69 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
                            readings, persons, log);
 }
 
-GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
-                                   const std::vector<GoniometerSource>& persons, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
-  const ArmScenario::Goniometer& g = scenario.goniometer;
-  if (readings.size() != g.joints.size() || (!persons.empty() && persons.size() != g.joints.size())) {
-    throw std::invalid_argument(fmt::format("run_goniometer_on: {} readings and {} persons for {} driven joints", readings.size(),
-                                            persons.size(), g.joints.size()));
-  }
-  const double period = scenario.period_s;
-  const auto decimation = static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * period)));
-  const double release_s = g.settle_s - 1.0;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  control::ArmController controller(scenario.controller);
-  for (const int j : g.joints) controller.set_mode(j, control::ArmJointMode::kCommanded);
-  const safety::JointModels joints = arm_joint_models(controller.model());
-  safety::LimitedBackend limited(backend, scenario.limits, joints);
-  safety::Envelope envelope;
-  const models::ArmModel& arm = controller.model().arm;
-  models::ArmData arm_data(arm);
-  const auto dof = static_cast<Eigen::Index>(arm.joints.size());
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(dof), qd = Eigen::VectorXd::Zero(dof), qdd = Eigen::VectorXd::Zero(dof);
-  const auto steps = static_cast<std::size_t>(std::llround(duration_s / period));
+namespace {
 
-  /// One driven joint: its goniometer's filter and derivatives, its command and its trajectories.
-  struct Driven {
-    std::size_t io = 0;
-    int q = 0;  ///< model joint
-    control::FilteredDerivative derivative;
-    control::FilteredDerivative::Derivatives d{};
-    double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
-    std::vector<double> exo, truth;  ///< the exoskeleton's and the person's angle per cycle, rad
-    GoniometerJointResult r;
-  };
-  std::vector<Driven> driven;
-  driven.reserve(g.joints.size());
-  for (const int j : g.joints) {
-    const auto io = static_cast<std::size_t>(j);
-    driven.push_back({io, controller.model().joints[io].model_joint, control::FilteredDerivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz),
-                      {}, 0.0, 0.0, 0.0, std::vector<double>(steps + 1), std::vector<double>(steps + 1), {}});
-    driven.back().r.joint = arm_joint_names(scenario)[io];
-  }
-  const std::vector<std::size_t> held = held_joints(scenario);
-  std::vector<std::vector<double>> held_q(held.size(), std::vector<double>(steps + 1));  // per held joint, rad
+/// One driven joint: its goniometer's filter and derivatives, its command and its trajectories.
+struct Driven {
+  std::size_t io = 0;
+  int q = 0;  ///< model joint
+  control::FilteredDerivative derivative;
+  control::FilteredDerivative::Derivatives d{};
+  double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
+  std::vector<double> exo, truth;  ///< the exoskeleton's and the person's angle per cycle, rad
+  GoniometerJointResult r;
+};
 
-  GoniometerResult r;
-  r.name = name;
-  r.variant = variant;
-  const bool feedback = variant == GoniometerVariant::kFeedback;
-  r.filter_delay_s = driven.front().derivative.group_delay_s(0.0);
-  std::vector<double> row(goniometer_log_columns(scenario).size());
-  io::SensorState state;
-  io::Command command;
-  const auto wall_start = std::chrono::steady_clock::now();
-  auto hold = [&](std::size_t k) {  // no new sample: the command is held
-    for (Driven& j : driven) {
-      j.exo[k] = k ? j.exo[k - 1] : 0.0;
-      j.truth[k] = k ? j.truth[k - 1] : 0.0;
+/// A driven joint's first block of log columns (goniometer_log_columns, the same names in order).
+struct DrivenAngleColumns {
+  double person_elbow_deg, goniometer_deg, filtered_elbow_deg, filtered_rate_degps, filtered_accel_degps2, tau_elbow_cmd_Nm,
+      plant_elbow_deg, elbow_encoder_deg;
+};
+/// A held joint's block.
+struct HeldColumns {
+  double plant_deg, tau_gravity_Nm;
+};
+/// A driven joint's actuator block.
+struct DrivenActuatorColumns {
+  double tau_motor_cmd_Nm, agonist_pressure_cmd_MPa, antagonist_pressure_cmd_MPa, agonist_loadcell_N, antagonist_loadcell_N,
+      plant_agonist_force_N, plant_antagonist_force_N;
+};
+
+/// One E4 run: the controller, its per-cycle step (goniometer -> filter -> inverse dynamics ->
+/// torque command) and observation (trajectories, envelope, log row), and the buffers the analysis
+/// reads. Every buffer is sized here, before the loop: step, hold and observe allocate nothing.
+struct GoniometerRun {
+  GoniometerRun(const ArmScenario& scenario, GoniometerVariant variant, std::size_t steps, const std::vector<GoniometerSource>& readings,
+                const std::vector<GoniometerSource>& persons, const sim::ArmBackend* sim)
+      : scenario(scenario),
+        g(scenario.goniometer),
+        readings(readings),
+        persons(persons),
+        sim(sim),
+        feedback(variant == GoniometerVariant::kFeedback),
+        decimation(static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * scenario.period_s)))),
+        controller(scenario.controller),
+        arm(controller.model().arm),
+        arm_data(arm),
+        held(held_joints(scenario)),
+        held_q(held.size(), std::vector<double>(steps + 1)),
+        row(goniometer_log_columns(scenario).size()) {
+    for (const int j : g.joints) controller.set_mode(j, control::ArmJointMode::kCommanded);
+    joints = arm_joint_models(controller.model());
+    const auto dof = static_cast<Eigen::Index>(arm.joints.size());
+    q = Eigen::VectorXd::Zero(dof), qd = Eigen::VectorXd::Zero(dof), qdd = Eigen::VectorXd::Zero(dof);
+    driven.reserve(g.joints.size());
+    for (const int j : g.joints) {
+      const auto io = static_cast<std::size_t>(j);
+      driven.push_back({io, controller.model().joints[io].model_joint, control::FilteredDerivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz),
+                        {}, 0.0, 0.0, 0.0, std::vector<double>(steps + 1), std::vector<double>(steps + 1), {}});
+      driven.back().r.joint = arm_joint_names(scenario)[io];
     }
-    for (std::vector<double>& h : held_q) h[k] = k ? h[k - 1] : 0.0;
-  };
-  std::vector<int> joints_q;  // model joint of each io joint
-  for (const control::ArmActuatedJoint& j : controller.model().joints) joints_q.push_back(j.model_joint);
-  auto step = [&](std::size_t k) {
-    const double t = state.time_s;
-    if (k % decimation == 0) {  // a goniometer sample: filter, differentiate, inverse dynamics
-      // The encoders of the io joints into the model's joint vector (io and model indices differ
-      // once a body has passive joints before a driven one, or two arms); each driven joint from its
-      // person.
-      for (int j = 0; j < state.joint_count && j < static_cast<int>(joints_q.size()); ++j) {
-        q[joints_q[static_cast<std::size_t>(j)]] = state.joints[static_cast<std::size_t>(j)].angle_rad;
-      }
-      for (std::size_t n = 0; n < driven.size(); ++n) {
-        Driven& j = driven[n];
-        j.goniometer = readings[n](t);
-        j.d = j.derivative.step(j.goniometer);
-        q[j.q] = j.d.value;
-        qd[j.q] = j.d.rate;
-        qdd[j.q] = j.d.acceleration;
-      }
-      const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
-      for (Driven& j : driven) j.tau_id = tau[j.q];
-    }
+    for (const control::ArmActuatedJoint& j : controller.model().joints) joints_q.push_back(j.model_joint);
+  }
+
+  void step(const io::SensorState& state, io::Command& command, std::size_t k) {
+    if (k % decimation == 0) sample_goniometers(state);
     for (Driven& j : driven) {
       j.tau_cmd = j.tau_id;
       if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
@@ -376,8 +358,17 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       controller.set_desired_torque(static_cast<int>(j.io), j.tau_cmd);
     }
     controller.update(state, command);
-  };
-  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t) {
+  }
+
+  void hold(std::size_t k) {  // no new sample: the command is held
+    for (Driven& j : driven) {
+      j.exo[k] = k ? j.exo[k - 1] : 0.0;
+      j.truth[k] = k ? j.truth[k - 1] : 0.0;
+    }
+    for (std::vector<double>& h : held_q) h[k] = k ? h[k - 1] : 0.0;
+  }
+
+  void observe(std::size_t k, const io::SensorState& state, const io::Command& sent, runtime::RowSink* log) {
     const double t = state.time_s;
     const sim::ArmTruth* tr = sim ? &sim->sampled_truth() : nullptr;
     // Without the simulator: the exoskeleton by its encoders, the person by the goniometer.
@@ -388,92 +379,178 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       j.truth[k] = persons.empty() ? j.goniometer : persons[n](t);
     }
     for (std::size_t h = 0; h < held.size(); ++h) held_q[h][k] = angle(held[h]);
-    double tension_min = std::numeric_limits<double>::infinity();
+    double tension_min_N = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       safety::JointSample j = arm_joint_sample(state, sent, tr, a);
       if (controller.wires_slack_on_purpose(state.time_s)) j.min_tension_N = std::numeric_limits<double>::infinity();  // start-up tare
       envelope.observe(a, j);
-      tension_min = std::min(tension_min, j.min_tension_N);
-      r.peak_motor_torque_Nm = std::max(r.peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
+      tension_min_N = std::min(tension_min_N, j.min_tension_N);
+      peak_motor_torque_Nm = std::max(peak_motor_torque_Nm, std::abs(j.motor_torque_Nm));
     }
-    if (log) {  // in goniometer_log_columns' order
-      const auto& diag = controller.diagnostics();
-      const bool operator_active = tr ? tr->operator_active : t < release_s;
-      std::size_t c = 0;
-      row[c++] = t;
-      row[c++] = operator_active ? 1.0 : 0.0;
-      using models::rad_to_deg;
-      for (const Driven& j : driven) {
-        for (const double v : {rad_to_deg(j.truth[k]), rad_to_deg(j.goniometer), rad_to_deg(j.d.value), rad_to_deg(j.d.rate),
-                               rad_to_deg(j.d.acceleration), j.tau_cmd, tr ? rad_to_deg(j.exo[k]) : nan,
-                               rad_to_deg(state.joints[j.io].angle_rad)}) {
-          row[c++] = v;
-        }
-      }
-      for (std::size_t h = 0; h < held.size(); ++h) {
-        row[c++] = rad_to_deg(held_q[h][k]);
-        row[c++] = diag[held[h]].torque_gravity_Nm;
-      }
-      for (const Driven& j : driven) {
-        const io::JointSensors& s = state.joints[j.io];
-        const io::JointCommand& cmd = sent.joints[j.io];
-        for (const double v : {cmd.motor_torque_Nm, cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_loadcell_N,
-                               s.antagonist_loadcell_N, tr ? tr->actuators[j.io].muscle_force_N[0] : nan,
-                               tr ? tr->actuators[j.io].muscle_force_N[1] : nan}) {
-          row[c++] = v;
-        }
-      }
-      row[c++] = tension_min;
+    if (log) {
+      write_row(k, state, sent, tr, tension_min_N);
       log->push_row(row);
     }
-  };
-  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
-  r.peak_muscle_force_N = envelope.peak_muscle_force_N();
-  r.min_wire_tension_N = envelope.min_tension_N();
-  add_arm_envelope_checks(scenario, joints, envelope, r.verdict);
+  }
 
-  // Tracking from the release to the end: raw error, and the lag that best aligns the two.
-  const auto k0 = std::min(static_cast<std::size_t>(std::llround(release_s / period)), done);
-  const auto max_lag = static_cast<std::size_t>(std::llround(g.max_delay_s / period));
-  for (Driven& j : driven) {
-    GoniometerJointResult& jr = j.r;
-    jr.min_wire_tension_N = envelope.joints[j.io].min_tension_N;
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
-    for (std::size_t k = k0; k <= done; ++k) {
-      const double e = j.exo[k] - j.truth[k];
-      sum += e * e;
-      jr.max_error_deg = std::max(jr.max_error_deg, models::rad_to_deg(std::abs(e)));
-      lo = std::min(lo, j.truth[k]);
-      hi = std::max(hi, j.truth[k]);
-      for (std::size_t h = 0; h < held.size(); ++h) {  // the held joints of its own side
-        if (side_of(arm_joint_names(scenario)[held[h]]) != side_of(jr.joint)) continue;
-        jr.held_excursion_deg = std::max(jr.held_excursion_deg, models::rad_to_deg(std::abs(held_q[h][k] - held_q[h][k0])));
-      }
+  const ArmScenario& scenario;
+  const ArmScenario::Goniometer& g;
+  const std::vector<GoniometerSource>& readings;
+  const std::vector<GoniometerSource>& persons;
+  const sim::ArmBackend* sim;
+  const bool feedback;
+  const std::size_t decimation;  ///< control cycles per goniometer sample
+  control::ArmController controller;
+  const models::ArmModel& arm;
+  models::ArmData arm_data;
+  safety::JointModels joints;
+  Eigen::VectorXd q, qd, qdd;   ///< the model's joints for the inverse dynamics
+  std::vector<int> joints_q;    ///< model joint of each io joint
+  std::vector<Driven> driven;
+  const std::vector<std::size_t> held;
+  std::vector<std::vector<double>> held_q;  ///< per held joint and cycle, rad
+  safety::Envelope envelope;
+  double peak_motor_torque_Nm = 0;
+  std::vector<double> row;  ///< the log row, in goniometer_log_columns' order
+
+ private:
+  /// A goniometer sample: filter, differentiate, inverse dynamics.
+  void sample_goniometers(const io::SensorState& state) {
+    // The encoders of the io joints into the model's joint vector (io and model indices differ once
+    // a body has passive joints before a driven one, or two arms); each driven joint from its person.
+    for (int j = 0; j < state.joint_count && j < static_cast<int>(joints_q.size()); ++j) {
+      q[joints_q[static_cast<std::size_t>(j)]] = state.joints[static_cast<std::size_t>(j)].angle_rad;
     }
-    jr.rms_error_deg = models::rad_to_deg(std::sqrt(sum / static_cast<double>(done - k0 + 1)));
-    jr.range_deg = models::rad_to_deg(hi - lo);
-    double best = std::numeric_limits<double>::infinity();
-    for (std::size_t lag = 0; lag <= max_lag && k0 + lag < done; ++lag) {
-      double s2 = 0.0;
-      for (std::size_t k = k0 + lag; k <= done; ++k) {
-        const double e = j.exo[k] - j.truth[k - lag];
-        s2 += e * e;
-      }
-      const double rms = std::sqrt(s2 / static_cast<double>(done - k0 - lag + 1));
-      if (rms < best) {
-        best = rms;
-        jr.delay_s = static_cast<double>(lag) * period;
-      }
+    for (std::size_t n = 0; n < driven.size(); ++n) {
+      Driven& j = driven[n];
+      j.goniometer = readings[n](state.time_s);
+      j.d = j.derivative.step(j.goniometer);
+      q[j.q] = j.d.value;
+      qd[j.q] = j.d.rate;
+      qdd[j.q] = j.d.acceleration;
     }
-    jr.rms_error_aligned_deg = models::rad_to_deg(best);
+    const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
+    for (Driven& j : driven) j.tau_id = tau[j.q];
+  }
+
+  /// The log row of cycle k, in goniometer_log_columns' order.
+  void write_row(std::size_t k, const io::SensorState& state, const io::Command& sent, const sim::ArmTruth* tr, double tension_min_N) {
+    using models::rad_to_deg;
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    const double t = state.time_s;
+    const bool operator_active = tr ? tr->operator_active : t < g.settle_s - 1.0;  // the operator lets go at settle_s - 1
+    std::size_t c = 0;
+    row[c++] = t;
+    row[c++] = operator_active ? 1.0 : 0.0;
+    for (const Driven& j : driven) {
+      put_columns(row, c, DrivenAngleColumns{.person_elbow_deg = rad_to_deg(j.truth[k]), .goniometer_deg = rad_to_deg(j.goniometer),
+                                             .filtered_elbow_deg = rad_to_deg(j.d.value), .filtered_rate_degps = rad_to_deg(j.d.rate),
+                                             .filtered_accel_degps2 = rad_to_deg(j.d.acceleration), .tau_elbow_cmd_Nm = j.tau_cmd,
+                                             .plant_elbow_deg = tr ? rad_to_deg(j.exo[k]) : nan,
+                                             .elbow_encoder_deg = rad_to_deg(state.joints[j.io].angle_rad)});
+    }
+    for (std::size_t h = 0; h < held.size(); ++h) {
+      put_columns(row, c, HeldColumns{.plant_deg = rad_to_deg(held_q[h][k]), .tau_gravity_Nm = controller.diagnostics()[held[h]].torque_gravity_Nm});
+    }
+    for (const Driven& j : driven) {
+      const io::JointSensors& s = state.joints[j.io];
+      const io::JointCommand& cmd = sent.joints[j.io];
+      put_columns(row, c, DrivenActuatorColumns{.tau_motor_cmd_Nm = cmd.motor_torque_Nm, .agonist_pressure_cmd_MPa = cmd.agonist_pressure_Pa * 1e-6,
+                                                .antagonist_pressure_cmd_MPa = cmd.antagonist_pressure_Pa * 1e-6,
+                                                .agonist_loadcell_N = s.agonist_loadcell_N, .antagonist_loadcell_N = s.antagonist_loadcell_N,
+                                                .plant_agonist_force_N = tr ? tr->actuators[j.io].muscle_force_N[0] : nan,
+                                                .plant_antagonist_force_N = tr ? tr->actuators[j.io].muscle_force_N[1] : nan});
+    }
+    row[c++] = tension_min_N;
+  }
+};
+
+/// One driven joint's tracking from cycle k0 (the release) to `done`: the raw error, the lag that
+/// best aligns the exoskeleton with the person, and its side's held joints' excursion.
+GoniometerJointResult joint_tracking(const GoniometerRun& run, const Driven& j, std::size_t k0, std::size_t done) {
+  const double period = run.scenario.period_s;
+  const auto max_lag = static_cast<std::size_t>(std::llround(run.g.max_delay_s / period));
+  GoniometerJointResult jr = j.r;
+  jr.min_wire_tension_N = run.envelope.joints[j.io].min_tension_N;
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0.0;
+  for (std::size_t k = k0; k <= done; ++k) {
+    const double e = j.exo[k] - j.truth[k];
+    sum += e * e;
+    jr.max_error_deg = std::max(jr.max_error_deg, models::rad_to_deg(std::abs(e)));
+    lo = std::min(lo, j.truth[k]);
+    hi = std::max(hi, j.truth[k]);
+    for (std::size_t h = 0; h < run.held.size(); ++h) {  // the held joints of its own side
+      if (side_of(arm_joint_names(run.scenario)[run.held[h]]) != side_of(jr.joint)) continue;
+      jr.held_excursion_deg = std::max(jr.held_excursion_deg, models::rad_to_deg(std::abs(run.held_q[h][k] - run.held_q[h][k0])));
+    }
+  }
+  jr.rms_error_deg = models::rad_to_deg(std::sqrt(sum / static_cast<double>(done - k0 + 1)));
+  jr.range_deg = models::rad_to_deg(hi - lo);
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t lag = 0; lag <= max_lag && k0 + lag < done; ++lag) {
+    double s2 = 0.0;
+    for (std::size_t k = k0 + lag; k <= done; ++k) {
+      const double e = j.exo[k] - j.truth[k - lag];
+      s2 += e * e;
+    }
+    const double rms = std::sqrt(s2 / static_cast<double>(done - k0 - lag + 1));
+    if (rms < best) {
+      best = rms;
+      jr.delay_s = static_cast<double>(lag) * period;
+    }
+  }
+  jr.rms_error_aligned_deg = models::rad_to_deg(best);
+  return jr;
+}
+
+/// E4's figures and verdict from a run's buffers, `done` its last cycle.
+GoniometerResult analyse_goniometer(const GoniometerRun& run, const std::string& name, GoniometerVariant variant, std::size_t done,
+                                    const safety::FaultMonitor& monitor) {
+  const ArmScenario& scenario = run.scenario;
+  GoniometerResult r;
+  r.name = name;
+  r.variant = variant;
+  r.filter_delay_s = run.driven.front().derivative.group_delay_s(0.0);
+  r.peak_motor_torque_Nm = run.peak_motor_torque_Nm;
+  r.peak_muscle_force_N = run.envelope.peak_muscle_force_N();
+  r.min_wire_tension_N = run.envelope.min_tension_N();
+  add_arm_envelope_checks(scenario, run.joints, run.envelope, r.verdict);
+  // Tracking from the release to the end.
+  const auto k0 = std::min(static_cast<std::size_t>(std::llround((run.g.settle_s - 1.0) / scenario.period_s)), done);
+  for (const Driven& j : run.driven) {
+    const GoniometerJointResult jr = joint_tracking(run, j, k0, done);
     r.verdict.at_most(jr.joint + " tracking RMS error", "deg", jr.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
     r.verdict.at_most(jr.joint + " tracking max error", "deg", jr.max_error_deg, scenario.verdict.max_tracking_error_deg);
     r.joints.push_back(jr);
   }
-  safety::add_supervisor_check(limited.monitor(), r.verdict);
+  safety::add_supervisor_check(monitor, r.verdict);
   r.within_limits = r.verdict.passed();
+  return r;
+}
+
+}  // namespace
+
+GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
+                                   io::Backend& backend, const sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
+                                   const std::vector<GoniometerSource>& persons, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  if (readings.size() != g.joints.size() || (!persons.empty() && persons.size() != g.joints.size())) {
+    throw std::invalid_argument(fmt::format("run_goniometer_on: {} readings and {} persons for {} driven joints", readings.size(),
+                                            persons.size(), g.joints.size()));
+  }
+  const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
+  GoniometerRun run(scenario, variant, steps, readings, persons, sim);
+  safety::LimitedBackend limited(backend, scenario.limits, run.joints);
+  io::SensorState state;
+  io::Command command;
+  const auto wall_start = std::chrono::steady_clock::now();
+  const std::size_t done = runtime::run_cycles(
+      limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command,
+      [&](std::size_t k) { run.step(state, command, k); }, [&](std::size_t k) { run.hold(k); },
+      [&](std::size_t k, const io::Command& sent, std::uint32_t) { run.observe(k, state, sent, log); });
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  GoniometerResult r = analyse_goniometer(run, name, variant, done, limited.monitor());
+  r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   return r;
 }
 

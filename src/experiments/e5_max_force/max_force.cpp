@@ -1,4 +1,5 @@
 #include "peha/experiments/e5_max_force/max_force.hpp"
+#include "peha/experiments/common/log_row.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
@@ -109,46 +110,55 @@ E5Result run_e5_case(const E5Scenario& scenario, const E5Case& c, runtime::RowSi
   return run_e5_on(scenario, c, *plant, plant.get(), log);
 }
 
-E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
-                   runtime::RowSink* log, const runtime::CycleHooks& hooks) {
-  const models::JointModel& jm = scenario.joint;
-  const safety::JointModels joints{&jm};
-  safety::LimitedBackend limited(backend, scenario.limits, joints);
-  safety::Envelope envelope;
-  const double nan = std::numeric_limits<double>::quiet_NaN();
-  const int side = scenario.ramp.muscle;  // 0 agonist, 1 antagonist
-  const models::MuscleModel& ramped = side == 0 ? jm.agonist : jm.antagonist;
+namespace {
 
-  E5Result r;
-  r.case_name = c.name;
-  r.muscle = side == 0 ? "agonist" : "antagonist";
-  r.locked_angle_deg = models::rad_to_deg(c.locked_angle_rad);
-  r.limit_N = models::force_ceiling_N(ramped);
-  r.from_truth = sim != nullptr;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-  const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
-  std::vector<double> force(steps + 1, nan), pressure(steps + 1, nan), sent_pressure(steps + 1, nan);
-  std::vector<E5Stop> cap(steps + 1, E5Stop::kNone);
-  io::SensorState state;
-  io::Command command;
-  double requested_Pa = 0;
-  std::array<double, 15> row{};
-  const auto wall_start = std::chrono::steady_clock::now();
+/// E5's log row: e5_log_columns, the same names in order.
+struct E5LogRow {
+  double t_s, angle_rad, ramp_pressure_cmd_MPa, agonist_pressure_cmd_MPa, antagonist_pressure_cmd_MPa, agonist_pressure_MPa,
+      antagonist_pressure_MPa, agonist_loadcell_N, antagonist_loadcell_N, ceiling_pressure_MPa, force_limit_N, stop,
+      plant_agonist_force_N, plant_antagonist_force_N, limit_flags;
+};
+
+/// One E5 case: its per-cycle step (the ramp), its per-cycle observation (what capped the ramp, the
+/// envelope, the log row) and the per-cycle buffers analyse_e5 reads, sized before the loop: step,
+/// hold and observe allocate nothing. `r` gathers the running figures (peaks, missed samples).
+struct E5Run {
+  E5Run(const E5Scenario& scenario, const E5Case& c, const sim::OneDofRigBackend* sim, std::size_t steps)
+      : scenario(scenario),
+        c(c),
+        sim(sim),
+        jm(scenario.joint),
+        side(scenario.ramp.muscle),
+        ramped(side == 0 ? jm.agonist : jm.antagonist),
+        force(steps + 1, kNaN),
+        pressure(steps + 1, kNaN),
+        sent_pressure(steps + 1, kNaN),
+        cap(steps + 1, E5Stop::kNone) {
+    r.case_name = c.name;
+    r.muscle = side == 0 ? "agonist" : "antagonist";
+    r.locked_angle_deg = models::rad_to_deg(c.locked_angle_rad);
+    r.limit_N = models::force_ceiling_N(ramped);
+    r.from_truth = sim != nullptr;
+  }
 
   // The test's input, as the paper's: the ramped muscle's pressure rises without end, the other
   // muscle is held at a constant pressure (its wire taut), the motor is off.
-  auto step = [&](std::size_t) {
-    const double t = state.time_s;
-    requested_Pa = scenario.ramp.start_pressure_Pa + scenario.ramp.rate_Pa_per_s * std::max(0.0, t - scenario.ramp.start_s);
+  void step(const io::SensorState& state, io::Command& command) noexcept {
+    requested_Pa = scenario.ramp.start_pressure_Pa + scenario.ramp.rate_Pa_per_s * std::max(0.0, state.time_s - scenario.ramp.start_s);
     const double other_Pa = scenario.ramp.other_pressure_Pa;
     command.joint_count = 1;
     io::JointCommand& cmd = command.joints[0];
     cmd.agonist_pressure_Pa = side == 0 ? requested_Pa : other_Pa;
     cmd.antagonist_pressure_Pa = side == 0 ? other_Pa : requested_Pa;
     cmd.motor_torque_Nm = 0.0;
-  };
-  auto hold = [&](std::size_t) { ++r.missed_samples; };
-  auto observe = [&](std::size_t k, const io::Command& sent, std::uint32_t flags) {
+  }
+
+  void hold() noexcept { ++r.missed_samples; }
+
+  void observe(std::size_t k, const io::SensorState& state, const io::Command& sent, std::uint32_t flags, bool outputs_active,
+               runtime::RowSink* log) {
     const io::JointSensors& s = state.joints[0];
     const io::JointCommand& out = sent.joints[0];
     const sim::OneDofRigTruth* t = sim ? &sim->sampled_truth() : nullptr;
@@ -158,20 +168,7 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
     r.max_clamp_deflection_deg = std::max(r.max_clamp_deflection_deg, models::rad_to_deg(std::abs(s.angle_rad - c.locked_angle_rad)));
     const double eps = models::rigid_contraction(ramped, jm.pulley_radius_m, side == 0 ? +1 : -1, s.angle_rad);
     const safety::PressureBand band = safety::pressure_band(ramped, jm, eps);
-    // What capped the ramp this cycle (the supervisor shapes before the limits, the gate after).
-    E5Stop why = E5Stop::kNone;
-    if (!limited.status().active) {
-      why = E5Stop::kSupervisor;
-    } else if (sent_pressure[k] < requested_Pa - 1.0) {
-      if ((flags & safety::kPressureLimited) && sent_pressure[k] >= band.ceiling_Pa - 1.0) {
-        why = band.ceiling_is_supply ? E5Stop::kSupply : E5Stop::kForceCeiling;
-      } else if (flags & safety::kRateLimited) {
-        why = E5Stop::kRateLimit;
-      } else {
-        why = E5Stop::kSupervisor;  // changed before the limits: the supervisor's ramp
-      }
-    }
-    cap[k] = why;
+    cap[k] = stop_of(sent_pressure[k], flags, band, outputs_active);
     safety::JointSample j;
     if (t) {
       j = {{t->muscle_force_N[0], t->muscle_force_N[1]}, std::min(t->pulley_tension_min_N[0], t->pulley_tension_min_N[1]),
@@ -183,25 +180,49 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
     }
     envelope.observe(0, j);
     if (log) {
-      row = {state.time_s, s.angle_rad, requested_Pa * 1e-6, out.agonist_pressure_Pa * 1e-6, out.antagonist_pressure_Pa * 1e-6,
-             s.agonist_pressure_Pa * 1e-6, s.antagonist_pressure_Pa * 1e-6, s.agonist_loadcell_N, s.antagonist_loadcell_N,
-             band.ceiling_Pa * 1e-6, r.limit_N, static_cast<double>(why), t ? t->muscle_force_N[0] : nan,
-             t ? t->muscle_force_N[1] : nan, static_cast<double>(flags)};
-      log->push_row(row);
+      const E5LogRow row{.t_s = state.time_s, .angle_rad = s.angle_rad, .ramp_pressure_cmd_MPa = requested_Pa * 1e-6,
+                         .agonist_pressure_cmd_MPa = out.agonist_pressure_Pa * 1e-6, .antagonist_pressure_cmd_MPa = out.antagonist_pressure_Pa * 1e-6,
+                         .agonist_pressure_MPa = s.agonist_pressure_Pa * 1e-6, .antagonist_pressure_MPa = s.antagonist_pressure_Pa * 1e-6,
+                         .agonist_loadcell_N = s.agonist_loadcell_N, .antagonist_loadcell_N = s.antagonist_loadcell_N,
+                         .ceiling_pressure_MPa = band.ceiling_Pa * 1e-6, .force_limit_N = r.limit_N, .stop = static_cast<double>(cap[k]),
+                         .plant_agonist_force_N = t ? t->muscle_force_N[0] : kNaN, .plant_antagonist_force_N = t ? t->muscle_force_N[1] : kNaN,
+                         .limit_flags = static_cast<double>(flags)};
+      log->push_row(as_columns(row));
     }
-  };
-  const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
-  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
-  r.simulated_s = static_cast<double>(done) * scenario.period_s;
-  r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
-  std::copy(std::begin(limited.data().counts), std::end(limited.data().counts), std::begin(r.limit_counts));
-  if (!r.from_truth) r.peak_truth_force_N = nan;
+  }
 
-  // The figures, from the load cell. The limit is reached when the limits first cap the ramp; the
-  // force then holds at its final value (mean of the last second); it is "at the limit" from the
-  // first cycle after which it stays within at_limit_band_N of that value to the end.
-  const safety::VerdictThresholds& th = scenario.verdict;
-  const auto span = std::min(done, static_cast<std::size_t>(std::llround(1.0 / scenario.period_s)));
+  /// What capped the ramp this cycle (the supervisor shapes before the limits, the gate after).
+  E5Stop stop_of(double sent_Pa, std::uint32_t flags, const safety::PressureBand& band, bool outputs_active) const noexcept {
+    if (!outputs_active) return E5Stop::kSupervisor;
+    if (!(sent_Pa < requested_Pa - 1.0)) return E5Stop::kNone;  // (a NaN too)
+    if ((flags & safety::kPressureLimited) && sent_Pa >= band.ceiling_Pa - 1.0) {
+      return band.ceiling_is_supply ? E5Stop::kSupply : E5Stop::kForceCeiling;
+    }
+    if (flags & safety::kRateLimited) return E5Stop::kRateLimit;
+    return E5Stop::kSupervisor;  // changed before the limits: the supervisor's ramp
+  }
+
+  const E5Scenario& scenario;
+  const E5Case& c;
+  const sim::OneDofRigBackend* sim;
+  const models::JointModel& jm;
+  const int side;  ///< the ramped muscle: 0 agonist, 1 antagonist
+  const models::MuscleModel& ramped;
+  std::vector<double> force, pressure, sent_pressure;  ///< the ramped muscle's per cycle: load cell N, pressure Pa, sent Pa
+  std::vector<E5Stop> cap;                             ///< what capped the ramp, per cycle
+  double requested_Pa = 0;                             ///< the ramp's pressure this cycle
+  safety::Envelope envelope;
+  E5Result r;
+};
+
+/// The held force's figures from the load cell, `done` the last cycle. The limit is reached when the
+/// limits first cap the ramp; the force then holds at its final value (mean of the last second); it
+/// is "at the limit" from the first cycle after which it stays within at_limit_band_N of that value
+/// to the end.
+void held_force_figures(const E5Run& run, std::size_t done, E5Result& r) {
+  const double nan = kNaN, period_s = run.scenario.period_s;
+  const std::vector<double>& force = run.force;
+  const auto span = std::min(done, static_cast<std::size_t>(std::llround(1.0 / period_s)));
   double held_sum = 0;
   std::size_t held_n = 0;
   for (std::size_t k = done - span; k <= done; ++k) {
@@ -211,11 +232,11 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
   std::size_t reach = done + 1, hold_from = done + 1;
   for (std::size_t k = 0; k <= done; ++k) {
     if (!std::isnan(force[k])) r.peak_force_N = std::max(r.peak_force_N, force[k]);
-    if (reach > done && cap[k] != E5Stop::kNone) reach = k;
+    if (reach > done && run.cap[k] != E5Stop::kNone) reach = k;
   }
   for (std::size_t k = done + 1; k-- > 0;) {  // back from the end while the force holds
     if (std::isnan(force[k])) continue;
-    if (std::abs(force[k] - r.held_force_N) > th.at_limit_band_N) break;
+    if (std::abs(force[k] - r.held_force_N) > run.scenario.verdict.at_limit_band_N) break;
     hold_from = k;
   }
   std::size_t count = 0;
@@ -223,21 +244,29 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
   for (std::size_t k = hold_from; k <= done; ++k) {
     if (std::isnan(force[k])) continue;
     ++count;
-    p_sum += pressure[k];
-    cmd_sum += sent_pressure[k];
-    ++r.stop_counts[static_cast<int>(cap[k])];
+    p_sum += run.pressure[k];
+    cmd_sum += run.sent_pressure[k];
+    ++r.stop_counts[static_cast<int>(run.cap[k])];
   }
   r.overshoot_N = std::max(0.0, r.peak_force_N - r.limit_N);
   r.overshoot_pct = 100.0 * r.overshoot_N / r.limit_N;
   r.shortfall_N = r.limit_N - r.held_force_N;
-  r.reach_s = reach <= done ? static_cast<double>(reach) * scenario.period_s : nan;
-  r.settle_s = reach <= done ? static_cast<double>(std::max(hold_from, reach) - reach) * scenario.period_s : nan;
-  r.time_at_limit_s = reach <= done ? static_cast<double>(done - std::max(hold_from, reach)) * scenario.period_s : 0.0;
+  r.reach_s = reach <= done ? static_cast<double>(reach) * period_s : nan;
+  r.settle_s = reach <= done ? static_cast<double>(std::max(hold_from, reach) - reach) * period_s : nan;
+  r.time_at_limit_s = reach <= done ? static_cast<double>(done - std::max(hold_from, reach)) * period_s : 0.0;
   r.pressure_at_limit_MPa = count ? p_sum / static_cast<double>(count) * 1e-6 : nan;
   r.pressure_cmd_at_limit_MPa = count ? cmd_sum / static_cast<double>(count) * 1e-6 : nan;
   r.ceiling_share_pct = count ? 100.0 * static_cast<double>(r.stop_counts[static_cast<int>(E5Stop::kForceCeiling)]) / count : 0.0;
   r.stop = static_cast<E5Stop>(std::max_element(std::begin(r.stop_counts), std::end(r.stop_counts)) - std::begin(r.stop_counts));
+}
 
+/// E5's figures and verdict from a case's buffers, `done` its last cycle.
+E5Result analyse_e5(const E5Run& run, std::size_t done, const safety::LimitedBackend& limited) {
+  E5Result r = run.r;
+  std::copy(std::begin(limited.data().counts), std::end(limited.data().counts), std::begin(r.limit_counts));
+  if (!r.from_truth) r.peak_truth_force_N = kNaN;
+  held_force_figures(run, done, r);
+  const safety::VerdictThresholds& th = run.scenario.verdict;
   r.verdict.thresholds = th;
   const std::string m = r.muscle;
   r.verdict.at_most(m + " held force short of the ceiling", "N", r.shortfall_N, th.max_force_shortfall_N);
@@ -245,9 +274,32 @@ E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& bac
   r.verdict.at_most(m + " time from reaching the limit to holding", "s", r.settle_s, th.max_settle_s);
   r.verdict.at_least(m + " time at the limit", "s", r.time_at_limit_s, th.min_time_at_limit_s);
   r.verdict.at_least(m + " held cycles capped by the force ceiling", "%", r.ceiling_share_pct, th.min_ceiling_share_pct);
-  safety::add_envelope_checks(scenario.limits, joints, sim::one_dof_rig_joint_names(), envelope, th, r.verdict);
+  const safety::JointModels joints{&run.jm};
+  safety::add_envelope_checks(run.scenario.limits, joints, sim::one_dof_rig_joint_names(), run.envelope, th, r.verdict);
   safety::add_supervisor_check(limited.monitor(), r.verdict);
   r.passed = r.verdict.passed();
+  return r;
+}
+
+}  // namespace
+
+E5Result run_e5_on(const E5Scenario& scenario, const E5Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
+                   runtime::RowSink* log, const runtime::CycleHooks& hooks) {
+  const safety::JointModels joints{&scenario.joint};
+  safety::LimitedBackend limited(backend, scenario.limits, joints);
+  const auto steps = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s));
+  E5Run run(scenario, c, sim, steps);
+  io::SensorState state;
+  io::Command command;
+  const auto wall_start = std::chrono::steady_clock::now();
+  const std::size_t done = runtime::run_cycles(
+      limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, [&](std::size_t) { run.step(state, command); },
+      [&](std::size_t) { run.hold(); },
+      [&](std::size_t k, const io::Command& sent, std::uint32_t flags) { run.observe(k, state, sent, flags, limited.status().active, log); });
+  const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
+  E5Result r = analyse_e5(run, done, limited);
+  r.simulated_s = static_cast<double>(done) * scenario.period_s;
+  r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   return r;
 }
 

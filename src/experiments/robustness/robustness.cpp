@@ -353,41 +353,82 @@ sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVa
   return p;
 }
 
-RobustnessResult run_robustness(const RobustnessConfig& config,
-                                const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
+namespace {
+
+/// The scenarios the modes run: E1's with its selected cases, and the arm's (each read only when a
+/// mode runs it).
+struct RobustnessScenarios {
   E1Scenario e1;
   ArmScenario arm;
-  const bool any_e1 = any_e1_mode(config.modes);
-  const bool any_e3 = any_e3_mode(config.modes);
-  std::vector<std::size_t> cases;
-  if (any_e1) {
-    e1 = read_e1(config::Document::load_file(config.e1_config));
-    if (config.e1_duration_s > 0) e1.duration_s = config.e1_duration_s;
-    for (std::size_t i = 0; i < e1.cases.size(); ++i) {
-      if (config.e1_cases.empty() || std::find(config.e1_cases.begin(), config.e1_cases.end(), e1.cases[i].name) != config.e1_cases.end()) {
-        cases.push_back(i);
+  std::vector<std::size_t> cases;  ///< E1's cases the matrix runs, by index
+};
+
+RobustnessScenarios read_scenarios(const RobustnessConfig& config) {
+  RobustnessScenarios s;
+  if (any_e1_mode(config.modes)) {
+    s.e1 = read_e1(config::Document::load_file(config.e1_config));
+    if (config.e1_duration_s > 0) s.e1.duration_s = config.e1_duration_s;
+    for (std::size_t i = 0; i < s.e1.cases.size(); ++i) {
+      if (config.e1_cases.empty() || std::find(config.e1_cases.begin(), config.e1_cases.end(), s.e1.cases[i].name) != config.e1_cases.end()) {
+        s.cases.push_back(i);
       }
     }
-    if (cases.empty()) throw config::Error(fmt::format("{}: none of e1_cases is a case of the E1 scenario", config.e1_config.string()));
+    if (s.cases.empty()) throw config::Error(fmt::format("{}: none of e1_cases is a case of the E1 scenario", config.e1_config.string()));
   }
-  if (any_e3) arm = read_arm_scenario(config::Document::load_file(config.arm_config));
+  if (any_e3_mode(config.modes)) s.arm = read_arm_scenario(config::Document::load_file(config.arm_config));
+  return s;
+}
 
+/// Every mode x variant x seed, the calibrated jobs first: they take longest (two recordings and two
+/// fits each).
+std::vector<Job> robustness_jobs(const RobustnessConfig& config) {
   std::vector<Job> jobs;
   for (RobustnessMode mode : config.modes) {
     for (const PlantVariant& v : config.variants) {
       for (std::uint64_t seed : config.seeds) jobs.push_back({mode, &v, seed});
     }
   }
-  // The calibrated jobs first: they take longest (two recordings and two fits each).
   std::stable_sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) {
     return (a.mode == RobustnessMode::kE1CalibratedFF) > (b.mode == RobustnessMode::kE1CalibratedFF);
   });
-  const std::size_t total = [&] {
-    std::size_t n = 0;
-    for (const Job& j : jobs) n += is_e3(j.mode) ? 1 : cases.size();
-    return n;
-  }();
-  RobustnessResult result;
+  return jobs;
+}
+
+/// A job's rows named (variant, mode, seed) and judged against its mode's goal, with physics' reason
+/// where no controller without position feedback can meet it; `seconds` the job's wall time.
+void judge_rows(const RobustnessConfig& config, const Job& job, double seconds, std::vector<RobustnessRow>& rows) {
+  const RobustnessGoal& g = goal_of(config, job.mode);
+  for (RobustnessRow& row : rows) {
+    row.variant = job.variant->name;
+    row.mode = to_string(job.mode);
+    row.seed = job.seed;
+    // A gravity the controller cannot know: the variant's unknown payload or mass. Its own model's
+    // error (E3's arm model) is not physics: identification on the rig removes it, so it counts.
+    // After an identification on the variant, only the payload picked up afterwards is unknown.
+    const bool untold_gravity = job.mode == RobustnessMode::kE3Identified ? job.variant->extra_payload_kg != 0
+                                                                           : job.variant->changes_gravity();
+    if (untold_gravity) {
+      row.physics_reason =
+          "plant gravity the controller is not told: without position feedback a target error below the mismatch is out of reach";
+    } else if (job.variant->removes_friction()) {
+      row.physics_reason =
+          "no cable friction: without position feedback any error of the gravity model moves the joint (a neutral equilibrium)";
+    }
+    row.physics_forbids = !row.physics_reason.empty();
+    row.seconds = seconds / static_cast<double>(rows.size());
+    const bool error_ok = row.static_error_pct <= g.max_static_error_pct;
+    row.goal = error_ok && row.tension_fraction >= g.min_tension_fraction;
+  }
+}
+
+using RobustnessProgress = std::function<void(std::size_t, std::size_t, const std::string&)>;
+
+/// Runs the jobs on config.threads threads, job i's rows into element i, each row reported to
+/// `progress` as it is done. A job's exception stops the others and is rethrown.
+std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config, const RobustnessScenarios& scenarios,
+                                                 const std::vector<Job>& jobs, const RobustnessProgress& progress) {
+  std::size_t total = 0;
+  for (const Job& j : jobs) total += is_e3(j.mode) ? 1 : scenarios.cases.size();
   std::vector<std::vector<RobustnessRow>> rows_of(jobs.size());
   std::atomic<std::size_t> next{0}, done{0};
   std::mutex report;
@@ -399,9 +440,9 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
       std::vector<RobustnessRow> rows;
       try {
         if (is_e3(job.mode)) {
-          rows.push_back(run_e3_job(arm, job));
+          rows.push_back(run_e3_job(scenarios.arm, job));
         } else {
-          rows = run_e1_job(e1, job, cases, config);
+          rows = run_e1_job(scenarios.e1, job, scenarios.cases, config);
         }
       } catch (...) {
         const std::lock_guard lock(report);
@@ -409,29 +450,7 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
         next = jobs.size();
         return;
       }
-      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-      const RobustnessGoal& g = goal_of(config, job.mode);
-      for (RobustnessRow& row : rows) {
-        row.variant = job.variant->name;
-        row.mode = to_string(job.mode);
-        row.seed = job.seed;
-        // A gravity the controller cannot know: the variant's unknown payload or mass. Its own model's
-        // error (E3's arm model) is not physics: identification on the rig removes it, so it counts.
-        // After an identification on the variant, only the payload picked up afterwards is unknown.
-        const bool untold_gravity = job.mode == RobustnessMode::kE3Identified ? job.variant->extra_payload_kg != 0
-                                                                               : job.variant->changes_gravity();
-        if (untold_gravity) {
-          row.physics_reason =
-              "plant gravity the controller is not told: without position feedback a target error below the mismatch is out of reach";
-        } else if (job.variant->removes_friction()) {
-          row.physics_reason =
-              "no cable friction: without position feedback any error of the gravity model moves the joint (a neutral equilibrium)";
-        }
-        row.physics_forbids = !row.physics_reason.empty();
-        row.seconds = seconds / static_cast<double>(rows.size());
-        const bool error_ok = row.static_error_pct <= g.max_static_error_pct;
-        row.goal = error_ok && row.tension_fraction >= g.min_tension_fraction;
-      }
+      judge_rows(config, job, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), rows);
       const std::lock_guard lock(report);
       for (const RobustnessRow& row : rows) {
         const std::size_t n = ++done;
@@ -451,7 +470,34 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
   worker();
   for (auto& t : threads) t.join();
   if (error) std::rethrow_exception(error);
+  return rows_of;
+}
+
+/// Per mode, how many of its rows met the goal, and how many of those that missed it physics forbids.
+std::vector<RobustnessResult::Share> goal_shares(const RobustnessConfig& config, const std::vector<RobustnessRow>& rows) {
+  std::vector<RobustnessResult::Share> shares;
+  for (RobustnessMode mode : config.modes) {
+    RobustnessResult::Share s{to_string(mode), 0, 0, 0, goal_of(config, mode).min_share};
+    for (const RobustnessRow& r : rows) {
+      if (r.mode != s.mode) continue;
+      ++s.total;
+      s.met += r.goal;
+      s.forbidden += r.physics_forbids && !r.goal;
+    }
+    shares.push_back(s);
+  }
+  return shares;
+}
+
+}  // namespace
+
+RobustnessResult run_robustness(const RobustnessConfig& config,
+                                const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
+  const RobustnessScenarios scenarios = read_scenarios(config);
+  const std::vector<Job> jobs = robustness_jobs(config);
+  std::vector<std::vector<RobustnessRow>> rows_of = run_jobs(config, scenarios, jobs, progress);
   // The table in the configuration's order: mode, variant, seed, case.
+  RobustnessResult result;
   for (RobustnessMode mode : config.modes) {
     for (const PlantVariant& v : config.variants) {
       for (std::uint64_t seed : config.seeds) {
@@ -463,17 +509,7 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
       }
     }
   }
-
-  for (RobustnessMode mode : config.modes) {
-    RobustnessResult::Share s{to_string(mode), 0, 0, 0, goal_of(config, mode).min_share};
-    for (const RobustnessRow& r : result.rows) {
-      if (r.mode != s.mode) continue;
-      ++s.total;
-      s.met += r.goal;
-      s.forbidden += r.physics_forbids && !r.goal;
-    }
-    result.shares.push_back(s);
-  }
+  result.shares = goal_shares(config, result.rows);
   return result;
 }
 
