@@ -2,7 +2,10 @@
 // its own process: the paper's calibration (record both muscles on the board, calibrate, run E1 with
 // the calibration on the board) and the arm's gravity identification (identify on the board, run E3
 // with it on the board), each against the same chain in process. The excitations and the
-// identification's postures are shortened (the shipped ones take 85-135 s of real time each).
+// identification's postures are shortened (the shipped ones take 85-135 s of real time each). They
+// run beside the unit tests, not serially as the *_e2e timing tests: what they judge (figures of
+// the chain against the process's, with the tests' 250 ms watchdogs) does not hang on the machine's
+// timing, and serially they took 2 of make test's minutes.
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 #include "peha/experiments/e1_gravity/e1_report.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
