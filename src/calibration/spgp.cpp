@@ -585,6 +585,180 @@ struct GradientArgs {
   const double* L_inv_diag;
 };
 
+/// The P blocks of one gradient_group, which its steps below share. Vector t of a row (t < kG) is
+/// vector t % kT of block blk0 + t / kT.
+template <class V, int P>
+struct GradientGroup {
+  static constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
+  const double *x[P], *K[P], *Vb[P];
+  double* Wb[P];  ///< t = L_B^-1 u, then r = B^-1 u, then G'
+  std::size_t at0[P];
+  /// Offset of vector t in row i of an M x kBlock block.
+  static constexpr int off(int i, int t) { return i * kBlock + (t % kT) * kW; }
+  /// Index of vector t's first sample in the per-sample arrays of FitcBlocks.
+  std::size_t at(int t) const { return at0[t / kT] + static_cast<std::size_t>(t % kT) * kW; }
+};
+
+/// The blocks' rows in `fb` and their scratch in W (P M kBlock doubles).
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_group_blocks(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index blk0,
+                                                         double* W, GradientGroup<V, P>& g) noexcept {
+  const std::size_t per_block = static_cast<std::size_t>(a.M) * kBlock;
+  for (int p = 0; p < P; ++p) {
+    const auto ub = static_cast<std::size_t>(blk0 + p);
+    g.x[p] = fb.X.data() + ub * static_cast<std::size_t>(a.D) * kBlock;
+    g.K[p] = fb.K.data() + ub * per_block;
+    g.Vb[p] = fb.V.data() + ub * per_block;
+    g.Wb[p] = W + static_cast<std::size_t>(p) * per_block;
+    g.at0[p] = ub * kBlock;
+  }
+}
+
+/// Lambda, Lambda^-1/2 and a = (y - V^T gamma) / Lambda.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_a(const GradientArgs& a, const FitcBlocks& fb, const GradientGroup<V, P>& g,
+                                              V* lambda, V* inv_sqrt, V* av) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  V dot[kG];
+  for (int t = 0; t < kG; ++t) {
+    lambda[t] = vload<V>(fb.lambda.data() + g.at(t));
+    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
+    dot[t] = vsplat<V>(0.0);
+  }
+  for (int i = 0; i < M; ++i) {
+    const double gi = a.gamma[i];
+    for (int t = 0; t < kG; ++t) dot[t] += vload<V>(g.Vb[t / kT] + g.off(i, t)) * gi;
+  }
+  for (int t = 0; t < kG; ++t) av[t] = (vload<V>(fb.y.data() + g.at(t)) - dot[t]) / lambda[t];
+}
+
+/// Row i of a substitution in place in W: acc -= l_j W_j for j in [j0, j1), then W_i = acc / L(i, i)
+/// (inv_diag[i] = 1 / L(i, i)).
+template <class V, int P>
+[[gnu::always_inline]] inline void substitute_row(const GradientGroup<V, P>& g, const double* l, int j0, int j1, int i,
+                                                  const double* inv_diag, V* acc) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  for (int j = j0; j < j1; ++j) {
+    const double lj = l[j];  // scalar times vector: one broadcast, also in the AVX-512 build
+    for (int t = 0; t < kG; ++t) acc[t] -= lj * vload<V>(g.Wb[t / kT] + g.off(j, t));
+  }
+  const double inv = inv_diag[i];
+  for (int t = 0; t < kG; ++t) vstore(g.Wb[t / kT] + g.off(i, t), acc[t] * inv);
+}
+
+/// Adds V a to sums.Va; t = L_B^-1 u into W by forward substitution (u = V Lambda^-1/2).
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_va_and_t(const GradientArgs& a, const GradientGroup<V, P>& g, const V* av,
+                                                     const V* inv_sqrt, GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  for (int i = 0; i < M; ++i) {
+    V va[kG];
+    for (int t = 0; t < kG; ++t) va[t] = av[t] * vload<V>(g.Vb[t / kT] + g.off(i, t));
+    for (int p = 0; p < P; ++p) accumulate(sums.Va.data() + i * kLanes, seq4(va + p * kT));
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(g.Vb[t / kT] + g.off(i, t)) * inv_sqrt[t];
+    substitute_row(g, a.LB_rows + static_cast<std::size_t>(i) * M, 0, i, i, a.LB_inv_diag, acc);
+  }
+}
+
+/// w = diag(C^-1) - a^2 with diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n
+/// (0 in the padding); adds it to sums.w_sum.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_w(const GradientArgs& a, const FitcBlocks& fb, const GradientGroup<V, P>& g,
+                                              const V* lambda, const V* av, V* w, GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  V tt[kG];
+  for (int t = 0; t < kG; ++t) tt[t] = vsplat<V>(0.0);
+  for (int i = 0; i < M; ++i) {
+    for (int t = 0; t < kG; ++t) {
+      const V v = vload<V>(g.Wb[t / kT] + g.off(i, t));
+      tt[t] += v * v;
+    }
+  }
+  for (int t = 0; t < kG; ++t) {
+    const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
+    w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + g.at(t));
+  }
+  for (int p = 0; p < P; ++p) accumulate(sums.w_sum.data(), seq4(w + p * kT));
+}
+
+/// r = L_B^-T t, then G' = L^-T (r Lambda^-1/2 - w v), both by back substitution in place in W.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_g_prime(const GradientArgs& a, const GradientGroup<V, P>& g,
+                                                    const V* inv_sqrt, const V* w) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  for (int i = M - 1; i >= 0; --i) {
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(g.Wb[t / kT] + g.off(i, t));
+    substitute_row(g, a.LB_cols + static_cast<std::size_t>(i) * M, i + 1, M, i, a.LB_inv_diag, acc);
+  }
+  for (int i = M - 1; i >= 0; --i) {
+    V acc[kG];
+    for (int t = 0; t < kG; ++t)
+      acc[t] = inv_sqrt[t] * vload<V>(g.Wb[t / kT] + g.off(i, t)) - w[t] * vload<V>(g.Vb[t / kT] + g.off(i, t));
+    substitute_row(g, a.L_cols + static_cast<std::size_t>(i) * M, i + 1, M, i, a.L_inv_diag, acc);
+  }
+}
+
+/// Adds V diag(w) V^T (lower) to sums.VwV, block after block.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_vwv(const GradientArgs& a, const GradientGroup<V, P>& g, const V* w,
+                                                GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  for (int i = 0; i < M; ++i) {
+    V wv[kG];
+    for (int t = 0; t < kG; ++t) wv[t] = w[t] * vload<V>(g.Vb[t / kT] + g.off(i, t));
+    double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+    for (int j = 0; j <= i; ++j) {
+      V prod[kG];
+      for (int t = 0; t < kG; ++t) prod[t] = wv[t] * vload<V>(g.Vb[t / kT] + g.off(j, t));
+      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
+    }
+  }
+}
+
+/// Adds the gradient's data terms of pseudo-input m: q = E'(., m) = K(., m) .* G'(m, .) and
+/// r = K(., m) .* a, their sums, and both times (x - p) and (x - p)^2 per input dimension.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_data_terms(const GradientArgs& a, const GradientGroup<V, P>& g, const V* av,
+                                                       int m, GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M, D = a.D;
+  V q[kG], r[kG];
+  for (int t = 0; t < kG; ++t) {
+    const V k = vload<V>(g.K[t / kT] + g.off(m, t));
+    q[t] = k * vload<V>(g.Wb[t / kT] + g.off(m, t));
+    r[t] = k * av[t];
+  }
+  for (int p = 0; p < P; ++p) {
+    accumulate(sums.q_sum.data() + m * kLanes, seq4(q + p * kT));
+    accumulate(sums.r_sum.data() + m * kLanes, seq4(r + p * kT));
+  }
+  for (int d = 0; d < D; ++d) {
+    const double pd = a.pseudo[d * M + m];
+    V tq[kG], tr[kG], tq2[kG], tr2[kG];
+    for (int t = 0; t < kG; ++t) {
+      const V diff = vload<V>(g.x[t / kT] + g.off(d, t)) - pd;
+      tq[t] = q[t] * diff;
+      tr[t] = r[t] * diff;
+      tq2[t] = tq[t] * diff;
+      tr2[t] = tr[t] * diff;
+    }
+    const std::size_t e = (static_cast<std::size_t>(d) * M + m) * kLanes;
+    for (int p = 0; p < P; ++p) {
+      accumulate(sums.q_lin.data() + e, seq4(tq + p * kT));
+      accumulate(sums.r_lin.data() + e, seq4(tr + p * kT));
+      accumulate(sums.q_sq.data() + e, seq4(tq2 + p * kT));
+      accumulate(sums.r_sq.data() + e, seq4(tr2 + p * kT));
+    }
+  }
+}
+
 /// Gradient pass over the P blocks blk0 .. blk0 + P - 1, side by side: per sample a = C^-1 y,
 /// w = diag(C^-1) - a^2 and G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without
 /// its -a_n L^-T V a term, which needs all samples: the caller subtracts it from the sums),
@@ -592,131 +766,17 @@ struct GradientArgs {
 /// P M kBlock doubles.
 template <class V, int P>
 [[gnu::always_inline]] inline void gradient_group(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index blk0,
-                                                  GradientSums& sums, double* W) {
-  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
-  const int M = a.M, D = a.D;
-  const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  const double *x[P], *K[P], *Vb[P];
-  double* Wb[P];  // t = L_B^-1 u, then r = B^-1 u, then G'
-  std::size_t at0[P];
-  for (int p = 0; p < P; ++p) {
-    const auto ub = static_cast<std::size_t>(blk0 + p);
-    x[p] = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
-    K[p] = fb.K.data() + ub * per_block;
-    Vb[p] = fb.V.data() + ub * per_block;
-    Wb[p] = W + static_cast<std::size_t>(p) * per_block;
-    at0[p] = ub * kBlock;
-  }
-  constexpr auto off = [](int i, int t) { return i * kBlock + (t % kT) * kW; };
-  const auto at = [&](int t) { return at0[t / kT] + static_cast<std::size_t>(t % kT) * kW; };
-  V lambda[kG], inv_sqrt[kG], av[kG], w[kG], dot[kG];
-  // a = (y - V^T gamma) / Lambda.
-  for (int t = 0; t < kG; ++t) {
-    lambda[t] = vload<V>(fb.lambda.data() + at(t));
-    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
-    dot[t] = vsplat<V>(0.0);
-  }
-  for (int i = 0; i < M; ++i) {
-    const double g = a.gamma[i];
-    for (int t = 0; t < kG; ++t) dot[t] += vload<V>(Vb[t / kT] + off(i, t)) * g;
-  }
-  for (int t = 0; t < kG; ++t) av[t] = (vload<V>(fb.y.data() + at(t)) - dot[t]) / lambda[t];
-  // V a; t = L_B^-1 u by forward substitution.
-  for (int i = 0; i < M; ++i) {
-    V va[kG];
-    for (int t = 0; t < kG; ++t) va[t] = av[t] * vload<V>(Vb[t / kT] + off(i, t));
-    for (int p = 0; p < P; ++p) accumulate(sums.Va.data() + i * kLanes, seq4(va + p * kT));
-    const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
-    V acc[kG];
-    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Vb[t / kT] + off(i, t)) * inv_sqrt[t];
-    for (int j = 0; j < i; ++j) {
-      const double l = row[j];
-      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
-    }
-    const double inv = a.LB_inv_diag[i];
-    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
-  }
-  // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
-  V tt[kG];
-  for (int t = 0; t < kG; ++t) tt[t] = vsplat<V>(0.0);
-  for (int i = 0; i < M; ++i) {
-    for (int t = 0; t < kG; ++t) {
-      const V v = vload<V>(Wb[t / kT] + off(i, t));
-      tt[t] += v * v;
-    }
-  }
-  for (int t = 0; t < kG; ++t) {
-    const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
-    w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + at(t));
-  }
-  for (int p = 0; p < P; ++p) accumulate(sums.w_sum.data(), seq4(w + p * kT));
-  // r = L_B^-T t (back substitution, in place).
-  for (int i = M - 1; i >= 0; --i) {
-    const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
-    V acc[kG];
-    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Wb[t / kT] + off(i, t));
-    for (int j = i + 1; j < M; ++j) {
-      const double l = col[j];
-      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
-    }
-    const double inv = a.LB_inv_diag[i];
-    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
-  }
-  // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
-  for (int i = M - 1; i >= 0; --i) {
-    const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
-    V acc[kG];
-    for (int t = 0; t < kG; ++t)
-      acc[t] = inv_sqrt[t] * vload<V>(Wb[t / kT] + off(i, t)) - w[t] * vload<V>(Vb[t / kT] + off(i, t));
-    for (int j = i + 1; j < M; ++j) {
-      const double l = col[j];
-      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
-    }
-    const double inv = a.L_inv_diag[i];
-    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
-  }
-  // V diag(w) V^T (lower), block after block.
-  for (int i = 0; i < M; ++i) {
-    V wv[kG];
-    for (int t = 0; t < kG; ++t) wv[t] = w[t] * vload<V>(Vb[t / kT] + off(i, t));
-    double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
-    for (int j = 0; j <= i; ++j) {
-      V prod[kG];
-      for (int t = 0; t < kG; ++t) prod[t] = wv[t] * vload<V>(Vb[t / kT] + off(j, t));
-      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
-    }
-  }
-  // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
-  for (int m = 0; m < M; ++m) {
-    V q[kG], r[kG];
-    for (int t = 0; t < kG; ++t) {
-      const V k = vload<V>(K[t / kT] + off(m, t));
-      q[t] = k * vload<V>(Wb[t / kT] + off(m, t));
-      r[t] = k * av[t];
-    }
-    for (int p = 0; p < P; ++p) {
-      accumulate(sums.q_sum.data() + m * kLanes, seq4(q + p * kT));
-      accumulate(sums.r_sum.data() + m * kLanes, seq4(r + p * kT));
-    }
-    for (int d = 0; d < D; ++d) {
-      const double pd = a.pseudo[d * M + m];
-      V tq[kG], tr[kG], tq2[kG], tr2[kG];
-      for (int t = 0; t < kG; ++t) {
-        const V diff = vload<V>(x[t / kT] + off(d, t)) - pd;
-        tq[t] = q[t] * diff;
-        tr[t] = r[t] * diff;
-        tq2[t] = tq[t] * diff;
-        tr2[t] = tr[t] * diff;
-      }
-      const std::size_t e = (static_cast<std::size_t>(d) * M + m) * kLanes;
-      for (int p = 0; p < P; ++p) {
-        accumulate(sums.q_lin.data() + e, seq4(tq + p * kT));
-        accumulate(sums.r_lin.data() + e, seq4(tr + p * kT));
-        accumulate(sums.q_sq.data() + e, seq4(tq2 + p * kT));
-        accumulate(sums.r_sq.data() + e, seq4(tr2 + p * kT));
-      }
-    }
-  }
+                                                  GradientSums& sums, double* W) noexcept {
+  constexpr int kG = GradientGroup<V, P>::kG;
+  GradientGroup<V, P> g;
+  gradient_group_blocks(a, fb, blk0, W, g);
+  V lambda[kG], inv_sqrt[kG], av[kG], w[kG];
+  gradient_a(a, fb, g, lambda, inv_sqrt, av);
+  gradient_va_and_t(a, g, av, inv_sqrt, sums);
+  gradient_w(a, fb, g, lambda, av, w, sums);
+  gradient_g_prime(a, g, inv_sqrt, w);
+  gradient_vwv(a, g, w, sums);
+  for (int m = 0; m < a.M; ++m) gradient_data_terms(a, g, av, m, sums);
 }
 
 /// Gradient pass over blocks [b0, b1), P blocks at a time (gradient_group).
