@@ -196,6 +196,22 @@ struct FitcWorkspace {
   HalfWorker worker;                        ///< declared last: its thread stops before the rest goes
 };
 
+/// The kernel's scales, exp of the log-hypers.
+struct KernelScales {
+  VectorXd b;     ///< ARD inverse squared length scales
+  double c;       ///< signal variance
+  double sigma2;  ///< noise variance
+};
+
+/// The scales of `hyper`, and K_MM into ws: Kmm_kernel without jitter (what the hypers move), Kmm with it.
+KernelScales scales_and_kmm(const MatrixXd& pseudo, const SpgpHyper& hyper, double jitter, FitcWorkspace& ws) {
+  KernelScales k{hyper.log_b.array().exp().matrix(), std::exp(hyper.log_c), std::exp(hyper.log_sigma2)};
+  ard_kernel(pseudo, pseudo, k.b, k.c, ws.Kmm_kernel, ws.r2);
+  ws.Kmm = ws.Kmm_kernel;
+  ws.Kmm.diagonal().array() += jitter;
+  return k;
+}
+
 /// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
 /// NLML (non-finite: the caller returns inf), gamma = B^-1 V Lambda^-1 y, and alpha and the
 /// predictive variance matrix when `request` asks for them.
@@ -229,13 +245,7 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
                      double jitter, const FitcRequest& request, FitcWorkspace& ws) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
-  const VectorXd b = hyper.log_b.array().exp().matrix();
-  const double c = std::exp(hyper.log_c);
-  const double sigma2 = std::exp(hyper.log_sigma2);
-
-  ard_kernel(pseudo, pseudo, b, c, ws.Kmm_kernel, ws.r2);  // without jitter: what the hypers move
-  ws.Kmm = ws.Kmm_kernel;
-  ws.Kmm.diagonal().array() += jitter;
+  const auto [b, c, sigma2] = scales_and_kmm(pseudo, hyper, jitter, ws);
   ard_kernel(X, pseudo, b, c, ws.Knm, ws.r2);
   const MatrixXd& Knm = ws.Knm;
 
@@ -883,13 +893,7 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
   if (D > kMaxInputDim) reject("input dimension " + std::to_string(D) + " exceeds " + std::to_string(kMaxInputDim));
-  const VectorXd b = hyper.log_b.array().exp().matrix();
-  const double c = std::exp(hyper.log_c);
-  const double sigma2 = std::exp(hyper.log_sigma2);
-
-  ard_kernel(pseudo, pseudo, b, c, ws.Kmm_kernel, ws.r2);  // without jitter: what the hypers move
-  ws.Kmm = ws.Kmm_kernel;
-  ws.Kmm.diagonal().array() += jitter;
+  const auto [b, c, sigma2] = scales_and_kmm(pseudo, hyper, jitter, ws);
   const Eigen::LLT<MatrixXd> llt_mm(ws.Kmm);
   if (llt_mm.info() != Eigen::Success) return kInf;
   const auto L = llt_mm.matrixL();
