@@ -863,6 +863,156 @@ void gradient_pass(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0,
   fitc_gradient_blocks(a, fb, b0, b1, sums, W);
 }
 
+/// The samples into `fb` in blocks of kBlock (the last one padded with K = 0, y = 0: no
+/// contribution), with room for what the forward pass writes. Returns the number of blocks.
+Eigen::Index fill_blocks(const MatrixXd& X, const VectorXd& y, Eigen::Index M, FitcBlocks& fb) {
+  const Eigen::Index N = X.rows(), D = X.cols();
+  const Eigen::Index blocks = (N + kBlock - 1) / kBlock;
+  const auto padded = static_cast<std::size_t>(blocks) * kBlock;
+  const auto per_block = static_cast<std::size_t>(M) * kBlock;
+  fb.X.assign(padded * static_cast<std::size_t>(D), 0.0);
+  fb.y.assign(padded, 0.0);
+  fb.valid.assign(padded, 0.0);
+  for (Eigen::Index n = 0; n < N; ++n) {
+    const auto blk = static_cast<std::size_t>(n / kBlock), q = static_cast<std::size_t>(n % kBlock);
+    for (Eigen::Index d = 0; d < D; ++d) fb.X[(blk * static_cast<std::size_t>(D) + static_cast<std::size_t>(d)) * kBlock + q] = X(n, d);
+    fb.y[static_cast<std::size_t>(n)] = y[n];
+    fb.valid[static_cast<std::size_t>(n)] = 1.0;
+  }
+  fb.K.resize(static_cast<std::size_t>(blocks) * per_block);
+  fb.V.resize(static_cast<std::size_t>(blocks) * per_block);
+  fb.lambda.resize(padded);
+  fb.y_over_lambda.resize(padded);
+  return blocks;
+}
+
+/// Whether for_two_halves runs a second half over this many blocks (and there are its sums to add).
+bool split_in_halves(Eigen::Index blocks) { return blocks >= kMinSplitBlocks; }
+
+/// The forward pass over all blocks in two halves, each into its own accumulators in ws.
+void forward_halves(const ForwardArgs& forward, Eigen::Index blocks, FitcWorkspace& ws) {
+  const Eigen::Index M = forward.M;
+  const auto per_block = static_cast<std::size_t>(M) * kBlock;
+  const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
+  std::vector<double>* const B_acc = ws.B_acc;
+  std::vector<double>* const Vy_acc = ws.Vy_acc;
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+    B_acc[h].assign(packed, 0.0);
+    Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
+    ws.scratch[h].resize(kMaxGroup * per_block);
+    forward_pass(forward, ws.blocks, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
+  });
+}
+
+/// B = I + U U^T (lower triangle, into ws.B) and V Lambda^-1 y (into Vy, of size M) from the forward
+/// pass's per-lane sums, of both halves if `split`.
+void add_forward_sums(FitcWorkspace& ws, bool split, VectorXd& Vy) {
+  const Eigen::Index M = Vy.size();
+  const std::vector<double>* const B_acc = ws.B_acc;
+  const std::vector<double>* const Vy_acc = ws.Vy_acc;
+  MatrixXd& B = ws.B;
+  B.setIdentity(M, M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    for (Eigen::Index j = 0; j <= i; ++j) {
+      const auto at = (static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j)) * kLanes;
+      B(i, j) += lane_sum(B_acc[0].data() + at) + (split ? lane_sum(B_acc[1].data() + at) : 0.0);
+    }
+    const auto at = static_cast<std::size_t>(i) * kLanes;
+    Vy[i] = lane_sum(Vy_acc[0].data() + at) + (split ? lane_sum(Vy_acc[1].data() + at) : 0.0);
+  }
+}
+
+/// The gradient pass over all blocks in two halves, each into its own sums in ws.
+void gradient_halves(const GradientArgs& backward, Eigen::Index blocks, FitcWorkspace& ws) {
+  const auto per_block = static_cast<std::size_t>(backward.M) * kBlock;
+  GradientSums* const sums = ws.sums;
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+    sums[h].reset(backward.M, backward.D);
+    ws.scratch[h].resize(kMaxGroup * per_block);
+    gradient_pass(backward, ws.blocks, b0, b1, sums[h], ws.scratch[h].data());
+  });
+}
+
+/// The gradient pass's sums over all samples, with G's -g a^T term put in.
+struct GradientTotals {
+  VectorXd Va;        ///< V a
+  MatrixXd VwV;       ///< lower triangle: V diag(w) V^T
+  VectorXd g;         ///< L^-T V a: G = G' - g a^T
+  MatrixXd data_lin;  ///< M x D: sum_n E(n, m) (X(n, d) - pseudo(m, d))
+  VectorXd data_sq;   ///< D: sum_n,m E(n, m) (X(n, d) - pseudo(m, d))^2
+  double E_sum = 0.0, w_sum = 0.0;
+};
+
+/// The totals of the gradient pass's per-lane sums (of both halves if `split`).
+void add_gradient_sums(const FitcWorkspace& ws, bool split, const Eigen::LLT<MatrixXd>& llt_mm, Eigen::Index D,
+                       GradientTotals& totals) {
+  const Eigen::Index M = llt_mm.rows();
+  const GradientSums* const sums = ws.sums;
+  // One total of four lanes (and of the two halves).
+  auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
+    const std::size_t at = entry * kLanes;
+    return lane_sum((sums[0].*part).data() + at) + (split ? lane_sum((sums[1].*part).data() + at) : 0.0);
+  };
+  VectorXd& Va = totals.Va;
+  Va.resize(M);
+  totals.VwV.resize(M, M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    Va[i] = total(&GradientSums::Va, static_cast<std::size_t>(i));
+    for (Eigen::Index j = 0; j <= i; ++j)
+      totals.VwV(i, j) = total(&GradientSums::VwV, static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j));
+  }
+  totals.g = llt_mm.matrixU().solve(Va);
+  const VectorXd& g = totals.g;
+  totals.data_lin.resize(M, D);
+  totals.data_sq.setZero(D);
+  for (Eigen::Index m = 0; m < M; ++m) {
+    const auto um = static_cast<std::size_t>(m);
+    totals.E_sum += total(&GradientSums::q_sum, um) - g[m] * total(&GradientSums::r_sum, um);
+    for (Eigen::Index d = 0; d < D; ++d) {
+      const std::size_t e = static_cast<std::size_t>(d) * static_cast<std::size_t>(M) + um;
+      totals.data_lin(m, d) = total(&GradientSums::q_lin, e) - g[m] * total(&GradientSums::r_lin, e);
+      totals.data_sq[d] += total(&GradientSums::q_sq, e) - g[m] * total(&GradientSums::r_sq, e);
+    }
+  }
+  totals.w_sum = total(&GradientSums::w_sum, 0);
+}
+
+/// The gradient [vec(pseudo), log_b, log_c, log_sigma2] from the totals. H = L^-T S L^-1 with
+/// S = I - B^-1 - V diag(w) V^T - (V a)(V a)^T, and F = H .* K_MM is dK_MM's coefficient (x -2).
+void assemble_gradient(const MatrixXd& pseudo, const KernelScales& k, const GradientTotals& totals,
+                       const Eigen::LLT<MatrixXd>& llt_b, const Eigen::LLT<MatrixXd>& llt_mm,
+                       const MatrixXd& Kmm_kernel, VectorXd& grad) {
+  const Eigen::Index M = pseudo.rows(), D = pseudo.cols();
+  const auto Lt = llt_mm.matrixU();
+  MatrixXd S = -totals.VwV;  // lower triangle
+  S.triangularView<Eigen::Lower>() -= totals.Va * totals.Va.transpose();
+  S.triangularView<Eigen::Lower>() -= llt_b.solve(MatrixXd::Identity(M, M));
+  S.diagonal().array() += 1.0;
+  S = S.selfadjointView<Eigen::Lower>();
+  const MatrixXd T = Lt.solve(S);                    // L^-T S
+  MatrixXd H = Lt.solve(T.transpose()).transpose();  // L^-T S L^-1
+  H = 0.5 * (H + H.transpose());
+  const MatrixXd F = H.cwiseProduct(Kmm_kernel);
+
+  grad.setZero(M * D + D + 2);
+  for (Eigen::Index d = 0; d < D; ++d) {
+    double pseudo_sq = 0.0;
+    for (Eigen::Index m = 0; m < M; ++m) {
+      const double xb = pseudo(m, d);
+      double pseudo_lin = 0.0;
+      for (Eigen::Index j = 0; j < M; ++j) {
+        const double diff = xb - pseudo(j, d);
+        pseudo_lin += F(m, j) * diff;
+        pseudo_sq += F(m, j) * diff * diff;
+      }
+      grad[d * M + m] = k.b[d] * (totals.data_lin(m, d) + pseudo_lin);
+    }
+    grad[M * D + d] = -0.5 * k.b[d] * totals.data_sq[d] + 0.25 * k.b[d] * pseudo_sq;
+  }
+  grad[M * D + D] = totals.E_sum - 0.5 * F.sum() + 0.5 * k.c * totals.w_sum;
+  grad[M * D + D + 1] = 0.5 * k.sigma2 * totals.w_sum;
+}
+
 /// The FITC NLML in O(N M^2), and whatever `request` asks for from the same factorisations.
 /// Returns +inf when K_MM, Lambda or B is not positive definite (numerically).
 ///
@@ -893,7 +1043,7 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
   if (D > kMaxInputDim) reject("input dimension " + std::to_string(D) + " exceeds " + std::to_string(kMaxInputDim));
-  const auto [b, c, sigma2] = scales_and_kmm(pseudo, hyper, jitter, ws);
+  const KernelScales k = scales_and_kmm(pseudo, hyper, jitter, ws);
   const Eigen::LLT<MatrixXd> llt_mm(ws.Kmm);
   if (llt_mm.info() != Eigen::Success) return kInf;
   const auto L = llt_mm.matrixL();
@@ -902,53 +1052,19 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   const MatrixXd L_rows = L_cols.transpose();
   const VectorXd L_inv_diag = L_cols.diagonal().cwiseInverse();
 
-  // The samples in blocks of kBlock (the last one padded with K = 0, y = 0: no contribution).
-  const Eigen::Index blocks = (N + kBlock - 1) / kBlock;
-  const auto padded = static_cast<std::size_t>(blocks) * kBlock;
-  const auto per_block = static_cast<std::size_t>(M) * kBlock;
-  FitcBlocks& fb = ws.blocks;
-  fb.X.assign(padded * static_cast<std::size_t>(D), 0.0);
-  fb.y.assign(padded, 0.0);
-  fb.valid.assign(padded, 0.0);
-  for (Eigen::Index n = 0; n < N; ++n) {
-    const auto blk = static_cast<std::size_t>(n / kBlock), q = static_cast<std::size_t>(n % kBlock);
-    for (Eigen::Index d = 0; d < D; ++d) fb.X[(blk * static_cast<std::size_t>(D) + static_cast<std::size_t>(d)) * kBlock + q] = X(n, d);
-    fb.y[static_cast<std::size_t>(n)] = y[n];
-    fb.valid[static_cast<std::size_t>(n)] = 1.0;
-  }
-  fb.K.resize(static_cast<std::size_t>(blocks) * per_block);
-  fb.V.resize(static_cast<std::size_t>(blocks) * per_block);
-  fb.lambda.resize(padded);
-  fb.y_over_lambda.resize(padded);
-
-  const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
-  std::vector<double>* const B_acc = ws.B_acc;
-  std::vector<double>* const Vy_acc = ws.Vy_acc;
-  const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), b.data(), c, c + sigma2,
+  const Eigen::Index blocks = fill_blocks(X, y, M, ws.blocks);
+  const bool split = split_in_halves(blocks);
+  const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), k.b.data(), k.c, k.c + k.sigma2,
                             L_rows.data(), L_inv_diag.data()};
-  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
-    B_acc[h].assign(packed, 0.0);
-    Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
-    ws.scratch[h].resize(kMaxGroup * per_block);
-    forward_pass(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
-  });
-  const bool split = blocks >= kMinSplitBlocks;  // for_two_halves ran a second half
-  const VectorXd lambda = Eigen::Map<const VectorXd>(fb.lambda.data(), N);
+  forward_halves(forward, blocks, ws);
+  // The temporaries from here on are allocated in this order so that the heap's top is not trimmed
+  // and grown again every evaluation.
+  const VectorXd lambda = Eigen::Map<const VectorXd>(ws.blocks.lambda.data(), N);
   if (!(lambda.minCoeff() > 0.0) || !lambda.allFinite()) return kInf;
-  const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(fb.y_over_lambda.data(), N);
-
-  MatrixXd& B = ws.B;
-  B.setIdentity(M, M);
+  const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(ws.blocks.y_over_lambda.data(), N);
   VectorXd Vy(M);
-  for (Eigen::Index i = 0; i < M; ++i) {
-    for (Eigen::Index j = 0; j <= i; ++j) {
-      const auto at = (static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j)) * kLanes;
-      B(i, j) += lane_sum(B_acc[0].data() + at) + (split ? lane_sum(B_acc[1].data() + at) : 0.0);
-    }
-    const auto at = static_cast<std::size_t>(i) * kLanes;
-    Vy[i] = lane_sum(Vy_acc[0].data() + at) + (split ? lane_sum(Vy_acc[1].data() + at) : 0.0);
-  }
-  const Eigen::LLT<MatrixXd> llt_b(B);  // reads the lower triangle only
+  add_forward_sums(ws, split, Vy);
+  const Eigen::LLT<MatrixXd> llt_b(ws.B);  // reads the lower triangle only
   if (llt_b.info() != Eigen::Success) return kInf;
 
   const VectorXd beta = llt_b.matrixL().solve(Vy);
@@ -962,67 +1078,10 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   const VectorXd LB_inv_diag = LB_cols.diagonal().cwiseInverse();
   const GradientArgs backward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), gamma.data(),
                               LB_rows.data(), LB_cols.data(), LB_inv_diag.data(), L_cols.data(), L_inv_diag.data()};
-  GradientSums* const sums = ws.sums;
-  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
-    sums[h].reset(static_cast<int>(M), static_cast<int>(D));
-    ws.scratch[h].resize(kMaxGroup * per_block);
-    gradient_pass(backward, fb, b0, b1, sums[h], ws.scratch[h].data());
-  });
-  // One total of four lanes (and of the two halves).
-  auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
-    const std::size_t at = entry * kLanes;
-    return lane_sum((sums[0].*part).data() + at) + (split ? lane_sum((sums[1].*part).data() + at) : 0.0);
-  };
-  VectorXd Va(M);
-  MatrixXd VwV(M, M);
-  for (Eigen::Index i = 0; i < M; ++i) {
-    Va[i] = total(&GradientSums::Va, static_cast<std::size_t>(i));
-    for (Eigen::Index j = 0; j <= i; ++j)
-      VwV(i, j) = total(&GradientSums::VwV, static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j));
-  }
-  const VectorXd g = Lt.solve(Va);  // L^-T V a: G = G' - g a^T
-  MatrixXd data_lin(M, D);  // sum_n E(n, m) (X(n, d) - pseudo(m, d))
-  VectorXd data_sq = VectorXd::Zero(D);  // sum_n,m E(n, m) (X(n, d) - pseudo(m, d))^2
-  double E_sum = 0.0;
-  for (Eigen::Index m = 0; m < M; ++m) {
-    const auto um = static_cast<std::size_t>(m);
-    E_sum += total(&GradientSums::q_sum, um) - g[m] * total(&GradientSums::r_sum, um);
-    for (Eigen::Index d = 0; d < D; ++d) {
-      const std::size_t e = static_cast<std::size_t>(d) * static_cast<std::size_t>(M) + um;
-      data_lin(m, d) = total(&GradientSums::q_lin, e) - g[m] * total(&GradientSums::r_lin, e);
-      data_sq[d] += total(&GradientSums::q_sq, e) - g[m] * total(&GradientSums::r_sq, e);
-    }
-  }
-  const double w_sum = total(&GradientSums::w_sum, 0);
-
-  MatrixXd S = -VwV;  // lower triangle: I - B^-1 - V diag(w) V^T - (V a)(V a)^T
-  S.triangularView<Eigen::Lower>() -= Va * Va.transpose();
-  S.triangularView<Eigen::Lower>() -= llt_b.solve(MatrixXd::Identity(M, M));
-  S.diagonal().array() += 1.0;
-  S = S.selfadjointView<Eigen::Lower>();
-  const MatrixXd T = Lt.solve(S);                    // L^-T S
-  MatrixXd H = Lt.solve(T.transpose()).transpose();  // L^-T S L^-1
-  H = 0.5 * (H + H.transpose());
-  const MatrixXd F = H.cwiseProduct(ws.Kmm_kernel);  // dK_MM's coefficient (x -2) .* K_MM
-
-  VectorXd& grad = *request.gradient;
-  grad.setZero(M * D + D + 2);
-  for (Eigen::Index d = 0; d < D; ++d) {
-    double pseudo_sq = 0.0;
-    for (Eigen::Index m = 0; m < M; ++m) {
-      const double xb = pseudo(m, d);
-      double pseudo_lin = 0.0;
-      for (Eigen::Index k = 0; k < M; ++k) {
-        const double diff = xb - pseudo(k, d);
-        pseudo_lin += F(m, k) * diff;
-        pseudo_sq += F(m, k) * diff * diff;
-      }
-      grad[d * M + m] = b[d] * (data_lin(m, d) + pseudo_lin);
-    }
-    grad[M * D + d] = -0.5 * b[d] * data_sq[d] + 0.25 * b[d] * pseudo_sq;
-  }
-  grad[M * D + D] = E_sum - 0.5 * F.sum() + 0.5 * c * w_sum;
-  grad[M * D + D + 1] = 0.5 * sigma2 * w_sum;
+  gradient_halves(backward, blocks, ws);
+  GradientTotals totals;
+  add_gradient_sums(ws, split, llt_mm, D, totals);
+  assemble_gradient(pseudo, k, totals, llt_b, llt_mm, ws.Kmm_kernel, *request.gradient);
   return nlml;
 }
 /// Parameter vector layout of the optimiser: [vec(pseudo) (M*D, column-major), log_b, log_c, log_sigma2].
