@@ -233,6 +233,287 @@ std::string value_prefix(const std::string& file, std::size_t line, std::size_t 
   return file + ":" + std::to_string(line) + ": column '" + std::string(kColumns[col].name) + "': value " + num(value) + " ";
 }
 
+
+// ---- reading -----------------------------------------------------------------------------------
+
+// The file's bytes, after the checks that need no parsing (a directory, a device, too large, unreadable).
+std::string read_csv_bytes(const std::filesystem::path& path, const std::string& file) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw DataError(file + ": is a directory, not a calibration CSV");
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    throw DataError(file + ": not a regular file (a device or pipe cannot be a calibration CSV)");
+  }
+  if (const std::uintmax_t size = std::filesystem::file_size(path, ec); !ec && size > kMaxFileBytes) {
+    throw DataError(file + ": " + std::to_string(size >> 20) + " MiB is larger than the " + std::to_string(kMaxFileBytes >> 20) +
+                    " MiB a calibration CSV may have; decimate the log (250 Hz is plenty) or split it");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw DataError(file + ": cannot open calibration file (does it exist and is it readable?)");
+  // Read all bytes once: the hash is of exactly the bytes that were parsed.
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw DataError(file + ": read error");
+  return bytes;
+}
+
+// What the lines of a calibration CSV say, before the plausibility checks.
+struct CsvContent {
+  std::vector<std::size_t> field_to_col;                             ///< header field index -> Column
+  std::array<std::optional<std::size_t>, kColumnCount> col_field{};  ///< Column -> header field index
+  std::size_t header_line = 0;                                       ///< 0 = none yet
+  std::vector<Row> rows;
+  std::size_t zero_line = 0;  ///< the `# loadcell_zero_N:` comment, 0 = none
+  double loadcell_zero_N = 0.0;
+};
+
+// A '#' comment line: only `# loadcell_zero_N: <N>` means something, and only once.
+void read_comment(std::string_view line, const std::string& file, std::size_t line_no, CsvContent& csv) {
+  constexpr std::string_view kZeroKey = "loadcell_zero_N:";
+  const std::string_view body = trim(line.substr(1));
+  if (body.substr(0, kZeroKey.size()) != kZeroKey) return;
+  double v = 0.0;
+  const std::string_view value = trim(body.substr(kZeroKey.size()));
+  if (parse_double(value, v) != ParseStatus::kOk || std::abs(v) > kMaxLoadcellZeroN) {
+    throw DataError(file + ":" + std::to_string(line_no) + ": loadcell_zero_N: expected a number of newtons within +-" +
+                    num(kMaxLoadcellZeroN) + " (the load cell's reading with the muscle vented), found '" +
+                    std::string(value) + "'");
+  }
+  if (csv.zero_line != 0) {
+    throw DataError(file + ":" + std::to_string(line_no) + ": loadcell_zero_N given twice (first on line " +
+                    std::to_string(csv.zero_line) + ")");
+  }
+  csv.zero_line = line_no;
+  csv.loadcell_zero_N = v;
+}
+
+// The header row: which column each field holds; every required column present, none twice.
+void read_header(std::string_view line, const std::string& where, CsvContent& csv) {
+  const auto names = split(line);
+  if (names.size() == 1 && (line.find(';') != std::string_view::npos || line.find('\t') != std::string_view::npos)) {
+    throw DataError(where + ": header is not comma-separated; the separator must be ',' (e.g. "
+                    "pressure_MPa,contraction,force_N)");
+  }
+  if (std::all_of(names.begin(), names.end(), looks_numeric)) {
+    throw DataError(where + ": header row missing (this line is numbers); the first line that is not a '#' "
+                    "comment must name the columns, e.g. pressure_MPa,contraction,force_N");
+  }
+  for (std::size_t f = 0; f < names.size(); ++f) {
+    if (names[f].empty()) {
+      throw DataError(where + ": header field " + std::to_string(f + 1) +
+                      " is empty (stray comma?); every column needs a name. Accepted columns: " + accepted_list());
+    }
+    const std::size_t c = classify_header_name(names[f], where, f + 1);
+    if (csv.col_field[c]) {
+      throw DataError(where + ": duplicate column '" + std::string(kColumns[c].name) + "' (header fields " +
+                      std::to_string(*csv.col_field[c] + 1) + " and " + std::to_string(f + 1) +
+                      "); keep one of them");
+    }
+    csv.col_field[c] = f;
+    csv.field_to_col.push_back(c);
+  }
+  std::string missing;
+  for (std::size_t c = 0; c < kColumnCount; ++c) {
+    if (kColumns[c].required && !csv.col_field[c]) missing += (missing.empty() ? "" : ", ") + std::string(kColumns[c].name);
+  }
+  if (!missing.empty()) {
+    throw DataError(where + ": missing required column(s) " + missing + " (header has '" + std::string(line) +
+                    "'); required: pressure_MPa, contraction, force_N");
+  }
+}
+
+// One data row: as many fields as the header, each a finite number.
+Row read_row(std::string_view line, const std::string& where, std::size_t line_no, const CsvContent& csv) {
+  const auto fields = split(line);
+  if (fields.size() != csv.field_to_col.size()) {
+    throw DataError(where + ": expected " + std::to_string(csv.field_to_col.size()) + " fields (as in the header on line " +
+                    std::to_string(csv.header_line) + "), found " + std::to_string(fields.size()));
+  }
+  Row row{line_no, {}};
+  for (std::size_t f = 0; f < fields.size(); ++f) {
+    const std::size_t c = csv.field_to_col[f];
+    double v = 0.0;
+    const auto st = parse_double(fields[f], v);
+    if (st == ParseStatus::kOk) {
+      row.v[c] = v;
+      continue;
+    }
+    const std::string at = where + ": column '" + std::string(kColumns[c].name) + "': ";
+    const std::string field(fields[f]);
+    switch (st) {
+      case ParseStatus::kEmpty: throw DataError(at + "empty field; every field must be a number");
+      case ParseStatus::kNotFinite: throw DataError(at + "not finite '" + field + "'; drop or repair the row");
+      case ParseStatus::kOutOfRange: throw DataError(at + "out of range '" + field + "'");
+      default: throw DataError(at + "not a number '" + field + "' (expected a decimal number such as 0.25)");
+    }
+  }
+  return row;
+}
+
+// All lines of the file's text (BOM removed): comments, the header, then data rows up to kMaxRows.
+CsvContent read_csv_lines(std::string_view text, const std::string& file) {
+  CsvContent csv;
+  std::size_t line_no = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    const auto nl = text.find('\n', pos);
+    const std::string_view raw = text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
+    pos = nl == std::string_view::npos ? text.size() : nl + 1;
+    ++line_no;
+    const std::string_view line = trim(raw);
+    if (!line.empty() && line.front() == '#') {
+      read_comment(line, file, line_no, csv);
+      continue;
+    }
+    if (line.empty()) continue;
+    const std::string where = file + ":" + std::to_string(line_no);
+    if (csv.header_line == 0) {
+      csv.header_line = line_no;
+      read_header(line, where, csv);
+      continue;
+    }
+    const Row row = read_row(line, where, line_no, csv);
+    if (csv.rows.size() == kMaxRows) {
+      throw DataError(where + ": more than " + std::to_string(kMaxRows) +
+                      " data rows; decimate the log (250 Hz is plenty for a calibration) or split it");
+    }
+    csv.rows.push_back(row);
+  }
+  // A file cut off inside its last number still parses ("0.31" of "0.3124"): a CSV that peha reads
+  // ends with a line end, so a missing one is a cut, not a style.
+  if (!csv.rows.empty() && !text.empty() && text.back() != '\n') {
+    throw DataError(file + ":" + std::to_string(line_no) + ": the last line has no line end: the file looks cut off "
+                    "(an interrupted copy or write?); if it is complete, add a newline at its end");
+  }
+  if (csv.header_line == 0) {
+    throw DataError(file + ": no header row (file is empty or only comments); expected a header such as "
+                    "pressure_MPa,contraction,force_N followed by data rows");
+  }
+  if (csv.rows.empty()) {
+    throw DataError(file + ": no data rows after the header on line " + std::to_string(csv.header_line));
+  }
+  return csv;
+}
+
+// ---- plausibility (after all rows are read; first offender's line) -----------------------------
+
+double column_max(const std::vector<Row>& rows, std::size_t c, bool absolute) {
+  double m = -std::numeric_limits<double>::infinity();
+  for (const auto& r : rows) m = std::max(m, absolute ? std::abs(r.v[c]) : r.v[c]);
+  return m;
+}
+
+struct Range {
+  double lo, hi;
+};
+
+Range column_range(const std::vector<Row>& rows, std::size_t c) {
+  double lo = rows.front().v[c], hi = lo;
+  for (const auto& r : rows) lo = std::min(lo, r.v[c]), hi = std::max(hi, r.v[c]);
+  return {lo, hi};
+}
+
+// Values beyond what a muscle test gives, each named as the unit mistake it most likely is.
+void check_units(const CsvContent& csv, const std::string& file) {
+  const std::vector<Row>& rows = csv.rows;
+  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kPressure] > kMaxPressureMPa; })) {
+    const double mx = column_max(rows, kPressure, false);
+    const bool kpa = mx <= kKPaCeiling;
+    throw DataError(value_prefix(file, r->line, kPressure, r->v[kPressure]) + "is above " + num(kMaxPressureMPa) +
+                    " MPa: looks like " + (kpa ? "kPa" : "Pa") + " (max " + num(mx) + "); convert to MPa (" +
+                    (kpa ? "divide by 1000" : "divide by 1e6") + ")");
+  }
+  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kPressure] < kMinPressureMPa; })) {
+    throw DataError(value_prefix(file, r->line, kPressure, r->v[kPressure]) + "is below " + num(kMinPressureMPa) +
+                    " MPa: negative gauge pressure beyond sensor noise; check the pressure sensor's offset and sign");
+  }
+  if (const Row* r = first_where(rows, [](const Row& x) { return std::abs(x.v[kContraction]) > kMaxAbsContraction; })) {
+    throw DataError(value_prefix(file, r->line, kContraction, r->v[kContraction]) +
+                    "has magnitude above 1: looks like percent (max |contraction| " +
+                    num(column_max(rows, kContraction, true)) +
+                    "); contraction is a fraction (L0 - L) / L0: divide by 100");
+  }
+  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] > kMaxForceN; })) {
+    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is above " + num(kMaxForceN) +
+                    " N: no muscle wire holds that (they break at 2250 N); a unit mistake or a load-cell glitch");
+  }
+  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] < kMinForceN; })) {
+    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is below " + num(kMinForceN) +
+                    " N: a muscle only pulls; check the load cell's sign and offset (small negative noise above " +
+                    num(kMinForceN) + " N is accepted)");
+  }
+  if (csv.col_field[kAngle]) {
+    if (const Row* r = first_where(rows, [](const Row& x) { return std::abs(x.v[kAngle]) > kMaxAbsAngleRad; })) {
+      throw DataError(value_prefix(file, r->line, kAngle, r->v[kAngle]) +
+                      "has magnitude above 2*pi: looks like degrees (max |angle| " + num(column_max(rows, kAngle, true)) +
+                      "); convert to rad (multiply by pi/180)");
+    }
+  }
+}
+
+// t_s, when given, strictly increasing: rows out of order or two logs in one file are not one sweep.
+void check_time_order(const CsvContent& csv, const std::string& file) {
+  if (!csv.col_field[kTime]) return;
+  const std::vector<Row>& rows = csv.rows;
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    if (!(rows[i].v[kTime] > rows[i - 1].v[kTime])) {
+      throw DataError(value_prefix(file, rows[i].line, kTime, rows[i].v[kTime]) + "is not after the previous " +
+                      num(rows[i - 1].v[kTime]) + " (line " + std::to_string(rows[i - 1].line) +
+                      "): t_s must be strictly increasing (rows out of order, or a duplicated/concatenated log?)");
+    }
+  }
+}
+
+// Enough rows, and pressure and force swept far enough to fit anything (the rules' limits).
+void check_excitation(const std::vector<Row>& rows, const DatasetRules& rules, const std::string& file) {
+  if (rows.size() < rules.min_rows) {
+    throw DataError(file + ": too few points (" + std::to_string(rows.size()) + " < " + std::to_string(rules.min_rows) +
+                    "); a calibration needs at least " + std::to_string(rules.min_rows) +
+                    " data rows: log a longer excitation (or lower DatasetRules::min_rows)");
+  }
+  const auto [lo_MPa, hi_MPa] = column_range(rows, kPressure);
+  const double span_Pa = (hi_MPa - lo_MPa) * 1e6;
+  if (!(span_Pa > rules.min_pressure_span_Pa)) {
+    throw DataError(file + ": column 'pressure_MPa': no excitation: pressure spans only " + num(hi_MPa - lo_MPa) +
+                    " MPa (" + num(lo_MPa) + " .. " + num(hi_MPa) + " MPa, need more than " +
+                    num(rules.min_pressure_span_Pa / 1e6) +
+                    " MPa); sweep the pressure (e.g. a triangle wave, as peha record-calibration does) while logging");
+  }
+  const auto [lo_N, hi_N] = column_range(rows, kForce);
+  if (!(hi_N - lo_N > rules.min_force_span_N)) {
+    throw DataError(file + ": column 'force_N': no excitation: force spans only " + num(hi_N - lo_N) + " N (" +
+                    num(lo_N) + " .. " + num(hi_N) + " N, need more than " + num(rules.min_force_span_N) +
+                    " N); is the load cell connected and the muscle loaded?");
+  }
+}
+
+// ---- assembly (only after every check: nothing half-read escapes) -----------------------------
+
+Dataset assemble_dataset(const CsvContent& csv, const std::string& file, const std::string& bytes) {
+  Dataset d;
+  const std::size_t n = csv.rows.size();
+  d.pressure_Pa.reserve(n);
+  d.contraction.reserve(n);
+  d.force_N.reserve(n);
+  for (const auto& r : csv.rows) {
+    d.pressure_Pa.push_back(r.v[kPressure] * 1e6);
+    d.contraction.push_back(r.v[kContraction]);
+    d.force_N.push_back(r.v[kForce]);
+  }
+  const auto fill_optional = [&](std::size_t c, std::vector<double>& out) {
+    if (!csv.col_field[c]) return;
+    out.reserve(n);
+    for (const auto& r : csv.rows) out.push_back(r.v[c]);
+  };
+  fill_optional(kTime, d.t_s);
+  fill_optional(kAngle, d.angle_rad);
+  fill_optional(kWireVelocity, d.wire_velocity_mps);
+  d.source = file;
+  d.loadcell_zero_N = csv.loadcell_zero_N;
+  Sha256 sha;
+  sha.update(bytes.data(), bytes.size());
+  d.sha256 = sha.hex();
+  return d;
+}
+
 }  // namespace
 
 // ---- public API --------------------------------------------------------------------------------
@@ -252,240 +533,14 @@ std::string sha256_file(const std::filesystem::path& path) {
 
 Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rules) {
   const std::string file = path.string();
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw DataError(file + ": is a directory, not a calibration CSV");
-  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
-    throw DataError(file + ": not a regular file (a device or pipe cannot be a calibration CSV)");
-  }
-  if (const std::uintmax_t size = std::filesystem::file_size(path, ec); !ec && size > kMaxFileBytes) {
-    throw DataError(file + ": " + std::to_string(size >> 20) + " MiB is larger than the " + std::to_string(kMaxFileBytes >> 20) +
-                    " MiB a calibration CSV may have; decimate the log (250 Hz is plenty) or split it");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(file + ": cannot open calibration file (does it exist and is it readable?)");
-  // Read all bytes once: the hash is of exactly the bytes that were parsed.
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw DataError(file + ": read error");
-
+  const std::string bytes = read_csv_bytes(path, file);
   std::string_view text(bytes);
   if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // UTF-8 BOM (spreadsheet exports)
-
-  std::vector<std::size_t> field_to_col;  // header field index -> Column
-  std::array<std::optional<std::size_t>, kColumnCount> col_field{};  // Column -> header field index
-  std::size_t header_line = 0;
-  std::vector<Row> rows;
-
-  std::size_t line_no = 0;
-  std::size_t pos = 0;
-  std::size_t zero_line = 0;      // the `# loadcell_zero_N:` comment, 0 = none
-  double loadcell_zero_N = 0.0;
-  while (pos < text.size()) {
-    const auto nl = text.find('\n', pos);
-    const std::string_view raw = text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos);
-    pos = nl == std::string_view::npos ? text.size() : nl + 1;
-    ++line_no;
-    const std::string_view line = trim(raw);
-    if (!line.empty() && line.front() == '#') {
-      constexpr std::string_view kZeroKey = "loadcell_zero_N:";
-      const std::string_view body = trim(line.substr(1));
-      if (body.substr(0, kZeroKey.size()) == kZeroKey) {
-        double v = 0.0;
-        const std::string_view value = trim(body.substr(kZeroKey.size()));
-        if (parse_double(value, v) != ParseStatus::kOk || std::abs(v) > kMaxLoadcellZeroN) {
-          throw DataError(file + ":" + std::to_string(line_no) + ": loadcell_zero_N: expected a number of newtons within +-" +
-                          num(kMaxLoadcellZeroN) + " (the load cell's reading with the muscle vented), found '" +
-                          std::string(value) + "'");
-        }
-        if (zero_line != 0) {
-          throw DataError(file + ":" + std::to_string(line_no) + ": loadcell_zero_N given twice (first on line " +
-                          std::to_string(zero_line) + ")");
-        }
-        zero_line = line_no;
-        loadcell_zero_N = v;
-      }
-      continue;
-    }
-    if (line.empty()) continue;
-    const std::string where = file + ":" + std::to_string(line_no);
-
-    if (header_line == 0) {
-      header_line = line_no;
-      const auto names = split(line);
-      if (names.size() == 1 && (line.find(';') != std::string_view::npos || line.find('\t') != std::string_view::npos)) {
-        throw DataError(where + ": header is not comma-separated; the separator must be ',' (e.g. "
-                        "pressure_MPa,contraction,force_N)");
-      }
-      if (std::all_of(names.begin(), names.end(), looks_numeric)) {
-        throw DataError(where + ": header row missing (this line is numbers); the first line that is not a '#' "
-                        "comment must name the columns, e.g. pressure_MPa,contraction,force_N");
-      }
-      for (std::size_t f = 0; f < names.size(); ++f) {
-        if (names[f].empty()) {
-          throw DataError(where + ": header field " + std::to_string(f + 1) +
-                          " is empty (stray comma?); every column needs a name. Accepted columns: " + accepted_list());
-        }
-        const std::size_t c = classify_header_name(names[f], where, f + 1);
-        if (col_field[c]) {
-          throw DataError(where + ": duplicate column '" + std::string(kColumns[c].name) + "' (header fields " +
-                          std::to_string(*col_field[c] + 1) + " and " + std::to_string(f + 1) +
-                          "); keep one of them");
-        }
-        col_field[c] = f;
-        field_to_col.push_back(c);
-      }
-      std::string missing;
-      for (std::size_t c = 0; c < kColumnCount; ++c) {
-        if (kColumns[c].required && !col_field[c]) missing += (missing.empty() ? "" : ", ") + std::string(kColumns[c].name);
-      }
-      if (!missing.empty()) {
-        throw DataError(where + ": missing required column(s) " + missing + " (header has '" + std::string(line) +
-                        "'); required: pressure_MPa, contraction, force_N");
-      }
-      continue;
-    }
-
-    const auto fields = split(line);
-    if (fields.size() != field_to_col.size()) {
-      throw DataError(where + ": expected " + std::to_string(field_to_col.size()) + " fields (as in the header on line " +
-                      std::to_string(header_line) + "), found " + std::to_string(fields.size()));
-    }
-    Row row{line_no, {}};
-    for (std::size_t f = 0; f < fields.size(); ++f) {
-      const std::size_t c = field_to_col[f];
-      double v = 0.0;
-      const auto st = parse_double(fields[f], v);
-      if (st == ParseStatus::kOk) {
-        row.v[c] = v;
-        continue;
-      }
-      const std::string at = where + ": column '" + std::string(kColumns[c].name) + "': ";
-      const std::string field(fields[f]);
-      switch (st) {
-        case ParseStatus::kEmpty: throw DataError(at + "empty field; every field must be a number");
-        case ParseStatus::kNotFinite: throw DataError(at + "not finite '" + field + "'; drop or repair the row");
-        case ParseStatus::kOutOfRange: throw DataError(at + "out of range '" + field + "'");
-        default: throw DataError(at + "not a number '" + field + "' (expected a decimal number such as 0.25)");
-      }
-    }
-    if (rows.size() == kMaxRows) {
-      throw DataError(where + ": more than " + std::to_string(kMaxRows) +
-                      " data rows; decimate the log (250 Hz is plenty for a calibration) or split it");
-    }
-    rows.push_back(row);
-  }
-  // A file cut off inside its last number still parses ("0.31" of "0.3124"): a CSV that peha reads
-  // ends with a line end, so a missing one is a cut, not a style.
-  if (!rows.empty() && !text.empty() && text.back() != '\n') {
-    throw DataError(file + ":" + std::to_string(line_no) + ": the last line has no line end: the file looks cut off "
-                    "(an interrupted copy or write?); if it is complete, add a newline at its end");
-  }
-
-  if (header_line == 0) {
-    throw DataError(file + ": no header row (file is empty or only comments); expected a header such as "
-                    "pressure_MPa,contraction,force_N followed by data rows");
-  }
-  if (rows.empty()) {
-    throw DataError(file + ": no data rows after the header on line " + std::to_string(header_line));
-  }
-
-  // ---- plausibility (after all rows are read; first offender's line) ---------------------------
-  const auto column_max = [&](std::size_t c, bool absolute) {
-    double m = -std::numeric_limits<double>::infinity();
-    for (const auto& r : rows) m = std::max(m, absolute ? std::abs(r.v[c]) : r.v[c]);
-    return m;
-  };
-
-  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kPressure] > kMaxPressureMPa; })) {
-    const double mx = column_max(kPressure, false);
-    const bool kpa = mx <= kKPaCeiling;
-    throw DataError(value_prefix(file, r->line, kPressure, r->v[kPressure]) + "is above " + num(kMaxPressureMPa) +
-                    " MPa: looks like " + (kpa ? "kPa" : "Pa") + " (max " + num(mx) + "); convert to MPa (" +
-                    (kpa ? "divide by 1000" : "divide by 1e6") + ")");
-  }
-  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kPressure] < kMinPressureMPa; })) {
-    throw DataError(value_prefix(file, r->line, kPressure, r->v[kPressure]) + "is below " + num(kMinPressureMPa) +
-                    " MPa: negative gauge pressure beyond sensor noise; check the pressure sensor's offset and sign");
-  }
-  if (const Row* r = first_where(rows, [](const Row& x) { return std::abs(x.v[kContraction]) > kMaxAbsContraction; })) {
-    throw DataError(value_prefix(file, r->line, kContraction, r->v[kContraction]) +
-                    "has magnitude above 1: looks like percent (max |contraction| " + num(column_max(kContraction, true)) +
-                    "); contraction is a fraction (L0 - L) / L0: divide by 100");
-  }
-  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] > kMaxForceN; })) {
-    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is above " + num(kMaxForceN) +
-                    " N: no muscle wire holds that (they break at 2250 N); a unit mistake or a load-cell glitch");
-  }
-  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] < kMinForceN; })) {
-    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is below " + num(kMinForceN) +
-                    " N: a muscle only pulls; check the load cell's sign and offset (small negative noise above " +
-                    num(kMinForceN) + " N is accepted)");
-  }
-  if (col_field[kAngle]) {
-    if (const Row* r = first_where(rows, [](const Row& x) { return std::abs(x.v[kAngle]) > kMaxAbsAngleRad; })) {
-      throw DataError(value_prefix(file, r->line, kAngle, r->v[kAngle]) +
-                      "has magnitude above 2*pi: looks like degrees (max |angle| " + num(column_max(kAngle, true)) +
-                      "); convert to rad (multiply by pi/180)");
-    }
-  }
-  if (col_field[kTime]) {
-    for (std::size_t i = 1; i < rows.size(); ++i) {
-      if (!(rows[i].v[kTime] > rows[i - 1].v[kTime])) {
-        throw DataError(value_prefix(file, rows[i].line, kTime, rows[i].v[kTime]) + "is not after the previous " +
-                        num(rows[i - 1].v[kTime]) + " (line " + std::to_string(rows[i - 1].line) +
-                        "): t_s must be strictly increasing (rows out of order, or a duplicated/concatenated log?)");
-      }
-    }
-  }
-  if (rows.size() < rules.min_rows) {
-    throw DataError(file + ": too few points (" + std::to_string(rows.size()) + " < " + std::to_string(rules.min_rows) +
-                    "); a calibration needs at least " + std::to_string(rules.min_rows) +
-                    " data rows: log a longer excitation (or lower DatasetRules::min_rows)");
-  }
-  {
-    double lo = rows.front().v[kPressure], hi = lo;
-    for (const auto& r : rows) lo = std::min(lo, r.v[kPressure]), hi = std::max(hi, r.v[kPressure]);
-    const double span_Pa = (hi - lo) * 1e6;
-    if (!(span_Pa > rules.min_pressure_span_Pa)) {
-      throw DataError(file + ": column 'pressure_MPa': no excitation: pressure spans only " + num(hi - lo) + " MPa (" +
-                      num(lo) + " .. " + num(hi) + " MPa, need more than " + num(rules.min_pressure_span_Pa / 1e6) +
-                      " MPa); sweep the pressure (e.g. a triangle wave, as peha record-calibration does) while logging");
-    }
-  }
-  {
-    double lo = rows.front().v[kForce], hi = lo;
-    for (const auto& r : rows) lo = std::min(lo, r.v[kForce]), hi = std::max(hi, r.v[kForce]);
-    if (!(hi - lo > rules.min_force_span_N)) {
-      throw DataError(file + ": column 'force_N': no excitation: force spans only " + num(hi - lo) + " N (" + num(lo) +
-                      " .. " + num(hi) + " N, need more than " + num(rules.min_force_span_N) +
-                      " N); is the load cell connected and the muscle loaded?");
-    }
-  }
-
-  // ---- assemble (only now: nothing half-read escapes) ------------------------------------------
-  Dataset d;
-  const std::size_t n = rows.size();
-  d.pressure_Pa.reserve(n);
-  d.contraction.reserve(n);
-  d.force_N.reserve(n);
-  for (const auto& r : rows) {
-    d.pressure_Pa.push_back(r.v[kPressure] * 1e6);
-    d.contraction.push_back(r.v[kContraction]);
-    d.force_N.push_back(r.v[kForce]);
-  }
-  const auto fill_optional = [&](std::size_t c, std::vector<double>& out) {
-    if (!col_field[c]) return;
-    out.reserve(n);
-    for (const auto& r : rows) out.push_back(r.v[c]);
-  };
-  fill_optional(kTime, d.t_s);
-  fill_optional(kAngle, d.angle_rad);
-  fill_optional(kWireVelocity, d.wire_velocity_mps);
-  d.source = file;
-  d.loadcell_zero_N = loadcell_zero_N;
-  Sha256 sha;
-  sha.update(bytes.data(), bytes.size());
-  d.sha256 = sha.hex();
-  return d;
+  const CsvContent csv = read_csv_lines(text, file);
+  check_units(csv, file);
+  check_time_order(csv, file);
+  check_excitation(csv.rows, rules, file);
+  return assemble_dataset(csv, file, bytes);
 }
 
 void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments) {

@@ -196,6 +196,22 @@ struct FitcWorkspace {
   HalfWorker worker;                        ///< declared last: its thread stops before the rest goes
 };
 
+/// The kernel's scales, exp of the log-hypers.
+struct KernelScales {
+  VectorXd b;     ///< ARD inverse squared length scales
+  double c;       ///< signal variance
+  double sigma2;  ///< noise variance
+};
+
+/// The scales of `hyper`, and K_MM into ws: Kmm_kernel without jitter (what the hypers move), Kmm with it.
+KernelScales scales_and_kmm(const MatrixXd& pseudo, const SpgpHyper& hyper, double jitter, FitcWorkspace& ws) {
+  KernelScales k{hyper.log_b.array().exp().matrix(), std::exp(hyper.log_c), std::exp(hyper.log_sigma2)};
+  ard_kernel(pseudo, pseudo, k.b, k.c, ws.Kmm_kernel, ws.r2);
+  ws.Kmm = ws.Kmm_kernel;
+  ws.Kmm.diagonal().array() += jitter;
+  return k;
+}
+
 /// The end both evaluations share, from B = I + U U^T's factor and beta = L_B^-1 V Lambda^-1 y: the
 /// NLML (non-finite: the caller returns inf), gamma = B^-1 V Lambda^-1 y, and alpha and the
 /// predictive variance matrix when `request` asks for them.
@@ -229,13 +245,7 @@ double fitc_evaluate_reference(const MatrixXd& X, const VectorXd& y, const Matri
                      double jitter, const FitcRequest& request, FitcWorkspace& ws) {
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
-  const VectorXd b = hyper.log_b.array().exp().matrix();
-  const double c = std::exp(hyper.log_c);
-  const double sigma2 = std::exp(hyper.log_sigma2);
-
-  ard_kernel(pseudo, pseudo, b, c, ws.Kmm_kernel, ws.r2);  // without jitter: what the hypers move
-  ws.Kmm = ws.Kmm_kernel;
-  ws.Kmm.diagonal().array() += jitter;
+  const auto [b, c, sigma2] = scales_and_kmm(pseudo, hyper, jitter, ws);
   ard_kernel(X, pseudo, b, c, ws.Knm, ws.r2);
   const MatrixXd& Knm = ws.Knm;
 
@@ -585,6 +595,180 @@ struct GradientArgs {
   const double* L_inv_diag;
 };
 
+/// The P blocks of one gradient_group, which its steps below share. Vector t of a row (t < kG) is
+/// vector t % kT of block blk0 + t / kT.
+template <class V, int P>
+struct GradientGroup {
+  static constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
+  const double *x[P], *K[P], *Vb[P];
+  double* Wb[P];  ///< t = L_B^-1 u, then r = B^-1 u, then G'
+  std::size_t at0[P];
+  /// Offset of vector t in row i of an M x kBlock block.
+  static constexpr int off(int i, int t) { return i * kBlock + (t % kT) * kW; }
+  /// Index of vector t's first sample in the per-sample arrays of FitcBlocks.
+  std::size_t at(int t) const { return at0[t / kT] + static_cast<std::size_t>(t % kT) * kW; }
+};
+
+/// The blocks' rows in `fb` and their scratch in W (P M kBlock doubles).
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_group_blocks(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index blk0,
+                                                         double* W, GradientGroup<V, P>& g) noexcept {
+  const std::size_t per_block = static_cast<std::size_t>(a.M) * kBlock;
+  for (int p = 0; p < P; ++p) {
+    const auto ub = static_cast<std::size_t>(blk0 + p);
+    g.x[p] = fb.X.data() + ub * static_cast<std::size_t>(a.D) * kBlock;
+    g.K[p] = fb.K.data() + ub * per_block;
+    g.Vb[p] = fb.V.data() + ub * per_block;
+    g.Wb[p] = W + static_cast<std::size_t>(p) * per_block;
+    g.at0[p] = ub * kBlock;
+  }
+}
+
+/// Lambda, Lambda^-1/2 and a = (y - V^T gamma) / Lambda.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_a(const GradientArgs& a, const FitcBlocks& fb, const GradientGroup<V, P>& g,
+                                              V* lambda, V* inv_sqrt, V* av) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  V dot[kG];
+  for (int t = 0; t < kG; ++t) {
+    lambda[t] = vload<V>(fb.lambda.data() + g.at(t));
+    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
+    dot[t] = vsplat<V>(0.0);
+  }
+  for (int i = 0; i < M; ++i) {
+    const double gi = a.gamma[i];
+    for (int t = 0; t < kG; ++t) dot[t] += vload<V>(g.Vb[t / kT] + g.off(i, t)) * gi;
+  }
+  for (int t = 0; t < kG; ++t) av[t] = (vload<V>(fb.y.data() + g.at(t)) - dot[t]) / lambda[t];
+}
+
+/// Row i of a substitution in place in W: acc -= l_j W_j for j in [j0, j1), then W_i = acc / L(i, i)
+/// (inv_diag[i] = 1 / L(i, i)).
+template <class V, int P>
+[[gnu::always_inline]] inline void substitute_row(const GradientGroup<V, P>& g, const double* l, int j0, int j1, int i,
+                                                  const double* inv_diag, V* acc) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  for (int j = j0; j < j1; ++j) {
+    const double lj = l[j];  // scalar times vector: one broadcast, also in the AVX-512 build
+    for (int t = 0; t < kG; ++t) acc[t] -= lj * vload<V>(g.Wb[t / kT] + g.off(j, t));
+  }
+  const double inv = inv_diag[i];
+  for (int t = 0; t < kG; ++t) vstore(g.Wb[t / kT] + g.off(i, t), acc[t] * inv);
+}
+
+/// Adds V a to sums.Va; t = L_B^-1 u into W by forward substitution (u = V Lambda^-1/2).
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_va_and_t(const GradientArgs& a, const GradientGroup<V, P>& g, const V* av,
+                                                     const V* inv_sqrt, GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  for (int i = 0; i < M; ++i) {
+    V va[kG];
+    for (int t = 0; t < kG; ++t) va[t] = av[t] * vload<V>(g.Vb[t / kT] + g.off(i, t));
+    for (int p = 0; p < P; ++p) accumulate(sums.Va.data() + i * kLanes, seq4(va + p * kT));
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(g.Vb[t / kT] + g.off(i, t)) * inv_sqrt[t];
+    substitute_row(g, a.LB_rows + static_cast<std::size_t>(i) * M, 0, i, i, a.LB_inv_diag, acc);
+  }
+}
+
+/// w = diag(C^-1) - a^2 with diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n
+/// (0 in the padding); adds it to sums.w_sum.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_w(const GradientArgs& a, const FitcBlocks& fb, const GradientGroup<V, P>& g,
+                                              const V* lambda, const V* av, V* w, GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  V tt[kG];
+  for (int t = 0; t < kG; ++t) tt[t] = vsplat<V>(0.0);
+  for (int i = 0; i < M; ++i) {
+    for (int t = 0; t < kG; ++t) {
+      const V v = vload<V>(g.Wb[t / kT] + g.off(i, t));
+      tt[t] += v * v;
+    }
+  }
+  for (int t = 0; t < kG; ++t) {
+    const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
+    w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + g.at(t));
+  }
+  for (int p = 0; p < P; ++p) accumulate(sums.w_sum.data(), seq4(w + p * kT));
+}
+
+/// r = L_B^-T t, then G' = L^-T (r Lambda^-1/2 - w v), both by back substitution in place in W.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_g_prime(const GradientArgs& a, const GradientGroup<V, P>& g,
+                                                    const V* inv_sqrt, const V* w) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  for (int i = M - 1; i >= 0; --i) {
+    V acc[kG];
+    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(g.Wb[t / kT] + g.off(i, t));
+    substitute_row(g, a.LB_cols + static_cast<std::size_t>(i) * M, i + 1, M, i, a.LB_inv_diag, acc);
+  }
+  for (int i = M - 1; i >= 0; --i) {
+    V acc[kG];
+    for (int t = 0; t < kG; ++t)
+      acc[t] = inv_sqrt[t] * vload<V>(g.Wb[t / kT] + g.off(i, t)) - w[t] * vload<V>(g.Vb[t / kT] + g.off(i, t));
+    substitute_row(g, a.L_cols + static_cast<std::size_t>(i) * M, i + 1, M, i, a.L_inv_diag, acc);
+  }
+}
+
+/// Adds V diag(w) V^T (lower) to sums.VwV, block after block.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_vwv(const GradientArgs& a, const GradientGroup<V, P>& g, const V* w,
+                                                GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M;
+  for (int i = 0; i < M; ++i) {
+    V wv[kG];
+    for (int t = 0; t < kG; ++t) wv[t] = w[t] * vload<V>(g.Vb[t / kT] + g.off(i, t));
+    double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
+    for (int j = 0; j <= i; ++j) {
+      V prod[kG];
+      for (int t = 0; t < kG; ++t) prod[t] = wv[t] * vload<V>(g.Vb[t / kT] + g.off(j, t));
+      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
+    }
+  }
+}
+
+/// Adds the gradient's data terms of pseudo-input m: q = E'(., m) = K(., m) .* G'(m, .) and
+/// r = K(., m) .* a, their sums, and both times (x - p) and (x - p)^2 per input dimension.
+template <class V, int P>
+[[gnu::always_inline]] inline void gradient_data_terms(const GradientArgs& a, const GradientGroup<V, P>& g, const V* av,
+                                                       int m, GradientSums& sums) noexcept {
+  constexpr int kT = GradientGroup<V, P>::kT, kG = GradientGroup<V, P>::kG;
+  const int M = a.M, D = a.D;
+  V q[kG], r[kG];
+  for (int t = 0; t < kG; ++t) {
+    const V k = vload<V>(g.K[t / kT] + g.off(m, t));
+    q[t] = k * vload<V>(g.Wb[t / kT] + g.off(m, t));
+    r[t] = k * av[t];
+  }
+  for (int p = 0; p < P; ++p) {
+    accumulate(sums.q_sum.data() + m * kLanes, seq4(q + p * kT));
+    accumulate(sums.r_sum.data() + m * kLanes, seq4(r + p * kT));
+  }
+  for (int d = 0; d < D; ++d) {
+    const double pd = a.pseudo[d * M + m];
+    V tq[kG], tr[kG], tq2[kG], tr2[kG];
+    for (int t = 0; t < kG; ++t) {
+      const V diff = vload<V>(g.x[t / kT] + g.off(d, t)) - pd;
+      tq[t] = q[t] * diff;
+      tr[t] = r[t] * diff;
+      tq2[t] = tq[t] * diff;
+      tr2[t] = tr[t] * diff;
+    }
+    const std::size_t e = (static_cast<std::size_t>(d) * M + m) * kLanes;
+    for (int p = 0; p < P; ++p) {
+      accumulate(sums.q_lin.data() + e, seq4(tq + p * kT));
+      accumulate(sums.r_lin.data() + e, seq4(tr + p * kT));
+      accumulate(sums.q_sq.data() + e, seq4(tq2 + p * kT));
+      accumulate(sums.r_sq.data() + e, seq4(tr2 + p * kT));
+    }
+  }
+}
+
 /// Gradient pass over the P blocks blk0 .. blk0 + P - 1, side by side: per sample a = C^-1 y,
 /// w = diag(C^-1) - a^2 and G'_n = L^-T (B^-1 u_n Lambda_n^-1/2 - w_n v_n) (G of fitc_evaluate without
 /// its -a_n L^-T V a term, which needs all samples: the caller subtracts it from the sums),
@@ -592,131 +776,17 @@ struct GradientArgs {
 /// P M kBlock doubles.
 template <class V, int P>
 [[gnu::always_inline]] inline void gradient_group(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index blk0,
-                                                  GradientSums& sums, double* W) {
-  constexpr int kW = sizeof(V) / sizeof(double), kT = kBlock / kW, kG = P * kT;
-  const int M = a.M, D = a.D;
-  const std::size_t per_block = static_cast<std::size_t>(M) * kBlock;
-  const double *x[P], *K[P], *Vb[P];
-  double* Wb[P];  // t = L_B^-1 u, then r = B^-1 u, then G'
-  std::size_t at0[P];
-  for (int p = 0; p < P; ++p) {
-    const auto ub = static_cast<std::size_t>(blk0 + p);
-    x[p] = fb.X.data() + ub * static_cast<std::size_t>(D) * kBlock;
-    K[p] = fb.K.data() + ub * per_block;
-    Vb[p] = fb.V.data() + ub * per_block;
-    Wb[p] = W + static_cast<std::size_t>(p) * per_block;
-    at0[p] = ub * kBlock;
-  }
-  constexpr auto off = [](int i, int t) { return i * kBlock + (t % kT) * kW; };
-  const auto at = [&](int t) { return at0[t / kT] + static_cast<std::size_t>(t % kT) * kW; };
-  V lambda[kG], inv_sqrt[kG], av[kG], w[kG], dot[kG];
-  // a = (y - V^T gamma) / Lambda.
-  for (int t = 0; t < kG; ++t) {
-    lambda[t] = vload<V>(fb.lambda.data() + at(t));
-    inv_sqrt[t] = vsplat<V>(1.0) / lane_sqrt(lambda[t]);
-    dot[t] = vsplat<V>(0.0);
-  }
-  for (int i = 0; i < M; ++i) {
-    const double g = a.gamma[i];
-    for (int t = 0; t < kG; ++t) dot[t] += vload<V>(Vb[t / kT] + off(i, t)) * g;
-  }
-  for (int t = 0; t < kG; ++t) av[t] = (vload<V>(fb.y.data() + at(t)) - dot[t]) / lambda[t];
-  // V a; t = L_B^-1 u by forward substitution.
-  for (int i = 0; i < M; ++i) {
-    V va[kG];
-    for (int t = 0; t < kG; ++t) va[t] = av[t] * vload<V>(Vb[t / kT] + off(i, t));
-    for (int p = 0; p < P; ++p) accumulate(sums.Va.data() + i * kLanes, seq4(va + p * kT));
-    const double* row = a.LB_rows + static_cast<std::size_t>(i) * M;
-    V acc[kG];
-    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Vb[t / kT] + off(i, t)) * inv_sqrt[t];
-    for (int j = 0; j < i; ++j) {
-      const double l = row[j];
-      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
-    }
-    const double inv = a.LB_inv_diag[i];
-    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
-  }
-  // diag(C^-1)_n = (1 - u_n^T B^-1 u_n) / Lambda_n = (1 - |t_n|^2) / Lambda_n; w = that - a^2.
-  V tt[kG];
-  for (int t = 0; t < kG; ++t) tt[t] = vsplat<V>(0.0);
-  for (int i = 0; i < M; ++i) {
-    for (int t = 0; t < kG; ++t) {
-      const V v = vload<V>(Wb[t / kT] + off(i, t));
-      tt[t] += v * v;
-    }
-  }
-  for (int t = 0; t < kG; ++t) {
-    const V c_inv_nn = (vsplat<V>(1.0) - tt[t]) / lambda[t];
-    w[t] = (c_inv_nn - av[t] * av[t]) * vload<V>(fb.valid.data() + at(t));
-  }
-  for (int p = 0; p < P; ++p) accumulate(sums.w_sum.data(), seq4(w + p * kT));
-  // r = L_B^-T t (back substitution, in place).
-  for (int i = M - 1; i >= 0; --i) {
-    const double* col = a.LB_cols + static_cast<std::size_t>(i) * M;
-    V acc[kG];
-    for (int t = 0; t < kG; ++t) acc[t] = vload<V>(Wb[t / kT] + off(i, t));
-    for (int j = i + 1; j < M; ++j) {
-      const double l = col[j];
-      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
-    }
-    const double inv = a.LB_inv_diag[i];
-    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
-  }
-  // G' = L^-T (r Lambda^-1/2 - w v) (back substitution, in place).
-  for (int i = M - 1; i >= 0; --i) {
-    const double* col = a.L_cols + static_cast<std::size_t>(i) * M;
-    V acc[kG];
-    for (int t = 0; t < kG; ++t)
-      acc[t] = inv_sqrt[t] * vload<V>(Wb[t / kT] + off(i, t)) - w[t] * vload<V>(Vb[t / kT] + off(i, t));
-    for (int j = i + 1; j < M; ++j) {
-      const double l = col[j];
-      for (int t = 0; t < kG; ++t) acc[t] -= l * vload<V>(Wb[t / kT] + off(j, t));
-    }
-    const double inv = a.L_inv_diag[i];
-    for (int t = 0; t < kG; ++t) vstore(Wb[t / kT] + off(i, t), acc[t] * inv);
-  }
-  // V diag(w) V^T (lower), block after block.
-  for (int i = 0; i < M; ++i) {
-    V wv[kG];
-    for (int t = 0; t < kG; ++t) wv[t] = w[t] * vload<V>(Vb[t / kT] + off(i, t));
-    double* row = sums.VwV.data() + static_cast<std::size_t>(i) * (i + 1) / 2 * kLanes;
-    for (int j = 0; j <= i; ++j) {
-      V prod[kG];
-      for (int t = 0; t < kG; ++t) prod[t] = wv[t] * vload<V>(Vb[t / kT] + off(j, t));
-      for (int p = 0; p < P; ++p) accumulate(row + j * kLanes, tree4(prod + p * kT));
-    }
-  }
-  // The gradient's data terms: E' = K .* G'^T and K .* a, and both times (x - p) and (x - p)^2.
-  for (int m = 0; m < M; ++m) {
-    V q[kG], r[kG];
-    for (int t = 0; t < kG; ++t) {
-      const V k = vload<V>(K[t / kT] + off(m, t));
-      q[t] = k * vload<V>(Wb[t / kT] + off(m, t));
-      r[t] = k * av[t];
-    }
-    for (int p = 0; p < P; ++p) {
-      accumulate(sums.q_sum.data() + m * kLanes, seq4(q + p * kT));
-      accumulate(sums.r_sum.data() + m * kLanes, seq4(r + p * kT));
-    }
-    for (int d = 0; d < D; ++d) {
-      const double pd = a.pseudo[d * M + m];
-      V tq[kG], tr[kG], tq2[kG], tr2[kG];
-      for (int t = 0; t < kG; ++t) {
-        const V diff = vload<V>(x[t / kT] + off(d, t)) - pd;
-        tq[t] = q[t] * diff;
-        tr[t] = r[t] * diff;
-        tq2[t] = tq[t] * diff;
-        tr2[t] = tr[t] * diff;
-      }
-      const std::size_t e = (static_cast<std::size_t>(d) * M + m) * kLanes;
-      for (int p = 0; p < P; ++p) {
-        accumulate(sums.q_lin.data() + e, seq4(tq + p * kT));
-        accumulate(sums.r_lin.data() + e, seq4(tr + p * kT));
-        accumulate(sums.q_sq.data() + e, seq4(tq2 + p * kT));
-        accumulate(sums.r_sq.data() + e, seq4(tr2 + p * kT));
-      }
-    }
-  }
+                                                  GradientSums& sums, double* W) noexcept {
+  constexpr int kG = GradientGroup<V, P>::kG;
+  GradientGroup<V, P> g;
+  gradient_group_blocks(a, fb, blk0, W, g);
+  V lambda[kG], inv_sqrt[kG], av[kG], w[kG];
+  gradient_a(a, fb, g, lambda, inv_sqrt, av);
+  gradient_va_and_t(a, g, av, inv_sqrt, sums);
+  gradient_w(a, fb, g, lambda, av, w, sums);
+  gradient_g_prime(a, g, inv_sqrt, w);
+  gradient_vwv(a, g, w, sums);
+  for (int m = 0; m < a.M; ++m) gradient_data_terms(a, g, av, m, sums);
 }
 
 /// Gradient pass over blocks [b0, b1), P blocks at a time (gradient_group).
@@ -793,6 +863,156 @@ void gradient_pass(const GradientArgs& a, const FitcBlocks& fb, Eigen::Index b0,
   fitc_gradient_blocks(a, fb, b0, b1, sums, W);
 }
 
+/// The samples into `fb` in blocks of kBlock (the last one padded with K = 0, y = 0: no
+/// contribution), with room for what the forward pass writes. Returns the number of blocks.
+Eigen::Index fill_blocks(const MatrixXd& X, const VectorXd& y, Eigen::Index M, FitcBlocks& fb) {
+  const Eigen::Index N = X.rows(), D = X.cols();
+  const Eigen::Index blocks = (N + kBlock - 1) / kBlock;
+  const auto padded = static_cast<std::size_t>(blocks) * kBlock;
+  const auto per_block = static_cast<std::size_t>(M) * kBlock;
+  fb.X.assign(padded * static_cast<std::size_t>(D), 0.0);
+  fb.y.assign(padded, 0.0);
+  fb.valid.assign(padded, 0.0);
+  for (Eigen::Index n = 0; n < N; ++n) {
+    const auto blk = static_cast<std::size_t>(n / kBlock), q = static_cast<std::size_t>(n % kBlock);
+    for (Eigen::Index d = 0; d < D; ++d) fb.X[(blk * static_cast<std::size_t>(D) + static_cast<std::size_t>(d)) * kBlock + q] = X(n, d);
+    fb.y[static_cast<std::size_t>(n)] = y[n];
+    fb.valid[static_cast<std::size_t>(n)] = 1.0;
+  }
+  fb.K.resize(static_cast<std::size_t>(blocks) * per_block);
+  fb.V.resize(static_cast<std::size_t>(blocks) * per_block);
+  fb.lambda.resize(padded);
+  fb.y_over_lambda.resize(padded);
+  return blocks;
+}
+
+/// Whether for_two_halves runs a second half over this many blocks (and there are its sums to add).
+bool split_in_halves(Eigen::Index blocks) { return blocks >= kMinSplitBlocks; }
+
+/// The forward pass over all blocks in two halves, each into its own accumulators in ws.
+void forward_halves(const ForwardArgs& forward, Eigen::Index blocks, FitcWorkspace& ws) {
+  const Eigen::Index M = forward.M;
+  const auto per_block = static_cast<std::size_t>(M) * kBlock;
+  const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
+  std::vector<double>* const B_acc = ws.B_acc;
+  std::vector<double>* const Vy_acc = ws.Vy_acc;
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+    B_acc[h].assign(packed, 0.0);
+    Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
+    ws.scratch[h].resize(kMaxGroup * per_block);
+    forward_pass(forward, ws.blocks, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
+  });
+}
+
+/// B = I + U U^T (lower triangle, into ws.B) and V Lambda^-1 y (into Vy, of size M) from the forward
+/// pass's per-lane sums, of both halves if `split`.
+void add_forward_sums(FitcWorkspace& ws, bool split, VectorXd& Vy) {
+  const Eigen::Index M = Vy.size();
+  const std::vector<double>* const B_acc = ws.B_acc;
+  const std::vector<double>* const Vy_acc = ws.Vy_acc;
+  MatrixXd& B = ws.B;
+  B.setIdentity(M, M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    for (Eigen::Index j = 0; j <= i; ++j) {
+      const auto at = (static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j)) * kLanes;
+      B(i, j) += lane_sum(B_acc[0].data() + at) + (split ? lane_sum(B_acc[1].data() + at) : 0.0);
+    }
+    const auto at = static_cast<std::size_t>(i) * kLanes;
+    Vy[i] = lane_sum(Vy_acc[0].data() + at) + (split ? lane_sum(Vy_acc[1].data() + at) : 0.0);
+  }
+}
+
+/// The gradient pass over all blocks in two halves, each into its own sums in ws.
+void gradient_halves(const GradientArgs& backward, Eigen::Index blocks, FitcWorkspace& ws) {
+  const auto per_block = static_cast<std::size_t>(backward.M) * kBlock;
+  GradientSums* const sums = ws.sums;
+  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
+    sums[h].reset(backward.M, backward.D);
+    ws.scratch[h].resize(kMaxGroup * per_block);
+    gradient_pass(backward, ws.blocks, b0, b1, sums[h], ws.scratch[h].data());
+  });
+}
+
+/// The gradient pass's sums over all samples, with G's -g a^T term put in.
+struct GradientTotals {
+  VectorXd Va;        ///< V a
+  MatrixXd VwV;       ///< lower triangle: V diag(w) V^T
+  VectorXd g;         ///< L^-T V a: G = G' - g a^T
+  MatrixXd data_lin;  ///< M x D: sum_n E(n, m) (X(n, d) - pseudo(m, d))
+  VectorXd data_sq;   ///< D: sum_n,m E(n, m) (X(n, d) - pseudo(m, d))^2
+  double E_sum = 0.0, w_sum = 0.0;
+};
+
+/// The totals of the gradient pass's per-lane sums (of both halves if `split`).
+void add_gradient_sums(const FitcWorkspace& ws, bool split, const Eigen::LLT<MatrixXd>& llt_mm, Eigen::Index D,
+                       GradientTotals& totals) {
+  const Eigen::Index M = llt_mm.rows();
+  const GradientSums* const sums = ws.sums;
+  // One total of four lanes (and of the two halves).
+  auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
+    const std::size_t at = entry * kLanes;
+    return lane_sum((sums[0].*part).data() + at) + (split ? lane_sum((sums[1].*part).data() + at) : 0.0);
+  };
+  VectorXd& Va = totals.Va;
+  Va.resize(M);
+  totals.VwV.resize(M, M);
+  for (Eigen::Index i = 0; i < M; ++i) {
+    Va[i] = total(&GradientSums::Va, static_cast<std::size_t>(i));
+    for (Eigen::Index j = 0; j <= i; ++j)
+      totals.VwV(i, j) = total(&GradientSums::VwV, static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j));
+  }
+  totals.g = llt_mm.matrixU().solve(Va);
+  const VectorXd& g = totals.g;
+  totals.data_lin.resize(M, D);
+  totals.data_sq.setZero(D);
+  for (Eigen::Index m = 0; m < M; ++m) {
+    const auto um = static_cast<std::size_t>(m);
+    totals.E_sum += total(&GradientSums::q_sum, um) - g[m] * total(&GradientSums::r_sum, um);
+    for (Eigen::Index d = 0; d < D; ++d) {
+      const std::size_t e = static_cast<std::size_t>(d) * static_cast<std::size_t>(M) + um;
+      totals.data_lin(m, d) = total(&GradientSums::q_lin, e) - g[m] * total(&GradientSums::r_lin, e);
+      totals.data_sq[d] += total(&GradientSums::q_sq, e) - g[m] * total(&GradientSums::r_sq, e);
+    }
+  }
+  totals.w_sum = total(&GradientSums::w_sum, 0);
+}
+
+/// The gradient [vec(pseudo), log_b, log_c, log_sigma2] from the totals. H = L^-T S L^-1 with
+/// S = I - B^-1 - V diag(w) V^T - (V a)(V a)^T, and F = H .* K_MM is dK_MM's coefficient (x -2).
+void assemble_gradient(const MatrixXd& pseudo, const KernelScales& k, const GradientTotals& totals,
+                       const Eigen::LLT<MatrixXd>& llt_b, const Eigen::LLT<MatrixXd>& llt_mm,
+                       const MatrixXd& Kmm_kernel, VectorXd& grad) {
+  const Eigen::Index M = pseudo.rows(), D = pseudo.cols();
+  const auto Lt = llt_mm.matrixU();
+  MatrixXd S = -totals.VwV;  // lower triangle
+  S.triangularView<Eigen::Lower>() -= totals.Va * totals.Va.transpose();
+  S.triangularView<Eigen::Lower>() -= llt_b.solve(MatrixXd::Identity(M, M));
+  S.diagonal().array() += 1.0;
+  S = S.selfadjointView<Eigen::Lower>();
+  const MatrixXd T = Lt.solve(S);                    // L^-T S
+  MatrixXd H = Lt.solve(T.transpose()).transpose();  // L^-T S L^-1
+  H = 0.5 * (H + H.transpose());
+  const MatrixXd F = H.cwiseProduct(Kmm_kernel);
+
+  grad.setZero(M * D + D + 2);
+  for (Eigen::Index d = 0; d < D; ++d) {
+    double pseudo_sq = 0.0;
+    for (Eigen::Index m = 0; m < M; ++m) {
+      const double xb = pseudo(m, d);
+      double pseudo_lin = 0.0;
+      for (Eigen::Index j = 0; j < M; ++j) {
+        const double diff = xb - pseudo(j, d);
+        pseudo_lin += F(m, j) * diff;
+        pseudo_sq += F(m, j) * diff * diff;
+      }
+      grad[d * M + m] = k.b[d] * (totals.data_lin(m, d) + pseudo_lin);
+    }
+    grad[M * D + d] = -0.5 * k.b[d] * totals.data_sq[d] + 0.25 * k.b[d] * pseudo_sq;
+  }
+  grad[M * D + D] = totals.E_sum - 0.5 * F.sum() + 0.5 * k.c * totals.w_sum;
+  grad[M * D + D + 1] = 0.5 * k.sigma2 * totals.w_sum;
+}
+
 /// The FITC NLML in O(N M^2), and whatever `request` asks for from the same factorisations.
 /// Returns +inf when K_MM, Lambda or B is not positive definite (numerically).
 ///
@@ -823,13 +1043,7 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   constexpr double kInf = std::numeric_limits<double>::infinity();
   const Eigen::Index N = X.rows(), M = pseudo.rows(), D = X.cols();
   if (D > kMaxInputDim) reject("input dimension " + std::to_string(D) + " exceeds " + std::to_string(kMaxInputDim));
-  const VectorXd b = hyper.log_b.array().exp().matrix();
-  const double c = std::exp(hyper.log_c);
-  const double sigma2 = std::exp(hyper.log_sigma2);
-
-  ard_kernel(pseudo, pseudo, b, c, ws.Kmm_kernel, ws.r2);  // without jitter: what the hypers move
-  ws.Kmm = ws.Kmm_kernel;
-  ws.Kmm.diagonal().array() += jitter;
+  const KernelScales k = scales_and_kmm(pseudo, hyper, jitter, ws);
   const Eigen::LLT<MatrixXd> llt_mm(ws.Kmm);
   if (llt_mm.info() != Eigen::Success) return kInf;
   const auto L = llt_mm.matrixL();
@@ -838,53 +1052,19 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   const MatrixXd L_rows = L_cols.transpose();
   const VectorXd L_inv_diag = L_cols.diagonal().cwiseInverse();
 
-  // The samples in blocks of kBlock (the last one padded with K = 0, y = 0: no contribution).
-  const Eigen::Index blocks = (N + kBlock - 1) / kBlock;
-  const auto padded = static_cast<std::size_t>(blocks) * kBlock;
-  const auto per_block = static_cast<std::size_t>(M) * kBlock;
-  FitcBlocks& fb = ws.blocks;
-  fb.X.assign(padded * static_cast<std::size_t>(D), 0.0);
-  fb.y.assign(padded, 0.0);
-  fb.valid.assign(padded, 0.0);
-  for (Eigen::Index n = 0; n < N; ++n) {
-    const auto blk = static_cast<std::size_t>(n / kBlock), q = static_cast<std::size_t>(n % kBlock);
-    for (Eigen::Index d = 0; d < D; ++d) fb.X[(blk * static_cast<std::size_t>(D) + static_cast<std::size_t>(d)) * kBlock + q] = X(n, d);
-    fb.y[static_cast<std::size_t>(n)] = y[n];
-    fb.valid[static_cast<std::size_t>(n)] = 1.0;
-  }
-  fb.K.resize(static_cast<std::size_t>(blocks) * per_block);
-  fb.V.resize(static_cast<std::size_t>(blocks) * per_block);
-  fb.lambda.resize(padded);
-  fb.y_over_lambda.resize(padded);
-
-  const auto packed = static_cast<std::size_t>(M) * static_cast<std::size_t>(M + 1) / 2 * kLanes;
-  std::vector<double>* const B_acc = ws.B_acc;
-  std::vector<double>* const Vy_acc = ws.Vy_acc;
-  const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), b.data(), c, c + sigma2,
+  const Eigen::Index blocks = fill_blocks(X, y, M, ws.blocks);
+  const bool split = split_in_halves(blocks);
+  const ForwardArgs forward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), k.b.data(), k.c, k.c + k.sigma2,
                             L_rows.data(), L_inv_diag.data()};
-  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
-    B_acc[h].assign(packed, 0.0);
-    Vy_acc[h].assign(static_cast<std::size_t>(M) * kLanes, 0.0);
-    ws.scratch[h].resize(kMaxGroup * per_block);
-    forward_pass(forward, fb, b0, b1, B_acc[h].data(), Vy_acc[h].data(), ws.scratch[h].data());
-  });
-  const bool split = blocks >= kMinSplitBlocks;  // for_two_halves ran a second half
-  const VectorXd lambda = Eigen::Map<const VectorXd>(fb.lambda.data(), N);
+  forward_halves(forward, blocks, ws);
+  // The temporaries from here on are allocated in this order so that the heap's top is not trimmed
+  // and grown again every evaluation.
+  const VectorXd lambda = Eigen::Map<const VectorXd>(ws.blocks.lambda.data(), N);
   if (!(lambda.minCoeff() > 0.0) || !lambda.allFinite()) return kInf;
-  const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(fb.y_over_lambda.data(), N);
-
-  MatrixXd& B = ws.B;
-  B.setIdentity(M, M);
+  const VectorXd y_over_lambda = Eigen::Map<const VectorXd>(ws.blocks.y_over_lambda.data(), N);
   VectorXd Vy(M);
-  for (Eigen::Index i = 0; i < M; ++i) {
-    for (Eigen::Index j = 0; j <= i; ++j) {
-      const auto at = (static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j)) * kLanes;
-      B(i, j) += lane_sum(B_acc[0].data() + at) + (split ? lane_sum(B_acc[1].data() + at) : 0.0);
-    }
-    const auto at = static_cast<std::size_t>(i) * kLanes;
-    Vy[i] = lane_sum(Vy_acc[0].data() + at) + (split ? lane_sum(Vy_acc[1].data() + at) : 0.0);
-  }
-  const Eigen::LLT<MatrixXd> llt_b(B);  // reads the lower triangle only
+  add_forward_sums(ws, split, Vy);
+  const Eigen::LLT<MatrixXd> llt_b(ws.B);  // reads the lower triangle only
   if (llt_b.info() != Eigen::Success) return kInf;
 
   const VectorXd beta = llt_b.matrixL().solve(Vy);
@@ -898,67 +1078,10 @@ double fitc_evaluate(const MatrixXd& X, const VectorXd& y, const MatrixXd& pseud
   const VectorXd LB_inv_diag = LB_cols.diagonal().cwiseInverse();
   const GradientArgs backward{static_cast<int>(M), static_cast<int>(D), pseudo.data(), gamma.data(),
                               LB_rows.data(), LB_cols.data(), LB_inv_diag.data(), L_cols.data(), L_inv_diag.data()};
-  GradientSums* const sums = ws.sums;
-  for_two_halves(blocks, kMinSplitBlocks, ws.worker, [&](Eigen::Index b0, Eigen::Index b1, int h) {
-    sums[h].reset(static_cast<int>(M), static_cast<int>(D));
-    ws.scratch[h].resize(kMaxGroup * per_block);
-    gradient_pass(backward, fb, b0, b1, sums[h], ws.scratch[h].data());
-  });
-  // One total of four lanes (and of the two halves).
-  auto total = [&](std::vector<double> GradientSums::*part, std::size_t entry) {
-    const std::size_t at = entry * kLanes;
-    return lane_sum((sums[0].*part).data() + at) + (split ? lane_sum((sums[1].*part).data() + at) : 0.0);
-  };
-  VectorXd Va(M);
-  MatrixXd VwV(M, M);
-  for (Eigen::Index i = 0; i < M; ++i) {
-    Va[i] = total(&GradientSums::Va, static_cast<std::size_t>(i));
-    for (Eigen::Index j = 0; j <= i; ++j)
-      VwV(i, j) = total(&GradientSums::VwV, static_cast<std::size_t>(i) * static_cast<std::size_t>(i + 1) / 2 + static_cast<std::size_t>(j));
-  }
-  const VectorXd g = Lt.solve(Va);  // L^-T V a: G = G' - g a^T
-  MatrixXd data_lin(M, D);  // sum_n E(n, m) (X(n, d) - pseudo(m, d))
-  VectorXd data_sq = VectorXd::Zero(D);  // sum_n,m E(n, m) (X(n, d) - pseudo(m, d))^2
-  double E_sum = 0.0;
-  for (Eigen::Index m = 0; m < M; ++m) {
-    const auto um = static_cast<std::size_t>(m);
-    E_sum += total(&GradientSums::q_sum, um) - g[m] * total(&GradientSums::r_sum, um);
-    for (Eigen::Index d = 0; d < D; ++d) {
-      const std::size_t e = static_cast<std::size_t>(d) * static_cast<std::size_t>(M) + um;
-      data_lin(m, d) = total(&GradientSums::q_lin, e) - g[m] * total(&GradientSums::r_lin, e);
-      data_sq[d] += total(&GradientSums::q_sq, e) - g[m] * total(&GradientSums::r_sq, e);
-    }
-  }
-  const double w_sum = total(&GradientSums::w_sum, 0);
-
-  MatrixXd S = -VwV;  // lower triangle: I - B^-1 - V diag(w) V^T - (V a)(V a)^T
-  S.triangularView<Eigen::Lower>() -= Va * Va.transpose();
-  S.triangularView<Eigen::Lower>() -= llt_b.solve(MatrixXd::Identity(M, M));
-  S.diagonal().array() += 1.0;
-  S = S.selfadjointView<Eigen::Lower>();
-  const MatrixXd T = Lt.solve(S);                    // L^-T S
-  MatrixXd H = Lt.solve(T.transpose()).transpose();  // L^-T S L^-1
-  H = 0.5 * (H + H.transpose());
-  const MatrixXd F = H.cwiseProduct(ws.Kmm_kernel);  // dK_MM's coefficient (x -2) .* K_MM
-
-  VectorXd& grad = *request.gradient;
-  grad.setZero(M * D + D + 2);
-  for (Eigen::Index d = 0; d < D; ++d) {
-    double pseudo_sq = 0.0;
-    for (Eigen::Index m = 0; m < M; ++m) {
-      const double xb = pseudo(m, d);
-      double pseudo_lin = 0.0;
-      for (Eigen::Index k = 0; k < M; ++k) {
-        const double diff = xb - pseudo(k, d);
-        pseudo_lin += F(m, k) * diff;
-        pseudo_sq += F(m, k) * diff * diff;
-      }
-      grad[d * M + m] = b[d] * (data_lin(m, d) + pseudo_lin);
-    }
-    grad[M * D + d] = -0.5 * b[d] * data_sq[d] + 0.25 * b[d] * pseudo_sq;
-  }
-  grad[M * D + D] = E_sum - 0.5 * F.sum() + 0.5 * c * w_sum;
-  grad[M * D + D + 1] = 0.5 * sigma2 * w_sum;
+  gradient_halves(backward, blocks, ws);
+  GradientTotals totals;
+  add_gradient_sums(ws, split, llt_mm, D, totals);
+  assemble_gradient(pseudo, k, totals, llt_b, llt_mm, ws.Kmm_kernel, *request.gradient);
   return nlml;
 }
 /// Parameter vector layout of the optimiser: [vec(pseudo) (M*D, column-major), log_b, log_c, log_sigma2].
