@@ -23,6 +23,7 @@ namespace {
 /// One run of the user's controller on `backend`: the arm controller in commanded-torque mode on
 /// every torque-controlled joint, the callback's torques into it, the limits stage around it.
 struct UserLoop {
+  UserLoop(const experiments::ArmScenario& s, const TorqueController& u) : scenario(s), user(u) {}
   const experiments::ArmScenario& scenario;
   const TorqueController& user;
   control::ArmController controller{scenario.controller};
