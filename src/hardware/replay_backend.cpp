@@ -104,14 +104,13 @@ bool ReplayBackend::write(const io::Command& command) noexcept {
   }
   have_row_ = false;
   ++next_;
-  written_ = next_;
   return true;
 }
 
 ReplayBackend::Difference ReplayBackend::max_difference() const noexcept {
   Difference d{kNaN, kNaN};
   const std::size_t per_row = info_.joint_names.size() * kCommands;
-  for (std::size_t i = 0; i < written_ * per_row; ++i) {
+  for (std::size_t i = 0; i < next_ * per_row; ++i) {
     const double e = std::abs(replayed_[i] - recorded_[i]);
     if (!std::isfinite(e)) continue;
     double& into = (i % kCommands == 2) ? d.motor_Nm : d.pressure_MPa;
@@ -128,9 +127,9 @@ void ReplayBackend::write_commands(const std::filesystem::path& path, const std:
       columns.push_back("replayed_" + p + c);
     }
   }
-  runtime::CsvLog out(columns, written_);
+  runtime::CsvLog out(columns, next_);
   const std::size_t per_row = info_.joint_names.size() * kCommands;
-  for (std::size_t r = 0; r < written_; ++r) {
+  for (std::size_t r = 0; r < next_; ++r) {
     out.begin_row();
     out.set(0, t_s_[r]);
     for (std::size_t i = 0; i < per_row; ++i) {

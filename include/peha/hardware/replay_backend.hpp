@@ -46,7 +46,7 @@ class ReplayBackend final : public io::Backend {
   std::size_t rows() const noexcept { return t_s_.size(); }
   double duration_s() const noexcept { return t_s_.back() - t_s_.front(); }
   /// Rows whose command was written (at most rows()).
-  std::size_t replayed() const noexcept { return written_; }
+  std::size_t replayed() const noexcept { return next_; }
 
   /// The largest |replayed - recorded| over the replayed rows, per command kind: muscle pressure
   /// (MPa) and motor torque (Nm); NaN where the log recorded no command of that kind.
@@ -67,7 +67,7 @@ class ReplayBackend final : public io::Backend {
   std::vector<io::SensorState> samples_;
   /// [row][joint * kCommands + c]: recorded, then what the controller sent for the row.
   std::vector<double> recorded_, replayed_;
-  std::size_t next_ = 0, written_ = 0;
+  std::size_t next_ = 0;  ///< rows answered by a write (the next row read() gives)
   bool have_row_ = false;  ///< read() gave a row that write() has not answered yet
 };
 
