@@ -147,7 +147,7 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
 int mfb_emulator(const EmulatorOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
-    std::optional<BoardPlant> plant = find_experiment(doc).emulator(doc, options);
+    std::optional<BoardPlant> plant = find_experiment(doc).emulator(doc, {options.case_name, options.seed});
     if (!plant) return 2;
     if (plant->link.boards.size() > 1) {
       if (!options.truth_csv.empty()) throw std::runtime_error("mfb-emulator: --truth-csv records one board's plant; this scenario has several boards");

@@ -4,36 +4,40 @@
 #include "peha/app/registry.hpp"
 #include "peha/app/run_dir.hpp"
 #include "peha/app/video_option.hpp"
+#include "peha/hardware/backend_uri.hpp"
 
 #include <fmt/format.h>
 
-#include <algorithm>
+#include <memory>
+#include <stdexcept>
 
 namespace peha::app {
 namespace {
 
-/// --backend chose other hardware than the default simulated plant (`sim:` is the default said aloud).
-bool other_backend(const RunOptions& o) { return !o.backend.empty() && o.backend != "sim:" && o.backend != "sim"; }
-/// --backend chose boards over UDP: a real-time run.
-bool on_board(const RunOptions& o) { return o.backend.starts_with("udp://"); }
+/// An option of `peha run` that not every experiment takes: given or not, and which field of
+/// experiments::Takes says an experiment takes it.
+struct CheckedOption {
+  const char* flag;
+  bool given;
+  bool experiments::Takes::*taken;
+  /// Set for the options that shape the simulated world (the plant, the person): with hardware the
+  /// world is the hardware's, so they apply in process only; this says what to do instead.
+  const char* on_hardware = nullptr;
+};
 
-/// The options given on the command line that not every experiment takes, in --help order.
-std::vector<std::string> checked_options_given(const RunOptions& o) {
-  std::vector<std::string> given;
-  const std::pair<const char*, bool> options[] = {
-      {"--case", !o.only_case.empty()},
-      {"--agonist-calibration", !o.calibration[0].empty()},
-      {"--antagonist-calibration", !o.calibration[1].empty()},
-      {"--goniometer-csv", !o.goniometer_csv.empty()},
-      {"--backend", other_backend(o)},
-      {"--force-trim-rate", o.force_trim_rate_1ps.has_value()},
-      {"--fault", !o.faults.empty()},
-      {"--gravity-identification", !o.gravity_identification.empty()},
+std::vector<CheckedOption> checked_options(const RunOptions& o) {
+  using T = experiments::Takes;
+  return {
+      {"--case", !o.only_case.empty(), &T::cases},
+      {"--agonist-calibration", !o.calibration[0].empty(), &T::calibration},
+      {"--antagonist-calibration", !o.calibration[1].empty(), &T::calibration},
+      {"--goniometer-csv", !o.goniometer_csv.empty(), &T::goniometer_csv,
+       "with --backend the person's goniometer is the board's AD channel; --goniometer-csv is for in-process runs"},
+      {"--force-trim-rate", o.force_trim_rate_1ps.has_value(), &T::force_trim},
+      {"--fault", !o.faults.empty(), &T::faults,
+       "with --backend the plant is the hardware's (the emulator's: give the faults in the scenario's faults: list)"},
+      {"--gravity-identification", !o.gravity_identification.empty(), &T::gravity_identification},
   };
-  for (const auto& [name, set] : options) {
-    if (set) given.emplace_back(name);
-  }
-  return given;
 }
 
 /// The real-time options given (they apply to --backend runs only).
@@ -59,8 +63,24 @@ std::string where_experiment_applies() {
   return where;
 }
 
+/// "E1 gravity compensation" or "arm --experiment postures (E3 postures)".
+std::string run_name(const Experiment& e, const RunVariant& v) {
+  return v.name.empty() ? v.title : fmt::format("{} --experiment {} ({})", e.key, v.name, v.title);
+}
+
+/// The experiments that take the option `taken` (for a refusal's message).
+std::string who_takes(bool experiments::Takes::*taken) {
+  std::string who;
+  for (const auto& e : experiment_registry()) {
+    for (const auto& v : e.variants) {
+      if (v.takes.*taken) who += (who.empty() ? "" : ", ") + run_name(e, v);
+    }
+  }
+  return who.empty() ? std::string("no experiment") : who;
+}
+
 /// The entry's experiment --experiment chooses; nullptr after a message.
-const RunVariant* choose_variant(const ExperimentEntry& entry, const RunOptions& options, const config::Document& doc) {
+const RunVariant* choose_variant(const Experiment& entry, const RunOptions& options, const config::Document& doc) {
   if (entry.variants.size() == 1 && entry.variants.front().name.empty()) {
     if (options.experiment.empty()) return &entry.variants.front();
     fmt::print(stderr, "error: {}: experiment {} does not take --experiment: a {} scenario has one experiment "
@@ -76,33 +96,25 @@ const RunVariant* choose_variant(const ExperimentEntry& entry, const RunOptions&
   return nullptr;
 }
 
-std::string reason_for(const std::vector<Refusal>& refusals, const std::string& option, const RunVariant& variant) {
-  for (const auto& r : refusals) {
-    if (r.option == option) return r.reason;
-  }
-  std::string takes;
-  for (const auto& a : variant.accepts) takes += (takes.empty() ? "" : ", ") + a;
-  return fmt::format("not one of its options (it takes {})", takes.empty() ? std::string("none of them") : takes);
-}
-
 /// The first option given that the experiment does not take, as an error message; empty if none.
-std::string refused_option(const ExperimentEntry& entry, const RunVariant& variant, const RunOptions& options,
-                           const config::Document& doc) {
-  const std::string what = fmt::format("{}: experiment {}{}", doc.name(), entry.key,
-                                       variant.name.empty() ? "" : " --experiment " + variant.name);
+/// Every message is derived from what the experiments declare (experiments::Takes).
+std::string refused_option(const Experiment& entry, const RunVariant& variant, const RunOptions& options,
+                           const config::Document& doc, const hardware::BackendUri& backend) {
+  const std::string what = fmt::format("{}: {}", doc.name(), run_name(entry, variant));
   const std::vector<std::string> realtime = realtime_options_given(options);
-  if (!realtime.empty() && !on_board(options)) {
+  if (!realtime.empty() && backend.kind != hardware::BackendKind::kBoards) {
     return fmt::format("{} applies to real-time runs on the board only: give --backend udp://A.B.C.D:PORT too", realtime.front());
   }
-  for (const std::string& option : checked_options_given(options)) {
-    if (std::find(variant.accepts.begin(), variant.accepts.end(), option) == variant.accepts.end()) {
-      return fmt::format("{} does not take {}: {}", what, option, reason_for(variant.refusals, option, variant));
-    }
-    if (other_backend(options)) {
-      for (const auto& r : variant.refused_on_board) {
-        if (r.option == option) return fmt::format("{} with --backend does not take {}: {}", what, option, r.reason);
-      }
-    }
+  const bool boards = backend.kind == hardware::BackendKind::kBoards, replay = backend.kind == hardware::BackendKind::kReplay;
+  if ((boards && !variant.takes.boards) || (replay && !variant.takes.replay)) {
+    return fmt::format("{} does not take --backend {}: {}; --backend {} is for {}", what, backend.text,
+                       variant.takes.why_not_hardware.empty() ? std::string("it runs in process only") : variant.takes.why_not_hardware,
+                       boards ? "udp://" : "replay:", who_takes(boards ? &experiments::Takes::boards : &experiments::Takes::replay));
+  }
+  for (const CheckedOption& o : checked_options(options)) {
+    if (!o.given) continue;
+    if (!(variant.takes.*o.taken)) return fmt::format("{} does not take {}: {} is for {}", what, o.flag, o.flag, who_takes(o.taken));
+    if (o.on_hardware && backend.kind != hardware::BackendKind::kSim) return fmt::format("{} does not take {}: {}", what, o.flag, o.on_hardware);
   }
   return {};
 }
@@ -134,10 +146,17 @@ int run(const RunOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
     // The scenario says which experiment it describes; the options must be ones that experiment takes.
-    const ExperimentEntry& entry = find_experiment(doc);
+    const Experiment& entry = find_experiment(doc);
     const RunVariant* variant = choose_variant(entry, options, doc);
     if (!variant) return 2;
-    if (const std::string refused = refused_option(entry, *variant, options, doc); !refused.empty()) {
+    hardware::BackendUri backend;
+    try {
+      backend = hardware::BackendUri::parse(options.backend);
+    } catch (const std::invalid_argument& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return 2;
+    }
+    if (const std::string refused = refused_option(entry, *variant, options, doc, backend); !refused.empty()) {
       fmt::print(stderr, "error: {}\n", refused);
       return 2;
     }
@@ -145,7 +164,14 @@ int run(const RunOptions& options) {
     RunDir run_dir(options.config, options.out_root, options.run_name);
     experiments::RunRequest request = make_request(options);
     request.open_run_dir = [&run_dir](std::uint64_t seed) { return run_dir.create(seed); };
-    const int code = variant->run(doc, request);
+    std::unique_ptr<experiments::ExperimentRun> experiment;
+    try {
+      experiment = variant->make_run(doc, request);
+    } catch (const experiments::RequestError& e) {
+      fmt::print(stderr, "error: {}\n", e.what());
+      return 2;
+    }
+    const int code = experiments::run_sequence(doc, request, *experiment);
     if (run_dir.created() && options.video) write_run_videos(doc, entry.key, run_dir.path());
     if (run_dir.created()) run_dir.link_latest();
     return code;

@@ -44,15 +44,17 @@ bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& l
 /// The run's hardware, checked before anything is written: over the board one case, the mfb:
 /// section and the addresses; a replay one case (a log is one run). False (after a message) when
 /// the request cannot run; `realtime` is set only for a run on boards.
-bool check_hardware(const std::string& doc_name, const mfb::LinkConfig* link, std::size_t cases, const RunRequest& request,
+bool check_hardware(const std::string& doc_name, const mfb::LinkConfig* link, const std::vector<std::string>& cases, const RunRequest& request,
                     hardware::BackendUri& uri, std::optional<HardwareRunOptions>& realtime) {
   std::optional<HardwareRunOptions> options = realtime_options(request);
   if (!options) return false;
   uri = options->backend;
   if (uri.kind == hardware::BackendKind::kSim) return true;
-  if (cases > 1) {
+  if (cases.size() > 1) {
+    std::string names;
+    for (const auto& n : cases) names += (names.empty() ? "" : ", ") + n;
     fmt::print(stderr, "error: --backend {} runs one case (a board serves one plant, a log recorded one run; with peha "
-                       "mfb-emulator the same --case): give --case NAME; {} has {} cases\n", uri.text, doc_name, cases);
+                       "mfb-emulator the same --case): give --case NAME ({}), the cases of {}\n", uri.text, names, doc_name);
     return false;
   }
   if (uri.kind == hardware::BackendKind::kReplay) return true;

@@ -289,10 +289,10 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
   const struct {
     std::string args, option, detail;
   } refused[] = {
-      {"run --experiment postures --agonist-calibration " + any_file + arm, "--agonist-calibration", "no calibration input"},
-      {"run --experiment goniometer --antagonist-calibration " + any_file + arm, "--antagonist-calibration", "no calibration input"},
+      {"run --experiment postures --agonist-calibration " + any_file + arm, "--agonist-calibration", "is for E1 gravity compensation\n"},
+      {"run --experiment goniometer --antagonist-calibration " + any_file + arm, "--antagonist-calibration", "is for E1 gravity compensation\n"},
       {"run --experiment postures" + e1, "--experiment", "gravity_compensation_1dof"},
-      {"run --goniometer-csv " + any_file + e1, "--goniometer-csv", "gravity_compensation_1dof"},
+      {"run --goniometer-csv " + any_file + e1, "--goniometer-csv", "is for arm --experiment goniometer (E4 goniometer)"},
       {"run --experiment postures --goniometer-csv " + any_file + arm, "--goniometer-csv", "--experiment postures"},
       {"run --experiment bandwidth --case slow" + arm, "--case", "--experiment bandwidth"},
       {"run --cpu 1" + e1, "--cpu", "--backend"},
@@ -300,8 +300,8 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
       {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
        "in-process"},
       // Plant faults: E1 and E3 in process; on the arm named by its joints.
-      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "E1 and an arm scenario's E3"},
-      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "E1 and an arm scenario's E3"},
+      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "is for E1 gravity compensation, arm --experiment postures (E3 postures)\n"},
+      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "is for E1 gravity compensation, arm --experiment postures (E3 postures)\n"},
       {"run --experiment postures --backend udp://127.0.0.1:9 --fault estop@1" + arm, "--fault", "faults: list"},
       {"run --experiment postures --fault wire_break@9:joint.agonist" + arm, "--fault", "R_SFE|R_EFE|R_WFE"},
   };
@@ -384,7 +384,7 @@ TEST(Cli, IdentifyGravityWritesAFileE3Takes) {
   EXPECT_EQ(r.code, 0) << r.output;
   r = run("run --no-plot --config " PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml --out " + dir.string() + " --gravity-identification " + file.string());
   EXPECT_EQ(r.code, 2);
-  EXPECT_THAT(r.output, HasSubstr("gravity identification files are for an arm"));
+  EXPECT_THAT(r.output, HasSubstr("--gravity-identification is for arm --experiment postures"));
   std::filesystem::remove_all(dir);
 }
 

@@ -51,7 +51,7 @@ bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& l
 /// or a replay one case of the `cases` selected (a board serves one plant, a log is one run), on
 /// boards the scenario's mfb: section `link` and one address per board. False (after a message,
 /// naming the scenario `doc_name`) when the request cannot run; `realtime` is set only on boards.
-bool check_hardware(const std::string& doc_name, const mfb::LinkConfig* link, std::size_t cases, const RunRequest& request,
+bool check_hardware(const std::string& doc_name, const mfb::LinkConfig* link, const std::vector<std::string>& cases, const RunRequest& request,
                     hardware::BackendUri& uri, std::optional<HardwareRunOptions>& realtime);
 
 /// What a real-time run on the board measured, printed after its experiment's table; writes the

@@ -1,5 +1,6 @@
 #include "peha/experiments/e3_postures/postures_report.hpp"
 
+#include "peha/experiments/arm/arm_contract.hpp"
 #include "peha/experiments/e3_postures/postures_realtime.hpp"
 
 #include <fmt/format.h>
@@ -34,52 +35,73 @@ void write_postures_summary(const std::filesystem::path& path, const PosturesRes
   }
 }
 
-int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario_read, const RunRequest& request,
-                            std::optional<HardwareRunOptions> realtime) {
-  ArmScenario scenario = scenario_read;
-  for (const std::string& spec : request.faults) {
-    try {
-      scenario.faults.push_back(sim::parse_fault_spec(spec, arm_joint_names(scenario), postures_duration_s(scenario)));
-    } catch (const std::invalid_argument& e) {
-      fmt::print(stderr, "error: {}\n", e.what());
-      return 2;
+namespace {
+
+class PosturesJob final : public ExperimentRun {
+ public:
+  PosturesJob(const config::Document& doc, const RunRequest& request)
+      : scenario_(arm_scenario_for_run(doc, request, "E3 (postures)", true)), doc_name_(doc.name()) {
+    for (const std::string& spec : request.faults) {
+      try {
+        scenario_.faults.push_back(sim::parse_fault_spec(spec, arm_joint_names(scenario_), postures_duration_s(scenario_)));
+      } catch (const std::invalid_argument& e) {
+        throw RequestError(e.what());
+      }
     }
   }
-  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
-  const double duration_s = postures_duration_s(scenario);
-  fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n",
-             doc.name(), scenario.description, scenario.postures.size(), duration_s, scenario.seed, dir.string());
-  PosturesResult r;
-  std::optional<PosturesRealtimeResult> rr;
-  if (realtime) {
-    realtime->dir = dir;
-    if (scenario.link->boards.size() == 1) {
-      fmt::print("  on {} in real time\n", realtime->backend.describe());
-    } else {
-      const std::vector<io::UdpEndpoint> at = mfb::board_endpoints(*scenario.link, realtime->backend.boards);
-      fmt::print("  on {} boards in real time:", at.size());
-      for (std::size_t b = 0; b < at.size(); ++b) fmt::print(" {} at udp://{}{}", scenario.link->boards[b].name, at[b].to_string(), b + 1 < at.size() ? "," : "\n");
+
+  std::uint64_t seed() const override { return scenario_.seed; }
+  const mfb::LinkConfig* link() const override { return scenario_.link ? &*scenario_.link : nullptr; }
+  std::vector<std::string> case_names() const override { return {}; }
+
+  void print_header(const RunContext& ctx, const std::vector<std::size_t>&) const override {
+    fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n", doc_name_,
+               scenario_.description, scenario_.postures.size(), postures_duration_s(scenario_), scenario_.seed, ctx.dir.string());
+    if (ctx.realtime && scenario_.link->boards.size() > 1) {
+      const std::vector<io::UdpEndpoint> at = mfb::board_endpoints(*scenario_.link, ctx.realtime->backend.boards);
+      fmt::print("  {} boards:", at.size());
+      for (std::size_t b = 0; b < at.size(); ++b) {
+        fmt::print(" {} at udp://{}{}", scenario_.link->boards[b].name, at[b].to_string(), b + 1 < at.size() ? "," : "\n");
+      }
     }
-    std::fflush(stdout);
-    rr = run_postures_realtime(scenario, *realtime);
-    r = rr->postures;
-  } else {
-    runtime::CsvLog log(arm_log_columns(scenario), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
-    for (const sim::PlantFault& f : scenario.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario)));
-    r = run_postures(scenario, &log);
-    log.write(dir / "e3_postures.csv", {fmt::format("case: E3 postures, {}", scenario.description),
-                                        fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
-                                        "plant_* columns are simulator truth the controller never sees"});
   }
-  if (r.faults) fmt::print("  SUPERVISOR FAULT: {}\n", r.fault_reason);
-  write_postures_summary(dir / "summary.csv", r, scenario.observe_s);  // closed: the plotter reads it next
-  fmt::print("verdict (thresholds from the verdict: section):\n{}verdict: {}; peak operator torque {:.1f} Nm\n"
-             "real-time factor {:.1f}; written {}/e3_postures.csv, summary.csv, config.yaml\n",
-             r.verdict.describe_all(), r.within_limits ? "OK" : "VIOLATED", r.peak_operator_torque_Nm, r.realtime_factor,
-             dir.string());
-  if (rr) print_realtime(*rr, dir / "timing");
-  if (request.plot) plot_with("plot_arm.py", dir);
-  return r.within_limits ? 0 : 3;
+
+  void run_case(std::size_t, const RunContext& ctx) override {
+    if (ctx.realtime) {
+      realtime_ = run_postures_realtime(scenario_, *ctx.realtime);
+      result_ = realtime_->postures;
+      return;
+    }
+    const double duration_s = postures_duration_s(scenario_);
+    runtime::CsvLog log(arm_log_columns(scenario_), static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
+    for (const sim::PlantFault& f : scenario_.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario_)));
+    result_ = run_postures(scenario_, &log);
+    log.write(ctx.dir / "e3_postures.csv", {fmt::format("case: E3 postures, {}", scenario_.description),
+                                            fmt::format("config: {}; seed {}", ctx.request.config.string(), scenario_.seed),
+                                            "plant_* columns are simulator truth the controller never sees"});
+  }
+
+  Conclusion conclude(const RunContext& ctx) override {
+    const PosturesResult& r = result_;
+    if (r.faults) fmt::print("  SUPERVISOR FAULT: {}\n", r.fault_reason);
+    write_postures_summary(ctx.dir / "summary.csv", r, scenario_.observe_s);  // closed: the plotter reads it next
+    fmt::print("verdict (thresholds from the verdict: section):\n{}verdict: {}; peak operator torque {:.1f} Nm; real-time factor {:.1f}\n",
+               r.verdict.describe_all(), r.within_limits ? "OK" : "VIOLATED", r.peak_operator_torque_Nm, r.realtime_factor);
+    if (realtime_) print_realtime(*realtime_, ctx.dir / "timing");
+    return {failed_figures(r.verdict), "e3_postures.csv, summary.csv, config.yaml", "plot_arm.py", {}};
+  }
+
+ private:
+  ArmScenario scenario_;
+  std::string doc_name_;
+  PosturesResult result_;
+  std::optional<PosturesRealtimeResult> realtime_;
+};
+
+}  // namespace
+
+std::unique_ptr<ExperimentRun> make_postures_run(const config::Document& doc, const RunRequest& request) {
+  return std::make_unique<PosturesJob>(doc, request);
 }
 
 }  // namespace peha::experiments

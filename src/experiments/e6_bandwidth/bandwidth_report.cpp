@@ -1,5 +1,6 @@
 #include "peha/experiments/e6_bandwidth/bandwidth_report.hpp"
 
+#include "peha/experiments/arm/arm_contract.hpp"
 #include "peha/models/units.hpp"
 
 #include <fmt/format.h>
@@ -47,27 +48,55 @@ bool write_bandwidth_report(const std::filesystem::path& bode_csv, const std::ve
   return safe;
 }
 
-int run_bandwidth_experiment(const config::Document& doc, const ArmScenario& scenario, const RunRequest& request) {
-  if (scenario.bandwidth.frequencies_Hz.empty()) {
-    fmt::print(stderr, "error: {} has no bandwidth: section (E6's joint, posture and sweep; docs/right-arm.md)\n", doc.name());
-    return 2;
+namespace {
+
+/// E6: the joint's torque sweep, PAM-only and hybrid, in process only.
+class BandwidthJob final : public ExperimentRun {
+ public:
+  BandwidthJob(const config::Document& doc, const RunRequest& request)
+      : scenario_(arm_scenario_for_run(doc, request, "E6 (bandwidth)", false)), doc_name_(doc.name()) {
+    if (scenario_.bandwidth.frequencies_Hz.empty()) {
+      throw RequestError(fmt::format("{} has no bandwidth: section (E6's joint, posture and sweep; docs/right-arm.md)", doc.name()));
+    }
   }
-  const std::filesystem::path dir = request.open_run_dir(scenario.seed);
-  const auto& b = scenario.bandwidth;
-  std::vector<std::string> locked;
-  for (std::size_t i = 0; i < b.locked_rad.size(); ++i) {
-    if (!std::isnan(b.locked_rad[i])) locked.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario)[i], models::rad_to_deg(b.locked_rad[i])));
+
+  std::uint64_t seed() const override { return scenario_.seed; }
+  const mfb::LinkConfig* link() const override { return nullptr; }  // in process only
+  std::vector<std::string> case_names() const override { return {}; }
+
+  void print_header(const RunContext& ctx, const std::vector<std::size_t>&) const override {
+    const auto& b = scenario_.bandwidth;
+    std::vector<std::string> locked;
+    for (std::size_t i = 0; i < b.locked_rad.size(); ++i) {
+      if (!std::isnan(b.locked_rad[i])) locked.push_back(fmt::format("{} {:.0f}", arm_joint_names(scenario_)[i], models::rad_to_deg(b.locked_rad[i])));
+    }
+    fmt::print("peha run: {} --experiment bandwidth (E6), output {}\n  {} swept; locked at {} deg; gravity torque "
+               "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
+               doc_name_, ctx.dir.string(), arm_joint_names(scenario_)[static_cast<std::size_t>(b.joint)], fmt::join(locked, ", "),
+               b.amplitude_Nm, b.frequencies_Hz.size());
   }
-  fmt::print("peha run: {} --experiment bandwidth (E6)\n  {} swept; locked at {} deg; gravity torque "
-             "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
-             doc.name(), arm_joint_names(scenario)[static_cast<std::size_t>(b.joint)], fmt::join(locked, ", "), b.amplitude_Nm,
-             b.frequencies_Hz.size());
-  std::vector<BandwidthResult> results;
-  for (bool hybrid : {false, true}) results.push_back(run_bandwidth(scenario, hybrid));
-  const bool safe = write_bandwidth_report(dir / "bode.csv", results);  // closed: the plotter reads it next
-  if (request.plot) plot_with("plot_bode.py", dir);
-  fmt::print("written: {}/bode.csv, config.yaml\n", dir.string());
-  return safe ? 0 : 3;
+
+  void run_case(std::size_t, const RunContext&) override {
+    for (bool hybrid : {false, true}) results_.push_back(run_bandwidth(scenario_, hybrid));
+  }
+
+  Conclusion conclude(const RunContext& ctx) override {
+    write_bandwidth_report(ctx.dir / "bode.csv", results_);  // closed: the plotter reads it next
+    Conclusion c{0, "bode.csv, config.yaml", "plot_bode.py", {}};
+    for (const BandwidthResult& r : results_) c.failed_figures += failed_figures(r.verdict);
+    return c;
+  }
+
+ private:
+  ArmScenario scenario_;
+  std::string doc_name_;
+  std::vector<BandwidthResult> results_;
+};
+
+}  // namespace
+
+std::unique_ptr<ExperimentRun> make_bandwidth_run(const config::Document& doc, const RunRequest& request) {
+  return std::make_unique<BandwidthJob>(doc, request);
 }
 
 }  // namespace peha::experiments

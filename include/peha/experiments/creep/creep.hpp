@@ -116,7 +116,4 @@ E1Scenario creep_calibrated_scenario(const CreepScenario& s, const PlantVariant&
 /// The verdict over a set of runs (see CreepVerdictThresholds); the checks say which run they judge.
 safety::Verdict creep_verdict(const CreepScenario& s, const std::vector<CreepRun>& runs);
 
-/// `peha run` of a wire_creep scenario: 0 when the verdict passed, 2 on a bad request, 3 when it failed.
-int run_creep_experiment(const config::Document& doc, const RunRequest& request);
-
 }  // namespace peha::experiments

@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// E1's run sequence for `peha run` (cases x model variants, in-process or on the board) and what
-/// it writes and prints: summary.csv, the per-case logs and the table with the safety figures.
+/// What E1 writes and prints: its model variants (calibrated or not), summary.csv and the table
+/// with the safety figures (its run: e1_contract.hpp).
 
 #include "peha/config/reader.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
@@ -29,8 +29,5 @@ void write_e1_summary(const std::filesystem::path& path, const std::vector<E1Res
 
 /// The table of releases with each case's safety figures; true when every safety figure held.
 bool print_e1_table(const std::vector<E1Result>& results);
-
-/// `peha run` of an E1 scenario: exit code 0 (every safety figure held), 2 (bad request) or 3.
-int run_e1_experiment(const config::Document& doc, const RunRequest& request);
 
 }  // namespace peha::experiments

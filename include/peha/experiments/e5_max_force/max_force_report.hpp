@@ -1,7 +1,7 @@
 #pragma once
 /// \file
-/// E5's run sequence for `peha run` (every case, in-process or one on the board) and what it writes
-/// and prints: summary.csv, the per-case logs e5_<case>.csv, the table and the plot.
+/// What E5 writes and prints: summary.csv and the table with each case's verdict (its run:
+/// e5_contract.hpp).
 
 #include "peha/config/reader.hpp"
 #include "peha/experiments/e5_max_force/max_force.hpp"
@@ -17,8 +17,5 @@ void write_e5_summary(const std::filesystem::path& path, const std::vector<E5Res
 
 /// The table of cases with each verdict; true when every check of every case passed.
 bool print_e5_table(const std::vector<E5Result>& results);
-
-/// `peha run` of an E5 scenario: exit code 0 (every figure held), 2 (bad request) or 3.
-int run_e5_experiment(const config::Document& doc, const RunRequest& request);
 
 }  // namespace peha::experiments

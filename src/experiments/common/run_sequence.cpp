@@ -1,0 +1,98 @@
+// The one run sequence of every experiment (experiment.hpp), and the emulator's shared helpers.
+#include "peha/experiments/common/experiment.hpp"
+
+#include <fmt/format.h>
+
+#include <cstdio>
+
+namespace peha::experiments {
+namespace {
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+/// The indices of the cases --case selects (all when none is given); empty after a message.
+std::vector<std::size_t> select_cases(const config::Document& doc, const std::vector<std::string>& names, const std::string& only) {
+  std::vector<std::size_t> selected;
+  if (names.empty()) {
+    // --case on a one-run experiment is refused by the CLI (Takes::cases): one run, index 0.
+    selected.push_back(0);
+    return selected;
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (only.empty() || names[i] == only) selected.push_back(i);
+  }
+  if (selected.empty()) fmt::print(stderr, "error: no case named '{}' in {}; its cases: {}\n", only, doc.name(), joined(names));
+  return selected;
+}
+
+}  // namespace
+
+std::size_t failed_figures(const safety::Verdict& verdict) {
+  std::size_t failed = 0;
+  for (const auto& c : verdict.checks) failed += !c.passed();
+  return failed;
+}
+
+int run_sequence(const config::Document& doc, const RunRequest& request, ExperimentRun& experiment) {
+  const std::vector<std::string> names = experiment.case_names();
+  const std::vector<std::size_t> cases = select_cases(doc, names, request.only_case);
+  if (cases.empty()) return 2;
+  std::vector<std::string> selected;
+  for (const std::size_t i : cases) {
+    if (!names.empty()) selected.push_back(names[i]);
+  }
+  RunContext ctx{{}, request, {}, {}};
+  if (!check_hardware(doc.name(), experiment.link(), selected, request, ctx.backend, ctx.realtime)) return 2;
+
+  // Only now, with everything loaded and checked, does the run leave a trace on disk.
+  ctx.dir = request.open_run_dir(experiment.seed());
+  if (ctx.realtime) ctx.realtime->dir = ctx.dir;
+  experiment.print_header(ctx, cases);
+  for (std::size_t k = 0; k < cases.size(); ++k) {
+    if (!names.empty()) fmt::print("  [{}/{}] {} ... ", k + 1, cases.size(), names[cases[k]]);
+    if (ctx.realtime) fmt::print("{}on {} in real time\n", names.empty() ? "  " : "", ctx.backend.describe());
+    std::fflush(stdout);
+    experiment.run_case(cases[k], ctx);
+  }
+  const Conclusion c = experiment.conclude(ctx);
+  fmt::print("\nwritten: {}/{}\n", ctx.dir.string(), c.written);
+  if (request.plot && !c.plot_tool.empty()) plot_with(c.plot_tool.c_str(), ctx.dir, c.plot_args);
+  if (c.failed_figures == 0) {
+    fmt::print("PASSED\n");
+    return 0;
+  }
+  fmt::print("FAILED ({} figure{})\n", c.failed_figures, c.failed_figures == 1 ? "" : "s");
+  return 3;
+}
+
+BoardPlant board_for(const mfb::LinkConfig& link, double period_s, const hardware::HardwareRequest& request, std::string what) {
+  return BoardPlant{period_s, link, {mfb::read_channel_map(config::Document::load_file(link.channel_map), request.joint_names)},
+                    request.simulate, {}, std::move(what)};
+}
+
+std::optional<std::size_t> emulator_case(const config::Document& doc, const std::vector<std::string>& names, const std::string& given,
+                                         const char* meaning, const std::string& also) {
+  std::string cases = joined(names);
+  if (!also.empty()) cases += ", " + also;
+  if (given.empty() && names.size() > 1) {
+    fmt::print(stderr, "error: {} has {} cases: give --case NAME ({}; the host's peha run --backend needs the same --case): {}\n", doc.name(),
+               names.size(), meaning, cases);
+    return std::nullopt;
+  }
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (given.empty() || names[i] == given) return i;
+  }
+  fmt::print(stderr, "error: no case named '{}' in {} (it has {})\n", given, doc.name(), cases);
+  return std::nullopt;
+}
+
+bool has_link(const config::Document& doc, const std::optional<mfb::LinkConfig>& link) {
+  if (!link) fmt::print(stderr, "config error: {}: no mfb: section (channel map, watchdogs): see docs/runtime.md\n", doc.name());
+  return link.has_value();
+}
+
+}  // namespace peha::experiments
