@@ -1,4 +1,5 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/common/log_row.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/release_checks.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
@@ -295,18 +296,48 @@ safety::JointSample observe_e1_sample(const io::JointSensors& s, const io::Joint
           {s.agonist_pressure_Pa, s.antagonist_pressure_Pa}, cmd.motor_torque_Nm, s.angle_rad};
 }
 
+/// E1's log row: e1_log_columns, the same names in order.
+struct E1LogRow {
+  double t_s, angle_rad, velocity_radps, finger_force_N, finger_active, tau_desired_Nm, tau_pam_cmd_Nm, tau_pam_measured_Nm,
+      tau_motor_cmd_Nm, agonist_force_cmd_N, antagonist_force_cmd_N, agonist_loadcell_N, antagonist_loadcell_N, agonist_pressure_cmd_MPa,
+      antagonist_pressure_cmd_MPa, agonist_pressure_MPa, antagonist_pressure_MPa, plant_angle_rad, plant_agonist_tension_N,
+      plant_antagonist_tension_N, plant_agonist_force_N, plant_antagonist_force_N, plant_cable_friction_Nm, plant_constraint_Nm, limit_flags,
+      fault_flags;
+};
+using E1LogColumns = decltype(as_columns(E1LogRow{}));
+
 /// One row of e1_log_columns().
 void e1_log_row(const io::SensorState& state, const io::JointCommand& cmd, const control::OneDofDiagnostics& d, const sim::OneDofRigTruth* t,
-                bool finger_on, std::uint32_t limit_flags, std::uint32_t fault_flags, std::array<double, 26>& row) noexcept {
+                bool finger_on, std::uint32_t limit_flags, std::uint32_t fault_flags, E1LogColumns& row) noexcept {
   const io::JointSensors& s = state.joints[0];
-  row = {state.time_s, s.angle_rad, d.velocity_radps, t ? t->finger_force_N : kNaN, finger_on ? 1.0 : 0.0,
-         d.tau_desired_Nm, d.allocation.tau_pam_cmd_Nm, d.allocation.tau_pam_measured_Nm, cmd.motor_torque_Nm,
-         d.allocation.agonist_force_cmd_N, d.allocation.antagonist_force_cmd_N, s.agonist_loadcell_N, s.antagonist_loadcell_N,
-         cmd.agonist_pressure_Pa * 1e-6, cmd.antagonist_pressure_Pa * 1e-6, s.agonist_pressure_Pa * 1e-6,
-         s.antagonist_pressure_Pa * 1e-6, t ? t->angle_rad : kNaN, t ? t->pulley_tension_min_N[0] : kNaN,
-         t ? t->pulley_tension_min_N[1] : kNaN, t ? t->muscle_force_N[0] : kNaN, t ? t->muscle_force_N[1] : kNaN,
-         t ? t->cable_friction_Nm : kNaN, t ? t->constraint_torque_Nm : kNaN, static_cast<double>(limit_flags),
-         static_cast<double>(fault_flags)};
+  row = as_columns(E1LogRow{
+      .t_s = state.time_s,
+      .angle_rad = s.angle_rad,
+      .velocity_radps = d.velocity_radps,
+      .finger_force_N = t ? t->finger_force_N : kNaN,
+      .finger_active = finger_on ? 1.0 : 0.0,
+      .tau_desired_Nm = d.tau_desired_Nm,
+      .tau_pam_cmd_Nm = d.allocation.tau_pam_cmd_Nm,
+      .tau_pam_measured_Nm = d.allocation.tau_pam_measured_Nm,
+      .tau_motor_cmd_Nm = cmd.motor_torque_Nm,
+      .agonist_force_cmd_N = d.allocation.agonist_force_cmd_N,
+      .antagonist_force_cmd_N = d.allocation.antagonist_force_cmd_N,
+      .agonist_loadcell_N = s.agonist_loadcell_N,
+      .antagonist_loadcell_N = s.antagonist_loadcell_N,
+      .agonist_pressure_cmd_MPa = cmd.agonist_pressure_Pa * 1e-6,
+      .antagonist_pressure_cmd_MPa = cmd.antagonist_pressure_Pa * 1e-6,
+      .agonist_pressure_MPa = s.agonist_pressure_Pa * 1e-6,
+      .antagonist_pressure_MPa = s.antagonist_pressure_Pa * 1e-6,
+      .plant_angle_rad = t ? t->angle_rad : kNaN,
+      .plant_agonist_tension_N = t ? t->pulley_tension_min_N[0] : kNaN,
+      .plant_antagonist_tension_N = t ? t->pulley_tension_min_N[1] : kNaN,
+      .plant_agonist_force_N = t ? t->muscle_force_N[0] : kNaN,
+      .plant_antagonist_force_N = t ? t->muscle_force_N[1] : kNaN,
+      .plant_cable_friction_Nm = t ? t->cable_friction_Nm : kNaN,
+      .plant_constraint_Nm = t ? t->constraint_torque_Nm : kNaN,
+      .limit_flags = static_cast<double>(limit_flags),
+      .fault_flags = static_cast<double>(fault_flags),
+  });
 }
 
 /// The envelope's figures, the range reached and the supervisor's faults into `r` and its verdict.
@@ -440,7 +471,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   E1Trace trace(scenario, steps);
   io::SensorState state;
   io::Command command;
-  std::array<double, 26> row{};
+  E1LogColumns row{};
   const auto wall_start = std::chrono::steady_clock::now();
   auto hold = [&](std::size_t k) {  // no new sample: the command is held
     ++r.missed_samples;
