@@ -174,7 +174,6 @@ void supervisor_step(benchmark::State& state, bool descending) {
     for (io::SensorState& x : samples) x.joints[0].agonist_loadcell_N = 500.0;
   }
   safety::MonitorParams params = s.limits.monitor;
-  params.enabled = true;
   // The recording does not follow the governor's commands (open loop): the checks that compare the
   // pressures (or the motor monitor) with the commands would latch, which is not what is timed here.
   safety::CheckOverrides overrides;

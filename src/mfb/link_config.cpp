@@ -109,9 +109,10 @@ LinkConfig read_link_config(config::Map map, const std::vector<std::string>& io_
   // The lifecycle supervisor's parameters hold in process too: the scenario's lifecycle: section.
   map.refuse_moved("host_watchdog_ms", "give it as lifecycle.host_watchdog_ms (the lifecycle supervisor's, in process and on the board)");
   map.refuse_moved("recovery_ramp_s", "give it as lifecycle.recovery_ramp_s (the lifecycle supervisor's, in process and on the board)");
-  l.board_watchdog_s = map.number("board_watchdog_ms", {2.0, 10000.0}) * 1e-3;
+  // Hard bound: 100 ms of a stale command at full pressure is as long as a person may be exposed to it.
+  l.board_watchdog_s = map.number("board_watchdog_ms", {2.0, 100.0}) * 1e-3;
   l.receive_timeout_s = map.number("receive_timeout_ms", {0.05, 100.0}) * 1e-3;
-  l.vent_s = map.number("vent_s", {0.0, 60.0});
+  l.vent_s = map.number("vent_s", {0.0, 10.0});
   map.finish();
   if (!io_joints.empty() && l.boards.size() > 1) assign_joints(map, l, io_joints);
   return l;

@@ -11,8 +11,9 @@ SupervisorParams read_lifecycle(config::Map& root) {
   SupervisorParams p;
   if (!root.has("lifecycle")) return p;
   config::Map m = root.map("lifecycle");
-  p.host_watchdog_s = m.number_or("host_watchdog_ms", p.host_watchdog_s * 1e3, {2.0, 1000.0}) * 1e-3;
-  p.recovery_ramp_s = m.number_or("recovery_ramp_s", p.recovery_ramp_s, {0.0, 60.0});
+  p.host_watchdog_s = m.number_or("host_watchdog_ms", p.host_watchdog_s * 1e3, {2.0, 250.0}) * 1e-3;
+  // A recovery steps from the safe state to the controller's command: never in one cycle.
+  p.recovery_ramp_s = m.number_or("recovery_ramp_s", p.recovery_ramp_s, {0.2, 10.0});
   m.finish();
   return p;
 }

@@ -48,41 +48,44 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   if (!root.has("plausibility")) return;
   using models::deg_to_rad, models::rad_to_deg;
   config::Map m = root.map("plausibility");
-  p.enabled = m.boolean_or("enabled", p.enabled);
-  p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 60});
+  // The checks protect the person: no scenario switches them off (a test does, through CheckOverrides).
+  if (m.has("enabled")) {
+    m.fail("enabled", "the plausibility monitor cannot be switched off from a scenario (its checks protect the person); remove the key");
+  }
+  p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 5});
   p.tension_taut_fraction = m.number_or("tension_taut_fraction", p.tension_taut_fraction, {0, 2});
-  p.confirm_cycles = static_cast<int>(m.number_or("confirm_cycles", p.confirm_cycles, {1, 100}));
-  p.loadcell_stuck_cycles = static_cast<int>(m.number_or("loadcell_stuck_cycles", p.loadcell_stuck_cycles, {2, 1000}));
-  p.loadcell_saturated_N = m.number_or("loadcell_saturated_N", p.loadcell_saturated_N, {100, 20000});
-  p.loadcell_tolerance_N = m.number_or("loadcell_tolerance_N", p.loadcell_tolerance_N, {0, 5000});
-  p.loadcell_tolerance_fraction = m.number_or("loadcell_tolerance_fraction", p.loadcell_tolerance_fraction, {0, 10});
-  p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 1e5});
-  p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 10});
+  p.confirm_cycles = static_cast<int>(m.number_or("confirm_cycles", p.confirm_cycles, {1, 20}));
+  p.loadcell_stuck_cycles = static_cast<int>(m.number_or("loadcell_stuck_cycles", p.loadcell_stuck_cycles, {2, 200}));
+  p.loadcell_saturated_N = m.number_or("loadcell_saturated_N", p.loadcell_saturated_N, {100, 10000});
+  p.loadcell_tolerance_N = m.number_or("loadcell_tolerance_N", p.loadcell_tolerance_N, {0, 500});
+  p.loadcell_tolerance_fraction = m.number_or("loadcell_tolerance_fraction", p.loadcell_tolerance_fraction, {0, 1});
+  p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 2000});
+  p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 1});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
-  p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 1}) * 1e6;
-  p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 1}) * 1e6;
+  p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 0.3}) * 1e6;
+  p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 0.3}) * 1e6;
   p.pressure_rise_filter_s = m.number_or("pressure_rise_filter_s", p.pressure_rise_filter_s, {0.0005, 1});
   p.valve_dead_time_s = m.number_or("valve_dead_time_s", p.valve_dead_time_s, {0, 0.05});
   p.valve_lag_s = m.number_or("valve_lag_s", p.valve_lag_s, {1e-4, 2});
   p.valve_rate_Pa_per_s = m.number_or("valve_rate_MPa_per_s", p.valve_rate_Pa_per_s * 1e-6, {0.01, 100}) * 1e6;
   p.valve_slow_factor = m.number_or("valve_slow_factor", p.valve_slow_factor, {1.0, 10.0});
-  p.encoder_max_step_rad = deg_to_rad(m.number_or("encoder_max_step_deg", rad_to_deg(p.encoder_max_step_rad), {0.01, 90}));
-  p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 1000}));
-  p.encoder_frozen_speed_radps = deg_to_rad(m.number_or("encoder_frozen_speed_degps", rad_to_deg(p.encoder_frozen_speed_radps), {0.1, 1000}));
-  p.encoder_disagree_rad = deg_to_rad(m.number_or("encoder_disagree_deg", rad_to_deg(p.encoder_disagree_rad), {0.01, 90}));
-  p.max_joint_speed_radps = deg_to_rad(m.number_or("max_joint_speed_degps", rad_to_deg(p.max_joint_speed_radps), {1, 2000}));
-  p.range_margin_rad = deg_to_rad(m.number_or("range_margin_deg", rad_to_deg(p.range_margin_rad), {0, 45}));
+  p.encoder_max_step_rad = deg_to_rad(m.number_or("encoder_max_step_deg", rad_to_deg(p.encoder_max_step_rad), {0.01, 10}));
+  p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 200}));
+  p.encoder_frozen_speed_radps = deg_to_rad(m.number_or("encoder_frozen_speed_degps", rad_to_deg(p.encoder_frozen_speed_radps), {0.1, 100}));
+  p.encoder_disagree_rad = deg_to_rad(m.number_or("encoder_disagree_deg", rad_to_deg(p.encoder_disagree_rad), {0.01, 10}));
+  p.max_joint_speed_radps = deg_to_rad(m.number_or("max_joint_speed_degps", rad_to_deg(p.max_joint_speed_radps), {1, 600}));
+  p.range_margin_rad = deg_to_rad(m.number_or("range_margin_deg", rad_to_deg(p.range_margin_rad), {0, 10}));
   p.supply_low_fraction = m.number_or("supply_low_fraction", p.supply_low_fraction, {0, 1});
   p.supply_lost_fraction = m.number_or("supply_lost_fraction", p.supply_lost_fraction, {0, p.supply_low_fraction});
-  p.motor_tolerance_Nm = m.number_or("motor_tolerance_Nm", p.motor_tolerance_Nm, {0.001, 100});
+  p.motor_tolerance_Nm = m.number_or("motor_tolerance_Nm", p.motor_tolerance_Nm, {0.001, 10});
   p.motor_window_cycles = static_cast<int>(m.number_or("motor_window_cycles", p.motor_window_cycles, {1, FaultMonitor::kMotorWindow}));
-  p.descent_speed_radps = deg_to_rad(m.number_or("descent_speed_degps", rad_to_deg(p.descent_speed_radps), {0.5, 180}));
+  p.descent_speed_radps = deg_to_rad(m.number_or("descent_speed_degps", rad_to_deg(p.descent_speed_radps), {0.5, 30}));
   p.descent_force_rate_N_per_s = m.number_or("descent_force_rate_N_per_s", p.descent_force_rate_N_per_s, {1, 5000});
   p.descent_gain_N_per_radps = m.number_or("descent_gain_N_per_radps", p.descent_gain_N_per_radps, {0, 20000});
   p.descent_force_slew_N_per_s = m.number_or("descent_force_slew_N_per_s", p.descent_force_slew_N_per_s, {10, 1e6});
   p.descent_floor_fraction = m.number_or("descent_floor_fraction", p.descent_floor_fraction, {0, 1});
   p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
-  p.descent_stop_margin_rad = deg_to_rad(m.number_or("descent_stop_margin_deg", rad_to_deg(p.descent_stop_margin_rad), {0.5, 45}));
+  p.descent_stop_margin_rad = deg_to_rad(m.number_or("descent_stop_margin_deg", rad_to_deg(p.descent_stop_margin_rad), {0.5, 20}));
   p.speed_filter_Hz = m.number_or("speed_filter_Hz", p.speed_filter_Hz, {0.5, 200});
   m.finish();
 }
@@ -171,7 +174,6 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
                                 const std::array<double, io::kMaxJoints>& max_angle_rad, bool outputs_follow) noexcept {
   t_s_ = s.time_s;
   sequence_ = s.sequence;
-  if (!params_.enabled) return;
   int low_muscles = 0;  // muscles whose pressure stays below the valve's envelope (two or more: the supply)
   for (int j = 0; j < s.joint_count && j < io::kMaxJoints; ++j) {
     const auto ji = static_cast<std::size_t>(j);

@@ -61,7 +61,7 @@ TEST(BowdenCompensation, OldFullCompensationSwingsWithoutCableFriction) {
   s.controller.allocation.sure_cable_friction_fraction = 1.0;
   s.controller.allocation.motor_damping_Nms_per_rad = 0.0;
   // This measures the unprotected controller: the supervisor's speed check would stop the swing.
-  s.limits.monitor.enabled = false;
+  s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured
   const experiments::E1Case& c = s.cases.back();  // 5.0 kg
   const testing::E1Figures f = testing::run_e1_figures(s, c);
   std::cout << "old compensation, cable friction x0, " << c.name << ": " << testing::describe(f) << "\n";

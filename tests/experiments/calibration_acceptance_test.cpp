@@ -4,6 +4,7 @@
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/experiments/calibration_recording/acceptance.hpp"
+#include "peha/sim/plant_faults.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -141,6 +142,21 @@ TEST(CalibrationAcceptance, AcceptsTheFittedCalibrationAndRefusesAGainScaledOne)
   EXPECT_FALSE(bad.passed(1));
   EXPECT_GT(bad.force_tracking_rms_N[1], s.acceptance->max_force_tracking_rms_N);
   EXPECT_THAT(bad.failure(1), HasSubstr("antagonist force tracking RMS"));
+}
+
+// The recording is guarded by the checks of the hardware itself: a jumping encoder stops it, and the
+// data recorded into the safe state is refused (nothing returned), naming the check.
+TEST(CalibrationCoverage, AHardwareFaultStopsTheRecordingAndItsDataIsRefused) {
+  const E1Scenario s = shipped();
+  ASSERT_TRUE(s.excitation[0]);
+  sim::OneDofRigParams plant = s.plant;
+  plant.faults.push_back(sim::parse_fault_spec("encoder_jump@10:joint", sim::one_dof_rig_joint_names(), s.excitation[0]->total_duration_s()));
+  try {
+    (void)record_e1_muscle(s, plant, 0);
+    ADD_FAILURE() << "the recording ran through an encoder jump";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("the plausibility monitor stopped the recording: encoder_jump"));
+  }
 }
 
 }  // namespace

@@ -78,7 +78,7 @@ TEST(E1, PayloadLeverTenPercentWrongFailsTheStaticTorqueFigure) {
 // safe state now keeps the falling link off its stop).
 TEST(E1, DriftAndStopFiguresFailWhenTheLinkRunsAway) {
   E1Scenario s = shipped_scenario();
-  s.limits.monitor.enabled = false;
+  s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured
   s.controller.gravity.payload_lever_m *= 0.5;
   const E1Result r = run_e1_case(s, s.cases[1], nullptr);
   EXPECT_FALSE(r.within_limits);
@@ -121,7 +121,7 @@ TEST(E1, WithoutCompensationTheLinkFalls) {
 // rig: the model misses the muscles' pressure threshold. The run reports it as a range violation.
 TEST(E1, PureFeedForwardWithNominalModelIsReportedUnsafe) {
   E1Scenario s = shipped_scenario();
-  s.limits.monitor.enabled = false;  // the controller's own figures (the supervisor's descent keeps it at -42 deg)
+  s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured  // the controller's own figures (the supervisor's descent keeps it at -42 deg)
   s.controller.allocation.force_trim_rate_1ps = 0.0;
   const E1Result r = run_e1_case(s, s.cases[0], nullptr);
   EXPECT_LT(r.min_angle_deg, -45.0);

@@ -82,7 +82,7 @@ TEST(E5, ARampStoppedByTheSupplyInsteadOfTheCeilingFails) {
   EXPECT_EQ(supervised.stop, E5Stop::kSupervisor);
   EXPECT_TRUE(testing::fails_on(supervised.verdict, "supervisor faults")) << supervised.verdict.failures();
   // Without it (this test measures which limit stops a ramp the model cannot cap), the supply does.
-  s.limits.monitor.enabled = false;
+  s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured
   const E5Result r = run_e5_case(s, s.cases.front(), nullptr);
   EXPECT_FALSE(r.passed);
   EXPECT_EQ(r.stop, E5Stop::kSupply);

@@ -30,7 +30,7 @@ experiments::E1Scenario short_e1() {
   s.probe_direction.resize(1);
   // The shipped configuration: the stage on, the controller's start-up tare on (the wires go slack on
   // purpose for about 1.7 s; the slack checks arm 1 s after the outputs follow and once a wire is taut).
-  EXPECT_TRUE(s.limits.monitor.enabled);
+  EXPECT_EQ(s.limits.monitor.unmodelled, 0u);
   EXPECT_GT(s.controller.allocation.loadcell_check.tare_s, 0.0);
   return s;
 }
@@ -162,7 +162,6 @@ struct E1JointView {
 
 TEST(FaultMonitor, AnOverForceThePressureModelConfirmsIsVented) {
   safety::MonitorParams p;
-  p.enabled = true;
   safety::FaultMonitor monitor(p, 1e-3);
   E1JointView view;
   io::SensorState& state = view.state;
@@ -183,7 +182,6 @@ TEST(FaultMonitor, AnOverForceThePressureModelConfirmsIsVented) {
 // identification latched it on the wrist before, refusing muscles -15 %).
 std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
   safety::MonitorParams p;
-  p.enabled = true;
   p.tension_checked[0] = tension_checked;
   safety::FaultMonitor monitor(p, 1e-3);
   E1JointView view;
@@ -203,7 +201,6 @@ std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
 /// Flags after a taut agonist whose cell moves by `change_N` over `over_s` at constant pressure.
 std::uint32_t flags_after_a_cell_moves(double change_N, double over_s) {
   safety::MonitorParams p;
-  p.enabled = true;
   safety::FaultMonitor monitor(p, 1e-3);
   E1JointView view;
   io::SensorState& state = view.state;
@@ -234,7 +231,6 @@ TEST(FaultMonitor, ALoadCellStepIsRaisedButASlowDriftIsNot) {
 struct MonitoredE1 {
   safety::FaultMonitor monitor{[] {
     safety::MonitorParams p;
-    p.enabled = true;
     return p;
   }(), 1e-3};
   E1JointView view;
@@ -292,7 +288,6 @@ struct PressureRun {
 /// as slow as the model (the envelope's slow edge).
 PressureRun run_pressure(double offset_Pa, double fill_Pa_per_s, std::uint32_t disabled = 0, double step_to_Pa = 0) {
   safety::MonitorParams p;
-  p.enabled = true;
   safety::FaultMonitor monitor(p, 1e-3, {.unchecked = disabled});
   E1JointView view;
   io::SensorState& state = view.state;

@@ -145,6 +145,16 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
     {kFaultEncoderDisagrees, "encoder_disagrees", SafeAction::kHold, "encoder_disagree_rad"},
 }};
 
+/// The checks that judge the sensors and the hardware alone, whatever the run commands: a run that
+/// drives the muscles far from their model, the joint to its stops and a wire near slack on purpose
+/// (the calibration recording) keeps these and nothing else (a slack wire reads 0 N: not a
+/// disconnected cell there).
+inline constexpr std::uint32_t kHardwareChecks = kFaultNonFiniteCommand | kFaultNonFiniteSample | kFaultForceCeiling |
+                                                 kFaultLoadcellSaturated | kFaultSupplyLoss |
+                                                 kFaultPressureOverSupply | kFaultEncoderJump | kFaultEncoderFrozen | kFaultEstop |
+                                                 kFaultEncoderDisagrees;
+inline constexpr std::uint32_t kAllChecks = (1u << kFaultFlagCount) - 1u;
+
 /// Every flag has exactly one row, at its bit's index (fault_flag_name and safe_action index by bit).
 constexpr bool checks_in_bit_order() noexcept {
   for (int i = 0; i < kFaultFlagCount; ++i) {
@@ -160,9 +170,10 @@ const char* safe_action_name(SafeAction a) noexcept;                ///< "hold",
 
 /// Thresholds (the scenario's optional `plausibility:` section; docs/safety.md).
 struct MonitorParams {
-  /// On by default: every scenario runs with the stage (docs/safety.md); `plausibility: {enabled:
-  /// false}` exists for measuring an unprotected controller, and a run that uses it says why.
-  bool enabled = true;
+  /// Checks a run switches off because it drives the muscles away from their model on purpose (the
+  /// calibration recording: all but kHardwareChecks); every other check runs. No scenario sets it (a scenario
+  /// cannot switch a check off: tests use CheckOverrides).
+  std::uint32_t unmodelled = 0;
   /// A wire's slack and disconnect checks arm only once the outputs have followed the commands
   /// this long and the wire was taut since: start-up vents and recovery ramps slacken wires on purpose.
   double tension_arm_s = 1.0;
@@ -310,7 +321,7 @@ class FaultMonitor {
 
  private:
   void raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept;
-  bool on(std::uint32_t flag) const noexcept { return params_.enabled && !(overrides_.unchecked & flag); }
+  bool on(std::uint32_t flag) const noexcept { return !((overrides_.unchecked | params_.unmodelled) & flag); }
 
   struct MuscleState {
     double last_loadcell_N = -1;

@@ -178,6 +178,11 @@ calibration::Dataset record_excitation(io::Backend& backend, const models::Joint
   };
   runtime::run_cycles(limited, hooks, static_cast<std::size_t>(steps), state, command, step, hold, observe);
   if (progress) progress(1.0);
+  // Data recorded after a fault is the safe state's, not the excitation's: not a calibration's.
+  if (limited.monitor().count() > 0) {
+    throw std::runtime_error(std::string("the plausibility monitor stopped the recording: ") + limited.monitor().run_reason() +
+                             " (nothing written; docs/safety.md)");
+  }
   return data;
 }
 

@@ -205,7 +205,6 @@ std::vector<FaultMoment> select_fault_moments(std::vector<FaultMoment> all, cons
 }
 
 std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& options, const std::function<void(const FaultRow&)>& progress) {
-  s.limits.monitor.enabled = true;
   E1Case c = s.cases.front();
   if (!options.case_name.empty()) {
     const auto it = std::find_if(s.cases.begin(), s.cases.end(), [&](const E1Case& e) { return e.name == options.case_name; });
@@ -260,7 +259,6 @@ std::vector<FaultMoment> e3_fault_moments(const ArmScenario& scenario) {
 
 std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& options, const std::function<void(const FaultRow&)>& progress) {
   if (!options.case_name.empty()) throw std::invalid_argument(fmt::format("peha faults: E3 has no cases (found --case '{}')", options.case_name));
-  s.limits.monitor.enabled = true;
   s.faults.clear();  // the matrix injects its own
   const std::vector<std::string>& joints = arm_joint_names(s);
   const std::size_t elbow = e3_fault_joint(s);

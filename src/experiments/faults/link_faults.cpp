@@ -217,7 +217,6 @@ LinkFaultRow run_one(const E1Scenario& scenario, const E1Case& c, const LinkFaul
   }
 
   E1Scenario s = scenario;
-  s.limits.monitor.enabled = true;
   s.duration_s = t_inject + options.after_fault_s;
   if (options.host_watchdog_ms) s.lifecycle.host_watchdog_s = *options.host_watchdog_ms * 1e-3;
   HardwareRunOptions o;

@@ -83,7 +83,7 @@ struct FaultMatrixOptions {
 std::string physics_forbids(sim::FaultKind kind);
 
 /// Runs the E1 matrix (the nominal row first). The scenario is run with the plausibility stage on
-/// (limits.monitor.enabled) and its start-up tare as configured. `progress` (optional) gets each row as it finishes.
+/// (every check: it cannot be switched off) and its start-up tare as configured. `progress` (optional) gets each row as it finishes.
 std::vector<FaultRow> run_fault_matrix(E1Scenario scenario, const FaultMatrixOptions& options,
                                        const std::function<void(const FaultRow&)>& progress = {});
 
