@@ -21,6 +21,7 @@ packages=(
   libglfw3-dev xvfb xauth      # fallback: a hidden GLFW window, on an Xvfb that peha starts when DISPLAY is unset
   clang-14 libclang-rt-14-dev   # libFuzzer (+ ASan/UBSan) for the MFB packet parser's fuzz target
   python3-numpy python3-scipy python3-matplotlib python3-sklearn  # tools/ on /usr/bin/python3
+  gcc-arm-none-eabi picolibc-arm-none-eabi qemu-system-arm  # the board core (firmware/) built for a Cortex-M7 and tested on QEMU
 )
 
 missing=()
@@ -30,8 +31,12 @@ for p in "${packages[@]}"; do
   fi
 done
 
+# The board core's Cortex-M tests take their MAC from the BLAKE2 reference code (libb2's source).
+fetch_sources() { "$(dirname "$0")/fetch-libb2.sh"; }
+
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#packages[@]} packages present"
+  fetch_sources
   exit 0
 fi
 
@@ -45,3 +50,4 @@ fi
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fetch_sources

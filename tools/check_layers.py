@@ -141,6 +141,37 @@ def include_target_layer(root, path, spec, delimiter):
     return None, spec
 
 
+# The board core (firmware/, freestanding C for a microcontroller, docs/porting.md) sits below every
+# layer: it may include nothing of peha; the mfb layer includes it, not the other way round.
+FIRMWARE_ROOT = "firmware"
+
+
+def check_firmware(root, out):
+    """Counts the peha includes in firmware/ (each one a violation) and the files checked."""
+    base = root / FIRMWARE_ROOT
+    violations = files = 0
+    if not base.is_dir():
+        return 0, 0
+    for dirpath, dirnames, filenames in os.walk(base):
+        dirnames.sort()
+        for name in sorted(filenames):
+            path = Path(dirpath) / name
+            if path.suffix not in SOURCE_SUFFIXES:
+                continue
+            files += 1
+            lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+            for number, text in strip_block_comments(lines):
+                m = INCLUDE_RE.match(text)
+                if not m:
+                    continue
+                target, shown = include_target_layer(root, path, m.group(2).strip(), m.group(1))
+                if target is not None:
+                    print(f"{path.relative_to(root).as_posix()}:{number}: firmware may include nothing of peha, "
+                          f"found {shown} (the board core is freestanding C, docs/porting.md)", file=out)
+                    violations += 1
+    return violations, files
+
+
 def check(root, out=sys.stdout):
     """Checks the tree at `root`; prints violations and a summary to `out`. Returns the exit code."""
     root = Path(root)
@@ -189,6 +220,9 @@ def check(root, out=sys.stdout):
                 print(f"{shown_path}:{number}: layer {layer} may not include {shown} "
                       f"({layer} may include: {describe_allowed(layer)})", file=out)
                 violations += 1
+    firmware_violations, firmware_files = check_firmware(root, out)
+    violations += firmware_violations
+    files += firmware_files
     if violations:
         print(f"check_layers: FAILED, {violations} violation(s); {files} files checked, "
               f"{includes} peha includes checked", file=out)

@@ -16,6 +16,19 @@ namespace {
 
 constexpr std::size_t kMaxPending = 4096;
 
+/// The core's command as the host's type (the step hook's argument).
+CommandPacket command_packet(const mfb_command& c) {
+  CommandPacket p;
+  p.session_id = c.session_id;
+  p.sequence = c.sequence;
+  p.host_time_ns = c.host_time_ns;
+  std::copy(c.da, c.da + kDaChannels, p.da.begin());
+  p.digital_out = c.digital_out;
+  p.flags = c.flags;
+  p.arm_token = c.arm_token;
+  return p;
+}
+
 }  // namespace
 
 std::string EmulatorStats::table() const {
@@ -23,21 +36,24 @@ std::string EmulatorStats::table() const {
       "commands: accepted {}, foreign source {}, foreign session {}, duplicate {}, stale {}, malformed {}, unauthenticated {}, gaps {}, "
       "oversized {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
-      "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}",
+      "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}\n"
+      "board limits: {} muscle(s) vented at their force ceiling, {} motor cut(s) out of range, {} DA code(s) clamped",
       received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
       received.unauthenticated, received.gaps, oversized,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
-      injected_reorder, injected_corrupt, injected_delay, injected_burst);
+      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes);
 }
 
 BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant)
-    : params_(params), map_(std::move(map)), make_plant_(std::move(make_plant)), socket_(params.bind), filter_(params.key), rng_state_(params.faults.seed * 0x9E3779B97F4A7C15ull + 1) {
+    : params_(params), map_(std::move(map)), make_plant_(std::move(make_plant)), socket_(params.bind), rng_state_(params.faults.seed * 0x9E3779B97F4A7C15ull + 1) {
   if (!(params.period_s > 0) || !(params.watchdog_s > params.period_s) || !(params.vent_s >= 0)) {
     throw std::invalid_argument(fmt::format("mfb-emulator: need period > 0, watchdog > period, vent >= 0 (got {}, {}, {} s)",
                                             params.period_s, params.watchdog_s, params.vent_s));
   }
   if (sodium_init() < 0) throw std::runtime_error("mfb-emulator: libsodium failed to initialise (no entropy source?)");
-  while (boot_id_ == 0) boot_id_ = randombytes_random();  // this power-on's id: a restart draws another
+  core_config_ = board_core_config(map_, params.key, params.watchdog_s, params.vent_s);
+  hal_ = mfb_hal{this, &BoardEmulator::hal_read_inputs, &BoardEmulator::hal_write_outputs, &BoardEmulator::hal_now_us,
+                 &BoardEmulator::hal_mac, &BoardEmulator::hal_random};
   pending_.reserve(kMaxPending);
   truth_.reserve(params.truth_steps);
   plant_ = make_plant_();
@@ -50,7 +66,48 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
                                               map_.joint_names()[static_cast<std::size_t>(j)], map_.joint(j).redundant_encoder.channel));
     }
   }
-  applied_ = map_.safe_outputs();
+  mfb_board_init(&core_, &core_config_, &hal_);  // power-on: a boot id, safe outputs, the first sample
+}
+
+void BoardEmulator::hal_read_inputs(void* ctx, mfb_inputs* out) {
+  auto* self = static_cast<BoardEmulator*>(ctx);
+  BoardInputs in;
+  self->map_.encode_inputs(self->state_, self->estop_at(self->state_.time_s), in);
+  if (self->input_hook_) self->input_hook_(self->state_.time_s, in);
+  std::copy(in.ad.begin(), in.ad.end(), out->ad);
+  std::copy(in.encoder.begin(), in.encoder.end(), out->encoder);
+  out->digital_in = in.digital_in;
+  out->time_ns = static_cast<std::uint64_t>(std::llround(self->state_.time_s * 1e9));
+}
+
+void BoardEmulator::hal_write_outputs(void* ctx, const std::uint16_t da[MFB_DA_CHANNELS], std::uint8_t digital_out) {
+  auto* self = static_cast<BoardEmulator*>(ctx);
+  std::copy(da, da + MFB_DA_CHANNELS, self->applied_.da.begin());
+  self->applied_.digital_out = digital_out;
+}
+
+std::uint64_t BoardEmulator::hal_now_us(void*) { return static_cast<std::uint64_t>(io::monotonic_ns() / 1000); }
+
+void BoardEmulator::hal_mac(void*, const std::uint8_t key[MFB_KEY_SIZE], const std::uint8_t* data, std::size_t size,
+                            std::uint8_t out[MFB_MAC_SIZE]) {
+  crypto_generichash(out, MFB_MAC_SIZE, data, size, key, MFB_KEY_SIZE);  // libsodium: the same MAC as the host's packet_mac
+}
+
+std::uint32_t BoardEmulator::hal_random(void*) { return randombytes_random(); }
+
+void BoardEmulator::note_core_counters() noexcept {
+  const mfb_counters& c = *mfb_board_counters(&core_);
+  stats_.received.accepted = c.accepted;
+  stats_.received.foreign_source = c.foreign_source;
+  stats_.received.foreign_session = c.foreign_session;
+  stats_.received.duplicate = c.duplicate;
+  stats_.received.stale = c.stale;
+  stats_.received.malformed = c.malformed;
+  stats_.received.unauthenticated = c.unauthenticated;
+  stats_.received.gaps = c.gaps;
+  stats_.force_trips = c.force_trips;
+  stats_.range_trips = c.range_trips;
+  stats_.clamped_codes = c.clamped;
 }
 
 double BoardEmulator::uniform() noexcept {
@@ -62,50 +119,23 @@ double BoardEmulator::uniform() noexcept {
 }
 
 void BoardEmulator::apply_and_step(bool by_command) noexcept {
-  // What the DA drives: the command while armed. Once disarmed (watchdog, e-stop, the host's
-  // disable), the safe outputs - the motor cut at once, the valves vented along a ramp from where
-  // they were, so the arm descends slowly instead of dropping.
-  const bool estop = estop_at(state_.time_s);
-  arming_.set_estop(estop);
-  if (estop) ++stats_.estop_cycles;
-  const std::int64_t now = io::monotonic_ns();
-  if (arming_.outputs_enabled()) {
-    applied_.da = last_command_.da;
-    applied_.digital_out = last_command_.digital_out;
-    armed_ = true;
-    if (!reported_armed_) {  // for a process that supervises this one (peha faults --link): the run is live
-      reported_armed_ = true;
-      std::printf("peha mfb-emulator: outputs armed at t=%.4f s\n", state_.time_s);
-      std::fflush(stdout);
-    }
-  } else {
-    const BoardOutputs safe = map_.safe_outputs();
-    if (armed_) {  // the moment of disarming: the vent ramp starts from what the DA held
-      armed_ = false;
-      trip_outputs_ = applied_;
-      trip_ns_ = now;
-      venting_ = params_.vent_s > 0;
-    }
-    if (venting_) {
-      const double s = std::clamp(static_cast<double>(now - trip_ns_) * 1e-9 / params_.vent_s, 0.0, 1.0);
-      for (std::size_t i = 0; i < static_cast<std::size_t>(kDaChannels); ++i) {
-        applied_.da[i] = static_cast<std::uint16_t>(std::lround(trip_outputs_.da[i] + s * (safe.da[i] - trip_outputs_.da[i])));
-      }
-      for (int j = 0; j < map_.joint_count(); ++j) {  // every motor straight to its zero-torque code
-        const AnalogChannel& m = map_.joint(j).motor;
-        if (m.mapped()) applied_.da[static_cast<std::size_t>(m.channel)] = safe.da[static_cast<std::size_t>(m.channel)];
-      }
-      applied_.digital_out = safe.digital_out;
-      if (s >= 1.0) venting_ = false;
-    } else {
-      applied_ = safe;
-    }
+  // The core drives the outputs from its newest sample (the plant as it is now): the command within
+  // the board's limits while armed, otherwise the safe outputs along the vent ramp.
+  mfb_board_drive(&core_);
+  if (mfb_board_estop(&core_)) ++stats_.estop_cycles;
+  const bool live = mfb_board_outputs_live(&core_);
+  if (live && !reported_armed_) {  // for a process that supervises this one (peha faults --link): the run is live
+    reported_armed_ = true;
+    std::printf("peha mfb-emulator: outputs armed at t=%.4f s\n", state_.time_s);
+    std::fflush(stdout);
   }
   io::Command command;
   map_.decode_outputs(applied_, command);
   if (step_hook_) step_hook_(by_command ? &last_command_ : nullptr);
   plant_->write(command);
   plant_->read(state_);
+  mfb_board_sample(&core_);  // the inputs after the step: the limits judge them, the state packet carries them
+  note_core_counters();
   ++(by_command ? stats_.steps_on_command : stats_.steps_free_running);
   if (truth_.size() < truth_.capacity()) {
     const BoardOutputs safe = map_.safe_outputs();
@@ -115,7 +145,7 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
       if (m.mapped()) motor_off = motor_off && applied_.da[static_cast<std::size_t>(m.channel)] == safe.da[static_cast<std::size_t>(m.channel)];
     }
     truth_.push_back({state_.time_s, io::monotonic_ns(), state_.joints[0].angle_rad, state_.joints[0].agonist_loadcell_N,
-                      state_.joints[0].antagonist_loadcell_N, armed_, motor_off});
+                      state_.joints[0].antagonist_loadcell_N, live, motor_off});
   }
 }
 
@@ -146,23 +176,9 @@ void BoardEmulator::flush_delayed(std::int64_t now) noexcept {
 
 void BoardEmulator::send_state(std::int64_t now) noexcept {
   if (!have_host_) return;
-  StatePacket s;
-  s.session_id = filter_.session_id();
-  s.sequence = ++state_sequence_;
-  s.ack_sequence = last_command_.sequence;
-  s.echo_host_time_ns = last_command_.host_time_ns;
-  s.board_time_ns = static_cast<std::uint64_t>(std::llround(state_.time_s * 1e9));
-  BoardInputs in;
-  map_.encode_inputs(state_, estop_at(state_.time_s), in);
-  if (input_hook_) input_hook_(state_.time_s, in);
-  s.ad = in.ad;
-  s.encoder = in.encoder;
-  s.digital_in = in.digital_in;
-  s.status = static_cast<std::uint8_t>(arming_.status() | (filter_.has_session() ? 0 : kStatusNoSession));
-  s.arm_token = arming_.token();
-  s.boot_id = boot_id_;
   std::array<std::uint8_t, kMaxPacketSize> bytes;
-  const std::size_t n = encode(s, params_.key, bytes);
+  const std::size_t n = mfb_board_state_packet(&core_, bytes.data(), bytes.size());
+  if (n == 0) return;
   const FaultInjection& f = params_.faults;
   const std::int64_t at = now + static_cast<std::int64_t>(f.delay_s * 1e9);
   if (f.delay_s > 0) ++stats_.injected_delay;
@@ -206,7 +222,6 @@ void BoardEmulator::send_state(std::int64_t now) noexcept {
 
 void BoardEmulator::run(const std::atomic<bool>& stop) {
   const std::int64_t period = static_cast<std::int64_t>(params_.period_s * 1e9);
-  const std::int64_t watchdog = static_cast<std::int64_t>(params_.watchdog_s * 1e9);
   const std::int64_t start = io::monotonic_ns();
   std::int64_t next_free = start + 2 * period;
   std::array<std::uint8_t, 512> buffer;
@@ -227,31 +242,19 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
         ++stats_.oversized;
         continue;
       }
-      CommandPacket c;
-      const bool had_session = filter_.has_session();
-      const std::uint32_t previous = filter_.session_id();
-      const Verdict v =
-          filter_.accept(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), Source{from.address, from.port}, c);
-      stats_.received = filter_.counters();
-      if (v != Verdict::kAccept) continue;
-      if (!had_session) {  // adopted (or re-adopted): a fresh token, so no recorded edge can arm this session
-        std::uint32_t token = 0;
-        while (token == 0) token = randombytes_random();
-        arming_.set_token(token);
-      }
+      mfb_verdict verdict;
+      const mfb_event event = mfb_board_receive(&core_, buffer.data(), static_cast<std::size_t>(n), mfb_endpoint{from.address, from.port}, &verdict);
+      note_core_counters();
+      if (event == MFB_EVENT_DROPPED) continue;
       host_ = from;
       have_host_ = true;
-      last_command_ns_ = io::monotonic_ns();
-      arming_.on_command(c);
-      last_command_ = c;
-      if (!had_session && (c.session_id != previous || !have_session_)) {
+      last_command_ = command_packet(core_.command);
+      if (event == MFB_EVENT_NEW_SESSION) {
         // A new session: the exoskeleton back to its initial state, answered without a step.
         plant_ = make_plant_();
         plant_->activate();  // the plant is the world behind the board's outputs: always driven
         plant_->read(state_);
-        armed_ = venting_ = false;
-        applied_ = map_.safe_outputs();
-        have_session_ = true;
+        mfb_board_sample(&core_);
         ++stats_.sessions;
       } else {
         apply_and_step(true);
@@ -260,13 +263,11 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       next_free = io::monotonic_ns() + 2 * period;
     }
     now = io::monotonic_ns();
-    if (filter_.has_session() && now - last_command_ns_ > watchdog) {
-      if (arming_.outputs_enabled() && stats_.host_loss_ns == 0) {  // its host fell silent while driving the outputs
+    if (const mfb_watchdog w = mfb_board_poll(&core_); w != MFB_WATCHDOG_QUIET) {
+      if (w == MFB_WATCHDOG_HOST_LOST && stats_.host_loss_ns == 0) {  // its host fell silent while driving the outputs
         stats_.host_loss_ns = now;
         stats_.host_loss_t_s = state_.time_s;
       }
-      arming_.on_watchdog();
-      filter_.release();
       ++stats_.watchdog_trips;
       ++sessions_ended;
     }

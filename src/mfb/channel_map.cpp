@@ -231,6 +231,34 @@ void read_encoders(config::Map& root, const std::vector<std::string>& names,
   }
 }
 
+/// `board_limits:` (optional): one entry per joint, every joint once.
+void read_board_limits(config::Map& root, const std::vector<std::string>& names, std::array<JointChannels, io::kMaxJoints>& joints) {
+  if (!root.has("board_limits")) return;
+  for (config::Map item : root.maps("board_limits", names.size(), names.size())) {
+    const std::string name = item.string("joint");
+    const int joint = find_joint(names, name);
+    if (joint < 0) fail_unknown_joint(item, "joint", name, "", names);
+    JointChannels& c = joints[static_cast<std::size_t>(joint)];
+    BoardLimits& l = c.board_limits;
+    if (l.configured) item.fail("joint", fmt::format("joint '{}' has board limits twice", name));
+    l.configured = true;
+    l.agonist_force_N = item.number("agonist_force_N", {1.0, 1e5});
+    l.antagonist_force_N = item.number("antagonist_force_N", {1.0, 1e5});
+    l.agonist_pressure_Pa = item.number("agonist_pressure_MPa", {0.01, 10.0}) * 1e6;
+    l.antagonist_pressure_Pa = item.number("antagonist_pressure_MPa", {0.01, 10.0}) * 1e6;
+    if (c.motor.mapped()) {
+      l.motor_torque_Nm = item.number("motor_torque_Nm", {1e-3, 1e4});
+    } else if (item.has("motor_torque_Nm")) {
+      item.fail("motor_torque_Nm", fmt::format("joint '{}' has no motor channel", name));
+    }
+    const std::vector<double> range = item.numbers("angle_deg", {-360.0, 360.0}, 2, 2);
+    if (!(range[0] < range[1])) item.fail("angle_deg", fmt::format("expected [min, max] with min < max, found [{}, {}]", range[0], range[1]));
+    l.min_angle_rad = models::deg_to_rad(range[0]);
+    l.max_angle_rad = models::deg_to_rad(range[1]);
+    item.finish();
+  }
+}
+
 DigitalLine read_line(config::Map map) {
   DigitalLine d;
   d.line = static_cast<int>(map.integer("line", 0, kDigitalLines - 1));
@@ -294,6 +322,7 @@ ChannelMap read_channel_map(config::Map map, const std::vector<std::string>& joi
   read_analog(map, kAnalogInputs, joint_names, m.joints_);
   read_analog(map, kAnalogOutputs, joint_names, m.joints_);
   read_encoders(map, joint_names, m.joints_);
+  read_board_limits(map, joint_names, m.joints_);
   config::Map digital = map.map("digital");
   m.enable_ = read_line(digital.map("enable_output"));
   m.estop_ = read_line(digital.map("estop_input"));

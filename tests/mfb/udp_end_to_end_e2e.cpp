@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <csignal>
 #include <filesystem>
@@ -60,6 +61,7 @@ struct RawHost {
   std::uint32_t session;
   std::uint32_t sequence = 0;
   std::uint32_t token = 0;
+  std::array<std::uint16_t, mfb::kDaChannels> da{};  ///< the DA codes every command asks for
   mfb::StateFilter filter;
   RawHost(int port, std::uint32_t session_id)
       : board{0x7F000001u, static_cast<std::uint16_t>(port)}, session(session_id), filter(session_id, dev_key()) {}
@@ -71,6 +73,7 @@ struct RawHost {
     c.flags = flags;
     c.digital_out = digital_out;  // the enable line
     c.arm_token = token;
+    c.da = da;
     std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
     socket.send_to(board, std::span<const std::uint8_t>(bytes.data(), mfb::encode(c, key, bytes)));
   }
@@ -96,9 +99,9 @@ struct RawHost {
 struct Emulator {
   runtime::ChildProcess process;
   int port = 0;
-  explicit Emulator(std::vector<std::string> extra)
+  explicit Emulator(std::vector<std::string> extra, const std::string& config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")
       : process([&] {
-          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--port", "0", "--case", "payload_2.5kg", "--rt-priority", "0"};
+          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", config, "--port", "0", "--case", "payload_2.5kg", "--rt-priority", "0"};
           if (std::find(extra.begin(), extra.end(), "--watchdog-ms") == extra.end()) {
             extra.insert(extra.end(), {"--watchdog-ms", std::to_string(kTestWatchdog_s * 1e3)});
           }
@@ -815,6 +818,84 @@ namespace {
 // E5 over the board (two processes, the whole CLI): the clamped rig in the emulator, the ramp and the
 // limits on the host. A faster ramp (0.5 MPa/s) and 4 s keep it short; the force ceiling stops the
 // load cell without overshoot, as in process, and the run exits 0 with its summary written.
+/// What a host that has the key (stolen, or the public development key) does to the rig for
+/// `seconds`: every DA channel at its top code (1.0 MPa into both valves, +3 Nm into the motor)
+/// with the board's current arm token, re-arming every 100 ms (disable, enable) as a host fighting
+/// the board's trips would. Returns the plant's truth the emulator recorded (--truth-csv).
+struct HijackFigures {
+  double peak_agonist_N = 0, peak_antagonist_N = 0, max_angle_deg = -1e9, min_angle_deg = 1e9;
+  std::size_t armed_steps = 0;
+};
+HijackFigures hijack(const std::string& config, double seconds, const std::string& tag) {
+  const std::filesystem::path truth = std::filesystem::temp_directory_path() / ("peha_hijack_" + tag + "_" + std::to_string(::getpid()) + ".csv");
+  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 1.5)}, config);
+  RawHost h(board.port, 0x0BAD5E55u);
+  h.da.fill(65535);
+  h.send(0);
+  h.newest(0.05);  // the session adopted: its arm token
+  for (int k = 0; k < static_cast<int>(seconds * 1000); ++k) {
+    h.send(k % 100 == 0 ? 0 : mfb::kCommandEnable);  // the edge: disabled, then enabled with the token
+    h.newest(0.001);
+  }
+  board.process.wait(10.0);
+  HijackFigures f;
+  const auto cols = runtime::read_csv_log_columns(truth, {"angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "armed"});
+  for (std::size_t i = 0; i < cols[0].size(); ++i) {
+    f.max_angle_deg = std::max(f.max_angle_deg, cols[0][i] * (180.0 / std::numbers::pi));
+    f.min_angle_deg = std::min(f.min_angle_deg, cols[0][i] * (180.0 / std::numbers::pi));
+    f.peak_agonist_N = std::max(f.peak_agonist_N, cols[1][i]);
+    f.peak_antagonist_N = std::max(f.peak_antagonist_N, cols[2][i]);
+    f.armed_steps += cols[3][i] > 0.5 ? 1 : 0;
+  }
+  std::filesystem::remove(truth);
+  std::printf("hijack (%s): peak agonist %.1f N, peak antagonist %.1f N, angle %.1f .. %.1f deg, %zu steps armed\n", tag.c_str(),
+              f.peak_agonist_N, f.peak_antagonist_N, f.min_angle_deg, f.max_angle_deg, f.armed_steps);
+  return f;
+}
+
+// Issue 30: the board enforces limits of its own. A host with the key commands every output to its
+// top code for 3 s, once against a map without `board_limits:` (the core's ceilings then the
+// channels' full ranges) and once against the shipped map. Measured 2026-11-28: 2694 N -> 2235 N
+// peak on the agonist's load cell, 772 N -> 674 N on the antagonist's. NOT yet the 2000 N the wire
+// may carry: the trip vents the valve, whose 5 ms dead time and lag let the force rise about 235 N
+// more; nor the angle range (52 deg both times: the range trip cuts the motor, and the muscles
+// drive the joint to its stop). What this asserts is what the board guarantees today: the hijack
+// is armed, and the trips cut the peak force by more than 300 N.
+TEST(MfbEndToEnd, TheBoardsForceTripsCutTheForceAHijackingHostWithTheKeyReaches) {
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string map = text.str();
+  const std::size_t from = map.find("board_limits:");
+  const std::size_t to = map.find("# Enable drives");
+  ASSERT_NE(from, std::string::npos);
+  ASSERT_NE(to, std::string::npos);
+  map.erase(from, to - from);
+  const std::string tag = std::to_string(::getpid());
+  const std::filesystem::path bare_map = std::filesystem::path(PEHA_SOURCE_DIR "/configs/mfb") / ("_no_limits_" + tag + ".yaml");
+  std::ofstream(bare_map) << map;
+  std::ifstream scenario_in(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
+  std::stringstream scenario_text;
+  scenario_text << scenario_in.rdbuf();
+  std::string scenario = scenario_text.str();
+  const std::string shipped = "channel_map: mfb/one_dof_rig.yaml";
+  ASSERT_NE(scenario.find(shipped), std::string::npos);
+  scenario.replace(scenario.find(shipped), shipped.size(), "channel_map: mfb/" + bare_map.filename().string());
+  const std::filesystem::path bare_scenario = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e1_no_limits_" + tag + ".yaml");
+  std::ofstream(bare_scenario) << scenario;
+
+  const HijackFigures before = hijack(bare_scenario.string(), 3.0, "no board limits");
+  std::filesystem::remove(bare_map);
+  std::filesystem::remove(bare_scenario);
+  const HijackFigures after = hijack(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", 3.0, "board limits");
+
+  ASSERT_GT(before.armed_steps, 1000u);  // the hijacker did drive the outputs
+  ASSERT_GT(after.armed_steps, 1000u);
+  EXPECT_GT(before.peak_agonist_N, 2400.0);  // unlimited: far past the wire's 2250 N
+  EXPECT_LT(after.peak_agonist_N, before.peak_agonist_N - 300.0);
+  EXPECT_LT(after.peak_antagonist_N, before.peak_antagonist_N - 50.0);
+}
+
 TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_mfb_e5_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);

@@ -10,15 +10,13 @@
 /// step). When commands stop for two periods the simulation runs on by itself, one period per
 /// period of wall time, and a state packet goes to the last host every period.
 ///
-/// Its own watchdog: no accepted command for `watchdog_s` -> the board disarms, releases the
-/// session and reports kStatusWatchdogTripped until a host acknowledges with an enable-clear
-/// command; an enable edge re-arms it (mfb::OutputArming). Whenever the outputs disarm (watchdog,
-/// e-stop, the host's disable) the safe state is reached as docs/runtime.md describes: motor torque cut at once,
-/// valve setpoints ramped linearly to 0 Pa over `vent_s`, so the arm descends slowly, not drops.
-/// A new session puts the simulated exoskeleton back into its initial state. Only commands with
-/// the link key's MAC from the endpoint that opened the session are obeyed (mfb::CommandFilter);
-/// each adoption draws a fresh arm token, and after a host loss only the operator's arming
-/// re-arms the outputs (mfb::OutputArming).
+/// Everything the board decides is the board core's (firmware/core, the C11 code a real board runs;
+/// docs/porting.md): packet checks, the session, arming, the watchdog, the safe outputs (motor
+/// torque cut at once, valve setpoints ramped linearly to 0 Pa over `vent_s`) and the board's own
+/// limits from the channel map's `board_limits:`. This class is the core's HAL over the simulated
+/// plant (inputs: the channel map's encoding of the plant's sensors; outputs: decoded into the
+/// plant's command), the UDP socket, and the emulator's extras. A new session puts the simulated
+/// exoskeleton back into its initial state.
 ///
 /// Fault injection on the state packets it sends: loss, duplication, reordering, delay and
 /// corruption (a flipped bit after the CRC), each with its probability, drawn from a seed; and an
@@ -26,6 +24,7 @@
 
 #include "peha/io/backend.hpp"
 #include "peha/io/udp_socket.hpp"
+#include "peha/mfb/board_core.hpp"
 #include "peha/mfb/channel_map.hpp"
 #include "peha/mfb/protocol.hpp"
 
@@ -87,6 +86,9 @@ struct EmulatorStats {
   std::int64_t host_loss_ns = 0;
   double host_loss_t_s = -1;
   std::uint64_t injected_loss = 0, injected_duplicate = 0, injected_reorder = 0, injected_corrupt = 0, injected_delay = 0;
+  /// The board's own limits (firmware core): muscles vented by their load cell's ceiling, motors cut
+  /// by their joint's range, DA codes clamped to their ceilings.
+  std::uint64_t force_trips = 0, range_trips = 0, clamped_codes = 0;
   std::string table() const;
 };
 
@@ -108,7 +110,7 @@ class BoardEmulator {
   void run(const std::atomic<bool>& stop);
   const EmulatorStats& stats() const noexcept { return stats_; }
   /// The board's boot id (random, nonzero, drawn at construction: one per power-on).
-  std::uint32_t boot_id() const noexcept { return boot_id_; }
+  std::uint32_t boot_id() const noexcept { return mfb_board_boot_id(&core_); }
   /// One simulation step as the plant saw it (EmulatorParams::truth_steps).
   struct TruthRow {
     double t_s;              ///< simulated time
@@ -125,12 +127,20 @@ class BoardEmulator {
   void send_state(std::int64_t now) noexcept;
   void transmit(const std::uint8_t* bytes, std::size_t n, std::int64_t at_ns) noexcept;
   void flush_delayed(std::int64_t now) noexcept;
+  void note_core_counters() noexcept;
   double uniform() noexcept;
   /// The injected e-stop input at simulated time t_s.
   bool estop_at(double t_s) const noexcept {
     return params_.faults.estop_from_s >= 0 && t_s >= params_.faults.estop_from_s &&
            t_s < params_.faults.estop_from_s + params_.faults.estop_for_s;
   }
+  // The core's HAL over the simulated plant.
+  static void hal_read_inputs(void* ctx, mfb_inputs* out);
+  static void hal_write_outputs(void* ctx, const std::uint16_t da[MFB_DA_CHANNELS], std::uint8_t digital_out);
+  static std::uint64_t hal_now_us(void* ctx);
+  static void hal_mac(void* ctx, const std::uint8_t key[MFB_KEY_SIZE], const std::uint8_t* data, std::size_t size,
+                      std::uint8_t out[MFB_MAC_SIZE]);
+  static std::uint32_t hal_random(void* ctx);
 
   EmulatorParams params_;
   ChannelMap map_;
@@ -139,23 +149,15 @@ class BoardEmulator {
   std::function<void(const CommandPacket*)> step_hook_;
   io::UdpSocket socket_;
   std::unique_ptr<io::Backend> plant_;
-  CommandFilter filter_;
-  OutputArming arming_;
   io::SensorState state_;
-  CommandPacket last_command_{};
-  BoardOutputs applied_{};               ///< what the DA is driving now
-  BoardOutputs trip_outputs_{};          ///< what it drove when it disarmed (vent ramp start)
-  std::int64_t trip_ns_ = 0;
-  bool armed_ = false;                   ///< outputs followed the command last period
-  bool venting_ = false;                 ///< the vent ramp is running
+  mfb_board_config core_config_;
+  mfb_hal hal_;
+  mfb_board core_;
+  BoardOutputs applied_{};               ///< what the DA is driving now (the core's outputs)
+  CommandPacket last_command_{};         ///< the newest accepted command (the step hook's)
   bool have_host_ = false;
   io::UdpEndpoint host_;
-  std::uint32_t session_ = 0;
-  bool have_session_ = false;
-  std::uint32_t state_sequence_ = 0;
-  std::int64_t last_command_ns_ = 0;
   std::uint64_t rng_state_;
-  std::uint32_t boot_id_ = 0;
   std::uint64_t burst_left_ = 0;         ///< state packets the loss burst still drops
   bool burst_started_ = false;
   bool reported_armed_ = false;          ///< "outputs armed" printed (once, for a supervising process)

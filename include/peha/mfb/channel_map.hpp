@@ -87,6 +87,18 @@ struct DigitalLine {
   void set(std::uint8_t& byte, bool active) const noexcept;
 };
 
+/// The board's own hard limits of one joint (`board_limits:`, docs/channel-maps.md), in SI. The
+/// board core (firmware/) enforces them whatever the host sends: valve setpoints and motor torque
+/// clamped to their ceilings, a load cell over its ceiling vents its muscle, a joint outside its
+/// range turns its motor off.
+struct BoardLimits {
+  bool configured = false;                   ///< false: the map has no `board_limits:` entry for the joint
+  double agonist_force_N = 0, antagonist_force_N = 0;          ///< load-cell ceilings
+  double agonist_pressure_Pa = 0, antagonist_pressure_Pa = 0;  ///< valve setpoint ceilings
+  double motor_torque_Nm = 0;                ///< |torque| ceiling (joints with a motor channel)
+  double min_angle_rad = 0, max_angle_rad = 0;  ///< the encoder's range; outside, the motor is off
+};
+
 /// Every channel of one joint.
 struct JointChannels {
   // AD
@@ -104,6 +116,7 @@ struct JointChannels {
   // counter
   EncoderChannel encoder;
   EncoderChannel redundant_encoder;   ///< optional (`redundant: true`): a second encoder on the joint's axis
+  BoardLimits board_limits;           ///< the board's own limits (optional section `board_limits:`)
 };
 
 class ChannelMap;
@@ -163,6 +176,10 @@ class ChannelMap {
   const std::vector<std::string>& joint_names() const noexcept { return joint_names_; }
   /// Channels of joint `i`; throws std::out_of_range unless 0 <= i < joint_count().
   const JointChannels& joint(int i) const;
+  /// True if the map gives the board its own limits (`board_limits:`, then for every joint).
+  bool has_board_limits() const noexcept { return joints_[0].board_limits.configured; }
+  /// The e-stop input and the enable output (the board core reads the e-stop itself).
+  const DigitalLine& estop_line() const noexcept { return estop_; }
 
  private:
   friend ChannelMap read_channel_map(config::Map map, const std::vector<std::string>& joint_names);

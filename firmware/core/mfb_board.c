@@ -1,0 +1,432 @@
+#include "mfb_board.h"
+
+#include <math.h>
+#include <stdio.h> /* snprintf, set-up errors only */
+
+/* ---- set-up ------------------------------------------------------------------------------------ */
+
+long mfb_code_within(const mfb_channel_si* ch, double value_SI, int direction) {
+  const double c = (value_SI - ch->offset_SI) / ch->scale_SI;
+  /* The value grows with the code when the scale is positive: "not above the value" is then the
+   * code below it. A hair of tolerance keeps an exact code (0 Nm at 32768) exact. */
+  const bool down = (direction > 0) == (ch->scale_SI > 0);
+  double code = down ? floor(c + 1e-9) : ceil(c - 1e-9);
+  if (code < 0) code = down ? -1 : 0;
+  if (code > 65535) code = down ? 65535 : -1;
+  return (long)code;
+}
+
+/* "joints[0].agonist.force_ceiling_N: expected ..., found 2500": the field, what it must be, what it is. */
+static bool fail(char* error, size_t size, int joint, const char* muscle, const char* what, double found) {
+  if (error != NULL && size > 0) {
+    snprintf(error, size, "joints[%d]%s%s.%s, found %g", joint, muscle[0] ? "." : "", muscle, what, found);
+  }
+  return false;
+}
+
+static bool good_channel(const mfb_channel_si* ch, int count) {
+  return ch->channel < count && isfinite(ch->offset_SI) && isfinite(ch->scale_SI) && ch->scale_SI != 0;
+}
+
+/* The codes of [lo_SI, hi_SI] on `ch` into [*lo, *hi]; false if no code lies inside. */
+static bool code_range(const mfb_channel_si* ch, double lo_SI, double hi_SI, uint16_t* lo, uint16_t* hi) {
+  const long a = mfb_code_within(ch, lo_SI, -1);
+  const long b = mfb_code_within(ch, hi_SI, +1);
+  if (a < 0 || b < 0) return false;
+  const long first = a < b ? a : b, last = a < b ? b : a;
+  /* `a` is the code of the lowest allowed value; the range in codes is between the two, and both
+   * must be inside [lo_SI, hi_SI] (mfb_code_within rounded them inwards). */
+  const double v_first = ch->offset_SI + ch->scale_SI * (double)first;
+  const double v_last = ch->offset_SI + ch->scale_SI * (double)last;
+  const double tol = 1e-9 * (fabs(lo_SI) + fabs(hi_SI) + 1);
+  if (v_first < lo_SI - tol && v_last < lo_SI - tol) return false;
+  if (v_first > hi_SI + tol && v_last > hi_SI + tol) return false;
+  *lo = (uint16_t)first;
+  *hi = (uint16_t)last;
+  return true;
+}
+
+static const char* const kMuscleName[2] = {"agonist", "antagonist"};
+
+bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, size_t size) {
+  if (error != NULL && size > 0) error[0] = '\0';
+  if (!(si->watchdog_s > 0 && si->watchdog_s <= 10)) {
+    if (error) snprintf(error, size, "watchdog_s: expected 0 < s <= 10, found %g", si->watchdog_s);
+    return false;
+  }
+  if (!(si->vent_s >= 0 && si->vent_s <= 60)) {
+    if (error) snprintf(error, size, "vent_s: expected 0 <= s <= 60, found %g", si->vent_s);
+    return false;
+  }
+  if (si->joint_count < 1 || si->joint_count > MFB_MAX_JOINTS) {
+    if (error) snprintf(error, size, "joint_count: expected 1..%d, found %d", MFB_MAX_JOINTS, si->joint_count);
+    return false;
+  }
+  if (si->estop_line < 0 || si->estop_line > 7) {
+    if (error) snprintf(error, size, "estop_line: expected 0..7, found %d", si->estop_line);
+    return false;
+  }
+  for (size_t i = 0; i < MFB_KEY_SIZE; ++i) out->key[i] = si->key[i];
+  out->watchdog_us = (uint32_t)(si->watchdog_s * 1e6 + 0.5);
+  out->vent_us = (uint32_t)(si->vent_s * 1e6 + 0.5);
+  out->safe_digital_out = si->safe_digital_out;
+  out->estop_line = (uint8_t)si->estop_line;
+  out->estop_active_high = si->estop_active_high;
+  out->joint_count = (uint8_t)si->joint_count;
+  for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
+    out->safe_da[i] = si->safe_da[i];
+    out->da_min[i] = 0;
+    out->da_max[i] = 65535;
+  }
+  uint8_t da_limited = 0; /* a DA channel limited twice is a channel map error */
+  for (int j = 0; j < si->joint_count; ++j) {
+    const mfb_joint_si* js = &si->joints[j];
+    mfb_joint_limit* jl = &out->joints[j];
+    for (int m = 0; m < 2; ++m) {
+      const mfb_muscle_si* ms = &js->muscle[m];
+      mfb_muscle_limit* ml = &jl->muscle[m];
+      if (ms->valve.channel < 0 || !good_channel(&ms->valve, MFB_DA_CHANNELS)) {
+        return fail(error, size, j, kMuscleName[m], "valve: expected a DA channel 0..7 with a finite nonzero scale; channel",
+                    ms->valve.channel);
+      }
+      if (!(isfinite(ms->pressure_ceiling_Pa) && ms->pressure_ceiling_Pa > 0)) {
+        return fail(error, size, j, kMuscleName[m], "pressure_ceiling_Pa: expected a finite value > 0", ms->pressure_ceiling_Pa);
+      }
+      const int da = ms->valve.channel;
+      if (da_limited & (1u << da)) return fail(error, size, j, kMuscleName[m], "valve: DA channel used twice; channel", da);
+      da_limited |= (uint8_t)(1u << da);
+      if (!code_range(&ms->valve, 0.0, ms->pressure_ceiling_Pa, &out->da_min[da], &out->da_max[da])) {
+        return fail(error, size, j, kMuscleName[m], "pressure_ceiling_Pa: expected a pressure the valve's DA codes reach",
+                    ms->pressure_ceiling_Pa);
+      }
+      if (si->safe_da[da] < out->da_min[da] || si->safe_da[da] > out->da_max[da]) {
+        return fail(error, size, j, kMuscleName[m], "valve: expected its safe code inside [0 Pa, ceiling]; safe code",
+                    si->safe_da[da]);
+      }
+      ml->valve_da = (int8_t)da;
+      ml->loadcell_ad = -1;
+      ml->trip_above = true;
+      ml->trip_code = 65535;
+      if (ms->loadcell.channel >= 0) {
+        if (!good_channel(&ms->loadcell, MFB_AD_CHANNELS)) {
+          return fail(error, size, j, kMuscleName[m], "loadcell: expected an AD channel 0..15 with a finite nonzero scale; channel",
+                      ms->loadcell.channel);
+        }
+        if (!(isfinite(ms->force_ceiling_N) && ms->force_ceiling_N > 0)) {
+          return fail(error, size, j, kMuscleName[m], "force_ceiling_N: expected a finite value > 0", ms->force_ceiling_N);
+        }
+        const long code = mfb_code_within(&ms->loadcell, ms->force_ceiling_N, +1);
+        if (code < 0 || code >= 65535) {
+          return fail(error, size, j, kMuscleName[m], "force_ceiling_N: expected a force inside the load cell's range",
+                      ms->force_ceiling_N);
+        }
+        ml->loadcell_ad = (int8_t)ms->loadcell.channel;
+        ml->trip_above = ms->loadcell.scale_SI > 0;
+        ml->trip_code = (uint16_t)code;
+      }
+    }
+    jl->motor_da = -1;
+    if (js->motor.channel >= 0) {
+      if (!good_channel(&js->motor, MFB_DA_CHANNELS)) {
+        return fail(error, size, j, "", "motor: expected a DA channel 0..7 with a finite nonzero scale; channel", js->motor.channel);
+      }
+      const int da = js->motor.channel;
+      if (da_limited & (1u << da)) return fail(error, size, j, "", "motor: DA channel used twice; channel", da);
+      da_limited |= (uint8_t)(1u << da);
+      if (!(isfinite(js->motor_ceiling_Nm) && js->motor_ceiling_Nm > 0) ||
+          !code_range(&js->motor, -js->motor_ceiling_Nm, js->motor_ceiling_Nm, &out->da_min[da], &out->da_max[da])) {
+        return fail(error, size, j, "", "motor_ceiling_Nm: expected a torque > 0 the motor's DA codes reach", js->motor_ceiling_Nm);
+      }
+      if (si->safe_da[da] < out->da_min[da] || si->safe_da[da] > out->da_max[da]) {
+        return fail(error, size, j, "", "motor: expected its safe code inside the ceiling; safe code", si->safe_da[da]);
+      }
+      jl->motor_da = (int8_t)da;
+    }
+    jl->encoder = -1;
+    jl->min_counts = INT32_MIN;
+    jl->max_counts = INT32_MAX;
+    if (js->encoder.channel >= 0) {
+      const mfb_encoder_si* e = &js->encoder;
+      if (e->channel >= MFB_ENCODER_CHANNELS || !isfinite(e->rad_per_count) || e->rad_per_count == 0 || !isfinite(e->offset_rad)) {
+        return fail(error, size, j, "", "encoder: expected a counter 0..7 with a finite nonzero rad_per_count; channel", e->channel);
+      }
+      if (!(isfinite(js->min_angle_rad) && isfinite(js->max_angle_rad) && js->min_angle_rad < js->max_angle_rad)) {
+        return fail(error, size, j, "", "min_angle_rad < max_angle_rad: expected finite and ordered; min", js->min_angle_rad);
+      }
+      double a = (js->min_angle_rad - e->offset_rad) / e->rad_per_count;
+      double b = (js->max_angle_rad - e->offset_rad) / e->rad_per_count;
+      if (a > b) {
+        const double t = a;
+        a = b;
+        b = t;
+      }
+      if (!(a > -2147483647.0 && b < 2147483647.0)) {
+        return fail(error, size, j, "", "angle range: expected it within the counter's int32 range; counts", a);
+      }
+      jl->encoder = (int8_t)e->channel;
+      jl->min_counts = (int32_t)ceil(a);
+      jl->max_counts = (int32_t)floor(b);
+    }
+  }
+  return true;
+}
+
+/* ---- the session (the same rules as peha::mfb::CommandFilter) -------------------------------- */
+
+static mfb_verdict count(mfb_board* b, mfb_verdict v) {
+  mfb_counters* c = &b->counters;
+  switch (v) {
+    case MFB_ACCEPT: ++c->accepted; break;
+    case MFB_FOREIGN_SOURCE: ++c->foreign_source; break;
+    case MFB_FOREIGN_SESSION: ++c->foreign_session; break;
+    case MFB_DUPLICATE: ++c->duplicate; break;
+    case MFB_STALE: ++c->stale; break;
+    case MFB_MALFORMED: ++c->malformed; break;
+    case MFB_UNAUTHENTICATED: ++c->unauthenticated; break;
+  }
+  return v;
+}
+
+static uint32_t nonzero_random(const mfb_hal* hal) {
+  uint32_t r = 0;
+  while (r == 0) r = hal->random_u32(hal->ctx);
+  return r;
+}
+
+/* ---- arming (the same rules as peha::mfb::OutputArming) -------------------------------------- */
+
+static void arming_on_command(mfb_board* b, const mfb_command* c) {
+  if (c->session_id != b->arm_session) { /* a new host makes its own enable edge */
+    b->arm_session = c->session_id;
+    b->armed = false;
+    b->seen_disable = false;
+  }
+  if ((c->flags & MFB_COMMAND_ENABLE) == 0) {
+    b->armed = false;
+    b->seen_disable = !b->estop; /* the edge must start after the e-stop is released */
+    b->tripped = false;          /* the host has acknowledged the trip */
+  } else if (!b->armed && b->seen_disable && !b->estop && c->arm_token == b->token &&
+             (!b->host_lost || (c->flags & MFB_COMMAND_OPERATOR_ARM) != 0)) {
+    b->armed = true;
+    b->host_lost = false;
+  }
+}
+
+static void arming_set_estop(mfb_board* b, bool active) {
+  b->estop = active;
+  if (active) {
+    b->armed = false;
+    b->seen_disable = false;
+  }
+}
+
+uint8_t mfb_board_status(const mfb_board* b) {
+  uint8_t s = 0;
+  if (b->tripped) s |= MFB_STATUS_WATCHDOG_TRIPPED;
+  if (!mfb_board_outputs_live(b)) s |= MFB_STATUS_OUTPUTS_SAFE;
+  if (b->estop) s |= MFB_STATUS_ESTOP;
+  if (b->host_lost) s |= MFB_STATUS_HOST_LOST;
+  if (!b->has_session) s |= MFB_STATUS_NO_SESSION;
+  return s;
+}
+
+/* ---- the board --------------------------------------------------------------------------------- */
+
+static void write_safe(mfb_board* b) {
+  for (int i = 0; i < MFB_DA_CHANNELS; ++i) b->applied_da[i] = b->cfg->safe_da[i];
+  b->applied_digital = b->cfg->safe_digital_out;
+  b->hal->write_outputs(b->hal->ctx, b->applied_da, b->applied_digital);
+}
+
+void mfb_board_init(mfb_board* b, const mfb_board_config* cfg, const mfb_hal* hal) {
+  *b = (mfb_board){0};
+  b->cfg = cfg;
+  b->hal = hal;
+  b->boot_id = nonzero_random(hal); /* this power-on's id: a restart draws another */
+  b->last_error = MFB_PARSE_OK;
+  write_safe(b);
+  mfb_board_sample(b);
+}
+
+mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, mfb_endpoint from, mfb_verdict* verdict) {
+  mfb_verdict v;
+  mfb_command c;
+  const mfb_parse_error e = mfb_decode_command(datagram, size, b->cfg->key, b->hal->mac, b->hal->ctx, &c);
+  if (e != MFB_PARSE_OK) {
+    b->last_error = e;
+    v = count(b, e == MFB_PARSE_BAD_MAC ? MFB_UNAUTHENTICATED : MFB_MALFORMED);
+  } else if (b->has_session && !(from.address == b->peer.address && from.port == b->peer.port)) {
+    v = count(b, MFB_FOREIGN_SOURCE); /* the session belongs to the endpoint that opened it */
+  } else if (b->has_session && c.session_id != b->session_id) {
+    v = count(b, MFB_FOREIGN_SESSION);
+  } else {
+    /* Adopting another session starts its sequence afresh; re-adopting the released one keeps its
+     * baseline, so that a late packet cannot revive an old command. */
+    if (!b->has_session && c.session_id != b->session_id) b->have_last = false;
+    if (b->have_last && c.sequence == b->last_sequence) {
+      v = count(b, MFB_DUPLICATE);
+    } else if (b->have_last && !mfb_sequence_newer(c.sequence, b->last_sequence)) {
+      v = count(b, MFB_STALE);
+    } else {
+      if (b->have_last) b->counters.gaps += (uint32_t)(c.sequence - b->last_sequence - 1u);
+      b->have_last = true;
+      b->last_sequence = c.sequence;
+      v = count(b, MFB_ACCEPT);
+    }
+  }
+  if (verdict != NULL) *verdict = v;
+  if (v != MFB_ACCEPT) return MFB_EVENT_DROPPED;
+
+  const bool adopted = !b->has_session;
+  const bool new_session = adopted && (c.session_id != b->session_id || !b->ever_adopted);
+  if (adopted) b->token = nonzero_random(b->hal); /* no recorded edge can arm this adoption */
+  b->has_session = true;
+  b->ever_adopted = true;
+  b->session_id = c.session_id;
+  b->peer = from;
+  b->last_command_us = b->hal->now_us(b->hal->ctx);
+  arming_on_command(b, &c);
+  b->command = c;
+  if (!new_session) return MFB_EVENT_COMMAND;
+  b->live = false;
+  b->venting = false;
+  write_safe(b);
+  return MFB_EVENT_NEW_SESSION;
+}
+
+static bool over_ceiling(const mfb_muscle_limit* m, const mfb_inputs* in) {
+  if (m->loadcell_ad < 0) return false;
+  const uint16_t code = in->ad[m->loadcell_ad];
+  return m->trip_above ? code > m->trip_code : code < m->trip_code;
+}
+
+static bool out_of_range(const mfb_joint_limit* j, const mfb_inputs* in) {
+  if (j->encoder < 0) return false;
+  const int32_t counts = in->encoder[j->encoder];
+  return counts < j->min_counts || counts > j->max_counts;
+}
+
+void mfb_board_sample(mfb_board* b) {
+  b->hal->read_inputs(b->hal->ctx, &b->inputs);
+  const mfb_board_config* cfg = b->cfg;
+  for (int j = 0; j < cfg->joint_count; ++j) {
+    for (int m = 0; m < 2; ++m) {
+      const uint16_t bit = (uint16_t)(1u << (2 * j + m));
+      if (!(b->vented_muscles & bit) && over_ceiling(&cfg->joints[j].muscle[m], &b->inputs)) {
+        b->vented_muscles |= bit;
+        ++b->counters.force_trips;
+      }
+    }
+    const uint8_t bit = (uint8_t)(1u << j);
+    if (!(b->motors_off & bit) && out_of_range(&cfg->joints[j], &b->inputs)) {
+      b->motors_off |= bit;
+      ++b->counters.range_trips;
+    }
+  }
+}
+
+/* The trips hold until an arming edge finds their cause gone: re-judged from the newest sample. */
+static void rejudge_trips(mfb_board* b) {
+  const mfb_board_config* cfg = b->cfg;
+  b->vented_muscles = 0;
+  b->motors_off = 0;
+  for (int j = 0; j < cfg->joint_count; ++j) {
+    for (int m = 0; m < 2; ++m) {
+      if (over_ceiling(&cfg->joints[j].muscle[m], &b->inputs)) b->vented_muscles |= (uint16_t)(1u << (2 * j + m));
+    }
+    if (out_of_range(&cfg->joints[j], &b->inputs)) b->motors_off |= (uint8_t)(1u << j);
+  }
+}
+
+/* Valves vented by a trip and motors of joints out of range go to their safe codes. */
+static void apply_trips(mfb_board* b, uint16_t da[MFB_DA_CHANNELS]) {
+  const mfb_board_config* cfg = b->cfg;
+  for (int j = 0; j < cfg->joint_count; ++j) {
+    const mfb_joint_limit* jl = &cfg->joints[j];
+    for (int m = 0; m < 2; ++m) {
+      if (b->vented_muscles & (1u << (2 * j + m))) da[jl->muscle[m].valve_da] = cfg->safe_da[jl->muscle[m].valve_da];
+    }
+    if (jl->motor_da >= 0 && (b->motors_off & (1u << j))) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
+  }
+}
+
+void mfb_board_drive(mfb_board* b) {
+  const mfb_board_config* cfg = b->cfg;
+  const bool estop = ((b->inputs.digital_in >> cfg->estop_line) & 1u) == (cfg->estop_active_high ? 1u : 0u);
+  arming_set_estop(b, estop);
+  const uint64_t now = b->hal->now_us(b->hal->ctx);
+  if (mfb_board_outputs_live(b)) {
+    if (!b->live) rejudge_trips(b); /* the arming edge */
+    b->live = true;
+    b->venting = false;
+    for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
+      uint16_t code = b->command.da[i];
+      if (code < cfg->da_min[i] || code > cfg->da_max[i]) {
+        code = code < cfg->da_min[i] ? cfg->da_min[i] : cfg->da_max[i];
+        ++b->counters.clamped;
+      }
+      b->applied_da[i] = code;
+    }
+    b->applied_digital = b->command.digital_out;
+    apply_trips(b, b->applied_da);
+  } else {
+    if (b->live) { /* the moment of disarming: the ramp starts from what the DA held */
+      b->live = false;
+      for (int i = 0; i < MFB_DA_CHANNELS; ++i) b->vent_from_da[i] = b->applied_da[i];
+      b->vent_from_us = now;
+      b->venting = cfg->vent_us > 0;
+    }
+    if (b->venting) {
+      uint64_t elapsed = now - b->vent_from_us;
+      if (elapsed >= cfg->vent_us) {
+        elapsed = cfg->vent_us;
+        b->venting = false;
+      }
+      const int64_t vent = (int64_t)cfg->vent_us;
+      for (int i = 0; i < MFB_DA_CHANNELS; ++i) { /* linear, rounded to the nearest code (half up) */
+        const int64_t from = b->vent_from_da[i], delta = (int64_t)cfg->safe_da[i] - from;
+        b->applied_da[i] = (uint16_t)((2 * from * vent + 2 * delta * (int64_t)elapsed + vent) / (2 * vent));
+      }
+      for (int j = 0; j < cfg->joint_count; ++j) { /* every motor straight to its zero-torque code */
+        const int8_t m = cfg->joints[j].motor_da;
+        if (m >= 0) b->applied_da[m] = cfg->safe_da[m];
+      }
+      apply_trips(b, b->applied_da);
+      b->applied_digital = cfg->safe_digital_out;
+    } else {
+      for (int i = 0; i < MFB_DA_CHANNELS; ++i) b->applied_da[i] = cfg->safe_da[i];
+      b->applied_digital = cfg->safe_digital_out;
+    }
+  }
+  b->hal->write_outputs(b->hal->ctx, b->applied_da, b->applied_digital);
+}
+
+mfb_watchdog mfb_board_poll(mfb_board* b) {
+  if (!b->has_session) return MFB_WATCHDOG_QUIET;
+  const uint64_t now = b->hal->now_us(b->hal->ctx);
+  if (now - b->last_command_us <= b->cfg->watchdog_us) return MFB_WATCHDOG_QUIET;
+  const bool was_live = mfb_board_outputs_live(b);
+  if (b->armed) b->host_lost = true; /* outputs were live and their host fell silent */
+  b->tripped = true;
+  b->armed = false;
+  b->seen_disable = false;
+  b->has_session = false; /* the next valid command of any session is adopted */
+  return was_live ? MFB_WATCHDOG_HOST_LOST : MFB_WATCHDOG_TRIPPED;
+}
+
+size_t mfb_board_state_packet(mfb_board* b, uint8_t* out, size_t capacity) {
+  if (!b->ever_adopted || capacity < MFB_STATE_PACKET_SIZE) return 0;
+  mfb_state s;
+  s.session_id = b->session_id;
+  s.sequence = ++b->state_sequence;
+  s.ack_sequence = b->command.sequence;
+  s.echo_host_time_ns = b->command.host_time_ns;
+  s.board_time_ns = b->inputs.time_ns;
+  for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = b->inputs.ad[i];
+  for (int i = 0; i < MFB_ENCODER_CHANNELS; ++i) s.encoder[i] = b->inputs.encoder[i];
+  s.digital_in = b->inputs.digital_in;
+  s.status = mfb_board_status(b);
+  s.arm_token = b->token;
+  s.boot_id = b->boot_id;
+  return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
+}

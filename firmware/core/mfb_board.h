@@ -1,0 +1,244 @@
+/* The board core: everything the multifunction board (MFB) decides, written once for every board
+ * (docs/porting.md). Freestanding C11, no heap, no OS: it reaches the hardware only through
+ * `mfb_hal`, and its configuration is a plain struct made once at set-up (`mfb_configure`).
+ *
+ * What it does, per datagram and per board period:
+ * - packet checks (size, magic, version, type, length, CRC-32C, MAC through the HAL, flags,
+ *   session != 0), the session (adopt one host endpoint, newest-only sequence), arming (an enable
+ *   edge carrying the board's arm token; operator arming after a host loss), the watchdog and the
+ *   safe outputs (motors cut at once, valves vented along a ramp over `vent_us`);
+ * - hard limits of its own, independent of the host: every DA code clamped to its channel's
+ *   ceiling (valve pressure, motor torque); a load cell over its force ceiling vents that muscle; a
+ *   joint outside its encoder range turns its motor off. The two trips latch until the next arming
+ *   edge finds the load cell and the joint back inside. No packet can change the limits.
+ *
+ * The rules are those of docs/mfb-protocol.md (the host's side: include/peha/mfb/protocol.hpp).
+ * Every function here is O(1), allocates nothing and never blocks. */
+#ifndef PEHA_FIRMWARE_MFB_BOARD_H
+#define PEHA_FIRMWARE_MFB_BOARD_H
+
+#include "mfb_wire.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MFB_MAX_JOINTS 8
+#define MFB_AGONIST 0
+#define MFB_ANTAGONIST 1
+
+/* ---- the HAL: what a board provides (docs/porting.md) ---------------------------------------- */
+
+/* One sample of every input, taken together. */
+typedef struct mfb_inputs {
+  uint16_t ad[MFB_AD_CHANNELS];
+  int32_t encoder[MFB_ENCODER_CHANNELS];
+  uint8_t digital_in;
+  uint64_t time_ns; /* board clock when sampled (reported to the host) */
+} mfb_inputs;
+
+typedef struct mfb_hal {
+  void* ctx; /* passed to every call */
+  /* Samples the AD channels, encoder counters and digital input lines. */
+  void (*read_inputs)(void* ctx, mfb_inputs* out);
+  /* Drives the DA channels and digital output lines. */
+  void (*write_outputs)(void* ctx, const uint16_t da[MFB_DA_CHANNELS], uint8_t digital_out);
+  /* A monotonic microsecond clock (the watchdog and the vent ramp). */
+  uint64_t (*now_us)(void* ctx);
+  /* Keyed BLAKE2b-128 (RFC 7693) from a vetted library: libsodium, the BLAKE2 reference code. */
+  mfb_mac_fn mac;
+  /* A 32-bit random number from a hardware or OS entropy source (boot id, arm tokens). */
+  uint32_t (*random_u32)(void* ctx);
+} mfb_hal;
+
+/* ---- configuration: what the board is told once, in SI, and keeps as codes --------------------- */
+
+/* A linear AD or DA channel: value_SI = offset_SI + scale_SI * code. channel -1: not mapped. */
+typedef struct mfb_channel_si {
+  int channel;
+  double offset_SI;
+  double scale_SI;
+} mfb_channel_si;
+
+/* An encoder: angle_rad = offset_rad + rad_per_count * counts. channel -1: none. */
+typedef struct mfb_encoder_si {
+  int channel;
+  double offset_rad;
+  double rad_per_count;
+} mfb_encoder_si;
+
+typedef struct mfb_muscle_si {
+  mfb_channel_si valve;         /* DA, Pa */
+  mfb_channel_si loadcell;      /* AD, N */
+  double pressure_ceiling_Pa;   /* the valve's setpoint never exceeds this */
+  double force_ceiling_N;       /* the load cell above this vents the muscle */
+} mfb_muscle_si;
+
+typedef struct mfb_joint_si {
+  mfb_muscle_si muscle[2];      /* MFB_AGONIST, MFB_ANTAGONIST */
+  mfb_channel_si motor;         /* DA, torque at the joint in Nm; channel -1: no motor */
+  double motor_ceiling_Nm;      /* |torque| the driver is never asked for more than */
+  mfb_encoder_si encoder;
+  double min_angle_rad, max_angle_rad; /* outside: the motor is off */
+} mfb_joint_si;
+
+typedef struct mfb_board_si {
+  uint8_t key[MFB_KEY_SIZE];
+  double watchdog_s;            /* no accepted command this long -> safe outputs */
+  double vent_s;                /* the valves' ramp to their safe codes after disarming */
+  uint16_t safe_da[MFB_DA_CHANNELS]; /* vent / zero-torque codes */
+  uint8_t safe_digital_out;
+  int estop_line;               /* 0..7 */
+  bool estop_active_high;
+  int joint_count;
+  mfb_joint_si joints[MFB_MAX_JOINTS];
+} mfb_board_si;
+
+typedef struct mfb_muscle_limit {
+  int8_t valve_da;              /* -1: none */
+  int8_t loadcell_ad;           /* -1: none */
+  bool trip_above;              /* the force rises with the code (false: falls) */
+  uint16_t trip_code;           /* the code of the force ceiling */
+} mfb_muscle_limit;
+
+typedef struct mfb_joint_limit {
+  mfb_muscle_limit muscle[2];
+  int8_t motor_da;              /* -1: none */
+  int8_t encoder;               /* -1: no range check */
+  int32_t min_counts, max_counts;
+} mfb_joint_limit;
+
+/* The board's configuration in codes: what the loop reads. Immutable once made. */
+typedef struct mfb_board_config {
+  uint8_t key[MFB_KEY_SIZE];
+  uint32_t watchdog_us;
+  uint32_t vent_us;
+  uint16_t safe_da[MFB_DA_CHANNELS];
+  uint8_t safe_digital_out;
+  uint16_t da_min[MFB_DA_CHANNELS]; /* every DA code is clamped into [da_min, da_max] */
+  uint16_t da_max[MFB_DA_CHANNELS];
+  uint8_t estop_line;
+  bool estop_active_high;
+  uint8_t joint_count;
+  mfb_joint_limit joints[MFB_MAX_JOINTS];
+} mfb_board_config;
+
+/* Set-up: checks `si` whole and converts it to codes. Returns true on success; otherwise writes
+ * "field: expected ..., found ..." into `error` (at most `error_size` bytes, NUL-terminated) and
+ * leaves `out` in an unspecified state. */
+bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, size_t error_size);
+
+/* The nearest code to `value_SI` whose value does not pass it in `direction` (+1: not above, -1:
+ * not below), within 0..65535; -1 if there is none. */
+long mfb_code_within(const mfb_channel_si* ch, double value_SI, int direction);
+
+/* ---- the board -------------------------------------------------------------------------------- */
+
+typedef enum mfb_verdict {
+  MFB_ACCEPT = 0,
+  MFB_FOREIGN_SOURCE,
+  MFB_FOREIGN_SESSION,
+  MFB_DUPLICATE,
+  MFB_STALE,
+  MFB_MALFORMED,
+  MFB_UNAUTHENTICATED
+} mfb_verdict;
+
+typedef struct mfb_counters {
+  uint64_t accepted, foreign_source, foreign_session, duplicate, stale, malformed, unauthenticated;
+  uint64_t gaps;        /* sequence numbers skipped between accepted commands */
+  uint64_t force_trips; /* muscles vented by their load cell's ceiling */
+  uint64_t range_trips; /* motors cut by their joint's range */
+  uint64_t clamped;     /* DA codes the ceilings clamped */
+} mfb_counters;
+
+typedef struct mfb_endpoint {
+  uint32_t address; /* IPv4, host byte order */
+  uint16_t port;
+} mfb_endpoint;
+
+/* What a received datagram did. */
+typedef enum mfb_event {
+  MFB_EVENT_DROPPED = 0,   /* not accepted (see the verdict) */
+  MFB_EVENT_COMMAND,       /* a command of the session held: drive the outputs with it */
+  MFB_EVENT_NEW_SESSION    /* a new session was adopted: outputs safe until its enable edge */
+} mfb_event;
+
+/* The watchdog's report. */
+typedef enum mfb_watchdog {
+  MFB_WATCHDOG_QUIET = 0,
+  MFB_WATCHDOG_TRIPPED,        /* fired while the outputs were safe */
+  MFB_WATCHDOG_HOST_LOST       /* fired while the outputs followed a host: it is gone */
+} mfb_watchdog;
+
+/* The board's state. Every field is private to mfb_board.c; read it through the functions. */
+typedef struct mfb_board {
+  const mfb_board_config* cfg;
+  const mfb_hal* hal;
+  uint32_t boot_id;
+  /* session (the command filter) */
+  bool has_session, ever_adopted, have_last;
+  uint32_t session_id, last_sequence;
+  mfb_endpoint peer;
+  mfb_counters counters;
+  mfb_parse_error last_error;
+  /* arming */
+  uint32_t arm_session, token;
+  bool seen_disable, armed, tripped, estop, host_lost;
+  /* the command and what the outputs hold */
+  mfb_command command;
+  uint64_t last_command_us;
+  uint16_t applied_da[MFB_DA_CHANNELS];
+  uint8_t applied_digital;
+  bool live, venting; /* live: the outputs followed the command last period */
+  uint16_t vent_from_da[MFB_DA_CHANNELS];
+  uint64_t vent_from_us;
+  /* the newest sample and the limits' latches */
+  mfb_inputs inputs;
+  uint16_t vented_muscles; /* bit 2*joint + muscle */
+  uint8_t motors_off;      /* bit joint */
+  uint32_t state_sequence;
+} mfb_board;
+
+/* Power-on: no session, disarmed, safe outputs written, a fresh boot id, one sample taken. */
+void mfb_board_init(mfb_board* b, const mfb_board_config* cfg, const mfb_hal* hal);
+
+/* One datagram from `from`: checks it, judges it against the session, and on acceptance updates
+ * the arming and keeps the command (the caller then calls mfb_board_drive). */
+mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, mfb_endpoint from, mfb_verdict* verdict);
+
+/* Samples every input through the HAL and checks the force ceilings and joint ranges (latching). */
+void mfb_board_sample(mfb_board* b);
+
+/* Drives the outputs for this period from the newest sample and command: the command within the
+ * ceilings and trips while armed, otherwise the safe outputs (valves along the vent ramp). */
+void mfb_board_drive(mfb_board* b);
+
+/* The watchdog: call at least once per board period. */
+mfb_watchdog mfb_board_poll(mfb_board* b);
+
+/* The state packet of the newest sample (sequence +1), CRC and MAC included; 0 before the first
+ * adopted session (there is nobody to send to) or if `capacity` < MFB_STATE_PACKET_SIZE. */
+size_t mfb_board_state_packet(mfb_board* b, uint8_t* out, size_t capacity);
+
+/* Readers. */
+static inline bool mfb_board_outputs_live(const mfb_board* b) { return b->armed && !b->estop; }
+static inline bool mfb_board_has_session(const mfb_board* b) { return b->has_session; }
+static inline uint32_t mfb_board_session(const mfb_board* b) { return b->session_id; }
+static inline mfb_endpoint mfb_board_peer(const mfb_board* b) { return b->peer; }
+static inline uint32_t mfb_board_boot_id(const mfb_board* b) { return b->boot_id; }
+static inline uint32_t mfb_board_arm_token(const mfb_board* b) { return b->token; }
+static inline bool mfb_board_estop(const mfb_board* b) { return b->estop; }
+static inline const mfb_counters* mfb_board_counters(const mfb_board* b) { return &b->counters; }
+static inline mfb_parse_error mfb_board_last_error(const mfb_board* b) { return b->last_error; }
+static inline const uint16_t* mfb_board_applied_da(const mfb_board* b) { return b->applied_da; }
+static inline uint8_t mfb_board_applied_digital(const mfb_board* b) { return b->applied_digital; }
+static inline const mfb_inputs* mfb_board_inputs(const mfb_board* b) { return &b->inputs; }
+/* The status bits of the next state packet. */
+uint8_t mfb_board_status(const mfb_board* b);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

@@ -1,0 +1,495 @@
+/* The board core's unit tests: one source, run on the development machine (ctest firmware.core)
+ * and on an emulated Cortex-M7 (ctest firmware.core_cortex_m7, QEMU mps2-an500). Plain C, no test
+ * framework: each test prints its name and the first failed check; the last line says how many
+ * failed, and the process exits with that count (semihosting on the target). */
+#include "mfb_board.h"
+#include "test_platform.h"
+
+#include <stdio.h>
+#include <string.h>
+
+static int g_failed_checks;
+static int g_failed_tests;
+static int g_tests;
+static const char* g_test;
+
+#define CHECK(cond)                                                             \
+  do {                                                                          \
+    if (!(cond)) {                                                              \
+      ++g_failed_checks;                                                        \
+      printf("  FAILED %s:%d: %s\n", __FILE__, __LINE__, #cond);                \
+    }                                                                           \
+  } while (0)
+#define CHECK_EQ(a, b)                                                                              \
+  do {                                                                                              \
+    const long long va_ = (long long)(a), vb_ = (long long)(b);                                     \
+    if (va_ != vb_) {                                                                               \
+      ++g_failed_checks;                                                                            \
+      printf("  FAILED %s:%d: %s == %s (%lld vs %lld)\n", __FILE__, __LINE__, #a, #b, va_, vb_);    \
+    }                                                                                               \
+  } while (0)
+
+static void run(void (*test)(void), const char* name) {
+  const int before = g_failed_checks;
+  g_test = name;
+  ++g_tests;
+  test();
+  if (g_failed_checks != before) ++g_failed_tests;
+  printf("%s %s\n", g_failed_checks == before ? "ok  " : "FAIL", name);
+}
+
+/* ---- a board on a bench: inputs set by the test, outputs and time captured ------------------- */
+
+typedef struct bench {
+  mfb_inputs in;
+  uint16_t da[MFB_DA_CHANNELS];
+  uint8_t digital_out;
+  uint64_t now_us;
+  uint32_t rng;
+  int writes;
+} bench;
+
+static void bench_read(void* ctx, mfb_inputs* out) { *out = ((bench*)ctx)->in; }
+static void bench_write(void* ctx, const uint16_t da[MFB_DA_CHANNELS], uint8_t dout) {
+  bench* b = (bench*)ctx;
+  memcpy(b->da, da, sizeof b->da);
+  b->digital_out = dout;
+  ++b->writes;
+}
+static uint64_t bench_now(void* ctx) { return ((bench*)ctx)->now_us; }
+static uint32_t bench_random(void* ctx) {
+  bench* b = (bench*)ctx; /* xorshift32: deterministic tokens for the tests */
+  b->rng ^= b->rng << 13;
+  b->rng ^= b->rng >> 17;
+  b->rng ^= b->rng << 5;
+  return b->rng;
+}
+
+/* The one-DOF rig's channel map (configs/mfb/one_dof_rig.yaml): valves 0..1 MPa on DA 0 and 1, the
+ * motor +-3 Nm offset binary on DA 2, load cells 0..5000 N and 0..1000 N on AD 0 and 1, 70000
+ * counts per joint revolution on encoder 0; enable on output line 0, e-stop active low on input 0. */
+enum { kSafeValve = 0, kSafeMotor = 32768 };
+static const double kPaPerCode = 1e6 / 65535.0;
+static const double kNmPerCode = 9.1552734375e-5;
+static const double kRadPerCount = 6.283185307179586 / 70000.0;
+
+static mfb_board_si rig_si(void) {
+  mfb_board_si si;
+  memset(&si, 0, sizeof si);
+  for (size_t i = 0; i < MFB_KEY_SIZE; ++i) si.key[i] = (uint8_t)i;
+  si.watchdog_s = 0.010;
+  si.vent_s = 2.0;
+  si.safe_da[2] = kSafeMotor;
+  si.estop_line = 0;
+  si.estop_active_high = false;
+  si.joint_count = 1;
+  mfb_joint_si* j = &si.joints[0];
+  j->muscle[0] = (mfb_muscle_si){{0, 0.0, kPaPerCode}, {0, 0.0, 5000.0 / 65535.0}, 0.8e6, 2000.0};
+  j->muscle[1] = (mfb_muscle_si){{1, 0.0, kPaPerCode}, {1, 0.0, 1000.0 / 65535.0}, 0.8e6, 630.0};
+  j->motor = (mfb_channel_si){2, -3.0, kNmPerCode};
+  j->motor_ceiling_Nm = 2.5;
+  j->encoder = (mfb_encoder_si){0, 0.0, kRadPerCount};
+  j->min_angle_rad = -45.0 * 3.141592653589793 / 180.0;
+  j->max_angle_rad = 45.0 * 3.141592653589793 / 180.0;
+  return si;
+}
+
+static bench g_bench;
+static mfb_hal g_hal;
+static mfb_board_config g_cfg;
+static mfb_board g_board;
+static const mfb_endpoint kHost = {0x7F000001u, 40000};
+
+static void power_on(void) {
+  memset(&g_bench, 0, sizeof g_bench);
+  g_bench.rng = 0x12345678u;
+  g_bench.now_us = 1000000;
+  g_bench.in.digital_in = 0x01; /* e-stop chain closed (active low): no e-stop */
+  g_bench.in.ad[0] = 13107;     /* 1000 N */
+  g_bench.in.ad[1] = 6553;      /* 100 N */
+  g_hal = (mfb_hal){&g_bench, bench_read, bench_write, bench_now, test_mac, bench_random};
+  const mfb_board_si si = rig_si();
+  char error[160];
+  const bool ok = mfb_configure(&si, &g_cfg, error, sizeof error);
+  CHECK(ok);
+  if (!ok) printf("  %s\n", error);
+  mfb_board_init(&g_board, &g_cfg, &g_hal);
+}
+
+static uint32_t g_sequence;
+
+/* One command from `from`, encoded with the link's key, received, and (if it drives) applied. */
+static mfb_event send_from(mfb_endpoint from, uint32_t session, uint8_t flags, const uint16_t da[MFB_DA_CHANNELS],
+                           mfb_verdict* verdict) {
+  mfb_command c;
+  memset(&c, 0, sizeof c);
+  c.session_id = session;
+  c.sequence = ++g_sequence;
+  c.host_time_ns = g_bench.now_us * 1000u;
+  if (da != NULL) memcpy(c.da, da, sizeof c.da);
+  c.digital_out = (flags & MFB_COMMAND_ENABLE) ? 0x01 : 0x00;
+  c.flags = flags;
+  c.arm_token = mfb_board_arm_token(&g_board);
+  uint8_t bytes[MFB_COMMAND_PACKET_SIZE];
+  mfb_encode_command(&c, g_cfg.key, test_mac, NULL, bytes, sizeof bytes);
+  const mfb_event e = mfb_board_receive(&g_board, bytes, sizeof bytes, from, verdict);
+  mfb_board_sample(&g_board);
+  if (e == MFB_EVENT_COMMAND) mfb_board_drive(&g_board);
+  return e;
+}
+static mfb_event send(uint32_t session, uint8_t flags, const uint16_t da[MFB_DA_CHANNELS]) {
+  return send_from(kHost, session, flags, da, NULL);
+}
+
+/* Adopt `session`, acknowledge (enable clear), then the enable edge: outputs live. */
+static void arm(uint32_t session, const uint16_t da[MFB_DA_CHANNELS]) {
+  send(session, 0, da);
+  send(session, 0, da);
+  send(session, MFB_COMMAND_ENABLE, da);
+}
+
+static const uint16_t kHalfBar[MFB_DA_CHANNELS] = {19661, 19661, 32768, 0, 0, 0, 0, 0}; /* 0.3 MPa, 0 Nm */
+static const uint16_t kEverythingMax[MFB_DA_CHANNELS] = {65535, 65535, 65535, 65535, 65535, 65535, 65535, 65535};
+
+/* ---- wire ---------------------------------------------------------------------------------------- */
+
+/* The golden command of tests/mfb/protocol_test.cpp, its MAC made by Python's hashlib.blake2b under
+ * the key 0x00..0x1F: the MAC on this machine (libsodium or the BLAKE2 reference) must agree. */
+static const uint8_t kGoldenCommand[MFB_COMMAND_PACKET_SIZE] = {
+    0x4D, 0x46, 0x42, 0x31, 0x03, 0x01, 0x1E, 0x00, 0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55,
+    0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01, 0xB0, 0xA0, 0xB1, 0xA1, 0xB2, 0xA2, 0xB3, 0xA3,
+    0xB4, 0xA4, 0xB5, 0xA5, 0xB6, 0xA6, 0xB7, 0xA7, 0xC3, 0x01, 0xF4, 0xF3, 0xF2, 0xF1, 0xFB, 0xF2,
+    0x7B, 0x5A, 0x36, 0xA6, 0x98, 0x07, 0x83, 0x59, 0x82, 0xCE, 0x88, 0xDC, 0xDD, 0x21, 0xD4, 0xA0,
+    0xEE, 0x7E};
+
+static const uint8_t kGoldenState[MFB_STATE_PACKET_SIZE] = {
+    0x4D, 0x46, 0x42, 0x31, 0x03, 0x02, 0x5E, 0x00, 0x44, 0x33, 0x22, 0x11, 0x0D, 0x0C, 0x0B, 0x0A,
+    0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01, 0x18, 0x17, 0x16, 0x15, 0x14, 0x13, 0x12, 0x11,
+    0x88, 0x77, 0x66, 0x55, 0xE0, 0xD0, 0xE1, 0xD1, 0xE2, 0xD2, 0xE3, 0xD3, 0xE4, 0xD4, 0xE5, 0xD5,
+    0xE6, 0xD6, 0xE7, 0xD7, 0xE8, 0xD8, 0xE9, 0xD9, 0xEA, 0xDA, 0xEB, 0xDB, 0xEC, 0xDC, 0xED, 0xDD,
+    0xEE, 0xDE, 0xEF, 0xDF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x00, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0x7F,
+    0x00, 0x00, 0x00, 0x80, 0xEB, 0x32, 0xA4, 0xF8, 0x04, 0x03, 0x02, 0x01, 0x00, 0x00, 0x00, 0x00,
+    0xFE, 0xFF, 0xFF, 0xFF, 0x5A, 0x0A, 0x24, 0x23, 0x22, 0x21, 0x34, 0x33, 0x32, 0x31, 0x0A, 0xB5,
+    0xA8, 0xC9, 0xF3, 0x7C, 0x99, 0x6D, 0x5A, 0x6A, 0x02, 0xD6, 0xEF, 0xAA, 0xE9, 0xB8, 0x63, 0x90,
+    0xFC, 0x25};
+
+static uint8_t g_key[MFB_KEY_SIZE];
+static void golden_key(void) {
+  for (size_t i = 0; i < MFB_KEY_SIZE; ++i) g_key[i] = (uint8_t)i;
+}
+
+static void Crc32cHasTheCastagnoliCheckValue(void) {
+  CHECK_EQ(mfb_crc32c((const uint8_t*)"123456789", 9), 0xE3069283u);
+}
+
+static void GoldenCommandDecodesWithItsPythonMac(void) {
+  golden_key();
+  mfb_command c;
+  CHECK_EQ(mfb_decode_command(kGoldenCommand, sizeof kGoldenCommand, g_key, test_mac, NULL, &c), MFB_PARSE_OK);
+  CHECK_EQ(c.session_id, 0x11223344u);
+  CHECK_EQ(c.sequence, 0x55667788u);
+  CHECK_EQ(c.host_time_ns, 0x0102030405060708ull);
+  CHECK_EQ(c.da[7], 0xA7B7);
+  CHECK_EQ(c.arm_token, 0xF1F2F3F4u);
+  CHECK_EQ(c.flags, MFB_COMMAND_ENABLE);
+  /* Every single-bit flip is refused: in the CRC-covered bytes as a bad CRC, in the MAC as a bad MAC. */
+  int refused = 0;
+  for (size_t bit = 0; bit < 8 * sizeof kGoldenCommand; ++bit) {
+    uint8_t copy[MFB_COMMAND_PACKET_SIZE];
+    memcpy(copy, kGoldenCommand, sizeof copy);
+    copy[bit / 8] ^= (uint8_t)(1u << (bit % 8));
+    if (mfb_decode_command(copy, sizeof copy, g_key, test_mac, NULL, &c) != MFB_PARSE_OK) ++refused;
+  }
+  CHECK_EQ(refused, 8 * MFB_COMMAND_PACKET_SIZE);
+}
+
+static void GoldenStateEncodesToItsBytes(void) {
+  golden_key();
+  mfb_state s = {0x11223344u, 0x0A0B0C0Du, 0x55667788u, 0x0102030405060708ull, 0x1112131415161718ull, {0}, {0},
+                 0x5A, MFB_STATUS_OUTPUTS_SAFE | MFB_STATUS_NO_SESSION, 0x21222324u, 0x31323334u};
+  for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = (uint16_t)(0xD0E0 + 0x0101 * i);
+  const int32_t enc[MFB_ENCODER_CHANNELS] = {-1, 1, INT32_MAX, INT32_MIN, -123456789, 0x01020304, 0, -2};
+  memcpy(s.encoder, enc, sizeof enc);
+  uint8_t out[MFB_STATE_PACKET_SIZE];
+  CHECK_EQ(mfb_encode_state(&s, g_key, test_mac, NULL, out, sizeof out), MFB_STATE_PACKET_SIZE);
+  CHECK(memcmp(out, kGoldenState, sizeof out) == 0);
+  CHECK_EQ(mfb_encode_state(&s, g_key, test_mac, NULL, out, sizeof out - 1), 0);
+}
+
+static void ChecksRunInTheProtocolsOrder(void) {
+  golden_key();
+  mfb_command c;
+  uint8_t copy[MFB_COMMAND_PACKET_SIZE + 1];
+  memcpy(copy, kGoldenCommand, MFB_COMMAND_PACKET_SIZE);
+  CHECK_EQ(mfb_decode_command(copy, 15, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_SHORT);
+  CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE - 1, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_SHORT);
+  CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE + 1, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_LONG);
+  copy[4] = 2; /* version 2 also differs in size: the version is reported */
+  CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE - 4, g_key, test_mac, NULL, &c), MFB_PARSE_BAD_VERSION);
+  memcpy(copy, kGoldenCommand, MFB_COMMAND_PACKET_SIZE);
+  copy[5] = MFB_TYPE_STATE;
+  CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE, g_key, test_mac, NULL, &c), MFB_PARSE_WRONG_TYPE);
+  g_key[0] ^= 1; /* another key */
+  CHECK_EQ(mfb_decode_command(kGoldenCommand, MFB_COMMAND_PACKET_SIZE, g_key, test_mac, NULL, &c), MFB_PARSE_BAD_MAC);
+}
+
+/* ---- session and arming --------------------------------------------------------------------------- */
+
+static void NothingIsSentAndOutputsAreSafeBeforeTheFirstSession(void) {
+  power_on();
+  uint8_t out[MFB_STATE_PACKET_SIZE];
+  CHECK_EQ(mfb_board_state_packet(&g_board, out, sizeof out), 0);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.digital_out, 0);
+  CHECK(g_board.boot_id != 0);
+}
+
+static void AnEnableEdgeWithTheTokenArmsTheOutputs(void) {
+  power_on();
+  CHECK_EQ(send(7, MFB_COMMAND_ENABLE, kHalfBar), MFB_EVENT_NEW_SESSION);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar); /* enable without a preceding disable: no edge */
+  CHECK(!mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.digital_out, 0x01);
+  CHECK_EQ(mfb_board_status(&g_board), 0);
+}
+
+static void AnEdgeWithAnotherTokenDoesNotArm(void) {
+  power_on();
+  send(7, 0, kHalfBar);
+  mfb_command c;
+  memset(&c, 0, sizeof c);
+  c.session_id = 7;
+  c.sequence = ++g_sequence;
+  c.flags = MFB_COMMAND_ENABLE;
+  c.arm_token = mfb_board_arm_token(&g_board) + 1; /* a recording of another adoption's edge */
+  uint8_t bytes[MFB_COMMAND_PACKET_SIZE];
+  mfb_encode_command(&c, g_cfg.key, test_mac, NULL, bytes, sizeof bytes);
+  mfb_verdict v;
+  CHECK_EQ(mfb_board_receive(&g_board, bytes, sizeof bytes, kHost, &v), MFB_EVENT_COMMAND);
+  mfb_board_drive(&g_board);
+  CHECK(!mfb_board_outputs_live(&g_board));
+}
+
+static void TheSessionBelongsToItsEndpointAndSequenceOnlyMovesForward(void) {
+  power_on();
+  arm(7, kHalfBar);
+  mfb_verdict v;
+  const mfb_endpoint other_port = {kHost.address, (uint16_t)(kHost.port + 1)};
+  CHECK_EQ(send_from(other_port, 7, MFB_COMMAND_ENABLE, kEverythingMax, &v), MFB_EVENT_DROPPED);
+  CHECK_EQ(v, MFB_FOREIGN_SOURCE);
+  CHECK_EQ(send_from(kHost, 8, MFB_COMMAND_ENABLE, kEverythingMax, &v), MFB_EVENT_DROPPED);
+  CHECK_EQ(v, MFB_FOREIGN_SESSION);
+  g_sequence -= 4; /* two dropped, then older than the last accepted */
+  CHECK_EQ(send_from(kHost, 7, MFB_COMMAND_ENABLE, kEverythingMax, &v), MFB_EVENT_DROPPED);
+  CHECK_EQ(v, MFB_STALE);
+  CHECK_EQ(g_bench.da[0], 19661); /* still the session's own command */
+  const mfb_counters* n = mfb_board_counters(&g_board);
+  CHECK_EQ(n->accepted, 3);
+  CHECK_EQ(n->foreign_source + n->foreign_session + n->stale, 3);
+}
+
+static void TheWatchdogCutsTheMotorAndVentsAlongTheRamp(void) {
+  power_on();
+  arm(7, kHalfBar);
+  CHECK_EQ(mfb_board_poll(&g_board), MFB_WATCHDOG_QUIET);
+  g_bench.now_us += 10001; /* watchdog 10 ms */
+  CHECK_EQ(mfb_board_poll(&g_board), MFB_WATCHDOG_HOST_LOST);
+  mfb_board_drive(&g_board);
+  CHECK_EQ(g_bench.da[2], kSafeMotor); /* motor at once */
+  CHECK_EQ(g_bench.da[0], 19661);      /* valves start the ramp where they were */
+  CHECK_EQ(g_bench.digital_out, 0);
+  g_bench.now_us += 1000000; /* half of vent_s = 2 s */
+  mfb_board_drive(&g_board);
+  CHECK_EQ(g_bench.da[0], 9831); /* 19661 / 2, rounded */
+  g_bench.now_us += 1000000;
+  mfb_board_drive(&g_board);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(mfb_board_status(&g_board),
+           MFB_STATUS_WATCHDOG_TRIPPED | MFB_STATUS_OUTPUTS_SAFE | MFB_STATUS_NO_SESSION | MFB_STATUS_HOST_LOST);
+}
+
+static void AfterAHostLossOnlyTheOperatorsArmingArms(void) {
+  power_on();
+  arm(7, kHalfBar);
+  g_bench.now_us += 20000;
+  mfb_board_poll(&g_board);
+  arm(9, kHalfBar); /* a new host, ordinary edge */
+  CHECK(!mfb_board_outputs_live(&g_board));
+  send(9, 0, kHalfBar);
+  send(9, MFB_COMMAND_ENABLE | MFB_COMMAND_OPERATOR_ARM, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(mfb_board_status(&g_board) & MFB_STATUS_HOST_LOST, 0);
+}
+
+static void AnEstopDisarmsAndTheEdgeMustFollowItsRelease(void) {
+  power_on();
+  arm(7, kHalfBar);
+  g_bench.in.digital_in = 0x00; /* the chain opens: e-stop */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(!mfb_board_outputs_live(&g_board));
+  CHECK(mfb_board_status(&g_board) & MFB_STATUS_ESTOP);
+  send(7, 0, kHalfBar); /* disabled while the e-stop is still active: no edge yet */
+  g_bench.in.digital_in = 0x01;
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(!mfb_board_outputs_live(&g_board));
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+}
+
+/* ---- the board's own limits ----------------------------------------------------------------------- */
+
+static void AHijackingHostGetsNoMoreThanTheCeilings(void) {
+  power_on();
+  arm(7, kEverythingMax);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], 52428); /* 0.8 MPa: the pressure ceiling, not 1.0 MPa */
+  CHECK_EQ(g_bench.da[1], 52428);
+  CHECK_EQ(g_bench.da[2], 60074); /* +2.5 Nm (code 60074.7 rounded inwards), not +3 Nm */
+  CHECK_EQ(g_bench.da[3], 65535); /* an unlimited channel passes */
+  const uint16_t min[MFB_DA_CHANNELS] = {0, 0, 0, 0, 0, 0, 0, 0};
+  send(7, MFB_COMMAND_ENABLE, min);
+  CHECK_EQ(g_bench.da[2], 5462); /* -2.5 Nm */
+  CHECK_EQ(mfb_board_counters(&g_board)->clamped, 3 + 1);
+}
+
+static void ALoadCellOverItsCeilingVentsThatMuscleOnly(void) {
+  power_on();
+  arm(7, kHalfBar);
+  g_bench.in.ad[0] = 26214; /* exactly 2000 N: at the ceiling, not over */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
+  g_bench.in.ad[0] = 26215; /* 2000.08 N */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], 19661); /* the antagonist keeps its command */
+  CHECK_EQ(g_bench.da[2], kSafeMotor + 0);
+  g_bench.in.ad[0] = 13107; /* back to 1000 N: the vent holds until an arming edge */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(mfb_board_counters(&g_board)->force_trips, 1);
+}
+
+static void ATripSurvivesAnEdgeWhileItsCauseRemains(void) {
+  power_on();
+  arm(7, kHalfBar);
+  g_bench.in.ad[1] = 45000; /* antagonist at 687 N > 630 N */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+}
+
+static void AJointOutOfRangeTurnsItsMotorOff(void) {
+  power_on();
+  uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0}; /* +0.66 Nm */
+  arm(7, torque);
+  CHECK_EQ(g_bench.da[2], 40000);
+  g_bench.in.encoder[0] = 8750; /* 45.0 deg: the edge of the range, inside */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], 40000);
+  g_bench.in.encoder[0] = 8751;
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.da[0], 19661); /* the muscles keep their commands */
+  g_bench.in.encoder[0] = -8751;
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(mfb_board_counters(&g_board)->range_trips, 1);
+}
+
+static void ConfigureNamesTheFieldAndWhatItFound(void) {
+  mfb_board_si si = rig_si();
+  mfb_board_config cfg;
+  char error[200];
+  si.joints[0].muscle[1].force_ceiling_N = 1500; /* beyond the 0..1000 N load cell */
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK(strstr(error, "joints[0].antagonist.force_ceiling_N") != NULL);
+  CHECK(strstr(error, "found 1500") != NULL);
+  si = rig_si();
+  si.joints[0].motor.channel = 0; /* the agonist valve's channel */
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK(strstr(error, "motor: DA channel used twice") != NULL);
+  si = rig_si();
+  si.joints[0].muscle[0].pressure_ceiling_Pa = 2e6; /* above the valve's 1 MPa at code 65535: clamped to the top code */
+  CHECK(mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK_EQ(cfg.da_max[0], 65535);
+  si.safe_da[0] = 60000; /* a "safe" valve code at 0.92 MPa: not a vent */
+  si.joints[0].muscle[0].pressure_ceiling_Pa = 0.8e6;
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK(strstr(error, "found 60000") != NULL);
+}
+
+/* ---- cost ------------------------------------------------------------------------------------------ */
+
+static void OnePacketsCost(void) {
+  power_on();
+  arm(7, kHalfBar);
+  enum { kPackets = 200 };
+  const uint64_t start = test_ticks();
+  for (int k = 0; k < kPackets; ++k) {
+    mfb_command c;
+    memset(&c, 0, sizeof c);
+    c.session_id = 7;
+    c.sequence = ++g_sequence;
+    memcpy(c.da, kHalfBar, sizeof c.da);
+    c.flags = MFB_COMMAND_ENABLE;
+    c.arm_token = mfb_board_arm_token(&g_board);
+    uint8_t in[MFB_COMMAND_PACKET_SIZE], out[MFB_STATE_PACKET_SIZE];
+    mfb_encode_command(&c, g_cfg.key, test_mac, NULL, in, sizeof in); /* the host's half, subtracted below */
+    mfb_board_receive(&g_board, in, sizeof in, kHost, NULL);
+    mfb_board_sample(&g_board);
+    mfb_board_drive(&g_board);
+    mfb_board_poll(&g_board);
+    mfb_board_state_packet(&g_board, out, sizeof out);
+  }
+  const uint64_t total = test_ticks() - start;
+  const uint64_t host_start = test_ticks();
+  for (int k = 0; k < kPackets; ++k) {
+    mfb_command c;
+    memset(&c, 0, sizeof c);
+    c.sequence = (uint32_t)k;
+    uint8_t in[MFB_COMMAND_PACKET_SIZE];
+    mfb_encode_command(&c, g_cfg.key, test_mac, NULL, in, sizeof in);
+  }
+  const uint64_t host = test_ticks() - host_start;
+  CHECK(total > host);
+  test_report_cost("board period (receive, sample, drive, poll, state packet)", (total - host) / kPackets);
+  const uint64_t mac_start = test_ticks();
+  uint8_t mac[MFB_MAC_SIZE];
+  for (int k = 0; k < kPackets; ++k) test_mac(NULL, g_cfg.key, kGoldenState, MFB_STATE_PACKET_SIZE - MFB_MAC_SIZE, mac);
+  test_report_cost("one MAC of a state packet (114 bytes)", (test_ticks() - mac_start) / kPackets);
+}
+
+int main(void) {
+  test_platform_init();
+  run(Crc32cHasTheCastagnoliCheckValue, "Crc32cHasTheCastagnoliCheckValue");
+  run(GoldenCommandDecodesWithItsPythonMac, "GoldenCommandDecodesWithItsPythonMac");
+  run(GoldenStateEncodesToItsBytes, "GoldenStateEncodesToItsBytes");
+  run(ChecksRunInTheProtocolsOrder, "ChecksRunInTheProtocolsOrder");
+  run(NothingIsSentAndOutputsAreSafeBeforeTheFirstSession, "NothingIsSentAndOutputsAreSafeBeforeTheFirstSession");
+  run(AnEnableEdgeWithTheTokenArmsTheOutputs, "AnEnableEdgeWithTheTokenArmsTheOutputs");
+  run(AnEdgeWithAnotherTokenDoesNotArm, "AnEdgeWithAnotherTokenDoesNotArm");
+  run(TheSessionBelongsToItsEndpointAndSequenceOnlyMovesForward, "TheSessionBelongsToItsEndpointAndSequenceOnlyMovesForward");
+  run(TheWatchdogCutsTheMotorAndVentsAlongTheRamp, "TheWatchdogCutsTheMotorAndVentsAlongTheRamp");
+  run(AfterAHostLossOnlyTheOperatorsArmingArms, "AfterAHostLossOnlyTheOperatorsArmingArms");
+  run(AnEstopDisarmsAndTheEdgeMustFollowItsRelease, "AnEstopDisarmsAndTheEdgeMustFollowItsRelease");
+  run(AHijackingHostGetsNoMoreThanTheCeilings, "AHijackingHostGetsNoMoreThanTheCeilings");
+  run(ALoadCellOverItsCeilingVentsThatMuscleOnly, "ALoadCellOverItsCeilingVentsThatMuscleOnly");
+  run(ATripSurvivesAnEdgeWhileItsCauseRemains, "ATripSurvivesAnEdgeWhileItsCauseRemains");
+  run(AJointOutOfRangeTurnsItsMotorOff, "AJointOutOfRangeTurnsItsMotorOff");
+  run(ConfigureNamesTheFieldAndWhatItFound, "ConfigureNamesTheFieldAndWhatItFound");
+  run(OnePacketsCost, "OnePacketsCost");
+  printf("firmware core tests: %d run, %d failed (%d checks)\n", g_tests, g_failed_tests, g_failed_checks);
+  return test_platform_exit(g_failed_tests);
+}
