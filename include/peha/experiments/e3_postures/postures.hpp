@@ -54,7 +54,8 @@ struct PosturesResult {
 std::vector<std::size_t> gravity_joints(const ArmScenario& scenario);
 
 /// The per-cycle log's columns: t_s, operator_active, then per io joint its block (prefixed with the
-/// joint's log name, arm_log_prefix), limit_flags, fault_flags.
+/// joint's log name, arm_log_prefix), limit_flags, fault_flags. Each block holds every sensor the
+/// controller read (hardware::kSensorColumns), so the log can be replayed (`--backend replay:`).
 std::vector<std::string> arm_log_columns(const ArmScenario& scenario);
 /// "sfe" for the single arm's R_SFE, "r_sfe" / "l_sfe" on a two-armed body.
 std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
