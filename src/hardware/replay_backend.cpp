@@ -17,9 +17,25 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 }  // namespace
 
+std::array<double, kSensorColumns.size()> sensor_columns(const io::JointSensors& s) noexcept {
+  return {s.angle_rad,
+          s.agonist_loadcell_N,
+          s.antagonist_loadcell_N,
+          s.agonist_pressure_Pa * 1e-6,
+          s.antagonist_pressure_Pa * 1e-6,
+          s.supply_pressure_Pa * 1e-6,
+          s.redundant_angle_rad,
+          s.motor_torque_Nm};
+}
+
+std::array<double, kCommandColumns.size()> command_columns(const io::JointCommand& c) noexcept {
+  return {c.agonist_pressure_Pa * 1e-6, c.antagonist_pressure_Pa * 1e-6, c.motor_torque_Nm};
+}
+
 ReplayBackend::ReplayBackend(const std::filesystem::path& log, const std::vector<std::string>& joint_names,
                              const std::vector<std::string>& prefixes, double period_s)
     : info_{"replay:" + log.string(), joint_names, period_s},
+      log_(log),
       prefixes_(prefixes.empty() ? std::vector<std::string>(joint_names.size()) : prefixes),
       gate_(period_s, sim::kSafeVent_s) {
   if (prefixes_.size() != joint_names.size()) throw std::invalid_argument("ReplayBackend: one column prefix per joint");
@@ -95,10 +111,8 @@ bool ReplayBackend::write(const io::Command& command) noexcept {
   if (!have_row_) return true;  // a held cycle after the last row: nothing to answer
   const std::size_t joints = info_.joint_names.size();
   for (std::size_t j = 0; j < joints && j < static_cast<std::size_t>(applied.joint_count); ++j) {
-    double* out = &replayed_[(next_ * joints + j) * kCommands];
-    out[0] = applied.joints[j].agonist_pressure_Pa * 1e-6;
-    out[1] = applied.joints[j].antagonist_pressure_Pa * 1e-6;
-    out[2] = applied.joints[j].motor_torque_Nm;
+    const std::array<double, kCommandColumns.size()> sent = command_columns(applied.joints[j]);
+    std::copy(sent.begin(), sent.end(), replayed_.begin() + static_cast<std::ptrdiff_t>((next_ * joints + j) * kCommands));
   }
   have_row_ = false;
   ++next_;

@@ -70,7 +70,8 @@ std::filesystem::path write_log(const std::string& name, const std::vector<std::
 
 TEST(ReplayBackend, GivesTheLogsSensorsRowByRowAndKeepsTheCommandsBesideTheRecorded) {
   const std::vector<std::string> columns = {"t_s", "angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_MPa",
-                                            "antagonist_pressure_MPa", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"};
+                                            "antagonist_pressure_MPa", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm",
+                                            "motor_torque_monitor_Nm"};
   const std::filesystem::path path = write_log("rows", columns, 3);
   ReplayBackend replay(path, {"joint"}, {}, 1e-3);
   EXPECT_EQ(replay.rows(), 3u);
@@ -85,6 +86,7 @@ TEST(ReplayBackend, GivesTheLogsSensorsRowByRowAndKeepsTheCommandsBesideTheRecor
     EXPECT_DOUBLE_EQ(s.joints[0].angle_rad, 0.1 + r);
     EXPECT_DOUBLE_EQ(s.joints[0].agonist_pressure_Pa, (0.4 + r) * 1e6);  // MPa in the log, Pa inside
     EXPECT_TRUE(std::isnan(s.joints[0].supply_pressure_Pa));             // not in the log: not measured
+    EXPECT_DOUBLE_EQ(s.joints[0].motor_torque_Nm, 0.9 + r);               // the driver's monitor, an optional sensor
     c.joints[0] = {(0.6 + r) * 1e6, (0.7 + r) * 1e6 + 0.002e6, 0.8 + r};   // the antagonist 2 kPa off the recorded
     replay.write(c);
   }

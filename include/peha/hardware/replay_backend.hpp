@@ -32,6 +32,11 @@ inline constexpr std::size_t kRequiredSensorColumns = 5;
 /// The commands a log records per joint (after its prefix), compared with what the replay's controller sends.
 inline constexpr std::array<const char*, 3> kCommandColumns = {"agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"};
 
+/// A joint's sample as kSensorColumns' values (pressures in MPa): what a log writes for a replay to read back.
+std::array<double, kSensorColumns.size()> sensor_columns(const io::JointSensors& s) noexcept;
+/// A joint's command as kCommandColumns' values (pressures in MPa).
+std::array<double, kCommandColumns.size()> command_columns(const io::JointCommand& c) noexcept;
+
 class ReplayBackend final : public io::Backend {
  public:
   /// Loads `log` for the io joints `joint_names` (column prefix `prefixes[j]`; empty: "" for each).
@@ -51,6 +56,7 @@ class ReplayBackend final : public io::Backend {
   /// Keeps the command (what the outputs would have got: the safe command while not active).
   bool write(const io::Command& command) noexcept override;
 
+  const std::filesystem::path& log() const noexcept { return log_; }  ///< the recorded log
   std::size_t rows() const noexcept { return t_s_.size(); }
   double duration_s() const noexcept { return t_s_.back() - t_s_.front(); }
   /// Rows whose command was written (at most rows()).
@@ -69,6 +75,7 @@ class ReplayBackend final : public io::Backend {
  private:
   static constexpr int kCommands = static_cast<int>(kCommandColumns.size());  ///< agonist, antagonist pressure (MPa), motor torque (Nm)
   io::BackendInfo info_;
+  std::filesystem::path log_;
   std::vector<std::string> prefixes_;
   sim::OutputGate gate_;
   std::vector<double> t_s_;
