@@ -100,9 +100,11 @@ double postures_duration_s(const ArmScenario& scenario) {
   return scenario.postures_stop_s > 0 ? std::min(whole_s, scenario.postures_stop_s) : whole_s;
 }
 
+hardware::HardwareRequest postures_hardware(const ArmScenario& scenario) { return arm_hardware(scenario, postures_plant_params(scenario)); }
+
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) {
-  sim::ArmBackend plant(postures_plant_params(scenario));
-  return run_postures_on(scenario, plant, &plant, log);
+  const hardware::Hardware arm = hardware::open_backend(hardware::BackendUri{}, postures_hardware(scenario));
+  return run_postures_on(scenario, *arm.backend, dynamic_cast<const sim::ArmBackend*>(arm.backend.get()), log);
 }
 
 namespace {

@@ -34,6 +34,31 @@ void write_postures_summary(const std::filesystem::path& path, const PosturesRes
   }
 }
 
+namespace {
+
+/// E3 in process through the hardware door: on the simulated arm (sim:) or a recorded E3 log fed to
+/// the controller (replay:), which also writes the commands beside the recorded ones (replay_postures.csv).
+PosturesResult run_in_process(const ArmScenario& scenario, const RunRequest& request, const std::filesystem::path& dir) {
+  const hardware::BackendUri uri = hardware::BackendUri::parse(request.backend);  // checked before the run directory was made
+  const hardware::Hardware hw = hardware::open_backend(uri, postures_hardware(scenario));
+  const double duration_s = postures_duration_s(scenario);
+  runtime::CsvLog log(arm_log_columns(scenario), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
+  std::vector<std::string> comments = {fmt::format("case: E3 postures, {}", scenario.description),
+                                       fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
+                                       "plant_* columns are simulator truth the controller never sees"};
+  if (hw.replay) {
+    comments.back() = "replayed from " + uri.replay_log.string() + ": the sensors are the log's, plant_* columns NaN";
+  } else {
+    for (const sim::PlantFault& f : scenario.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario)));
+  }
+  const PosturesResult r = run_postures_on(scenario, *hw.backend, dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), &log);
+  log.write(dir / "e3_postures.csv", comments);
+  if (hw.replay) print_replay(*hw.replay, dir / "replay_postures.csv");
+  return r;
+}
+
+}  // namespace
+
 int run_postures_experiment(const config::Document& doc, const ArmScenario& scenario_read, const RunRequest& request,
                             std::optional<HardwareRunOptions> realtime) {
   ArmScenario scenario = scenario_read;
@@ -64,12 +89,7 @@ int run_postures_experiment(const config::Document& doc, const ArmScenario& scen
     rr = run_postures_realtime(scenario, *realtime);
     r = rr->postures;
   } else {
-    runtime::CsvLog log(arm_log_columns(scenario), static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
-    for (const sim::PlantFault& f : scenario.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario)));
-    r = run_postures(scenario, &log);
-    log.write(dir / "e3_postures.csv", {fmt::format("case: E3 postures, {}", scenario.description),
-                                        fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
-                                        "plant_* columns are simulator truth the controller never sees"});
+    r = run_in_process(scenario, request, dir);
   }
   if (r.faults) fmt::print("  SUPERVISOR FAULT: {}\n", r.fault_reason);
   write_postures_summary(dir / "summary.csv", r, scenario.observe_s);  // closed: the plotter reads it next

@@ -65,7 +65,11 @@ std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
 /// (replay:). `one_board`: the run's board-side inputs live on one board (E4's goniometer).
 hardware::HardwareRequest arm_hardware(const ArmScenario& scenario, const sim::ArmPlantParams& plant, bool one_board = false);
 
-/// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
+/// What E3 declares to the hardware door: arm_hardware with the simulated arm of E3's script
+/// (postures_plant_params) for sim:.
+hardware::HardwareRequest postures_hardware(const ArmScenario& scenario);
+
+/// E3 on the in-process simulated arm (the door's sim:). `log` (optional) gets one row per control cycle.
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log);
 
 /// The simulated arm of E3: the scenario's plant with the operator's script (hold at the start,
