@@ -82,6 +82,12 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
   const auto& g = scenario.goniometer;
   const std::vector<std::vector<GoniometerTrace>> movements = person_traces(doc, scenario, request);
   if (movements.empty()) return 2;
+  const hardware::BackendUri uri = hardware::BackendUri::parse(request.backend);  // checked before: sim: or replay:
+  const bool replay = uri.kind == hardware::BackendKind::kReplay;
+  if (replay && movements.size() > 1) {
+    fmt::print(stderr, "error: --backend {} replays one movement's log: give --case NAME ({})\n", uri.text, movement_names(g));
+    return 2;
+  }
   const std::filesystem::path dir = request.open_run_dir(scenario.seed);
   fmt::print("peha run: {} --experiment goniometer (E4)\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at {:.1f} Hz "
              "(group delay {:.1f} ms) on {}; held on gravity compensation: {}\n  {}\n",
@@ -105,11 +111,15 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
     runtime::CsvLog log(columns, static_cast<std::size_t>(duration_s / scenario.period_s) + 2);
     for (const auto variant : kVariants) {
       log.clear();
-      const GoniometerResult r = run_goniometer(scenario, traces, variant, &log);
+      // Both variants on a replayed log too: the one that recorded it gives its commands back.
+      const hardware::Hardware hw = hardware::open_backend(uri, goniometer_hardware(scenario, goniometer_plant_params(scenario, traces)));
+      const GoniometerResult r = run_goniometer(scenario, traces, variant, hw, &log);
       log.write(dir / fmt::format("e4_{}_{}.csv", trace.name, to_string(variant)),
                 {fmt::format("case: E4 goniometer-driven {}, movement {}, variant {}", driven_names(scenario), trace.name, to_string(variant)),
                  fmt::format("config: {}; seed {}", request.config.string(), scenario.seed),
-                 "person_* is the person's true joint; plant_* columns are simulator truth the controller never sees"});
+                 replay ? "replayed from " + uri.replay_log.string() + ": sensors and goniometers are the log's, person_* the goniometer, plant_* NaN"
+                        : "person_* is the person's true joint; plant_* columns are simulator truth the controller never sees"});
+      if (hw.replay) print_replay(*hw.replay, dir / fmt::format("replay_{}_{}.csv", trace.name, to_string(variant)));
       double tension_limit = 0;
       for (const auto& c : r.verdict.checks) {
         if (c.figure.ends_with("lowest wire tension")) tension_limit = std::max(tension_limit, c.limit);
@@ -124,7 +134,7 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
       }
       results.push_back(r);
     }
-    if (request.goniometer_csv.empty()) {
+    if (request.goniometer_csv.empty() && !replay) {
       for (std::size_t k = 0; k < traces.size(); ++k) {
         // One recording per goniometer; the first keeps the single-joint name.
         const std::string suffix = k == 0 ? "" : "_" + arm_log_prefix(scenario, static_cast<std::size_t>(g.joints[k]));
@@ -135,7 +145,7 @@ int run_in_process(const config::Document& doc, const ArmScenario& scenario, con
   summary.close();  // the plotter reads it next
   const bool safe = print_goniometer_tables(results);
   fmt::print("written: {}/e4_<movement>_<variant>.csv, summary.csv, config.yaml{}\n", dir.string(),
-             request.goniometer_csv.empty() ? ", goniometer_<movement>.csv (replayable with --goniometer-csv)" : "");
+             request.goniometer_csv.empty() && !replay ? ", goniometer_<movement>.csv (replayable with --goniometer-csv)" : "");
   if (request.plot) plot_with("plot_goniometer.py", dir);
   return safe ? 0 : 3;
 }
