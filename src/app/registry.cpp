@@ -163,11 +163,6 @@ int run_arm(const config::Document& doc, const experiments::RunRequest& request,
   hardware::BackendUri uri;
   std::optional<experiments::HardwareRunOptions> realtime;
   if (!experiments::check_hardware(doc.name(), scenario.link ? &*scenario.link : nullptr, 1, request, uri, realtime)) return 2;
-  if (uri.kind == hardware::BackendKind::kReplay) {
-    fmt::print(stderr, "error: --backend {}: an arm's logs do not record its pressure sensors yet, so they cannot be replayed; replay "
-                       "runs E1 and E5 logs (docs/runtime.md)\n", uri.text);
-    return 2;
-  }
   return run(doc, scenario, request, std::move(realtime));
 }
 
@@ -305,7 +300,8 @@ std::vector<ExperimentEntry> make_registry() {
                  }},
                 {"goniometer", "E4 goniometer", {"--case", "--goniometer-csv", "--force-trim-rate", "--backend", "--gravity-identification"},
                  arm_refusals({{"--fault", kFaultsElsewhere}}),
-                 {{"--goniometer-csv", "over the board the goniometer is the board's AD channel; --goniometer-csv is for in-process runs"}},
+                 {{"--goniometer-csv", "over the board the goniometer is the board's AD channel, in a replay the log's goniometer_deg; "
+                                       "--goniometer-csv is for in-process runs on the simulated arm"}},
                  [](const config::Document& doc, const experiments::RunRequest& request) {
                    return run_arm(doc, request, experiments::run_goniometer_experiment, "E4 (goniometer)", false);
                  }},

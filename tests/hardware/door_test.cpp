@@ -2,12 +2,17 @@
 // log fed back into the controller that wrote it gives its commands back).
 #include "peha/hardware/door.hpp"
 
+#include "peha/api/exoskeleton.hpp"
+#include "peha/experiments/arm_identification/arm_identification.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
 #include "peha/runtime/csv_log.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -147,6 +152,31 @@ TEST(ReplayBackend, AnE1LogReplayedIntoItsControllerGivesItsCommandsBack) {
   EXPECT_LT(d.pressure_MPa, 1e-4);  // 0.1 kPa of commands of 0.1-0.4 MPa
   EXPECT_LT(d.motor_Nm, 1e-3);
   std::filesystem::remove(path);
+}
+
+// Every per-cycle log of an arm records, for each joint under the prefix the run gives the door, every
+// sensor a replay reads and every command it compares, each once: E3 (on the simulated arm and the
+// board), E4, the gravity identification and a user's controller, on one arm and on the upper body.
+// A sensor added to the replay fails here until every arm log writes it.
+TEST(ReplayBackend, EveryArmLogRecordsWhatAReplayReads) {
+  for (const char* config : {PEHA_SOURCE_DIR "/configs/right_arm.yaml", PEHA_SOURCE_DIR "/configs/upper_body.yaml"}) {
+    const experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
+    const std::vector<std::string> arm_prefixes = experiments::postures_hardware(s).log_prefixes;
+    const struct {
+      const char* log;
+      std::vector<std::string> columns, prefixes;
+    } logs[] = {{"E3", experiments::arm_log_columns(s), arm_prefixes},
+                {"E4", experiments::goniometer_log_columns(s), experiments::goniometer_hardware(s, s.plant).log_prefixes},
+                {"identification", experiments::identification_log_columns(s), arm_prefixes},
+                {"user controller", api::user_log_columns(s), arm_prefixes}};
+    for (const auto& l : logs) {
+      ASSERT_EQ(l.prefixes.size(), s.plant.actuated.size());
+      for (const std::string& p : l.prefixes) {
+        for (const char* c : kSensorColumns) EXPECT_EQ(std::count(l.columns.begin(), l.columns.end(), p + c), 1) << config << " " << l.log << ": " << p + c;
+        for (const char* c : kCommandColumns) EXPECT_EQ(std::count(l.columns.begin(), l.columns.end(), p + c), 1) << config << " " << l.log << ": " << p + c;
+      }
+    }
+  }
 }
 
 }  // namespace
