@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <chrono>
 #include <optional>
 #include <cmath>
@@ -82,6 +83,8 @@ struct UserLoop {
                                sent.joints[a].antagonist_pressure_Pa * 1e-6, sent.joints[a].motor_torque_Nm}) {
           row[c++] = v;
         }
+        const std::array<double, hardware::kSensorColumns.size()> sensors = hardware::sensor_columns(s);
+        for (std::size_t i = hardware::kRequiredSensorColumns; i < sensors.size(); ++i) row[c++] = sensors[i];
       }
       row[c++] = static_cast<double>(limit_flags);
       row[c] = static_cast<double>(limited.monitor().flags());
@@ -111,6 +114,10 @@ std::vector<std::string> user_log_columns(const experiments::ArmScenario& scenar
                           "antagonist_pressure_MPa", "tau_user_Nm", "tau_gravity_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa",
                           "tau_motor_cmd_Nm"}) {
       c.push_back(fmt::format("{}_{}", experiments::arm_log_prefix(scenario, j), f));
+    }
+    // The sensors a rig may lack (supply, redundant encoder, motor monitor) close the block.
+    for (std::size_t i = hardware::kRequiredSensorColumns; i < hardware::kSensorColumns.size(); ++i) {
+      c.push_back(fmt::format("{}_{}", experiments::arm_log_prefix(scenario, j), hardware::kSensorColumns[i]));
     }
   }
   c.push_back("limit_flags");

@@ -32,7 +32,7 @@ std::vector<CheckedOption> checked_options(const RunOptions& o) {
       {"--agonist-calibration", !o.calibration[0].empty(), &T::calibration},
       {"--antagonist-calibration", !o.calibration[1].empty(), &T::calibration},
       {"--goniometer-csv", !o.goniometer_csv.empty(), &T::goniometer_csv,
-       "with --backend the person's goniometer is the board's AD channel; --goniometer-csv is for in-process runs"},
+       "with --backend the person's goniometer is the board's AD channel, in a replay the log's goniometer_deg; --goniometer-csv is for in-process runs on the simulated arm"},
       {"--force-trim-rate", o.force_trim_rate_1ps.has_value(), &T::force_trim},
       {"--fault", !o.faults.empty(), &T::faults,
        "with --backend the plant is the hardware's (the emulator's: give the faults in the scenario's faults: list)"},

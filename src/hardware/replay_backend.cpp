@@ -14,31 +14,42 @@ namespace peha::hardware {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-constexpr const char* kRequired[] = {"angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_MPa",
-                                     "antagonist_pressure_MPa"};
-constexpr const char* kOptional[] = {"supply_pressure_MPa", "redundant_angle_rad"};
-constexpr const char* kCommandColumns[] = {"agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"};
 
 }  // namespace
+
+std::array<double, kSensorColumns.size()> sensor_columns(const io::JointSensors& s) noexcept {
+  return {s.angle_rad,
+          s.agonist_loadcell_N,
+          s.antagonist_loadcell_N,
+          s.agonist_pressure_Pa * 1e-6,
+          s.antagonist_pressure_Pa * 1e-6,
+          s.supply_pressure_Pa * 1e-6,
+          s.redundant_angle_rad,
+          s.motor_torque_Nm};
+}
+
+std::array<double, kCommandColumns.size()> command_columns(const io::JointCommand& c) noexcept {
+  return {c.agonist_pressure_Pa * 1e-6, c.antagonist_pressure_Pa * 1e-6, c.motor_torque_Nm};
+}
 
 ReplayBackend::ReplayBackend(const std::filesystem::path& log, const std::vector<std::string>& joint_names,
                              const std::vector<std::string>& prefixes, double period_s)
     : info_{"replay:" + log.string(), joint_names, period_s},
+      log_(log),
       prefixes_(prefixes.empty() ? std::vector<std::string>(joint_names.size()) : prefixes),
       gate_(period_s, sim::kSafeVent_s) {
   if (prefixes_.size() != joint_names.size()) throw std::invalid_argument("ReplayBackend: one column prefix per joint");
   if (joint_names.size() > static_cast<std::size_t>(io::kMaxJoints)) throw std::invalid_argument("ReplayBackend: too many joints");
   std::vector<std::string> names = {"t_s"};
   for (const std::string& p : prefixes_) {
-    for (const char* c : kRequired) names.push_back(p + c);
-    for (const char* c : kOptional) names.push_back(p + c);
+    for (const char* c : kSensorColumns) names.push_back(p + c);
     for (const char* c : kCommandColumns) names.push_back(p + c);
   }
   const std::vector<std::vector<double>> cols = runtime::read_csv_log_columns(log, names);
   std::string missing;
-  constexpr std::size_t kPerJoint = std::size(kRequired) + std::size(kOptional) + std::size(kCommandColumns);
+  constexpr std::size_t kPerJoint = kSensorColumns.size() + kCommandColumns.size();
   for (std::size_t j = 0; j < prefixes_.size(); ++j) {
-    for (std::size_t c = 0; c < std::size(kRequired); ++c) {
+    for (std::size_t c = 0; c < kRequiredSensorColumns; ++c) {
       if (cols[1 + j * kPerJoint + c].empty()) missing += (missing.empty() ? "" : ", ") + names[1 + j * kPerJoint + c];
     }
   }
@@ -72,7 +83,7 @@ ReplayBackend::ReplayBackend(const std::filesystem::path& log, const std::vector
     s.joint_count = static_cast<int>(joints);
     for (std::size_t j = 0; j < joints; ++j) {
       const std::size_t base = 1 + j * kPerJoint;
-      io::JointSensors& js = s.joints[j];
+      io::JointSensors& js = s.joints[j];  // kSensorColumns' order
       js.angle_rad = value(base + 0, r);
       js.agonist_loadcell_N = value(base + 1, r);
       js.antagonist_loadcell_N = value(base + 2, r);
@@ -80,7 +91,10 @@ ReplayBackend::ReplayBackend(const std::filesystem::path& log, const std::vector
       js.antagonist_pressure_Pa = value(base + 4, r) * 1e6;
       js.supply_pressure_Pa = value(base + 5, r) * 1e6;
       js.redundant_angle_rad = value(base + 6, r);
-      for (int c = 0; c < kCommands; ++c) recorded_[(r * joints + j) * kCommands + static_cast<std::size_t>(c)] = value(base + 7 + static_cast<std::size_t>(c), r);
+      js.motor_torque_Nm = value(base + 7, r);
+      for (int c = 0; c < kCommands; ++c) {
+        recorded_[(r * joints + j) * kCommands + static_cast<std::size_t>(c)] = value(base + kSensorColumns.size() + static_cast<std::size_t>(c), r);
+      }
     }
   }
 }
@@ -97,10 +111,8 @@ bool ReplayBackend::write(const io::Command& command) noexcept {
   if (!have_row_) return true;  // a held cycle after the last row: nothing to answer
   const std::size_t joints = info_.joint_names.size();
   for (std::size_t j = 0; j < joints && j < static_cast<std::size_t>(applied.joint_count); ++j) {
-    double* out = &replayed_[(next_ * joints + j) * kCommands];
-    out[0] = applied.joints[j].agonist_pressure_Pa * 1e-6;
-    out[1] = applied.joints[j].antagonist_pressure_Pa * 1e-6;
-    out[2] = applied.joints[j].motor_torque_Nm;
+    const std::array<double, kCommandColumns.size()> sent = command_columns(applied.joints[j]);
+    std::copy(sent.begin(), sent.end(), replayed_.begin() + static_cast<std::ptrdiff_t>((next_ * joints + j) * kCommands));
   }
   have_row_ = false;
   ++next_;

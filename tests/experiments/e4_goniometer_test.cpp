@@ -118,22 +118,25 @@ TEST(E4, BriskFeedbackKeepsTheElbowWiresAboveHalfThePretension) {
 // The log keeps the single-elbow column names when one joint is driven (tools/plot_goniometer.py and
 // the videos read them); with both elbows of the upper body driven each elbow's columns start with its
 // log name, and every held joint (shoulders, named in goniometer.angles_deg) has its angle and gravity
-// torque.
+// torque. Last, every io joint's sensors and commands for a replay: 11 columns per joint (8 sensors,
+// 3 commands), less the 5 a driven joint's actuator block has already (load cells, commands).
 TEST(E4, LogColumnsFollowTheDrivenAndHeldJoints) {
   const std::vector<std::string> one = goniometer_log_columns(shipped());
   for (const char* c : {"person_elbow_deg", "plant_elbow_deg", "tau_elbow_cmd_Nm", "plant_sfe_deg", "tau_sfe_gravity_Nm",
-                        "agonist_loadcell_N", "plant_tension_min_N"}) {
+                        "agonist_loadcell_N", "plant_tension_min_N", "angle_rad", "agonist_pressure_MPa", "sfe_angle_rad",
+                        "wfe_tau_motor_cmd_Nm"}) {
     EXPECT_THAT(one, ::testing::Contains(std::string(c)));
   }
-  EXPECT_EQ(one.size(), 20u);  // as before the joint list: 2 + 8 + 2 + 7 + 1
+  EXPECT_EQ(one.size(), 20u + 3 * 11 - 5);  // as before the joint list: 2 + 8 + 2 + 7 + 1, then SFE, EFE, WFE
+  EXPECT_EQ(one[19], "plant_tension_min_N");  // the old columns first, where they were
   const ArmScenario upper = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
   const std::vector<std::string> both = goniometer_log_columns(upper);
   for (const char* c : {"r_efe_person_elbow_deg", "l_efe_person_elbow_deg", "r_efe_plant_elbow_deg", "l_efe_tau_motor_cmd_Nm",
-                        "plant_r_saa_deg", "plant_l_sfe_deg", "tau_l_sfe_gravity_Nm"}) {
+                        "plant_r_saa_deg", "plant_l_sfe_deg", "tau_l_sfe_gravity_Nm", "r_efe_agonist_pressure_MPa", "l_saa_angle_rad"}) {
     EXPECT_THAT(both, ::testing::Contains(std::string(c)));
   }
   EXPECT_THAT(both, ::testing::Not(::testing::Contains(std::string("person_elbow_deg"))));
-  EXPECT_EQ(both.size(), 2u + 2 * 8 + 4 * 2 + 2 * 7 + 1);
+  EXPECT_EQ(both.size(), 2u + 2 * 8 + 4 * 2 + 2 * 7 + 1 + 8 * 11 - 2 * 5);
 }
 
 // Each driven joint's goniometer is its own sensor: the same movement, its own noise; the first is the

@@ -2,12 +2,17 @@
 // log fed back into the controller that wrote it gives its commands back).
 #include "peha/hardware/door.hpp"
 
+#include "peha/api/exoskeleton.hpp"
+#include "peha/experiments/arm_identification/arm_identification.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
 #include "peha/runtime/csv_log.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -70,7 +75,8 @@ std::filesystem::path write_log(const std::string& name, const std::vector<std::
 
 TEST(ReplayBackend, GivesTheLogsSensorsRowByRowAndKeepsTheCommandsBesideTheRecorded) {
   const std::vector<std::string> columns = {"t_s", "angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_MPa",
-                                            "antagonist_pressure_MPa", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"};
+                                            "antagonist_pressure_MPa", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm",
+                                            "motor_torque_monitor_Nm"};
   const std::filesystem::path path = write_log("rows", columns, 3);
   ReplayBackend replay(path, {"joint"}, {}, 1e-3);
   EXPECT_EQ(replay.rows(), 3u);
@@ -85,6 +91,7 @@ TEST(ReplayBackend, GivesTheLogsSensorsRowByRowAndKeepsTheCommandsBesideTheRecor
     EXPECT_DOUBLE_EQ(s.joints[0].angle_rad, 0.1 + r);
     EXPECT_DOUBLE_EQ(s.joints[0].agonist_pressure_Pa, (0.4 + r) * 1e6);  // MPa in the log, Pa inside
     EXPECT_TRUE(std::isnan(s.joints[0].supply_pressure_Pa));             // not in the log: not measured
+    EXPECT_DOUBLE_EQ(s.joints[0].motor_torque_Nm, 0.9 + r);               // the driver's monitor, an optional sensor
     c.joints[0] = {(0.6 + r) * 1e6, (0.7 + r) * 1e6 + 0.002e6, 0.8 + r};   // the antagonist 2 kPa off the recorded
     replay.write(c);
   }
@@ -145,6 +152,31 @@ TEST(ReplayBackend, AnE1LogReplayedIntoItsControllerGivesItsCommandsBack) {
   EXPECT_LT(d.pressure_MPa, 1e-4);  // 0.1 kPa of commands of 0.1-0.4 MPa
   EXPECT_LT(d.motor_Nm, 1e-3);
   std::filesystem::remove(path);
+}
+
+// Every per-cycle log of an arm records, for each joint under the prefix the run gives the door, every
+// sensor a replay reads and every command it compares, each once: E3 (on the simulated arm and the
+// board), E4, the gravity identification and a user's controller, on one arm and on the upper body.
+// A sensor added to the replay fails here until every arm log writes it.
+TEST(ReplayBackend, EveryArmLogRecordsWhatAReplayReads) {
+  for (const char* config : {PEHA_SOURCE_DIR "/configs/right_arm.yaml", PEHA_SOURCE_DIR "/configs/upper_body.yaml"}) {
+    const experiments::ArmScenario s = experiments::read_arm_scenario(config::Document::load_file(config));
+    const std::vector<std::string> arm_prefixes = experiments::postures_hardware(s).log_prefixes;
+    const struct {
+      const char* log;
+      std::vector<std::string> columns, prefixes;
+    } logs[] = {{"E3", experiments::arm_log_columns(s), arm_prefixes},
+                {"E4", experiments::goniometer_log_columns(s), experiments::goniometer_hardware(s, s.plant).log_prefixes},
+                {"identification", experiments::identification_log_columns(s), arm_prefixes},
+                {"user controller", api::user_log_columns(s), arm_prefixes}};
+    for (const auto& l : logs) {
+      ASSERT_EQ(l.prefixes.size(), s.plant.actuated.size());
+      for (const std::string& p : l.prefixes) {
+        for (const char* c : kSensorColumns) EXPECT_EQ(std::count(l.columns.begin(), l.columns.end(), p + c), 1) << config << " " << l.log << ": " << p + c;
+        for (const char* c : kCommandColumns) EXPECT_EQ(std::count(l.columns.begin(), l.columns.end(), p + c), 1) << config << " " << l.log << ": " << p + c;
+      }
+    }
+  }
 }
 
 }  // namespace

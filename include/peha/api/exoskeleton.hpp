@@ -104,8 +104,9 @@ class Exoskeleton {
 };
 
 /// The per-cycle log's columns of a run with `scenario`: t_s, per io joint (its log prefix) the
-/// sensors (replayable with --backend replay:), the callback's torque, the gravity model, what was
-/// sent; limit_flags, fault_flags.
+/// sensors, the callback's torque, the gravity model, what was sent, the sensors a rig may lack
+/// (supply, redundant encoder, motor monitor: every hardware::kSensorColumns, so the log replays with
+/// --backend replay:); limit_flags, fault_flags.
 std::vector<std::string> user_log_columns(const experiments::ArmScenario& scenario);
 
 }  // namespace peha::api

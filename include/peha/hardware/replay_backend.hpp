@@ -7,11 +7,9 @@
 /// rig measured). The plant does not answer the new commands: a replay shows what a controller
 /// would have commanded on the recorded sensors, not what the arm would have done.
 ///
-/// Columns, per joint with the joint's column prefix (e.g. "" for the one-DOF rig's logs, "R_EFE_"
-/// for an arm's): required `angle_rad`, `agonist_loadcell_N`, `antagonist_loadcell_N`,
-/// `agonist_pressure_MPa`, `antagonist_pressure_MPa`; optional (NaN when absent: not measured)
-/// `supply_pressure_MPa`, `redundant_angle_rad`; recorded commands (optional) `agonist_pressure_cmd_MPa`,
-/// `antagonist_pressure_cmd_MPa`, `tau_motor_cmd_Nm`. Time `t_s`.
+/// Columns, per joint with the joint's column prefix (e.g. "" for the one-DOF rig's logs, "sfe_"
+/// for an arm's): the sensors kSensorColumns (the first kRequiredSensorColumns required, the others
+/// NaN when absent: not measured); recorded commands (optional) kCommandColumns. Time `t_s`.
 /// read()/write()/status() are noexcept and allocation-free (every row is loaded at construction).
 
 #include "peha/io/backend.hpp"
@@ -23,6 +21,21 @@
 #include <vector>
 
 namespace peha::hardware {
+
+/// Every io::JointSensors field as a log column (after the joint's prefix), in SI-derived units: what
+/// a log must record of each joint, from what the controller read, for its run to be replayed.
+inline constexpr std::array<const char*, 8> kSensorColumns = {
+    "angle_rad",           "agonist_loadcell_N",  "antagonist_loadcell_N", "agonist_pressure_MPa", "antagonist_pressure_MPa",
+    "supply_pressure_MPa", "redundant_angle_rad", "motor_torque_monitor_Nm"};
+/// The first kRequiredSensorColumns of kSensorColumns every joint needs (the rest are sensors a rig may lack).
+inline constexpr std::size_t kRequiredSensorColumns = 5;
+/// The commands a log records per joint (after its prefix), compared with what the replay's controller sends.
+inline constexpr std::array<const char*, 3> kCommandColumns = {"agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"};
+
+/// A joint's sample as kSensorColumns' values (pressures in MPa): what a log writes for a replay to read back.
+std::array<double, kSensorColumns.size()> sensor_columns(const io::JointSensors& s) noexcept;
+/// A joint's command as kCommandColumns' values (pressures in MPa).
+std::array<double, kCommandColumns.size()> command_columns(const io::JointCommand& c) noexcept;
 
 class ReplayBackend final : public io::Backend {
  public:
@@ -43,6 +56,7 @@ class ReplayBackend final : public io::Backend {
   /// Keeps the command (what the outputs would have got: the safe command while not active).
   bool write(const io::Command& command) noexcept override;
 
+  const std::filesystem::path& log() const noexcept { return log_; }  ///< the recorded log
   std::size_t rows() const noexcept { return t_s_.size(); }
   double duration_s() const noexcept { return t_s_.back() - t_s_.front(); }
   /// Rows whose command was written (at most rows()).
@@ -59,8 +73,9 @@ class ReplayBackend final : public io::Backend {
   void write_commands(const std::filesystem::path& path, const std::vector<std::string>& comments) const;
 
  private:
-  static constexpr int kCommands = 3;  ///< agonist, antagonist pressure (MPa), motor torque (Nm)
+  static constexpr int kCommands = static_cast<int>(kCommandColumns.size());  ///< agonist, antagonist pressure (MPa), motor torque (Nm)
   io::BackendInfo info_;
+  std::filesystem::path log_;
   std::vector<std::string> prefixes_;
   sim::OutputGate gate_;
   std::vector<double> t_s_;

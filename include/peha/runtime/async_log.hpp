@@ -34,9 +34,9 @@ namespace peha::runtime {
 
 class AsyncCsvLog {
  public:
-  /// Width of a row slot: the upper body on the board logs 132 columns (8 io joints); 4096 slots of
-  /// 160 doubles are 5.2 MB.
-  static constexpr std::size_t kMaxColumns = 160;
+  /// Width of a row slot: the upper body's E3 on the board logs 172 columns (8 io joints of 21, every
+  /// sensor a replay reads among them); 4096 slots of 192 doubles are 6.3 MB.
+  static constexpr std::size_t kMaxColumns = 192;
   static constexpr std::size_t kMaxReasonChars = 127;  ///< longer fault reasons are truncated
 
   /// Opens `path` (throws std::runtime_error if it cannot), writes `comments` as `# ` lines and the

@@ -112,11 +112,9 @@ ArmScenario arm_scenario_for_run(const config::Document& doc, const RunRequest& 
 
 Experiment arm_experiment() {
   Takes e3;
-  e3.force_trim = e3.gravity_identification = e3.faults = e3.boards = true;
-  e3.why_not_hardware = "an arm's logs do not record its pressure sensors yet, so they cannot be replayed; replay runs E1 and E5 logs";
+  e3.force_trim = e3.gravity_identification = e3.faults = e3.boards = e3.replay = true;
   Takes e4;
-  e4.cases = e4.goniometer_csv = e4.force_trim = e4.gravity_identification = e4.boards = true;
-  e4.why_not_hardware = e3.why_not_hardware;
+  e4.cases = e4.goniometer_csv = e4.force_trim = e4.gravity_identification = e4.boards = e4.replay = true;
   Takes e6;
   e6.force_trim = e6.gravity_identification = true;
   e6.why_not_hardware = "E6 runs in-process only: it needs the joint's true delivered torque, which no board sensor measures";

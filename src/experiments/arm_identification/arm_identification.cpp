@@ -2,6 +2,7 @@
 
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/hardware/replay_backend.hpp"
 #include "peha/models/gravity_parameters.hpp"
 #include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
@@ -132,10 +133,8 @@ double identification_duration_s(const ArmScenario& scenario) {
 std::vector<std::string> identification_log_columns(const ArmScenario& scenario) {
   std::vector<std::string> c = {"t_s"};
   for (std::size_t j = 0; j < scenario.controller.joints.size(); ++j) {
-    for (const char* f : {"angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa",
-                          "tau_motor_cmd_Nm"}) {
-      c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
-    }
+    for (const char* f : hardware::kSensorColumns) c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
+    for (const char* f : hardware::kCommandColumns) c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
   }
   c.push_back("limit_flags");
   return c;
@@ -149,12 +148,8 @@ void identification_log_row(const io::SensorState& state, const io::Command& sen
   std::size_t c = 0;
   row[c++] = state.time_s;
   for (std::size_t i = 0; i < io_count; ++i) {
-    const io::JointSensors& js = state.joints[i];
-    const io::JointCommand& jc = sent.joints[i];
-    for (const double v : {js.angle_rad, js.agonist_loadcell_N, js.antagonist_loadcell_N, jc.agonist_pressure_Pa * 1e-6,
-                           jc.antagonist_pressure_Pa * 1e-6, jc.motor_torque_Nm}) {
-      row[c++] = v;
-    }
+    for (const double v : hardware::sensor_columns(state.joints[i])) row[c++] = v;
+    for (const double v : hardware::command_columns(sent.joints[i])) row[c++] = v;
   }
   row[c] = static_cast<double>(flags);
 }

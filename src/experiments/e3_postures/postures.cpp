@@ -41,7 +41,8 @@ std::vector<std::string> arm_log_columns(const ArmScenario& scenario) {
     for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
                           "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
                           "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_gravity_Nm",
-                          "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N"}) {
+                          "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N", "agonist_pressure_MPa",
+                          "antagonist_pressure_MPa", "supply_pressure_MPa", "redundant_angle_rad", "motor_torque_monitor_Nm"}) {
       c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
     }
   }
@@ -99,18 +100,22 @@ double postures_duration_s(const ArmScenario& scenario) {
   return scenario.postures_stop_s > 0 ? std::min(whole_s, scenario.postures_stop_s) : whole_s;
 }
 
+hardware::HardwareRequest postures_hardware(const ArmScenario& scenario) { return arm_hardware(scenario, postures_plant_params(scenario)); }
+
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) {
-  sim::ArmBackend plant(postures_plant_params(scenario));
-  return run_postures_on(scenario, plant, &plant, log);
+  const hardware::Hardware arm = hardware::open_backend(hardware::BackendUri{}, postures_hardware(scenario));
+  return run_postures_on(scenario, *arm.backend, dynamic_cast<const sim::ArmBackend*>(arm.backend.get()), log);
 }
 
 namespace {
 
-/// A joint's block of arm_log_columns (the same names, in order).
+/// A joint's block of arm_log_columns (the same names, in order). The sensors the controller read
+/// that a replay needs besides the angle and load cells come last (added after the others).
 struct ArmJointColumns {
   double angle_rad, plant_angle_rad, tau_gravity_Nm, tau_desired_Nm, tau_motor_cmd_Nm, operator_torque_Nm, agonist_pressure_cmd_MPa,
       antagonist_pressure_cmd_MPa, agonist_loadcell_N, antagonist_loadcell_N, plant_agonist_force_N, plant_antagonist_force_N,
-      plant_gravity_Nm, plant_constraint_Nm, plant_agonist_tension_N, plant_antagonist_tension_N;
+      plant_gravity_Nm, plant_constraint_Nm, plant_agonist_tension_N, plant_antagonist_tension_N, agonist_pressure_MPa,
+      antagonist_pressure_MPa, supply_pressure_MPa, redundant_angle_rad, motor_torque_monitor_Nm;
 };
 
 /// One E3 run: the controller, its per-cycle step and observation (the judged joints' angles and
@@ -209,7 +214,10 @@ struct PosturesRun {
           .antagonist_loadcell_N = s.antagonist_loadcell_N, .plant_agonist_force_N = j ? j->muscle_force_N[0] : kNaN,
           .plant_antagonist_force_N = j ? j->muscle_force_N[1] : kNaN, .plant_gravity_Nm = truth ? truth->bias_torque_Nm[a] : kNaN,
           .plant_constraint_Nm = truth ? truth->constraint_torque_Nm[a] : kNaN,
-          .plant_agonist_tension_N = j ? j->pulley_tension_min_N[0] : kNaN, .plant_antagonist_tension_N = j ? j->pulley_tension_min_N[1] : kNaN});
+          .plant_agonist_tension_N = j ? j->pulley_tension_min_N[0] : kNaN, .plant_antagonist_tension_N = j ? j->pulley_tension_min_N[1] : kNaN,
+          .agonist_pressure_MPa = s.agonist_pressure_Pa * 1e-6, .antagonist_pressure_MPa = s.antagonist_pressure_Pa * 1e-6,
+          .supply_pressure_MPa = s.supply_pressure_Pa * 1e-6, .redundant_angle_rad = s.redundant_angle_rad,
+          .motor_torque_monitor_Nm = s.motor_torque_Nm});
     }
     row[col++] = static_cast<double>(limit_flags);
     row[col++] = static_cast<double>(fault_flags);

@@ -7,7 +7,7 @@ PosturesRealtimeResult run_postures_realtime(const ArmScenario& scenario, const 
   // One board or several (mfb: boards:), each io joint on its own board's link.
   PosturesRealtimeResult res;
   static_cast<BoardRunResult&>(res) = run_on_hardware(
-      arm_hardware(scenario, postures_plant_params(scenario)), scenario.lifecycle, options,
+      postures_hardware(scenario), scenario.lifecycle, options,
       {"postures", postures_duration_s(scenario), options.dir / "e3_postures.csv", arm_log_columns(scenario),
        {"case: E3 postures", "plant_* and operator_torque columns are NaN: the host sees only the board's sensors"}},
       [&](hardware::Hardware& hw, runtime::RowSink& sink, runtime::CycleHooks hooks) -> safety::Verdict& {

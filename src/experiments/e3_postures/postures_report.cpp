@@ -72,13 +72,22 @@ class PosturesJob final : public ExperimentRun {
       result_ = realtime_->postures;
       return;
     }
+    // In process through the door: the simulated arm (sim:) or a recorded E3 log (replay:), whose
+    // commands are written beside the recorded ones (replay_postures.csv).
+    const hardware::Hardware hw = hardware::open_backend(ctx.backend, postures_hardware(scenario_));
     const double duration_s = postures_duration_s(scenario_);
     runtime::CsvLog log(arm_log_columns(scenario_), static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
-    for (const sim::PlantFault& f : scenario_.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario_)));
-    result_ = run_postures(scenario_, &log);
-    log.write(ctx.dir / "e3_postures.csv", {fmt::format("case: E3 postures, {}", scenario_.description),
-                                            fmt::format("config: {}; seed {}", ctx.request.config.string(), scenario_.seed),
-                                            "plant_* columns are simulator truth the controller never sees"});
+    std::vector<std::string> comments = {fmt::format("case: E3 postures, {}", scenario_.description),
+                                         fmt::format("config: {}; seed {}", ctx.request.config.string(), scenario_.seed),
+                                         "plant_* columns are simulator truth the controller never sees"};
+    if (hw.replay) {
+      comments.back() = "replayed from " + ctx.backend.replay_log.string() + ": the sensors are the log's, plant_* columns NaN";
+    } else {
+      for (const sim::PlantFault& f : scenario_.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario_)));
+    }
+    result_ = run_postures_on(scenario_, *hw.backend, dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), &log);
+    log.write(ctx.dir / "e3_postures.csv", comments);
+    if (hw.replay) print_replay(*hw.replay, ctx.dir / "replay_postures.csv");
   }
 
   Conclusion conclude(const RunContext& ctx) override {

@@ -15,6 +15,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <memory>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -203,12 +204,19 @@ std::string_view side_of(const std::string& io_joint) { return std::string_view(
 
 }  // namespace
 
-std::vector<std::string> goniometer_log_columns(const ArmScenario& scenario) {
-  const ArmScenario::Goniometer& g = scenario.goniometer;
+std::string goniometer_log_prefix(const ArmScenario& scenario, std::size_t io_joint) {
+  const std::vector<int>& driven = scenario.goniometer.joints;
   // One driven joint keeps the single-elbow names (tools/plot_goniometer.py, the videos read them).
-  auto prefix = [&](int joint) {
-    return g.joints.size() > 1 ? arm_log_prefix(scenario, static_cast<std::size_t>(joint)) + "_" : std::string();
-  };
+  const bool single = driven.size() == 1 && driven.front() == static_cast<int>(io_joint);
+  return single ? std::string() : arm_log_prefix(scenario, io_joint) + "_";
+}
+
+namespace {
+
+/// The log's columns before the replay's (goniometer_log_columns without them).
+std::vector<std::string> goniometer_own_columns(const ArmScenario& scenario) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  auto prefix = [&](int joint) { return goniometer_log_prefix(scenario, static_cast<std::size_t>(joint)); };
   std::vector<std::string> columns = {"t_s", "operator_active"};
   for (const int j : g.joints) {
     for (const char* c : {"person_elbow_deg", "goniometer_deg", "filtered_elbow_deg", "filtered_rate_degps", "filtered_accel_degps2",
@@ -228,6 +236,66 @@ std::vector<std::string> goniometer_log_columns(const ArmScenario& scenario) {
   }
   columns.push_back("plant_tension_min_N");
   return columns;
+}
+
+/// A column of the log's last block: io joint `io`'s hardware::kSensorColumns[field] or, from
+/// kSensorColumns.size() on, its kCommandColumns[field - kSensorColumns.size()].
+struct ReplayColumn {
+  std::size_t io, field;
+};
+
+/// Per io joint (goniometer_log_prefix), each replay column the log's own columns lack (a driven
+/// joint's load cells and commands are there already): what a replay needs of every joint.
+std::vector<ReplayColumn> replay_columns(const ArmScenario& scenario, std::vector<std::string>* names) {
+  std::vector<std::string> columns = goniometer_own_columns(scenario);
+  std::vector<ReplayColumn> out;
+  for (std::size_t io = 0; io < scenario.plant.actuated.size(); ++io) {
+    const std::string prefix = goniometer_log_prefix(scenario, io);
+    for (std::size_t f = 0; f < hardware::kSensorColumns.size() + hardware::kCommandColumns.size(); ++f) {
+      const std::size_t n = hardware::kSensorColumns.size();
+      const std::string name = prefix + (f < n ? hardware::kSensorColumns[f] : hardware::kCommandColumns[f - n]);
+      if (std::find(columns.begin(), columns.end(), name) != columns.end()) continue;
+      columns.push_back(name);
+      out.push_back({io, f});
+    }
+  }
+  if (names) *names = std::move(columns);
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::string> goniometer_log_columns(const ArmScenario& scenario) {
+  std::vector<std::string> columns;
+  (void)replay_columns(scenario, &columns);
+  return columns;
+}
+
+hardware::HardwareRequest goniometer_hardware(const ArmScenario& scenario, const sim::ArmPlantParams& plant) {
+  hardware::HardwareRequest r = arm_hardware(scenario, plant, true);
+  for (std::size_t j = 0; j < r.log_prefixes.size(); ++j) r.log_prefixes[j] = goniometer_log_prefix(scenario, j);
+  return r;
+}
+
+std::vector<GoniometerSource> logged_goniometers(const ArmScenario& scenario, const std::filesystem::path& log) {
+  std::vector<std::string> names = {"t_s"};
+  for (const int j : scenario.goniometer.joints) names.push_back(goniometer_log_prefix(scenario, static_cast<std::size_t>(j)) + "goniometer_deg");
+  std::vector<std::vector<double>> cols = runtime::read_csv_log_columns(log, names);
+  for (std::size_t c = 0; c < names.size(); ++c) {
+    if (cols[c].empty()) throw std::runtime_error(fmt::format("replay: {}: no column {} (an E4 log's goniometer reading)", log.string(), names[c]));
+  }
+  auto t_s = std::make_shared<const std::vector<double>>(std::move(cols[0]));
+  std::vector<GoniometerSource> readings;
+  for (std::size_t k = 1; k < cols.size(); ++k) {
+    auto rad = std::make_shared<std::vector<double>>(std::move(cols[k]));
+    for (double& a : *rad) a = models::deg_to_rad(a);
+    // The row of time t (the replay gives the log's own t_s), or the last before it; no allocation.
+    readings.push_back([t_s, rad](double t) {
+      const auto after = std::upper_bound(t_s->begin(), t_s->end(), t);
+      return (*rad)[after == t_s->begin() ? 0 : static_cast<std::size_t>(after - t_s->begin()) - 1];
+    });
+  }
+  return readings;
 }
 
 double goniometer_run_duration_s(const ArmScenario& scenario, const GoniometerTrace& trace) {
@@ -265,6 +333,13 @@ sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const s
 
 GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces, GoniometerVariant variant,
                                 runtime::RowSink* log) {
+  const hardware::Hardware arm =
+      hardware::open_backend(hardware::BackendUri{}, goniometer_hardware(scenario, goniometer_plant_params(scenario, traces)));
+  return run_goniometer(scenario, traces, variant, arm, log);
+}
+
+GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces, GoniometerVariant variant,
+                                const hardware::Hardware& hw, runtime::RowSink* log) {
   if (traces.size() != scenario.goniometer.joints.size()) {
     throw std::invalid_argument(fmt::format("run_goniometer: {} traces for {} driven joints", traces.size(), scenario.goniometer.joints.size()));
   }
@@ -274,15 +349,18 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
       throw std::invalid_argument("run_goniometer: empty trace, truth/measured size mismatch or traces of different lengths");
     }
   }
-  sim::ArmBackend plant(goniometer_plant_params(scenario, traces));
   const double settle_s = scenario.goniometer.settle_s, rate_Hz = scenario.goniometer.sample_rate_Hz;
   std::vector<GoniometerSource> readings, persons;
-  for (const GoniometerTrace& trace : traces) {
-    readings.push_back([&](double t) { return goniometer_reading(scenario, trace, t); });
-    persons.push_back([&](double t) { return sample_at(trace.truth_rad, rate_Hz, t - settle_s); });
+  if (hw.replay) {
+    readings = logged_goniometers(scenario, hw.replay->log());  // the person is what the goniometers read
+  } else {
+    for (const GoniometerTrace& trace : traces) {
+      readings.push_back([&](double t) { return goniometer_reading(scenario, trace, t); });
+      persons.push_back([&](double t) { return sample_at(trace.truth_rad, rate_Hz, t - settle_s); });
+    }
   }
-  return run_goniometer_on(scenario, traces.front().name, variant, goniometer_run_duration_s(scenario, traces.front()), plant, &plant,
-                           readings, persons, log);
+  return run_goniometer_on(scenario, traces.front().name, variant, goniometer_run_duration_s(scenario, traces.front()), *hw.backend,
+                           dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), readings, persons, log);
 }
 
 namespace {
@@ -331,6 +409,7 @@ struct GoniometerRun {
         arm_data(arm),
         held(held_joints(scenario)),
         held_q(held.size(), std::vector<double>(steps + 1)),
+        replay(replay_columns(scenario, nullptr)),
         row(goniometer_log_columns(scenario).size()) {
     for (const int j : g.joints) controller.set_mode(j, control::ArmJointMode::kCommanded);
     joints = arm_joint_models(controller.model());
@@ -409,6 +488,7 @@ struct GoniometerRun {
   std::vector<Driven> driven;
   const std::vector<std::size_t> held;
   std::vector<std::vector<double>> held_q;  ///< per held joint and cycle, rad
+  const std::vector<ReplayColumn> replay;   ///< the log's last block: what a replay needs besides the columns above
   safety::Envelope envelope;
   double peak_motor_torque_Nm = 0;
   std::vector<double> row;  ///< the log row, in goniometer_log_columns' order
@@ -462,6 +542,10 @@ struct GoniometerRun {
                                                 .plant_antagonist_force_N = tr ? tr->actuators[j.io].muscle_force_N[1] : nan});
     }
     row[c++] = tension_min_N;
+    for (const ReplayColumn& r : replay) {
+      const std::size_t n = hardware::kSensorColumns.size();
+      row[c++] = r.field < n ? hardware::sensor_columns(state.joints[r.io])[r.field] : hardware::command_columns(sent.joints[r.io])[r.field - n];
+    }
   }
 };
 

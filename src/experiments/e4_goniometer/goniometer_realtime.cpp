@@ -26,7 +26,7 @@ GoniometerRealtimeResult run_goniometer_realtime(const ArmScenario& scenario, st
   const double duration_s = goniometer_run_duration_s(scenario, synthesize_goniometer(scenario.goniometer, m, scenario.seed));
   GoniometerRealtimeResult res;
   static_cast<BoardRunResult&>(res) = run_on_hardware(
-      arm_hardware(scenario, scenario.plant, true), scenario.lifecycle, options,
+      goniometer_hardware(scenario, scenario.plant), scenario.lifecycle, options,
       {m.name + "/" + to_string(variant), duration_s, options.dir / fmt::format("e4_{}_{}.csv", m.name, to_string(variant)),
        goniometer_log_columns(scenario),
        {fmt::format("case: E4 movement {}, variant {}", m.name, to_string(variant)),

@@ -129,15 +129,20 @@ class GoniometerJob final : public ExperimentRun {
     fmt::print("{:.1f} s simulated, open-loop and feedback\n", duration_s);
     std::fflush(stdout);
     runtime::CsvLog log(goniometer_log_columns(scenario_), static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
+    const bool replay = ctx.backend.kind == hardware::BackendKind::kReplay;
     for (const auto variant : kVariants) {
       log.clear();
-      results_.push_back(run_goniometer(scenario_, traces, variant, &log));
+      // Both variants on a replayed log too: the one that recorded it gives its commands back.
+      const hardware::Hardware hw = hardware::open_backend(ctx.backend, goniometer_hardware(scenario_, goniometer_plant_params(scenario_, traces)));
+      results_.push_back(run_goniometer(scenario_, traces, variant, hw, &log));
       log.write(ctx.dir / fmt::format("e4_{}_{}.csv", trace.name, to_string(variant)),
                 {fmt::format("case: E4 goniometer-driven {}, movement {}, variant {}", driven_names(scenario_), trace.name, to_string(variant)),
                  fmt::format("config: {}; seed {}", ctx.request.config.string(), scenario_.seed),
-                 "person_* is the person's true joint; plant_* columns are simulator truth the controller never sees"});
+                 replay ? "replayed from " + ctx.backend.replay_log.string() + ": sensors and goniometers are the log's, person_* the goniometer, plant_* NaN"
+                        : "person_* is the person's true joint; plant_* columns are simulator truth the controller never sees"});
+      if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}_{}.csv", trace.name, to_string(variant)));
     }
-    if (recording_.empty()) {
+    if (recording_.empty() && !replay) {
       for (std::size_t k = 0; k < traces.size(); ++k) {
         // One recording per goniometer; the first keeps the single-joint name.
         const std::string suffix = k == 0 ? "" : "_" + arm_log_prefix(scenario_, static_cast<std::size_t>(g.joints[k]));
@@ -161,7 +166,9 @@ class GoniometerJob final : public ExperimentRun {
     summary.close();  // the plotter reads it next
     print_goniometer_tables(results_);
     for (const GoniometerResult& r : results_) c.failed_figures += failed_figures(r.verdict);
-    if (recording_.empty()) c.written += ", goniometer_<movement>.csv (replayable with --goniometer-csv)";
+    if (recording_.empty() && ctx.backend.kind != hardware::BackendKind::kReplay) {
+      c.written += ", goniometer_<movement>.csv (replayable with --goniometer-csv)";
+    }
     return c;
   }
 

@@ -85,8 +85,8 @@ double identification_duration_s(const ArmScenario& scenario);
 IdentificationRecording record_identification(const ArmScenario& scenario, io::Backend& backend,
                                               const std::function<void(const std::string&)>& progress = {},
                                               const runtime::CycleHooks& hooks = {}, runtime::RowSink* log = nullptr);
-/// The per-cycle log of the procedure on hardware: t_s, per io joint (arm_log_prefix) the encoder,
-/// both load cells and the commands sent, limit_flags.
+/// The per-cycle log of the procedure on hardware: t_s, per io joint (arm_log_prefix) what the
+/// controller read (hardware::kSensorColumns) and the commands sent, limit_flags.
 std::vector<std::string> identification_log_columns(const ArmScenario& scenario);
 /// The fit of a recording. Throws calibration::GravityIdentificationRejected as identify_arm_gravity.
 ArmIdentificationResult fit_identification(const ArmScenario& scenario, const IdentificationRecording& recording);
@@ -99,8 +99,8 @@ ArmIdentificationResult identify_arm_gravity(const ArmScenario& scenario, const 
                                              const std::function<void(const std::string&)>& progress = {});
 
 /// The procedure on the hardware `options.backend` (the arm's board or boards) in real time, through
-/// the lifecycle supervisor; every cycle logged to `cycles_log` (arm_log_columns, with NaN for what
-/// the rig does not measure). `verdict` holds the link faults; the caller fits `recording` only
+/// the lifecycle supervisor; every cycle logged to `cycles_log` (identification_log_columns, with NaN
+/// for what the rig does not measure). `verdict` holds the link faults; the caller fits `recording` only
 /// when it passed. `scenario` from identification_scenario.
 struct IdentificationRealtimeResult : BoardRunResult {
   IdentificationRecording recording;

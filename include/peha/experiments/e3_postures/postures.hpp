@@ -54,7 +54,8 @@ struct PosturesResult {
 std::vector<std::size_t> gravity_joints(const ArmScenario& scenario);
 
 /// The per-cycle log's columns: t_s, operator_active, then per io joint its block (prefixed with the
-/// joint's log name, arm_log_prefix), limit_flags, fault_flags.
+/// joint's log name, arm_log_prefix), limit_flags, fault_flags. Each block holds every sensor the
+/// controller read (hardware::kSensorColumns), so the log can be replayed (`--backend replay:`).
 std::vector<std::string> arm_log_columns(const ArmScenario& scenario);
 /// "sfe" for the single arm's R_SFE, "r_sfe" / "l_sfe" on a two-armed body.
 std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
@@ -64,7 +65,11 @@ std::string arm_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
 /// (replay:). `one_board`: the run's board-side inputs live on one board (E4's goniometer).
 hardware::HardwareRequest arm_hardware(const ArmScenario& scenario, const sim::ArmPlantParams& plant, bool one_board = false);
 
-/// E3 on the in-process simulated arm. `log` (optional) gets one row per control cycle.
+/// What E3 declares to the hardware door: arm_hardware with the simulated arm of E3's script
+/// (postures_plant_params) for sim:.
+hardware::HardwareRequest postures_hardware(const ArmScenario& scenario);
+
+/// E3 on the in-process simulated arm (the door's sim:). `log` (optional) gets one row per control cycle.
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log);
 
 /// The simulated arm of E3: the scenario's plant with the operator's script (hold at the start,

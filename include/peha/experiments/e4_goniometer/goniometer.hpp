@@ -95,15 +95,27 @@ struct GoniometerResult {
 /// The per-cycle log's columns: t_s, operator_active; per driven joint its goniometer, filter,
 /// command and angle (person_elbow_deg, ..., elbow_encoder_deg); per held joint its angle and gravity
 /// torque (plant_<joint>_deg, tau_<joint>_gravity_Nm); per driven joint its actuator (tau_motor_cmd_Nm,
-/// ..., plant_antagonist_force_N); plant_tension_min_N. With more than one driven joint each driven
-/// joint's columns start with its log name (arm_log_prefix: "r_efe_person_elbow_deg").
+/// ..., plant_antagonist_force_N); plant_tension_min_N; then per io joint what a replay needs and
+/// the columns above lack (hardware::kSensorColumns, kCommandColumns: "angle_rad", ..., "sfe_angle_rad",
+/// ..., "wfe_tau_motor_cmd_Nm"). Each joint's columns start with goniometer_log_prefix.
 std::vector<std::string> goniometer_log_columns(const ArmScenario& scenario);
+/// An io joint's column prefix in E4's log: none for the one driven joint of a single-elbow run
+/// ("person_elbow_deg"), else its log name (arm_log_prefix: "r_efe_", "sfe_").
+std::string goniometer_log_prefix(const ArmScenario& scenario, std::size_t io_joint);
+/// What E4 declares to the hardware door: arm_hardware on `plant` (one board: the goniometers' AD
+/// channels are on it) with goniometer_log_prefix as each joint's log prefix (replay:).
+hardware::HardwareRequest goniometer_hardware(const ArmScenario& scenario, const sim::ArmPlantParams& plant);
 
-/// Runs E4 on the in-process simulated arm, one trace per driven joint (goniometer.joints order, all
-/// of the same length). `log` (optional) gets one row per cycle. Throws std::invalid_argument on a
-/// wrong number of traces.
+/// Runs E4 on the in-process simulated arm (the door's sim:), one trace per driven joint
+/// (goniometer.joints order, all of the same length). `log` (optional) gets one row per cycle. Throws
+/// std::invalid_argument on a wrong number of traces.
 GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces, GoniometerVariant variant,
                                 runtime::RowSink* log);
+/// The same on the door's in-process `hw`: the simulated arm of `traces` (goniometer_hardware with
+/// goniometer_plant_params), or a recorded E4 log (replay:), whose goniometer columns are then the
+/// readings and the person (logged_goniometers); `traces` give the run's length and name.
+GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<GoniometerTrace>& traces, GoniometerVariant variant,
+                                const hardware::Hardware& hw, runtime::RowSink* log);
 
 /// The goniometer's reading (rad) at time t_s of an E4 run: the trace's first sample during
 /// settle_s, then the trace, then its last sample. What the board emulator puts on the goniometer's
@@ -117,6 +129,11 @@ sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const s
 
 /// A goniometer angle (rad) as a function of the run's time (s).
 using GoniometerSource = std::function<double(double t_s)>;
+
+/// Each driven joint's goniometer as a recorded E4 log has it (goniometer.joints order; column
+/// <goniometer_log_prefix>goniometer_deg): at time t the row of t_s = t, or the last before it.
+/// Throws std::runtime_error naming a missing column.
+std::vector<GoniometerSource> logged_goniometers(const ArmScenario& scenario, const std::filesystem::path& log);
 
 /// E4 on any backend. `readings` give each driven joint's goniometer (goniometer.joints order, sampled
 /// every 1/sample_rate_Hz); `persons` the person's true joints for the figures (empty: the goniometers'
