@@ -44,7 +44,9 @@ build: configure
 # muscles, calibrate them (LM x 300 + SPGP; each accepted only by the config's closed-loop check on
 # the rig, calibration.acceptance), and run E1 on the paper's pure feed-forward with the calibrated
 # models, parametric alone vs parametric + SPGP.
-run: build
+run: configure
+	@# Only what the run needs: the peha command (tests, benchmarks, fuzzers and the Python module are make test's).
+	cmake --build --preset $(PRESET) --target peha
 	$(PEHA) run --config $(CONFIG) --name e1_nominal
 	$(PEHA) record-calibration --config $(CONFIG) --muscle agonist --out $(CAL)/agonist.csv
 	$(PEHA) record-calibration --config $(CONFIG) --muscle antagonist --out $(CAL)/antagonist.csv
@@ -54,11 +56,15 @@ run: build
 	$(PEHA) calibrate $(CAL)/antagonist.csv --muscle antagonist --out $(CAL)/antagonist.yaml --scenario $(CONFIG)
 	$(PEHA) calibrate $(CAL)/agonist.csv --muscle agonist --out $(CAL)/agonist.yaml --scenario $(CONFIG) \
 	  --other-calibration $(CAL)/antagonist.yaml
-	@# Exit code 3 = some variant violated a safety figure: expected for the parametric-only
-	@# variant on pure feed-forward, and reported in the table; any other failure stops make.
+	@# The parametric-only variant on pure feed-forward fails by design (shown beside the SPGP's,
+	@# not judged); the run's verdict is the calibrated model's with its SPGP.
 	$(PEHA) run --config $(CONFIG) --name e1_calibrated --force-trim-rate 0 \
-	  --agonist-calibration $(CAL)/agonist.yaml --antagonist-calibration $(CAL)/antagonist.yaml; \
-	  code=$$?; [ $$code -eq 0 ] || [ $$code -eq 3 ]
+	  --agonist-calibration $(CAL)/agonist.yaml --antagonist-calibration $(CAL)/antagonist.yaml
+	@echo
+	@echo "make run showed: E1 gravity compensation with the nominal model (out/e1_nominal), both muscles"
+	@echo "recorded and calibrated on the simulated rig ($(CAL)), and E1 on the paper's pure feed-forward"
+	@echo "with the calibrated models (out/e1_calibrated): the parametric model alone fails as expected,"
+	@echo "with its SPGP residual it holds. Figures: out/*/summary.csv and *.png; docs/e1-gravity-compensation.md."
 
 test: build
 	ctest --preset $(PRESET)

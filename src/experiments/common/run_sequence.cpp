@@ -61,6 +61,10 @@ int run_sequence(const config::Document& doc, const RunRequest& request, Experim
   const Conclusion c = experiment.conclude(ctx);
   fmt::print("\nwritten: {}/{}\n", ctx.dir.string(), c.written);
   if (request.plot && !c.plot_tool.empty()) plot_with(c.plot_tool.c_str(), ctx.dir, c.plot_args);
+  if (c.comparison_failures > 0) {
+    fmt::print("expected: {} figure{} failed in {} (shown for comparison, not judged)\n", c.comparison_failures,
+               c.comparison_failures == 1 ? "" : "s", c.comparison);
+  }
   if (c.failed_figures == 0) {
     fmt::print("PASSED\n");
     return 0;

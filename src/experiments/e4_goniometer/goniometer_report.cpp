@@ -152,10 +152,15 @@ class GoniometerJob final : public ExperimentRun {
   }
 
   Conclusion conclude(const RunContext& ctx) override {
-    Conclusion c{0, "e4_<movement>_<variant>.csv, summary.csv, config.yaml", "plot_goniometer.py", {}};
+    // The paper's open-loop replay shows what the feedback adds: a comparison, not judged.
+    Conclusion c{0, "e4_<movement>_<variant>.csv, summary.csv, config.yaml", "plot_goniometer.py", {}, 0,
+                 "the open-loop variant (the goniometer's angle replayed without feedback)"};
+    auto add = [&c](GoniometerVariant v, std::size_t failed) {
+      (v == GoniometerVariant::kOpenLoop ? c.comparison_failures : c.failed_figures) += failed;
+    };
     if (ctx.realtime) {
       print_board_table(board_results_);
-      for (const auto& rr : board_results_) c.failed_figures += failed_figures(rr.goniometer.verdict) + (rr.faults > 0 && rr.goniometer.within_limits);
+      for (const auto& rr : board_results_) add(rr.goniometer.variant, failed_figures(rr.goniometer.verdict) + (rr.faults > 0 && rr.goniometer.within_limits));
       c.written = "e4_<movement>_<variant>.csv, timing_<variant>/, config.yaml";
       c.plot_tool.clear();
       return c;
@@ -165,7 +170,7 @@ class GoniometerJob final : public ExperimentRun {
     for (const GoniometerResult& r : results_) summary << summary_rows(scenario_, r);
     summary.close();  // the plotter reads it next
     print_goniometer_tables(results_);
-    for (const GoniometerResult& r : results_) c.failed_figures += failed_figures(r.verdict);
+    for (const GoniometerResult& r : results_) add(r.variant, failed_figures(r.verdict));
     if (recording_.empty() && ctx.backend.kind != hardware::BackendKind::kReplay) {
       c.written += ", goniometer_<movement>.csv (replayable with --goniometer-csv)";
     }

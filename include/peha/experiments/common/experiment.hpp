@@ -64,6 +64,10 @@ struct Conclusion {
   std::string written;             ///< the files it wrote, for the "written:" line
   std::string plot_tool;           ///< tools/<plot_tool> renders the figures (empty: none)
   std::vector<std::string> plot_args;
+  /// Figures that failed in runs shown for comparison only (the paper's parametric model alone, its
+  /// open-loop replay): reported, labelled with `comparison`, not judged.
+  std::size_t comparison_failures = 0;
+  std::string comparison;
 };
 
 /// One experiment's part of a run: built from the scenario and the request (throws config::Error or
