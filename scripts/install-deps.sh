@@ -21,6 +21,7 @@ packages=(
   libglfw3-dev xvfb xauth      # fallback: a hidden GLFW window, on an Xvfb that peha starts when DISPLAY is unset
   clang-14 libclang-rt-14-dev   # libFuzzer (+ ASan/UBSan) for the MFB packet parser's fuzz target
   python3-numpy python3-scipy python3-matplotlib python3-sklearn  # tools/ on /usr/bin/python3
+  python3-pandas         # the test that peha's CSVs open unmodified in pandas.read_csv (runtime.logs_open_unmodified)
 )
 
 missing=()
