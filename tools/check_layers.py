@@ -23,7 +23,7 @@ ALL = "*"  # may include every layer
 
 # layer: (layers it may include besides itself, why)
 RULES = {
-    "config": (set(), "YAML reading and validation: the foundation, depends on nothing of peha"),
+    "config": (set(), "YAML reading and validation, atomic files, CSV sidecars: the foundation, depends on nothing of peha"),
     "models": ({"config"}, "physical models (muscles, tendons, joints): pure maths on configured parameters"),
     "calibration": ({"models", "config"}, "fits the parameters of the models from recorded data"),
     "control": ({"models", "io", "config"}, "controllers and allocation: from the models and the io value types (SensorState in, Command out); no runtime, no simulator"),

@@ -9,11 +9,12 @@ checkout; never copied into the repository):
 
 The format is recognised from the header row, not the file name.
 
-Output: `pressure_MPa,contraction,force_N` with '#' comment lines naming the source file (and its
-SHA-256), its own comments, the unit conversion and what was dropped. Static maps carry no time or
-motion, so no t_s / angle_rad / wire_velocity_mps columns are written.
+Output: `pressure_MPa,contraction,force_N`, the header first, and beside it the sidecar
+OUT.csv.meta.json (docs/runtime.md#log-files) whose notes name the source file (and its SHA-256),
+its own comments, the unit conversion and what was dropped. Static maps carry no time or motion, so
+no t_s / angle_rad / wire_velocity_mps columns are written.
 
-Excluded explicitly (and counted in a comment):
+Excluded explicitly (and counted in a note):
   * force_N <= --min-force (default 0): the muscle cannot pull there;
   * pressure = 0: the Tendon-spring inverse P = F / g is undefined / degenerate there.
 
@@ -28,6 +29,7 @@ Exit codes: 0 success; 1 a source file is malformed (bad number, wrong field cou
 import argparse
 import glob
 import hashlib
+import json
 import math
 import os
 import sys
@@ -46,6 +48,8 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 DEFAULT_DATA_DIR = os.path.normpath(os.path.join(HERE, "..", "..", "shared", "data", "pam"))
 SOURCE_PATTERNS = ("festo_datasheet_*.csv", "martens2017_*.csv")
 OUT_COLUMNS = ("pressure_MPa", "contraction", "force_N")
+OUT_UNITS = {"pressure_MPa": "MPa", "contraction": None, "force_N": "N"}  # as peha's sidecars name them
+SIDECAR_FORMAT = "peha-log-1"  # peha::config::kCsvSidecarFormat
 READER_MIN_ROWS = 50  # peha::calibration::DatasetRules{}.min_rows
 
 # header -> (format name, column holding pressure, factor to MPa, unit text)
@@ -128,6 +132,21 @@ def _sha256(path):
     return h.hexdigest()
 
 
+def sidecar_path(csv_path):
+    return csv_path + ".meta.json"
+
+
+def write_sidecar(csv_path, rows, notes):
+    """The CSV's metadata in CSV_PATH.meta.json, as peha writes it: through a temporary renamed into place."""
+    meta = {"format": SIDECAR_FORMAT, "file": os.path.basename(csv_path), "rows": rows,
+            "columns": [{"name": c, "unit": OUT_UNITS[c]} for c in OUT_COLUMNS], "notes": notes}
+    tmp = sidecar_path(csv_path) + ".tmp"
+    with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
+        json.dump(meta, fh, indent=2, ensure_ascii=False)
+        fh.write("\n")
+    os.replace(tmp, sidecar_path(csv_path))
+
+
 def convert(source, out, min_force=0.0):
     """Convert one map; return a dict with counts. Raises ConvertError."""
     if not math.isfinite(min_force) or min_force < 0:
@@ -171,12 +190,14 @@ def convert(source, out, min_force=0.0):
         raise ConvertError(f"{out}: output directory {out_dir} does not exist", EXIT_USAGE)
     tmp = out + ".tmp"
     with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
-        for c in lines:
-            fh.write(f"# {c}\n")
-        fh.write(",".join(OUT_COLUMNS) + "\n")
+        fh.write(",".join(OUT_COLUMNS) + "\n")  # the header first: numpy, pandas open it as it is
         for p, e, f in zip(pressure_MPa[keep], contraction[keep], force[keep]):
             fh.write(f"{p:.9g},{e:.9g},{f:.9g}\n")
+    # An old sidecar goes first, so a stop before the new one never pairs it with the new data.
+    if os.path.exists(sidecar_path(out)):
+        os.remove(sidecar_path(out))
     os.replace(tmp, out)
+    write_sidecar(out, n_keep, lines)
     return {"source": source, "out": out, "format": fmt, "rows_in": n_total, "rows_out": n_keep,
             "dropped_force": int(no_pull.sum()), "dropped_zero_pressure": int(zero_p.sum()),
             "max_pressure_MPa": float(pressure_MPa[keep].max())}
@@ -195,7 +216,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(
         description="Convert Festo force maps (festo_datasheet_*.csv, martens2017_*.csv) into peha "
                     "calibration CSVs (pressure_MPa,contraction,force_N). Points with force <= --min-force "
-                    "and with zero pressure are excluded and counted in the output's comments.",
+                    "and with zero pressure are excluded and counted in the notes of the output's sidecar OUT.csv.meta.json.",
         epilog="Exit codes: 0 ok, 1 malformed source, 2 missing file / unknown format / usage.")
     ap.add_argument("source", nargs="?", help="a force-map CSV (e.g. ../shared/data/pam/festo_datasheet_DMSP-40_digitized.csv)")
     ap.add_argument("out", nargs="?", help="the calibration CSV to write")

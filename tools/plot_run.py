@@ -19,6 +19,7 @@ Exit codes: 0 success, 1 malformed/unreadable log, 2 bad RUN_DIR or no logs
 
 import argparse
 import csv
+import json
 import math
 import os
 import re
@@ -60,6 +61,7 @@ PRESSURE_TRACES = [
 ]
 
 CASE_RE = re.compile(r"^\s*#\s*case\s*:\s*(.*?)\s*$", re.IGNORECASE)
+NOTE_CASE_RE = re.compile(r"^\s*case\s*:\s*(.*?)\s*$", re.IGNORECASE)
 
 
 class LogError(Exception):
@@ -89,14 +91,34 @@ def _parse_float(text):
     return float(text)
 
 
+def sidecar_case(path):
+    """The 'case: TEXT' note of the log's sidecar PATH.meta.json (peha writes one beside every
+    log); None without a sidecar or such a note. An unreadable sidecar is warned about, not fatal:
+    the title is all it gives."""
+    meta_path = path + ".meta.json"
+    if not os.path.isfile(meta_path):
+        return None
+    try:
+        with open(meta_path, encoding="utf-8") as fh:
+            notes = json.load(fh).get("notes", [])
+    except (OSError, UnicodeDecodeError, ValueError, AttributeError) as exc:
+        warn("%s: ignored (%s)" % (meta_path, exc))
+        return None
+    for note in notes if isinstance(notes, list) else []:
+        m = NOTE_CASE_RE.match(note) if isinstance(note, str) else None
+        if m and m.group(1):
+            return m.group(1)
+    return None
+
+
 def read_log(path):
-    """Read one per-cycle log.
+    """Read one per-cycle log: the header first (older logs: after '#' lines), then rows.
 
     Returns dict(path, case, columns: {name: numpy array}). Raises LogError.
     """
     import numpy as np
 
-    case = None
+    case = sidecar_case(path)
     header = None
     rows = []
     try:
@@ -502,9 +524,10 @@ def build_parser():
             "(4) pressures [MPa]: cmd and measured, %.1f MPa supply line."
             % (SAFETY_LIMIT_N, SUPPLY_MPA)),
         epilog=(
-            "Logs: header row first (after '#' comment lines), time column t_s; "
-            "a '# case: TEXT' comment sets the column title (else a matching "
-            "row of summary.csv's 'case' column, else the file stem). Unknown "
+            "Logs: header row first (older logs: after '#' comment lines), time "
+            "column t_s; a 'case: TEXT' note in the log's sidecar LOG.meta.json "
+            "(older logs: a '# case: TEXT' comment) sets the column title (else a "
+            "matching row of summary.csv's 'case' column, else the file stem). Unknown "
             "columns are ignored; missing expected columns are skipped with a "
             "warning. Exit status: 0 ok, 1 malformed log, 2 RUN_DIR missing or "
             "without logs. Needs numpy + matplotlib (use /usr/bin/python3)."),

@@ -8,6 +8,7 @@ Run:  /usr/bin/python3 -m unittest tools/test_festo_to_calibration.py
 
 import csv
 import glob
+import json
 import os
 import shutil
 import subprocess
@@ -27,8 +28,16 @@ def run_tool(*args):
 
 
 def read_csv(path):
-    """(comment lines, header, rows as float lists) of a '#'-commented CSV."""
+    """(comment lines, header, rows as float lists) of a CSV: its '#' lines (a Festo map), or the
+    notes of its sidecar PATH.meta.json (a converted file, whose first line must be the header)."""
     comments, header, rows = [], None, []
+    if os.path.exists(path + ".meta.json"):
+        with open(path + ".meta.json", encoding="utf-8") as fh:
+            meta = json.load(fh)
+        assert meta["format"] == "peha-log-1", meta
+        comments = list(meta["notes"])
+        with open(path) as fh:
+            assert not fh.readline().startswith("#"), f"{path}: the first line is not the header"
     with open(path) as fh:
         for line in fh:
             line = line.rstrip("\n")
@@ -77,6 +86,12 @@ class FestoToCalibrationTest(unittest.TestCase):
         self.assertIn(f"excluded {n_force} rows with force_N <= 0", text)
         self.assertIn(f"{n_zero_p} further rows with pressure = 0", text)
         self.assertIn("muscle's own contraction", text)
+        with open(out + ".meta.json", encoding="utf-8") as fh:
+            meta = json.load(fh)
+        self.assertEqual(meta["file"], "dmsp40.csv")
+        self.assertEqual(meta["rows"], 62)
+        self.assertEqual([c["unit"] for c in meta["columns"]], ["MPa", None, "N"])
+        self.assertFalse(os.path.exists(out + ".meta.json.tmp"))
 
     def test_min_force_excludes_more_rows(self):
         out = os.path.join(self.tmp, "dmsp40_min.csv")

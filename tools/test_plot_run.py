@@ -6,6 +6,7 @@ Run:  /usr/bin/python3 -m unittest tools/test_plot_run.py
 """
 
 import importlib.util
+import json
 import math
 import os
 import shutil
@@ -77,13 +78,19 @@ def synth_rows(payload_kg, duration=6.0, dt=0.005, release_at=(2.0, 4.5),
     return rows
 
 
-def write_log(path, payload_kg, columns=COLUMNS, case=True):
+def write_log(path, payload_kg, columns=COLUMNS, case=True, old_format=False):
+    """A log as peha writes it: the header first, the notes in the sidecar PATH.meta.json; with
+    old_format, as peha wrote logs before the sidecar: the notes as '#' lines before the header."""
     rows = synth_rows(payload_kg)
     keep = [COLUMNS.index(c) for c in columns]
+    notes = ["peha run log (synthetic, for tests)"] + (["case: payload %.1f kg" % payload_kg] if case else [])
+    if not old_format:
+        with open(path + ".meta.json", "w") as fh:
+            json.dump({"format": "peha-log-1", "file": os.path.basename(path), "rows": len(rows),
+                       "columns": [{"name": c, "unit": None} for c in columns], "notes": notes}, fh)
     with open(path, "w") as fh:
-        fh.write("# peha run log (synthetic, for tests)\n")
-        if case:
-            fh.write("# case: payload %.1f kg\n" % payload_kg)
+        if old_format:
+            fh.write("".join("# %s\n" % n for n in notes))
         fh.write(",".join(columns) + "\n")
         for r in rows:
             fh.write(",".join(repr(r[i]) if isinstance(r[i], float) else str(r[i])
@@ -200,6 +207,33 @@ class PlotRunTest(unittest.TestCase):
         self.assertNotEqual(r.returncode, 0)
         self.assertIn("ragged.csv", r.stderr)
         self.assertNotIn("Traceback", r.stderr)
+
+    def read_case(self, path):
+        """plot_run.read_log(path)["case"], in the interpreter that has numpy."""
+        code = "import sys; sys.path.insert(0, %r); import plot_run; print(plot_run.read_log(%r)['case'])" % (HERE, path)
+        r = subprocess.run([PYTHON, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                           universal_newlines=True, timeout=60)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        return r.stdout.strip()
+
+    def test_case_title_from_the_sidecar_or_an_older_logs_comment(self):
+        new = os.path.join(self.tmp, "e1_payload_2.5kg.csv")
+        old = os.path.join(self.tmp, "e1_payload_5.0kg.csv")
+        bare = os.path.join(self.tmp, "e1_payload_7.5kg.csv")
+        write_log(new, 2.5)
+        write_log(old, 5.0, old_format=True)
+        write_log(bare, 7.5, case=False)
+        with open(new) as fh:
+            self.assertEqual(fh.readline().rstrip("\n"), ",".join(COLUMNS))
+        self.assertEqual(self.read_case(new), "payload 2.5 kg")
+        self.assertEqual(self.read_case(old), "payload 5.0 kg")
+        self.assertEqual(self.read_case(bare), "None")  # the title falls back to summary.csv or the stem
+        with open(bare + ".meta.json", "w") as fh:
+            fh.write("{not json")
+        r = self.run_plotter(self.tmp)
+        self.assertEqual(r.returncode, 0, r.stderr)  # a broken sidecar costs the title only
+        self.assertIn("e1_payload_7.5kg.csv.meta.json: ignored", r.stderr)
+        self.assert_png(os.path.join(self.tmp, "plot.png"))
 
     def test_help(self):
         r = self.run_plotter("--help")

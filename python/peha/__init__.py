@@ -26,8 +26,10 @@ def read_log(path, as_pandas: bool = False):
     """A run's per-cycle CSV (``out/<run>/<experiment>_<case>.csv``) as a dict of numpy arrays.
 
     One float64 array per column, named as in the file (units in the names: ``t_s``,
-    ``angle_rad``, ``agonist_pressure_MPa``, ...). Lines starting with ``#`` are skipped. With
-    ``as_pandas=True`` (and pandas installed) a ``pandas.DataFrame`` instead.
+    ``angle_rad``, ``agonist_pressure_MPa``, ...). The header is the first line; lines starting
+    with ``#`` (older logs) are skipped. The case, config, seed and the columns' units are in the
+    sidecar ``<log>.meta.json`` (JSON). With ``as_pandas=True`` (and pandas installed) a
+    ``pandas.DataFrame`` instead.
     """
     path = _pathlib.Path(path)
     with path.open(newline="") as f:

@@ -70,6 +70,8 @@ void bind_calibration(py::module_& m) {
       .def_property_readonly("angle_rad", [](const Dataset& d) { return to_numpy(d.angle_rad); }, "rad (empty if absent)")
       .def_property_readonly("wire_velocity_mps", [](const Dataset& d) { return to_numpy(d.wire_velocity_mps); },
                              "m/s (empty if absent)")
+      .def_readonly("loadcell_zero_N", &Dataset::loadcell_zero_N,
+                    "the load cell's reading with the muscle vented, N, already subtracted from force_N (the CSV's sidecar)")
       .def_readonly("source", &Dataset::source)
       .def_readonly("sha256", &Dataset::sha256)
       .def("__len__", &Dataset::size);

@@ -1,5 +1,6 @@
 #include "peha/app/calibration_report.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/experiments/run_request.hpp"
 
 #include <fmt/format.h>
@@ -16,9 +17,12 @@ void write_calibration_report(const std::filesystem::path& dir, const calibratio
   const calibration::MuscleCalibration& c = outcome.calibration;
   const calibration::CalibrationStats& s = c.stats;
   {
-    std::ofstream csv(dir / "predictions.csv");
-    csv << "# peha calibrate: per-row predictions of " << data.source << "\n";
-    csv << "row,t_s,heldout,contraction,force_N,pressure_MPa,pressure_parametric_MPa,pressure_spgp_MPa,spgp_std_MPa\n";
+    const std::filesystem::path path = dir / "predictions.csv";
+    const std::vector<std::string> columns = {"row", "t_s", "heldout", "contraction", "force_N", "pressure_MPa",
+                                              "pressure_parametric_MPa", "pressure_spgp_MPa", "spgp_std_MPa"};
+    config::remove_csv_sidecar(path);
+    std::ofstream csv(path);
+    csv << fmt::format("{}\n", fmt::join(columns, ","));
     for (std::size_t i = 0; i < data.size(); ++i) {
       csv << fmt::format("{},{:.6g},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", i,
                          data.t_s.empty() ? static_cast<double>(i) : data.t_s[i], int(outcome.heldout[i]),
@@ -26,6 +30,8 @@ void write_calibration_report(const std::filesystem::path& dir, const calibratio
                          outcome.pressure_parametric_Pa[i] * 1e-6, outcome.pressure_spgp_Pa[i] * 1e-6,
                          outcome.spgp_std_Pa[i] * 1e-6);
     }
+    csv.close();
+    config::write_csv_sidecar(path, {columns, data.size(), {"peha calibrate: per-row predictions of " + data.source}, {}});
   }
   if (c.spgp) {
     // The SPGP's predictive band over (contraction, force): a grid 10 % beyond the data's ranges.
@@ -51,9 +57,12 @@ void write_calibration_report(const std::filesystem::path& dir, const calibratio
   }
   if (points.check) {
     const int m = points.index;
-    std::ofstream csv(dir / "operating_points.csv");
-    csv << "# the closed-loop check's holds (calibration.acceptance of the scenario): where the controller worked\n";
-    csv << "case,angle_deg,contraction,force_cmd_N,loadcell_N,min_loadcell_N,pressure_cmd_MPa,spgp_mean_MPa,spgp_std_MPa\n";
+    const std::filesystem::path path = dir / "operating_points.csv";
+    const std::vector<std::string> columns = {"case", "angle_deg", "contraction", "force_cmd_N", "loadcell_N",
+                                              "min_loadcell_N", "pressure_cmd_MPa", "spgp_mean_MPa", "spgp_std_MPa"};
+    config::remove_csv_sidecar(path);
+    std::ofstream csv(path);
+    csv << fmt::format("{}\n", fmt::join(columns, ","));
     for (const experiments::AcceptancePoint& p : points.check->points) {
       const double x[2] = {p.contraction[m], p.force_cmd_N[m]};
       const double mean = c.spgp ? c.spgp->predict_mean(x) : 0.0;
@@ -61,6 +70,11 @@ void write_calibration_report(const std::filesystem::path& dir, const calibratio
       csv << fmt::format("{},{:.3f},{:.6g},{:.4g},{:.4g},{:.4g},{:.6g},{:.6g},{:.6g}\n", p.case_name, p.angle_deg, p.contraction[m],
                          p.force_cmd_N[m], p.loadcell_N[m], p.min_loadcell_N[m], p.pressure_cmd_Pa[m] * 1e-6, mean * 1e-6, sd * 1e-6);
     }
+    csv.close();
+    config::write_csv_sidecar(path, {columns,
+                                     points.check->points.size(),
+                                     {"the closed-loop check's holds (calibration.acceptance of the scenario): where the controller worked"},
+                                     {}});
   }
   std::ofstream txt(dir / "summary.txt");
   const std::string summary = fmt::format(

@@ -4,6 +4,7 @@
 #include "peha/app/commands.hpp"
 #include "peha/app/hardware_flags.hpp"
 #include "peha/calibration/dataset.hpp"
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/experiments/calibration_recording/excitation.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
@@ -78,8 +79,10 @@ int record_calibration(const RecordOptions& options) {
     const auto [p0, p1] = span(data.pressure_Pa);
     const auto [f0, f1] = span(data.force_N);
     const auto [e0, e1] = span(data.contraction);
-    fmt::print("  {} rows -> {}\n  pressure {:.3f}..{:.3f} MPa, force {:.0f}..{:.0f} N, contraction {:.3f}..{:.3f}\n",
-               data.size(), options.out.string(), p0 * 1e-6, p1 * 1e-6, f0, f1, e0, e1);
+    fmt::print("  {} rows -> {} (load-cell zero {:.2f} N and notes in {})\n  pressure {:.3f}..{:.3f} MPa, force {:.0f}..{:.0f} N, "
+               "contraction {:.3f}..{:.3f}\n",
+               data.size(), options.out.string(), data.loadcell_zero_N, config::csv_sidecar_path(options.out).filename().string(),
+               p0 * 1e-6, p1 * 1e-6, f0, f1, e0, e1);
     return 0;
   });
 }

@@ -1,5 +1,7 @@
 #include "peha/calibration/dataset.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
+
 #include <openssl/evp.h>
 
 #include <algorithm>
@@ -393,6 +395,26 @@ CsvContent read_csv_lines(std::string_view text, const std::string& file) {
   return csv;
 }
 
+// The load-cell zero from the sidecar `<csv>.meta.json`, where peha writes it. A recording from
+// before the sidecar carries it in a `# loadcell_zero_N:` line instead; both at once is an error.
+void read_sidecar_zero(const std::filesystem::path& path, const std::string& file, CsvContent& csv) {
+  try {
+    const std::optional<config::Document> meta = config::read_csv_sidecar(path);
+    if (!meta) return;
+    config::Map root = meta->root();
+    if (!root.has("loadcell_zero_N")) return;
+    const double v = root.number("loadcell_zero_N", {-kMaxLoadcellZeroN, kMaxLoadcellZeroN});
+    if (csv.zero_line != 0) {
+      throw DataError(file + ":" + std::to_string(csv.zero_line) + ": loadcell_zero_N given twice: in this '#' line and in " +
+                      config::csv_sidecar_path(path).string() + "; keep one (peha writes it to the sidecar)");
+    }
+    csv.loadcell_zero_N = v;
+  } catch (const config::Error& e) {
+    throw DataError(std::string(e.what()) + " (the sidecar of the calibration CSV; loadcell_zero_N is the load cell's reading "
+                    "with the muscle vented, N)");
+  }
+}
+
 // ---- plausibility (after all rows are read; first offender's line) -----------------------------
 
 double column_max(const std::vector<Row>& rows, std::size_t c, bool absolute) {
@@ -536,7 +558,8 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
   const std::string bytes = read_csv_bytes(path, file);
   std::string_view text(bytes);
   if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // UTF-8 BOM (spreadsheet exports)
-  const CsvContent csv = read_csv_lines(text, file);
+  CsvContent csv = read_csv_lines(text, file);
+  read_sidecar_zero(path, file, csv);
   check_units(csv, file);
   check_time_order(csv, file);
   check_excitation(csv.rows, rules, file);
@@ -569,30 +592,20 @@ void write_dataset(const std::filesystem::path& path, const Dataset& data, const
     }
   }
 
-  // Write to a sibling temporary and rename, so a reader never sees a half-written file.
+  // Write to a sibling temporary and rename, so a reader never sees a half-written file. The header
+  // is the first line (numpy, pandas, spreadsheets open the file as it is); the comments and the
+  // load-cell zero go to the sidecar.
   std::filesystem::path tmp = path;
   tmp += ".tmp";
+  std::vector<std::string> names;
+  for (const auto& c : cols) names.emplace_back(c.name);
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
     if (!out) throw DataError(file + ": cannot write calibration file (does the directory exist and is it writable?)");
-    for (const auto& comment : comments) {
-      // One '# ' line per line of the comment, so a multi-line comment cannot become data.
-      std::size_t start = 0;
-      while (true) {
-        const auto nl = comment.find('\n', start);
-        std::string_view part = std::string_view(comment).substr(start, nl == std::string::npos ? std::string::npos : nl - start);
-        if (!part.empty() && part.back() == '\r') part.remove_suffix(1);
-        out << "# " << part << '\n';
-        if (nl == std::string::npos) break;
-        start = nl + 1;
-      }
-    }
-    out << "# the load cell's reading with the muscle vented, already subtracted from force_N:\n"
-        << "# loadcell_zero_N: " << num9(data.loadcell_zero_N) << '\n';
     std::string line;
-    for (std::size_t c = 0; c < cols.size(); ++c) {
+    for (std::size_t c = 0; c < names.size(); ++c) {
       if (c) line += ',';
-      line += cols[c].name;
+      line += names[c];
     }
     out << line << '\n';
     for (std::size_t i = 0; i < n; ++i) {
@@ -610,11 +623,25 @@ void write_dataset(const std::filesystem::path& path, const Dataset& data, const
       throw DataError(file + ": write error (disk full?)");
     }
   }
+  std::vector<std::string> notes = comments;
+  notes.emplace_back("loadcell_zero_N: the load cell's reading with the muscle vented, already subtracted from force_N");
+  try {
+    config::remove_csv_sidecar(path);  // a stop before the new sidecar leaves no other recording's zero here
+  } catch (const std::runtime_error& e) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
+    throw DataError(e.what());
+  }
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) {
     std::filesystem::remove(tmp, ec);
     throw DataError(file + ": cannot replace file: " + ec.message());
+  }
+  try {
+    config::write_csv_sidecar(path, {names, n, notes, {{"loadcell_zero_N", data.loadcell_zero_N}}});
+  } catch (const std::runtime_error& e) {
+    throw DataError(e.what());
   }
 }
 

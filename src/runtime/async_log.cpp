@@ -1,5 +1,6 @@
 #include "peha/runtime/async_log.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/runtime/csv_log.hpp"
 
 #include <fmt/compile.h>
@@ -47,26 +48,32 @@ std::size_t format_row(const double* values, std::size_t n, char* out) noexcept 
   return static_cast<std::size_t>(p - out);
 }
 
-std::string header_text(const std::vector<std::string>& comments, const std::vector<std::string>& columns) {
-  std::string out;
-  for (const std::string& c : comments) out += fmt::format("# {}\n", c);
-  out += fmt::format("{}\n", fmt::join(columns, ","));
-  return out;
-}
+std::string header_text(const std::vector<std::string>& columns) { return fmt::format("{}\n", fmt::join(columns, ",")); }
 
 std::size_t checked_window(std::size_t rows) {
   if (rows == 0) throw std::invalid_argument("AsyncCsvLog: fault_window_rows must be >= 1");
   return rows;
 }
 
-// Opens `path` for writing with `buffer` as its stdio buffer and writes the header.
-std::FILE* open_with_header(const std::filesystem::path& path, const std::string& header, std::vector<char>& buffer) {
+// Opens `path` for writing with `buffer` as its stdio buffer and writes the header; the sidecar
+// (comments, columns; no row count until close) goes beside it at once, so a run that dies still
+// leaves its log described.
+std::FILE* open_with_header(const std::filesystem::path& path, const std::vector<std::string>& columns,
+                            const std::vector<std::string>& comments, std::vector<char>& buffer) {
+  config::remove_csv_sidecar(path);
+  const std::string header = header_text(columns);
   std::FILE* f = std::fopen(path.c_str(), "w");
   if (!f) throw std::runtime_error(fmt::format("{}: cannot write log: {}", path.string(), std::strerror(errno)));
   std::setvbuf(f, buffer.data(), _IOFBF, buffer.size());
   if (std::fwrite(header.data(), 1, header.size(), f) != header.size()) {
     std::fclose(f);
     throw std::runtime_error(fmt::format("{}: write failed: {}", path.string(), std::strerror(errno)));
+  }
+  try {
+    config::write_csv_sidecar(path, {columns, std::nullopt, comments, {}});
+  } catch (...) {
+    std::fclose(f);
+    throw;
   }
   return f;
 }
@@ -80,7 +87,7 @@ AsyncCsvLog::AsyncCsvLog(std::filesystem::path path, std::vector<std::string> co
       columns_((check_columns(columns), std::move(columns))),
       comments_(std::move(comments)),
       file_buffer_(kFileBufferBytes),
-      file_(open_with_header(path_, header_text(comments_, columns_), file_buffer_)),
+      file_(open_with_header(path_, columns_, comments_, file_buffer_)),
       ring_(std::bit_ceil(std::max<std::size_t>(capacity_rows, 1))),
       requests_(kPendingFaultRequests),
       window_(checked_window(fault_window_rows) * columns_.size()),
@@ -153,7 +160,7 @@ void AsyncCsvLog::write_fault_dump(const FaultRequest& request) noexcept {
     comments.insert(comments.end(), comments_.begin(), comments_.end());
     std::FILE* out = std::fopen(dump.c_str(), "w");
     if (!out) throw std::runtime_error(fmt::format("{}: cannot write fault dump: {}", dump.string(), std::strerror(errno)));
-    const std::string header = header_text(comments, columns_);
+    const std::string header = header_text(columns_);
     bool ok = std::fwrite(header.data(), 1, header.size(), out) == header.size();
     const std::size_t first = (window_next_ + window_rows_ - window_filled_) % window_rows_;
     for (std::size_t k = 0; k < window_filled_; ++k) {
@@ -163,6 +170,7 @@ void AsyncCsvLog::write_fault_dump(const FaultRequest& request) noexcept {
     }
     ok = std::fclose(out) == 0 && ok;
     if (!ok) throw std::runtime_error(fmt::format("{}: fault dump write failed", dump.string()));
+    config::write_csv_sidecar(dump, {columns_, window_filled_, comments, {}});
     std::fflush(file_.get());  // the main log up to the fault is on disk too
     spdlog::warn("fault dump written: {} ({} rows; reason: {})", dump.string(), window_filled_, request.reason);
     std::lock_guard lock(mutex_);
@@ -221,6 +229,15 @@ void AsyncCsvLog::close() {
   closing_.store(true, std::memory_order_relaxed);
   writer_.stop();
   std::lock_guard lock(mutex_);
+  if (!sidecar_final_) {
+    sidecar_final_ = true;
+    // The row count says the writer finished: a sidecar without one belongs to a run that died.
+    try {
+      config::write_csv_sidecar(path_, {columns_, written_.load(std::memory_order_relaxed), comments_, {}});
+    } catch (const std::exception& e) {
+      if (error_.empty()) error_ = e.what();
+    }
+  }
   if (error_.empty() || error_thrown_) return;
   error_thrown_ = true;
   throw std::runtime_error(error_);

@@ -1,5 +1,7 @@
 #include "peha/runtime/csv_log.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
+
 #include <fmt/compile.h>
 #include <fmt/format.h>
 
@@ -39,9 +41,9 @@ char* format_log_value(char* out, std::size_t column, double value) noexcept {
 }
 
 void CsvLog::write(const std::filesystem::path& path, const std::vector<std::string>& comments) const {
+  config::remove_csv_sidecar(path);
   std::ofstream out(path);
   if (!out) throw std::runtime_error(fmt::format("{}: cannot write log", path.string()));
-  for (const auto& c : comments) out << "# " << c << '\n';
   out << fmt::format("{}\n", fmt::join(columns_, ","));
   std::string line;
   for (std::size_t r = 0; r < rows_; ++r) {
@@ -53,15 +55,26 @@ void CsvLog::write(const std::filesystem::path& path, const std::vector<std::str
     }
     out << line << '\n';
   }
+  out.close();
   if (!out) throw std::runtime_error(fmt::format("{}: write failed", path.string()));
+  config::write_csv_sidecar(path, {columns_, rows_, comments, {}});
 }
 
 std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::path& path, const std::vector<std::string>& names) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error(fmt::format("{}: cannot open the log", path.string()));
   std::string line;
-  while (std::getline(in, line) && line.rfind('#', 0) == 0) {
+  std::size_t line_no = 0;
+  bool have_header = false;
+  // Logs written before the sidecar began with `# ` lines: skipped, so old logs replay too.
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.rfind('#', 0) != 0) {
+      have_header = true;
+      break;
+    }
   }
+  if (!have_header) throw std::runtime_error(fmt::format("{}: no header row (expected the column names, e.g. t_s,...)", path.string()));
   std::vector<std::string> header;
   {
     std::stringstream ss(line);
@@ -75,6 +88,7 @@ std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::pat
   }
   std::vector<std::vector<double>> out(names.size());
   while (std::getline(in, line)) {
+    ++line_no;
     std::stringstream ss(line);
     std::string cell;
     for (std::ptrdiff_t i = 0; std::getline(ss, cell, ','); ++i) {
@@ -82,7 +96,7 @@ std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::pat
         if (index[c] != i) continue;
         char* end = nullptr;
         const double v = std::strtod(cell.c_str(), &end);
-        if (end == cell.c_str()) throw std::runtime_error(fmt::format("{}: column {}: '{}' is not a number", path.string(), names[c], cell));
+        if (end == cell.c_str()) throw std::runtime_error(fmt::format("{}:{}: column {}: expected a number, found '{}'", path.string(), line_no, names[c], cell));
         out[c].push_back(v);
       }
     }

@@ -1,5 +1,7 @@
 #include "peha/runtime/timing_stats.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -15,14 +17,18 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::ofstream open_for_writing(const std::filesystem::path& path) {
+  config::remove_csv_sidecar(path);
   std::ofstream out(path);
   if (!out) throw std::runtime_error(fmt::format("{}: cannot write timing statistics", path.string()));
   return out;
 }
 
-void check_written(const std::ofstream& out, const std::filesystem::path& path) {
+void check_written(std::ofstream& out, const std::filesystem::path& path) {
+  out.close();
   if (!out) throw std::runtime_error(fmt::format("{}: write failed", path.string()));
 }
+
+double as_double(std::uint64_t n) { return static_cast<double>(n); }
 
 }  // namespace
 
@@ -104,12 +110,15 @@ double Histogram::percentile(double p) const noexcept {
 
 void Histogram::write_csv(const std::filesystem::path& path) const {
   std::ofstream out = open_for_writing(path);
-  out << fmt::format("# count {}\n# min_s {:.9g}\n# mean_s {:.9g}\n# max_s {:.9g}\n", count_, min(), mean(), max());
   out << "lower_s,upper_s,count\n";
   for (std::size_t i = 0; i < counts_.size(); ++i) {
     out << fmt::format("{:.9g},{:.9g},{}\n", lower_s(i), upper_s(i), counts_[i]);
   }
   check_written(out, path);
+  config::write_csv_sidecar(path, {{"lower_s", "upper_s", "count"},
+                                   counts_.size(),
+                                   {"one row per bin [lower_s, upper_s): underflow first, overflow last"},
+                                   {{"count", as_double(count_)}, {"min_s", min()}, {"mean_s", mean()}, {"max_s", max()}}});
 }
 
 std::string LoopTiming::table() const {
@@ -133,9 +142,8 @@ void LoopTiming::write_csv(const std::filesystem::path& dir) const {
   std::filesystem::create_directories(dir);
   const std::filesystem::path summary = dir / "timing_summary.csv";
   std::ofstream out = open_for_writing(summary);
-  out << fmt::format("# cycles {}\n# overruns {}\n# deadline_misses {}\n# lost_packets {}\n", cycles, overruns,
-                     deadline_misses, lost_packets);
-  out << "name,count,min_s,mean_s,p50_s,p99_s,p99_9_s,max_s\n";
+  const std::vector<std::string> columns = {"name", "count", "min_s", "mean_s", "p50_s", "p99_s", "p99_9_s", "max_s"};
+  out << fmt::format("{}\n", fmt::join(columns, ","));
   const std::pair<const char*, const Histogram*> rows[] = {{"period", &period}, {"wake", &wake}, {"compute", &compute}, {"rtt", &rtt}};
   for (const auto& [name, h] : rows) {
     out << fmt::format("{},{},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", name, h->count(), h->min(), h->mean(),
@@ -143,14 +151,26 @@ void LoopTiming::write_csv(const std::filesystem::path& dir) const {
     h->write_csv(dir / fmt::format("timing_{}_hist.csv", name));
   }
   check_written(out, summary);
+  config::write_csv_sidecar(summary, {columns,
+                                      std::size(rows),
+                                      {"one row per histogram (timing_<name>_hist.csv); the loop's counters are the values"},
+                                      {{"cycles", as_double(cycles)},
+                                       {"overruns", as_double(overruns)},
+                                       {"deadline_misses", as_double(deadline_misses)},
+                                       {"lost_packets", as_double(lost_packets)}}});
   const std::filesystem::path events = dir / "timing_overruns.csv";
   std::ofstream ev = open_for_writing(events);
-  ev << fmt::format("# overruns {}, {} listed; max burst {} deadlines\n", overruns, overrun_events.size(), max_burst);
-  ev << "t_s,skipped,wake_late_s,work_s,rtt_s\n";
+  const std::vector<std::string> event_columns = {"t_s", "skipped", "wake_late_s", "work_s", "rtt_s"};
+  ev << fmt::format("{}\n", fmt::join(event_columns, ","));
   for (const OverrunEvent& e : overrun_events) {
     ev << fmt::format("{:.6f},{},{:.9g},{:.9g},{:.9g}\n", e.t_s, e.skipped, e.wake_late_s, e.work_s, e.rtt_s);
   }
   check_written(ev, events);
+  config::write_csv_sidecar(events, {event_columns,
+                                     overrun_events.size(),
+                                     {"one row per overrun listed (the capacity reserved before the loop); overruns counts them all, "
+                                      "max_burst is the most deadlines one of them skipped"},
+                                     {{"overruns", as_double(overruns)}, {"max_burst", as_double(max_burst)}}});
 }
 
 std::string LoopTiming::burst_summary(double period_s) const {

@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include <gmock/gmock.h>
+#include <yaml-cpp/yaml.h>
 
 #include <algorithm>
 #include <cmath>
@@ -86,12 +87,18 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
   EXPECT_TRUE(std::filesystem::exists(dir / "summary.csv"));
   std::ifstream log(dir / "e1_payload_2.5kg.csv");
   std::string line;
-  while (std::getline(log, line) && line.rfind('#', 0) == 0) {
-  }
-  EXPECT_EQ(line.rfind("t_s,angle_rad,", 0), 0u) << line;  // time first, units in the names
+  std::getline(log, line);
+  EXPECT_EQ(line.rfind("t_s,angle_rad,", 0), 0u) << line;  // the header first: time first, units in the names
   std::size_t rows = 0;
   while (std::getline(log, line)) ++rows;
   EXPECT_EQ(rows, 34001u);  // 34 s at 1 kHz, both ends
+  // The case, config and seed are in the sidecar, which the summary names.
+  const YAML::Node meta = YAML::LoadFile((dir / "e1_payload_2.5kg.csv.meta.json").string());
+  EXPECT_EQ(meta["rows"].as<std::size_t>(), rows);
+  EXPECT_EQ(meta["notes"][0].as<std::string>(), "case: payload_2.5kg (2.5 kg payload)");
+  EXPECT_EQ(meta["notes"][2].as<std::string>(), "seed: 1");
+  EXPECT_THAT(r.output, HasSubstr("\n  and 1 <csv>.meta.json beside the CSVs (case, config, seed, column units, rows), "
+                                  "e.g. e1_payload_2.5kg.csv.meta.json\n"));
   std::filesystem::remove_all(out);
 }
 

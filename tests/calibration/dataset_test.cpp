@@ -4,6 +4,8 @@
 
 #include "peha/calibration/dataset.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -396,21 +398,39 @@ TEST_F(DatasetTest, WriteThenReadRoundTripsExactly) {
   EXPECT_TRUE(r2.angle_rad.empty());
   EXPECT_EQ(r2.sha256, sha256_file(b));
 
+  // The header is the first line; the comments and the zero are in the sidecar.
   std::ifstream in(a);
-  std::string l1, l2, l3, l4, l5, header;
-  std::getline(in, l1);
-  std::getline(in, l2);
-  std::getline(in, l3);
-  std::getline(in, l4);
-  std::getline(in, l5);
+  std::string header;
   std::getline(in, header);
-  EXPECT_EQ(l1, "# written by dataset_test");
-  EXPECT_EQ(l2, "# two");
-  EXPECT_EQ(l3, "# lines");
-  EXPECT_EQ(l4, "# the load cell's reading with the muscle vented, already subtracted from force_N:");
-  EXPECT_EQ(l5, "# loadcell_zero_N: 40.125");
   EXPECT_EQ(header, "pressure_MPa,contraction,force_N,t_s,wire_velocity_mps");
   EXPECT_FALSE(fs::exists(dir_ / "a.csv.tmp"));
+  const YAML::Node meta = YAML::LoadFile((dir_ / "a.csv.meta.json").string());
+  EXPECT_EQ(meta["loadcell_zero_N"].as<double>(), 40.125);
+  EXPECT_EQ(meta["rows"].as<int>(), 80);
+  ASSERT_EQ(meta["notes"].size(), 3u);
+  EXPECT_EQ(meta["notes"][0].as<std::string>(), "written by dataset_test");
+  EXPECT_EQ(meta["notes"][1].as<std::string>(), "two\nlines");
+  EXPECT_EQ(meta["columns"][0]["unit"].as<std::string>(), "MPa");
+  // Without its sidecar the same CSV reads with zero 0: the zero came from there.
+  fs::remove(dir_ / "a.csv.meta.json");
+  EXPECT_EQ(read_dataset(a).loadcell_zero_N, 0.0);
+}
+
+// A recording written again over an older one: the old sidecar's zero never stays beside the new CSV.
+TEST_F(DatasetTest, RewritingReplacesTheSidecar) {
+  Dataset d;
+  for (int i = 0; i < 60; ++i) {
+    d.pressure_Pa.push_back(1e5 + 5e3 * i);
+    d.contraction.push_back(0.05);
+    d.force_N.push_back(10.0 + 5.0 * i);
+  }
+  const auto p = dir_ / "agonist.csv";
+  d.loadcell_zero_N = 7.5;
+  write_dataset(p, d, {"first"});
+  d.loadcell_zero_N = -3.25;
+  write_dataset(p, d, {"second"});
+  EXPECT_EQ(read_dataset(p).loadcell_zero_N, -3.25);
+  EXPECT_EQ(YAML::LoadFile((dir_ / "agonist.csv.meta.json").string())["notes"][0].as<std::string>(), "second");
 }
 
 // The recording's load-cell zero travels in one comment line; a bad or repeated one is refused
@@ -436,6 +456,37 @@ TEST_F(DatasetTest, LoadcellZeroCommentIsReadStrictly) {
   } catch (const DataError& e) {
     EXPECT_THAT(e.what(), HasSubstr("twice.csv:2: loadcell_zero_N given twice (first on line 1)"));
   }
+}
+
+// Today's recordings carry the zero in the sidecar <csv>.meta.json: read from there, refused with
+// the sidecar's line and column when out of range, and refused when an old '#' line gives it too.
+TEST_F(DatasetTest, LoadcellZeroFromTheSidecar) {
+  std::string rows = "pressure_MPa,contraction,force_N\n";
+  for (int i = 0; i < 60; ++i) rows += std::to_string(0.1 + 0.005 * i) + ",0.05," + std::to_string(10.0 + 5.0 * i) + "\n";
+  const auto sidecar = [&](const std::string& csv, const std::string& zero) {
+    write_file(csv + ".meta.json", "{\n  \"format\": \"peha-log-1\",\n  \"notes\": [],\n  \"loadcell_zero_N\": " + zero + "\n}\n");
+  };
+  sidecar("side.csv", "-12.5");
+  EXPECT_EQ(read_dataset(write_file("side.csv", rows)).loadcell_zero_N, -12.5);
+  write_file("nozero.csv.meta.json", "{\"format\": \"peha-log-1\", \"notes\": [\"festo map\"]}\n");
+  EXPECT_EQ(read_dataset(write_file("nozero.csv", rows)).loadcell_zero_N, 0.0);
+  sidecar("far.csv", "5000");
+  try {
+    (void)read_dataset(write_file("far.csv", rows));
+    ADD_FAILURE() << "accepted a zero of 5000 N";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("far.csv.meta.json:4:22: loadcell_zero_N: expected a number in [-1000, 1000], found 5000"));
+  }
+  sidecar("both.csv", "1");
+  try {
+    (void)read_dataset(write_file("both.csv", "# loadcell_zero_N: 1\n" + rows));
+    ADD_FAILURE() << "accepted the zero in two places";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("both.csv:1: loadcell_zero_N given twice: in this '#' line and in "));
+    EXPECT_THAT(e.what(), HasSubstr("both.csv.meta.json"));
+  }
+  write_file("foreign.csv.meta.json", "{\"format\": \"other\"}\n");
+  EXPECT_THROW((void)read_dataset(write_file("foreign.csv", rows)), DataError);
 }
 
 TEST_F(DatasetTest, WriteRejectsRaggedOrNonFiniteColumns) {

@@ -5,6 +5,8 @@
 #include "peha/calibration/dataset.hpp"
 #include "peha/models/units.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <gmock/gmock.h>
 #include "../support/verdict_checks.hpp"
 
@@ -167,6 +169,13 @@ TEST(E4, GoniometerCsvRoundTripsAndRejectsBadRecordings) {
   for (std::size_t k = 0; k < t.measured_rad.size(); ++k) EXPECT_NEAR(back.measured_rad[k], t.measured_rad[k], models::deg_to_rad(1e-4));
   EXPECT_EQ(back.truth_rad, back.measured_rad);
   EXPECT_EQ(back.name, "rec");
+  std::string first;
+  std::ifstream rec(dir / "rec.csv");
+  std::getline(rec, first);
+  EXPECT_EQ(first, "t_s,elbow_angle_deg");  // the header first; the rate in the sidecar
+  EXPECT_EQ(YAML::LoadFile((dir / "rec.csv.meta.json").string())["sample_rate_Hz"].as<double>(), 200.0);
+  { std::ofstream(dir / "old.csv") << "# goniometer recording 'old', 200 Hz\nt_s,elbow_angle_deg\n0,40\n0.005,41\n"; }
+  EXPECT_EQ(read_goniometer_csv(dir / "old.csv", 200.0, lo, hi).measured_rad.size(), 2u);  // older files: '#' lines skipped
 
   auto rejects = [&](const std::string& text, const std::string& message) {
     { std::ofstream(dir / "bad.csv") << text; }

@@ -1,5 +1,6 @@
 #include "peha/runtime/async_log.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/runtime/csv_log.hpp"
 
 #include <gtest/gtest.h>
@@ -39,14 +40,13 @@ struct Csv {
   std::vector<std::vector<double>> rows;
 };
 
+// The CSV (its first line the header) and the notes of its sidecar.
 Csv read_csv(const std::filesystem::path& path) {
   Csv csv;
   std::ifstream in(path);
   std::string line;
   while (std::getline(in, line)) {
-    if (line.rfind("# ", 0) == 0) {
-      csv.comments.push_back(line.substr(2));
-    } else if (csv.header.empty()) {
+    if (csv.header.empty()) {
       csv.header = line;
     } else {
       std::vector<double> row;
@@ -56,7 +56,18 @@ Csv read_csv(const std::filesystem::path& path) {
       csv.rows.push_back(row);
     }
   }
+  const std::filesystem::path meta = config::csv_sidecar_path(path);
+  if (std::filesystem::exists(meta)) {
+    for (const YAML::Node& note : YAML::LoadFile(meta.string())["notes"]) csv.comments.push_back(note.as<std::string>());
+  }
   return csv;
+}
+
+// The sidecar without its "file" field: two logs of the same rows and comments have the same one.
+YAML::Node sidecar_without_file(const std::filesystem::path& csv) {
+  YAML::Node meta = YAML::LoadFile(config::csv_sidecar_path(csv).string());
+  meta.remove("file");
+  return meta;
 }
 
 const std::vector<std::string> kColumns = {"t_s", "k", "force_N"};
@@ -65,13 +76,17 @@ const std::vector<std::string> kColumns = {"t_s", "k", "force_N"};
 std::array<double, 3> row_k(int k) { return {k * 1e-3, static_cast<double>(k), std::sin(k) * 1e3 / 3.0}; }
 
 // The files are byte for byte what CsvLog::write produces for the same rows, so every tool that
-// reads the existing logs (tools/plot_run.py) reads these.
+// reads the existing logs (tools/plot_run.py) reads these; so are their sidecars (but the file
+// name), the row count written at close. While the log is open, its sidecar has no row count yet.
 TEST(AsyncCsvLog, WritesTheSameFormatAsCsvLog) {
   const auto dir = fresh_dir("format");
   const std::vector<std::string> comments = {"scenario: unit test", "units: SI"};
   CsvLog reference(kColumns, 100);
   {
     AsyncCsvLog log(dir / "async.csv", kColumns, comments);
+    const YAML::Node open_meta = YAML::LoadFile(config::csv_sidecar_path(dir / "async.csv").string());
+    EXPECT_FALSE(open_meta["rows"]);
+    EXPECT_EQ(open_meta["notes"].size(), 2u);
     for (int k = 0; k < 100; ++k) {
       auto r = row_k(k);
       r[2] = k == 7 ? -0.0 : k == 8 ? 1e-300 : k == 9 ? -123456789012.0 : r[2];
@@ -82,6 +97,9 @@ TEST(AsyncCsvLog, WritesTheSameFormatAsCsvLog) {
   }
   reference.write(dir / "reference.csv", comments);
   EXPECT_EQ(read_text(dir / "async.csv"), read_text(dir / "reference.csv"));
+  EXPECT_EQ(YAML::Dump(sidecar_without_file(dir / "async.csv")), YAML::Dump(sidecar_without_file(dir / "reference.csv")));
+  EXPECT_EQ(sidecar_without_file(dir / "async.csv")["rows"].as<int>(), 100);
+  EXPECT_EQ(read_text(dir / "async.csv").rfind("t_s,k,force_N\n", 0), 0u);
 }
 
 // 20 000 rows pushed in bursts of 1000 back to back (a 1 kHz loop's 20 s, pushed as fast as the
@@ -133,6 +151,7 @@ void expect_dump_of_rows(const std::filesystem::path& path, int first_k, int las
   bool reason_found = false;
   for (const std::string& c : dump.comments) reason_found = reason_found || c == "reason: " + reason;
   EXPECT_TRUE(reason_found) << read_text(path);
+  EXPECT_EQ(YAML::LoadFile(config::csv_sidecar_path(path).string())["rows"].as<int>(), last_k - first_k + 1);
 }
 
 // Fault requested after row 699: the dump holds rows 650..699 (the 50-row window), none of the

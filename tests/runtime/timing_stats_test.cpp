@@ -1,5 +1,7 @@
 #include "peha/runtime/timing_stats.hpp"
 
+#include "peha/config/csv_sidecar.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -80,7 +82,6 @@ TEST(Histogram, WritesEveryBinToCsv) {
   std::size_t rows = 0;
   bool header_seen = false;
   while (std::getline(in, line)) {
-    if (line.empty() || line[0] == '#') continue;
     if (!header_seen) {
       EXPECT_EQ(line, "lower_s,upper_s,count");
       header_seen = true;
@@ -91,6 +92,12 @@ TEST(Histogram, WritesEveryBinToCsv) {
   }
   EXPECT_EQ(rows, h.bin_count());
   EXPECT_EQ(total, 1000u);
+  // The figures the `#` lines held are numbers in the sidecar.
+  const YAML::Node meta = YAML::LoadFile(config::csv_sidecar_path(path).string());
+  EXPECT_EQ(meta["count"].as<int>(), 1000);
+  EXPECT_EQ(meta["min_s"].as<double>(), h.min());  // shortest round-trip text: the same double
+  EXPECT_EQ(meta["max_s"].as<double>(), h.max());
+  EXPECT_EQ(meta["rows"].as<std::size_t>(), h.bin_count());
 }
 
 TEST(LoopTiming, TablesAndWritesTheLoopStatistics) {
@@ -115,8 +122,13 @@ TEST(LoopTiming, TablesAndWritesTheLoopStatistics) {
   std::ifstream in(dir / "timing_summary.csv");
   std::stringstream text;
   text << in.rdbuf();
-  EXPECT_NE(text.str().find("# deadline_misses 3"), std::string::npos);
-  EXPECT_NE(text.str().find("\nperiod,1000,"), std::string::npos);
+  EXPECT_EQ(text.str().rfind("name,count,min_s,mean_s,p50_s,p99_s,p99_9_s,max_s\nperiod,1000,", 0), 0u) << text.str();
+  const YAML::Node meta = YAML::LoadFile(config::csv_sidecar_path(dir / "timing_summary.csv").string());
+  EXPECT_EQ(meta["cycles"].as<int>(), 1000);
+  EXPECT_EQ(meta["overruns"].as<int>(), 2);
+  EXPECT_EQ(meta["deadline_misses"].as<int>(), 3);
+  EXPECT_EQ(meta["lost_packets"].as<int>(), 0);
+  EXPECT_EQ(YAML::LoadFile(config::csv_sidecar_path(dir / "timing_overruns.csv").string())["overruns"].as<int>(), 2);
 }
 
 }  // namespace

@@ -2,9 +2,11 @@
 /// \file
 /// Calibration data (SPEC §3): a CSV with a header row of named columns with units.
 /// Required: `pressure_MPa`, `contraction`, `force_N`; optional: `t_s`, `angle_rad`,
-/// `wire_velocity_mps`. Lines starting with `#` are comments; the one `# loadcell_zero_N: <N>` carries
-/// the load-cell zero the recording subtracted. Anything else is an error that names
-/// the file, line and column. The reader also rejects data that cannot be a calibration: NaN/inf,
+/// `wire_velocity_mps`. The load-cell zero the recording subtracted is `loadcell_zero_N` in the
+/// sidecar `<csv>.meta.json` (config/csv_sidecar.hpp) that write_dataset writes. Lines starting with
+/// `#` are comments, as in older recordings and the Festo maps; the one `# loadcell_zero_N: <N>`
+/// of an older recording carries the zero (in one place only: both is an error). Anything else is
+/// an error that names the file, line and column. The reader also rejects data that cannot be a calibration: NaN/inf,
 /// unit mistakes (pressure in kPa or Pa under a `pressure_MPa` header, contraction in percent,
 /// negative pressures beyond noise), too few rows, no excitation. Nothing half-read is returned.
 
@@ -31,7 +33,8 @@ struct Dataset {
   std::vector<double> angle_rad;         ///< joint angle, rad (empty if absent)
   std::vector<double> wire_velocity_mps; ///< wire velocity, m/s (empty if absent)
   /// The load cell's reading with its muscle vented (zero force), N, which the recording has
-  /// already subtracted from force_N (its start-up tare); 0 when no tare ran. In the file: the
+  /// already subtracted from force_N (its start-up tare); 0 when no tare ran (or the file says
+  /// nothing). On disk: `loadcell_zero_N` in the sidecar `<csv>.meta.json`, or an older recording's
   /// comment line `# loadcell_zero_N: <number>`.
   double loadcell_zero_N = 0.0;
   std::string source;                    ///< file it came from
@@ -49,7 +52,9 @@ struct DatasetRules {
 /// Reads and validates a calibration CSV; throws DataError naming file, line, column and reason.
 Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rules = {});
 
-/// Writes `data` as a calibration CSV (pressure in MPa) with `comments` as leading `#` lines.
+/// Writes `data` as a calibration CSV (pressure in MPa), the header its first line, through a
+/// temporary renamed into place; then `comments` and `loadcell_zero_N` to its sidecar
+/// `<path>.meta.json`. Throws DataError naming the file.
 void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments);
 
 /// Hex SHA-256 of a file's bytes.

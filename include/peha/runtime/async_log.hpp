@@ -3,8 +3,9 @@
 /// The per-cycle CSV log of a real-time run: the loop hands each row to a lock-free ring
 /// (`push`, never blocks, never allocates) and a non-real-time writer thread turns the rows into
 /// CSV on disk with buffered I/O, so a slow disk can never stall the loop. The file has the format
-/// of `CsvLog::write` (csv_log.hpp): `# ` comment lines, the column names, then one line per row,
-/// values as `{:.9g}`, time first.
+/// of `CsvLog::write` (csv_log.hpp): the column names first, then one line per row, values as
+/// `{:.9g}`, time first; the comments go to the sidecar `<path>.meta.json` (config/csv_sidecar.hpp),
+/// written when the log opens and again, with the row count, when it closes.
 ///
 /// Fault window. The writer also keeps the last `fault_window_rows` rows it wrote in a preallocated
 /// ring (writer side: `push` stays a single copy into the queue, and the window needs no locking).
@@ -39,8 +40,8 @@ class AsyncCsvLog {
   static constexpr std::size_t kMaxColumns = 192;
   static constexpr std::size_t kMaxReasonChars = 127;  ///< longer fault reasons are truncated
 
-  /// Opens `path` (throws std::runtime_error if it cannot), writes `comments` as `# ` lines and the
-  /// column names, and starts the writer thread. `columns`: names with units, 1..kMaxColumns, the
+  /// Opens `path` (throws std::runtime_error if it cannot), writes the column names, `comments` to
+  /// the sidecar `<path>.meta.json`, and starts the writer thread. `columns`: names with units, 1..kMaxColumns, the
   /// first being the time in seconds (its name ends in "_s", e.g. "t_s"); throws
   /// std::invalid_argument otherwise. `capacity_rows` (rounded up to a power of two) is the queue
   /// between loop and writer: at 1 kHz, 4096 rows ride out a 4 s disk stall. `fault_window_rows`
@@ -59,16 +60,17 @@ class AsyncCsvLog {
 
   /// Loop thread. Asks the writer to write the last `fault_window_rows` rows pushed so far to
   /// `<dir>/<stem>_fault_<t>s.csv` next to the log (t = time of the last row pushed, 3 decimals;
-  /// `_2`, `_3`... appended if taken), with `reason` (copied, truncated to kMaxReasonChars) in a
-  /// comment. Returns false if too many requests are pending (8; counted in dropped_fault_requests).
+  /// `_2`, `_3`... appended if taken), with `reason` (copied, truncated to kMaxReasonChars) in the
+  /// notes of its sidecar. Returns false if too many requests are pending (8; counted in dropped_fault_requests).
   bool request_fault_dump(const char* reason) noexcept;
 
   /// Waits until everything pushed and requested before the call is on disk (fflush, no fsync).
   /// Returns false on timeout (e.g. while the writer is paused).
   bool flush(std::chrono::milliseconds timeout = std::chrono::seconds(10));
 
-  /// Writes everything still queued (rows and fault dumps), flushes, closes the file and joins the
-  /// writer. Idempotent. Throws std::runtime_error if any write failed during the run.
+  /// Writes everything still queued (rows and fault dumps), flushes, closes the file, joins the
+  /// writer and rewrites the sidecar with the rows written. Idempotent. Throws std::runtime_error
+  /// if any write failed during the run.
   void close();
 
   const std::filesystem::path& path() const noexcept { return path_; }
@@ -137,6 +139,7 @@ class AsyncCsvLog {
   std::vector<std::filesystem::path> dumps_;  ///< guarded by mutex_
   std::string error_;                         ///< first I/O error, guarded by mutex_
   bool error_thrown_ = false;                 ///< close() threw it already; guarded by mutex_
+  bool sidecar_final_ = false;                ///< close() wrote the sidecar with the row count; guarded by mutex_
   DrainThread writer_;                        ///< last: started after, stopped before, everything above
 };
 

@@ -34,7 +34,10 @@ class CsvLog final : public RowSink {
   void clear() noexcept { rows_ = 0; row_offset_ = 0; }
   double at(std::size_t row, std::size_t column) const { return values_[row * columns_.size() + column]; }
   std::size_t column(const std::string& name) const;  ///< index by name; throws if absent
-  /// Writes the header (preceded by `# ` comment lines) and all rows. Throws on I/O failure.
+  /// Writes the header, as the first line, and all rows; then `comments` (case, config, seed, units
+  /// notes), the columns with their units and the row count to the sidecar `<path>.meta.json`
+  /// (config/csv_sidecar.hpp), so the CSV opens unmodified in numpy, pandas and PlotJuggler. Throws
+  /// on I/O failure.
   void write(const std::filesystem::path& path, const std::vector<std::string>& comments) const;
 
  private:
@@ -53,9 +56,10 @@ inline constexpr std::size_t kMaxLogValueChars = 32;
 /// schedule's edge); every other column in 9 significant digits. noexcept, no allocation.
 char* format_log_value(char* out, std::size_t column, double value) noexcept;
 
-/// Reads the columns `names` of a log in this format (`# ` comment lines, the column names, rows;
-/// CsvLog::write, AsyncCsvLog), one vector per name in that order; a name the file lacks gives an
-/// empty vector. Throws std::runtime_error on a file it cannot open or a cell that is not a number.
+/// Reads the columns `names` of a log in this format (the column names, rows; CsvLog::write,
+/// AsyncCsvLog; `# ` lines before the header, as logs had before the sidecar, are skipped), one
+/// vector per name in that order; a name the file lacks gives an empty vector. Throws
+/// std::runtime_error on a file it cannot open, one without a header or a cell that is not a number.
 std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::path& path, const std::vector<std::string>& names);
 
 }  // namespace peha::runtime

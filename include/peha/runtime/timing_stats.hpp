@@ -40,8 +40,8 @@ class Histogram {
   double lower_s(std::size_t i) const noexcept;  ///< 0 for the underflow bin
   double upper_s(std::size_t i) const noexcept;  ///< +inf for the overflow bin
 
-  /// Writes `lower_s,upper_s,count`, one line per bin (all bins), after `# ` lines with count, min,
-  /// mean, max. Throws std::runtime_error on I/O failure.
+  /// Writes `lower_s,upper_s,count`, one line per bin (all bins), the header first; count, min_s,
+  /// mean_s and max_s go to the sidecar `<path>.meta.json`. Throws std::runtime_error on I/O failure.
   void write_csv(const std::filesystem::path& path) const;
 
  private:
@@ -93,8 +93,9 @@ struct LoopTiming {
   /// One line on the misses' structure: overruns, how many deadlines the largest skipped, how many
   /// skipped more than one, and how many began with a late wake-up (>= one period) vs long work.
   std::string burst_summary(double period_s) const;
-  /// Writes timing_summary.csv (one row per histogram, counters in `#` lines) and
-  /// timing_<name>_hist.csv for each histogram into `dir` (created if missing).
+  /// Writes timing_summary.csv (one row per histogram; the counters in its sidecar
+  /// timing_summary.csv.meta.json), timing_overruns.csv and timing_<name>_hist.csv for each
+  /// histogram into `dir` (created if missing), each with its sidecar.
   void write_csv(const std::filesystem::path& dir) const;
 };
 

@@ -16,8 +16,8 @@
 
 namespace peha::video {
 
-/// A run's per-cycle CSV: column name -> values (lines starting with '#' skipped). Throws
-/// std::runtime_error naming the file and line on a malformed row.
+/// A run's per-cycle CSV: column name -> values (the header first; '#' lines, as older logs have,
+/// skipped). Throws std::runtime_error naming the file and line on a malformed row.
 struct LogTable {
   std::vector<std::string> names;
   std::map<std::string, std::vector<double>> columns;

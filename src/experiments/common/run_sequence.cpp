@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cstdio>
+#include <filesystem>
 
 namespace peha::experiments {
 namespace {
@@ -12,6 +13,23 @@ std::string joined(const std::vector<std::string>& names) {
   std::string out;
   for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
   return out;
+}
+
+/// Names the sidecars (`<csv>.meta.json`: case, config, seed, column units, rows) the run wrote
+/// beside its CSVs, under the line that lists the files: every experiment's, whatever it wrote.
+void print_sidecars(const std::filesystem::path& dir) {
+  std::size_t count = 0;
+  std::string first;
+  std::error_code ec;
+  for (auto it = std::filesystem::recursive_directory_iterator(dir, ec); !ec && it != std::filesystem::recursive_directory_iterator();
+       it.increment(ec)) {
+    const std::string name = std::filesystem::relative(it->path(), dir, ec).string();
+    if (!name.ends_with(".csv.meta.json")) continue;
+    ++count;
+    if (first.empty() || name < first) first = name;
+  }
+  if (count == 0) return;
+  fmt::print("  and {} <csv>.meta.json beside the CSVs (case, config, seed, column units, rows), e.g. {}\n", count, first);
 }
 
 /// The indices of the cases --case selects (all when none is given); empty after a message.
@@ -60,6 +78,7 @@ int run_sequence(const config::Document& doc, const RunRequest& request, Experim
   }
   const Conclusion c = experiment.conclude(ctx);
   fmt::print("\nwritten: {}/{}\n", ctx.dir.string(), c.written);
+  print_sidecars(ctx.dir);
   if (request.plot && !c.plot_tool.empty()) plot_with(c.plot_tool.c_str(), ctx.dir, c.plot_args);
   if (c.comparison_failures > 0) {
     fmt::print("expected: {} figure{} failed in {} (shown for comparison, not judged)\n", c.comparison_failures,

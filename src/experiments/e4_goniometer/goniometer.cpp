@@ -1,6 +1,7 @@
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
 
 #include "peha/calibration/dataset.hpp"
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/models/joint.hpp"
@@ -176,14 +177,19 @@ GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sa
 }
 
 void write_goniometer_csv(const std::filesystem::path& path, const GoniometerTrace& trace) {
+  config::remove_csv_sidecar(path);
   std::ofstream out(path);
-  out << fmt::format("# goniometer recording '{}', {} Hz; read by peha run --experiment goniometer --goniometer-csv\n", trace.name,
-                     trace.sample_rate_Hz);
   out << "t_s,elbow_angle_deg\n";
   for (std::size_t k = 0; k < trace.measured_rad.size(); ++k) {
     out << fmt::format("{:.4f},{:.4f}\n", static_cast<double>(k) / trace.sample_rate_Hz, models::rad_to_deg(trace.measured_rad[k]));
   }
+  out.close();
   if (!out) throw calibration::DataError(fmt::format("{}: write failed", path.string()));
+  config::write_csv_sidecar(path, {{"t_s", "elbow_angle_deg"},
+                                   trace.measured_rad.size(),
+                                   {fmt::format("goniometer recording '{}', {} Hz; read by peha run --experiment goniometer --goniometer-csv",
+                                                trace.name, trace.sample_rate_Hz)},
+                                   {{"sample_rate_Hz", trace.sample_rate_Hz}}});
 }
 
 const char* to_string(GoniometerVariant v) { return v == GoniometerVariant::kOpenLoop ? "open_loop" : "feedback"; }

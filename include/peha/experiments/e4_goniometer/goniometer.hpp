@@ -46,14 +46,15 @@ std::vector<GoniometerTrace> synthesize_goniometers(const ArmScenario::Goniomete
 /// The noise seed of the k-th driven joint's goniometer: `seed` for k = 0.
 std::uint64_t goniometer_noise_seed(std::uint64_t seed, std::size_t k) noexcept;
 
-/// Reads a recorded goniometer CSV (`#` comment lines, a header with `t_s` and one of
-/// `elbow_angle_deg` / `elbow_angle_rad`, then rows). The samples must be evenly spaced at
+/// Reads a recorded goniometer CSV (a header with `t_s` and one of `elbow_angle_deg` /
+/// `elbow_angle_rad`, then rows; `#` lines, as older recordings have, are skipped). The samples must be evenly spaced at
 /// `sample_rate_Hz` (within 2 %), finite and inside [min_rad, max_rad] (the exoskeleton's elbow
 /// range). Throws calibration::DataError naming file, line and column; nothing is half-read.
 GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sample_rate_Hz, double min_rad,
                                     double max_rad);
 
-/// Writes `trace.measured_rad` in the format read_goniometer_csv reads (t_s, elbow_angle_deg).
+/// Writes `trace.measured_rad` in the format read_goniometer_csv reads (t_s, elbow_angle_deg), the
+/// header first; the recording's name and sample rate go to the sidecar `<path>.meta.json`.
 void write_goniometer_csv(const std::filesystem::path& path, const GoniometerTrace& trace);
 
 /// How each driven joint's torque is made from its goniometer.
