@@ -217,7 +217,9 @@ TEST(E4, CliReplaysARecordedGoniometerFile) {
     return std::make_pair(WEXITSTATUS(pclose(pipe)), out);
   };
   const auto [code, out] = run("--goniometer-csv " + (dir / "short.csv").string());
-  ASSERT_EQ(code, 3) << out;  // the ran-and-judged code: pure replay fails its tracking figures
+  // Pure replay (open loop) fails its tracking figures: the paper's comparison, labelled, not judged.
+  ASSERT_EQ(code, 0) << out;
+  EXPECT_THAT(out, ::testing::HasSubstr("figures failed in the open-loop variant"));
   EXPECT_THAT(out, ::testing::HasSubstr("recording: "));
   EXPECT_TRUE(std::filesystem::exists(dir / "r" / "e4_short_open_loop.csv"));
   EXPECT_TRUE(std::filesystem::exists(dir / "r" / "e4_short_feedback.csv"));
