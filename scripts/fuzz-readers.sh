@@ -19,7 +19,7 @@ fi
 # the same flags on this machine, so AVX2 for all of it is consistent (it needs an AVX2 CPU).
 flags=(-std=c++20 -g -O1 -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all -Wall -Wextra -I include
        -I /usr/include/eigen3 -mavx2)
-config_src=(src/config/reader.cpp src/config/atomic_file.cpp src/config/csv_sidecar.cpp)
+config_src=(src/config/reader.cpp src/config/atomic_file.cpp src/config/csv_sidecar.cpp src/config/input_file.cpp)
 calibration_src=(src/calibration/dataset.cpp src/calibration/calibration_file.cpp src/calibration/spgp.cpp
                  src/models/tendon_spring.cpp src/models/joint.cpp src/models/bowden.cpp)
 build() {  # name, sources..., libraries after --

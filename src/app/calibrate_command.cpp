@@ -21,7 +21,12 @@ int calibrate(const CalibrateCommandOptions& options) {
       fmt::print(stderr, "error: --other-calibration is for the closed-loop check: it needs --scenario\n");
       return 2;
     }
-    refuse_output_equal_to_input(options.out, {options.data, options.other_calibration});
+    std::vector<std::filesystem::path> inputs = {options.data, options.other_calibration};
+    if (!options.scenario.empty()) {
+      const std::vector<std::filesystem::path> more = scenario_inputs(options.scenario);
+      inputs.insert(inputs.end(), more.begin(), more.end());
+    }
+    refuse_unsafe_output(options.out, inputs);
     const calibration::Dataset data = calibration::read_dataset(options.data, rules);
     calibration::CalibrateOptions o;
     o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;

@@ -1,5 +1,6 @@
 // `peha mfb-emulator`: the board's side of the MFB protocol in front of the scenario's simulated
 // plant (from the registry), until a signal, --max-runtime or --sessions.
+#include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
 #include "peha/io/udp_socket.hpp"
@@ -147,6 +148,7 @@ int serve_boards(BoardPlant& plant, const EmulatorOptions& options) {
 int mfb_emulator(const EmulatorOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
+    if (!options.truth_csv.empty()) refuse_unsafe_output(options.truth_csv, scenario_inputs(options.config), "--truth-csv");
     std::optional<BoardPlant> plant = find_experiment(doc).emulator(doc, {options.case_name, options.seed});
     if (!plant) return 2;
     if (plant->link.boards.size() > 1) {

@@ -3,6 +3,7 @@
 #include "peha/app/cli_checks.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/calibration/dataset.hpp"
+#include "peha/config/input_file.hpp"
 #include "peha/config/reader.hpp"
 
 #include <fmt/format.h>
@@ -23,6 +24,9 @@ int with_exit_codes(const std::function<int()>& body) {
     return 2;
   } catch (const calibration::DataError& e) {
     fmt::print(stderr, "data error: {}\n", e.what());
+    return 2;
+  } catch (const config::InputFileError& e) {
+    fmt::print(stderr, "input error: {}\n", e.what());
     return 2;
   } catch (const std::exception& e) {
     fmt::print(stderr, "error: {}\n", e.what());

@@ -32,7 +32,7 @@ int link_faults(const FaultsOptions& options, const config::Document& doc) {
   if (!options.moments.empty() || !options.kinds.empty()) throw UsageError("--link runs the link's faults: --moment and --fault-kind are for the in-process matrix");
   const experiments::E1Scenario e1 = experiments::read_e1(doc);
   if (!e1.link) throw UsageError(fmt::format("--link: {} has no mfb: section (channel map, key, watchdogs)", doc.name()));
-  RunDir run_dir(options.config, options.out_root, options.run_name);
+  RunDir run_dir(options.config, options.out_root, options.run_name, scenario_inputs(options.config));
   experiments::LinkFaultOptions o;
   o.peha_binary = std::filesystem::read_symlink("/proc/self/exe");
   o.config = std::filesystem::absolute(options.config);
@@ -59,8 +59,8 @@ int link_faults(const FaultsOptions& options, const config::Document& doc) {
   experiments::write_link_faults(o.dir, rows, doc.name(), o);
   std::size_t missed = 0;
   for (const auto& r : rows) missed += !r.outcome_met();
-  fmt::print("\nrows: {}; designed outcome missed: {}\nwritten: {}/faults_link.md, faults_link.csv\n", rows.size(), missed, o.dir.string());
-  run_dir.link_latest();
+  run_dir.commit();
+  fmt::print("\nrows: {}; designed outcome missed: {}\nwritten: {}/faults_link.md, faults_link.csv\n", rows.size(), missed, run_dir.path().string());
   return missed == 0 ? 0 : 3;
 }
 
@@ -100,7 +100,7 @@ int faults(const FaultsOptions& options) {
       e1 = experiments::read_e1(doc);
       check_moments(m.moments, experiments::e1_fault_moments(*e1), "E1");
     }
-    RunDir run_dir(options.config, options.out_root, options.run_name);
+    RunDir run_dir(options.config, options.out_root, options.run_name, scenario_inputs(options.config));
     const std::filesystem::path dir = run_dir.create(arm ? e3->seed : e1->seed);
     fmt::print("peha faults: {} ({} in process, plausibility stage on{}); output {}\n", doc.name(), arm ? "E3 postures on the arm scenario" : "E1",
                arm ? fmt::format(", faults on {}", experiments::kE3FaultJoint) : std::string(), dir.string());
@@ -133,7 +133,8 @@ int faults(const FaultsOptions& options) {
                "({} physics forbids, {} misses of the designed outcome)\nwritten: {}/faults.md, faults.csv\n",
                false_alarm ? "YES" : "no", missed, slow, exceeded, forbidden, exceeded - forbidden, dir.string());
     if (options.plot) experiments::plot_with("plot_faults.py", dir);
-    run_dir.link_latest();
+    run_dir.commit();
+    fmt::print("run folder: {}\n", run_dir.path().string());
     return false_alarm + missed + slow + (exceeded - forbidden) == 0 ? 0 : 3;
   });
 }

@@ -16,7 +16,9 @@ int identify_gravity(const IdentifyGravityOptions& options) {
   return with_exit_codes([&] {
     const config::Document doc = config::Document::load_file(options.config);
     experiments::ArmScenario scenario = experiments::read_arm_scenario(doc);
-    refuse_output_equal_to_input(options.out, {options.config, scenario.gravity_identification_file});
+    std::vector<std::filesystem::path> inputs = scenario_inputs(options.config);
+    inputs.push_back(scenario.gravity_identification_file);
+    refuse_unsafe_output(options.out, inputs);
     if (!scenario.faults.empty()) {
       fmt::print(stderr, "config error: {}: its faults: list is injected in E3 (--experiment postures) only, not in the "
                          "identification: remove it for this run\n", options.config.string());

@@ -22,8 +22,11 @@ namespace peha::app {
 
 int record_calibration(const RecordOptions& options) {
   return with_exit_codes([&] {
-    refuse_output_equal_to_input(options.out, {options.config});
     const config::Document doc = config::Document::load_file(options.config);
+    // The CSV, and on the board its cycles log beside it: neither may replace what the scenario reads.
+    const std::vector<std::filesystem::path> inputs = scenario_inputs(options.config);
+    refuse_unsafe_output(options.out, inputs);
+    refuse_unsafe_output(std::filesystem::path(options.out).replace_extension(".cycles.csv"), inputs, "--out (its .cycles.csv)");
     experiments::E1Scenario scenario = experiments::read_e1(doc);
     const int index = options.muscle == "agonist" ? 0 : 1;
     if (!scenario.excitation[index]) {

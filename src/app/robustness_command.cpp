@@ -1,5 +1,6 @@
 // `peha robustness`: the robustness matrix (plant variants x payloads x modes x seeds), its table,
 // CSV and heat map.
+#include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/app/run_dir.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
@@ -32,7 +33,7 @@ int robustness(const RobustnessOptions& options) {
         return 2;
       }
     }
-    RunDir run_dir(options.config, options.out_root, options.run_name);
+    RunDir run_dir(options.config, options.out_root, options.run_name, scenario_inputs(options.config));
     const std::filesystem::path dir = run_dir.create(config.seeds.front());
     if (options.keep_calibrations) {
       config.keep_calibrations_dir = dir / "calibrations";
@@ -62,7 +63,8 @@ int robustness(const RobustnessOptions& options) {
     }
     fmt::print("written: {}/robustness.md, robustness.csv, config.yaml\n", dir.string());
     if (options.plot) experiments::plot_with("plot_robustness.py", dir);
-    run_dir.link_latest();
+    run_dir.commit();
+    fmt::print("run folder: {}\n", run_dir.path().string());
     return met ? 0 : 3;
   });
 }

@@ -1,5 +1,6 @@
 // `peha run`: the scenario's experiment from the registry, the options checked against what it
 // takes, the run directory, the run.
+#include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
 #include "peha/app/run_dir.hpp"
@@ -160,8 +161,15 @@ int run(const RunOptions& options) {
       fmt::print(stderr, "error: {}\n", refused);
       return 2;
     }
+    // What the run reads; the run folder may not hold any of it (committing would replace it).
+    std::vector<std::filesystem::path> inputs = scenario_inputs(options.config);
+    for (const std::filesystem::path& p : {options.calibration[0], options.calibration[1], options.goniometer_csv,
+                                           options.gravity_identification}) {
+      if (!p.empty()) inputs.push_back(p);
+    }
+    if (backend.kind == hardware::BackendKind::kReplay) inputs.push_back(backend.replay_log);
     // The experiment opens the run directory once it has loaded and checked everything.
-    RunDir run_dir(options.config, options.out_root, options.run_name);
+    RunDir run_dir(options.config, options.out_root, options.run_name, inputs);
     experiments::RunRequest request = make_request(options);
     request.open_run_dir = [&run_dir](std::uint64_t seed) { return run_dir.create(seed); };
     std::unique_ptr<experiments::ExperimentRun> experiment;
@@ -173,7 +181,12 @@ int run(const RunOptions& options) {
     }
     const int code = experiments::run_sequence(doc, request, *experiment);
     if (run_dir.created() && options.video) write_run_videos(doc, entry.key, run_dir.path());
-    if (run_dir.created()) run_dir.link_latest();
+    // A run that ended with its verdict (passed or failed) is a result; one that stopped on an
+    // error stays in its partial folder (RunDir says where) and leaves the earlier run as it was.
+    if (run_dir.created() && (code == 0 || code == 3)) {
+      run_dir.commit();
+      fmt::print("run folder: {}\n", run_dir.path().string());
+    }
     return code;
   });
 }

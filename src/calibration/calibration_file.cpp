@@ -2,6 +2,7 @@
 
 #include "peha/calibration/dataset.hpp"
 #include "peha/config/atomic_file.hpp"
+#include "peha/config/input_file.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/models/units.hpp"
 
@@ -12,6 +13,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <stdexcept>
 
 namespace peha::calibration {
@@ -51,6 +53,124 @@ Span read_span(config::Map& map, const char* key) {
   const std::vector<double> v = map.numbers(key, {-kBig, kBig}, 2, 2);
   if (v[0] > v[1]) map.fail(key, fmt::format("expected [min, max], found [{}, {}]", v[0], v[1]));
   return {v[0], v[1]};
+}
+
+// The scheme of the integrity section; a file with another (or none) is refused.
+constexpr const char* kIntegrityScheme = "peha-calibration-sha256-v1";
+
+// The canonical serialisation of one YAML value: one line `path=value` per scalar, map keys in
+// sorted order, list items by index, numbers as the shortest text that reads back to the same
+// double. So the hash is of the parameters' values, not of their spelling: re-indenting, reordering
+// keys or writing 1e3 for 1000 changes nothing; any changed value, key or list length does.
+void canonical_lines(const YAML::Node& node, const std::string& path, std::string& out) {
+  switch (node.Type()) {
+    case YAML::NodeType::Map: {
+      // Keys sorted as strings, values looked up again: a YAML::Node assigned to (as std::sort
+      // would) overwrites the node it refers to.
+      std::vector<std::string> keys;
+      for (const auto& kv : node) keys.push_back(kv.first.as<std::string>());
+      std::sort(keys.begin(), keys.end());
+      out += path + "={}\n";
+      for (const std::string& key : keys) canonical_lines(node[key], path + "." + key, out);
+      break;
+    }
+    case YAML::NodeType::Sequence:
+      out += fmt::format("{}=[{}]\n", path, node.size());
+      for (std::size_t i = 0; i < node.size(); ++i) canonical_lines(node[i], fmt::format("{}[{}]", path, i), out);
+      break;
+    case YAML::NodeType::Scalar: {
+      double v = 0;
+      out += path + "=" + (config::parse_decimal(node.Scalar(), v) ? fmt::format("{}", v) : "'" + node.Scalar() + "'") + "\n";
+      break;
+    }
+    default:
+      out += path + "=~\n";
+  }
+}
+
+// The hash of each top-level section (every key but `integrity`) and the one over them all.
+struct Hashes {
+  std::map<std::string, std::string> sections;
+  std::string overall;
+};
+
+Hashes hash_sections(const YAML::Node& root) {
+  Hashes h;
+  for (const auto& kv : root) {
+    const std::string key = kv.first.as<std::string>();
+    if (key == "integrity") continue;
+    std::string lines;
+    canonical_lines(kv.second, key, lines);
+    h.sections[key] = sha256_hex(lines);
+  }
+  std::string all = std::string(kIntegrityScheme) + "\n";
+  for (const auto& [key, hash] : h.sections) all += key + " " + hash + "\n";
+  h.overall = sha256_hex(all);
+  return h;
+}
+
+// Where a calibration's data file is: as written (relative to where `peha calibrate` ran), else
+// that path beside the calibration file, else its name beside the calibration file (the pair moved
+// together); the first that exists, or the path as written.
+std::filesystem::path data_path(const MuscleCalibration& c, const std::filesystem::path& calibration_file) {
+  const std::filesystem::path written = c.data_file;
+  if (written.is_absolute()) return written;
+  for (const std::filesystem::path& p : {written, calibration_file.parent_path() / written, calibration_file.parent_path() / written.filename()}) {
+    std::error_code ec;
+    if (std::filesystem::exists(p, ec)) return p;
+  }
+  return written;
+}
+
+// Refuses a file whose integrity section is absent, or whose parameters or data differ from what
+// `peha calibrate` hashed.
+void check_integrity(const YAML::Node& root, const MuscleCalibration& c, const std::filesystem::path& path) {
+  const std::string file = path.string();
+  const auto refuse = [&](const std::string& why) { throw CalibrationRejected(fmt::format("{}: {}", file, why)); };
+  const YAML::Node integrity = root["integrity"];
+  if (!integrity) {
+    refuse("no integrity: section: the file was written before calibration files carried a hash over their parameters "
+           "and data (or not by peha calibrate); re-run `peha calibrate` on its data to make a checked file");
+  }
+  const std::string scheme = integrity["scheme"] ? integrity["scheme"].as<std::string>() : "";
+  if (scheme != kIntegrityScheme) {
+    refuse(fmt::format("integrity.scheme is '{}', expected '{}'; re-run `peha calibrate`", scheme, kIntegrityScheme));
+  }
+  const YAML::Node listed = integrity["sections"];
+  if (!listed || !listed.IsMap() || !integrity["sha256"]) refuse("integrity: needs sha256 and sections; re-run `peha calibrate`");
+  const Hashes found = hash_sections(root);
+  for (const auto& kv : listed) {
+    const std::string key = kv.first.as<std::string>();
+    if (!found.sections.count(key)) {
+      refuse(fmt::format("section '{}:' is missing although the file announces it (integrity.sections): the file is cut "
+                         "off or was edited; re-run `peha calibrate` or restore the file", key));
+    }
+  }
+  for (const auto& [key, hash] : found.sections) {
+    if (!listed[key]) refuse(fmt::format("section '{}:' was added after calibrating (integrity.sections does not list it)", key));
+    if (listed[key].as<std::string>() != hash) {
+      refuse(fmt::format("section '{}:' differs from what `peha calibrate` wrote (its hash is {}, the file says {}): a "
+                         "parameter was edited or the file damaged; re-run `peha calibrate`", key, hash, listed[key].as<std::string>()));
+    }
+  }
+  if (integrity["sha256"].as<std::string>() != found.overall) {
+    refuse(fmt::format("integrity.sha256 is {}, but the sections hash to {}: the integrity section was edited", integrity["sha256"].as<std::string>(),
+                       found.overall));
+  }
+  // The parameters carry data.sha256; the data file's bytes must still hash to it.
+  if (c.data_file.empty()) refuse("data.file is empty: a calibration is checked against the data it was fitted to");
+  const std::filesystem::path data = data_path(c, path);
+  std::error_code ec;
+  if (!std::filesystem::exists(data, ec)) {
+    refuse(fmt::format("its data file {} is missing (looked for it as written and beside the calibration file): a "
+                       "calibration is only used with the data it was fitted to; restore the data or re-run `peha calibrate`",
+                       c.data_file));
+  }
+  const std::string actual = sha256_file(data);
+  if (actual != c.data_sha256) {
+    refuse(fmt::format("its data {} has SHA-256 {}, but the calibration was fitted to data with {}: the data changed "
+                       "after calibrating; calibrate again", data.string(), actual, c.data_sha256));
+  }
 }
 
 }  // namespace
@@ -115,17 +235,35 @@ void write_calibration(const std::filesystem::path& path, const MuscleCalibratio
   }
   out << YAML::EndMap;
   if (!out.good()) throw std::runtime_error(fmt::format("{}: cannot emit YAML: {}", path.string(), out.GetLastError()));
+  // Hashed as the reader will see it: the emitted text parsed back.
+  const Hashes h = hash_sections(YAML::Load(out.c_str()));
+  YAML::Emitter integrity;
+  integrity << YAML::BeginMap << YAML::Key << "integrity" << YAML::Value << YAML::BeginMap;
+  integrity << YAML::Key << "scheme" << YAML::Value << kIntegrityScheme;
+  integrity << YAML::Key << "sha256" << YAML::Value << h.overall;
+  integrity << YAML::Key << "sections" << YAML::Value << YAML::BeginMap;
+  for (const auto& [key, hash] : h.sections) integrity << YAML::Key << key << YAML::Value << hash;
+  integrity << YAML::EndMap << YAML::EndMap << YAML::EndMap;
   config::write_file_atomically(path, [&](std::ostream& file) {
     file << "# peha muscle calibration: Tendon-spring parameters + SPGP residual.\n"
             "# Written by `peha calibrate`. SPGP: inputs (contraction, force_N), output pressure in Pa.\n"
-         << out.c_str() << '\n';
+            "# integrity: SHA-256 of each section's values (docs/calibration.md); any edit refuses the file.\n"
+         << integrity.c_str() << '\n' << out.c_str() << '\n';
   });
 }
 
 MuscleCalibration read_calibration(const std::filesystem::path& path) {
-  const config::Document doc = config::Document::load_file(path);
+  std::string text;
+  try {
+    text = config::read_input_file(path, config::InputKind::kConfig);
+  } catch (const config::InputFileError& e) {
+    throw config::Error(e.what());
+  }
+  config::Document doc = config::Document::load_string(text, path.string());
   config::Map root = doc.root();
   MuscleCalibration c;
+  // Read by check_integrity (from the same text) after the strict read of every other section.
+  if (root.has("integrity")) (void)root.map("integrity");
   c.muscle = root.string("muscle");
   config::Map data = root.map("data");
   c.data_file = data.string("file");
@@ -187,6 +325,11 @@ MuscleCalibration read_calibration(const std::filesystem::path& path) {
     }
   }
   root.finish();
+  try {
+    check_integrity(YAML::Load(text), c, path);
+  } catch (const YAML::Exception& e) {
+    throw CalibrationRejected(fmt::format("{}: the integrity: section is malformed ({}); re-run `peha calibrate`", path.string(), e.what()));
+  }
   return c;
 }
 
@@ -198,18 +341,6 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
   const auto reject = [&](const std::string& why) { throw CalibrationRejected(who + " refused: " + why); };
   if (c.muscle != nominal.name) {
     reject(fmt::format("the file is the calibration of '{}' (swapped files?); give each muscle its own file", c.muscle));
-  }
-  if (!c.data_file.empty()) {
-    std::filesystem::path data = c.data_file;
-    if (data.is_relative() && !std::filesystem::exists(data)) data = path.parent_path() / data;
-    std::error_code ec;
-    if (std::filesystem::is_regular_file(data, ec)) {
-      const std::string actual = sha256_file(data);
-      if (actual != c.data_sha256) {
-        reject(fmt::format("its data {} has SHA-256 {}, but the calibration was fitted to data with {}: the data "
-                           "changed after calibrating; calibrate again", data.string(), actual, c.data_sha256));
-      }
-    }
   }
   const models::TendonSpringParams& p = c.params;
   for (double v : {p.a_N_per_Pa, p.b_N_per_Pa, p.c_N_per_Pa, p.k_N, p.eps0}) {
@@ -258,6 +389,24 @@ void check_calibration(const MuscleCalibration& c, const std::filesystem::path& 
                            "a weaker muscle?", force_N, cmd.pressure_Pa * 1e-6, nominal_N, limits.nominal_force_ratio,
                            ceiling_N, at));
       }
+    }
+  }
+  // The strength at full supply, against the configured muscle's (its geometry: the datasheet's
+  // diameter, length and braid), at every angle of the range where the configured muscle pulls at
+  // least a tenth of its ceiling (near its full contraction both go to 0 and the ratio means nothing).
+  const int n_angles = std::max(limits.grid, 2);
+  for (int i = 0; i < n_angles; ++i) {
+    const double angle = min_angle_rad + (max_angle_rad - min_angle_rad) * i / (n_angles - 1);
+    const double eps = models::rigid_contraction(nominal, joint.pulley_radius_m, side == 0 ? +1 : -1, angle);
+    const double configured_N = models::forward_force_N(nominal.pam, joint.supply_pressure_Pa, eps);
+    if (!(configured_N >= 0.1 * ceiling_N)) continue;
+    const double calibrated_N = models::forward_force_N(p, joint.supply_pressure_Pa, eps);
+    const double ratio = calibrated_N / configured_N;
+    if (!std::isfinite(ratio) || ratio > limits.max_strength_ratio || ratio < 1.0 / limits.max_strength_ratio) {
+      reject(fmt::format("at {:.3f} MPa and joint angle {:.1f} deg (contraction {:.4f}) the calibration's muscle pulls {:.0f} N, "
+                         "{:.3g} x the {:.0f} N of the configured muscle (allowed {:.3g} .. {:.3g} x): no muscle of this size; "
+                         "a scaled or edited force model", joint.supply_pressure_Pa * 1e-6, models::rad_to_deg(angle), eps, calibrated_N,
+                         ratio, configured_N, 1.0 / limits.max_strength_ratio, limits.max_strength_ratio));
     }
   }
   if (calibrated.residual && supported == 0) {

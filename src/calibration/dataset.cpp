@@ -1,6 +1,7 @@
 #include "peha/calibration/dataset.hpp"
 
 #include "peha/config/csv_sidecar.hpp"
+#include "peha/config/input_file.hpp"
 
 #include <openssl/evp.h>
 
@@ -53,7 +54,6 @@ constexpr double kMaxAbsContraction = 1.0;       ///< above: percent, not a frac
 constexpr double kMinForceN = -50.0;             ///< below: more than load-cell noise
 constexpr double kMaxForceN = 5000.0;            ///< above: no PAM wire holds it (the wire breaks at 2250 N)
 constexpr double kMaxLoadcellZeroN = 1000.0;     ///< a vented reading beyond this is a broken cell, not a zero
-constexpr std::uintmax_t kMaxFileBytes = std::uintmax_t{512} << 20;  ///< 512 MiB: ~10 M rows of three numbers
 constexpr std::size_t kMaxRows = 5'000'000;      ///< 83 min at 1 kHz; more is a wrong file or needs decimation
 constexpr double kMaxAbsAngleRad = 2.0 * 3.14159265358979323846;  ///< above: degrees, not radians
 
@@ -238,23 +238,14 @@ std::string value_prefix(const std::string& file, std::size_t line, std::size_t 
 
 // ---- reading -----------------------------------------------------------------------------------
 
-// The file's bytes, after the checks that need no parsing (a directory, a device, too large, unreadable).
-std::string read_csv_bytes(const std::filesystem::path& path, const std::string& file) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw DataError(file + ": is a directory, not a calibration CSV");
-  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
-    throw DataError(file + ": not a regular file (a device or pipe cannot be a calibration CSV)");
+// The file's bytes through the one checked opener (a folder, a device, a pipe, too large: refused).
+// All bytes are read once: the hash is of exactly the bytes that were parsed.
+std::string read_csv_bytes(const std::filesystem::path& path) {
+  try {
+    return config::read_input_file(path, config::InputKind::kCalibrationCsv);
+  } catch (const config::InputFileError& e) {
+    throw DataError(e.what());
   }
-  if (const std::uintmax_t size = std::filesystem::file_size(path, ec); !ec && size > kMaxFileBytes) {
-    throw DataError(file + ": " + std::to_string(size >> 20) + " MiB is larger than the " + std::to_string(kMaxFileBytes >> 20) +
-                    " MiB a calibration CSV may have; decimate the log (250 Hz is plenty) or split it");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(file + ": cannot open calibration file (does it exist and is it readable?)");
-  // Read all bytes once: the hash is of exactly the bytes that were parsed.
-  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw DataError(file + ": read error");
-  return bytes;
 }
 
 // What the lines of a calibration CSV say, before the plausibility checks.
@@ -530,9 +521,7 @@ Dataset assemble_dataset(const CsvContent& csv, const std::string& file, const s
   fill_optional(kWireVelocity, d.wire_velocity_mps);
   d.source = file;
   d.loadcell_zero_N = csv.loadcell_zero_N;
-  Sha256 sha;
-  sha.update(bytes.data(), bytes.size());
-  d.sha256 = sha.hex();
+  d.sha256 = sha256_hex(bytes);
   return d;
 }
 
@@ -540,22 +529,17 @@ Dataset assemble_dataset(const CsvContent& csv, const std::string& file, const s
 
 // ---- public API --------------------------------------------------------------------------------
 
-std::string sha256_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw DataError(path.string() + ": cannot open file to hash it (does it exist and is it readable?)");
+std::string sha256_file(const std::filesystem::path& path) { return sha256_hex(read_csv_bytes(path)); }
+
+std::string sha256_hex(std::string_view bytes) {
   Sha256 sha;
-  std::array<char, 64 * 1024> buf{};
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    sha.update(buf.data(), static_cast<std::size_t>(in.gcount()));
-  }
-  if (in.bad()) throw DataError(path.string() + ": read error while hashing");
+  sha.update(bytes.data(), bytes.size());
   return sha.hex();
 }
 
 Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rules) {
   const std::string file = path.string();
-  const std::string bytes = read_csv_bytes(path, file);
+  const std::string bytes = read_csv_bytes(path);
   std::string_view text(bytes);
   if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // UTF-8 BOM (spreadsheet exports)
   CsvContent csv = read_csv_lines(text, file);

@@ -1,6 +1,7 @@
 #include "peha/config/reader.hpp"
 
 #include "peha/config/atomic_file.hpp"
+#include "peha/config/input_file.hpp"
 
 #include <fmt/format.h>
 
@@ -37,25 +38,11 @@ std::string position(const std::string& file, const YAML::Mark& mark) {
 }  // namespace
 
 Document Document::load_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw Error(fmt::format("{}: {}", path.string(),
-                            std::filesystem::exists(path, ec) ? "not a regular file (a device, pipe or folder cannot be a config file)"
-                                                              : "cannot open config file (no such file)"));
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(fmt::format("{}: cannot open config file", path.string()));
-  // Read in chunks up to one byte past the limit: a file that grows while it is read is caught too,
-  // and a small file costs what it holds (one buffer of the limit's size was zero-filled per file:
-  // about 1 s of system time for every config read).
   std::string text;
-  char chunk[1 << 16];
-  while (text.size() <= kMaxFileBytes && in.read(chunk, sizeof chunk).gcount() > 0) {
-    text.append(chunk, static_cast<std::size_t>(in.gcount()));
-  }
-  if (text.size() > kMaxFileBytes) {
-    throw Error(fmt::format("{}: larger than {} MiB; a peha config or calibration file is far smaller (is this the right file?)",
-                            path.string(), kMaxFileBytes >> 20));
+  try {
+    text = read_input_file(path, InputKind::kConfig);
+  } catch (const InputFileError& e) {
+    throw Error(e.what());
   }
   Document doc = load_string(text, path.string());
   doc.directory_ = path.parent_path();

@@ -1,5 +1,7 @@
 #include "peha/mfb/link_config.hpp"
 
+#include "peha/config/input_file.hpp"
+
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -132,7 +134,7 @@ LinkKey load_link_key(const std::filesystem::path& path) {
                                          name, st.st_mode & 07777, name));
   }
   if (st.st_size > 4096) throw std::runtime_error(fmt::format("MFB key file {}: {} bytes, expected 64 hex digits", name, st.st_size));
-  std::ifstream in(path);
+  std::istringstream in(config::read_input_file(path, config::InputKind::kKey));
   std::string hex, line;
   while (std::getline(in, line)) {
     const auto first = line.find_first_not_of(" \t\r");

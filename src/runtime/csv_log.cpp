@@ -1,6 +1,7 @@
 #include "peha/runtime/csv_log.hpp"
 
 #include "peha/config/csv_sidecar.hpp"
+#include "peha/config/input_file.hpp"
 
 #include <fmt/compile.h>
 #include <fmt/format.h>
@@ -61,8 +62,7 @@ void CsvLog::write(const std::filesystem::path& path, const std::vector<std::str
 }
 
 std::vector<std::vector<double>> read_csv_log_columns(const std::filesystem::path& path, const std::vector<std::string>& names) {
-  std::ifstream in(path);
-  if (!in) throw std::runtime_error(fmt::format("{}: cannot open the log", path.string()));
+  std::istringstream in(config::read_input_file(path, config::InputKind::kLog));
   std::string line;
   std::size_t line_no = 0;
   bool have_header = false;

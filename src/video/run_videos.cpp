@@ -1,5 +1,7 @@
 #include "peha/video/run_videos.hpp"
 
+#include "peha/config/input_file.hpp"
+
 #include "peha/models/units.hpp"
 
 #include <fmt/format.h>
@@ -100,8 +102,7 @@ const std::vector<double>& LogTable::at(const std::string& name) const {
 }
 
 LogTable read_log_table(const std::filesystem::path& csv) {
-  std::ifstream in(csv);
-  if (!in) throw std::runtime_error(fmt::format("{}: cannot read", csv.string()));
+  std::istringstream in(config::read_input_file(csv, config::InputKind::kLog));
   LogTable t;
   std::string line;
   std::size_t line_no = 0;

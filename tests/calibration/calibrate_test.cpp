@@ -70,9 +70,16 @@ TEST(Calibrate, SpgpRemovesTheThresholdTheParametricModelMisses) {
   EXPECT_EQ(runs, 10);
 }
 
+/// The synthetic muscle's data as a recorded CSV (read back: a calibration file names its data).
+Dataset synthetic_threshold_muscle_file(const std::filesystem::path& csv) {
+  write_dataset(csv, synthetic_threshold_muscle(), {"synthetic threshold muscle"});
+  return read_dataset(csv);
+}
+
 // A calibration file written and read back predicts exactly what the fitted model predicts.
 TEST(CalibrationFile, RoundTripPreservesPredictions) {
-  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
+  const auto csv = std::filesystem::temp_directory_path() / "peha_calibration_roundtrip.csv";
+  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle_file(csv), fast_options());
   const auto path = std::filesystem::temp_directory_path() / "peha_calibration_roundtrip.yaml";
   write_calibration(path, out.calibration);
   const MuscleCalibration back = read_calibration(path);
@@ -107,10 +114,12 @@ TEST(CalibrationFile, RoundTripPreservesPredictions) {
   EXPECT_LE(std::abs(narrow.pressure_Pa(inside[0], inside[1])), 1.0);
   EXPECT_GT(std::abs(back.spgp->predict_mean(inside)), 1.0);
   std::filesystem::remove(path);
+  std::filesystem::remove(csv);
 }
 
 TEST(CalibrationFile, RejectsEditedFilesWithFileLineAndKey) {
-  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle(), fast_options());
+  const auto csv = std::filesystem::temp_directory_path() / "peha_calibration_bad.csv";
+  const CalibrationOutcome out = calibrate(synthetic_threshold_muscle_file(csv), fast_options());
   const auto path = std::filesystem::temp_directory_path() / "peha_calibration_bad.yaml";
   write_calibration(path, out.calibration);
   std::ifstream in(path);
@@ -128,6 +137,7 @@ TEST(CalibrationFile, RejectsEditedFilesWithFileLineAndKey) {
     EXPECT_THAT(std::string(e.what()), HasSubstr(path.filename().string() + ":"));
   }
   std::filesystem::remove(path);
+  std::filesystem::remove(csv);
 }
 
 TEST(Calibrate, RejectsABadSplit) {

@@ -196,6 +196,17 @@ TEST(E4, GoniometerCsvRoundTripsAndRejectsBadRecordings) {
   std::filesystem::remove_all(dir);
 }
 
+// --goniometer-csv /dev/zero was read without bound; a device is refused at once, before any byte.
+TEST(E4, GoniometerCsvRefusesADeviceAtOnce) {
+  const ArmScenario s = shipped();
+  try {
+    read_goniometer_csv("/dev/zero", 200.0, s.limits.joints[1].min_angle_rad, s.limits.joints[1].max_angle_rad);
+    ADD_FAILURE() << "/dev/zero was accepted";
+  } catch (const calibration::DataError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr("/dev/zero: not a regular file (a device)"));
+  }
+}
+
 // The CLI end to end on a recording: `peha run --experiment goniometer --goniometer-csv FILE` runs
 // both variants on it and writes their logs and the summary; a bad recording exits 2.
 TEST(E4, CliReplaysARecordedGoniometerFile) {

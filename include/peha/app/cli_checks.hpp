@@ -8,6 +8,7 @@
 #include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace peha::app {
 
@@ -28,9 +29,16 @@ class UsageError : public std::invalid_argument {
   using std::invalid_argument::invalid_argument;
 };
 
-/// Throws UsageError when `out` is (or resolves to) one of `inputs`: an output never
-/// overwrites its own input.
-void refuse_output_equal_to_input(const std::filesystem::path& out, std::initializer_list<std::filesystem::path> inputs,
-                                  const char* option = "--out");
+/// Throws UsageError (exit 2, before anything is written) when output file `out` may not be
+/// written: it exists and is not a regular file (a FIFO, a device, a folder: writing would block,
+/// feed a device or fail half way), or it is (resolves to) one of `inputs`: an output never
+/// overwrites what the command reads.
+void refuse_unsafe_output(const std::filesystem::path& out, const std::vector<std::filesystem::path>& inputs,
+                          const char* option = "--out");
+
+/// The files a scenario reads: `config`, every file it names (a string value that, resolved against
+/// the config's folder, is an existing regular file: channel maps, key files, models, calibrations,
+/// other scenarios), and those the YAML ones among them name, three levels deep.
+std::vector<std::filesystem::path> scenario_inputs(const std::filesystem::path& config);
 
 }  // namespace peha::app

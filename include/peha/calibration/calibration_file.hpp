@@ -50,10 +50,14 @@ struct MuscleCalibration {
   CalibrationStats stats;
 };
 
-/// Writes `c` (throws on I/O failure).
+/// Writes `c` atomically (throws on I/O failure), with its integrity section: the SHA-256 of each
+/// section's canonical values (the data section carries the data file's SHA-256) and one over them.
 void write_calibration(const std::filesystem::path& path, const MuscleCalibration& c);
 
-/// Reads a calibration file; throws config::Error naming file, line, key.
+/// Reads a calibration file; throws config::Error naming file, line, key for a malformed file, and
+/// CalibrationRejected when its integrity section is absent (a file from before it existed), a
+/// section's values differ from their recorded hash (an edit), an announced section is missing (a
+/// file cut off), or its data file is missing or changed (docs/calibration.md#integrity).
 MuscleCalibration read_calibration(const std::filesystem::path& path);
 
 /// Tolerances of the checks a calibration passes before it is used.
@@ -76,6 +80,13 @@ struct CalibrationCheckLimits {
   /// force), its box mostly empty) the residual is the GP's extrapolation of its trend: a fitted one
   /// reached -0.92 MPa there (std 79 kPa) on robustness variants.
   double max_supported_std_of_supply = 0.05;
+  /// The calibrated muscle's force at full supply, at any angle of the range, is within
+  /// [1/this, this] x the configured muscle's there (where that is at least a tenth of its ceiling).
+  /// The configured model is the muscle's geometry (datasheet diameter, length, braid); a fitted one
+  /// differs from it by what the rig adds (slack, friction, a 15 % weaker or stronger muscle):
+  /// docs/calibration.md gives the measured ratios. A force model scaled by 4 or more is no muscle
+  /// of this size.
+  double max_strength_ratio = 3.0;
   int grid = 41;                    ///< points per axis of the operating-range grid
 };
 
@@ -89,7 +100,8 @@ class CalibrationRejected : public std::runtime_error {
 /// antagonist) of `joint`, over the operating range: joint angles [min_angle_rad, max_angle_rad]
 /// and forces [0, the muscle's ceiling]. Refuses (throws CalibrationRejected) when
 ///  - the file's muscle is not this muscle (swapped files);
-///  - the data file is present and its SHA-256 differs from the one recorded;
+///  - the muscle's force at full supply is outside [1/max_strength_ratio, max_strength_ratio] x the
+///    configured muscle's somewhere in the range (a scaled force model);
 ///  - any parameter, g(u) or a model output is not finite, or g(u) <= 0 where the controller works
 ///    (the inverse would command full supply);
 ///  - the configured model of this muscle, at the pressure the calibration commands, predicts more

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace peha::calibration {
@@ -57,7 +58,11 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
 /// `<path>.meta.json`. Throws DataError naming the file.
 void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments);
 
-/// Hex SHA-256 of a file's bytes.
+/// Hex SHA-256 of a calibration CSV's bytes (read through config::read_input_file: a regular file
+/// within the calibration CSV's size limit; DataError otherwise).
 std::string sha256_file(const std::filesystem::path& path);
+
+/// Hex SHA-256 of `bytes`.
+std::string sha256_hex(std::string_view bytes);
 
 }  // namespace peha::calibration

@@ -2,6 +2,7 @@
 
 #include "peha/calibration/dataset.hpp"
 #include "peha/config/csv_sidecar.hpp"
+#include "peha/config/input_file.hpp"
 #include "peha/control/butterworth.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/models/joint.hpp"
@@ -96,8 +97,12 @@ std::vector<GoniometerTrace> synthesize_goniometers(const ArmScenario::Goniomete
 
 GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sample_rate_Hz, double min_rad,
                                     double max_rad) {
-  std::ifstream in(path);
-  if (!in) throw calibration::DataError(fmt::format("{}: cannot open the goniometer recording", path.string()));
+  std::istringstream in;
+  try {
+    in.str(config::read_input_file(path, config::InputKind::kCsv));
+  } catch (const config::InputFileError& e) {
+    throw calibration::DataError(fmt::format("the goniometer recording {}", e.what()));
+  }
   const std::string file = path.string();
   std::string line;
   int line_no = 0;

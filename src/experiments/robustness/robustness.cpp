@@ -125,7 +125,11 @@ E1Scenario calibrated_on(const E1Scenario& nominal, const PlantVariant& v, std::
       const std::filesystem::path stem = config.keep_calibrations_dir / fmt::format("{}-seed{}-{}", v.name, seed, o.muscle);
       calibration::write_dataset(stem.string() + ".csv", data,
                                  {fmt::format("recorded by peha robustness on variant {} (seed {})", v.name, seed)});
-      calibration::write_calibration(stem.string() + ".yaml", outcome.calibration);
+      // The kept file names the CSV beside it, so it reads back as a checked calibration file.
+      calibration::MuscleCalibration kept = outcome.calibration;
+      kept.data_file = stem.filename().string() + ".csv";
+      kept.data_sha256 = calibration::sha256_file(stem.string() + ".csv");
+      calibration::write_calibration(stem.string() + ".yaml", kept);
     }
     // The same checks a calibration file passes before use (a refusal is this variant's result).
     const safety::JointLimits& range = s.limits.joints[0];
