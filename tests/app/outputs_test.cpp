@@ -194,7 +194,7 @@ TEST_F(Outputs, RunDirRefusesANameThatIsAFileOrDevice) {
 TEST_F(Outputs, GoniometerCsvThatIsADeviceOrFifoIsRefusedAtOnce) {
   const fs::path fifo = dir_ / "g.csv";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  for (const std::string in : {std::string("/dev/zero"), fifo.string()}) {
+  for (const std::string& in : {std::string("/dev/zero"), fifo.string()}) {
     const Result r = peha("run --no-plot --config " PEHA_SOURCE_DIR "/configs/right_arm.yaml --experiment goniometer --out " +
                           (dir_ / "out").string() + " --goniometer-csv " + in);
     EXPECT_EQ(r.code, 2) << in << ": " << r.output;

@@ -108,7 +108,7 @@ class CreepJob final : public ExperimentRun {
     const safety::Verdict verdict = creep_verdict(scenario_, runs_);
     fmt::print("\nverdict (creep.verdict: section; plant variants other than {} are reported, not judged):\n{}",
                scenario_.creep.variants.front().name, verdict.describe_all());
-    return {failed_figures(verdict), "summary.csv, creep_<run>.csv, releases_<run>.csv, config.yaml", "plot_creep.py", {}};
+    return {failed_figures(verdict), "summary.csv, creep_<run>.csv, releases_<run>.csv, config.yaml", "plot_creep.py", {}, 0, {}};
   }
 
  private:

@@ -97,7 +97,7 @@ class PosturesJob final : public ExperimentRun {
     fmt::print("verdict (thresholds from the verdict: section):\n{}verdict: {}; peak operator torque {:.1f} Nm; real-time factor {:.1f}\n",
                r.verdict.describe_all(), r.within_limits ? "OK" : "VIOLATED", r.peak_operator_torque_Nm, r.realtime_factor);
     if (realtime_) print_realtime(*realtime_, ctx.dir / "timing");
-    return {failed_figures(r.verdict), "e3_postures.csv, summary.csv, config.yaml", "plot_arm.py", {}};
+    return {failed_figures(r.verdict), "e3_postures.csv, summary.csv, config.yaml", "plot_arm.py", {}, 0, {}};
   }
 
  private:

@@ -62,7 +62,7 @@ class E5Job final : public ExperimentRun {
   Conclusion conclude(const RunContext& ctx) override {
     write_e5_summary(ctx.dir / "summary.csv", results_);
     print_e5_table(results_);
-    Conclusion c{0, "summary.csv, config.yaml, e5_<case>.csv", "plot_max_force.py", {"--title", "E5 maximum-force ramp, one-DOF PEHA rig (clamped)"}};
+    Conclusion c{0, "summary.csv, config.yaml, e5_<case>.csv", "plot_max_force.py", {"--title", "E5 maximum-force ramp, one-DOF PEHA rig (clamped)"}, 0, {}};
     for (const E5Result& r : results_) c.failed_figures += failed_figures(r.verdict);
     return c;
   }

@@ -82,7 +82,7 @@ class BandwidthJob final : public ExperimentRun {
 
   Conclusion conclude(const RunContext& ctx) override {
     write_bandwidth_report(ctx.dir / "bode.csv", results_);  // closed: the plotter reads it next
-    Conclusion c{0, "bode.csv, config.yaml", "plot_bode.py", {}};
+    Conclusion c{0, "bode.csv, config.yaml", "plot_bode.py", {}, 0, {}};
     for (const BandwidthResult& r : results_) c.failed_figures += failed_figures(r.verdict);
     return c;
   }
