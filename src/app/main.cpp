@@ -308,6 +308,16 @@ Command add_check_config(CLI::App& app) {
   return {check_cmd, [check_path] { return peha::app::check_config(*check_path); }};
 }
 
+Command add_keygen(CLI::App& app) {
+  auto out = std::make_shared<std::filesystem::path>();
+  CLI::App* cmd = app.add_subcommand(
+      "keygen", "Write a fresh link key for one installation (32 random bytes as 64 hex digits, mode 0600; docs/mfb-protocol.md#authentication):\n"
+                "host and board read the same file (the scenario's mfb: key_file). Refuses to overwrite an existing file.\n"
+                "The shipped development key is accepted only when every board is on loopback (127.0.0.0/8).");
+  cmd->add_option("-o,--out", *out, "The key file to create")->required();
+  return {cmd, [out] { return peha::app::keygen(*out); }};
+}
+
 Command add_robustness(CLI::App& app) {
   struct State {
     peha::app::RobustnessOptions options;
@@ -390,7 +400,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
   const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_identify_gravity(app), add_mfb_emulator(app),
-                              add_check_config(app), add_robustness(app), add_faults(app), add_version(app)};
+                              add_check_config(app), add_keygen(app), add_robustness(app), add_faults(app), add_version(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,4 +1,5 @@
 #include "peha/mfb/board_emulator.hpp"
+#include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
 #include <sodium.h>
@@ -51,6 +52,7 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
                                             params.period_s, params.watchdog_s, params.vent_s));
   }
   if (sodium_init() < 0) throw std::runtime_error("mfb-emulator: libsodium failed to initialise (no entropy source?)");
+  require_private_key_off_loopback(params.key, params.bind.address, "emulator's bind");
   core_config_ = board_core_config(map_, params.key, params.watchdog_s, params.vent_s);
   hal_ = mfb_hal{this, &BoardEmulator::hal_read_inputs, &BoardEmulator::hal_write_outputs, &BoardEmulator::hal_now_us,
                  &BoardEmulator::hal_mac, &BoardEmulator::hal_random};

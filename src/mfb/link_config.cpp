@@ -11,7 +11,12 @@
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
+#include <sodium.h>
+
+#include <array>
+#include <fcntl.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 namespace peha::mfb {
 
@@ -164,7 +169,66 @@ LinkKey load_link_key(const std::filesystem::path& path) {
                                          name, 2 * kKeySize, kKeySize, hex.size()));
   }
   if (!nonzero) throw std::runtime_error(fmt::format("MFB key file {}: the key is all zero", name));
+  std::array<bool, 256> seen{};
+  int distinct = 0;
+  for (const std::uint8_t b : key.bytes) distinct += seen[b] ? 0 : (seen[b] = true, 1);
+  if (distinct < kMinDistinctKeyBytes) {
+    throw std::runtime_error(fmt::format("MFB key file {}: a key of low entropy ({} distinct byte value(s), expected at least {}: a "
+                                         "typed pattern, not random bytes); make one with 'peha keygen --out {}.new'",
+                                         name, distinct, kMinDistinctKeyBytes, name));
+  }
   return key;
+}
+
+void write_new_link_key(const std::filesystem::path& path) {
+  if (sodium_init() < 0) throw std::runtime_error("peha keygen: libsodium failed to initialise (no entropy source?)");
+  LinkKey key;
+  do {
+    randombytes_buf(key.bytes.data(), key.bytes.size());
+  } while (is_development_key(key));  // 1 in 2^256; stated so that the loop's purpose is plain
+  std::string text = "# MFB link key (peha keygen): 32 random bytes as 64 hex digits. Keep it secret: host and board read it.\n";
+  for (const std::uint8_t b : key.bytes) text += fmt::format("{:02x}", b);
+  text += "\n";
+  sodium_memzero(key.bytes.data(), key.bytes.size());
+  // O_EXCL: never replaces an existing file; 0600 from the start, so the key is never readable by others.
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    const int e = errno;
+    throw std::runtime_error(e == EEXIST ? fmt::format("peha keygen: {} exists; refusing to overwrite a key (remove it first if you mean "
+                                                       "to replace it, and give the board the new one)",
+                                                       path.string())
+                                         : fmt::format("peha keygen: cannot create {}: {}", path.string(), std::strerror(e)));
+  }
+  std::size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      const int e = errno;
+      ::close(fd);
+      ::unlink(path.c_str());
+      throw std::runtime_error(fmt::format("peha keygen: writing {}: {}", path.string(), std::strerror(e)));
+    }
+    done += static_cast<std::size_t>(n);
+  }
+  sodium_memzero(text.data(), text.size());
+  if (::fsync(fd) != 0 || ::close(fd) != 0) throw std::runtime_error(fmt::format("peha keygen: writing {}: {}", path.string(), std::strerror(errno)));
+}
+
+bool is_development_key(const LinkKey& key) noexcept {
+  // configs/mfb/dev_link.key: public, in the repository.
+  static constexpr std::array<std::uint8_t, kKeySize> kDevelopment = {
+      0x5e, 0x2b, 0x16, 0x1c, 0x0a, 0x8c, 0xf2, 0x64, 0x45, 0xf8, 0x64, 0x2c, 0x8a, 0x85, 0x39, 0x78,
+      0x42, 0x16, 0xe5, 0x04, 0x5d, 0xff, 0xe2, 0x39, 0x26, 0xb4, 0x0b, 0x21, 0xa4, 0xfe, 0x4d, 0xec};
+  return key.bytes == kDevelopment;
+}
+
+void require_private_key_off_loopback(const LinkKey& key, std::uint32_t address, const std::string& role) {
+  if (!is_development_key(key) || (address >> 24) == 127) return;
+  throw std::runtime_error(fmt::format("MFB link: the {} address {} is not loopback (127.0.0.0/8), and the key is the public development "
+                                       "key (configs/mfb/dev_link.key): anyone could drive this board. Make this installation's own key "
+                                       "with 'peha keygen --out FILE' and name it in the scenario's mfb: key_file (docs/commissioning.md)",
+                                       role, fmt::format("{}.{}.{}.{}", address >> 24, (address >> 16) & 0xFFu, (address >> 8) & 0xFFu, address & 0xFFu)));
 }
 
 }  // namespace peha::mfb

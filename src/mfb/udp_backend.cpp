@@ -1,4 +1,5 @@
 #include "peha/mfb/udp_backend.hpp"
+#include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
 #include <sodium.h>
@@ -62,6 +63,7 @@ UdpBackend::UdpBackend(const UdpBackendParams& params, ChannelMap map)
       session_(params.session_id ? params.session_id : random_session(0)),
       filter_(session_, params.key),
       last_rtt_s_(std::numeric_limits<double>::quiet_NaN()) {
+  require_private_key_off_loopback(params.key, params.board.address, "board");
   if (static_cast<int>(params.joint_names.size()) != map_.joint_count()) {
     throw std::invalid_argument(fmt::format("UdpBackend: {} joint names for a channel map of {} joints", params.joint_names.size(),
                                             map_.joint_count()));

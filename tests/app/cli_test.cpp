@@ -41,7 +41,25 @@ Result run(const std::string& args) {
 TEST(Cli, HelpListsEverySubcommand) {
   const Result r = run("--help");
   EXPECT_EQ(r.code, 0);
-  for (const char* word : {"run", "check-config", "version", "pneumatic"}) EXPECT_THAT(r.output, HasSubstr(word));
+  for (const char* word : {"run", "check-config", "keygen", "version", "pneumatic"}) EXPECT_THAT(r.output, HasSubstr(word));
+}
+
+// `peha keygen`: a new key file, owner-only, that check-config's key loader accepts; never over one.
+TEST(Cli, KeygenWritesANewKeyAndNeverOverwritesOne) {
+  const std::filesystem::path key = std::filesystem::temp_directory_path() / ("peha_cli_keygen_" + std::to_string(::getpid()) + ".key");
+  std::filesystem::remove(key);
+  const Result first = run("keygen --out " + key.string());
+  EXPECT_EQ(first.code, 0) << first.output;
+  EXPECT_EQ(std::filesystem::status(key).permissions() & std::filesystem::perms::all,
+            std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  std::ifstream in(key);
+  const std::string before((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const Result second = run("keygen --out " + key.string());
+  EXPECT_EQ(second.code, 2);
+  EXPECT_THAT(second.output, HasSubstr("exists; refusing to overwrite"));
+  std::ifstream again(key);
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>()), before);
+  std::filesystem::remove(key);
 }
 
 TEST(Cli, RunHelpDocumentsEveryOptionAndOutput) {

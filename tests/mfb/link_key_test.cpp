@@ -2,6 +2,7 @@
 // owner-only, never all zero; every refusal names the file and the fix.
 #include "peha/mfb/link_config.hpp"
 
+#include <fmt/format.h>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -63,6 +64,60 @@ TEST_F(LinkKeyFile, RefusesAWrongLengthNonHexAZeroKeyAndAMissingFile) {
   EXPECT_THAT(refusal(write("nonhex", std::string(63, 'a') + "g")), HasSubstr("hex digits"));
   EXPECT_THAT(refusal(write("zero", std::string(64, '0'))), HasSubstr("all zero"));
   EXPECT_THAT(refusal(dir_ / "missing"), HasSubstr("No such file"));
+}
+
+// A typed key has few distinct bytes; 32 random bytes have about 30. The line is at 8.
+TEST_F(LinkKeyFile, RefusesAKeyOfLowEntropy) {
+  std::string seven, eight;
+  for (int i = 0; i < 32; ++i) seven += fmt::format("{:02x}", i % 7);
+  for (int i = 0; i < 32; ++i) eight += fmt::format("{:02x}", i % 8);
+  const std::string why = refusal(write("repeated", std::string(64, 'a')));
+  EXPECT_THAT(why, HasSubstr("low entropy (1 distinct byte value(s), expected at least 8"));
+  EXPECT_THAT(why, HasSubstr("peha keygen"));
+  EXPECT_THAT(refusal(write("seven", seven)), HasSubstr("7 distinct"));
+  EXPECT_EQ(refusal(write("eight", eight)), "(accepted)");
+}
+
+TEST_F(LinkKeyFile, KeygenWritesAnOwnerOnlyKeyThatLoadsAndDiffersEachTime) {
+  write_new_link_key(dir_ / "a.key");
+  write_new_link_key(dir_ / "b.key");
+  EXPECT_EQ(std::filesystem::status(dir_ / "a.key").permissions() & std::filesystem::perms::all,
+            std::filesystem::perms::owner_read | std::filesystem::perms::owner_write);
+  const LinkKey a = load_link_key(dir_ / "a.key"), b = load_link_key(dir_ / "b.key");
+  EXPECT_NE(a.bytes, b.bytes);
+  EXPECT_FALSE(is_development_key(a));
+}
+
+TEST_F(LinkKeyFile, KeygenRefusesToOverwriteAnExistingFile) {
+  const std::filesystem::path p = write("old.key", "precious");
+  try {
+    write_new_link_key(p);
+    ADD_FAILURE() << "overwrote " << p;
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("exists; refusing to overwrite"));
+  }
+  std::ifstream in(p);
+  std::string text;
+  std::getline(in, text);
+  EXPECT_EQ(text, "precious");
+}
+
+// The development key is public: it may drive a board only on this machine (127.0.0.0/8).
+TEST_F(LinkKeyFile, TheDevelopmentKeyIsRefusedForABoardOffLoopback) {
+  const LinkKey dev = load_link_key(PEHA_SOURCE_DIR "/configs/mfb/dev_link.key");
+  ASSERT_TRUE(is_development_key(dev));
+  EXPECT_NO_THROW(require_private_key_off_loopback(dev, 0x7F000001u, "board"));
+  EXPECT_NO_THROW(require_private_key_off_loopback(dev, 0x7F010203u, "board"));
+  try {
+    require_private_key_off_loopback(dev, 0xC0A80017u, "board");
+    ADD_FAILURE() << "the development key was accepted for 192.168.0.23";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("board address 192.168.0.23 is not loopback"));
+    EXPECT_THAT(e.what(), HasSubstr("peha keygen --out FILE"));
+  }
+  EXPECT_THROW(require_private_key_off_loopback(dev, 0, "emulator's bind"), std::runtime_error);  // 0.0.0.0: every interface
+  write_new_link_key(dir_ / "own.key");
+  EXPECT_NO_THROW(require_private_key_off_loopback(load_link_key(dir_ / "own.key"), 0xC0A80017u, "board"));
 }
 
 // The shipped development key (what the scenarios and the tests use) is valid and owner-only

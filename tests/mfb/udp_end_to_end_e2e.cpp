@@ -608,6 +608,18 @@ std::uint32_t own_non_loopback_ipv4() {
   return found;
 }
 
+/// A key of this test process's own (`peha keygen`'s), for boards off loopback, where the public
+/// development key is refused.
+const std::filesystem::path& own_key_file() {
+  static const std::filesystem::path path = [] {
+    const std::filesystem::path p = std::filesystem::temp_directory_path() / ("peha_own_link_" + std::to_string(::getpid()) + ".key");
+    std::filesystem::remove(p);
+    mfb::write_new_link_key(p);
+    return p;
+  }();
+  return path;
+}
+
 // Issue 11: bound to 127.0.0.1, the host could not even send to a board beyond this machine
 // (sendto: EINVAL). Now it binds to the route's source address: a neighbour on this machine's own
 // subnet (no board there; UDP sends regardless) gets the command, from this machine's address.
@@ -620,6 +632,10 @@ TEST(MfbEndToEnd, TheHostSendsToABoardBeyondThisMachine) {
   p.joint_names = {"joint"};
   p.key = dev_key();
   p.receive_timeout_s = 0.001;
+  // The public development key may not drive a board on a network.
+  EXPECT_THROW(mfb::UdpBackend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names)),
+               std::runtime_error);
+  p.key = mfb::load_link_key(own_key_file());
   mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
   EXPECT_EQ(backend.local().address, address) << backend.local().to_string();
   io::Command cmd;
@@ -651,12 +667,28 @@ TEST(MfbEndToEnd, TheHostReachesABoardOnANonLoopbackAddress) {
   const std::uint32_t address = own_non_loopback_ipv4();
   if (address == 0) GTEST_SKIP() << "this machine has no IPv4 address other than loopback: nothing to test the binding with";
   const std::string ip = io::UdpEndpoint{address, 0}.to_string();
-  Emulator emulator({"--bind", ip.substr(0, ip.rfind(':'))});
+  // The emulator off loopback refuses the development key the shipped scenario names: this one has
+  // its own key (beside the shipped scenario, whose relative paths it keeps).
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const std::string shipped = "key_file: mfb/dev_link.key";
+  ASSERT_NE(yaml.find(shipped), std::string::npos);
+  yaml.replace(yaml.find(shipped), shipped.size(), "key_file: " + own_key_file().string());
+  const std::filesystem::path config = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e1_own_key_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(config) << yaml;
+  runtime::ChildProcess refused({PEHA_BINARY, "mfb-emulator", "--config", PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", "--case", "payload_2.5kg",
+                                 "--bind", ip.substr(0, ip.rfind(':')), "--port", "0", "--rt-priority", "0"});
+  EXPECT_NE(refused.wait(10.0), 0);
+  EXPECT_NE(refused.output().find("peha keygen"), std::string::npos) << refused.output();
+  Emulator emulator({"--bind", ip.substr(0, ip.rfind(':'))}, config.string());
+  std::filesystem::remove(config);
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   mfb::UdpBackendParams p;
   p.board = {address, static_cast<std::uint16_t>(emulator.port)};
   p.joint_names = {"joint"};
-  p.key = dev_key();
+  p.key = mfb::load_link_key(own_key_file());
   mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(scenario(1.0).link->channel_map), p.joint_names));
   EXPECT_EQ(backend.local().address, address);
   EXPECT_NO_THROW(backend.connect()) << emulator.process.output();

@@ -124,6 +124,10 @@ int identify_gravity(const IdentifyGravityOptions& options);
 /// `peha check-config`: parses and validates a scenario, prints what it would run. Exit code.
 int check_config(const std::filesystem::path& config);
 
+/// `peha keygen --out FILE`: writes a fresh random link key (mfb::write_new_link_key). Exit code 0,
+/// or 2 (the file exists, or cannot be written) with the reason on stderr.
+int keygen(const std::filesystem::path& out);
+
 struct RobustnessOptions {
   std::filesystem::path config;           ///< robustness YAML (configs/robustness.yaml)
   std::filesystem::path out_root = "out";

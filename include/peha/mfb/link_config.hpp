@@ -56,8 +56,27 @@ LinkConfig read_link_config(config::Map map, const std::vector<std::string>& io_
 /// Reads a link key file: 64 hex digits (the 32 key bytes), optionally surrounded by whitespace,
 /// and `#` comment lines. Throws std::runtime_error naming the file and what is wrong: missing,
 /// not a regular file, readable or writable by group or others (the fix: `chmod 600 <file>`),
-/// not exactly 64 hex digits, or all zero.
+/// not exactly 64 hex digits, or of low entropy (fewer than kMinDistinctKeyBytes distinct byte
+/// values: all zero, one repeated byte, a short pattern).
 LinkKey load_link_key(const std::filesystem::path& path);
+
+/// A key of fewer distinct byte values is refused: 32 random bytes have 8 or fewer with a chance
+/// below 1e-20, while a typed pattern ("0000...", "abab...", "0123...0123") has few.
+inline constexpr int kMinDistinctKeyBytes = 8;
+
+/// `peha keygen`: writes a fresh key (32 bytes from libsodium's randombytes_buf, the OS's entropy)
+/// to `path` in load_link_key's format, created with mode 0600. Refuses (std::runtime_error naming
+/// the file) to overwrite anything that exists: a board's key is replaced on purpose, not by a
+/// typo.
+void write_new_link_key(const std::filesystem::path& path);
+
+/// True for the development key the repository ships (configs/mfb/dev_link.key): it is public.
+bool is_development_key(const LinkKey& key) noexcept;
+
+/// Refuses (std::runtime_error naming `key_file`, the address and `peha keygen`) the development
+/// key for a link whose `address` (IPv4, host byte order) is not loopback (127.0.0.0/8): a key
+/// everyone has authenticates nothing on a network. `role` names the endpoint ("board", "bind").
+void require_private_key_off_loopback(const LinkKey& key, std::uint32_t address, const std::string& role);
 
 /// Where each board of `link` is, from --backend's addresses: one per board, in the order of
 /// `boards:`, or a single address for all of them - board i at its port + i. Throws
