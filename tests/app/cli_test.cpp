@@ -72,7 +72,7 @@ TEST(Cli, RunHelpDocumentsEveryOptionAndOutput) {
 }
 
 TEST(Cli, BadConfigExitsWithTwoAndNamesTheKey) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_test";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   { std::ofstream(dir / "bad.yaml") << "experiment: gravity_compensation_1dof\ndescription: x\nseed: -4\n"; }
   const Result r = run("check-config --config " + (dir / "bad.yaml").string());
@@ -93,7 +93,7 @@ TEST(Cli, BadConfigExitsWithTwoAndNamesTheKey) {
 }
 
 TEST(Cli, RunWritesLogConfigAndSummary) {
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_run";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_cli_run_" + std::to_string(::getpid()));
   std::filesystem::remove_all(out);
   const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml --no-plot --case payload_2.5kg"
                        " --out " + out.string() + " --name t");
@@ -126,7 +126,7 @@ namespace {
 
 // Bad data is rejected whole: exit code 2, a message naming the problem, and no calibration file.
 TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_calibrate";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_calibrate_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   std::filesystem::remove(dir / "out.yaml");
   {
@@ -155,7 +155,7 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
 // `peha faults` picks E1 or E3 from the scenario's experiment: key and refuses what that experiment
 // lacks before it writes anything.
 TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_faults";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_cli_faults_" + std::to_string(::getpid()));
   std::filesystem::remove_all(out);
   const std::string common = " --no-plot --out " + out.string() + " --config " + PEHA_SOURCE_DIR;
   EXPECT_THAT(run("faults --help").output, HasSubstr("arm"));
@@ -188,7 +188,7 @@ TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   for (const char* option : {"--config", "--threads", "--variant", "--mode", "--no-plot", "robustness.md", "heatmap.png"}) {
     EXPECT_THAT(help.output, HasSubstr(option));
   }
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_robustness";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_robustness_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   { std::ofstream(dir / "bad.yaml") << "experiment: robustness\ndescription: x\nseed: 1\ncolour: red\n"; }
   const Result bad = run("robustness --no-plot --out " + dir.string() + " --config " + (dir / "bad.yaml").string());
@@ -395,7 +395,7 @@ namespace {
 // An option the scenario's experiment does not take is an error naming the option (exit code 2,
 // nothing written), never silently ignored.
 TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_refused";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_cli_refused_" + std::to_string(::getpid()));
   std::filesystem::remove_all(out);
   const std::string e1 = std::string(" --no-plot --out ") + out.string() + " --config " + PEHA_SOURCE_DIR + "/configs/e1_one_dof.yaml";
   const std::string arm = std::string(" --no-plot --out ") + out.string() + " --config " + PEHA_SOURCE_DIR + "/configs/right_arm.yaml";
@@ -430,7 +430,7 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
 
 // The scenario's `experiment:` key picks the experiment; an unknown one names the known keys.
 TEST(Cli, UnknownExperimentKeyNamesTheKnownOnes) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_unknown";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_unknown_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   { std::ofstream(dir / "unknown.yaml") << "experiment: levitation\ndescription: x\n"; }
   for (const std::string command : {"run --no-plot", "check-config", "mfb-emulator"}) {
@@ -444,7 +444,7 @@ TEST(Cli, UnknownExperimentKeyNamesTheKnownOnes) {
 
 // The run directory: created once, with the config's copy, and out/latest pointing at it.
 TEST(Cli, RunDirectoryIsCreatedOnceWithConfigAndLatestLink) {
-  const std::filesystem::path out = std::filesystem::temp_directory_path() / "peha_cli_rundir's";  // a quote in the path: no shell between peha and the plotter either
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_cli_rundir's_" + std::to_string(::getpid()));  // a quote in the path: no shell between peha and the plotter either
   std::filesystem::remove_all(out);
   const Result r = run(std::string("run --config ") + PEHA_SOURCE_DIR + "/configs/right_arm.yaml --experiment bandwidth --no-plot"
                        " --seed 7 --out \"" + out.string() + "\" --name bw_1");
@@ -481,7 +481,7 @@ TEST(Cli, IdentifyGravityWritesAFileE3Takes) {
   const Result help = run("identify-gravity --help");
   EXPECT_EQ(help.code, 0);
   for (const char* word : {"--config", "--out", "--seed", "Exit code", "sweeps the arm slowly up and down", "a joint stuck in a window"}) EXPECT_THAT(help.output, HasSubstr(word));
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_identify";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_identify_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string arm = PEHA_SOURCE_DIR "/configs/right_arm.yaml";
@@ -504,7 +504,7 @@ TEST(Cli, IdentifyGravityWritesAFileE3Takes) {
 
 TEST(Cli, StrictNumbersRunNamesAndOutputsThatAreNotInputs) {
   const std::string e1 = std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml";
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_cli_bad_input";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_bad_input_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   const std::string run_e1 = "run --no-plot --config " + e1 + " --out " + dir.string() + " ";

@@ -12,6 +12,8 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <unistd.h>
+#include <string>
 
 namespace peha::calibration {
 namespace {
@@ -78,9 +80,9 @@ Dataset synthetic_threshold_muscle_file(const std::filesystem::path& csv) {
 
 // A calibration file written and read back predicts exactly what the fitted model predicts.
 TEST(CalibrationFile, RoundTripPreservesPredictions) {
-  const auto csv = std::filesystem::temp_directory_path() / "peha_calibration_roundtrip.csv";
+  const auto csv = std::filesystem::temp_directory_path() / ("peha_calibration_roundtrip.csv_" + std::to_string(::getpid()));
   const CalibrationOutcome out = calibrate(synthetic_threshold_muscle_file(csv), fast_options());
-  const auto path = std::filesystem::temp_directory_path() / "peha_calibration_roundtrip.yaml";
+  const auto path = std::filesystem::temp_directory_path() / ("peha_calibration_roundtrip.yaml_" + std::to_string(::getpid()));
   write_calibration(path, out.calibration);
   const MuscleCalibration back = read_calibration(path);
   ASSERT_TRUE(back.spgp);
@@ -118,9 +120,9 @@ TEST(CalibrationFile, RoundTripPreservesPredictions) {
 }
 
 TEST(CalibrationFile, RejectsEditedFilesWithFileLineAndKey) {
-  const auto csv = std::filesystem::temp_directory_path() / "peha_calibration_bad.csv";
+  const auto csv = std::filesystem::temp_directory_path() / ("peha_calibration_bad.csv_" + std::to_string(::getpid()));
   const CalibrationOutcome out = calibrate(synthetic_threshold_muscle_file(csv), fast_options());
-  const auto path = std::filesystem::temp_directory_path() / "peha_calibration_bad.yaml";
+  const auto path = std::filesystem::temp_directory_path() / ("peha_calibration_bad.yaml_" + std::to_string(::getpid()));
   write_calibration(path, out.calibration);
   std::ifstream in(path);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <unistd.h>
+#include <string>
 
 namespace peha::config {
 namespace {
@@ -179,7 +181,7 @@ TEST(Config, RefusesDevicesAndHugeFilesBeforeReadingThem) {
   } catch (const Error& e) {
     EXPECT_THAT(e.what(), HasSubstr("/dev/zero: not a regular file"));
   }
-  const auto big = std::filesystem::temp_directory_path() / "peha_big.yaml";
+  const auto big = std::filesystem::temp_directory_path() / ("peha_big.yaml_" + std::to_string(::getpid()));
   std::filesystem::resize_file((std::ofstream(big), big), kMaxFileBytes + 1);
   try {
     Document::load_file(big);

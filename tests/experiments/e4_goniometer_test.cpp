@@ -18,6 +18,8 @@
 #include <filesystem>
 #include <fstream>
 #include <sys/wait.h>
+#include <unistd.h>
+#include <string>
 
 namespace peha::experiments {
 namespace {
@@ -160,7 +162,7 @@ TEST(E4, EachDrivenJointHasItsOwnGoniometer) {
 TEST(E4, GoniometerCsvRoundTripsAndRejectsBadRecordings) {
   const ArmScenario s = shipped();
   const double lo = s.limits.joints[1].min_angle_rad, hi = s.limits.joints[1].max_angle_rad;
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_e4_csv";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_e4_csv_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const GoniometerTrace t = synthesize_goniometer(s.goniometer, movement(s, "brisk"), 3);
   write_goniometer_csv(dir / "rec.csv", t);
@@ -211,7 +213,7 @@ TEST(E4, GoniometerCsvRefusesADeviceAtOnce) {
 // both variants on it and writes their logs and the summary; a bad recording exits 2.
 TEST(E4, CliReplaysARecordedGoniometerFile) {
   const ArmScenario s = shipped();
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_e4_cli";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_e4_cli_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   ArmScenario::Goniometer::Movement m = movement(s, "brisk");

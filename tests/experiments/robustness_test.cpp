@@ -6,6 +6,8 @@
 #include <cmath>
 #include <fstream>
 #include <sstream>
+#include <unistd.h>
+#include <string>
 
 namespace peha::experiments {
 namespace {
@@ -97,7 +99,7 @@ TEST(Robustness, SmallMatrixJudgesEveryCaseHonestly) {
   EXPECT_TRUE(r.rows[3].physics_forbids);  // the unknown payload in E3
   EXPECT_LT(r.rows[2].drift_deg, 0.5);
 
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "peha_robustness_test";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_robustness_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   write_robustness(dir, c, r);
   std::ifstream md(dir / "robustness.md");

@@ -9,6 +9,8 @@
 #include <filesystem>
 #include <fstream>
 #include <random>
+#include <unistd.h>
+#include <string>
 
 namespace peha::models {
 namespace {
@@ -49,7 +51,7 @@ ArmModel chain_model() {
 }
 
 sim::ModelPtr load_chain() {
-  const auto path = std::filesystem::temp_directory_path() / "peha_arm_chain_test.xml";
+  const auto path = std::filesystem::temp_directory_path() / ("peha_arm_chain_test.xml_" + std::to_string(::getpid()));
   { std::ofstream(path) << kChainXml; }
   sim::ModelPtr m = sim::load_mjcf(path);
   std::filesystem::remove(path);
