@@ -20,11 +20,15 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
   return {arm_joint_names(s), s.link, s.lifecycle};
 }
 
-/// The arm scenario's faults: list is E3's: the emulator's other cases refuse it (with a message).
+/// Why an arm scenario's faults: list (E3's alone) does not go with `what`.
+std::string faults_not_for(const config::Document& doc, const char* what) {
+  return fmt::format("{}: its faults: list is injected in E3 (--experiment postures) only, not in {}: remove it for this run", doc.name(), what);
+}
+
+/// The emulator's cases other than E3's refuse the scenario's faults: list (with a message).
 bool refuse_arm_faults(const config::Document& doc, const ArmScenario& scenario, const char* what) {
   if (scenario.faults.empty()) return false;
-  fmt::print(stderr, "config error: {}: its faults: list is injected in E3 (--experiment postures) only, not in {}: "
-                     "remove it for this run\n", doc.name(), what);
+  fmt::print(stderr, "config error: {}\n", faults_not_for(doc, what));
   return true;
 }
 
@@ -101,8 +105,7 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorC
 ArmScenario arm_scenario_for_run(const config::Document& doc, const RunRequest& request, const char* what, bool takes_faults) {
   ArmScenario scenario = read_arm_scenario(doc);
   if (!takes_faults && !scenario.faults.empty()) {
-    throw RequestError(fmt::format("{}: its faults: list is injected in E3 (--experiment postures) only, not in {}: remove it for this run",
-                                   doc.name(), what));
+    throw RequestError(faults_not_for(doc, what));
   }
   if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
   if (request.force_trim_rate_1ps) scenario.controller.allocation.force_trim_rate_1ps = *request.force_trim_rate_1ps;

@@ -55,6 +55,15 @@ std::size_t failed_figures(const safety::Verdict& verdict) {
   return failed;
 }
 
+void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw, const runtime::CsvLog& log, const char* prefix,
+                            const std::string& case_name, const std::vector<std::string>& comments, double simulated_s,
+                            double realtime_factor) {
+  const std::filesystem::path log_path = ctx.dir / fmt::format("{}_{}.csv", prefix, case_name);
+  log.write(log_path, comments);
+  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", simulated_s, hw.replay ? "replayed" : "simulated", realtime_factor, log_path.string());
+  if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}.csv", case_name));
+}
+
 int run_sequence(const config::Document& doc, const RunRequest& request, ExperimentRun& experiment) {
   const std::vector<std::string> names = experiment.case_names();
   const std::vector<std::size_t> cases = select_cases(doc, names, request.only_case);

@@ -20,16 +20,13 @@ E1Result run_in_process(const E1Scenario& scenario, const E1Case& c, const RunCo
   runtime::CsvLog log(e1_log_columns(), rows);
   const hardware::Hardware hw = hardware::open_backend(ctx.backend, e1_hardware(scenario, c));
   E1Result r = run_e1_on(scenario, c, *hw.backend, dynamic_cast<const sim::OneDofRigBackend*>(hw.backend.get()), &log);
-  const std::filesystem::path log_path = ctx.dir / fmt::format("e1_{}.csv", c.name);
   std::vector<std::string> comments = {fmt::format("case: {} ({} kg payload)", c.name, c.payload_kg),
                                        fmt::format("config: {}", ctx.request.config.string()), fmt::format("seed: {}", scenario.seed),
                                        "pressures gauge; plant_* columns are simulator truth the controller never sees"};
   if (hw.replay) {
     comments.back() = "pressures gauge; replayed from " + ctx.backend.replay_log.string() + ": the sensors are the log's, plant_* columns NaN";
   }
-  log.write(log_path, comments);
-  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", r.simulated_s, hw.replay ? "replayed" : "simulated", r.realtime_factor, log_path.string());
-  if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}.csv", c.name));
+  finish_in_process_case(ctx, hw, log, "e1", c.name, comments, r.simulated_s, r.realtime_factor);
   return r;
 }
 

@@ -18,13 +18,12 @@ E5Result run_in_process(const E5Scenario& scenario, const E5Case& c, const RunCo
   runtime::CsvLog log(e5_log_columns(), rows);
   const hardware::Hardware hw = hardware::open_backend(ctx.backend, e5_hardware(scenario, c));
   E5Result r = run_e5_on(scenario, c, *hw.backend, dynamic_cast<const sim::OneDofRigBackend*>(hw.backend.get()), &log);
-  const std::filesystem::path log_path = ctx.dir / fmt::format("e5_{}.csv", c.name);
-  log.write(log_path, {fmt::format("case: {} (clamp at {} deg)", c.name, r.locked_angle_deg), fmt::format("config: {}", ctx.request.config.string()),
-                       fmt::format("seed: {}", scenario.seed),
-                       "pressures gauge; stop: 0 none, 1 force ceiling, 2 supply, 3 rate limit, 4 supervisor; "
-                       "plant_* columns are simulator truth the controller never sees"});
-  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", r.simulated_s, hw.replay ? "replayed" : "simulated", r.realtime_factor, log_path.string());
-  if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}.csv", c.name));
+  finish_in_process_case(ctx, hw, log, "e5", c.name,
+                         {fmt::format("case: {} (clamp at {} deg)", c.name, r.locked_angle_deg), fmt::format("config: {}", ctx.request.config.string()),
+                          fmt::format("seed: {}", scenario.seed),
+                          "pressures gauge; stop: 0 none, 1 force ceiling, 2 supply, 3 rate limit, 4 supervisor; "
+                          "plant_* columns are simulator truth the controller never sees"},
+                         r.simulated_s, r.realtime_factor);
   return r;
 }
 

@@ -15,6 +15,7 @@
 #include "peha/mfb/board_emulator.hpp"
 #include "peha/mfb/channel_map.hpp"
 #include "peha/mfb/link_config.hpp"
+#include "peha/runtime/csv_log.hpp"
 #include "peha/runtime/supervisor.hpp"
 
 #include <cstdint>
@@ -149,6 +150,13 @@ std::optional<std::size_t> emulator_case(const config::Document& doc, const std:
 
 /// The scenario's mfb: section exists; false after a message.
 bool has_link(const config::Document& doc, const std::optional<mfb::LinkConfig>& link);
+
+/// The end of a case run in process through the door: writes its per-cycle log `<prefix>_<case>.csv`
+/// with `comments`, prints how long it ran and how fast, and for a replay writes the commands beside
+/// the recorded ones (replay_<case>.csv).
+void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw, const runtime::CsvLog& log, const char* prefix,
+                            const std::string& case_name, const std::vector<std::string>& comments, double simulated_s,
+                            double realtime_factor);
 
 /// The failed checks of a verdict (for Conclusion::failed_figures).
 std::size_t failed_figures(const safety::Verdict& verdict);
