@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 #include "peha/runtime/csv_log.hpp"
 #include "../support/edited_config.hpp"
+#include "../support/peha_cli.hpp"
 
 #include <fmt/format.h>
 
@@ -23,20 +24,9 @@ namespace {
 
 using ::testing::HasSubstr;
 
-struct Result {
-  int code;
-  std::string output;
-};
+using Result = peha::testing::CliResult;
 
-Result run(const std::string& args) {
-  const std::string cmd = std::string(PEHA_BINARY) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
-  const int status = pclose(pipe);
-  return {WEXITSTATUS(status), out};
-}
+Result run(const std::string& args) { return peha::testing::run_peha(args); }
 
 TEST(Cli, HelpListsEverySubcommand) {
   const Result r = run("--help");

@@ -4,6 +4,8 @@
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/run_dir.hpp"
 
+#include "../support/peha_cli.hpp"
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -23,20 +25,11 @@ namespace {
 using ::testing::HasSubstr;
 namespace fs = std::filesystem;
 
-struct Result {
-  int code;
-  std::string output;
-};
+using Result = peha::testing::CliResult;
 
 Result peha(const std::string& args) {
   // timeout: a refusal that does not come would otherwise hang on a FIFO or read /dev/zero forever.
-  const std::string cmd = "timeout -s KILL 120 " + std::string(PEHA_BINARY) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buf;
-  while (fgets(buf.data(), buf.size(), pipe)) out += buf.data();
-  const int status = pclose(pipe);
-  return {WEXITSTATUS(status), out};
+  return peha::testing::run_peha(args, "timeout -s KILL 120 ");
 }
 
 std::string bytes(const fs::path& p) {
