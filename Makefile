@@ -22,7 +22,7 @@ help:
 	@echo "make fuzz   fuzz the MFB packet parser, the config reader and the calibration readers, 10 minutes each (libFuzzer, ASan, UBSan)"
 	@echo "make soak   opt-in: 10 minutes of the bare 1 kHz timer loop (the machine's floor), 10 of MFB round trips at 1 kHz over UDP,"
 	@echo "            then both again with the other core busy (40 minutes)"
-	@echo "make faults every injectable fault at three moments of E1 and three of E3 (right arm) in process:"
+	@echo "make faults every injectable fault at five moments of E1 (two in the start-up) and three of E3 (right arm) in process:"
 	@echo "            out/faults/ and out/faults_arm/: faults.md and faults.png (docs/safety.md); then E1's link faults"
 	@echo "            over UDP to the emulator (~50 s): out/faults_link/faults_link.md"
 	@echo "make property  opt-in: the limits' random-command property test with 10^7 commands (make test runs 10^5)"

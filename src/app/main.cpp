@@ -356,7 +356,7 @@ Command add_faults(CLI::App& app) {
   auto o = std::make_shared<peha::app::FaultsOptions>();
   CLI::App* cmd = app.add_subcommand(
       "faults", "Run the fault matrix (docs/safety.md): every fault the simulated plant can inject, at several moments\n"
-                "of E1 (holding, during a push, after a release) or, for an arm scenario, of E3 on the elbow R_EFE\n"
+                "of E1 (the start-up vent and tare, holding, during a push, after a release) or, for an arm scenario, of E3 on the elbow R_EFE\n"
                 "(holding a posture, while the operator moves the arm, while the elbow itself moves, with the elbow\n"
                 "flexed), in process with the supervisor's plausibility stage on. Prints one line per fault; writes\n"
                 "<out>/<run>/faults.md, faults.csv and faults.png. Exit code 0 = no false alarm, every fault detected\n"
@@ -367,8 +367,8 @@ Command add_faults(CLI::App& app) {
   cmd->add_option("-n,--name", o->run_name, "Run directory name (default: <config stem>-<UTC time>)")->check(peha::app::run_name());
   cmd->add_option("--case", o->case_name, "E1 case (default: the first); E3 has none");
   cmd->add_option("--fault-kind", o->kinds, "Only these fault kinds (repeatable)");
-  cmd->add_option("--moment", o->moments, "Only these moments (repeatable): E1 holding|push|after_release, E3 holding|moving|elbow_moving|elbow_flexed")
-      ->check(CLI::IsMember({"holding", "push", "after_release", "moving", "elbow_moving", "elbow_flexed"}));
+  cmd->add_option("--moment", o->moments, "Only these moments (repeatable): E1 startup_vent|tare|holding|push|after_release, E3 holding|moving|elbow_moving|elbow_flexed")
+      ->check(CLI::IsMember({"startup_vent", "tare", "holding", "push", "after_release", "moving", "elbow_moving", "elbow_flexed"}));
   cmd->add_flag("!--no-plot", o->plot, "Do not render faults.png (no Python needed)");
   cmd->add_flag("--link", o->link,
                 "Instead of the in-process matrix: E1's link faults over UDP (docs/safety.md \"The link's faults\"): starts\n"

@@ -96,7 +96,15 @@ void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value
     first_ = {flag, joint, muscle, value, threshold, t_s_, sequence_};
     ++count_;
     io::copy_used(held_, last_sent_);
-    for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
+    for (int j = 0; j < held_.joint_count && j < io::kMaxJoints; ++j) {
+      io::JointCommand& h = held_.joints[static_cast<std::size_t>(j)];
+      h.motor_torque_Nm = 0.0;
+      const JointState& js = joints_[static_cast<std::size_t>(j)];
+      if (js.carried || !js.has_found) continue;
+      // Start-up (vent, tare, refill): restore what held the limb before the run began.
+      h.agonist_pressure_Pa = js.found_Pa[0];
+      h.antagonist_pressure_Pa = js.found_Pa[1];
+    }
   }
   flags_ |= flag;
   const SafeAction a = (overrides_.vented & flag) ? SafeAction::kVent : safe_action(flag);
@@ -180,6 +188,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     const io::JointSensors& in = s.joints[ji];
     JointState& js = joints_[ji];
     if (!check_finite(j, in)) continue;
+    if (!js.has_found) {
+      js.found_Pa = {std::max(0.0, in.agonist_pressure_Pa), std::max(0.0, in.antagonist_pressure_Pa)};
+      js.has_found = true;
+    }
     check_encoder(j, in, s.time_s, js);
     check_range(j, in.angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
     if (!outputs_follow) {
@@ -195,6 +207,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
       const MuscleSample x = muscle_sample(j, m, in, *model, js, s.time_s, outputs_follow);
       if (check_muscle(x, js.muscle[static_cast<std::size_t>(m)])) ++low_muscles;
     }
+    // Carried: both wires taut with the outputs following; where slack is by design (tension not
+    // checked), once the outputs have followed for tension_arm_s.
+    const bool armed = outputs_follow && s.time_s - js.follow_since_s >= params_.tension_arm_s;
+    if (armed && (!params_.tension_checked[ji] || (js.muscle[0].taut && js.muscle[1].taut))) js.carried = true;
   }
   check_low_pressures(low_muscles, s.joint_count);
   synced_ = outputs_follow;

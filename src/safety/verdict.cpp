@@ -71,6 +71,8 @@ VerdictThresholds read_verdict_thresholds(config::Map& root) {
   t.max_settle_s = v.number_or("max_settle_s", t.max_settle_s, {0.0, 3600.0});
   t.min_time_at_limit_s = v.number_or("min_time_at_limit_s", t.min_time_at_limit_s, {0.0, 3600.0});
   t.min_ceiling_share_pct = v.number_or("min_ceiling_share_pct", t.min_ceiling_share_pct, {0.0, 100.0});
+  t.max_startup_excursion_deg = v.number_or("max_startup_excursion_deg", t.max_startup_excursion_deg, {0.0, 90.0});
+  t.max_startup_speed_degps = v.number_or("max_startup_speed_degps", t.max_startup_speed_degps, {0.0, 1000.0});
   v.finish();
   return t;
 }
@@ -152,6 +154,20 @@ void add_supervisor_check(const FaultMonitor& monitor, Verdict& v) {
   const std::string reason = monitor.run_reason();
   v.at_most(monitor.count() ? "supervisor faults (first: " + reason + ")" : std::string("supervisor faults"), "",
             static_cast<double>(monitor.count()), 0.0);
+}
+
+void add_startup_checks(const std::string& joint, std::span<const double> angle_rad, double period_s, std::size_t end,
+                        const VerdictThresholds& thresholds, Verdict& verdict) {
+  if (angle_rad.empty()) return;
+  end = std::min(end, angle_rad.size() - 1);
+  const auto window = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(kStartupSpeedWindow_s / period_s)));
+  double excursion_rad = 0, speed_radps = 0;
+  for (std::size_t k = 0; k <= end; ++k) {
+    excursion_rad = std::max(excursion_rad, std::abs(angle_rad[k] - angle_rad[0]));
+    if (k >= window) speed_radps = std::max(speed_radps, std::abs(angle_rad[k] - angle_rad[k - window]) / (static_cast<double>(window) * period_s));
+  }
+  verdict.at_most(joint + " start-up excursion", "deg", models::rad_to_deg(excursion_rad), thresholds.max_startup_excursion_deg);
+  verdict.at_most(joint + " start-up speed", "deg/s", models::rad_to_deg(speed_radps), thresholds.max_startup_speed_degps);
 }
 
 }  // namespace peha::safety

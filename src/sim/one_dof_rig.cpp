@@ -96,19 +96,26 @@ double OneDofRigBackend::finger_force(double t, double angle, double omega) noex
   const FingerParams& f = params_.finger;
   for (std::size_t i = 0; i < f.pushes.size(); ++i) {
     const FingerPush& push = f.pushes[i];
-    if (t < push.start_s || t >= push.start_s + push.duration_s) continue;
+    const bool kept = static_cast<int>(i) == kept_support_;
+    if (t < push.start_s || (t >= push.start_s + push.duration_s && !kept)) continue;
+    active_support_ = push.support_stiffness_N_per_m > 0 ? static_cast<int>(i) : -1;
     if (std::isnan(push_start_angle_[i])) push_start_angle_[i] = angle;
     const double start = push_start_angle_[i];
     const double goal = push.hold ? start : push.target_angle_rad;
     const double blend = minimum_jerk((t - push.start_s) / push.move_s);
     const double target = start + (goal - start) * blend;
-    double force = f.stiffness_N_per_m * f.lever_m * (target - angle) - f.damping_Ns_per_m * f.lever_m * omega;
-    force = std::clamp(force, -f.max_force_N, f.max_force_N);
+    const bool support = push.support_stiffness_N_per_m > 0;
+    const double k = support ? push.support_stiffness_N_per_m : f.stiffness_N_per_m;
+    const double c = support ? push.support_damping_Ns_per_m : f.damping_Ns_per_m;
+    const double max_N = support ? push.support_max_force_N : f.max_force_N;
+    double force = k * f.lever_m * (target - angle) - c * f.lever_m * omega;
+    force = std::clamp(force, -max_N, max_N);
     if (!push.hold && !push.clamp) force = goal >= start ? std::max(force, 0.0) : std::min(force, 0.0);  // a finger only pushes
     truth_.finger_active = true;
     return force;
   }
   truth_.finger_active = false;
+  active_support_ = -1;
   return 0.0;
 }
 

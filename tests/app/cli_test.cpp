@@ -155,7 +155,7 @@ TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
   } refused[] = {
       {"faults" + common + "/configs/e5_max_force.yaml", "peha faults runs E1 (gravity_compensation_1dof) or E3 (arm)"},
       {"faults --case payload_2.5kg" + common + "/configs/right_arm.yaml", "E3 has no cases"},
-      {"faults --moment moving" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'moving' (it has holding|push|after_release)"},
+      {"faults --moment moving" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'moving' (it has startup_vent|tare|holding|push|after_release)"},
       {"faults --moment push" + common + "/configs/right_arm.yaml", "E3 has no moment 'push' (it has holding|moving|elbow_moving|elbow_flexed)"},
       // Every moment the help names reaches the experiment's own check (elbow_flexed was refused by the CLI).
       {"faults --moment elbow_flexed" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'elbow_flexed'"},

@@ -140,7 +140,7 @@ TEST(ProceduresOverTheBoard, RecordCalibrateAndRunE1AsInProcess) {
   // breakaway probes' finger force is the plant's, not a sensor's).
   auto in_process = [&](const E1Scenario& scenario) {
     const hardware::Hardware rig = hardware::open_backend(hardware::BackendUri{}, e1_hardware(scenario, c));
-    return run_e1_on(scenario, c, *rig.backend, dynamic_cast<const sim::OneDofRigBackend*>(rig.backend.get()), nullptr);
+    return run_e1_on(scenario, c, *rig.backend, dynamic_cast<sim::OneDofRigBackend*>(rig.backend.get()), nullptr);
   };
   // The largest static torque error at rest after a release (plant truth, % of the gravity torque).
   auto static_error_pct = [](const E1Result& r) {

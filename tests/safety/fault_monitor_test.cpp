@@ -461,3 +461,55 @@ TEST(FaultMatrix, AWireBreakUnderLoadIsMarkedPhysicsForbids) {
 
 }  // namespace
 }  // namespace peha
+
+namespace peha {
+namespace {
+
+/// The pressures a hold fault (a controller NaN) holds after `vented_cycles` of a start-up vent
+/// from 0.13 / 0.26 MPa, then `taut_cycles` with both wires taut at 0.20 / 0.10 MPa sent.
+std::array<double, 2> held_after_a_nan(int vented_cycles, int taut_cycles) {
+  safety::MonitorParams p;
+  // Only the controller's NaN is checked: the synthetic pressures step where a valve would lag.
+  safety::FaultMonitor monitor(p, 1e-3, {.unchecked = ~safety::kFaultNonFiniteCommand});
+  E1JointView view;
+  io::SensorState& state = view.state;
+  io::Command sent;
+  sent.joint_count = 1;
+  int k = 0;
+  auto cycle = [&](double ago_Pa, double ant_Pa, double cell_N) {
+    state.time_s = 1e-3 * k++;
+    state.joints[0].agonist_pressure_Pa = ago_Pa;
+    state.joints[0].antagonist_pressure_Pa = ant_Pa;
+    const double noise_N = 0.01 * (k % 7);
+    state.joints[0].agonist_loadcell_N = cell_N + noise_N;
+    state.joints[0].antagonist_loadcell_N = cell_N + noise_N;
+    view.check(monitor, true);
+    sent.joints[0] = {ago_Pa, ant_Pa, 0.0};
+    monitor.sent(sent);
+  };
+  cycle(0.13e6, 0.26e6, 0.0);  // what the run finds: the limb held by these
+  for (int i = 0; i < vented_cycles; ++i) cycle(0.0, 0.0, 0.0);
+  for (int i = 0; i < taut_cycles; ++i) cycle(0.20e6, 0.10e6, 60.0);
+  io::Command nan = sent;
+  nan.joints[0].agonist_pressure_Pa = std::numeric_limits<double>::quiet_NaN();
+  monitor.check_command(nan, state.time_s);
+  EXPECT_EQ(monitor.action(), safety::SafeAction::kHold) << monitor.reason();
+  monitor.shape(nan);
+  return {nan.joints[0].agonist_pressure_Pa, nan.joints[0].antagonist_pressure_Pa};
+}
+
+// A fault while the start-up has the muscles vented on purpose must not hold the vent (vented
+// muscles under a load drop it): it restores what held the limb when the run began. Once the
+// controller carries the joint (both wires taut with the outputs following), the hold is the last
+// command sent, as before.
+TEST(FaultMonitor, AFaultDuringTheStartupVentHoldsThePressuresFoundNotTheVent) {
+  const std::array<double, 2> startup = held_after_a_nan(500, 0);
+  EXPECT_DOUBLE_EQ(startup[0], 0.13e6);
+  EXPECT_DOUBLE_EQ(startup[1], 0.26e6);
+  const std::array<double, 2> carried = held_after_a_nan(500, 1500);
+  EXPECT_DOUBLE_EQ(carried[0], 0.20e6);
+  EXPECT_DOUBLE_EQ(carried[1], 0.10e6);
+}
+
+}  // namespace
+}  // namespace peha

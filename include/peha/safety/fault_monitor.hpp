@@ -353,6 +353,14 @@ class FaultMonitor {
     std::array<double, kMotorWindow> sent_motor_Nm{};
     int motor_head = 0, motor_sent = 0;
     bool has_previous = false;
+    /// The pressures measured on the joint's first sample: what held the limb before the run
+    /// touched it. A fault before the joint is `carried` holds (and descends from) these, not the
+    /// start-up's vent: vented muscles under a load drop it.
+    std::array<double, 2> found_Pa{};
+    bool has_found = false;
+    /// Both wires have been taut with the outputs following (the controller carries the joint);
+    /// stays set for the run (a recovery ramps from what is measured then, not from start-up).
+    bool carried = false;
     DescendGovernorData governor{};
   };
   struct MuscleSample;  ///< one muscle of one sample and what its checks derive from it (fault_monitor.cpp)
@@ -400,7 +408,7 @@ class FaultMonitor {
   FaultRecord first_{};
   double t_s_ = 0;
   std::uint64_t sequence_ = 0, count_ = 0;
-  io::Command held_{};       ///< the last command sent before the fault (hold)
+  io::Command held_{};       ///< the last command sent before the fault, or what start-up found (hold)
   io::Command last_sent_{};
   char reason_[160] = {};
   char run_reason_[160] = {};

@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -50,6 +51,10 @@ struct VerdictThresholds {
   double max_settle_s = 1.0;                 ///< E5: from the limits' first cap to holding in the band
   double min_time_at_limit_s = 2.0;          ///< E5: time the measured force held at the limit
   double min_ceiling_share_pct = 95.0;       ///< E5: share of the held cycles the limits' force ceiling capped the ramp
+  /// Start-up (vent, tare, refill; docs/safety.md "Start-up"): how far and how fast a joint may move
+  /// while its muscles are vented on purpose and the limb rests on its support.
+  double max_startup_excursion_deg = 2.0;
+  double max_startup_speed_degps = 10.0;
 };
 
 /// Reads the optional `verdict:` section of a scenario root (defaults when absent or per key
@@ -120,6 +125,15 @@ struct Envelope {
 /// tension floor min_tension_fraction x pretension from `thresholds`.
 void add_envelope_checks(const LimitsModel& model, const JointModels& joints, const std::vector<std::string>& names,
                          const Envelope& envelope, const VerdictThresholds& thresholds, Verdict& verdict);
+
+/// Speed over this window (not per sample): the encoders' counts make a per-sample difference noise.
+inline constexpr double kStartupSpeedWindow_s = 0.01;
+
+/// The start-up's figures of one joint: its largest |angle - angle at 0| and its largest speed over
+/// kStartupSpeedWindow_s, from sample 0 to `end` (the end of vent, tare and refill), each judged
+/// against the thresholds' max_startup_* (figures "<joint> start-up excursion", "... start-up speed").
+void add_startup_checks(const std::string& joint, std::span<const double> angle_rad, double period_s, std::size_t end,
+                        const VerdictThresholds& thresholds, Verdict& verdict);
 
 /// The supervisor's figure every experiment reports: faults the plausibility stage latched over the
 /// run, at most 0 (a faulted run never passes), the first fault's text in the figure's name.

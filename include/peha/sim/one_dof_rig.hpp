@@ -39,6 +39,11 @@ struct FingerPush {
   /// Pulls as well as pushes (a clamp guided to the target, as the calibration's acceptance check
   /// uses), instead of a finger that only pushes toward its target.
   bool clamp = false;
+  /// A hold by something stiffer than the hand (the rig's start pin), > 0: its stiffness, damping
+  /// and force limit replace the finger's for this push (0 = the finger's).
+  double support_stiffness_N_per_m = 0;
+  double support_damping_Ns_per_m = 0;
+  double support_max_force_N = 0;
 };
 
 struct FingerParams {
@@ -106,6 +111,12 @@ class OneDofRigBackend final : public io::Backend {
   /// cycle that read that sample describe, even after the cycle's write() stepped the plant on.
   const OneDofRigTruth& sampled_truth() const { return sampled_truth_; }
   const OneDofRigParams& params() const { return params_; }
+  /// The operator's side of the start-up procedure (docs/safety.md "Start-up"): the support (a hold
+  /// push with `support`) is pulled only once the run is ready; called while the run has a fault, it
+  /// stays in past its scheduled end, carrying the limb, until the operator lowers it by hand.
+  void keep_support() noexcept {
+    if (kept_support_ < 0) kept_support_ = active_support_;
+  }
 
  private:
   void substep(const io::JointCommand& cmd) noexcept;
@@ -125,6 +136,8 @@ class OneDofRigBackend final : public io::Backend {
   PehaJointPlant joint_;
   std::mt19937_64 rng_;
   std::vector<double> push_start_angle_;  ///< angle where each push began (NaN until it starts)
+  int active_support_ = -1;  ///< the support push holding the link now (-1: none)
+  int kept_support_ = -1;    ///< the support the operator keeps in (keep_support)
   io::SensorState state_;
   OneDofRigTruth truth_, sampled_truth_;
   OutputGate gate_;

@@ -19,7 +19,7 @@ E1Result run_in_process(const E1Scenario& scenario, const E1Case& c, const RunCo
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
   runtime::CsvLog log(e1_log_columns(), rows);
   const hardware::Hardware hw = hardware::open_backend(ctx.backend, e1_hardware(scenario, c));
-  E1Result r = run_e1_on(scenario, c, *hw.backend, dynamic_cast<const sim::OneDofRigBackend*>(hw.backend.get()), &log);
+  E1Result r = run_e1_on(scenario, c, *hw.backend, dynamic_cast<sim::OneDofRigBackend*>(hw.backend.get()), &log);
   std::vector<std::string> comments = {fmt::format("case: {} ({} kg payload)", c.name, c.payload_kg),
                                        fmt::format("config: {}", ctx.request.config.string()), fmt::format("seed: {}", scenario.seed),
                                        "pressures gauge; plant_* columns are simulator truth the controller never sees"};

@@ -38,6 +38,13 @@ sim::FingerParams read_finger(config::Map map, double duration_s, std::vector<in
     if (push.has("breakaway")) probe = push.choice("breakaway", {"up", "down"}) == "up" ? 1 : -1;
     if (p.hold) {
       p.move_s = p.duration_s;
+      if (push.has("support")) {
+        config::Map support = push.map("support");
+        p.support_stiffness_N_per_m = support.number("stiffness_N_per_m", {1e3, 1e6});
+        p.support_damping_Ns_per_m = support.number("damping_Ns_per_m", {0.0, 1e4});
+        p.support_max_force_N = support.number("max_force_N", {1.0, 1e4});
+        support.finish();
+      }
     } else {
       p.move_s = push.number("move_s", {0.01, p.duration_s});
       p.target_angle_rad = models::deg_to_rad(push.number("target_angle_deg", {-90.0, 90.0}));
@@ -55,6 +62,35 @@ sim::FingerParams read_finger(config::Map map, double duration_s, std::vector<in
 }  // namespace
 
 E1Scenario read_e1(const config::Document& doc) { return read_e1(doc, "gravity_compensation_1dof", {}); }
+
+std::string e1_case_beyond_the_muscles(const E1Scenario& s, const E1Case& c) {
+  const models::JointModel& joint = s.controller.joint;
+  const control::OneDofGravityModel g = e1_controller_model(s, c).gravity;
+  const safety::JointLimits& range = s.limits.joints[0];
+  // Every angle of the range: a push or a safe state may leave the link anywhere in it, and a safe
+  // state has no motor (it is off or a damper), so the lifting muscle alone must carry the payload.
+  constexpr int kSteps = 90;
+  for (int i = 0; i <= kSteps; ++i) {
+    const double angle_rad = range.min_angle_rad + (range.max_angle_rad - range.min_angle_rad) * i / kSteps;
+    const double torque_Nm = control::gravity_torque_Nm(g, angle_rad);
+    const int lifter = torque_Nm >= 0 ? 0 : 1;  // the agonist lifts toward + angles
+    const models::MuscleModel& m = lifter == 0 ? joint.agonist : joint.antagonist;
+    const double eps = models::rigid_contraction(m, joint.pulley_radius_m, lifter == 0 ? +1 : -1, angle_rad);
+    const double need_N = std::abs(torque_Nm) / joint.pulley_radius_m + joint.pretension_N;
+    const double can_N = std::min(models::force_ceiling_N(m), models::forward_force_N(m.pam, joint.supply_pressure_Pa, eps));
+    if (need_N > can_N) {
+      const bool ceiling = can_N == models::force_ceiling_N(m);
+      return fmt::format("holding {} kg at {:.0f} deg needs {:.0f} N of the {} (gravity {:.2f} Nm / pulley {} m + pretension {} N), more than "
+                         "{}: the case is refused before arming - {}",
+                         c.payload_kg, models::rad_to_deg(angle_rad), need_N, lifter == 0 ? "agonist" : "antagonist", torque_Nm,
+                         joint.pulley_radius_m, joint.pretension_N,
+                         ceiling ? fmt::format("its force ceiling of {:.0f} N", can_N)
+                                 : fmt::format("the {:.0f} N its model makes there at the {:.2f} MPa supply", can_N, joint.supply_pressure_Pa * 1e-6),
+                         ceiling ? "lighten the payload or narrow the range" : "lighten the payload, raise limits.supply_pressure_MPa or narrow the range");
+    }
+  }
+  return {};
+}
 
 E1Scenario read_e1(const config::Document& doc, const char* experiment, const std::function<void(config::Map&)>& extra) {
   config::Map root = doc.root();
@@ -104,6 +140,8 @@ E1Scenario read_e1(const config::Document& doc, const char* experiment, const st
     E1Case e;
     e.name = c.string("name");
     e.payload_kg = c.number("payload_kg", {0.0, 20.0});
+    const std::string refusal = e1_case_beyond_the_muscles(s, e);
+    if (!refusal.empty()) c.fail("payload_kg", refusal);
     c.finish();
     s.cases.push_back(e);
   }
@@ -455,7 +493,7 @@ void add_e1_breakaway(const E1Scenario& scenario, const sim::OneDofRigParams& pl
 
 }  // namespace
 
-E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
+E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, sim::OneDofRigBackend* sim,
                    runtime::RowSink* log, const runtime::CycleHooks& hooks) {
   const control::OneDofControllerModel model = e1_controller_model(scenario, c);
   control::OneDofGravityController controller(model);
@@ -489,10 +527,11 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     const io::JointSensors& s = state.joints[0];
     const sim::OneDofRigTruth* t = sim ? &sim->sampled_truth() : nullptr;
     safety::JointSample j = observe_e1_sample(s, sent.joints[0], t, k, trace);
-    // The start-up tare vents both muscles on purpose (the hand holds the link): the wires are slack
+    // The start-up tare vents both muscles on purpose (the start pin holds the link): the wires are slack
     // until the tare is done and the muscles have filled again (refill_s). Their tension is not judged
     // then; every other figure is.
     const control::OneDofDiagnostics& d = controller.diagnostics();
+    if (sim && limited.monitor().flags() != 0) sim->keep_support();  // the operator: no pin pulled on a fault
     if (controller.wires_slack_on_purpose(state.time_s)) {
       j.min_tension_N = std::numeric_limits<double>::infinity();
       r.tare_slack_s = state.time_s;
@@ -523,6 +562,10 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
   r.realtime_factor = r.simulated_s / std::max(wall_s, 1e-9);
   add_e1_envelope(scenario, joints, envelope, limited, trace, r);
   const sim::OneDofRigParams plant = sim ? sim->params() : e1_plant_params(scenario, c);
+  if (r.tare_slack_s > 0) {
+    const auto end = static_cast<std::size_t>(std::llround(r.tare_slack_s / scenario.period_s));
+    safety::add_startup_checks("joint", trace.angle_rad, scenario.period_s, end, scenario.verdict, r.verdict);
+  }
   add_e1_releases(scenario, plant, trace, done, r);
   add_e1_breakaway(scenario, plant, trace, done, r);
   r.within_limits = r.verdict.passed();

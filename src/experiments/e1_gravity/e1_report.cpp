@@ -104,6 +104,10 @@ bool print_e1_table(const std::vector<E1Result>& results) {
       const safety::Check* c = r.verdict.find(figure);
       return c ? c->limit : std::numeric_limits<double>::quiet_NaN();
     };
+    auto figure_of = [&](const std::string& figure) {
+      const safety::Check* c = r.verdict.find(figure);
+      return c ? c->value : std::numeric_limits<double>::quiet_NaN();
+    };
     if (r.breakaway.measured) {
       const E1Breakaway& b = r.breakaway;
       fmt::print("{:<26} breakaway (hardware figure): finger {:.1f} N up, {:.1f} N down -> friction band {:.2f} Nm, "
@@ -114,9 +118,11 @@ bool print_e1_table(const std::vector<E1Result>& results) {
                  r.breakaway.force_up_N, r.breakaway.force_down_N);
     }
     if (r.tare_slack_s > 0) {
-      fmt::print("{:<26} start-up tare: load-cell offsets {:+.1f} N (agonist), {:+.1f} N (antagonist) subtracted; wires slack on purpose "
-                 "(vented, the hand holds the link) until {:.2f} s, their tension judged from then on\n",
-                 "", r.loadcell_tare_N[0], r.loadcell_tare_N[1], r.tare_slack_s);
+      fmt::print("{:<26} start-up: load-cell offsets {:+.1f} N (agonist), {:+.1f} N (antagonist) subtracted; wires slack on purpose "
+                 "(vented, the link on its support) until {:.2f} s, their tension judged from then on; the link moved {:.2f} deg "
+                 "(<= {:g}), at most {:.1f} deg/s (<= {:g})\n",
+                 "", r.loadcell_tare_N[0], r.loadcell_tare_N[1], r.tare_slack_s, figure_of("joint start-up excursion"),
+                 r.verdict.thresholds.max_startup_excursion_deg, figure_of("joint start-up speed"), r.verdict.thresholds.max_startup_speed_degps);
     }
     fmt::print("{:<26} safety: peak agonist force {:.0f} N (limit {:.0f}), peak antagonist force {:.0f} N (limit {:.0f}), "
                "min wire tension {:.2f} N (>= {:.1f}), max pressure {:.3f} MPa, peak motor {:.2f} Nm, angle {:.1f}..{:.1f} deg: {}\n",

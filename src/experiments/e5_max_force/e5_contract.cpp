@@ -17,7 +17,7 @@ E5Result run_in_process(const E5Scenario& scenario, const E5Case& c, const RunCo
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
   runtime::CsvLog log(e5_log_columns(), rows);
   const hardware::Hardware hw = hardware::open_backend(ctx.backend, e5_hardware(scenario, c));
-  E5Result r = run_e5_on(scenario, c, *hw.backend, dynamic_cast<const sim::OneDofRigBackend*>(hw.backend.get()), &log);
+  E5Result r = run_e5_on(scenario, c, *hw.backend, dynamic_cast<sim::OneDofRigBackend*>(hw.backend.get()), &log);
   finish_in_process_case(ctx, hw, log, "e5", c.name,
                          {fmt::format("case: {} (clamp at {} deg)", c.name, r.locked_angle_deg), fmt::format("config: {}", ctx.request.config.string()),
                           fmt::format("seed: {}", scenario.seed),

@@ -180,7 +180,14 @@ std::string physics_forbids(sim::FaultKind kind) {
 }
 
 std::vector<FaultMoment> e1_fault_moments(const E1Scenario& scenario) {
-  std::vector<FaultMoment> m = {{"holding", 4.0}};
+  std::vector<FaultMoment> m;
+  // Start-up: in the vent and in the tare (the muscles vented on purpose, the limb on its support).
+  const control::LoadcellCheck& tare = scenario.controller.allocation.loadcell_check;
+  if (tare.tare_s > 0) {
+    m.push_back({"startup_vent", 0.5 * tare.vent_s});
+    m.push_back({"tare", tare.vent_s + 0.5 * tare.tare_s});
+  }
+  m.push_back({"holding", 4.0});
   const auto& pushes = scenario.plant.finger.pushes;
   if (pushes.size() > 1) {
     const auto& p = pushes[1];
@@ -319,7 +326,7 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
                         "release). Force, speed and tension are the worst of the actuated "
                         "joints (each figure names its joint); the limits are every joint's",
                         scenario_name, kE3FaultJoint)
-          : std::string("E1 on the one-DOF rig: muscle faults on the agonist, at `holding` (4 s, at rest), `push` (the middle of the "
+          : std::string("E1 on the one-DOF rig: muscle faults on the agonist, at `startup_vent` and `tare` (the start-up, the link on its pin), `holding` (4 s, at rest), `push` (the middle of the "
                         "first push's move) and `after_release` (0.5 s after it lets go)");
   std::ofstream md(dir / "faults.md");
   md << "# Fault matrix: " << experiment << "\n\n";

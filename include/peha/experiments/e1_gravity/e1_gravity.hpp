@@ -58,6 +58,10 @@ struct E1Scenario {
 
 /// Reads a whole E1 scenario file; throws config::Error on anything the schema does not accept.
 E1Scenario read_e1(const config::Document& doc);
+/// Empty when the lifting muscle alone (no motor: a safe state has none), by the controller's
+/// model at the limits' supply, carries case `c`'s payload plus its pretension at every angle of
+/// the range; otherwise why not (read_e1 refuses such a case before anything runs).
+std::string e1_case_beyond_the_muscles(const E1Scenario& s, const E1Case& c);
 /// The same for an experiment that shares E1's scenario (e.g. `wire_creep`): `experiment:` must be
 /// `experiment`, and `extra` reads that experiment's own root sections before the root is finished.
 E1Scenario read_e1(const config::Document& doc, const char* experiment, const std::function<void(config::Map&)>& extra);
@@ -139,7 +143,7 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSi
 /// Runs one case on any backend: the same controller, limits and analysis. `sim` (optional) is
 /// the in-process rig when `backend` is it, for truth figures; without it the figures come from
 /// the sensors (see E1Result::from_truth). A cycle whose read() fails re-sends the last command.
-E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, const sim::OneDofRigBackend* sim,
+E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& backend, sim::OneDofRigBackend* sim,
                    runtime::RowSink* log, const runtime::CycleHooks& hooks = {});
 
 /// What a run on the one-DOF rig declares to the hardware door: its one joint, `period_s`, the
