@@ -38,7 +38,7 @@ struct UdpBackendParams {
 /// What the host has seen of the link.
 struct UdpLinkStats {
   ReceiveCounters received;                  ///< the StateFilter's verdict counters
-  std::uint64_t commands_sent = 0;
+  std::uint64_t commands_sent = 0;          ///< commands and hellos sent
   std::uint64_t send_failures = 0;
   std::uint64_t replies_missing = 0;         ///< read() calls that found no new sample (the loop held its command)
   std::uint64_t late_replies = 0;            ///< commands whose reply did not come within receive_timeout_s
