@@ -96,7 +96,9 @@ void check_datagram(std::span<const std::uint8_t> in) {
   CommandPacket cout = sentinel<CommandPacket>();
   const Source opener{0x7F000001u, 1000};
   const Verdict bv = board.accept(in, opener, cout);
-  FUZZ_CHECK(bv == (ce == ParseError::kOk ? Verdict::kAccept : rejected(ce)));
+  const bool hello = ce == ParseError::kOk && c.type == PacketType::kHello;
+  FUZZ_CHECK(bv == (ce == ParseError::kOk ? (hello ? Verdict::kHello : Verdict::kAccept) : rejected(ce)));
+  if (hello) FUZZ_CHECK(c.board_nonce == 0 && c.flags == 0 && c.digital_out == 0);
   FUZZ_CHECK(board.has_session() == (bv == Verdict::kAccept));
   if (bv == Verdict::kAccept) {
     FUZZ_CHECK(cout == c && board.session_id() == c.session_id && board.peer() == opener);
@@ -156,7 +158,7 @@ struct ArmingModel {
   bool estop = false;
   bool tripped = false;
   bool host_lost = false;
-  std::uint32_t token = 0;
+  std::uint64_t token = 0;  ///< the session's board nonce
 };
 
 /// Script record (8 bytes):
@@ -179,7 +181,7 @@ void run_script(const std::uint8_t* data, std::size_t size) {
   CommandFilter board(kKey);
   LinkKey other_key = kKey;
   other_key.bytes[5] ^= 0x10;
-  std::uint32_t tokens_drawn = 0;
+  std::uint64_t tokens_drawn = 0;
   BoardModel board_model;
   OutputArming arming;
   ArmingModel arm;
@@ -234,7 +236,7 @@ void run_script(const std::uint8_t* data, std::size_t size) {
       c.da[r[7] % kDaChannels] = static_cast<std::uint16_t>(r[6] << 8 | r[5]);
       c.digital_out = r[7];
       c.flags = bits;
-      c.arm_token = (r[7] & 0x80) ? arm.token : arm.token + 1;
+      c.board_nonce = (r[7] & 0x80) ? arm.token : arm.token + 1;
       unknown_bits = (bits & ~kCommandKnownFlags) != 0;
       n = encode(c, wrong_key ? other_key : kKey, buf);
     } else {
@@ -284,7 +286,7 @@ void run_script(const std::uint8_t* data, std::size_t size) {
           arm.armed = false;
           arm.tripped = false;
           arm.disabled_since_disarm = !arm.estop;
-        } else if (!arm.armed && arm.disabled_since_disarm && !arm.estop && out.arm_token == arm.token &&
+        } else if (!arm.armed && arm.disabled_since_disarm && !arm.estop && out.board_nonce == arm.token &&
                    (!arm.host_lost || (out.flags & kCommandOperatorArm) != 0)) {
           arm.armed = true;
           arm.host_lost = false;

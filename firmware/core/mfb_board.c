@@ -183,6 +183,8 @@ static mfb_verdict count(mfb_board* b, mfb_verdict v) {
     case MFB_STALE: ++c->stale; break;
     case MFB_MALFORMED: ++c->malformed; break;
     case MFB_UNAUTHENTICATED: ++c->unauthenticated; break;
+    case MFB_UNKNOWN_SESSION: ++c->unknown_session; break;
+    case MFB_HELLO: ++c->hellos; break;
   }
   return v;
 }
@@ -193,11 +195,30 @@ static uint32_t nonzero_random(const mfb_hal* hal) {
   return r;
 }
 
+/* The board nonce for host nonce `session` from `from`: keyed BLAKE2b (the HAL's MAC) under this
+ * boot's secret over the epoch, the host nonce and the endpoint - a stateless cookie (as in DTLS
+ * and IKEv2), so that answering hellos holds no state a flood could displace. A new boot (new
+ * secret) and every session opened (new epoch) make every earlier nonce worthless. */
+static uint64_t nonce_for(const mfb_board* b, uint32_t session, mfb_endpoint from) {
+  uint8_t in[14];
+  const uint32_t words[3] = {b->epoch, session, from.address};
+  for (int w = 0; w < 3; ++w) {
+    for (int i = 0; i < 4; ++i) in[4 * w + i] = (uint8_t)(words[w] >> (8 * i));
+  }
+  in[12] = (uint8_t)from.port;
+  in[13] = (uint8_t)(from.port >> 8);
+  uint8_t mac[MFB_MAC_SIZE];
+  b->hal->mac(b->hal->ctx, b->boot_secret, in, sizeof in, mac);
+  uint64_t nonce = 0;
+  for (int i = 0; i < 8; ++i) nonce |= (uint64_t)mac[i] << (8 * i);
+  return nonce != 0 ? nonce : 1; /* 0 means "no session" on the wire */
+}
+
 /* ---- arming (the same rules as peha::mfb::OutputArming) -------------------------------------- */
 
 static void arming_on_command(mfb_board* b, const mfb_command* c) {
-  if (c->session_id != b->arm_session) { /* a new host makes its own enable edge */
-    b->arm_session = c->session_id;
+  if (c->board_nonce != b->arm_nonce) { /* a new session makes its own enable edge */
+    b->arm_nonce = c->board_nonce;
     b->armed = false;
     b->seen_disable = false;
   }
@@ -205,7 +226,7 @@ static void arming_on_command(mfb_board* b, const mfb_command* c) {
     b->armed = false;
     b->seen_disable = !b->estop; /* the edge must start after the e-stop is released */
     b->tripped = false;          /* the host has acknowledged the trip */
-  } else if (!b->armed && b->seen_disable && !b->estop && c->arm_token == b->token &&
+  } else if (!b->armed && b->seen_disable && !b->estop &&
              (!b->host_lost || (c->flags & MFB_COMMAND_OPERATOR_ARM) != 0)) {
     b->armed = true;
     b->host_lost = false;
@@ -243,26 +264,54 @@ void mfb_board_init(mfb_board* b, const mfb_board_config* cfg, const mfb_hal* ha
   b->cfg = cfg;
   b->hal = hal;
   b->boot_id = nonzero_random(hal); /* this power-on's id: a restart draws another */
+  for (size_t i = 0; i < MFB_KEY_SIZE; i += 4) {
+    const uint32_t r = hal->random_u32(hal->ctx);
+    for (size_t k = 0; k < 4; ++k) b->boot_secret[i + k] = (uint8_t)(r >> (8 * k));
+  }
   b->last_error = MFB_PARSE_OK;
   write_safe(b);
   mfb_board_sample(b);
+}
+
+/* Keeps what the answer to `c` from `from` needs. */
+static mfb_event answer(mfb_board* b, const mfb_command* c, mfb_endpoint from, uint64_t nonce) {
+  b->answer_to = from;
+  b->answer_for = *c;
+  b->answer_nonce = nonce;
+  return MFB_EVENT_ANSWER;
 }
 
 mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, mfb_endpoint from, mfb_verdict* verdict) {
   mfb_verdict v;
   mfb_command c;
   const mfb_parse_error e = mfb_decode_command(datagram, size, b->cfg->key, b->hal->mac, b->hal->ctx, &c);
+  bool opens = false; /* a command that completes a handshake */
   if (e != MFB_PARSE_OK) {
     b->last_error = e;
     v = count(b, e == MFB_PARSE_BAD_MAC ? MFB_UNAUTHENTICATED : MFB_MALFORMED);
+  } else if (c.type == MFB_TYPE_HELLO) {
+    /* Answered whoever asks: it changes nothing here, and the nonce is good only for this host
+     * nonce from this endpoint, until the next session is opened. */
+    if (verdict != NULL) *verdict = count(b, MFB_HELLO);
+    return answer(b, &c, from, nonce_for(b, c.session_id, from));
   } else if (b->has_session && !(from.address == b->peer.address && from.port == b->peer.port)) {
     v = count(b, MFB_FOREIGN_SOURCE); /* the session belongs to the endpoint that opened it */
-  } else if (b->has_session && c.session_id != b->session_id) {
-    v = count(b, MFB_FOREIGN_SESSION);
+  } else if (b->has_session && (c.session_id != b->session_id || c.board_nonce != b->board_nonce)) {
+    v = count(b, MFB_FOREIGN_SESSION); /* a second host waits for the watchdog */
   } else {
-    /* Adopting another session starts its sequence afresh; re-adopting the released one keeps its
-     * baseline, so that a late packet cannot revive an old command. */
-    if (!b->has_session && c.session_id != b->session_id) b->have_last = false;
+    const bool released = !b->has_session && b->ever_adopted && c.session_id == b->session_id &&
+                          c.board_nonce == b->board_nonce && from.address == b->peer.address && from.port == b->peer.port;
+    if (!b->has_session && !released) {
+      /* Only a command carrying the nonce this boot answered to its hello opens a session: a
+       * recording of any earlier session (another boot, another epoch) never does. */
+      if (c.board_nonce != nonce_for(b, c.session_id, from)) {
+        if (verdict != NULL) *verdict = count(b, MFB_UNKNOWN_SESSION);
+        return answer(b, &c, from, 0);
+      }
+      opens = true;
+      b->have_last = false; /* a new session: its sequence starts a fresh baseline */
+    }
+    /* Re-adopting the released session keeps its baseline: a late packet cannot revive an old command. */
     if (b->have_last && c.sequence == b->last_sequence) {
       v = count(b, MFB_DUPLICATE);
     } else if (b->have_last && !mfb_sequence_newer(c.sequence, b->last_sequence)) {
@@ -277,17 +326,16 @@ mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, 
   if (verdict != NULL) *verdict = v;
   if (v != MFB_ACCEPT) return MFB_EVENT_DROPPED;
 
-  const bool adopted = !b->has_session;
-  const bool new_session = adopted && (c.session_id != b->session_id || !b->ever_adopted);
-  if (adopted) b->token = nonzero_random(b->hal); /* no recorded edge can arm this adoption */
+  if (opens) ++b->epoch; /* every nonce answered so far is void: none can open a second session */
   b->has_session = true;
   b->ever_adopted = true;
   b->session_id = c.session_id;
+  b->board_nonce = c.board_nonce;
   b->peer = from;
   b->last_command_us = b->hal->now_us(b->hal->ctx);
   arming_on_command(b, &c);
   b->command = c;
-  if (!new_session) return MFB_EVENT_COMMAND;
+  if (!opens) return MFB_EVENT_COMMAND;
   b->live = false;
   b->venting = false;
   write_safe(b);
@@ -426,7 +474,25 @@ size_t mfb_board_state_packet(mfb_board* b, uint8_t* out, size_t capacity) {
   for (int i = 0; i < MFB_ENCODER_CHANNELS; ++i) s.encoder[i] = b->inputs.encoder[i];
   s.digital_in = b->inputs.digital_in;
   s.status = mfb_board_status(b);
-  s.arm_token = b->token;
+  s.board_nonce = b->board_nonce;
   s.boot_id = b->boot_id;
+  return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
+}
+
+size_t mfb_board_answer_packet(mfb_board* b, uint8_t* out, size_t capacity, mfb_endpoint* to) {
+  if (capacity < MFB_STATE_PACKET_SIZE) return 0;
+  mfb_state s;
+  s.session_id = b->answer_for.session_id;
+  s.sequence = ++b->state_sequence;
+  s.ack_sequence = b->answer_for.sequence;
+  s.echo_host_time_ns = b->answer_for.host_time_ns;
+  s.board_time_ns = b->inputs.time_ns;
+  for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = b->inputs.ad[i];
+  for (int i = 0; i < MFB_ENCODER_CHANNELS; ++i) s.encoder[i] = b->inputs.encoder[i];
+  s.digital_in = b->inputs.digital_in;
+  s.status = (uint8_t)(mfb_board_status(b) | MFB_STATUS_NO_SESSION); /* the asker's session is not held */
+  s.board_nonce = b->answer_nonce;
+  s.boot_id = b->boot_id;
+  *to = b->answer_to;
   return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
 }

@@ -4,9 +4,11 @@
  *
  * What it does, per datagram and per board period:
  * - packet checks (size, magic, version, type, length, CRC-32C, MAC through the HAL, flags,
- *   session != 0), the session (adopt one host endpoint, newest-only sequence), arming (an enable
- *   edge carrying the board's arm token; operator arming after a host loss), the watchdog and the
- *   safe outputs (motors cut at once, valves vented along a ramp over `vent_us`);
+ *   session != 0), the handshake (a hello is answered with the board's nonce for that host nonce
+ *   and endpoint; only a command carrying it opens a session, so a recording of an earlier session
+ *   never does), the session (one host endpoint, newest-only sequence), arming (an enable edge of
+ *   the session; operator arming after a host loss), the watchdog and the safe outputs (motors cut
+ *   at once, valves vented along a ramp over `vent_us`);
  * - hard limits of its own, independent of the host: every DA code clamped to its channel's
  *   ceiling (valve pressure, motor torque); a load cell over its force ceiling vents that muscle; a
  *   joint outside its encoder range turns its motor off. The two trips latch until the next arming
@@ -47,7 +49,9 @@ typedef struct mfb_hal {
   uint64_t (*now_us)(void* ctx);
   /* Keyed BLAKE2b-128 (RFC 7693) from a vetted library: libsodium, the BLAKE2 reference code. */
   mfb_mac_fn mac;
-  /* A 32-bit random number from a hardware or OS entropy source (boot id, arm tokens). */
+  /* A 32-bit random number from a hardware TRNG or the OS's entropy source: the boot id and the
+   * boot secret from which every session's board nonce is derived (docs/porting.md). A predictable
+   * source makes recorded sessions replayable. */
   uint32_t (*random_u32)(void* ctx);
 } mfb_hal;
 
@@ -141,11 +145,16 @@ typedef enum mfb_verdict {
   MFB_DUPLICATE,
   MFB_STALE,
   MFB_MALFORMED,
-  MFB_UNAUTHENTICATED
+  MFB_UNAUTHENTICATED,
+  MFB_UNKNOWN_SESSION, /* a command of a session no handshake of this boot opened: a replay, or a
+                        * host the board does not know (after a restart); answered with nonce 0 */
+  MFB_HELLO            /* a hello: answered with the board's nonce, no session changed */
 } mfb_verdict;
 
 typedef struct mfb_counters {
   uint64_t accepted, foreign_source, foreign_session, duplicate, stale, malformed, unauthenticated;
+  uint64_t unknown_session; /* commands of no session this boot's handshakes opened (replays) */
+  uint64_t hellos;          /* hellos answered */
   uint64_t gaps;        /* sequence numbers skipped between accepted commands */
   uint64_t force_trips; /* muscles vented by their load cell's ceiling */
   uint64_t range_trips; /* motors cut by their joint's range */
@@ -161,7 +170,8 @@ typedef struct mfb_endpoint {
 typedef enum mfb_event {
   MFB_EVENT_DROPPED = 0,   /* not accepted (see the verdict) */
   MFB_EVENT_COMMAND,       /* a command of the session held: drive the outputs with it */
-  MFB_EVENT_NEW_SESSION    /* a new session was adopted: outputs safe until its enable edge */
+  MFB_EVENT_NEW_SESSION,   /* a new session was adopted: outputs safe until its enable edge */
+  MFB_EVENT_ANSWER         /* a hello or an unknown session: send mfb_board_answer_packet to its sender */
 } mfb_event;
 
 /* The watchdog's report. */
@@ -176,14 +186,21 @@ typedef struct mfb_board {
   const mfb_board_config* cfg;
   const mfb_hal* hal;
   uint32_t boot_id;
-  /* session (the command filter) */
+  uint8_t boot_secret[MFB_KEY_SIZE]; /* drawn at power-on: the board nonces of this boot */
+  uint32_t epoch;                    /* +1 per session opened: every earlier nonce answered is void */
+  /* session (the command filter): the host's nonce `session_id` and the board's `board_nonce` */
   bool has_session, ever_adopted, have_last;
   uint32_t session_id, last_sequence;
+  uint64_t board_nonce;
   mfb_endpoint peer;
+  /* the answer to the last hello or unknown session */
+  mfb_endpoint answer_to;
+  mfb_command answer_for;
+  uint64_t answer_nonce;
   mfb_counters counters;
   mfb_parse_error last_error;
-  /* arming */
-  uint32_t arm_session, token;
+  /* arming: the session (its board nonce) whose edge is being made */
+  uint64_t arm_nonce;
   bool seen_disable, armed, tripped, estop, host_lost;
   /* the command and what the outputs hold */
   mfb_command command;
@@ -200,11 +217,13 @@ typedef struct mfb_board {
   uint32_t state_sequence;
 } mfb_board;
 
-/* Power-on: no session, disarmed, safe outputs written, a fresh boot id, one sample taken. */
+/* Power-on: no session, disarmed, safe outputs written, a fresh boot id and boot secret, one sample taken. */
 void mfb_board_init(mfb_board* b, const mfb_board_config* cfg, const mfb_hal* hal);
 
 /* One datagram from `from`: checks it, judges it against the session, and on acceptance updates
- * the arming and keeps the command (the caller then calls mfb_board_drive). */
+ * the arming and keeps the command (the caller then calls mfb_board_drive). A hello, and a command
+ * of a session the board does not know while it holds none, return MFB_EVENT_ANSWER: the caller
+ * sends mfb_board_answer_packet. */
 mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, mfb_endpoint from, mfb_verdict* verdict);
 
 /* Samples every input through the HAL and checks the force ceilings and joint ranges (latching). */
@@ -221,13 +240,19 @@ mfb_watchdog mfb_board_poll(mfb_board* b);
  * adopted session (there is nobody to send to) or if `capacity` < MFB_STATE_PACKET_SIZE. */
 size_t mfb_board_state_packet(mfb_board* b, uint8_t* out, size_t capacity);
 
+/* The answer to the datagram that returned MFB_EVENT_ANSWER: a state packet of the asking host
+ * nonce (sequence +1), acknowledging its sequence, carrying the board nonce of that host nonce and
+ * endpoint (a hello) or 0 (a session the board does not know), with kStatusNoSession. Writes the
+ * destination into `to`; 0 if `capacity` < MFB_STATE_PACKET_SIZE. */
+size_t mfb_board_answer_packet(mfb_board* b, uint8_t* out, size_t capacity, mfb_endpoint* to);
+
 /* Readers. */
 static inline bool mfb_board_outputs_live(const mfb_board* b) { return b->armed && !b->estop; }
 static inline bool mfb_board_has_session(const mfb_board* b) { return b->has_session; }
 static inline uint32_t mfb_board_session(const mfb_board* b) { return b->session_id; }
 static inline mfb_endpoint mfb_board_peer(const mfb_board* b) { return b->peer; }
 static inline uint32_t mfb_board_boot_id(const mfb_board* b) { return b->boot_id; }
-static inline uint32_t mfb_board_arm_token(const mfb_board* b) { return b->token; }
+static inline uint64_t mfb_board_nonce(const mfb_board* b) { return b->board_nonce; }
 static inline bool mfb_board_estop(const mfb_board* b) { return b->estop; }
 static inline const mfb_counters* mfb_board_counters(const mfb_board* b) { return &b->counters; }
 static inline mfb_parse_error mfb_board_last_error(const mfb_board* b) { return b->last_error; }

@@ -3,9 +3,9 @@
 /* Byte offsets: the table of docs/mfb-protocol.md. */
 enum {
   kMagicAt = 0, kVersionAt = 4, kTypeAt = 5, kLengthAt = 6, kSessionAt = 8, kSequenceAt = 12,
-  kCmdHostTimeAt = 16, kCmdDaAt = 24, kCmdDigitalOutAt = 40, kCmdFlagsAt = 41, kCmdArmTokenAt = 42,
+  kCmdHostTimeAt = 16, kCmdDaAt = 24, kCmdDigitalOutAt = 40, kCmdFlagsAt = 41, kCmdBoardNonceAt = 42,
   kStEchoAt = 16, kStBoardTimeAt = 24, kStAckAt = 32, kStAdAt = 36, kStEncoderAt = 68,
-  kStDigitalInAt = 100, kStStatusAt = 101, kStArmTokenAt = 102, kStBootIdAt = 106
+  kStDigitalInAt = 100, kStStatusAt = 101, kStBoardNonceAt = 102, kStBootIdAt = 110
 };
 
 /* 1 KiB of flash, no RAM: CRC-32C of each byte value (reflected polynomial 0x82F63B78). */
@@ -110,7 +110,7 @@ mfb_parse_error mfb_decode_command(const uint8_t* in, size_t size, const uint8_t
   if (size < MFB_HEADER_SIZE) return MFB_PARSE_TOO_SHORT;
   if (get_u32(in, kMagicAt) != MFB_MAGIC) return MFB_PARSE_BAD_MAGIC;
   if (in[kVersionAt] != MFB_PROTOCOL_VERSION) return MFB_PARSE_BAD_VERSION;
-  if (in[kTypeAt] != MFB_TYPE_COMMAND) return MFB_PARSE_WRONG_TYPE;
+  if (in[kTypeAt] != MFB_TYPE_COMMAND && in[kTypeAt] != MFB_TYPE_HELLO) return MFB_PARSE_WRONG_TYPE;
   if (get_u16(in, kLengthAt) != MFB_COMMAND_PAYLOAD_SIZE) return MFB_PARSE_BAD_LENGTH;
   if (size < MFB_COMMAND_PACKET_SIZE) return MFB_PARSE_TOO_SHORT;
   if (size > MFB_COMMAND_PACKET_SIZE) return MFB_PARSE_TOO_LONG;
@@ -120,14 +120,20 @@ mfb_parse_error mfb_decode_command(const uint8_t* in, size_t size, const uint8_t
   mac(mac_ctx, key, in, MFB_COMMAND_PACKET_SIZE - MFB_MAC_SIZE, expected);
   if (!equal_in_constant_time(expected, in + MFB_COMMAND_PACKET_SIZE - MFB_MAC_SIZE, MFB_MAC_SIZE)) return MFB_PARSE_BAD_MAC;
   mfb_command c;
+  c.type = in[kTypeAt];
   c.session_id = get_u32(in, kSessionAt);
   c.sequence = get_u32(in, kSequenceAt);
   c.host_time_ns = get_u64(in, kCmdHostTimeAt);
   for (size_t i = 0; i < MFB_DA_CHANNELS; ++i) c.da[i] = get_u16(in, kCmdDaAt + 2 * i);
   c.digital_out = in[kCmdDigitalOutAt];
   c.flags = in[kCmdFlagsAt];
-  c.arm_token = get_u32(in, kCmdArmTokenAt);
+  c.board_nonce = get_u64(in, kCmdBoardNonceAt);
   if ((c.flags & ~MFB_COMMAND_KNOWN_FLAGS) != 0) return MFB_PARSE_BAD_FLAGS;
+  if (c.type == MFB_TYPE_HELLO) { /* a hello drives nothing and names no board nonce */
+    uint16_t any = (uint16_t)(c.digital_out | c.flags);
+    for (size_t i = 0; i < MFB_DA_CHANNELS; ++i) any = (uint16_t)(any | c.da[i]);
+    if (any != 0 || c.board_nonce != 0) return MFB_PARSE_BAD_FLAGS;
+  }
   if (c.session_id == 0) return MFB_PARSE_ZERO_SESSION;
   *out = c;
   return MFB_PARSE_OK;
@@ -144,7 +150,7 @@ size_t mfb_encode_state(const mfb_state* s, const uint8_t key[MFB_KEY_SIZE], mfb
   for (size_t i = 0; i < MFB_ENCODER_CHANNELS; ++i) put_u32(out, kStEncoderAt + 4 * i, (uint32_t)s->encoder[i]);
   out[kStDigitalInAt] = s->digital_in;
   out[kStStatusAt] = s->status;
-  put_u32(out, kStArmTokenAt, s->arm_token);
+  put_u64(out, kStBoardNonceAt, s->board_nonce);
   put_u32(out, kStBootIdAt, s->boot_id);
   put_trailer(out, MFB_STATE_PACKET_SIZE, key, mac, mac_ctx);
   return MFB_STATE_PACKET_SIZE;
@@ -153,12 +159,12 @@ size_t mfb_encode_state(const mfb_state* s, const uint8_t key[MFB_KEY_SIZE], mfb
 size_t mfb_encode_command(const mfb_command* c, const uint8_t key[MFB_KEY_SIZE], mfb_mac_fn mac, void* mac_ctx,
                           uint8_t* out, size_t capacity) {
   if (capacity < MFB_COMMAND_PACKET_SIZE) return 0;
-  put_header(out, MFB_TYPE_COMMAND, MFB_COMMAND_PAYLOAD_SIZE, c->session_id, c->sequence);
+  put_header(out, c->type, MFB_COMMAND_PAYLOAD_SIZE, c->session_id, c->sequence);
   put_u64(out, kCmdHostTimeAt, c->host_time_ns);
   for (size_t i = 0; i < MFB_DA_CHANNELS; ++i) put_u16(out, kCmdDaAt + 2 * i, c->da[i]);
   out[kCmdDigitalOutAt] = c->digital_out;
   out[kCmdFlagsAt] = c->flags;
-  put_u32(out, kCmdArmTokenAt, c->arm_token);
+  put_u64(out, kCmdBoardNonceAt, c->board_nonce);
   put_trailer(out, MFB_COMMAND_PACKET_SIZE, key, mac, mac_ctx);
   return MFB_COMMAND_PACKET_SIZE;
 }

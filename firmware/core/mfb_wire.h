@@ -1,4 +1,4 @@
-/* The MFB wire protocol, version 3, on the board's side (docs/mfb-protocol.md is the specification;
+/* The MFB wire protocol, version 4, on the board's side (docs/mfb-protocol.md is the specification;
  * include/peha/mfb/protocol.hpp is the host's C++ side of the same bytes).
  *
  * Freestanding C11: no heap, no libc beyond <stdint.h>, <stddef.h>, <stdbool.h>. Every field is
@@ -16,7 +16,7 @@ extern "C" {
 #endif
 
 #define MFB_MAGIC 0x3142464Du /* 'M','F','B','1' on the wire */
-#define MFB_PROTOCOL_VERSION 3u
+#define MFB_PROTOCOL_VERSION 4u
 #define MFB_KEY_SIZE 32u
 #define MFB_MAC_SIZE 16u
 #define MFB_AD_CHANNELS 16
@@ -25,14 +25,15 @@ extern "C" {
 
 #define MFB_TYPE_COMMAND 1u
 #define MFB_TYPE_STATE 2u
+#define MFB_TYPE_HELLO 3u /* host -> board: opens a session (the command's layout, its outputs all zero) */
 
 #define MFB_HEADER_SIZE 16u
 #define MFB_CRC_SIZE 4u
 #define MFB_TRAILER_SIZE (MFB_CRC_SIZE + MFB_MAC_SIZE)
-#define MFB_COMMAND_PAYLOAD_SIZE 30u
-#define MFB_STATE_PAYLOAD_SIZE 94u
-#define MFB_COMMAND_PACKET_SIZE (MFB_HEADER_SIZE + MFB_COMMAND_PAYLOAD_SIZE + MFB_TRAILER_SIZE) /* 66 */
-#define MFB_STATE_PACKET_SIZE (MFB_HEADER_SIZE + MFB_STATE_PAYLOAD_SIZE + MFB_TRAILER_SIZE)       /* 130 */
+#define MFB_COMMAND_PAYLOAD_SIZE 34u
+#define MFB_STATE_PAYLOAD_SIZE 98u
+#define MFB_COMMAND_PACKET_SIZE (MFB_HEADER_SIZE + MFB_COMMAND_PAYLOAD_SIZE + MFB_TRAILER_SIZE) /* 70 */
+#define MFB_STATE_PACKET_SIZE (MFB_HEADER_SIZE + MFB_STATE_PAYLOAD_SIZE + MFB_TRAILER_SIZE)       /* 134 */
 
 /* Command flags (byte 41). */
 #define MFB_COMMAND_ENABLE 0x01u
@@ -62,15 +63,16 @@ typedef enum mfb_parse_error {
   MFB_PARSE_ZERO_SESSION
 } mfb_parse_error;
 
-/* Host -> board, one per control period. */
+/* Host -> board: a command, one per control period, or a hello (`type`), which opens a session. */
 typedef struct mfb_command {
-  uint32_t session_id;
+  uint8_t type;                     /* MFB_TYPE_COMMAND or MFB_TYPE_HELLO */
+  uint32_t session_id;              /* the host's nonce of the session */
   uint32_t sequence;
   uint64_t host_time_ns;            /* echoed back for the host's round trip */
   uint16_t da[MFB_DA_CHANNELS];     /* DA codes 0..65535 */
   uint8_t digital_out;              /* line i = bit i */
   uint8_t flags;                    /* MFB_COMMAND_* */
-  uint32_t arm_token;               /* the board's token an enable edge must carry */
+  uint64_t board_nonce;             /* the board's nonce of the session (0 in a hello) */
 } mfb_command;
 
 /* Board -> host. */
@@ -84,7 +86,7 @@ typedef struct mfb_state {
   int32_t encoder[MFB_ENCODER_CHANNELS];
   uint8_t digital_in;
   uint8_t status;                   /* MFB_STATUS_* */
-  uint32_t arm_token;
+  uint64_t board_nonce;             /* the session's board nonce; 0: the board holds no such session */
   uint32_t boot_id;
 } mfb_state;
 
@@ -102,7 +104,8 @@ static inline bool mfb_sequence_newer(uint32_t a, uint32_t b) {
   return d != 0u && d < 0x80000000u;
 }
 
-/* Parses one whole datagram as a command, its MAC checked in constant time. `out` is written only
+/* Parses one whole datagram as a command or a hello (`out->type`), its MAC checked in constant
+ * time; a hello with a nonzero output, flag or nonce is MFB_PARSE_BAD_FLAGS. `out` is written only
  * on MFB_PARSE_OK. */
 mfb_parse_error mfb_decode_command(const uint8_t* in, size_t size, const uint8_t key[MFB_KEY_SIZE], mfb_mac_fn mac,
                                    void* mac_ctx, mfb_command* out);
@@ -112,7 +115,7 @@ mfb_parse_error mfb_decode_command(const uint8_t* in, size_t size, const uint8_t
 size_t mfb_encode_state(const mfb_state* s, const uint8_t key[MFB_KEY_SIZE], mfb_mac_fn mac, void* mac_ctx,
                         uint8_t* out, size_t capacity);
 
-/* Writes a command packet (the host's side; the board tests and the tools use it). */
+/* Writes a command or a hello (`c->type`, written as it is): the host's side, for the tests and tools. */
 size_t mfb_encode_command(const mfb_command* c, const uint8_t key[MFB_KEY_SIZE], mfb_mac_fn mac, void* mac_ctx,
                           uint8_t* out, size_t capacity);
 

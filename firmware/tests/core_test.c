@@ -100,9 +100,13 @@ static mfb_board_config g_cfg;
 static mfb_board g_board;
 static const mfb_endpoint kHost = {0x7F000001u, 40000};
 
+/* Each power-on draws from another seed, as a hardware TRNG would differ between boots (the test
+ * source is a deterministic xorshift, so that every run of these tests is the same). */
+static uint32_t g_boots;
+
 static void power_on(void) {
   memset(&g_bench, 0, sizeof g_bench);
-  g_bench.rng = 0x12345678u;
+  g_bench.rng = 0x12345678u + 0x9E3779B9u * ++g_boots;
   g_bench.now_us = 1000000;
   g_bench.in.digital_in = 0x01; /* e-stop chain closed (active low): no e-stop */
   g_bench.in.ad[0] = 13107;     /* 1000 N */
@@ -117,21 +121,66 @@ static void power_on(void) {
 }
 
 static uint32_t g_sequence;
+static uint64_t g_nonce; /* the board nonce the test's host puts in its commands */
+
+/* A recording of datagrams as a listener on the link captures them. */
+typedef struct recording {
+  uint8_t bytes[16][MFB_COMMAND_PACKET_SIZE];
+  int count;
+} recording;
+static recording* g_recorder;
+
+static void record(const uint8_t* bytes) {
+  if (g_recorder != NULL && g_recorder->count < 16) memcpy(g_recorder->bytes[g_recorder->count++], bytes, MFB_COMMAND_PACKET_SIZE);
+}
+
+static uint64_t get_u64_at(const uint8_t* p, size_t at) {
+  uint64_t v = 0;
+  for (int i = 0; i < 8; ++i) v |= (uint64_t)p[at + i] << (8 * i);
+  return v;
+}
+
+/* A hello for host nonce `session` from `from`: returns the board nonce of the board's answer (read
+ * from the answer's bytes, offset 102) and makes it the one the test's host sends. */
+static uint64_t hello_from(mfb_endpoint from, uint32_t session) {
+  mfb_command c;
+  memset(&c, 0, sizeof c);
+  c.type = MFB_TYPE_HELLO;
+  c.session_id = session;
+  c.sequence = ++g_sequence;
+  uint8_t bytes[MFB_COMMAND_PACKET_SIZE];
+  mfb_encode_command(&c, g_cfg.key, test_mac, NULL, bytes, sizeof bytes);
+  record(bytes);
+  mfb_verdict v;
+  CHECK_EQ(mfb_board_receive(&g_board, bytes, sizeof bytes, from, &v), MFB_EVENT_ANSWER);
+  CHECK_EQ(v, MFB_HELLO);
+  uint8_t answer[MFB_STATE_PACKET_SIZE];
+  mfb_endpoint to = {0, 0};
+  CHECK_EQ(mfb_board_answer_packet(&g_board, answer, sizeof answer, &to), MFB_STATE_PACKET_SIZE);
+  CHECK(to.address == from.address && to.port == from.port);
+  CHECK_EQ(answer[101] & MFB_STATUS_NO_SESSION, MFB_STATUS_NO_SESSION);
+  g_nonce = get_u64_at(answer, 102);
+  CHECK(g_nonce != 0);
+  return g_nonce;
+}
+static uint64_t hello(uint32_t session) { return hello_from(kHost, session); }
 
 /* One command from `from`, encoded with the link's key, received, and (if it drives) applied. */
 static mfb_event send_from(mfb_endpoint from, uint32_t session, uint8_t flags, const uint16_t da[MFB_DA_CHANNELS],
                            mfb_verdict* verdict) {
   mfb_command c;
   memset(&c, 0, sizeof c);
+  c.type = MFB_TYPE_COMMAND;
   c.session_id = session;
   c.sequence = ++g_sequence;
   c.host_time_ns = g_bench.now_us * 1000u;
   if (da != NULL) memcpy(c.da, da, sizeof c.da);
   c.digital_out = (flags & MFB_COMMAND_ENABLE) ? 0x01 : 0x00;
   c.flags = flags;
-  c.arm_token = mfb_board_arm_token(&g_board);
+  c.board_nonce = g_nonce;
   uint8_t bytes[MFB_COMMAND_PACKET_SIZE];
   mfb_encode_command(&c, g_cfg.key, test_mac, NULL, bytes, sizeof bytes);
+  record(bytes);
   const mfb_event e = mfb_board_receive(&g_board, bytes, sizeof bytes, from, verdict);
   mfb_board_sample(&g_board);
   if (e == MFB_EVENT_COMMAND) mfb_board_drive(&g_board);
@@ -141,8 +190,9 @@ static mfb_event send(uint32_t session, uint8_t flags, const uint16_t da[MFB_DA_
   return send_from(kHost, session, flags, da, NULL);
 }
 
-/* Adopt `session`, acknowledge (enable clear), then the enable edge: outputs live. */
+/* Hello, open `session`, acknowledge (enable clear), then the enable edge: outputs live. */
 static void arm(uint32_t session, const uint16_t da[MFB_DA_CHANNELS]) {
+  hello(session);
   send(session, 0, da);
   send(session, 0, da);
   send(session, MFB_COMMAND_ENABLE, da);
@@ -156,22 +206,22 @@ static const uint16_t kEverythingMax[MFB_DA_CHANNELS] = {65535, 65535, 65535, 65
 /* The golden command of tests/mfb/protocol_test.cpp, its MAC made by Python's hashlib.blake2b under
  * the key 0x00..0x1F: the MAC on this machine (libsodium or the BLAKE2 reference) must agree. */
 static const uint8_t kGoldenCommand[MFB_COMMAND_PACKET_SIZE] = {
-    0x4D, 0x46, 0x42, 0x31, 0x03, 0x01, 0x1E, 0x00, 0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55,
+    0x4D, 0x46, 0x42, 0x31, 0x04, 0x01, 0x22, 0x00, 0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55,
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01, 0xB0, 0xA0, 0xB1, 0xA1, 0xB2, 0xA2, 0xB3, 0xA3,
-    0xB4, 0xA4, 0xB5, 0xA5, 0xB6, 0xA6, 0xB7, 0xA7, 0xC3, 0x01, 0xF4, 0xF3, 0xF2, 0xF1, 0xFB, 0xF2,
-    0x7B, 0x5A, 0x36, 0xA6, 0x98, 0x07, 0x83, 0x59, 0x82, 0xCE, 0x88, 0xDC, 0xDD, 0x21, 0xD4, 0xA0,
-    0xEE, 0x7E};
+    0xB4, 0xA4, 0xB5, 0xA5, 0xB6, 0xA6, 0xB7, 0xA7, 0xC3, 0x01, 0xF8, 0xF7, 0xF6, 0xF5, 0xF4, 0xF3,
+    0xF2, 0xF1, 0x78, 0xE6, 0xA6, 0xBE, 0xB1, 0x2C, 0x2C, 0x04, 0x50, 0x40, 0x90, 0x96, 0xEE, 0x6E,
+    0x53, 0xE3, 0x9C, 0xE3, 0x36, 0x62};
 
 static const uint8_t kGoldenState[MFB_STATE_PACKET_SIZE] = {
-    0x4D, 0x46, 0x42, 0x31, 0x03, 0x02, 0x5E, 0x00, 0x44, 0x33, 0x22, 0x11, 0x0D, 0x0C, 0x0B, 0x0A,
+    0x4D, 0x46, 0x42, 0x31, 0x04, 0x02, 0x62, 0x00, 0x44, 0x33, 0x22, 0x11, 0x0D, 0x0C, 0x0B, 0x0A,
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01, 0x18, 0x17, 0x16, 0x15, 0x14, 0x13, 0x12, 0x11,
     0x88, 0x77, 0x66, 0x55, 0xE0, 0xD0, 0xE1, 0xD1, 0xE2, 0xD2, 0xE3, 0xD3, 0xE4, 0xD4, 0xE5, 0xD5,
     0xE6, 0xD6, 0xE7, 0xD7, 0xE8, 0xD8, 0xE9, 0xD9, 0xEA, 0xDA, 0xEB, 0xDB, 0xEC, 0xDC, 0xED, 0xDD,
     0xEE, 0xDE, 0xEF, 0xDF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x00, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0x7F,
     0x00, 0x00, 0x00, 0x80, 0xEB, 0x32, 0xA4, 0xF8, 0x04, 0x03, 0x02, 0x01, 0x00, 0x00, 0x00, 0x00,
-    0xFE, 0xFF, 0xFF, 0xFF, 0x5A, 0x0A, 0x24, 0x23, 0x22, 0x21, 0x34, 0x33, 0x32, 0x31, 0x0A, 0xB5,
-    0xA8, 0xC9, 0xF3, 0x7C, 0x99, 0x6D, 0x5A, 0x6A, 0x02, 0xD6, 0xEF, 0xAA, 0xE9, 0xB8, 0x63, 0x90,
-    0xFC, 0x25};
+    0xFE, 0xFF, 0xFF, 0xFF, 0x5A, 0x0A, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21, 0x34, 0x33,
+    0x32, 0x31, 0x5E, 0x5D, 0xA7, 0x21, 0xF4, 0xA9, 0x59, 0x37, 0x7A, 0x97, 0xD0, 0x12, 0xA9, 0xA1,
+    0x02, 0xEC, 0x17, 0x54, 0x42, 0x52};
 
 static uint8_t g_key[MFB_KEY_SIZE];
 static void golden_key(void) {
@@ -190,7 +240,8 @@ static void GoldenCommandDecodesWithItsPythonMac(void) {
   CHECK_EQ(c.sequence, 0x55667788u);
   CHECK_EQ(c.host_time_ns, 0x0102030405060708ull);
   CHECK_EQ(c.da[7], 0xA7B7);
-  CHECK_EQ(c.arm_token, 0xF1F2F3F4u);
+  CHECK_EQ(c.type, MFB_TYPE_COMMAND);
+  CHECK(c.board_nonce == 0xF1F2F3F4F5F6F7F8ull);
   CHECK_EQ(c.flags, MFB_COMMAND_ENABLE);
   /* Every single-bit flip is refused: in the CRC-covered bytes as a bad CRC, in the MAC as a bad MAC. */
   int refused = 0;
@@ -206,7 +257,7 @@ static void GoldenCommandDecodesWithItsPythonMac(void) {
 static void GoldenStateEncodesToItsBytes(void) {
   golden_key();
   mfb_state s = {0x11223344u, 0x0A0B0C0Du, 0x55667788u, 0x0102030405060708ull, 0x1112131415161718ull, {0}, {0},
-                 0x5A, MFB_STATUS_OUTPUTS_SAFE | MFB_STATUS_NO_SESSION, 0x21222324u, 0x31323334u};
+                 0x5A, MFB_STATUS_OUTPUTS_SAFE | MFB_STATUS_NO_SESSION, 0x2122232425262728ull, 0x31323334u};
   for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = (uint16_t)(0xD0E0 + 0x0101 * i);
   const int32_t enc[MFB_ENCODER_CHANNELS] = {-1, 1, INT32_MAX, INT32_MIN, -123456789, 0x01020304, 0, -2};
   memcpy(s.encoder, enc, sizeof enc);
@@ -224,7 +275,7 @@ static void ChecksRunInTheProtocolsOrder(void) {
   CHECK_EQ(mfb_decode_command(copy, 15, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_SHORT);
   CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE - 1, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_SHORT);
   CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE + 1, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_LONG);
-  copy[4] = 2; /* version 2 also differs in size: the version is reported */
+  copy[4] = 3; /* version 3 also differs in size: the version is reported */
   CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE - 4, g_key, test_mac, NULL, &c), MFB_PARSE_BAD_VERSION);
   memcpy(copy, kGoldenCommand, MFB_COMMAND_PACKET_SIZE);
   copy[5] = MFB_TYPE_STATE;
@@ -245,8 +296,9 @@ static void NothingIsSentAndOutputsAreSafeBeforeTheFirstSession(void) {
   CHECK(g_board.boot_id != 0);
 }
 
-static void AnEnableEdgeWithTheTokenArmsTheOutputs(void) {
+static void AnEnableEdgeOfTheSessionArmsTheOutputs(void) {
   power_on();
+  hello(7);
   CHECK_EQ(send(7, MFB_COMMAND_ENABLE, kHalfBar), MFB_EVENT_NEW_SESSION);
   send(7, MFB_COMMAND_ENABLE, kHalfBar); /* enable without a preceding disable: no edge */
   CHECK(!mfb_board_outputs_live(&g_board));
@@ -259,21 +311,148 @@ static void AnEnableEdgeWithTheTokenArmsTheOutputs(void) {
   CHECK_EQ(mfb_board_status(&g_board), 0);
 }
 
-static void AnEdgeWithAnotherTokenDoesNotArm(void) {
+/* ---- the handshake: replays -------------------------------------------------------------------- */
+
+static const mfb_endpoint kListener = {0x7F000001u, 47000}; /* another process on the link, with the key */
+
+/* Every datagram of `r` from `from`; returns how many the board accepted (it must send no command
+ * of them to the outputs). */
+static int replay(const recording* r, mfb_endpoint from) {
+  int accepted = 0;
+  for (int i = 0; i < r->count; ++i) {
+    mfb_verdict v;
+    const mfb_event e = mfb_board_receive(&g_board, r->bytes[i], MFB_COMMAND_PACKET_SIZE, from, &v);
+    if (v == MFB_ACCEPT) ++accepted;
+    if (e == MFB_EVENT_COMMAND || e == MFB_EVENT_NEW_SESSION) mfb_board_drive(&g_board);
+  }
+  return accepted;
+}
+
+/* A host's whole armed session, recorded: hello, open, acknowledge, the enable edge, a command. */
+static void record_an_armed_session(recording* r, uint32_t session) {
+  memset(r, 0, sizeof *r);
+  g_recorder = r;
+  arm(session, kEverythingMax);
+  send(session, MFB_COMMAND_ENABLE, kEverythingMax);
+  g_recorder = NULL;
+  CHECK(mfb_board_outputs_live(&g_board));
+}
+
+/* The real host after a replay: it opens its own session and arms (the operator's arming, which a
+ * host loss wants and an ordinary edge does not mind), as if no replay had been. */
+static void the_real_host_connects_normally(uint32_t session) {
+  const uint64_t before = mfb_board_counters(&g_board)->accepted;
+  hello(session);
+  send(session, 0, kHalfBar);
+  send(session, 0, kHalfBar);
+  send(session, MFB_COMMAND_ENABLE | MFB_COMMAND_OPERATOR_ARM, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(mfb_board_counters(&g_board)->accepted - before, 3);
+}
+
+static void ARecordedSessionReplayedToARebootedBoardIsRefused(void) {
   power_on();
-  send(7, 0, kHalfBar);
+  recording r;
+  record_an_armed_session(&r, 7);
+  power_on(); /* a restart: a new boot secret */
+  CHECK_EQ(replay(&r, kListener), 0);
+  CHECK_EQ(replay(&r, kHost), 0); /* from the host's own address (spoofed) too */
+  CHECK(!mfb_board_has_session(&g_board));
+  CHECK(!mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(mfb_board_counters(&g_board)->unknown_session, 2 * (r.count - 1)); /* every command; the hellos answered */
+  uint8_t out[MFB_STATE_PACKET_SIZE];
+  CHECK_EQ(mfb_board_state_packet(&g_board, out, sizeof out), 0); /* it sends nobody its stream */
+  the_real_host_connects_normally(8);
+}
+
+static void ARecordedSessionReplayedToTheSameBootLaterIsRefused(void) {
+  power_on();
+  recording r;
+  record_an_armed_session(&r, 7);
+  g_bench.now_us += 20000; /* the host is gone: the watchdog lets its session go */
+  CHECK_EQ(mfb_board_poll(&g_board), MFB_WATCHDOG_HOST_LOST);
+  CHECK_EQ(replay(&r, kListener), 0); /* another endpoint: not the nonce answered to it */
+  CHECK_EQ(replay(&r, kHost), 0);     /* the host's endpoint: all older than the session's last */
+  CHECK(!mfb_board_outputs_live(&g_board));
+  the_real_host_connects_normally(8);
+}
+
+static void AReplayedArmingDoesNotArm(void) {
+  power_on();
+  recording r;
+  memset(&r, 0, sizeof r);
+  arm(7, kHalfBar);
+  g_bench.now_us += 20000;
+  mfb_board_poll(&g_board); /* host loss: only the operator's arming arms */
+  g_recorder = &r;          /* the operator arms a new session: recorded */
+  hello(9);
+  send(9, 0, kHalfBar);
+  send(9, MFB_COMMAND_ENABLE | MFB_COMMAND_OPERATOR_ARM, kEverythingMax);
+  g_recorder = NULL;
+  CHECK(mfb_board_outputs_live(&g_board));
+  g_bench.now_us += 20000;
+  mfb_board_poll(&g_board); /* host loss again */
+  CHECK_EQ(replay(&r, kListener), 0);
+  CHECK_EQ(replay(&r, kHost), 0);
+  CHECK(!mfb_board_outputs_live(&g_board));
+  power_on();
+  CHECK_EQ(replay(&r, kHost), 0);
+  CHECK(!mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+}
+
+static void ASecondSourceWithTheKeyCannotSpeakForTheSession(void) {
+  power_on();
+  arm(7, kHalfBar);
+  const uint64_t nonce = g_nonce;
+  mfb_verdict v;
+  CHECK_EQ(send_from(kListener, 7, MFB_COMMAND_ENABLE, kEverythingMax, &v), MFB_EVENT_DROPPED);
+  CHECK_EQ(v, MFB_FOREIGN_SOURCE);
+  hello_from(kListener, 7); /* even its own handshake for the same host nonce */
+  CHECK(g_nonce != nonce);
+  CHECK_EQ(send_from(kListener, 7, MFB_COMMAND_ENABLE, kEverythingMax, &v), MFB_EVENT_DROPPED);
+  CHECK_EQ(v, MFB_FOREIGN_SOURCE);
+  g_nonce = nonce;
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], 19661);
+}
+
+static void TheBoardNonceIsFreshPerBootAndPerSession(void) {
+  power_on();
+  const uint32_t boot_a = mfb_board_boot_id(&g_board);
+  const uint64_t a = hello(7);
+  CHECK(hello(7) == a); /* the same question in the same epoch: the same answer, no state kept */
+  CHECK(hello_from(kListener, 7) != a); /* bound to the endpoint */
+  g_nonce = a;
+  send(7, 0, kHalfBar); /* opens the session: a new epoch */
+  CHECK(hello(7) != a);
+  power_on();
+  CHECK(mfb_board_boot_id(&g_board) != boot_a);
+  CHECK(hello(7) != a); /* another boot: another secret */
+}
+
+static void AHelloDrivesNothingAndLeavesTheSessionAlone(void) {
+  power_on();
+  arm(7, kHalfBar);
+  const uint64_t nonce = g_nonce;
+  hello_from(kListener, 9);
+  CHECK(mfb_board_has_session(&g_board));
+  CHECK_EQ(mfb_board_session(&g_board), 7);
+  CHECK(mfb_board_nonce(&g_board) == nonce);
+  CHECK(mfb_board_outputs_live(&g_board));
   mfb_command c;
   memset(&c, 0, sizeof c);
-  c.session_id = 7;
-  c.sequence = ++g_sequence;
-  c.flags = MFB_COMMAND_ENABLE;
-  c.arm_token = mfb_board_arm_token(&g_board) + 1; /* a recording of another adoption's edge */
+  c.type = MFB_TYPE_HELLO;
+  c.session_id = 9;
+  c.da[0] = 1; /* a hello with an output */
   uint8_t bytes[MFB_COMMAND_PACKET_SIZE];
   mfb_encode_command(&c, g_cfg.key, test_mac, NULL, bytes, sizeof bytes);
-  mfb_verdict v;
-  CHECK_EQ(mfb_board_receive(&g_board, bytes, sizeof bytes, kHost, &v), MFB_EVENT_COMMAND);
-  mfb_board_drive(&g_board);
-  CHECK(!mfb_board_outputs_live(&g_board));
+  mfb_command out;
+  CHECK_EQ(mfb_decode_command(bytes, sizeof bytes, g_cfg.key, test_mac, NULL, &out), MFB_PARSE_BAD_FLAGS);
 }
 
 static void TheSessionBelongsToItsEndpointAndSequenceOnlyMovesForward(void) {
@@ -440,11 +619,12 @@ static void OnePacketsCost(void) {
   for (int k = 0; k < kPackets; ++k) {
     mfb_command c;
     memset(&c, 0, sizeof c);
+    c.type = MFB_TYPE_COMMAND;
     c.session_id = 7;
     c.sequence = ++g_sequence;
     memcpy(c.da, kHalfBar, sizeof c.da);
     c.flags = MFB_COMMAND_ENABLE;
-    c.arm_token = mfb_board_arm_token(&g_board);
+    c.board_nonce = g_nonce;
     uint8_t in[MFB_COMMAND_PACKET_SIZE], out[MFB_STATE_PACKET_SIZE];
     mfb_encode_command(&c, g_cfg.key, test_mac, NULL, in, sizeof in); /* the host's half, subtracted below */
     mfb_board_receive(&g_board, in, sizeof in, kHost, NULL);
@@ -458,6 +638,7 @@ static void OnePacketsCost(void) {
   for (int k = 0; k < kPackets; ++k) {
     mfb_command c;
     memset(&c, 0, sizeof c);
+    c.type = MFB_TYPE_COMMAND;
     c.sequence = (uint32_t)k;
     uint8_t in[MFB_COMMAND_PACKET_SIZE];
     mfb_encode_command(&c, g_cfg.key, test_mac, NULL, in, sizeof in);
@@ -478,8 +659,13 @@ int main(void) {
   run(GoldenStateEncodesToItsBytes, "GoldenStateEncodesToItsBytes");
   run(ChecksRunInTheProtocolsOrder, "ChecksRunInTheProtocolsOrder");
   run(NothingIsSentAndOutputsAreSafeBeforeTheFirstSession, "NothingIsSentAndOutputsAreSafeBeforeTheFirstSession");
-  run(AnEnableEdgeWithTheTokenArmsTheOutputs, "AnEnableEdgeWithTheTokenArmsTheOutputs");
-  run(AnEdgeWithAnotherTokenDoesNotArm, "AnEdgeWithAnotherTokenDoesNotArm");
+  run(AnEnableEdgeOfTheSessionArmsTheOutputs, "AnEnableEdgeOfTheSessionArmsTheOutputs");
+  run(ARecordedSessionReplayedToARebootedBoardIsRefused, "ARecordedSessionReplayedToARebootedBoardIsRefused");
+  run(ARecordedSessionReplayedToTheSameBootLaterIsRefused, "ARecordedSessionReplayedToTheSameBootLaterIsRefused");
+  run(AReplayedArmingDoesNotArm, "AReplayedArmingDoesNotArm");
+  run(ASecondSourceWithTheKeyCannotSpeakForTheSession, "ASecondSourceWithTheKeyCannotSpeakForTheSession");
+  run(TheBoardNonceIsFreshPerBootAndPerSession, "TheBoardNonceIsFreshPerBootAndPerSession");
+  run(AHelloDrivesNothingAndLeavesTheSessionAlone, "AHelloDrivesNothingAndLeavesTheSessionAlone");
   run(TheSessionBelongsToItsEndpointAndSequenceOnlyMovesForward, "TheSessionBelongsToItsEndpointAndSequenceOnlyMovesForward");
   run(TheWatchdogCutsTheMotorAndVentsAlongTheRamp, "TheWatchdogCutsTheMotorAndVentsAlongTheRamp");
   run(AfterAHostLossOnlyTheOperatorsArmingArms, "AfterAHostLossOnlyTheOperatorsArmingArms");

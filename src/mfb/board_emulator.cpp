@@ -20,13 +20,14 @@ constexpr std::size_t kMaxPending = 4096;
 /// The core's command as the host's type (the step hook's argument).
 CommandPacket command_packet(const mfb_command& c) {
   CommandPacket p;
+  p.type = static_cast<PacketType>(c.type);
   p.session_id = c.session_id;
   p.sequence = c.sequence;
   p.host_time_ns = c.host_time_ns;
   std::copy(c.da, c.da + kDaChannels, p.da.begin());
   p.digital_out = c.digital_out;
   p.flags = c.flags;
-  p.arm_token = c.arm_token;
+  p.board_nonce = c.board_nonce;
   return p;
 }
 
@@ -35,12 +36,12 @@ CommandPacket command_packet(const mfb_command& c) {
 std::string EmulatorStats::table() const {
   return fmt::format(
       "commands: accepted {}, foreign source {}, foreign session {}, duplicate {}, stale {}, malformed {}, unauthenticated {}, gaps {}, "
-      "oversized {}\n"
+      "oversized {}; hellos answered {}, unknown session (replays) {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
       "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}\n"
       "board limits: {} muscle(s) vented at their force ceiling, {} motor cut(s) out of range, {} DA code(s) clamped",
       received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
-      received.unauthenticated, received.gaps, oversized,
+      received.unauthenticated, received.gaps, oversized, received.hellos, received.unknown_session,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
       injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes);
 }
@@ -106,6 +107,8 @@ void BoardEmulator::note_core_counters() noexcept {
   stats_.received.stale = c.stale;
   stats_.received.malformed = c.malformed;
   stats_.received.unauthenticated = c.unauthenticated;
+  stats_.received.unknown_session = c.unknown_session;
+  stats_.received.hellos = c.hellos;
   stats_.received.gaps = c.gaps;
   stats_.force_trips = c.force_trips;
   stats_.range_trips = c.range_trips;
@@ -248,6 +251,13 @@ void BoardEmulator::run(const std::atomic<bool>& stop) {
       const mfb_event event = mfb_board_receive(&core_, buffer.data(), static_cast<std::size_t>(n), mfb_endpoint{from.address, from.port}, &verdict);
       note_core_counters();
       if (event == MFB_EVENT_DROPPED) continue;
+      if (event == MFB_EVENT_ANSWER) {  // a hello, or a session this boot never opened: answered, nothing driven
+        std::array<std::uint8_t, kMaxPacketSize> answer;
+        mfb_endpoint to;
+        const std::size_t size = mfb_board_answer_packet(&core_, answer.data(), answer.size(), &to);
+        if (size > 0) socket_.send_to(io::UdpEndpoint{to.address, to.port}, std::span<const std::uint8_t>(answer.data(), size));
+        continue;
+      }
       host_ = from;
       have_host_ = true;
       last_command_ = command_packet(core_.command);

@@ -103,6 +103,8 @@ Verdict count(ReceiveCounters& c, Verdict v) {
     case Verdict::kStale: ++c.stale; break;
     case Verdict::kMalformed: ++c.malformed; break;
     case Verdict::kUnauthenticated: ++c.unauthenticated; break;
+    case Verdict::kUnknownSession: ++c.unknown_session; break;
+    case Verdict::kHello: ++c.hellos; break;
   }
   return v;
 }
@@ -149,6 +151,8 @@ const char* to_string(Verdict v) noexcept {
     case Verdict::kStale: return "stale";
     case Verdict::kMalformed: return "malformed";
     case Verdict::kUnauthenticated: return "unauthenticated";
+    case Verdict::kUnknownSession: return "unknown session";
+    case Verdict::kHello: return "hello";
   }
   return "unknown verdict";
 }
@@ -168,12 +172,12 @@ std::array<std::uint8_t, kMacSize> packet_mac(const LinkKey& key, const std::uin
 std::size_t encode(const CommandPacket& packet, const LinkKey& key, std::span<std::uint8_t> out) noexcept {
   if (out.size() < kCommandPacketSize) return 0;
   std::uint8_t* p = out.data();
-  put_header(p, PacketType::kCommand, kCommandPayloadSize, packet.session_id, packet.sequence);
+  put_header(p, packet.type, kCommandPayloadSize, packet.session_id, packet.sequence);
   put_u64(p, kCommandHostTimeOffset, packet.host_time_ns);
   for (std::size_t i = 0; i < packet.da.size(); ++i) put_u16(p, kCommandDaOffset + 2 * i, packet.da[i]);
   put_u8(p, kCommandDigitalOutOffset, packet.digital_out);
   put_u8(p, kCommandFlagsOffset, packet.flags);
-  put_u32(p, kCommandArmTokenOffset, packet.arm_token);
+  put_u64(p, kCommandBoardNonceOffset, packet.board_nonce);
   put_trailer(p, kCommandPacketSize, key);
   return kCommandPacketSize;
 }
@@ -191,26 +195,35 @@ std::size_t encode(const StatePacket& packet, const LinkKey& key, std::span<std:
   }
   put_u8(p, kStateDigitalInOffset, packet.digital_in);
   put_u8(p, kStateStatusOffset, packet.status);
-  put_u32(p, kStateArmTokenOffset, packet.arm_token);
+  put_u64(p, kStateBoardNonceOffset, packet.board_nonce);
   put_u32(p, kStateBootIdOffset, packet.boot_id);
   put_trailer(p, kStatePacketSize, key);
   return kStatePacketSize;
 }
 
 ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, CommandPacket& out) noexcept {
-  if (const ParseError e = check_frame(in, PacketType::kCommand, kCommandPayloadSize, key); e != ParseError::kOk) {
+  // A hello has the command's layout: the frame is checked as whichever of the two the type says.
+  const bool hello = in.size() > kTypeOffset && in[kTypeOffset] == static_cast<std::uint8_t>(PacketType::kHello);
+  const PacketType type = hello ? PacketType::kHello : PacketType::kCommand;
+  if (const ParseError e = check_frame(in, type, kCommandPayloadSize, key); e != ParseError::kOk) {
     return e;
   }
   const std::uint8_t* p = in.data();
   CommandPacket c;
+  c.type = type;
   c.session_id = get_u32(p, kSessionOffset);
   c.sequence = get_u32(p, kSequenceOffset);
   c.host_time_ns = get_u64(p, kCommandHostTimeOffset);
   for (std::size_t i = 0; i < c.da.size(); ++i) c.da[i] = get_u16(p, kCommandDaOffset + 2 * i);
   c.digital_out = p[kCommandDigitalOutOffset];
   c.flags = p[kCommandFlagsOffset];
-  c.arm_token = get_u32(p, kCommandArmTokenOffset);
+  c.board_nonce = get_u64(p, kCommandBoardNonceOffset);
   if ((c.flags & ~kCommandKnownFlags) != 0) return ParseError::kBadFlags;
+  if (hello) {  // a hello drives nothing and names no board nonce
+    unsigned any = c.digital_out | c.flags;
+    for (const std::uint16_t d : c.da) any |= d;
+    if (any != 0 || c.board_nonce != 0) return ParseError::kBadFlags;
+  }
   if (c.session_id == 0) return ParseError::kZeroSession;
   out = c;
   return ParseError::kOk;
@@ -233,7 +246,7 @@ ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, StatePac
   }
   s.digital_in = p[kStateDigitalInOffset];
   s.status = p[kStateStatusOffset];
-  s.arm_token = get_u32(p, kStateArmTokenOffset);
+  s.board_nonce = get_u64(p, kStateBoardNonceOffset);
   s.boot_id = get_u32(p, kStateBootIdOffset);
   if ((s.status & ~kStatusKnownBits) != 0) return ParseError::kBadFlags;
   if (s.session_id == 0) return ParseError::kZeroSession;
@@ -293,6 +306,7 @@ Verdict CommandFilter::accept(std::span<const std::uint8_t> datagram, const Sour
     last_error_ = e;
     return count(counters_, rejected(e));
   }
+  if (packet.type == PacketType::kHello) return count(counters_, Verdict::kHello);
   // The session belongs to the endpoint that opened it: nobody else is obeyed or answered.
   if (has_session_ && !(from == peer_)) return count(counters_, Verdict::kForeignSource);
   if (packet.session_id != session_id_) {
@@ -323,7 +337,7 @@ void OutputArming::on_command(const CommandPacket& command) noexcept {
     armed_ = false;
     seen_disable_ = !estop_;  // the edge must start after the e-stop is released
     tripped_ = false;  // the host has acknowledged the trip
-  } else if (!armed_ && seen_disable_ && !estop_ && command.arm_token == token_ &&
+  } else if (!armed_ && seen_disable_ && !estop_ && command.board_nonce == token_ &&
              (!host_lost_ || (command.flags & kCommandOperatorArm) != 0)) {
     armed_ = true;
     host_lost_ = false;  // the operator armed the board again

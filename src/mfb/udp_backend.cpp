@@ -92,11 +92,15 @@ void UdpBackend::connect() {
   io::Command idle;
   idle.joint_count = map_.joint_count();
   while (io::monotonic_ns() < give_up) {
+    // Without the board's nonce of this session, send() says hello; its answer brings the nonce.
+    const bool hello = board_nonce_ == 0;
     send_and_wait(idle);
     // Only the reply to this very command counts: state packets the board sent while the host was
     // busy (free-running, perhaps with a watchdog trip the command has since acknowledged) do not.
     if (!last_was_reply_) drain(io::monotonic_ns() + 20'000'000);  // 20 ms per attempt
-    if (last_was_reply_) {
+    // The board holds the session once it replies to a command of it (a board holding another
+    // host's session drops ours until its watchdog lets that one go).
+    if (last_was_reply_ && !hello && board_nonce_ != 0 && !(last_.status & kStatusNoSession)) {
       if (last_.status & kStatusHostLost) {
         host_lost_latched_ = true;
         spdlog::warn("the MFB at {} lost its previous host while its outputs were armed: it stays disarmed until the operator "
@@ -125,6 +129,12 @@ void UdpBackend::drain(std::int64_t deadline_ns) noexcept {
       const Verdict v = filter_.accept(std::span<const std::uint8_t>(buffer.data(), static_cast<std::size_t>(n)), from == params_.board,
                                        packet);
       if (v != Verdict::kAccept) continue;
+      if (packet.board_nonce != board_nonce_) {
+        // The answer to a hello, or 0: the board holds no session of ours (it restarted), and the
+        // next send() says hello. Either way a session of its own, whose edge starts afresh.
+        board_nonce_ = packet.board_nonce;
+        acked_disable_ = false;
+      }
       if (filter_.counters().reboots != reboots_seen_) {  // a new boot id: the board restarted under the run
         reboots_seen_ = filter_.counters().reboots;
         rebooted_ = true;
@@ -196,6 +206,10 @@ bool UdpBackend::send(const io::Command& command) noexcept {
   packet.session_id = session_;
   packet.sequence = ++sequence_;
   packet.host_time_ns = static_cast<std::uint64_t>(io::monotonic_ns());
+  if (board_nonce_ == 0) {  // a hello (all outputs zero): the board answers with its nonce
+    packet.type = PacketType::kHello;
+    return send_packet(packet);
+  }
   BoardOutputs out;
   const int clamped = map_.encode_outputs(command, enable_, out);
   if (clamped > 0) stats_.clamped_outputs += static_cast<std::uint64_t>(clamped);
@@ -205,8 +219,12 @@ bool UdpBackend::send(const io::Command& command) noexcept {
   // lets them through only after connect()'s latch was cleared by deactivate(), i.e. on the
   // supervisor's recover path, which only the operator starts.
   packet.flags = enable_ ? static_cast<std::uint8_t>(kCommandEnable | ((last_.status & kStatusHostLost) ? kCommandOperatorArm : 0)) : 0;
-  packet.arm_token = last_.arm_token;
+  packet.board_nonce = board_nonce_;
   if (!enable_) disable_sequence_ = packet.sequence;
+  return send_packet(packet);
+}
+
+bool UdpBackend::send_packet(const CommandPacket& packet) noexcept {
   std::array<std::uint8_t, kMaxPacketSize> bytes;
   const std::size_t n = encode(packet, params_.key, bytes);
   ++stats_.commands_sent;

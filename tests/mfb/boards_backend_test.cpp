@@ -16,8 +16,9 @@
 namespace peha::mfb {
 namespace {
 
-/// A board that answers each command with a state packet: encoder counts 100 (b + 1) + 10 k for
-/// its joint k, mid-range AD codes, the e-stop line inactive, and the status bits the test sets.
+/// A board that answers each command (and hello) with a state packet: encoder counts 100 (b + 1) +
+/// 10 k for its joint k, mid-range AD codes, the e-stop line inactive, the status bits the test
+/// sets, and its nonce of the session (the host's commands carry it after its hello).
 struct PlayedBoard {
   io::UdpSocket socket{{0x7F000001u, 0}};
   LinkKey key;
@@ -48,6 +49,7 @@ struct PlayedBoard {
       s.digital_in = 1;  // the e-stop chain closed (active low)
       s.status = status;
       s.boot_id = 7;
+      s.board_nonce = 0x5EED0000u + static_cast<std::uint64_t>(index);
       std::array<std::uint8_t, kMaxPacketSize> bytes;
       socket.send_to(from, std::span<const std::uint8_t>(bytes.data(), encode(s, key, bytes)));
       ++answered;
@@ -75,6 +77,7 @@ struct ThreeBoards : ::testing::Test {
     hw = hardware::open_backend(hardware::BackendUri::parse(at), experiments::arm_hardware(scenario, scenario.plant));
     backend = hw.boards;
     command.joint_count = 8;
+    cycle();  // the hellos: each board's answer brings its nonce
   }
   /// One cycle: the host sends (and waits its receive timeout), the boards answer, the host reads.
   bool cycle() {
@@ -103,7 +106,8 @@ TEST_F(ThreeBoards, EachBoardGetsItsJointsAndTheSamplesComeTogetherInIoOrder) {
   EXPECT_NEAR(mpa(boards[2].last.da[0]), 0.1, 1e-4);  // R_SAA
   EXPECT_NEAR(mpa(boards[2].last.da[2]), 0.5, 1e-4);  // L_SAA
   EXPECT_EQ(backend->info().joint_names, experiments::arm_joint_names(scenario));
-  EXPECT_EQ(backend->stats().commands_sent, 3u);
+  EXPECT_EQ(backend->stats().commands_sent, 6u);  // a hello, then a command, to each board
+  for (const PlayedBoard& b : boards) EXPECT_EQ(b.last.board_nonce, 0x5EED0000u + static_cast<std::uint64_t>(b.index));
 }
 
 TEST_F(ThreeBoards, OneBoardsEstopOrWatchdogIsTheBackendsAndNamesTheBoard) {

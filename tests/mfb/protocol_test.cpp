@@ -62,7 +62,7 @@ CommandPacket random_command(std::mt19937_64& rng) {
   for (auto& d : c.da) d = static_cast<std::uint16_t>(rng());
   c.digital_out = static_cast<std::uint8_t>(rng());
   c.flags = static_cast<std::uint8_t>(rng() & kCommandKnownFlags);
-  c.arm_token = static_cast<std::uint32_t>(rng());
+  c.board_nonce = rng();
   return c;
 }
 
@@ -77,7 +77,7 @@ StatePacket random_state(std::mt19937_64& rng) {
   for (auto& e : s.encoder) e = static_cast<std::int32_t>(static_cast<std::uint32_t>(rng()));
   s.digital_in = static_cast<std::uint8_t>(rng());
   s.status = static_cast<std::uint8_t>(rng() & kStatusKnownBits);
-  s.arm_token = static_cast<std::uint32_t>(rng());
+  s.board_nonce = rng();
   s.boot_id = static_cast<std::uint32_t>(rng());
   return s;
 }
@@ -119,7 +119,7 @@ CommandPacket golden_command() {
   for (std::size_t i = 0; i < c.da.size(); ++i) c.da[i] = static_cast<std::uint16_t>(0xA0B0 + 0x0101 * i);
   c.digital_out = 0xC3;
   c.flags = kCommandEnable;
-  c.arm_token = 0xF1F2F3F4;
+  c.board_nonce = 0xF1F2F3F4F5F6F7F8;
   return c;
 }
 
@@ -135,7 +135,7 @@ StatePacket golden_state() {
                -123456789, 0x01020304, 0, -2};
   s.digital_in = 0x5A;
   s.status = kStatusOutputsSafe | kStatusNoSession;
-  s.arm_token = 0x21222324;
+  s.board_nonce = 0x2122232425262728;
   s.boot_id = 0x31323334;
   return s;
 }
@@ -145,9 +145,9 @@ StatePacket golden_state() {
 // from Python's hashlib.blake2b(digest_size=16, key=bytes(range(32))) over everything before it.
 const Bytes kGoldenCommand = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x03,                                            // version
+    0x04,                                            // version
     0x01,                                            // type: command
-    0x1E, 0x00,                                      // payload length 30
+    0x22, 0x00,                                      // payload length 34
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
     0x88, 0x77, 0x66, 0x55,                          // sequence 0x55667788
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,  // host_time_ns
@@ -155,17 +155,17 @@ const Bytes kGoldenCommand = {
     0xB4, 0xA4, 0xB5, 0xA5, 0xB6, 0xA6, 0xB7, 0xA7,  // da[4..7]
     0xC3,                                            // digital_out
     0x01,                                            // flags: enable
-    0xF4, 0xF3, 0xF2, 0xF1,                          // arm_token 0xF1F2F3F4
-    0xFB, 0xF2, 0x7B, 0x5A,                          // CRC-32C of bytes 0..45
-    0x36, 0xA6, 0x98, 0x07, 0x83, 0x59, 0x82, 0xCE,  // MAC (keyed BLAKE2b-128) of bytes 0..49
-    0x88, 0xDC, 0xDD, 0x21, 0xD4, 0xA0, 0xEE, 0x7E,
+    0xF8, 0xF7, 0xF6, 0xF5, 0xF4, 0xF3, 0xF2, 0xF1,  // board_nonce 0xF1F2F3F4F5F6F7F8
+    0x78, 0xE6, 0xA6, 0xBE,                          // CRC-32C of bytes 0..49
+    0xB1, 0x2C, 0x2C, 0x04, 0x50, 0x40, 0x90, 0x96,  // MAC (keyed BLAKE2b-128) of bytes 0..53
+    0xEE, 0x6E, 0x53, 0xE3, 0x9C, 0xE3, 0x36, 0x62,
 };
 
 const Bytes kGoldenState = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x03,                                            // version
+    0x04,                                            // version
     0x02,                                            // type: state
-    0x5E, 0x00,                                      // payload length 94
+    0x62, 0x00,                                      // payload length 98
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
     0x0D, 0x0C, 0x0B, 0x0A,                          // sequence 0x0A0B0C0D
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,  // echo_host_time_ns
@@ -181,11 +181,11 @@ const Bytes kGoldenState = {
     0x00, 0x00, 0x00, 0x00, 0xFE, 0xFF, 0xFF, 0xFF,  // encoder[6] = 0, [7] = -2
     0x5A,                                            // digital_in
     0x0A,                                            // status: outputs safe | no session
-    0x24, 0x23, 0x22, 0x21,                          // arm_token 0x21222324
+    0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21,  // board_nonce 0x2122232425262728
     0x34, 0x33, 0x32, 0x31,                          // boot_id 0x31323334
-    0x0A, 0xB5, 0xA8, 0xC9,                          // CRC-32C of bytes 0..109
-    0xF3, 0x7C, 0x99, 0x6D, 0x5A, 0x6A, 0x02, 0xD6,  // MAC (keyed BLAKE2b-128) of bytes 0..113
-    0xEF, 0xAA, 0xE9, 0xB8, 0x63, 0x90, 0xFC, 0x25,
+    0x5E, 0x5D, 0xA7, 0x21,                          // CRC-32C of bytes 0..113
+    0xF4, 0xA9, 0x59, 0x37, 0x7A, 0x97, 0xD0, 0x12,  // MAC (keyed BLAKE2b-128) of bytes 0..117
+    0xA9, 0xA1, 0x02, 0xEC, 0x17, 0x54, 0x42, 0x52,
 };
 
 // ---- CRC and layout -----------------------------------------------------------------------------
@@ -206,13 +206,13 @@ TEST(MfbProtocol, Crc32cTableAgreesWithBitwiseDefinition) {
 }
 
 TEST(MfbProtocol, WireSizesMatchTheLayoutTable) {
-  // 16 header + 8 time + 8x2 DA + 1 + 1 + 4 token + 4 CRC + 16 MAC;
-  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 4 token + 4 boot id + 4 CRC + 16 MAC.
-  EXPECT_EQ(kCommandPacketSize, 66u);
-  EXPECT_EQ(kStatePacketSize, 130u);
-  EXPECT_EQ(kMaxPacketSize, 130u);
-  EXPECT_EQ(kCommandArmTokenOffset + 4, kHeaderSize + kCommandPayloadSize);
-  EXPECT_EQ(kStateArmTokenOffset + 4, kStateBootIdOffset);
+  // 16 header + 8 time + 8x2 DA + 1 + 1 + 8 nonce + 4 CRC + 16 MAC;
+  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 8 nonce + 4 boot id + 4 CRC + 16 MAC.
+  EXPECT_EQ(kCommandPacketSize, 70u);
+  EXPECT_EQ(kStatePacketSize, 134u);
+  EXPECT_EQ(kMaxPacketSize, 134u);
+  EXPECT_EQ(kCommandBoardNonceOffset + 8, kHeaderSize + kCommandPayloadSize);
+  EXPECT_EQ(kStateBoardNonceOffset + 8, kStateBootIdOffset);
   EXPECT_EQ(kStateBootIdOffset + 4, kHeaderSize + kStatePayloadSize);
   EXPECT_EQ(kGoldenCommand.size(), kCommandPacketSize);
   EXPECT_EQ(kGoldenState.size(), kStatePacketSize);
@@ -304,7 +304,10 @@ TEST(MfbProtocol, RejectsPacketWithOneFlippedBit) {
     Bytes b = kGoldenCommand;
     b[bit / 8] ^= static_cast<std::uint8_t>(1u << (bit % 8));
     CommandPacket c;
-    ASSERT_EQ(decode(b, kKey, c), expected_for_flip_at(bit / 8, kCommandPacketSize)) << "command bit " << bit;
+    // Type 1 with bit 1 flipped is 3, a hello: a command's layout, so its CRC is what fails.
+    const bool to_hello = bit / 8 == kTypeOffset && b[kTypeOffset] == static_cast<std::uint8_t>(PacketType::kHello);
+    ASSERT_EQ(decode(b, kKey, c), to_hello ? ParseError::kBadCrc : expected_for_flip_at(bit / 8, kCommandPacketSize))
+        << "command bit " << bit;
   }
   for (std::size_t bit = 0; bit < 8 * kStatePacketSize; ++bit) {
     Bytes b = kGoldenState;
@@ -339,7 +342,7 @@ TEST(MfbProtocol, RejectsWrongMagic) {
 }
 
 TEST(MfbProtocol, RejectsOtherVersionsEvenWithValidCrc) {
-  for (int version : {0, 1, 2, 4, 255}) {
+  for (int version : {0, 1, 2, 3, 5, 255}) {
     Bytes b = kGoldenState;
     b[kVersionOffset] = static_cast<std::uint8_t>(version);
     fix_trailer(b);
@@ -355,11 +358,35 @@ TEST(MfbProtocol, RejectsPacketOfTheOtherType) {
   StatePacket s;
   EXPECT_EQ(decode(kGoldenState, kKey, c), ParseError::kWrongType);
   EXPECT_EQ(decode(kGoldenCommand, kKey, s), ParseError::kWrongType);
-  for (int type : {0, 3, 255}) {
+  for (int type : {0, 2, 4, 255}) {
     Bytes b = kGoldenCommand;
     b[kTypeOffset] = static_cast<std::uint8_t>(type);
     fix_trailer(b);
     EXPECT_EQ(decode(b, kKey, c), ParseError::kWrongType) << type;
+  }
+  Bytes hello = kGoldenState;  // a hello is never a state
+  hello[kTypeOffset] = static_cast<std::uint8_t>(PacketType::kHello);
+  fix_trailer(hello);
+  EXPECT_EQ(decode(hello, kKey, s), ParseError::kWrongType);
+}
+
+// A hello has the command's layout and drives nothing: with any output, flag or nonce it is refused.
+TEST(MfbProtocol, AHelloCarriesNoOutputsFlagsOrNonce) {
+  CommandPacket h;
+  h.type = PacketType::kHello;
+  h.session_id = 0x11223344;
+  h.sequence = 9;
+  h.host_time_ns = 123;
+  CommandPacket out;
+  ASSERT_EQ(decode(encoded(h), kKey, out), ParseError::kOk);
+  EXPECT_EQ(out, h);
+  for (int field = 0; field < 4; ++field) {
+    CommandPacket bad = h;
+    if (field == 0) bad.da[3] = 1;
+    if (field == 1) bad.digital_out = 1;
+    if (field == 2) bad.flags = kCommandEnable;
+    if (field == 3) bad.board_nonce = 1;
+    EXPECT_EQ(decode(encoded(bad), kKey, out), ParseError::kBadFlags) << field;
   }
 }
 
@@ -782,24 +809,24 @@ TEST(OutputArming, NewSessionAfterHostLossStaysSafeUntilTheOperatorArms) {
   OutputArming a;
   a.set_token(0xA1);
   CommandPacket c = command(7, 1, 0);
-  c.arm_token = 0xA1;
+  c.board_nonce = 0xA1;
   a.on_command(c);
   c = command(7, 2, kCommandEnable);
-  c.arm_token = 0xA1;
+  c.board_nonce = 0xA1;
   a.on_command(c);
   ASSERT_TRUE(a.outputs_enabled());
   a.on_watchdog();  // the host is gone
   a.set_token(0xB2);  // the board adopts a new session
   for (std::uint32_t seq = 1; seq <= 6; seq += 2) {
     CommandPacket off = command(8, seq, 0), on = command(8, seq + 1, kCommandEnable);
-    off.arm_token = on.arm_token = 0xB2;
+    off.board_nonce = on.board_nonce = 0xB2;
     a.on_command(off);
     a.on_command(on);
     EXPECT_FALSE(a.outputs_enabled()) << "edge " << seq;
     EXPECT_EQ(a.status(), kStatusOutputsSafe | kStatusHostLost);
   }
   CommandPacket off = command(8, 7, 0), arm = command(8, 8, kCommandEnable | kCommandOperatorArm);
-  off.arm_token = arm.arm_token = 0xB2;
+  off.board_nonce = arm.board_nonce = 0xB2;
   a.on_command(off);
   a.on_command(arm);
   EXPECT_TRUE(a.outputs_enabled());
@@ -812,11 +839,11 @@ TEST(OutputArming, ReplayedEdgeWithAnOldTokenDoesNotArm) {
   OutputArming a;
   a.set_token(0xC3);
   CommandPacket off = command(9, 1, 0), on = command(9, 2, kCommandEnable | kCommandOperatorArm);
-  off.arm_token = on.arm_token = 0xA1;  // the token of the session it was recorded in
+  off.board_nonce = on.board_nonce = 0xA1;  // the token of the session it was recorded in
   a.on_command(off);
   a.on_command(on);
   EXPECT_FALSE(a.outputs_enabled());
-  on.arm_token = 0xC3;
+  on.board_nonce = 0xC3;
   on.sequence = 3;
   a.on_command(on);
   EXPECT_TRUE(a.outputs_enabled());

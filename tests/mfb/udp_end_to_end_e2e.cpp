@@ -52,30 +52,51 @@ const mfb::LinkKey& dev_key() {
   return key;
 }
 
-/// A host speaking the protocol from a raw socket: one session, its own sequence, the board's
-/// newest arm token echoed (as UdpBackend does).
+/// A host speaking the protocol from a raw socket: one host nonce, its own sequence, the board's
+/// newest nonce of the session echoed; without one, send() says hello (as UdpBackend does).
 struct RawHost {
   io::UdpSocket socket{{0x7F000001u, 0}};
   io::UdpEndpoint board;
   mfb::LinkKey key = dev_key();
   std::uint32_t session;
   std::uint32_t sequence = 0;
-  std::uint32_t token = 0;
+  std::uint64_t nonce = 0;  ///< the board's nonce of the session (0: say hello)
   std::array<std::uint16_t, mfb::kDaChannels> da{};  ///< the DA codes every command asks for
   mfb::StateFilter filter;
-  RawHost(int port, std::uint32_t session_id)
-      : board{0x7F000001u, static_cast<std::uint16_t>(port)}, session(session_id), filter(session_id, dev_key()) {}
+  /// `local_port` 0: any free port.
+  RawHost(int port, std::uint32_t session_id, std::uint16_t local_port = 0)
+      : socket{{0x7F000001u, local_port}}, board{0x7F000001u, static_cast<std::uint16_t>(port)}, session(session_id), filter(session_id, dev_key()) {}
   /// Sends the next command of the session (`sequence` + 1 unless given).
   void send(std::uint8_t flags, std::uint32_t seq = 0, std::uint8_t digital_out = 1) {
     mfb::CommandPacket c;
     c.session_id = session;
     c.sequence = seq ? seq : ++sequence;
-    c.flags = flags;
-    c.digital_out = digital_out;  // the enable line
-    c.arm_token = token;
-    c.da = da;
+    if (nonce == 0) {
+      c.type = mfb::PacketType::kHello;
+    } else {
+      c.flags = flags;
+      c.digital_out = digital_out;  // the enable line
+      c.board_nonce = nonce;
+      c.da = da;
+    }
+    send_packet(c);
+  }
+  void send_packet(const mfb::CommandPacket& c) {
     std::array<std::uint8_t, mfb::kMaxPacketSize> bytes;
-    socket.send_to(board, std::span<const std::uint8_t>(bytes.data(), mfb::encode(c, key, bytes)));
+    const std::size_t n = mfb::encode(c, key, bytes);
+    socket.send_to(board, std::span<const std::uint8_t>(bytes.data(), n));
+    if (recording != nullptr) recording->emplace_back(bytes.begin(), bytes.begin() + static_cast<long>(n));
+  }
+  /// Where a listener on the link keeps every datagram this host sends (none if null).
+  std::vector<std::vector<std::uint8_t>>* recording = nullptr;
+  /// Hello, then disabled commands until the board holds the session; true if it does.
+  bool open() {
+    for (int i = 0; i < 100; ++i) {
+      send(0);
+      const mfb::StatePacket p = newest(0.005);
+      if (p.board_nonce != 0 && p.board_nonce == nonce && !(p.status & mfb::kStatusNoSession) && p.ack_sequence == sequence) return true;
+    }
+    return false;
   }
   /// The newest state packet of the session received within `wait_s` (zeroed if none).
   mfb::StatePacket newest(double wait_s) {
@@ -89,7 +110,7 @@ struct RawHost {
       if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
                        mfb::Verdict::kAccept) {
         last = p;
-        token = p.arm_token;
+        nonce = p.board_nonce;
       }
     }
     return last;
@@ -101,7 +122,8 @@ struct Emulator {
   int port = 0;
   explicit Emulator(std::vector<std::string> extra, const std::string& config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")
       : process([&] {
-          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", config, "--port", "0", "--case", "payload_2.5kg", "--rt-priority", "0"};
+          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", config, "--case", "payload_2.5kg", "--rt-priority", "0"};
+          if (std::find(extra.begin(), extra.end(), "--port") == extra.end()) extra.insert(extra.end(), {"--port", "0"});
           if (std::find(extra.begin(), extra.end(), "--watchdog-ms") == extra.end()) {
             extra.insert(extra.end(), {"--watchdog-ms", std::to_string(kTestWatchdog_s * 1e3)});
           }
@@ -256,11 +278,7 @@ TEST(MfbEndToEnd, BoardWatchdogFiresWhenTheHostStops) {
   Emulator emulator({"--watchdog-ms", "30"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   RawHost host(emulator.port, 0xC0FFEEu);
-  for (int i = 0; i < 100 && host.token == 0; ++i) {  // adopt the session, outputs disabled
-    host.send(0);
-    host.newest(0.005);
-  }
-  ASSERT_NE(host.token, 0u);  // the replies carry the session's arm token
+  ASSERT_TRUE(host.open());  // hello, then the session opened with outputs disabled
   for (int i = 0; i < 20; ++i) {
     host.send(mfb::kCommandEnable);  // the enable edge: armed
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -479,10 +497,7 @@ TEST(MfbEndToEnd, ASpoofingSenderOnAnotherPortIsIgnoredAndCounted) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
   RawHost host(emulator.port, 0xA11CE5u);
-  for (int i = 0; i < 100 && host.token == 0; ++i) {
-    host.send(0);
-    host.newest(0.005);
-  }
+  ASSERT_TRUE(host.open());
   for (int i = 0; i < 20; ++i) {
     host.send(mfb::kCommandEnable);
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
@@ -492,7 +507,7 @@ TEST(MfbEndToEnd, ASpoofingSenderOnAnotherPortIsIgnoredAndCounted) {
 
   RawHost stranger(emulator.port, host.session);  // the same session id, the key, another port
   stranger.sequence = host.sequence + 1000;
-  stranger.token = host.token;
+  stranger.nonce = host.nonce;
   RawHost forger(emulator.port, host.session);  // no key: its MACs are wrong
   forger.key.bytes[0] ^= 0xFF;
   forger.sequence = host.sequence + 2000;
@@ -511,6 +526,92 @@ TEST(MfbEndToEnd, ASpoofingSenderOnAnotherPortIsIgnoredAndCounted) {
   ASSERT_EQ(emulator.process.stop(SIGTERM), 0);
   EXPECT_NE(emulator.process.output().find("foreign source 50,"), std::string::npos) << emulator.process.output();
   EXPECT_NE(emulator.process.output().find("unauthenticated 10,"), std::string::npos) << emulator.process.output();
+}
+
+/// The board's counter `name` ("unknown session (replays)") in the table the emulator prints when it stops.
+std::uint64_t emulator_count(const std::string& output, const std::string& name) {
+  const std::size_t at = output.find(name + " ");
+  return at == std::string::npos ? ~std::uint64_t{0} : std::stoull(output.substr(at + name.size() + 1));
+}
+
+// Issue 30: a listener records a host's whole armed session (its hello, the opening, the enable
+// edge, 20 enabled commands) and replays it later from the host's very endpoint, once to a fresh
+// board, once to that board rebooted (restarted on its port) while the real host connects. Before
+// the handshake (protocol 3) a fresh or rebooted board adopted the first MAC-valid command, so the
+// recording held it (5 of 5 recorded commands accepted by main's core) and the real host was
+// refused as a foreign source ("no MFB answered"). Now a command opens a session only with the
+// nonce this boot answered to a hello from that endpoint: none of the recording is accepted, the
+// board never arms, the replayer never holds a session, and the real host connects.
+TEST(MfbEndToEnd, ARecordedSessionReplayedToAFreshOrRebootedBoardIsRefused) {
+  std::vector<std::vector<std::uint8_t>> recording;
+  std::uint16_t host_port = 0;
+  {
+    Emulator first({});
+    ASSERT_GT(first.port, 0) << first.process.output();
+    RawHost host(first.port, 0x5E55104Eu);
+    host.da.fill(30000);
+    host.recording = &recording;
+    ASSERT_TRUE(host.open());
+    for (int i = 0; i < 20; ++i) {
+      host.send(mfb::kCommandEnable);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_EQ(host.newest(0.01).status & mfb::kStatusOutputsSafe, 0);  // the recorded session was armed
+    host_port = host.socket.local().port;
+    ASSERT_EQ(first.process.stop(SIGTERM), 0);
+  }
+  const auto is_command = [](const std::vector<std::uint8_t>& d) { return d[mfb::kTypeOffset] == static_cast<std::uint8_t>(mfb::PacketType::kCommand); };
+  const auto commands = static_cast<std::uint64_t>(std::count_if(recording.begin(), recording.end(), is_command));
+  ASSERT_GE(commands, 21u);
+  // The replayer binds the recorded host's own endpoint: the strongest replay there is.
+  RawHost replayer(0, 0x5E55104Eu, host_port);
+  const auto replay = [&](int port, int rounds) {
+    replayer.board = {0x7F000001u, static_cast<std::uint16_t>(port)};
+    for (int k = 0; k < rounds; ++k) {
+      for (const auto& d : recording) {
+        replayer.socket.send_to(replayer.board, std::span<const std::uint8_t>(d.data(), d.size()));
+        std::this_thread::sleep_for(std::chrono::microseconds(500));
+      }
+    }
+  };
+  const auto replayer_held_a_session = [&] {
+    mfb::StatePacket p = replayer.newest(0.02);
+    return p.session_id != 0 && !(p.status & mfb::kStatusNoSession);
+  };
+
+  Emulator fresh({});
+  ASSERT_GT(fresh.port, 0) << fresh.process.output();
+  replay(fresh.port, 3);
+  EXPECT_FALSE(replayer_held_a_session());
+  const int port = fresh.port;
+  ASSERT_EQ(fresh.process.stop(SIGTERM), 0);
+  const std::string fresh_out = fresh.process.output();
+  std::printf("fresh board: %s\n", fresh_out.c_str());
+  EXPECT_EQ(emulator_count(fresh_out, "commands: accepted"), 0u);
+  EXPECT_EQ(emulator_count(fresh_out, "unknown session (replays)"), 3 * commands);
+  EXPECT_EQ(fresh_out.find("outputs armed"), std::string::npos);
+
+  Emulator rebooted({"--port", std::to_string(port)});  // the same board, restarted
+  ASSERT_EQ(rebooted.port, port) << rebooted.process.output();
+  std::thread replaying([&] { replay(port, 3); });
+  const experiments::E1Scenario s = scenario(1.0);
+  mfb::UdpBackendParams p;
+  p.board = {0x7F000001u, static_cast<std::uint16_t>(port)};
+  p.joint_names = {"joint"};
+  p.key = dev_key();
+  mfb::UdpBackend backend(p, mfb::read_channel_map(config::Document::load_file(s.link->channel_map), p.joint_names));
+  std::this_thread::sleep_for(std::chrono::milliseconds(10));  // the replay is under way
+  EXPECT_NO_THROW(backend.connect());  // no lock-out
+  EXPECT_TRUE(backend.board_status() & mfb::kStatusOutputsSafe);
+  replaying.join();
+  EXPECT_FALSE(replayer_held_a_session());
+  ASSERT_EQ(rebooted.process.stop(SIGTERM), 0);
+  const std::string rebooted_out = rebooted.process.output();
+  std::printf("rebooted board: %s\n", rebooted_out.c_str());
+  // Every replayed command refused: as a session this boot never opened, or, once the real host
+  // has opened its own, as a foreign source.
+  EXPECT_EQ(emulator_count(rebooted_out, "unknown session (replays)") + emulator_count(rebooted_out, "foreign source"), 3 * commands);
+  EXPECT_EQ(rebooted_out.find("outputs armed"), std::string::npos);
 }
 
 // Issue 11: the host is killed while the outputs are armed; a new host session starts. Before,
@@ -852,7 +953,7 @@ namespace {
 // load cell without overshoot, as in process, and the run exits 0 with its summary written.
 /// What a host that has the key (stolen, or the public development key) does to the rig for
 /// `seconds`: every DA channel at its top code (1.0 MPa into both valves, +3 Nm into the motor)
-/// with the board's current arm token, re-arming every 100 ms (disable, enable) as a host fighting
+/// in the session it opened with the board, re-arming every 100 ms (disable, enable) as a host fighting
 /// the board's trips would. Returns the plant's truth the emulator recorded (--truth-csv).
 struct HijackFigures {
   double peak_agonist_N = 0, peak_antagonist_N = 0, max_angle_deg = -1e9, min_angle_deg = 1e9;
@@ -863,10 +964,9 @@ HijackFigures hijack(const std::string& config, double seconds, const std::strin
   Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 1.5)}, config);
   RawHost h(board.port, 0x0BAD5E55u);
   h.da.fill(65535);
-  h.send(0);
-  h.newest(0.05);  // the session adopted: its arm token
+  h.open();  // hello: the board's nonce, and the session opened
   for (int k = 0; k < static_cast<int>(seconds * 1000); ++k) {
-    h.send(k % 100 == 0 ? 0 : mfb::kCommandEnable);  // the edge: disabled, then enabled with the token
+    h.send(k % 100 == 0 ? 0 : mfb::kCommandEnable);  // the edge: disabled, then enabled
     h.newest(0.001);
   }
   board.process.wait(10.0);

@@ -35,7 +35,7 @@ namespace peha::mfb {
 inline constexpr std::uint32_t kMagic = 0x3142464D;
 /// Layout version. Any change to a layout or to the meaning of a field or bit bumps it; receivers
 /// accept exactly this version and reject every other (`ParseError::kBadVersion`).
-inline constexpr std::uint8_t kProtocolVersion = 3;
+inline constexpr std::uint8_t kProtocolVersion = 4;
 
 inline constexpr std::size_t kKeySize = 32;  ///< bytes of the pre-shared link key
 inline constexpr std::size_t kMacSize = 16;  ///< bytes of the MAC that ends every packet
@@ -82,15 +82,18 @@ inline constexpr std::uint8_t kStatusKnownBits =
 enum class PacketType : std::uint8_t {
   kCommand = 1,  ///< host -> board
   kState = 2,    ///< board -> host
+  kHello = 3,    ///< host -> board: opens a session (a command's layout, outputs, flags and nonce zero)
 };
 
 // ---------------------------------------------------------------------------------------------
 // Packets (the decoded values; their wire layout is the byte table in docs/mfb-protocol.md)
 
-/// Host -> board, one per control period.
+/// Host -> board: a command, one per control period, or a hello (`type`), which asks the board for
+/// its nonce of a session (docs/mfb-protocol.md#the-handshake).
 struct CommandPacket {
-  /// Chosen by the host per session, nonzero and different from its previous one (random is
-  /// best). The board adopts a session as described at `CommandFilter`.
+  /// `kCommand` or `kHello` (a hello's outputs, flags and `board_nonce` are all zero).
+  PacketType type = PacketType::kCommand;
+  /// The host's nonce of the session: random, nonzero, chosen per host session.
   std::uint32_t session_id = 0;
   /// +1 per command within a session; wraps from 2^32-1 to 0.
   std::uint32_t sequence = 0;
@@ -103,10 +106,10 @@ struct CommandPacket {
   std::uint8_t digital_out = 0;
   /// `kCommandEnable`, `kCommandOperatorArm`; every other bit must be 0.
   std::uint8_t flags = 0;
-  /// The `StatePacket::arm_token` of the board's newest state the host accepted. An enable edge
-  /// arms the board only if this is the board's current token, fresh per adopted session: a
-  /// recorded session replayed later cannot arm the outputs.
-  std::uint32_t arm_token = 0;
+  /// The board's nonce of the session (`StatePacket::board_nonce` of its answer to the host's
+  /// hello). The board opens a session only for a command carrying the nonce it answered to this
+  /// host nonce and endpoint in this boot, so a recorded session replayed later is never obeyed.
+  std::uint64_t board_nonce = 0;
 
   bool operator==(const CommandPacket&) const = default;
 };
@@ -131,9 +134,10 @@ struct StatePacket {
   std::uint8_t digital_in = 0;
   /// `kStatus...` bits; every other bit must be 0.
   std::uint8_t status = 0;
-  /// The board's arm token for the session it holds (random, drawn at each adoption): the host
-  /// echoes it in `CommandPacket::arm_token`.
-  std::uint32_t arm_token = 0;
+  /// The board's nonce of this session (the answer to a hello, then every state of the session);
+  /// 0: the board holds no session of this host nonce (it restarted, or never opened one) and the
+  /// host must say hello again.
+  std::uint64_t board_nonce = 0;
   /// The board's boot id: drawn at random (nonzero) at each power-on and constant until the next.
   /// A state packet of the host's session with another boot id than the ones before it tells the
   /// host that the board restarted (its sequence counter, session and arming started over).
@@ -160,11 +164,11 @@ inline constexpr std::size_t kCommandHostTimeOffset = 16;    ///< u64
 inline constexpr std::size_t kCommandDaOffset = 24;          ///< u16 x 8
 inline constexpr std::size_t kCommandDigitalOutOffset = 40;  ///< u8
 inline constexpr std::size_t kCommandFlagsOffset = 41;       ///< u8
-inline constexpr std::size_t kCommandArmTokenOffset = 42;    ///< u32
+inline constexpr std::size_t kCommandBoardNonceOffset = 42;  ///< u64
 /// Bytes between the command's header and its CRC (the header's length field).
-inline constexpr std::size_t kCommandPayloadSize = 30;
+inline constexpr std::size_t kCommandPayloadSize = 34;
 /// Exact size of a command datagram.
-inline constexpr std::size_t kCommandPacketSize = kHeaderSize + kCommandPayloadSize + kTrailerSize;  // 66
+inline constexpr std::size_t kCommandPacketSize = kHeaderSize + kCommandPayloadSize + kTrailerSize;  // 70
 
 inline constexpr std::size_t kStateEchoHostTimeOffset = 16;  ///< u64
 inline constexpr std::size_t kStateBoardTimeOffset = 24;     ///< u64
@@ -173,12 +177,12 @@ inline constexpr std::size_t kStateAdOffset = 36;            ///< u16 x 16
 inline constexpr std::size_t kStateEncoderOffset = 68;       ///< i32 x 8
 inline constexpr std::size_t kStateDigitalInOffset = 100;    ///< u8
 inline constexpr std::size_t kStateStatusOffset = 101;       ///< u8
-inline constexpr std::size_t kStateArmTokenOffset = 102;     ///< u32
-inline constexpr std::size_t kStateBootIdOffset = 106;       ///< u32
+inline constexpr std::size_t kStateBoardNonceOffset = 102;   ///< u64
+inline constexpr std::size_t kStateBootIdOffset = 110;       ///< u32
 /// Bytes between the state's header and its CRC (the header's length field).
-inline constexpr std::size_t kStatePayloadSize = 94;
+inline constexpr std::size_t kStatePayloadSize = 98;
 /// Exact size of a state datagram.
-inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 130
+inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 134
 
 /// Largest datagram of this version: a receive buffer of this size holds any valid packet (use one
 /// byte more to tell "too long" from "exactly the largest").
@@ -200,7 +204,7 @@ enum class ParseError : std::uint8_t {
   kBadLength,   ///< header length field != the type's payload size
   kBadCrc,      ///< CRC-32C does not match (a noisy link)
   kBadMac,      ///< intact, but the MAC does not match: another key, or a forgery
-  kBadFlags,    ///< unknown bits in `CommandPacket::flags` or `StatePacket::status`
+  kBadFlags,    ///< unknown bits in `CommandPacket::flags` or `StatePacket::status`; a hello with outputs
   kZeroSession, ///< session id 0 (never valid; 0 means "none")
 };
 
@@ -221,8 +225,8 @@ std::size_t encode(const CommandPacket& packet, const LinkKey& key, std::span<st
 /// Same for a state packet (`kStatePacketSize` bytes).
 std::size_t encode(const StatePacket& packet, const LinkKey& key, std::span<std::uint8_t> out) noexcept;
 
-/// Parses one whole datagram as a command, its MAC checked under `key` (in constant time).
-/// `out` is written only when the result is `kOk`.
+/// Parses one whole datagram as a command or a hello (`out.type`), its MAC checked under `key` (in
+/// constant time). `out` is written only when the result is `kOk`.
 ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, CommandPacket& out) noexcept;
 /// Parses one whole datagram as a state packet. `out` is written only when the result is `kOk`.
 ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, StatePacket& out) noexcept;
@@ -248,6 +252,8 @@ enum class Verdict : std::uint8_t {
   kStale,           ///< older than the last accepted packet (reordered or late)
   kMalformed,       ///< `decode` rejected it (`last_error()` says why), except for its MAC
   kUnauthenticated, ///< intact but its MAC is wrong (`ParseError::kBadMac`): another key or a forgery
+  kUnknownSession,  ///< (board) a command of no session a handshake of this boot opened: a replay
+  kHello,           ///< (board) a hello, answered with the board's nonce; no session changed
 };
 
 /// Short lower-case name of `v` ("foreign session"); never null.
@@ -263,6 +269,8 @@ struct ReceiveCounters {
   std::uint64_t stale = 0;
   std::uint64_t malformed = 0;
   std::uint64_t unauthenticated = 0;
+  std::uint64_t unknown_session = 0;  ///< (board) commands of no session opened by a handshake: replays
+  std::uint64_t hellos = 0;           ///< (board) hellos answered
   /// Sequence numbers skipped between consecutive accepted packets (accepting 7 after 4 adds 2).
   /// A skipped packet that arrives later is dropped as stale and stays counted here.
   std::uint64_t gaps = 0;
@@ -322,7 +330,11 @@ class StateFilter {
   ParseError last_error_ = ParseError::kOk;
 };
 
-/// Board side: adopts one host's session and accepts its commands, newest only.
+/// Board side: adopts one host's session and accepts its commands, newest only. A model of the
+/// board core's session rules (firmware/core/mfb_board.c) for the fuzzer and the tests, without
+/// the handshake: it adopts any command's session, where the core opens only a session whose board
+/// nonce it answered to a hello in this boot (docs/mfb-protocol.md#the-handshake). Hellos are
+/// counted (`kHello`) and change nothing.
 ///
 /// Session rule: the board holds at most one session. Without one (after power-on, `reset`, or
 /// `release` when its watchdog fired) the next command that decodes is adopted and accepted,
@@ -380,7 +392,7 @@ class CommandFilter {
 /// that report it.
 ///
 /// Outputs are armed only by an enable edge: an accepted command with `kCommandEnable` set and the
-/// board's current `arm_token` that follows an accepted command of the same session with enable
+/// session's board nonce that follows an accepted command of the same session with enable
 /// clear. Power-on, a new session, the watchdog and the emergency stop all disarm and need a new
 /// edge; while disarmed the board holds its safe outputs (`kStatusOutputsSafe`). A watchdog trip
 /// also latches `kStatusWatchdogTripped` until the host acknowledges it with a command whose enable
@@ -393,10 +405,10 @@ class OutputArming {
   void on_command(const CommandPacket& command) noexcept;
   /// Call when the watchdog fires (no accepted command for `watchdog_ms`).
   void on_watchdog() noexcept;
-  /// The token an enable edge must carry from now on; the board draws a fresh random one each time
-  /// it adopts a session (0, the power-on value, is for tests of the rules alone).
-  void set_token(std::uint32_t token) noexcept { token_ = token; }
-  std::uint32_t token() const noexcept { return token_; }
+  /// The board nonce an enable edge must carry from now on: the session's, fresh per handshake
+  /// (0, the power-on value, is for tests of the rules alone).
+  void set_token(std::uint64_t token) noexcept { token_ = token; }
+  std::uint64_t token() const noexcept { return token_; }
   /// Call every board period with the level of the emergency-stop input.
   void set_estop(bool active) noexcept;
 
@@ -413,7 +425,7 @@ class OutputArming {
   bool tripped_ = false;
   bool estop_ = false;
   bool host_lost_ = false;
-  std::uint32_t token_ = 0;
+  std::uint64_t token_ = 0;
 };
 
 }  // namespace peha::mfb

@@ -38,7 +38,7 @@ struct UdpBackendParams {
 /// What the host has seen of the link.
 struct UdpLinkStats {
   ReceiveCounters received;                  ///< the StateFilter's verdict counters
-  std::uint64_t commands_sent = 0;
+  std::uint64_t commands_sent = 0;          ///< commands and hellos sent
   std::uint64_t send_failures = 0;
   std::uint64_t replies_missing = 0;         ///< read() calls that found no new sample (the loop held its command)
   std::uint64_t late_replies = 0;            ///< commands whose reply did not come within receive_timeout_s
@@ -54,7 +54,8 @@ class UdpBackend final : public io::Backend {
  public:
   UdpBackend(const UdpBackendParams& params, ChannelMap map);
 
-  /// Opens (or re-confirms) the session: sends commands with outputs disabled until the board
+  /// Opens (or re-confirms) the session: says hello (docs/mfb-protocol.md#the-handshake), and with
+  /// the board's nonce from its answer sends commands with outputs disabled until the board
   /// answers one of them with its reply (a state packet of this session acknowledging that
   /// command). The disabled command also acknowledges a watchdog trip the board may have latched
   /// meanwhile, so the reply carries the board's status as of now, not a stale one. Calling it
@@ -126,6 +127,8 @@ class UdpBackend final : public io::Backend {
   void drain(std::int64_t deadline_ns) noexcept;
   /// write() without counting a late reply (the handshake's commands are not the loop's).
   bool send_and_wait(const io::Command& command) noexcept;
+  /// Encodes and sends one command or hello.
+  bool send_packet(const CommandPacket& packet) noexcept;
 
   UdpBackendParams params_;
   ChannelMap map_;
@@ -134,6 +137,7 @@ class UdpBackend final : public io::Backend {
   std::uint32_t session_ = 0;
   StateFilter filter_;
   std::uint32_t sequence_ = 0;
+  std::uint64_t board_nonce_ = 0;            ///< the board's nonce of this session (0: say hello)
   bool enable_ = false;
   bool acked_disable_ = false;
   bool have_new_ = false;
