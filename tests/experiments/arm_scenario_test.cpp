@@ -231,6 +231,46 @@ TEST(E6, TorqueAfterTheCableLosesWhatTheCablesStictionHolds) {
   }
 }
 
+// E6 at the joint can fail: the hybrid's -3 dB band there (about 2 to > 30 Hz) is its motor's, so a
+// hybrid whose plant has no motor (the controller still splits and commands one) falls to the
+// PAM-only figure - no band at the joint - and on the muscle side to at most PAM-only's bandwidth (its
+// PAMs get only the low-passed share).
+TEST(E6, HybridWithoutItsMotorFallsToThePamOnlyFigureAtTheJoint) {
+  ArmScenario s = shipped();
+  s.bandwidth.frequencies_Hz = {0.2, 1.0, 3.0, 10.0, 30.0};
+  const BandwidthResult pam = run_bandwidth(s, /*hybrid=*/false);
+  const BandwidthResult hybrid = run_bandwidth(s, /*hybrid=*/true);
+  EXPECT_TRUE(pam.pass_band_at_joint.empty()) << pam.pass_band_at_joint.low_Hz << " to " << pam.pass_band_at_joint.high_Hz;
+  ASSERT_FALSE(hybrid.pass_band_at_joint.empty());
+  EXPECT_GT(hybrid.pass_band_at_joint.low_Hz, 1.0);  // below it the cables' stick band: high-pass
+  EXPECT_LT(hybrid.pass_band_at_joint.low_Hz, 3.0);
+  EXPECT_TRUE(hybrid.pass_band_at_joint.open_high);  // the motor still passes at 30 Hz
+
+  s.plant.actuators[static_cast<std::size_t>(s.bandwidth.joint)].has_motor = false;
+  const BandwidthResult motorless = run_bandwidth(s, /*hybrid=*/true);
+  EXPECT_EQ(motorless.peak_motor_torque_Nm, 0.0);
+  EXPECT_TRUE(motorless.pass_band_at_joint.empty()) << motorless.pass_band_at_joint.low_Hz << " to " << motorless.pass_band_at_joint.high_Hz;
+  for (std::size_t i = 0; i < motorless.bode_at_joint.size(); ++i) {
+    EXPECT_LT(motorless.bode_at_joint[i].gain, 0.5) << motorless.bode_at_joint[i].frequency_Hz << " Hz";
+  }
+  EXPECT_LE(motorless.bandwidth_3dB_Hz, pam.bandwidth_3dB_Hz);
+}
+
+// The -3 dB band: the widest run at or above 1/sqrt(2), edges interpolated in log frequency, open at
+// the sweep's ends; a high-pass has a lower edge, a response below -3 dB everywhere has none.
+TEST(E6, PassBandFindsTheWidestRunAboveMinus3dB) {
+  const double k = 1.0 / std::sqrt(2.0);
+  const PassBand high_pass = pass_band_3dB({{1.0, 0.0, 0}, {4.0, 2.0 * k, 0}, {10.0, 1.0, 0}, {30.0, 1.0, 0}});
+  EXPECT_NEAR(high_pass.low_Hz, 2.0, 1e-9);  // halfway in log between 1 and 4 Hz
+  EXPECT_FALSE(high_pass.open_low);
+  EXPECT_TRUE(high_pass.open_high);
+  EXPECT_DOUBLE_EQ(high_pass.high_Hz, 30.0);
+  const PassBand two_runs = pass_band_3dB({{1.0, 1.0, 0}, {2.0, 0.1, 0}, {5.0, 1.0, 0}, {50.0, 1.0, 0}, {100.0, 0.1, 0}});
+  EXPECT_GT(two_runs.low_Hz, 2.0);  // the wider run (5-50 Hz and a bit), not the one at 1 Hz
+  EXPECT_LT(two_runs.high_Hz, 100.0);
+  EXPECT_TRUE(pass_band_3dB({{1.0, 0.5, 0}, {10.0, 0.6, 0}}).empty());
+}
+
 // E6's verdict is the envelope with each muscle's own ceiling from the configuration (it used a
 // literal 2000 N): with the elbow antagonist's ceiling configured below what it delivers, E6 fails
 // and names it. Two frequencies keep the run short.

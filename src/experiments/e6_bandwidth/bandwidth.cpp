@@ -18,22 +18,47 @@
 namespace peha::experiments {
 namespace {
 
+/// Where the gain crosses `threshold` between two points, interpolated in log frequency.
+double log_crossing_Hz(const BodePoint& a, const BodePoint& b, double threshold) {
+  const double w = (a.gain - threshold) / (a.gain - b.gain);
+  return std::exp(std::log(a.frequency_Hz) + w * (std::log(b.frequency_Hz) - std::log(a.frequency_Hz)));
+}
+
 /// Where the gain first falls below 1/sqrt(2), log-interpolated; the highest frequency if it never
 /// does, the lowest if it is below already there (both with reached = false).
 std::pair<double, bool> bandwidth_3dB_Hz(const std::vector<BodePoint>& bode) {
   const double threshold = 1.0 / std::sqrt(2.0);
   if (bode.front().gain < threshold) return {bode.front().frequency_Hz, false};
   for (std::size_t i = 1; i < bode.size(); ++i) {
-    if (bode[i].gain < threshold && bode[i - 1].gain >= threshold) {
-      const double l0 = std::log(bode[i - 1].frequency_Hz), l1 = std::log(bode[i].frequency_Hz);
-      const double w = (bode[i - 1].gain - threshold) / (bode[i - 1].gain - bode[i].gain);
-      return {std::exp(l0 + w * (l1 - l0)), true};
-    }
+    if (bode[i].gain < threshold && bode[i - 1].gain >= threshold) return {log_crossing_Hz(bode[i - 1], bode[i], threshold), true};
   }
   return {bode.back().frequency_Hz, false};
 }
 
 }  // namespace
+
+PassBand pass_band_3dB(const std::vector<BodePoint>& bode) {
+  const double threshold = 1.0 / std::sqrt(2.0);
+  PassBand best;
+  double best_width = -1.0;
+  for (std::size_t i = 0; i < bode.size();) {
+    if (bode[i].gain < threshold) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j + 1 < bode.size() && bode[j + 1].gain >= threshold) ++j;
+    PassBand b;
+    b.open_low = i == 0;
+    b.open_high = j + 1 == bode.size();
+    b.low_Hz = b.open_low ? bode[i].frequency_Hz : log_crossing_Hz(bode[i - 1], bode[i], threshold);
+    b.high_Hz = b.open_high ? bode[j].frequency_Hz : log_crossing_Hz(bode[j], bode[j + 1], threshold);
+    const double width = std::log(b.high_Hz / b.low_Hz);
+    if (width > best_width) best = b, best_width = width;
+    i = j + 1;
+  }
+  return best;
+}
 
 BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   const ArmScenario::Bandwidth& b = scenario.bandwidth;
@@ -134,6 +159,7 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
   r.within_limits = r.verdict.passed();
   std::tie(r.bandwidth_3dB_Hz, r.reached_3dB) = bandwidth_3dB_Hz(r.bode);
   std::tie(r.bandwidth_3dB_at_joint_Hz, r.reached_3dB_at_joint) = bandwidth_3dB_Hz(r.bode_at_joint);
+  r.pass_band_at_joint = pass_band_3dB(r.bode_at_joint);
   return r;
 }
 

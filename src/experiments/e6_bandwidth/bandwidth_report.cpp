@@ -38,10 +38,14 @@ bool write_bandwidth_report(const std::filesystem::path& bode_csv, const std::ve
     }
     // The one verdict (each muscle's own ceiling, the tension floor, supply, motor rating, range).
     safe = safe && r.within_limits;
-    fmt::print("{:<9} -3 dB bandwidth {}{:.2f} Hz (at the joint, after the cable: {}{:.2f} Hz); peak muscle force {:.0f} N, "
+    const PassBand& band = r.pass_band_at_joint;
+    const std::string at_joint = band.empty() ? std::string("none")
+                                              : fmt::format("{}{:.2f} to {}{:.2f} Hz", band.open_low ? "< " : "", band.low_Hz,
+                                                            band.open_high ? "> " : "", band.high_Hz);
+    fmt::print("{:<9} -3 dB bandwidth {}{:.2f} Hz (at the joint, after the cable: {}{:.2f} Hz; -3 dB band {}); peak muscle force {:.0f} N, "
                "min wire tension {:.1f} N, peak motor {:.2f} Nm: {}\n{}",
                r.variant, bound(r.bode, r.reached_3dB), r.bandwidth_3dB_Hz, bound(r.bode_at_joint, r.reached_3dB_at_joint),
-               r.bandwidth_3dB_at_joint_Hz,
+               r.bandwidth_3dB_at_joint_Hz, at_joint,
                r.peak_muscle_force_N, r.min_wire_tension_N, r.peak_motor_torque_Nm, r.within_limits ? "OK" : "VIOLATED",
                r.verdict.failures());
   }

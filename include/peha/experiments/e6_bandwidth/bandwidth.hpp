@@ -18,6 +18,19 @@ struct BodePoint {
   double phase_deg = 0;   ///< arg(delivered / desired)
 };
 
+/// The widest run of frequencies over which the gain stays at or above 1/sqrt(2) (-3 dB), its edges
+/// log-interpolated; an edge at the end of the sweep is that frequency and open ("> 30 Hz"). A
+/// high-pass response (the hybrid at a clamped joint: the motor passes, the cables do not) has a
+/// band with a lower edge; empty() when no frequency reaches -3 dB.
+struct PassBand {
+  double low_Hz = 0, high_Hz = 0;
+  bool open_low = false, open_high = false;  ///< the edge is the sweep's end: the band may go further
+  bool empty() const { return high_Hz <= 0.0; }
+};
+
+/// The widest -3 dB band of `bode` (ascending frequencies).
+PassBand pass_band_3dB(const std::vector<BodePoint>& bode);
+
 struct BandwidthResult {
   std::string variant;                 ///< "pam_only" or "hybrid"
   /// Delivered = the actuator's torque as the muscles and motor produce it: muscle-side wire
@@ -34,6 +47,9 @@ struct BandwidthResult {
   std::vector<BodePoint> bode_at_joint;
   double bandwidth_3dB_at_joint_Hz = 0;
   bool reached_3dB_at_joint = false;
+  /// Where the joint receives at least -3 dB of the command: the hybrid's motor band at a clamped
+  /// joint, which the -3 dB point counted from the lowest frequency does not show.
+  PassBand pass_band_at_joint;
   double peak_muscle_force_N = 0;
   double min_wire_tension_N = 0;
   double peak_motor_torque_Nm = 0;
