@@ -140,6 +140,38 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
 }
 
+// Festo's own DMSP-40 map (rows up to 9331 N: 0.62 MPa, stretched 5 %) calibrates, converted as the
+// README says; every bad-data case is exit 2, also one the reader passes and the fit cannot use.
+TEST(Cli, CalibratesFestosDmsp40MapAndRefusesTooFewRowsWithTwo) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_festo_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string convert = "/usr/bin/python3 " + std::string(PEHA_SOURCE_DIR) + "/tools/festo_to_calibration.py " +
+                              PEHA_SHARED_DATA_DIR "/pam/festo_datasheet_DMSP-40_digitized.csv " + (dir / "dmsp40.csv").string() +
+                              " > /dev/null";
+  ASSERT_EQ(std::system(convert.c_str()), 0);
+  const Result r = run("calibrate " + (dir / "dmsp40.csv").string() + " --muscle DMSP-40 --no-plot --restarts 30 --out " +
+                       (dir / "dmsp40.yaml").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("force 22.0..9331.0 N"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "dmsp40.yaml"));
+  // Five of its rows, one every 12 (0.1 .. 0.6 MPa), pass --min-rows 5; after the held-out one, 4 are
+  // left for 5 parameters.
+  {
+    std::ifstream in(dir / "dmsp40.csv");
+    std::ofstream out(dir / "five.csv");
+    std::string line;
+    for (int i = 0; std::getline(in, line); ++i) {
+      if (i == 0 || ((i - 1) % 12 == 0 && i < 60)) out << line << "\n";
+    }
+  }
+  const Result five = run("calibrate " + (dir / "five.csv").string() + " --muscle DMSP-40 --min-rows 5 --no-plot --out " +
+                          (dir / "five.yaml").string());
+  EXPECT_EQ(five.code, 2) << five.output;
+  EXPECT_THAT(five.output, HasSubstr("data error: " + (dir / "five.csv").string() + ": 5 rows leave 4 to fit after 1 held out"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "five.yaml"));
+  std::filesystem::remove_all(dir);
+}
+
 // `peha robustness` documents itself and rejects a bad matrix file (exit 2, file:line:column) and an
 // unknown variant before it runs anything.
 // `peha faults` picks E1 or E3 from the scenario's experiment: key and refuses what that experiment
