@@ -3,6 +3,7 @@
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/calibration/calibration_file.hpp"
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/experiments/calibration_recording/acceptance.hpp"
 #include "peha/experiments/run_request.hpp"
 #include "peha/models/units.hpp"
@@ -29,7 +30,19 @@ int calibrate(const CalibrateCommandOptions& options) {
     }
     refuse_unsafe_output(options.out, inputs);
     calibration::CalibrateOptions o;
-    o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;
+    // The muscle the file is for: peha run refuses a calibration of another muscle, so a guess (the
+    // file's stem) would write a file every run refuses. The recording names it in its sidecar.
+    const std::string recorded = calibration::recorded_muscle(options.data);
+    if (!options.muscle.empty() && !recorded.empty() && options.muscle != recorded) {
+      throw UsageError(fmt::format("--muscle {}, but {} is the recording of the {} ({}); calibrate each muscle from its own recording",
+                                   options.muscle, options.data.string(), recorded, config::csv_sidecar_path(options.data).string()));
+    }
+    o.muscle = options.muscle.empty() ? recorded : options.muscle;
+    if (o.muscle.empty()) {
+      throw UsageError(fmt::format("which muscle is {} of? Its sidecar names none: give --muscle NAME, the muscle peha run will use "
+                                   "it for (agonist or antagonist on the E1 rig); nothing written",
+                                   options.data.string()));
+    }
     // With a scenario: the muscle it calibrates, checked before anything runs; its plant law's
     // ceiling bounds the data's forces.
     std::optional<experiments::E1Scenario> scenario;

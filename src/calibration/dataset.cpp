@@ -528,6 +528,17 @@ Dataset assemble_dataset(const CsvContent& csv, const std::string& file, const s
 
 // ---- public API --------------------------------------------------------------------------------
 
+std::string recorded_muscle(const std::filesystem::path& path) {
+  try {
+    const std::optional<config::Document> meta = config::read_csv_sidecar(path);
+    if (!meta) return "";
+    config::Map root = meta->root();
+    return root.has("muscle") ? root.string("muscle") : "";
+  } catch (const config::Error& e) {
+    throw DataError(std::string(e.what()) + " (the sidecar of the calibration CSV; muscle: the muscle recorded)");
+  }
+}
+
 std::string sha256_file(const std::filesystem::path& path) { return sha256_hex(read_csv_bytes(path)); }
 
 std::string sha256_hex(std::string_view bytes) {
@@ -546,7 +557,9 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
   check_units(csv, rules, file);
   check_time_order(csv, file);
   check_excitation(csv.rows, rules, file);
-  return assemble_dataset(csv, file, bytes);
+  Dataset d = assemble_dataset(csv, file, bytes);
+  d.muscle = recorded_muscle(path);
+  return d;
 }
 
 void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments) {
@@ -622,7 +635,9 @@ void write_dataset(const std::filesystem::path& path, const Dataset& data, const
     throw DataError(file + ": cannot replace file: " + ec.message());
   }
   try {
-    config::write_csv_sidecar(path, {names, n, notes, {{"loadcell_zero_N", data.loadcell_zero_N}}});
+    config::CsvMeta meta{names, n, notes, {{"loadcell_zero_N", data.loadcell_zero_N}}};
+    if (!data.muscle.empty()) meta.texts.emplace_back("muscle", data.muscle);
+    config::write_csv_sidecar(path, meta);
   } catch (const std::runtime_error& e) {
     throw DataError(e.what());
   }

@@ -432,6 +432,17 @@ TEST_F(DatasetTest, WriteThenReadRoundTripsExactly) {
 }
 
 // A recording written again over an older one: the old sidecar's zero never stays beside the new CSV.
+// The recording names its muscle in the sidecar; a file that names none reads as "".
+TEST_F(DatasetTest, TheMuscleRecordedRoundTripsThroughTheSidecar) {
+  Dataset d = read_dataset(write_csv("m.csv", "pressure_MPa,contraction,force_N", good_rows()));
+  EXPECT_EQ(d.muscle, "");
+  d.muscle = "antagonist";
+  const auto p = dir_ / "named.csv";
+  write_dataset(p, d, {});
+  EXPECT_EQ(recorded_muscle(p), "antagonist");
+  EXPECT_EQ(read_dataset(p).muscle, "antagonist");
+}
+
 TEST_F(DatasetTest, RewritingReplacesTheSidecar) {
   Dataset d;
   for (int i = 0; i < 60; ++i) {

@@ -38,6 +38,9 @@ struct Dataset {
   /// nothing). On disk: `loadcell_zero_N` in the sidecar `<csv>.meta.json`, or an older recording's
   /// comment line `# loadcell_zero_N: <number>`.
   double loadcell_zero_N = 0.0;
+  /// The muscle recorded, as `peha record-calibration --muscle` named it ("agonist"): `muscle` in
+  /// the sidecar; empty when the file names none (a converted force map, an older recording).
+  std::string muscle;
   std::string source;                    ///< file it came from
   std::string sha256;                    ///< hex SHA-256 of the file's bytes
   std::size_t size() const { return pressure_Pa.size(); }
@@ -68,8 +71,12 @@ struct DatasetRules {
 /// Reads and validates a calibration CSV; throws DataError naming file, line, column and reason.
 Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rules = {});
 
+/// The muscle a calibration CSV's sidecar names (Dataset::muscle), empty when it names none; throws
+/// DataError if the sidecar is malformed.
+std::string recorded_muscle(const std::filesystem::path& path);
+
 /// Writes `data` as a calibration CSV (pressure in MPa), the header its first line, through a
-/// temporary renamed into place; then `comments` and `loadcell_zero_N` to its sidecar
+/// temporary renamed into place; then `comments`, `loadcell_zero_N` and `muscle` (when named) to its sidecar
 /// `<path>.meta.json`. Throws DataError naming the file.
 void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments);
 
