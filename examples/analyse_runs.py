@@ -12,7 +12,10 @@
   pressure and the model's (parametric alone, parametric + SPGP with its 2-sigma band) over the
   recording, and the pressure error of both.
 - Comparison (``compare.png`` and a table): the angle of every case both runs have, one over the
-  other, and the summary figures of each release side by side.
+  other, and the summary figures of each release side by side. A calibrated run's variants
+  (``<case>_parametric``, ``<case>_spgp``) are compared with the other run's ``<case>``.
+
+Exit code 0, or 2 when a folder is not an E1 run (nothing written) or the two runs share no case.
 """
 
 from __future__ import annotations
@@ -37,12 +40,12 @@ def _plt():
 
 def case_logs(run: dict) -> dict:
     """The per-cycle logs of a run (read_run's result) by case: {case: log}."""
-    return {name.split("_", 1)[1] if name.startswith("e1_") else name: log
-            for name, log in run.items() if name != "summary"}
+    return {name[len("e1_"):]: log for name, log in run.items() if name.startswith("e1_")}
 
 
 def fig9(run_dir, out_png) -> dict:
     """Fig. 9 style figure of an E1 run; returns the logs by case."""
+    check_e1_run(run_dir)
     logs = case_logs(peha.read_run(run_dir))
     plt = _plt()
     fig, axes = plt.subplots(4, len(logs), figsize=(5 * len(logs), 10), sharex=True, squeeze=False)
@@ -105,17 +108,60 @@ def fig8(data_csv, calibration_yaml, out_png) -> dict:
     return {"rms_parametric_Pa": rms(data.pressure_Pa - parametric), "rms_spgp_Pa": rms(data.pressure_Pa - mean)}
 
 
+# A run with calibrations runs every case as two variants (docs/calibration.md): `<case>_parametric`
+# and `<case>_spgp`; they compare with the same case of a run without them.
+VARIANT_SUFFIXES = ("_parametric", "_spgp")
+
+
+def base_case(case: str) -> str:
+    """The E1 case a variant belongs to: 'payload_2.5kg_spgp' -> 'payload_2.5kg'."""
+    for suffix in VARIANT_SUFFIXES:
+        if case.endswith(suffix):
+            return case[: -len(suffix)]
+    return case
+
+
+def case_pairs(cases_a, cases_b) -> list[tuple[str, str]]:
+    """(case of A, case of B) to compare: the same case, or a case and each of its variants."""
+    return [(ca, cb) for ca in sorted(cases_a) for cb in sorted(cases_b)
+            if ca == cb or (base_case(ca) == base_case(cb) and (base_case(ca) == ca or base_case(cb) == cb))]
+
+
+class RunError(Exception):
+    """A folder that is not an E1 run, or two runs with nothing to compare."""
+
+
+def check_e1_run(run_dir) -> None:
+    """RunError naming the folder unless it is an E1 run directory (its logs e1_<case>.csv)."""
+    path = pathlib.Path(run_dir)
+    if not path.is_dir():
+        raise RunError(f"{run_dir}: no such run directory (an E1 run such as out/e1_nominal)")
+    if not any(path.glob("e1_*.csv")):
+        raise RunError(f"{run_dir}: no E1 logs (e1_<case>.csv) in it; is it an E1 run?")
+
+
 def compare(run_a, run_b, out_png) -> list[tuple]:
-    """Angles of the cases both runs have, one over the other; returns rows (case, release, figure, a, b)."""
+    """Angles of the cases both runs have (a case and its calibrated variants), one over the other;
+    returns rows (case A, case B, release, figure, a, b). RunError when they share no case."""
+    check_e1_run(run_a)
+    check_e1_run(run_b)
     A, B = peha.read_run(run_a), peha.read_run(run_b)
     la, lb = case_logs(A), case_logs(B)
-    common = sorted(set(la) & set(lb))
+    pairs = case_pairs(la, lb)
+    if not pairs:
+        raise RunError(f"{run_a} and {run_b} have no E1 case in common ({', '.join(sorted(la))} vs {', '.join(sorted(lb))})")
+    name_a, name_b = pathlib.Path(run_a).name, pathlib.Path(run_b).name
+    bases = sorted({base_case(ca) for ca, _ in pairs})
     plt = _plt()
-    fig, axes = plt.subplots(len(common) or 1, 1, figsize=(10, 3 * max(len(common), 1)), squeeze=False)
-    for ax, case in zip(axes[:, 0], common):
-        for L, name in ((la[case], pathlib.Path(run_a).name), (lb[case], pathlib.Path(run_b).name)):
-            ax.plot(L["t_s"], np.degrees(L["plant_angle_rad"]), label=name, lw=0.9)
-        ax.set_title(case)
+    fig, axes = plt.subplots(len(bases), 1, figsize=(10, 3 * len(bases)), squeeze=False)
+    for ax, base in zip(axes[:, 0], bases):
+        cases_a = sorted({ca for ca, cb in pairs if base_case(ca) == base})
+        cases_b = sorted({cb for ca, cb in pairs if base_case(cb) == base})
+        for logs, cases, name, style in ((la, cases_a, name_a, "-"), (lb, cases_b, name_b, "--")):
+            for case in cases:
+                L = logs[case]
+                ax.plot(L["t_s"], np.degrees(L["plant_angle_rad"]), style, label=f"{name}: {case}", lw=0.9)
+        ax.set_title(base)
         ax.set_ylabel("angle / deg")
         ax.legend(fontsize=8)
     axes[-1, 0].set_xlabel("t / s")
@@ -125,10 +171,15 @@ def compare(run_a, run_b, out_png) -> list[tuple]:
     rows = []
     sa = {(r["case"], r["release"]): r for r in A.get("summary", [])}
     sb = {(r["case"], r["release"]): r for r in B.get("summary", [])}
-    for key in sorted(set(sa) & set(sb)):
-        for fig_name in ("angle_at_release_deg", "drift_deg", "peak_finger_force_N", "min_wire_tension_N"):
-            if fig_name in sa[key] and fig_name in sb[key]:
-                rows.append((key[0], key[1], fig_name, float(sa[key][fig_name]), float(sb[key][fig_name])))
+    releases = sorted({rel for _, rel in sa} & {rel for _, rel in sb})
+    for ca, cb in pairs:
+        for release in releases:
+            if (ca, release) not in sa or (cb, release) not in sb:
+                continue
+            ra, rb = sa[(ca, release)], sb[(cb, release)]
+            for fig_name in ("angle_at_release_deg", "drift_deg", "peak_finger_force_N", "min_wire_tension_N"):
+                if fig_name in ra and fig_name in rb:
+                    rows.append((ca, cb, release, fig_name, float(ra[fig_name]), float(rb[fig_name])))
     return rows
 
 
@@ -139,6 +190,18 @@ def main(argv=None) -> int:
     ap.add_argument("--calibration", nargs=2, metavar=("CSV", "YAML"), help="calibration data and file (Fig. 8)")
     ap.add_argument("--out", default="out/analysis", help="folder for the figures")
     args = ap.parse_args(argv)
+    try:
+        return analyse(args)
+    except RunError as e:
+        print(f"analyse_runs.py: {e}", file=sys.stderr)
+        return 2
+
+
+def analyse(args) -> int:
+    """The figures and the table main() was asked for; RunError before anything is written."""
+    check_e1_run(args.run)
+    if args.compare:
+        check_e1_run(args.compare)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     fig9(args.run, out / f"fig9_{pathlib.Path(args.run).name}.png")
@@ -149,9 +212,10 @@ def main(argv=None) -> int:
               f"(pressure RMS: model {rms['rms_parametric_Pa'] / 1e3:.1f} kPa, model + SPGP {rms['rms_spgp_Pa'] / 1e3:.1f} kPa)")
     if args.compare:
         rows = compare(args.run, args.compare, out / "compare.png")
-        print(f"{'case':<16}{'release':<11}{'figure':<22}{'A':>10}{'B':>10}")
-        for case, release, name, a, b in rows:
-            print(f"{case:<16}{release:<11}{name:<22}{a:>10.3f}{b:>10.3f}")
+        print(f"A = {args.run}, B = {args.compare}")
+        print(f"{'case A':<16}{'case B':<28}{'release':<11}{'figure':<22}{'A':>10}{'B':>10}")
+        for case_a, case_b, release, name, a, b in rows:
+            print(f"{case_a:<16}{case_b:<28}{release:<11}{name:<22}{a:>10.3f}{b:>10.3f}")
         print(f"written: {out}/compare.png")
     return 0
 

@@ -99,4 +99,46 @@ def test_analyse_runs_fig9_fig8_and_comparison(runs, tmp_path):
     assert rms["rms_spgp_Pa"] <= rms["rms_parametric_Pa"]
     rows = analyse_runs.compare(runs[0], runs[1], out / "compare2.png")
     assert {r[0] for r in rows} == {"payload_2.5kg", "payload_5.0kg"}
+    assert {r[1] for r in rows} == {"payload_2.5kg", "payload_5.0kg"}
     assert len(rows) == 2 * 3 * 4  # cases x releases x figures
+
+
+def calibrated_like(run: pathlib.Path, tmp: pathlib.Path) -> pathlib.Path:
+    """`run` as `make run`'s calibrated run names it: every case as <case>_parametric and <case>_spgp."""
+    out = tmp / "e1_calibrated"
+    out.mkdir()
+    for log in run.glob("e1_*.csv"):
+        for variant in ("_parametric", "_spgp"):
+            (out / f"{log.stem}{variant}.csv").symlink_to(log)
+    with open(run / "summary.csv", newline="") as f:
+        rows = list(csv.DictReader(f))
+    with open(out / "summary.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        for variant in ("_parametric", "_spgp"):
+            w.writerows({**r, "case": r["case"] + variant} for r in rows)
+    (tmp / "latest").symlink_to(out.name)
+    return out
+
+
+def test_analyse_runs_compares_a_nominal_run_with_a_calibrated_one(runs, tmp_path, capsys):
+    """The two runs `make run` writes: each case against its two variants, in the table and the figure;
+    `out/latest` (a link to the calibrated run) as well; a folder that is no E1 run is refused."""
+    calibrated = calibrated_like(runs[1], tmp_path)
+    rows = analyse_runs.compare(runs[0], calibrated, tmp_path / "c.png")
+    assert {(r[0], r[1]) for r in rows} == {(c, c + v) for c in ("payload_2.5kg", "payload_5.0kg") for v in ("_parametric", "_spgp")}
+    assert len(rows) == 2 * 2 * 3 * 4  # cases x variants x releases x figures
+    assert (tmp_path / "c.png").stat().st_size > 10_000
+    # The same run seen through the link: same figures as in run B's own summary.
+    out = tmp_path / "analysis"
+    assert analyse_runs.main([str(runs[0]), "--compare", str(tmp_path / "latest"), "--out", str(out)]) == 0
+    table = capsys.readouterr().out
+    with open(runs[1] / "summary.csv", newline="") as f:
+        hold = next(r for r in csv.DictReader(f) if r["case"] == "payload_2.5kg" and r["release"] == "hold")
+    line = next(ln for ln in table.splitlines() if "payload_2.5kg_spgp" in ln and "hold" in ln and "drift_deg" in ln)
+    assert abs(float(line.split()[-1]) - float(hold["drift_deg"])) <= 0.5e-3 + 1e-12  # the table prints 3 decimals
+    assert (out / "compare.png").stat().st_size > 10_000
+    for bad, says in ((tmp_path / "missing", "no such run directory"), (tmp_path, "no E1 logs")):
+        assert analyse_runs.main([str(runs[0]), "--compare", str(bad), "--out", str(tmp_path / "refused")]) == 2
+        assert says in capsys.readouterr().err
+    assert not (tmp_path / "refused").exists()  # refused before anything is written

@@ -3,9 +3,11 @@
 #include "peha/app/cli_checks.hpp"
 #include "peha/app/commands.hpp"
 #include "peha/calibration/calibration_file.hpp"
+#include "peha/config/csv_sidecar.hpp"
 #include "peha/experiments/calibration_recording/acceptance.hpp"
 #include "peha/experiments/run_request.hpp"
 #include "peha/models/units.hpp"
+#include "peha/sim/plant_muscle.hpp"
 
 #include <fmt/format.h>
 
@@ -27,9 +29,42 @@ int calibrate(const CalibrateCommandOptions& options) {
       inputs.insert(inputs.end(), more.begin(), more.end());
     }
     refuse_unsafe_output(options.out, inputs);
-    const calibration::Dataset data = calibration::read_dataset(options.data, rules);
     calibration::CalibrateOptions o;
-    o.muscle = options.muscle.empty() ? options.data.stem().string() : options.muscle;
+    // The muscle the file is for: peha run refuses a calibration of another muscle, so a guess (the
+    // file's stem) would write a file every run refuses. The recording names it in its sidecar.
+    const std::string recorded = calibration::recorded_muscle(options.data);
+    if (!options.muscle.empty() && !recorded.empty() && options.muscle != recorded) {
+      throw UsageError(fmt::format("--muscle {}, but {} is the recording of the {} ({}); calibrate each muscle from its own recording",
+                                   options.muscle, options.data.string(), recorded, config::csv_sidecar_path(options.data).string()));
+    }
+    o.muscle = options.muscle.empty() ? recorded : options.muscle;
+    if (o.muscle.empty()) {
+      throw UsageError(fmt::format("which muscle is {} of? Its sidecar names none: give --muscle NAME, the muscle peha run will use "
+                                   "it for (agonist or antagonist on the E1 rig); nothing written",
+                                   options.data.string()));
+    }
+    // With a scenario: the muscle it calibrates, checked before anything runs; its plant law's
+    // ceiling bounds the data's forces.
+    std::optional<experiments::E1Scenario> scenario;
+    int index = 0;
+    if (!options.scenario.empty()) {
+      if (o.muscle != "agonist" && o.muscle != "antagonist") {
+        fmt::print(stderr, "error: --scenario needs --muscle agonist or antagonist (the muscle of the rig), found '{}'\n", o.muscle);
+        return 2;
+      }
+      index = o.muscle == "agonist" ? 0 : 1;
+      scenario = experiments::read_e1(config::Document::load_file(options.scenario));
+      if (!scenario->acceptance) {
+        fmt::print(stderr, "config error: {}: no calibration.acceptance section (the closed-loop check to run)\n",
+                   options.scenario.string());
+        return 2;
+      }
+      const sim::PlantMuscleParams& law = index == 0 ? scenario->plant.joint.agonist.law : scenario->plant.joint.antagonist.law;
+      rules.max_force_N = sim::force_ceiling_N(law);
+      rules.max_force_reason = fmt::format("the ceiling of {}'s {} plant law, {} at {} MPa stretched to contraction {}", options.scenario.string(),
+                                           o.muscle, law.name, law.max_pressure_Pa * 1e-6, law.elastic_knee_contraction);
+    }
+    const calibration::Dataset data = calibration::read_dataset(options.data, rules);
     o.fit.restarts = options.restarts;
     o.fit.threads = options.threads;
     o.fit.seed = options.seed;
@@ -45,22 +80,6 @@ int calibrate(const CalibrateCommandOptions& options) {
     progress.spgp = [&](int iteration, double nlml) {
       gp.update(iteration, options.spgp_iterations, fmt::format("NLML {:.1f}", nlml));
     };
-    // With a scenario: the muscle it calibrates, checked before anything runs.
-    std::optional<experiments::E1Scenario> scenario;
-    int index = 0;
-    if (!options.scenario.empty()) {
-      if (o.muscle != "agonist" && o.muscle != "antagonist") {
-        fmt::print(stderr, "error: --scenario needs --muscle agonist or antagonist (the muscle of the rig), found '{}'\n", o.muscle);
-        return 2;
-      }
-      index = o.muscle == "agonist" ? 0 : 1;
-      scenario = experiments::read_e1(config::Document::load_file(options.scenario));
-      if (!scenario->acceptance) {
-        fmt::print(stderr, "config error: {}: no calibration.acceptance section (the closed-loop check to run)\n",
-                   options.scenario.string());
-        return 2;
-      }
-    }
     const calibration::CalibrationOutcome outcome = calibration::calibrate(data, o, progress);
     std::filesystem::path report = options.report_dir;
     if (report.empty()) report = std::filesystem::path(options.out).replace_extension().string() + "_report";

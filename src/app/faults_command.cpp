@@ -10,6 +10,7 @@
 #include "peha/experiments/run_request.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <cmath>
 #include <cstdio>
@@ -27,11 +28,23 @@ void check_moments(const std::vector<std::string>& wanted, const std::vector<exp
   }
 }
 
+/// Throws UsageError, listing the scenario's cases, unless `name` is empty or one of them.
+void check_case(const std::string& name, const experiments::E1Scenario& e1, const config::Document& doc) {
+  if (name.empty()) return;
+  std::vector<std::string> names;
+  for (const experiments::E1Case& c : e1.cases) {
+    if (c.name == name) return;
+    names.push_back(c.name);
+  }
+  throw UsageError(fmt::format("--case: no case named '{}' in {}; its cases: {}", name, doc.name(), fmt::join(names, ", ")));
+}
+
 /// `--link`: E1's link faults over UDP, the emulator a child process (this binary).
 int link_faults(const FaultsOptions& options, const config::Document& doc) {
   if (!options.moments.empty() || !options.kinds.empty()) throw UsageError("--link runs the link's faults: --moment and --fault-kind are for the in-process matrix");
   const experiments::E1Scenario e1 = experiments::read_e1(doc);
   if (!e1.link) throw UsageError(fmt::format("--link: {} has no mfb: section (channel map, key, watchdogs)", doc.name()));
+  check_case(options.case_name, e1, doc);
   RunDir run_dir(options.config, options.out_root, options.run_name, scenario_inputs(options.config));
   experiments::LinkFaultOptions o;
   o.peha_binary = std::filesystem::read_symlink("/proc/self/exe");
@@ -98,6 +111,7 @@ int faults(const FaultsOptions& options) {
       check_moments(m.moments, experiments::e3_fault_moments(*e3), "E3");
     } else {
       e1 = experiments::read_e1(doc);
+      check_case(options.case_name, *e1, doc);
       check_moments(m.moments, experiments::e1_fault_moments(*e1), "E1");
     }
     RunDir run_dir(options.config, options.out_root, options.run_name, scenario_inputs(options.config));

@@ -5,6 +5,7 @@
 #include "peha/app/hardware_flags.hpp"
 #include "peha/experiments/faults/link_faults.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
+#include "peha/runtime/interrupt.hpp"
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -42,7 +43,8 @@ Command add_run(CLI::App& app) {
              "does not take (nothing written), 3 = a figure failed (drift, excursion or a run to a stop after a\n"
              "release, E1's static torque error, a muscle's force ceiling, the wire-tension floor, pressure, motor,\n"
              "range, E4's tracking, E5's overshoot, time to hold and time at the force ceiling, the creep estimate's\n"
-             "errors and alert times; thresholds in the scenario's verdict: section).");
+             "errors and alert times; thresholds in the scenario's verdict: section), 130 = interrupted (Ctrl-C or\n"
+             "SIGTERM: the run ends at its next cycle and winds down; a second Ctrl-C quits at once).");
   run_cmd->add_option("-c,--config", run.config, "Scenario YAML, e.g. configs/e1_one_dof.yaml")
       ->required()->check(CLI::ExistingFile);
   run_cmd->add_option("-o,--out", run.out_root, "Directory under which the run directory is created")
@@ -170,7 +172,9 @@ Command add_calibrate(CLI::App& app) {
   cal_cmd->add_option("data", cal.data, "Calibration CSV")->required()->check(CLI::ExistingFile);
   cal_cmd->add_option("-o,--out", cal.out, "Calibration YAML to write")->required();
   cal_cmd->add_option("--report-dir", cal.report_dir, "Report folder (default: <out>_report)");
-  cal_cmd->add_option("--muscle", cal.muscle, "Name stored in the file (default: the data file's stem)");
+  cal_cmd->add_option("--muscle", cal.muscle, "The muscle the data are of, stored in the file; peha run refuses a file of another\n"
+                                              "muscle (agonist|antagonist on E1's rig). Default: the one the recording's sidecar\n"
+                                              "<csv>.meta.json names (peha record-calibration writes it); without either: refused");
   cal_cmd->add_option("--restarts", cal.restarts, "Random LM initialisations")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 100000));
   cal_cmd->add_option("--threads", cal.threads, "Threads running the restarts")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 256));
   cal_cmd->add_option("--pseudo-inputs", cal.pseudo_inputs, "SPGP pseudo-inputs M")->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(1, 2000));
@@ -409,7 +413,19 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   }
   for (const Command& command : commands) {
-    if (*command.app) return command.run();
+    if (!*command.app) continue;
+    // The commands that run control loops end them at Ctrl-C and wind down (outputs off, logs
+    // flushed); the others (a fit, a check) end at once, as without a handler.
+    const std::string name = command.app->get_name();
+    if (name != "run" && name != "record-calibration" && name != "identify-gravity" && name != "robustness" && name != "faults") {
+      return command.run();
+    }
+    const peha::runtime::InterruptHandler interrupt;
+    const int code = command.run();
+    if (!peha::runtime::interrupt_requested()) return code;
+    fmt::print(stderr, "peha {}: interrupted (Ctrl-C): the run ended early, its figures and logs are incomplete (exit {})\n", name,
+               peha::runtime::kInterruptedExitCode);
+    return peha::runtime::kInterruptedExitCode;
   }
   return 0;
 }

@@ -68,6 +68,7 @@ int record_calibration(const RecordOptions& options) {
           scenario, plant_params, index,
           [&, bar = std::make_shared<experiments::ProgressPrinter>("recording")](double f) { bar->update(f, 1.0); });
     }
+    data.muscle = options.muscle;  // peha calibrate takes it from the sidecar
     if (options.out.has_parent_path()) std::filesystem::create_directories(options.out.parent_path());
     calibration::write_dataset(
         options.out, data,

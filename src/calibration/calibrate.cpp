@@ -66,9 +66,18 @@ CalibrationOutcome calibrate(const Dataset& data, const CalibrateOptions& option
     train.force_N.push_back(data.force_N[i]);
     train.pressure_Pa.push_back(data.pressure_Pa[i]);
   }
-  if (options.use_spgp && static_cast<std::size_t>(options.spgp.num_pseudo) > train.pressure_Pa.size()) {
-    throw std::invalid_argument(fmt::format("calibrate: {} pseudo-inputs but only {} training rows; use fewer (--pseudo-inputs)",
-                                            options.spgp.num_pseudo, train.pressure_Pa.size()));
+  // Too few rows left to fit is the data's shortfall (exit 2 at the command line), said before any fit runs.
+  const std::size_t n_train = train.pressure_Pa.size();
+  const std::size_t held = n - n_train;
+  if (n_train < kMinFitRows) {
+    throw DataError(fmt::format("{}: {} rows leave {} to fit after {} held out; the Tendon-spring fit needs at least {} "
+                                "(one per parameter): record more rows{}",
+                                data.source, n, n_train, held, kMinFitRows, held > 0 ? " or fit every row (--no-holdout)" : ""));
+  }
+  if (options.use_spgp && static_cast<std::size_t>(options.spgp.num_pseudo) > n_train) {
+    throw DataError(fmt::format("{}: {} rows leave {} to fit after {} held out, fewer than the SPGP's {} pseudo-inputs; "
+                                "use fewer (--pseudo-inputs), record more rows, or fit the parametric model only (--no-spgp)",
+                                data.source, n, n_train, held, options.spgp.num_pseudo));
   }
   const FitResult fit = fit_tendon_spring(train, options.fit, progress.restarts);
 

@@ -47,12 +47,11 @@ constexpr std::array<ColumnInfo, kColumnCount> kColumns{{
 }};
 
 // Plausibility limits (docs/calibration.md / dataset.hpp). Values chosen for 0..0.8 MPa muscles.
-constexpr double kMaxPressureMPa = 1.2;          ///< above: a unit mistake, not a reading
+constexpr double kMaxPressureMPa = kMaxPlausiblePressure_MPa;  ///< above: a unit mistake, not a reading
 constexpr double kKPaCeiling = 2000.0;           ///< max in (1.2, 2000] looks like kPa, above like Pa
 constexpr double kMinPressureMPa = -0.02;        ///< below: more than sensor noise
 constexpr double kMaxAbsContraction = 1.0;       ///< above: percent, not a fraction
 constexpr double kMinForceN = -50.0;             ///< below: more than load-cell noise
-constexpr double kMaxForceN = 5000.0;            ///< above: no PAM wire holds it (the wire breaks at 2250 N)
 constexpr double kMaxLoadcellZeroN = 1000.0;     ///< a vented reading beyond this is a broken cell, not a zero
 constexpr std::size_t kMaxRows = 5'000'000;      ///< 83 min at 1 kHz; more is a wrong file or needs decimation
 constexpr double kMaxAbsAngleRad = 2.0 * 3.14159265358979323846;  ///< above: degrees, not radians
@@ -425,7 +424,7 @@ Range column_range(const std::vector<Row>& rows, std::size_t c) {
 }
 
 // Values beyond what a muscle test gives, each named as the unit mistake it most likely is.
-void check_units(const CsvContent& csv, const std::string& file) {
+void check_units(const CsvContent& csv, const DatasetRules& rules, const std::string& file) {
   const std::vector<Row>& rows = csv.rows;
   if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kPressure] > kMaxPressureMPa; })) {
     const double mx = column_max(rows, kPressure, false);
@@ -444,9 +443,9 @@ void check_units(const CsvContent& csv, const std::string& file) {
                     num(column_max(rows, kContraction, true)) +
                     "); contraction is a fraction (L0 - L) / L0: divide by 100");
   }
-  if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] > kMaxForceN; })) {
-    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is above " + num(kMaxForceN) +
-                    " N: no muscle wire holds that (they break at 2250 N); a unit mistake or a load-cell glitch");
+  if (const Row* r = first_where(rows, [&](const Row& x) { return x.v[kForce] > rules.max_force_N; })) {
+    throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is above " + num(rules.max_force_N) + " N (" +
+                    rules.max_force_reason + "): a unit mistake or a load-cell glitch");
   }
   if (const Row* r = first_where(rows, [](const Row& x) { return x.v[kForce] < kMinForceN; })) {
     throw DataError(value_prefix(file, r->line, kForce, r->v[kForce]) + "is below " + num(kMinForceN) +
@@ -529,6 +528,17 @@ Dataset assemble_dataset(const CsvContent& csv, const std::string& file, const s
 
 // ---- public API --------------------------------------------------------------------------------
 
+std::string recorded_muscle(const std::filesystem::path& path) {
+  try {
+    const std::optional<config::Document> meta = config::read_csv_sidecar(path);
+    if (!meta) return "";
+    config::Map root = meta->root();
+    return root.has("muscle") ? root.string("muscle") : "";
+  } catch (const config::Error& e) {
+    throw DataError(std::string(e.what()) + " (the sidecar of the calibration CSV; muscle: the muscle recorded)");
+  }
+}
+
 std::string sha256_file(const std::filesystem::path& path) { return sha256_hex(read_csv_bytes(path)); }
 
 std::string sha256_hex(std::string_view bytes) {
@@ -544,10 +554,12 @@ Dataset read_dataset(const std::filesystem::path& path, const DatasetRules& rule
   if (text.substr(0, 3) == "\xEF\xBB\xBF") text.remove_prefix(3);  // UTF-8 BOM (spreadsheet exports)
   CsvContent csv = read_csv_lines(text, file);
   read_sidecar_zero(path, file, csv);
-  check_units(csv, file);
+  check_units(csv, rules, file);
   check_time_order(csv, file);
   check_excitation(csv.rows, rules, file);
-  return assemble_dataset(csv, file, bytes);
+  Dataset d = assemble_dataset(csv, file, bytes);
+  d.muscle = recorded_muscle(path);
+  return d;
 }
 
 void write_dataset(const std::filesystem::path& path, const Dataset& data, const std::vector<std::string>& comments) {
@@ -623,7 +635,9 @@ void write_dataset(const std::filesystem::path& path, const Dataset& data, const
     throw DataError(file + ": cannot replace file: " + ec.message());
   }
   try {
-    config::write_csv_sidecar(path, {names, n, notes, {{"loadcell_zero_N", data.loadcell_zero_N}}});
+    config::CsvMeta meta{names, n, notes, {{"loadcell_zero_N", data.loadcell_zero_N}}};
+    if (!data.muscle.empty()) meta.texts.emplace_back("muscle", data.muscle);
+    config::write_csv_sidecar(path, meta);
   } catch (const std::runtime_error& e) {
     throw DataError(e.what());
   }

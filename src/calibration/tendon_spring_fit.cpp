@@ -29,6 +29,7 @@
 /// depends on the start. LM's damping copes with the flat direction.
 
 #include "peha/calibration/tendon_spring_fit.hpp"
+#include "peha/calibration/dataset.hpp"
 
 #include <ceres/ceres.h>
 
@@ -62,6 +63,7 @@ namespace detail {
 
 /// Number of solver parameters, layout x = [a, b, c (N/MPa), log(k / 1 N), eps0].
 inline constexpr int kNumSolverParams = 5;
+static_assert(kMinFitRows == kNumSolverParams);
 using SolverParams = std::array<double, kNumSolverParams>;
 
 /// Boxes of the random initialisations (uniform; k log-uniform). Physically plausible for the Festo
@@ -713,7 +715,7 @@ FitResult run_restarts(const FitData& data, const FitOptions& options, const Pro
     if (o.converged) ++result.restarts_converged;
     if (std::isfinite(o.cost) && (best < 0 || o.cost < outcomes[static_cast<std::size_t>(best)].cost)) best = j;
   }
-  if (best < 0) throw std::runtime_error("fit_tendon_spring: no restart reached a finite cost");
+  if (best < 0) throw DataError("fit_tendon_spring: no restart reached a finite cost (data no Tendon-spring model fits)");
 
   const RestartOutcome& winner = outcomes[static_cast<std::size_t>(best)];
   result.params = from_solver_params(winner.x);

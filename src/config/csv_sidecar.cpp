@@ -69,11 +69,13 @@ std::string_view column_unit(std::string_view column) {
 }
 
 std::string csv_sidecar_json(const std::filesystem::path& csv, const CsvMeta& meta) {
-  for (std::size_t i = 0; i < meta.values.size(); ++i) {
-    const std::string& key = meta.values[i].first;
+  std::vector<std::string> names;
+  for (const auto& v : meta.values) names.push_back(v.first);
+  for (const auto& t : meta.texts) names.push_back(t.first);
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    const std::string& key = names[i];
     const bool fixed = std::find(kFixedFields.begin(), kFixedFields.end(), key) != kFixedFields.end();
-    const bool twice = std::any_of(meta.values.begin(), meta.values.begin() + static_cast<std::ptrdiff_t>(i),
-                                   [&](const auto& v) { return v.first == key; });
+    const bool twice = std::find(names.begin(), names.begin() + static_cast<std::ptrdiff_t>(i), key) != names.begin() + static_cast<std::ptrdiff_t>(i);
     if (key.empty() || fixed || twice) {
       throw std::invalid_argument(fmt::format("{}: sidecar value name '{}' is empty, a fixed field or given twice",
                                               csv.string(), key));
@@ -93,6 +95,7 @@ std::string csv_sidecar_json(const std::filesystem::path& csv, const CsvMeta& me
   for (std::size_t n = 0; n < meta.notes.size(); ++n) out += fmt::format("{}\n    {}", n ? "," : "", json_quoted(meta.notes[n]));
   out += meta.notes.empty() ? "]" : "\n  ]";
   for (const auto& [key, value] : meta.values) out += fmt::format(",\n  {}: {}", json_quoted(key), json_number(value));
+  for (const auto& [key, text] : meta.texts) out += fmt::format(",\n  {}: {}", json_quoted(key), json_quoted(text));
   out += "\n}\n";
   return out;
 }

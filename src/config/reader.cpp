@@ -4,6 +4,7 @@
 #include "peha/config/input_file.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cctype>
@@ -33,6 +34,32 @@ std::string describe(const YAML::Node& node) {
 std::string position(const std::string& file, const YAML::Mark& mark) {
   if (mark.is_null()) return file;
   return fmt::format("{}:{}:{}", file, mark.line + 1, mark.column + 1);
+}
+
+// Edit distance (Levenshtein, with a swap of two neighbours counting one) between two keys.
+std::size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+    }
+  }
+  return d[a.size()][b.size()];
+}
+
+// The candidate nearest to `key` if it is near enough to be a misspelling of it: at most 2 edits, or
+// a quarter of the key's length for long keys ("pressure_rate_MPa_s" for "pressure_rate_MPa_per_s").
+std::string nearest(std::string_view key, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::max<std::size_t>(2, key.size() / 4) + 1;
+  for (const std::string& c : candidates) {
+    const std::size_t d = edit_distance(key, c);
+    if (d < best_d) best_d = d, best = c;
+  }
+  return best;
 }
 
 }  // namespace
@@ -74,7 +101,10 @@ Map::Map(YAML::Node node, std::shared_ptr<const std::string> file, std::string p
       path_(std::move(path)),
       directory_(std::move(directory)) {}
 
-bool Map::has(std::string_view key) const { return static_cast<bool>(node_[std::string(key)]); }
+bool Map::has(std::string_view key) const {
+  asked_.emplace(key);  // a key the schema knows, present or not: a candidate for "did you mean"
+  return static_cast<bool>(node_[std::string(key)]);
+}
 
 std::string Map::key_path(std::string_view key) const {
   if (key.empty()) return path_.empty() ? "<root>" : path_;
@@ -93,7 +123,15 @@ void Map::fail(std::string_view key, const std::string& reason) const {
 YAML::Node Map::required(std::string_view key) {
   used_.emplace(key);
   YAML::Node value = node_[std::string(key)];
-  if (!value) fail_at(node_, key, "missing required key");
+  if (!value) {
+    // A key present but not (yet) read that is one or two typing errors away is most likely this one.
+    std::vector<std::string> unread;
+    for (const auto& item : node_) {
+      if (!used_.contains(item.first.Scalar())) unread.push_back(item.first.Scalar());
+    }
+    const std::string near = nearest(key, unread);
+    fail_at(node_, key, near.empty() ? "missing required key" : fmt::format("missing required key (did you mean '{}', given here?)", near));
+  }
   return value;
 }
 
@@ -253,7 +291,15 @@ void Map::finish() const {
   std::set<std::string, std::less<>> seen;
   for (const auto& item : node_) {
     const std::string key = item.first.Scalar();
-    if (!used_.contains(key)) fail_at(item.first, key, "unknown key");
+    if (!used_.contains(key)) {
+      std::vector<std::string> known(used_.begin(), used_.end());
+      for (const std::string& k : asked_) {
+        if (!used_.contains(k)) known.push_back(k);
+      }
+      const std::string near = nearest(key, known);
+      fail_at(item.first, key, near.empty() ? fmt::format("unknown key; known keys here: {}", fmt::join(known, ", "))
+                                            : fmt::format("unknown key; did you mean '{}'?", near));
+    }
     // yaml-cpp keeps both entries of a repeated key and reads the first: say so instead.
     if (!seen.insert(key).second) fail_at(item.first, key, "duplicate key");
   }

@@ -6,7 +6,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <csignal>
 #include <cmath>
 #include <cstdio>
 #include <poll.h>
@@ -14,11 +13,6 @@
 
 namespace peha::runtime {
 namespace {
-
-// Ctrl-C / SIGTERM during a run: the loop ends at the next cycle and winds down normally (outputs
-// disabled, log flushed, statistics printed) instead of dying mid-cycle.
-std::atomic<bool> g_interrupted{false};
-extern "C" void on_interrupt(int) { g_interrupted = true; }
 
 }  // namespace
 
@@ -89,9 +83,9 @@ RealtimeHarness::~RealtimeHarness() {
 }
 
 CycleHooks RealtimeHarness::start() {
-  g_interrupted = false;
-  previous_sigint_ = std::signal(SIGINT, on_interrupt);
-  previous_sigterm_ = std::signal(SIGTERM, on_interrupt);
+  // Ctrl-C / SIGTERM during the run: the loop ends at the next cycle and winds down normally
+  // (outputs disabled, log flushed, statistics printed) instead of dying mid-cycle.
+  interrupt_.emplace();
   result_.realtime = configure_realtime_thread(options_.realtime);
   supervisor_.on_fault = [this](const char* why) { log_.request_fault_dump(why); };
   supervisor_.start(0.0);  // last in set-up: the handshake's answer is followed by the enable edge within a period
@@ -147,7 +141,7 @@ bool RealtimeHarness::after(const io::SensorState& state, const io::Command& cmd
   progress_t_.store(t, std::memory_order_relaxed);
   progress_state_.store(static_cast<int>(lifecycle), std::memory_order_relaxed);
   result_.timing.compute.add(static_cast<double>(PeriodicClock::now_ns() - cycle_start_ns_) * 1e-9);
-  if (g_interrupted.load(std::memory_order_relaxed)) {
+  if (interrupt_requested()) {
     interrupted_ = true;
     return false;  // the experiment's loop ends here; finish() winds down
   }
@@ -161,8 +155,7 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   io::Command idle;
   idle.joint_count = static_cast<int>(backend_.info().joint_names.size());
   for (int i = 0; i < 5; ++i) backend_.write(idle);
-  std::signal(SIGINT, previous_sigint_);
-  std::signal(SIGTERM, previous_sigterm_);
+  interrupt_.reset();
   const ThreadCounters end = counters_at_end_ ? *counters_at_end_ : thread_counters();
   result_.timing.minor_faults = end.minor_faults - counters_at_start_.minor_faults;
   result_.timing.major_faults = end.major_faults - counters_at_start_.major_faults;

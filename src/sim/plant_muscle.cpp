@@ -122,6 +122,11 @@ double static_force_dcontraction_N(const PlantMuscleParams& p, double pressure_P
   return sigmoid(in.z_N / delta) * in.dz_du_N;
 }
 
+double force_ceiling_N(const PlantMuscleParams& p) noexcept {
+  const double h = std::clamp(p.hysteresis_fraction, 0.0, 1.0);
+  return static_force_N(p, p.max_pressure_Pa, p.elastic_knee_contraction) * (1.0 + h);
+}
+
 double force_N(const PlantMuscleParams& p, double pressure_Pa, double contraction,
                double contraction_rate_1ps) noexcept {
   return detail::MuscleLawAtPressure(p, pressure_Pa).force_N(contraction, contraction_rate_1ps);

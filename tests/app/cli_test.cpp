@@ -1,5 +1,6 @@
 // The peha command line as a user meets it: help texts, exit codes, the run directory.
 #include <gtest/gtest.h>
+#include "peha/runtime/child_process.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "../support/edited_config.hpp"
 #include "../support/peha_cli.hpp"
@@ -16,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <csignal>
 #include <sys/wait.h>
 #include <unistd.h>
 #include <vector>
@@ -124,7 +126,7 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
     csv << "pressure_MPa,contraction,force_N\n";
     for (int i = 0; i < 100; ++i) csv << 100 + 3 * i << ",0.1," << 100 + 5 * i << "\n";  // kPa values
   }
-  const Result r = run("calibrate " + (dir / "kpa.csv").string() + " --out " + (dir / "out.yaml").string());
+  const Result r = run("calibrate " + (dir / "kpa.csv").string() + " --muscle agonist --out " + (dir / "out.yaml").string());
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_THAT(r.output, HasSubstr("looks like kPa"));
   EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
@@ -138,6 +140,84 @@ TEST(Cli, CalibrateRejectsBadDataAndWritesNothing) {
   EXPECT_EQ(other.code, 2) << other.output;
   EXPECT_THAT(other.output, HasSubstr("--other-calibration is for the closed-loop check: it needs --scenario"));
   EXPECT_FALSE(std::filesystem::exists(dir / "out.yaml"));
+}
+
+// The calibration file names its muscle, and peha run refuses one of another muscle: calibrate takes
+// it from --muscle or the recording's sidecar, refuses a file naming neither (instead of writing one
+// every run refuses as "swapped files?") and a --muscle that contradicts the recording.
+TEST(Cli, CalibrateTakesItsMuscleFromTheRecordingOrRefuses) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_muscle_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream csv(dir / "rec.csv");
+    csv << "pressure_MPa,contraction,force_N\n";
+    for (int i = 0; i < 100; ++i) csv << 0.1 + 0.004 * i << "," << 0.02 + 0.001 * (i % 10) << "," << 100 + 6 * i << "\n";
+  }
+  const std::string fit = " --no-plot --restarts 4 --pseudo-inputs 10 --spgp-iterations 20 --out ";
+  const Result none = run("calibrate " + (dir / "rec.csv").string() + fit + (dir / "none.yaml").string());
+  EXPECT_EQ(none.code, 2) << none.output;
+  EXPECT_THAT(none.output, HasSubstr("which muscle is " + (dir / "rec.csv").string() + " of? Its sidecar names none: give --muscle NAME"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "none.yaml"));
+  { std::ofstream(dir / "rec.csv.meta.json") << R"({"format": "peha-log-1", "file": "rec.csv", "notes": [], "muscle": "antagonist"})"; }
+  const Result inferred = run("calibrate " + (dir / "rec.csv").string() + fit + (dir / "inferred.yaml").string());
+  EXPECT_EQ(inferred.code, 0) << inferred.output;
+  std::ifstream in(dir / "inferred.yaml");
+  const std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_THAT(yaml, HasSubstr("muscle: antagonist"));
+  const Result contradicted = run("calibrate " + (dir / "rec.csv").string() + " --muscle agonist" + fit + (dir / "other.yaml").string());
+  EXPECT_EQ(contradicted.code, 2) << contradicted.output;
+  EXPECT_THAT(contradicted.output, HasSubstr("--muscle agonist, but " + (dir / "rec.csv").string() + " is the recording of the antagonist"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "other.yaml"));
+  std::filesystem::remove_all(dir);
+}
+
+// Ctrl-C during a simulated run (here the creep scenario's recording, 30 simulated minutes ahead):
+// the loop ends at its next cycle, peha says so and exits 130, not 0 and not silently.
+TEST(Cli, CtrlCEndsASimulatedRunWithAMessageAndExit130) {
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / ("peha_cli_ctrl_c_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(out);
+  peha::runtime::ChildProcess run_child({PEHA_BINARY, "run", "--config", PEHA_SOURCE_DIR "/configs/e1_creep.yaml", "--no-plot", "--out",
+                                         out.string(), "--name", "r"});
+  ASSERT_FALSE(run_child.wait_for_line("recording and calibrating", 30.0).empty()) << run_child.output();
+  const int code = run_child.stop(SIGINT, 30.0);
+  EXPECT_EQ(code, 130) << run_child.output();
+  EXPECT_THAT(run_child.output(), HasSubstr("interrupted (Ctrl-C): ending the run at its next cycle"));
+  EXPECT_THAT(run_child.output(), HasSubstr("peha run: interrupted (Ctrl-C): the run ended early, its figures and logs are incomplete (exit 130)"));
+  EXPECT_FALSE(std::filesystem::exists(out / "r"));  // no run folder that looks complete
+  std::filesystem::remove_all(out);
+}
+
+// Festo's own DMSP-40 map (rows up to 9331 N: 0.62 MPa, stretched 5 %) calibrates, converted as the
+// README says; every bad-data case is exit 2, also one the reader passes and the fit cannot use.
+TEST(Cli, CalibratesFestosDmsp40MapAndRefusesTooFewRowsWithTwo) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_festo_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string convert = "/usr/bin/python3 " + std::string(PEHA_SOURCE_DIR) + "/tools/festo_to_calibration.py " +
+                              PEHA_SHARED_DATA_DIR "/pam/festo_datasheet_DMSP-40_digitized.csv " + (dir / "dmsp40.csv").string() +
+                              " > /dev/null";
+  ASSERT_EQ(std::system(convert.c_str()), 0);
+  const Result r = run("calibrate " + (dir / "dmsp40.csv").string() + " --muscle DMSP-40 --no-plot --restarts 30 --out " +
+                       (dir / "dmsp40.yaml").string());
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("force 22.0..9331.0 N"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "dmsp40.yaml"));
+  // Five of its rows, one every 12 (0.1 .. 0.6 MPa), pass --min-rows 5; after the held-out one, 4 are
+  // left for 5 parameters.
+  {
+    std::ifstream in(dir / "dmsp40.csv");
+    std::ofstream out(dir / "five.csv");
+    std::string line;
+    for (int i = 0; std::getline(in, line); ++i) {
+      if (i == 0 || ((i - 1) % 12 == 0 && i < 60)) out << line << "\n";
+    }
+  }
+  const Result five = run("calibrate " + (dir / "five.csv").string() + " --muscle DMSP-40 --min-rows 5 --no-plot --out " +
+                          (dir / "five.yaml").string());
+  EXPECT_EQ(five.code, 2) << five.output;
+  EXPECT_THAT(five.output, HasSubstr("data error: " + (dir / "five.csv").string() + ": 5 rows leave 4 to fit after 1 held out"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "five.yaml"));
+  std::filesystem::remove_all(dir);
 }
 
 // `peha robustness` documents itself and rejects a bad matrix file (exit 2, file:line:column) and an
@@ -155,6 +235,10 @@ TEST(Cli, FaultsTakesE1OrTheRightArmAndRefusesWhatTheyLack) {
   } refused[] = {
       {"faults" + common + "/configs/e5_max_force.yaml", "peha faults runs E1 (gravity_compensation_1dof) or E3 (arm)"},
       {"faults --case payload_2.5kg" + common + "/configs/right_arm.yaml", "E3 has no cases"},
+      // A case E1's scenario lacks: its cases listed, exit 2 (was exit 1 with no list), on both paths.
+      {"faults --case nope" + common + "/configs/e1_one_dof.yaml", "--case: no case named 'nope' in " PEHA_SOURCE_DIR
+       "/configs/e1_one_dof.yaml; its cases: payload_2.5kg, payload_5.0kg"},
+      {"faults --link --case nope" + common + "/configs/e1_one_dof.yaml", "its cases: payload_2.5kg, payload_5.0kg"},
       {"faults --moment moving" + common + "/configs/e1_one_dof.yaml", "E1 has no moment 'moving' (it has startup_vent|tare|holding|push|after_release)"},
       {"faults --moment push" + common + "/configs/right_arm.yaml", "E3 has no moment 'push' (it has holding|moving|elbow_moving|elbow_flexed)"},
       // Every moment the help names reaches the experiment's own check (elbow_flexed was refused by the CLI).

@@ -72,6 +72,38 @@ TEST(Calibrate, SpgpRemovesTheThresholdTheParametricModelMisses) {
   EXPECT_EQ(runs, 10);
 }
 
+// Too few rows left to fit after the held-out split is the data's fault (a DataError: exit 2 at the
+// command line), said before any fit: 5 rows of a static map lose one to the held-out levels and
+// the 4 left cannot fix 5 parameters; 60 rows leave 48, fewer than 50 pseudo-inputs.
+TEST(Calibrate, TooFewRowsLeftToFitIsADataError) {
+  const Dataset all = synthetic_threshold_muscle();
+  const auto first_rows = [&](std::size_t n) {
+    Dataset d;
+    d.contraction.assign(all.contraction.begin(), all.contraction.begin() + static_cast<std::ptrdiff_t>(n));
+    d.force_N.assign(all.force_N.begin(), all.force_N.begin() + static_cast<std::ptrdiff_t>(n));
+    d.pressure_Pa.assign(all.pressure_Pa.begin(), all.pressure_Pa.begin() + static_cast<std::ptrdiff_t>(n));
+    d.source = "map.csv";
+    return d;
+  };
+  CalibrateOptions o = fast_options();
+  try {
+    (void)calibrate(first_rows(5), o);
+    ADD_FAILURE() << "5 rows calibrated";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("map.csv: 5 rows leave 4 to fit after 1 held out; the Tendon-spring fit needs at least 5"));
+  }
+  o.spgp.num_pseudo = 50;
+  try {
+    (void)calibrate(first_rows(60), o);
+    ADD_FAILURE() << "60 rows calibrated with 50 pseudo-inputs";
+  } catch (const DataError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("60 rows leave 48 to fit after 12 held out, fewer than the SPGP's 50 pseudo-inputs"));
+  }
+  o.holdout = false;
+  o.use_spgp = false;
+  EXPECT_EQ(calibrate(first_rows(5), o).calibration.stats.rows_train, 5u);
+}
+
 /// The synthetic muscle's data as a recorded CSV (read back: a calibration file names its data).
 Dataset synthetic_threshold_muscle_file(const std::filesystem::path& csv) {
   write_dataset(csv, synthetic_threshold_muscle(), {"synthetic threshold muscle"});

@@ -292,7 +292,22 @@ TEST_F(DatasetTest, ImpossibleForceIsAnError) {
   auto rows = good_rows();
   rows[7] = "0.3,0.05,1e300";  // line 11
   const auto p = write_csv("bigf.csv", "pressure_MPa,contraction,force_N", rows);
-  EXPECT_THAT(error_of(p), AllOf(HasSubstr(at(p, 11) + ": column 'force_N': value 1e+300"), HasSubstr("above 5000 N")));
+  EXPECT_THAT(error_of(p), AllOf(HasSubstr(at(p, 11) + ": column 'force_N': value 1e+300"), HasSubstr("above 18060 N"),
+                                 HasSubstr("Festo's largest, DMSP-40")));
+}
+
+// The cap is the muscle's: Festo's DMSP-40 map holds 9331 N (0.62 MPa, stretched 5 %), read with the
+// default rules (any muscle); the same row is refused against a ceiling given for a smaller muscle.
+TEST_F(DatasetTest, ForceCapIsTheMusclesCeiling) {
+  auto rows = good_rows();
+  rows[7] = "0.62,-0.05,9331";  // line 11
+  const auto p = write_csv("dmsp40.csv", "pressure_MPa,contraction,force_N", rows);
+  EXPECT_EQ(read_dataset(p).force_N[7], 9331.0);
+  DatasetRules dmsp10;
+  dmsp10.max_force_N = 1040.0;
+  dmsp10.max_force_reason = "the DMSP-10 law's ceiling";
+  EXPECT_THAT(error_of(p, dmsp10), AllOf(HasSubstr(at(p, 11) + ": column 'force_N': value 9331 is above 1040 N"),
+                                         HasSubstr("(the DMSP-10 law's ceiling)")));
 }
 
 TEST_F(DatasetTest, FileCutInsideItsLastNumberIsAnError) {
@@ -417,6 +432,17 @@ TEST_F(DatasetTest, WriteThenReadRoundTripsExactly) {
 }
 
 // A recording written again over an older one: the old sidecar's zero never stays beside the new CSV.
+// The recording names its muscle in the sidecar; a file that names none reads as "".
+TEST_F(DatasetTest, TheMuscleRecordedRoundTripsThroughTheSidecar) {
+  Dataset d = read_dataset(write_csv("m.csv", "pressure_MPa,contraction,force_N", good_rows()));
+  EXPECT_EQ(d.muscle, "");
+  d.muscle = "antagonist";
+  const auto p = dir_ / "named.csv";
+  write_dataset(p, d, {});
+  EXPECT_EQ(recorded_muscle(p), "antagonist");
+  EXPECT_EQ(read_dataset(p).muscle, "antagonist");
+}
+
 TEST_F(DatasetTest, RewritingReplacesTheSidecar) {
   Dataset d;
   for (int i = 0; i < 60; ++i) {

@@ -17,6 +17,7 @@ namespace peha::config {
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 std::string e1_text() {
   std::ifstream in(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
@@ -48,12 +49,29 @@ TEST(Config, ShippedE1ConfigLoads) { EXPECT_EQ(e1_error_after("seed: 1", "seed: 
 TEST(Config, RejectsUnknownKeyWithFileLineAndPath) {
   const std::string e = e1_error_after("    use_motor: true", "    use_motor: true\n    use_motr: false");
   EXPECT_THAT(e, HasSubstr("mutated_RejectsUnknownKeyWithFileLineAndPath.yaml:"));
-  EXPECT_THAT(e, HasSubstr("controller.allocation.use_motr: unknown key"));
+  EXPECT_THAT(e, HasSubstr("controller.allocation.use_motr: unknown key; did you mean 'use_motor'?"));
+}
+
+// A key near none of the section's is listed with the keys the section knows (optional ones too).
+TEST(Config, UnknownKeyFarFromEveryKnownOneListsTheSectionsKeys) {
+  const std::string e = e1_error_after("  duration_s: 34.0", "  duration_s: 34.0\n  realtime: true");
+  EXPECT_THAT(e, HasSubstr("run.realtime: unknown key; known keys here: control_period_s, drift_window_s, duration_s, initial_angle_deg"));
+  EXPECT_THAT(e1_error_after("hold: true}", "hold: true, brekaway: up}"),
+              HasSubstr("finger.pushes[0].brekaway: unknown key; did you mean 'breakaway'?"));
 }
 
 TEST(Config, RejectsMissingKey) {
   const std::string e = e1_error_after("  velocity_cutoff_Hz: 20.0\n", "");
   EXPECT_THAT(e, HasSubstr("controller.velocity_cutoff_Hz: missing required key"));
+  EXPECT_THAT(e, Not(HasSubstr("did you mean")));
+}
+
+// A required key misspelled is reported missing with the spelling that was given (one edit, a swap).
+TEST(Config, MisspelledRequiredKeySaysDidYouMean) {
+  EXPECT_THAT(e1_error_after("  velocity_cutoff_Hz: 20.0", "  velocity_cutof_Hz: 20.0"),
+              HasSubstr("controller.velocity_cutoff_Hz: missing required key (did you mean 'velocity_cutof_Hz', given here?)"));
+  EXPECT_THAT(e1_error_after("  supply_pressure_MPa: 0.8", "  supply_pressrue_MPa: 0.8"),
+              HasSubstr("limits.supply_pressure_MPa: missing required key (did you mean 'supply_pressrue_MPa', given here?)"));
 }
 
 TEST(Config, RejectsWrongType) {

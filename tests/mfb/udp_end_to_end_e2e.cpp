@@ -880,7 +880,8 @@ namespace peha::runtime {
 namespace {
 
 // Ctrl-C during a run on the board (the whole CLI, two processes): the loop stops at the next cycle,
-// winds down (outputs disabled, lifecycle finalized), and the log holds every cycle up to there.
+// winds down (outputs disabled, lifecycle finalized), the log holds every cycle up to there, and
+// peha says so and exits 130.
 TEST(MfbEndToEnd, CtrlCEndsARunOnTheBoardCleanly) {
   Emulator emulator({});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
@@ -891,7 +892,8 @@ TEST(MfbEndToEnd, CtrlCEndsARunOnTheBoardCleanly) {
                               "--out", out.string(), "--name", "r"});
   ASSERT_FALSE(host.wait_for_line("payload_2.5kg: t =", 15.0).empty()) << host.output();  // the first progress line, ~1 s in
   const int code = host.stop(SIGINT, 10.0);
-  EXPECT_NE(code, -1) << host.output();  // it exited
+  EXPECT_EQ(code, 130) << host.output();  // the shell's code for Ctrl-C, never 0 (a run cut short is no result)
+  EXPECT_NE(host.output().find("peha run: interrupted (Ctrl-C): the run ended early"), std::string::npos) << host.output();
   EXPECT_NE(host.output().find("-> inactive (interrupted (Ctrl-C))"), std::string::npos) << host.output();
   EXPECT_NE(host.output().find("inactive -> finalized"), std::string::npos) << host.output();
   const std::vector<double> t = column(out / "r" / "e1_payload_2.5kg.csv", "t_s");

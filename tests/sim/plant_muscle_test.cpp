@@ -1,6 +1,7 @@
 // Tests of the simulated plant's muscle law (include/peha/sim/plant_muscle.hpp) against the real
 // Festo maps and its contract with the simulator (finite, >= 0, monotone, C1, hysteresis sign).
 #include "peha/sim/plant_muscle.hpp"
+#include "peha/calibration/dataset.hpp"
 
 #include <gtest/gtest.h>
 
@@ -111,6 +112,30 @@ TEST(PlantMuscle, FitsFestoDmsp40MapWithinStatedError) {
   const FitError e = fit_error(load_plant_muscle(kDmsp40Yaml), map);
   EXPECT_LT(e.rms_N, kDmsp40RmsBound_N);
   EXPECT_LT(e.max_N, kDmsp40MaxBound_N);
+}
+
+// The law's ceiling bounds the forces a calibration CSV of this muscle may hold (peha calibrate
+// --scenario): above every force of the muscle's own datasheet map (DMSP-40: 9331 N at 0.62 MPa,
+// stretched 5 %), and the DMSP-40 law at 1.2 MPa is what the reader allows where no muscle is known.
+TEST(PlantMuscle, CeilingHoldsTheWholeDatasheetMapAndIsTheReadersBoundForAnyMuscle) {
+  for (const auto& [yaml, csv] : {std::pair{kDmsp40Yaml, "festo_datasheet_DMSP-40_digitized.csv"},
+                                  std::pair{kDmsp10Yaml, "festo_datasheet_DMSP-10_digitized.csv"}}) {
+    const PlantMuscleParams law = load_plant_muscle(yaml);
+    double largest_N = 0;
+    for (const MapPoint& m : read_map(kPamData + csv, "pressure_kPa", 1e3)) largest_N = std::max(largest_N, m.force_N);
+    const double ceiling_N = force_ceiling_N(law);
+    EXPECT_GT(ceiling_N, largest_N) << law.name;
+    // Not a loose bound: the law's 1 MPa clamp is 1.25-1.6 x the maps' top pressure (DMSP-40 14.5 kN
+    // for 9331 N, DMSP-10 1.13 kN for 645 N).
+    EXPECT_LT(ceiling_N, 2.0 * largest_N) << law.name;
+  }
+  PlantMuscleParams at_reader_ceiling = load_plant_muscle(kDmsp40Yaml);
+  at_reader_ceiling.max_pressure_Pa = calibration::kMaxPlausiblePressure_MPa * 1e6;
+  at_reader_ceiling.hysteresis_fraction = 0;
+  const double physics_N = force_ceiling_N(at_reader_ceiling);
+  // The reader's bound scales the map linearly in pressure; the law bends slightly below (16.1 kN).
+  EXPECT_GE(calibration::kAnyMuscleMaxForce_N, physics_N);
+  EXPECT_LE(calibration::kAnyMuscleMaxForce_N, 1.15 * physics_N);
 }
 
 TEST(PlantMuscle, FitsFestoDmsp10MapWithinStatedError) {

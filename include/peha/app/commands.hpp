@@ -88,7 +88,7 @@ struct CalibrateCommandOptions {
   std::filesystem::path data;        ///< calibration CSV
   std::filesystem::path out;         ///< calibration YAML to write
   std::filesystem::path report_dir;  ///< default: <out without extension>_report
-  std::string muscle;                ///< name stored in the file (default: the data file's stem)
+  std::string muscle;                ///< the muscle (default: the recording's sidecar's; neither: refused)
   int restarts = 300;
   int threads = 2;
   int pseudo_inputs = 50;

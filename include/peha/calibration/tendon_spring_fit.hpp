@@ -40,7 +40,11 @@ struct FitResult {
 /// Called after each restart with (done, total); may be called from worker threads, serialised.
 using Progress = std::function<void(int done, int total)>;
 
-/// Fits; throws std::invalid_argument for empty/mismatched data or bad options.
+/// Fewest rows the fit takes: one per Tendon-spring parameter (a, b, c, k, eps0).
+inline constexpr std::size_t kMinFitRows = 5;
+
+/// Fits; throws std::invalid_argument for empty/mismatched data or bad options, DataError (dataset.hpp)
+/// when no restart reaches a finite cost (data no Tendon-spring model fits).
 FitResult fit_tendon_spring(const FitData& data, const FitOptions& options, const Progress& progress = {});
 
 /// Pressure residuals r_i (Pa) of `params` on `data` (the same definition the fit minimises).

@@ -34,13 +34,14 @@ struct CsvMeta {
   std::optional<std::size_t> rows;                     ///< data rows written, when known
   std::vector<std::string> notes;                      ///< free text: case, config path, seed, units notes
   std::vector<std::pair<std::string, double>> values;  ///< named numbers (NaN and inf written as null)
+  std::vector<std::pair<std::string, std::string>> texts{};  ///< named strings (the recording's "muscle")
 };
 
 /// `<csv>.meta.json`: the whole file name plus a suffix, so `a.csv` and `a.txt` never share one.
 std::filesystem::path csv_sidecar_path(const std::filesystem::path& csv);
 
-/// The sidecar's text (what write_csv_sidecar writes). Throws std::invalid_argument if a value's
-/// name is empty or one of the fixed fields (format, file, rows, columns, notes), or given twice.
+/// The sidecar's text (what write_csv_sidecar writes). Throws std::invalid_argument if a value's or
+/// text's name is empty or one of the fixed fields (format, file, rows, columns, notes), or given twice.
 std::string csv_sidecar_json(const std::filesystem::path& csv, const CsvMeta& meta);
 
 /// Writes `<csv>.meta.json` atomically (write_file_atomically: a reader sees the old sidecar or the

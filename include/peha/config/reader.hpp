@@ -104,7 +104,7 @@ class Map {
   /// Refuses a key an older scenario format had (config::Error naming where it went: `now`), so an
   /// old file is not half read.
   void refuse_moved(std::string_view key, std::string_view now) const {
-    if (has(key)) fail(key, "this key moved: " + std::string(now));
+    if (node_[std::string(key)]) fail(key, "this key moved: " + std::string(now));
   }
 
   /// Throws `Error` about `key` (or the map itself when `key` is empty) with `reason`.
@@ -127,6 +127,8 @@ class Map {
   std::string path_;
   std::filesystem::path directory_;
   std::set<std::string, std::less<>> used_;
+  /// Keys asked about with has() (optional keys of the schema): known too, for "did you mean".
+  mutable std::set<std::string, std::less<>> asked_;
 };
 
 }  // namespace peha::config

@@ -9,6 +9,7 @@
 /// what is sent is what was limited.
 
 #include "peha/io/backend.hpp"
+#include "peha/runtime/interrupt.hpp"
 #include "peha/runtime/supervisor.hpp"
 #include "peha/safety/limited_backend.hpp"
 
@@ -77,6 +78,7 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
     backend.write(command);
     if (fresh) observe(k, backend.sent(), backend.flags());
     if (hooks.after && !hooks.after(state, backend.sent())) break;
+    if (interrupt_requested()) break;  // Ctrl-C: the run ends here and winds down as at its end
   }
   if (hooks.done) hooks.done();
   const std::size_t last = std::min(k, steps);

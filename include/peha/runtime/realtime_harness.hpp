@@ -12,6 +12,7 @@
 #include "peha/runtime/async_log.hpp"
 #include "peha/runtime/control_loop.hpp"
 #include "peha/runtime/csv_log.hpp"
+#include "peha/runtime/interrupt.hpp"
 #include "peha/runtime/lifecycle.hpp"
 #include "peha/runtime/realtime.hpp"
 #include "peha/runtime/supervisor.hpp"
@@ -109,8 +110,7 @@ class RealtimeHarness {
   std::atomic<int> progress_state_{0};
   std::thread console_, progress_;
   bool interrupted_ = false;
-  void (*previous_sigint_)(int) = nullptr;
-  void (*previous_sigterm_)(int) = nullptr;
+  std::optional<InterruptHandler> interrupt_;  ///< from start() to finish()
 };
 
 }  // namespace peha::runtime

@@ -97,6 +97,11 @@ double static_force_N(const PlantMuscleParams& p, double pressure_Pa, double con
 double static_force_dcontraction_N(const PlantMuscleParams& p, double pressure_Pa,
                                    double contraction) noexcept;
 
+/// The most force the law gives where it was fitted, N: at max_pressure_Pa, stretched to
+/// elastic_knee_contraction (beyond it the rubber is extrapolated) and being stretched (hysteresis
+/// +h). A reading above it is not this muscle's force (a unit mistake or a load-cell glitch).
+double force_ceiling_N(const PlantMuscleParams& p) noexcept;
+
 /// Force with hysteresis in N: F_static * (1 - h * tanh(rate / r_h)). Lower while the muscle
 /// contracts (rate > 0), higher while it is stretched (rate < 0); >= 0 and finite.
 double force_N(const PlantMuscleParams& p, double pressure_Pa, double contraction,
