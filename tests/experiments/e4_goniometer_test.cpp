@@ -86,9 +86,12 @@ TEST(E4, ExoskeletonElbowFollowsThePersonWithFeedbackButNotOnPureReplay) {
       EXPECT_FALSE(testing::fails_on(fb.verdict, "R_EFE tracking")) << fb.verdict.failures();
     }
     for (const GoniometerResult* r : {&open, &fb}) {
-      // Beyond tracking, only tension floors may fail (the wrist's, see E3).
+      // Beyond tracking, only tension floors (the wrist's, see E3) and, at the brisk pace, the figures
+      // E4's smoothing does not reach yet may fail (E4.EveryHeldAndPassiveJointAndTheCommandAreJudged).
       for (const std::string& f : testing::failed_figures(r->verdict)) {
-        EXPECT_TRUE(f.ends_with("lowest wire tension") || f.starts_with("R_EFE tracking")) << name << ": " << f;
+        EXPECT_TRUE(f.ends_with("lowest wire tension") || f.starts_with("R_EFE tracking") || f.starts_with("R_EFE torque command") ||
+                    f == "R_WFE passive peak speed")
+            << name << ": " << f;
       }
       // The supervisor's plausibility stage is on and raises nothing on the person's movement (its
       // figure is judged; a false alarm would fail it above).
@@ -113,7 +116,7 @@ TEST(E4, BriskFeedbackKeepsTheElbowWiresAboveHalfThePretension) {
   EXPECT_TRUE(testing::judges(fb.verdict, "R_EFE lowest wire tension"));
   EXPECT_NEAR(fb.joints[0].min_wire_tension_N, fb.verdict.find("R_EFE lowest wire tension")->value, 1e-9);
   EXPECT_FALSE(testing::fails_on(fb.verdict, "R_EFE lowest wire tension")) << fb.verdict.failures();
-  EXPECT_TRUE(fb.within_limits) << fb.verdict.failures();
+  EXPECT_FALSE(testing::fails_on(fb.verdict, "R_EFE tracking RMS error")) << fb.verdict.failures();
   s.controller.allocation.force_trim_slack_rate_1ps = 0.0;
   const GoniometerResult before = run_goniometer(s, {t}, GoniometerVariant::kFeedback, nullptr);
   EXPECT_TRUE(testing::fails_on(before.verdict, "R_EFE lowest wire tension"));
@@ -216,7 +219,7 @@ TEST(E4, CliReplaysARecordedGoniometerFile) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_e4_cli_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
-  ArmScenario::Goniometer::Movement m = movement(s, "brisk");
+  ArmScenario::Goniometer::Movement m = movement(s, "slow");
   m.repetitions = 1;
   m.name = "short";
   write_goniometer_csv(dir / "short.csv", synthesize_goniometer(s.goniometer, m, 1));
@@ -231,7 +234,10 @@ TEST(E4, CliReplaysARecordedGoniometerFile) {
   };
   const auto [code, out] = run("--goniometer-csv " + (dir / "short.csv").string());
   // Pure replay (open loop) fails its tracking figures: the paper's comparison, labelled, not judged.
-  ASSERT_EQ(code, 0) << out;
+  // The feedback variant fails one figure, the command above 10 Hz (0.17 Nm, 0.1 asked: exit 3).
+  ASSERT_EQ(code, 3) << out;
+  EXPECT_THAT(out, ::testing::HasSubstr("FAILED (1 figure)"));
+  EXPECT_THAT(out, ::testing::HasSubstr("torque command above 10 Hz"));
   EXPECT_THAT(out, ::testing::HasSubstr("figures failed in the open-loop variant"));
   EXPECT_THAT(out, ::testing::HasSubstr("recording: "));
   EXPECT_TRUE(std::filesystem::exists(dir / "r" / "e4_short_open_loop.csv"));
@@ -242,6 +248,64 @@ TEST(E4, CliReplaysARecordedGoniometerFile) {
   EXPECT_EQ(bad_code, 2) << bad_out;
   EXPECT_THAT(bad_out, ::testing::HasSubstr("bad.csv:3:1: t_s steps by 0.5 s"));
   std::filesystem::remove_all(dir);
+}
+
+// E4's verdict judges every joint and the command (issue 31): each held joint's excursion
+// (goniometer.thresholds.max_held_excursion_deg), each passive joint's peak speed (the wrist at its
+// constant pressure), and each driven joint's torque command above 10 Hz (RMS) and the smoothing's
+// delay (cross-correlation against the un-smoothed command). Each figure is shown to pass and to fail.
+// The shipped smoothing (rate 8 Hz, acceleration 12 Hz) holds the shoulder (~0.3 / 1 deg) and the
+// wrist (~41 / 266 deg/s) but leaves 0.17-0.22 Nm above 10 Hz; the first smoothing (12 / 4 Hz) met
+// 0.1 Nm on the slow movement but its late inertial term whipped the wrist past 400 deg/s at the brisk
+// pace and lagged pure replay ~70 ms.
+TEST(E4, EveryHeldAndPassiveJointAndTheCommandAreJudged) {
+  ArmScenario s = shipped();
+  const GoniometerTrace slow = synthesize_goniometer(s.goniometer, movement(s, "slow"), s.seed);
+  const GoniometerTrace brisk = synthesize_goniometer(s.goniometer, movement(s, "brisk"), s.seed);
+  const GoniometerResult nominal = run_goniometer(s, {slow}, GoniometerVariant::kFeedback, nullptr);
+  for (const char* figure : {"R_SFE held excursion", "R_WFE passive peak speed", "R_EFE torque command above 10 Hz (RMS)",
+                             "R_EFE torque command delay (smoothing)"}) {
+    EXPECT_TRUE(testing::judges(nominal.verdict, figure)) << figure;
+  }
+  for (const char* figure : {"R_SFE held excursion", "R_WFE passive peak speed", "R_EFE torque command delay (smoothing)"}) {
+    EXPECT_FALSE(testing::fails_on(nominal.verdict, figure)) << nominal.verdict.failures();
+  }
+  ASSERT_EQ(nominal.held.size(), 1u);
+  EXPECT_EQ(nominal.held[0].joint, "R_SFE");
+  EXPECT_NEAR(nominal.held[0].value, nominal.joints[0].held_excursion_deg, 1e-9);
+  EXPECT_GT(nominal.joints[0].command_delay_s, 0.0);  // the smoothing does delay it, by less than 50 ms
+  EXPECT_LE(nominal.joints[0].command_delay_s, 0.05);
+  EXPECT_TRUE(testing::fails_on(nominal.verdict, "R_EFE torque command above 10 Hz (RMS)")) << nominal.verdict.failures();
+  EXPECT_LT(nominal.joints[0].command_hf_rms_Nm, 0.25);
+
+  const GoniometerResult fast = run_goniometer(s, {brisk}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_LE(fast.held[0].value, s.goniometer.max_held_excursion_deg) << fast.verdict.failures();
+  EXPECT_FALSE(testing::fails_on(fast.verdict, "R_WFE passive peak speed")) << fast.verdict.failures();
+
+  ArmScenario first = s;  // the first smoothing: quiet on the slow movement, a whip at the brisk pace
+  first.goniometer.rate_cutoff_Hz = 12.0;
+  first.goniometer.acceleration_cutoff_Hz = 4.0;
+  const GoniometerResult quiet = run_goniometer(first, {slow}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_FALSE(testing::fails_on(quiet.verdict, "R_EFE torque command above 10 Hz (RMS)")) << quiet.verdict.failures();
+  const GoniometerResult whip = run_goniometer(first, {brisk}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_TRUE(testing::fails_on(whip.verdict, "R_WFE passive peak speed")) << whip.verdict.failures();
+  const GoniometerResult lagging = run_goniometer(first, {brisk}, GoniometerVariant::kOpenLoop, nullptr);
+  EXPECT_TRUE(testing::fails_on(lagging.verdict, "R_EFE torque command delay (smoothing)")) << lagging.verdict.failures();
+
+  // Without the hold's impedance and with the first smoothing's late inertial term the forearm's
+  // reaction swings the shoulder (with the shipped smoothing the inverse dynamics' row alone keeps it
+  // within 1.2 deg).
+  ArmScenario unheld = first;
+  unheld.goniometer.hold_stiffness_Nm_per_rad = unheld.goniometer.hold_damping_Nms_per_rad = 0.0;
+  const GoniometerResult swinging = run_goniometer(unheld, {brisk}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_TRUE(testing::fails_on(swinging.verdict, "R_SFE held excursion")) << swinging.held[0].value << " deg\n" << swinging.verdict.failures();
+
+  ArmScenario raw = s;  // no smoothing: the derivatives and the command pass (almost) everything
+  raw.goniometer.rate_cutoff_Hz = raw.goniometer.acceleration_cutoff_Hz = 0.45 * raw.goniometer.sample_rate_Hz;
+  raw.goniometer.command_cutoff_Hz = 0.45 / raw.period_s;
+  const GoniometerResult noisy = run_goniometer(raw, {slow}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_TRUE(testing::fails_on(noisy.verdict, "R_EFE torque command above 10 Hz (RMS)")) << noisy.verdict.failures();
+  EXPECT_GT(noisy.joints[0].command_hf_rms_Nm, 1.5 * nominal.joints[0].command_hf_rms_Nm);
 }
 
 }  // namespace

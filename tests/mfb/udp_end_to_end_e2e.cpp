@@ -931,13 +931,16 @@ TEST(MfbEndToEnd, GoniometerDrivenElbowRunsAcrossUdpAsInProcess) {
   EXPECT_NEAR(r.joints[0].range_deg, 60.0, 2.0);  // the goniometer's noise widens the range a little
   EXPECT_NEAR(r.joints[0].rms_error_deg, local.joints[0].rms_error_deg, 1.5);
   EXPECT_NEAR(r.joints[0].delay_s, local.joints[0].delay_s, 0.025);
-  // The verdict judges the same figures over the board as in-process (tension floors and tracking may
-  // fail), and the link's own: "link faults" (0 here).
+  // The verdict judges the same figures over the board as in-process (tension floors, tracking and, at
+  // the brisk pace, the command's high frequencies and the wrist's speed may fail), and the link's own:
+  // "link faults" (0 here).
   EXPECT_EQ(r.verdict.checks.size(), local.verdict.checks.size() + 1);
   ASSERT_NE(r.verdict.find("link faults"), nullptr);
   EXPECT_TRUE(r.verdict.find("link faults")->passed());
   for (const safety::Check& c : r.verdict.checks) {
-    EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension") || c.figure.starts_with("R_EFE tracking")) << c.describe();
+    EXPECT_TRUE(c.passed() || c.figure.ends_with("lowest wire tension") || c.figure.starts_with("R_EFE tracking") ||
+                c.figure.starts_with("R_EFE torque command") || c.figure == "R_WFE passive peak speed")
+        << c.describe();
   }
   std::printf("E4 over UDP (brisk, feedback): RMS %.2f deg, delay %.0f ms; in-process %.2f deg, %.0f ms\n", r.joints[0].rms_error_deg,
               r.joints[0].delay_s * 1e3, local.joints[0].rms_error_deg, local.joints[0].delay_s * 1e3);

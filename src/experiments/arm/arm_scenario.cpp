@@ -274,6 +274,23 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   g.feedback_stiffness_Nm_per_rad = fb.number("stiffness_Nm_per_rad", {0.0, 1000.0});
   g.feedback_damping_Nms_per_rad = fb.number("damping_Nms_per_rad", {0.0, 100.0});
   fb.finish();
+  config::Map sm = gon.map("smoothing");
+  g.smoothing_order = static_cast<int>(sm.integer("order", 1, control::kButterworthMaxOrder));
+  g.rate_cutoff_Hz = sm.number("rate_cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
+  g.acceleration_cutoff_Hz = sm.number("acceleration_cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
+  g.command_cutoff_Hz = sm.number("command_cutoff_Hz", {0.1, 0.45 / s.period_s});
+  sm.finish();
+  config::Map hold = gon.map("hold");
+  g.hold_stiffness_Nm_per_rad = hold.number("stiffness_Nm_per_rad", {0.0, 1000.0});
+  g.hold_damping_Nms_per_rad = hold.number("damping_Nms_per_rad", {0.0, 100.0});
+  hold.finish();
+  config::Map th = gon.map("thresholds");
+  g.max_held_excursion_deg = th.number("max_held_excursion_deg", {0.0, 180.0});
+  g.max_passive_speed_degps = th.number("max_passive_speed_degps", {0.0, 5000.0});
+  g.command_hf_above_Hz = th.number("command_hf_above_Hz", {0.1, 0.45 / s.period_s});
+  g.max_command_hf_rms_Nm = th.number("max_command_hf_rms_Nm", {0.0, 100.0});
+  g.max_command_delay_s = th.number("max_command_delay_ms", {0.0, 1000.0}) * 1e-3;
+  th.finish();
   for (config::Map item : gon.maps("movements", 1, 16)) {
     ArmScenario::Goniometer::Movement m;
     m.name = item.string("name");

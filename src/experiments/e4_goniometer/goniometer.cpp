@@ -376,14 +376,35 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
 
 namespace {
 
-/// One driven joint: its goniometer's filter and derivatives, its command and its trajectories.
+/// One driven joint: its goniometer's filter and derivatives, their smoothing, its command and its
+/// trajectories.
 struct Driven {
+  Driven(std::size_t io, int q, const ArmScenario& s, std::size_t steps)
+      : io(io),
+        q(q),
+        derivative(s.goniometer.filter_order, s.goniometer.cutoff_Hz, s.goniometer.sample_rate_Hz),
+        rate_smooth(s.goniometer.smoothing_order, s.goniometer.rate_cutoff_Hz, s.goniometer.sample_rate_Hz),
+        acceleration_smooth(s.goniometer.smoothing_order, s.goniometer.acceleration_cutoff_Hz, s.goniometer.sample_rate_Hz),
+        command_smooth(s.goniometer.smoothing_order, s.goniometer.command_cutoff_Hz, 1.0 / s.period_s),
+        exo(steps + 1),
+        truth(steps + 1),
+        command(steps + 1),
+        raw_command(steps + 1) {}
   std::size_t io = 0;
   int q = 0;  ///< model joint
   control::FilteredDerivative derivative;
   control::FilteredDerivative::Derivatives d{};
-  double goniometer = 0.0, tau_id = 0.0, tau_cmd = 0.0;
+  control::ButterworthFilter rate_smooth, acceleration_smooth;  ///< at the goniometer's rate
+  control::ButterworthFilter command_smooth;                    ///< at the control rate
+  double rate = 0.0, acceleration = 0.0;  ///< the smoothed derivatives at the latest sample, rad/s, rad/s^2
+  double sample_time_s = 0.0;             ///< when the latest goniometer sample came
+  bool sampled = false;
+  double goniometer = 0.0, tau_cmd = 0.0;
+  /// The command without the smoothing (the inverse dynamics of the raw derivatives at the goniometer's
+  /// rate, held, plus the same feedback): the reference the smoothing's delay is measured against.
+  double tau_id_raw = 0.0, tau_raw = 0.0;
   std::vector<double> exo, truth;  ///< the exoskeleton's and the person's angle per cycle, rad
+  std::vector<double> command, raw_command;  ///< tau_cmd and tau_raw per cycle, Nm
   GoniometerJointResult r;
 };
 
@@ -429,23 +450,55 @@ struct GoniometerRun {
     driven.reserve(g.joints.size());
     for (const int j : g.joints) {
       const auto io = static_cast<std::size_t>(j);
-      driven.push_back({io, controller.model().joints[io].model_joint, control::FilteredDerivative(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz),
-                        {}, 0.0, 0.0, 0.0, std::vector<double>(steps + 1), std::vector<double>(steps + 1), {}});
+      driven.emplace_back(io, controller.model().joints[io].model_joint, scenario, steps);
       driven.back().r.joint = arm_joint_names(scenario)[io];
     }
     for (const control::ArmActuatedJoint& j : controller.model().joints) joints_q.push_back(j.model_joint);
+    // The held joints a torque can drive hold by the same inverse dynamics plus an impedance; a joint
+    // at a constant pressure (the wrist) keeps it.
+    for (const std::size_t h : held) {
+      if (controller.model().joints[h].mode == control::ArmJointMode::kHoldPressure) continue;
+      controller.set_mode(static_cast<int>(h), control::ArmJointMode::kCommanded);
+      torque_held.push_back(h);
+    }
+    for (std::size_t i = 0; i < controller.model().joints.size(); ++i) {
+      if (controller.model().joints[i].mode == control::ArmJointMode::kHoldPressure) passive.push_back(i);
+    }
+    passive_peak_speed_radps.assign(passive.size(), 0.0);
   }
 
   void step(const io::SensorState& state, io::Command& command, std::size_t k) {
     if (k % decimation == 0) sample_goniometers(state);
+    // The reference at the control rate: extrapolated from the latest sample with the smoothed
+    // derivatives, and the inverse dynamics of it every cycle (no 200 Hz staircase).
+    encoders_into_q(state);
     for (Driven& j : driven) {
-      j.tau_cmd = j.tau_id;
+      const double dt = state.time_s - j.sample_time_s;
+      q[j.q] = j.d.value + (j.rate + 0.5 * j.acceleration * dt) * dt;
+      qd[j.q] = j.rate + j.acceleration * dt;
+      qdd[j.q] = j.acceleration;
+    }
+    const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
+    for (Driven& j : driven) {
+      const double q_exo = state.joints[j.io].angle_rad, qd_exo = controller.diagnostics()[j.io].velocity_radps;
+      double tau_cmd = tau[j.q];
+      j.tau_raw = j.tau_id_raw;
       if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
-        j.tau_cmd += g.feedback_stiffness_Nm_per_rad * (j.d.value - state.joints[j.io].angle_rad) +
-                     g.feedback_damping_Nms_per_rad * (j.d.rate - controller.diagnostics()[j.io].velocity_radps);
+        tau_cmd += g.feedback_stiffness_Nm_per_rad * (q[j.q] - q_exo) + g.feedback_damping_Nms_per_rad * (qd[j.q] - qd_exo);
+        j.tau_raw += g.feedback_stiffness_Nm_per_rad * (j.d.value - q_exo) + g.feedback_damping_Nms_per_rad * (j.d.rate - qd_exo);
       }
+      if (k == 0) j.command_smooth.reset(tau_cmd);
+      j.tau_cmd = j.command_smooth.step(tau_cmd);
+      j.command[k] = j.tau_cmd;
+      j.raw_command[k] = j.tau_raw;
       j.r.peak_torque_command_Nm = std::max(j.r.peak_torque_command_Nm, std::abs(j.tau_cmd));
       controller.set_desired_torque(static_cast<int>(j.io), j.tau_cmd);
+    }
+    for (const std::size_t h : torque_held) {
+      const auto m = static_cast<std::size_t>(joints_q[h]);
+      controller.set_desired_torque(static_cast<int>(h), tau[static_cast<Eigen::Index>(m)] +
+                                                             g.hold_stiffness_Nm_per_rad * (g.held_rad[h] - state.joints[h].angle_rad) -
+                                                             g.hold_damping_Nms_per_rad * controller.diagnostics()[h].velocity_radps);
     }
     controller.update(state, command);
   }
@@ -456,6 +509,10 @@ struct GoniometerRun {
       j.truth[k] = k ? j.truth[k - 1] : 0.0;
     }
     for (std::vector<double>& h : held_q) h[k] = k ? h[k - 1] : 0.0;
+    for (Driven& j : driven) {
+      j.command[k] = k ? j.command[k - 1] : 0.0;
+      j.raw_command[k] = k ? j.raw_command[k - 1] : 0.0;
+    }
   }
 
   void observe(std::size_t k, const io::SensorState& state, const io::Command& sent, runtime::RowSink* log) {
@@ -469,6 +526,12 @@ struct GoniometerRun {
       j.truth[k] = persons.empty() ? j.goniometer : persons[n](t);
     }
     for (std::size_t h = 0; h < held.size(); ++h) held_q[h][k] = angle(held[h]);
+    if (t >= g.settle_s - 1.0) {  // after the release: the operator's hands no longer hold the wrist
+      for (std::size_t p = 0; p < passive.size(); ++p) {
+        const double speed = tr ? tr->qd_radps[static_cast<std::size_t>(joints_q[passive[p]])] : controller.diagnostics()[passive[p]].velocity_radps;
+        passive_peak_speed_radps[p] = std::max(passive_peak_speed_radps[p], std::abs(speed));
+      }
+    }
     double tension_min_N = std::numeric_limits<double>::infinity();
     for (std::size_t a = 0; a < static_cast<std::size_t>(state.joint_count); ++a) {
       safety::JointSample j = arm_joint_sample(state, sent, tr, a);
@@ -498,6 +561,9 @@ struct GoniometerRun {
   std::vector<int> joints_q;    ///< model joint of each io joint
   std::vector<Driven> driven;
   const std::vector<std::size_t> held;
+  std::vector<std::size_t> torque_held;     ///< the held joints a torque drives (not a constant pressure)
+  std::vector<std::size_t> passive;         ///< io joints held at a constant pressure (the wrist)
+  std::vector<double> passive_peak_speed_radps;  ///< per passive joint, after the release
   std::vector<std::vector<double>> held_q;  ///< per held joint and cycle, rad
   const std::vector<ReplayColumn> replay;   ///< the log's last block: what a replay needs besides the columns above
   safety::Envelope envelope;
@@ -505,23 +571,36 @@ struct GoniometerRun {
   std::vector<double> row;  ///< the log row, in goniometer_log_columns' order
 
  private:
-  /// A goniometer sample: filter, differentiate, inverse dynamics.
-  void sample_goniometers(const io::SensorState& state) {
-    // The encoders of the io joints into the model's joint vector (io and model indices differ once
-    // a body has passive joints before a driven one, or two arms); each driven joint from its person.
+  /// The encoders of the io joints into the model's joint vector (io and model indices differ once a
+  /// body has passive joints before a driven one, or two arms).
+  void encoders_into_q(const io::SensorState& state) {
     for (int j = 0; j < state.joint_count && j < static_cast<int>(joints_q.size()); ++j) {
       q[joints_q[static_cast<std::size_t>(j)]] = state.joints[static_cast<std::size_t>(j)].angle_rad;
     }
+  }
+
+  /// A goniometer sample: filter, differentiate, smooth the derivatives; the un-smoothed command's
+  /// inverse dynamics (the raw derivatives, held until the next sample).
+  void sample_goniometers(const io::SensorState& state) {
+    encoders_into_q(state);
     for (std::size_t n = 0; n < driven.size(); ++n) {
       Driven& j = driven[n];
       j.goniometer = readings[n](state.time_s);
       j.d = j.derivative.step(j.goniometer);
+      if (!j.sampled) {
+        j.rate_smooth.reset(j.d.rate);
+        j.acceleration_smooth.reset(j.d.acceleration);
+        j.sampled = true;
+      }
+      j.rate = j.rate_smooth.step(j.d.rate);
+      j.acceleration = j.acceleration_smooth.step(j.d.acceleration);
+      j.sample_time_s = state.time_s;
       q[j.q] = j.d.value;
       qd[j.q] = j.d.rate;
       qdd[j.q] = j.d.acceleration;
     }
     const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
-    for (Driven& j : driven) j.tau_id = tau[j.q];
+    for (Driven& j : driven) j.tau_id_raw = tau[j.q];
   }
 
   /// The log row of cycle k, in goniometer_log_columns' order.
@@ -560,6 +639,38 @@ struct GoniometerRun {
   }
 };
 
+/// RMS over cycles k0..done of what lies above `above_Hz` in `x` (sampled at fs_Hz): x minus its
+/// zero-phase Butterworth low-pass (order 2 forward and backward: |H|^2 of order 4, -6 dB at above_Hz).
+double high_frequency_rms(const std::vector<double>& x, double above_Hz, double fs_Hz, std::size_t k0, std::size_t done) {
+  control::ButterworthFilter lp(2, above_Hz, fs_Hz);
+  std::vector<double> y(done + 1);
+  lp.reset(x[0]);
+  for (std::size_t k = 0; k <= done; ++k) y[k] = lp.step(x[k]);
+  lp.reset(y[done]);
+  for (std::size_t k = done + 1; k-- > 0;) y[k] = lp.step(y[k]);
+  double sum = 0.0;
+  for (std::size_t k = k0; k <= done; ++k) sum += (x[k] - y[k]) * (x[k] - y[k]);
+  return std::sqrt(sum / static_cast<double>(done - k0 + 1));
+}
+
+/// The lag (0..max_lag cycles) at which `late` best matches `early` over cycles k0..done: the peak of
+/// their cross-covariance, normalised by the overlap.
+std::size_t best_lag(const std::vector<double>& late, const std::vector<double>& early, std::size_t max_lag, std::size_t k0, std::size_t done) {
+  double mean_late = 0.0, mean_early = 0.0;
+  for (std::size_t k = k0; k <= done; ++k) mean_late += late[k], mean_early += early[k];
+  mean_late /= static_cast<double>(done - k0 + 1);
+  mean_early /= static_cast<double>(done - k0 + 1);
+  std::size_t best = 0;
+  double best_c = -std::numeric_limits<double>::infinity();
+  for (std::size_t lag = 0; lag <= max_lag && k0 + lag < done; ++lag) {
+    double c = 0.0;
+    for (std::size_t k = k0 + lag; k <= done; ++k) c += (late[k] - mean_late) * (early[k - lag] - mean_early);
+    c /= static_cast<double>(done - k0 - lag + 1);
+    if (c > best_c) best_c = c, best = lag;
+  }
+  return best;
+}
+
 /// One driven joint's tracking from cycle k0 (the release) to `done`: the raw error, the lag that
 /// best aligns the exoskeleton with the person, and its side's held joints' excursion.
 GoniometerJointResult joint_tracking(const GoniometerRun& run, const Driven& j, std::size_t k0, std::size_t done) {
@@ -595,6 +706,8 @@ GoniometerJointResult joint_tracking(const GoniometerRun& run, const Driven& j, 
     }
   }
   jr.rms_error_aligned_deg = models::rad_to_deg(best);
+  jr.command_hf_rms_Nm = high_frequency_rms(j.command, run.g.command_hf_above_Hz, 1.0 / period, k0, done);
+  jr.command_delay_s = static_cast<double>(best_lag(j.command, j.raw_command, max_lag, k0, done)) * period;
   return jr;
 }
 
@@ -616,7 +729,20 @@ GoniometerResult analyse_goniometer(const GoniometerRun& run, const std::string&
     const GoniometerJointResult jr = joint_tracking(run, j, k0, done);
     r.verdict.at_most(jr.joint + " tracking RMS error", "deg", jr.rms_error_deg, scenario.verdict.max_tracking_rms_deg);
     r.verdict.at_most(jr.joint + " tracking max error", "deg", jr.max_error_deg, scenario.verdict.max_tracking_error_deg);
+    r.verdict.at_most(fmt::format("{} torque command above {:g} Hz (RMS)", jr.joint, run.g.command_hf_above_Hz), "Nm", jr.command_hf_rms_Nm,
+                      run.g.max_command_hf_rms_Nm);
+    r.verdict.at_most(jr.joint + " torque command delay (smoothing)", "ms", jr.command_delay_s * 1e3, run.g.max_command_delay_s * 1e3);
     r.joints.push_back(jr);
+  }
+  for (std::size_t h = 0; h < run.held.size(); ++h) {
+    double excursion_rad = 0.0;
+    for (std::size_t k = k0; k <= done; ++k) excursion_rad = std::max(excursion_rad, std::abs(run.held_q[h][k] - run.held_q[h][k0]));
+    r.held.push_back({arm_joint_names(scenario)[run.held[h]], models::rad_to_deg(excursion_rad)});
+    r.verdict.at_most(r.held.back().joint + " held excursion", "deg", r.held.back().value, run.g.max_held_excursion_deg);
+  }
+  for (std::size_t p = 0; p < run.passive.size(); ++p) {
+    r.passive.push_back({arm_joint_names(scenario)[run.passive[p]], models::rad_to_deg(run.passive_peak_speed_radps[p])});
+    r.verdict.at_most(r.passive.back().joint + " passive peak speed", "deg/s", r.passive.back().value, run.g.max_passive_speed_degps);
   }
   safety::add_supervisor_check(monitor, r.verdict);
   r.within_limits = r.verdict.passed();

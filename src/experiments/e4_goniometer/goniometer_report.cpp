@@ -40,7 +40,7 @@ std::string held_posture(const ArmScenario& scenario) {
 constexpr const char* kSummaryHeader =
     "movement,variant,joint,range_deg,rms_error_deg,max_error_deg,delay_ms,rms_error_aligned_deg,peak_torque_cmd_Nm,"
     "joint_min_wire_tension_N,joint_min_wire_tension_limit_N,held_excursion_deg,peak_muscle_force_N,min_wire_tension_N,"
-    "min_wire_tension_limit_N,peak_motor_Nm,max_tracking_rms_deg,max_tracking_error_deg,within_limits\n";
+    "min_wire_tension_limit_N,peak_motor_Nm,max_tracking_rms_deg,max_tracking_error_deg,command_hf_rms_Nm,command_delay_ms,within_limits\n";
 
 std::string summary_rows(const ArmScenario& scenario, const GoniometerResult& r) {
   double tension_limit = 0;
@@ -50,11 +50,12 @@ std::string summary_rows(const ArmScenario& scenario, const GoniometerResult& r)
   std::string rows;
   for (const GoniometerJointResult& j : r.joints) {
     const safety::Check* own = r.verdict.find(j.joint + " lowest wire tension");
-    rows += fmt::format("{},{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.2f},{:.2f},{:.4f},{:.1f},{:.2f},{:.2f},{:.3f},{:.3g},{:.3g},{}\n",
+    rows += fmt::format("{},{},{},{:.2f},{:.4f},{:.4f},{:.1f},{:.4f},{:.4f},{:.2f},{:.2f},{:.4f},{:.1f},{:.2f},{:.2f},{:.3f},{:.3g},{:.3g},{:.4f},{:.1f},{}\n",
                         r.name, to_string(r.variant), j.joint, j.range_deg, j.rms_error_deg, j.max_error_deg, j.delay_s * 1e3,
                         j.rms_error_aligned_deg, j.peak_torque_command_Nm, j.min_wire_tension_N, own ? own->limit : 0.0,
                         j.held_excursion_deg, r.peak_muscle_force_N, r.min_wire_tension_N, tension_limit, r.peak_motor_torque_Nm,
-                        scenario.verdict.max_tracking_rms_deg, scenario.verdict.max_tracking_error_deg, r.within_limits ? 1 : 0);
+                        scenario.verdict.max_tracking_rms_deg, scenario.verdict.max_tracking_error_deg, j.command_hf_rms_Nm,
+                        j.command_delay_s * 1e3, r.within_limits ? 1 : 0);
   }
   return rows;
 }
@@ -106,7 +107,7 @@ class GoniometerJob final : public ExperimentRun {
   void print_header(const RunContext& ctx, const std::vector<std::size_t>& cases) const override {
     const auto& g = scenario_.goniometer;
     fmt::print("peha run: {} --experiment goniometer (E4), output {}\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at "
-               "{:.1f} Hz (group delay {:.1f} ms) on {}; held on gravity compensation: {}\n  {}; open-loop and feedback each\n",
+               "{:.1f} Hz (group delay {:.1f} ms) on {}; held (inverse dynamics + hold impedance): {}\n  {}; open-loop and feedback each\n",
                doc_name_, ctx.dir.string(), g.sample_rate_Hz, models::rad_to_deg(g.noise_rad), g.filter_order, g.cutoff_Hz,
                control::group_delay_s(control::design_butterworth_lowpass(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz), 0.0) * 1e3,
                driven_names(scenario_), held_posture(scenario_),
@@ -188,14 +189,17 @@ class GoniometerJob final : public ExperimentRun {
 }  // namespace
 
 bool print_goniometer_tables(const std::vector<GoniometerResult>& results) {
-  fmt::print("\n{:<10} {:<10} {:<7} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>11} {:>7}\n", "movement", "variant", "joint", "range",
-             "RMS error", "max error", "delay", "RMS aligned", "peak tau", "min wire", "held moved", "RTF");
+  fmt::print("\n{:<10} {:<10} {:<7} {:>9} {:>10} {:>10} {:>9} {:>12} {:>11} {:>11} {:>11} {:>10} {:>10} {:>7}\n", "movement", "variant", "joint",
+             "range", "RMS error", "max error", "delay", "RMS aligned", "peak tau", "min wire", "held moved", "tau HF", "tau delay", "RTF");
   for (const auto& r : results) {
     for (const GoniometerJointResult& j : r.joints) {
-      fmt::print("{:<10} {:<10} {:<7} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>9.1f} N {:>7.2f} deg {:>7.1f}\n",
+      fmt::print("{:<10} {:<10} {:<7} {:>5.1f} deg {:>6.2f} deg {:>6.2f} deg {:>6.0f} ms {:>8.2f} deg {:>7.2f} Nm {:>9.1f} N {:>7.2f} deg "
+                 "{:>6.3f} Nm {:>7.0f} ms {:>7.1f}\n",
                  r.name, to_string(r.variant), j.joint, j.range_deg, j.rms_error_deg, j.max_error_deg, j.delay_s * 1e3,
-                 j.rms_error_aligned_deg, j.peak_torque_command_Nm, j.min_wire_tension_N, j.held_excursion_deg, r.realtime_factor);
+                 j.rms_error_aligned_deg, j.peak_torque_command_Nm, j.min_wire_tension_N, j.held_excursion_deg, j.command_hf_rms_Nm,
+                 j.command_delay_s * 1e3, r.realtime_factor);
     }
+    for (const GoniometerJointFigure& p : r.passive) fmt::print("{:<10} {:<10} {:<7} passive, peak speed {:.0f} deg/s\n", r.name, to_string(r.variant), p.joint, p.value);
   }
   bool safe = true;
   for (const auto& r : results) {

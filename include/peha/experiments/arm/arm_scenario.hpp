@@ -62,7 +62,7 @@ struct ArmScenario {
     std::vector<int> joints;
     /// The posture of the other joints, one per io joint, rad; NaN = not named (`angles_deg:`, by arm
     /// joint for every side or by io joint, as E3's postures): the operator holds them there until
-    /// the release, then gravity compensation (or a constant pressure) holds them.
+    /// the release, then the inverse dynamics plus `hold`'s impedance (or a constant pressure) holds them.
     std::vector<double> held_rad;
     double sample_rate_Hz = 200;    ///< goniometer sampling
     double noise_rad = 0.0087;      ///< standard deviation of the goniometer's noise
@@ -78,6 +78,26 @@ struct ArmScenario {
     /// tau += K (q_person - q_exo) + D (qd_person - qd_exo). The paper's variant is pure replay.
     double feedback_stiffness_Nm_per_rad = 40.0;
     double feedback_damping_Nms_per_rad = 2.0;
+    /// Smoothing of each driven joint's torque command (`smoothing:`): the goniometer's rate and
+    /// acceleration (the noisy derivatives) each through a second Butterworth low-pass of this order
+    /// at the goniometer's rate; between samples the reference is extrapolated at the control rate
+    /// (no staircase) and the inverse dynamics run every cycle; the command through a last low-pass
+    /// at the control rate.
+    int smoothing_order = 2;
+    double rate_cutoff_Hz = 8.0;
+    double acceleration_cutoff_Hz = 12.0;
+    double command_cutoff_Hz = 60.0;
+    /// The held joints (angles_deg; not held at a constant pressure) get the shoulder's row of the same
+    /// inverse dynamics (the forearm's reaction, gravity included) plus this impedance toward their
+    /// posture: tau = ID + K (q_held - q) - D qd (`hold:`).
+    double hold_stiffness_Nm_per_rad = 0.0;
+    double hold_damping_Nms_per_rad = 0.0;
+    /// E4's own figures' thresholds (`thresholds:`), judged in its verdict with the tracking figures.
+    double max_held_excursion_deg = 2.0;      ///< each held joint: largest |q - q at release|
+    double max_passive_speed_degps = 400.0;   ///< each joint held at a constant pressure (the wrist): peak |speed|
+    double command_hf_above_Hz = 10.0;        ///< "high frequency" of the torque command starts here
+    double max_command_hf_rms_Nm = 0.1;       ///< RMS of each driven joint's command above command_hf_above_Hz
+    double max_command_delay_s = 0.05;        ///< lag of the smoothed command behind the un-smoothed one (cross-correlation)
     /// A synthetic movement: from_rad -> to_rad -> from_rad on minimum-jerk paths of move_s each,
     /// pause_s at each end, `repetitions` times (the same movement for every driven joint; inside
     /// each one's range).

@@ -5,8 +5,9 @@
 /// body) its own goniometer. Each goniometer is sampled at 200 Hz (noise and quantisation included);
 /// its reading is low-passed by a Butterworth filter and differentiated (control::FilteredDerivative),
 /// and the inverse dynamics of the controller's own nominal arm model turn angle, velocity and
-/// acceleration into the driven joint's torque command. The other joints keep gravity compensation
-/// (the wrists their constant pressure) at the scenario's held posture. In the paper's variant the path is open
+/// acceleration into the driven joint's torque command (the derivatives smoothed, the reference
+/// extrapolated at the control rate). The held joints get their row of the same inverse dynamics plus
+/// an impedance toward the scenario's held posture (the wrists keep their constant pressure). In the paper's variant the path is open
 /// loop: nothing feeds the exoskeleton's own elbow angle back, so the figures measure how well the
 /// torque chain (model, filter, allocation, Bowden compensation, valves) alone reproduces the
 /// person's movement. A second variant adds an impedance toward the person's angle (beyond the paper).
@@ -76,6 +77,17 @@ struct GoniometerJointResult {
   double min_wire_tension_N = 0;      ///< this joint's wires, plant truth (load cells over the board)
   /// Largest |q - q at release| of the held joints of its side (goniometer.angles_deg): do they hold?
   double held_excursion_deg = 0;
+  /// RMS of the torque command above goniometer.thresholds.command_hf_above_Hz, from the release on, Nm
+  double command_hf_rms_Nm = 0;
+  /// Lag of the (smoothed) command behind the un-smoothed one, by cross-correlation, s
+  double command_delay_s = 0;
+};
+
+/// One joint's figure of an E4 run that is not a driven joint's: a held joint's excursion (deg), a
+/// passive joint's peak speed (deg/s).
+struct GoniometerJointFigure {
+  std::string joint;
+  double value = 0;
 };
 
 struct GoniometerResult {
@@ -87,8 +99,12 @@ struct GoniometerResult {
   double min_wire_tension_N = 0;      ///< any wire, plant truth
   double peak_motor_torque_Nm = 0;
   double realtime_factor = 0;
+  std::vector<GoniometerJointFigure> held;     ///< each held joint's largest |q - q at release|, deg
+  std::vector<GoniometerJointFigure> passive;  ///< each joint at a constant pressure: peak |speed| after the release, deg/s
   /// The safety envelope's checks (safety/verdict.hpp) and each driven joint's tracking figures
-  /// ("R_EFE tracking RMS error", "... max error") against the scenario's `verdict:` thresholds.
+  /// ("R_EFE tracking RMS error", "... max error") against the scenario's `verdict:` thresholds; the
+  /// torque command's high-frequency RMS and smoothing delay, each held joint's excursion and each
+  /// passive joint's peak speed against `goniometer.thresholds`.
   safety::Verdict verdict;
   bool within_limits = false;         ///< verdict.passed()
 };
