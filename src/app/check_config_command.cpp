@@ -33,6 +33,7 @@ int check_config(const std::filesystem::path& config) {
                    link->board_watchdog_s * 1e3, checked.lifecycle.host_watchdog_s * 1e3, b.key_file.string());
       }
     }
+    fmt::print("{}: OK\n", config.string());  // only once everything it names has loaded
     return 0;
   } catch (const std::exception& e) {
     fmt::print(stderr, "config error: {}\n", e.what());

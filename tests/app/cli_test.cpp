@@ -25,6 +25,7 @@
 namespace {
 
 using ::testing::HasSubstr;
+using ::testing::Not;
 
 using Result = peha::testing::CliResult;
 
@@ -82,6 +83,15 @@ TEST(Cli, BadConfigExitsWithTwoAndNamesTheKey) {
   const Result missing = run("check-config --config " + (dir / "no_model.yaml").string());
   EXPECT_EQ(missing.code, 2) << missing.output;
   EXPECT_THAT(missing.output, HasSubstr("missing.xml: MJCF model file not found"));
+  // A board section whose channel map is missing: no "OK" before the error (it was printed first).
+  std::string no_map = text;
+  no_map.replace(no_map.find(std::string(PEHA_SOURCE_DIR) + "/models/missing.xml"), std::string(PEHA_SOURCE_DIR).size() + 19,
+                 std::string(PEHA_SOURCE_DIR) + "/models/one_dof_rig.xml");
+  { std::ofstream(dir / "no_map.yaml") << no_map; }
+  const Result unmapped = run("check-config --config " + (dir / "no_map.yaml").string());
+  EXPECT_EQ(unmapped.code, 2) << unmapped.output;
+  EXPECT_THAT(unmapped.output, HasSubstr("mfb/one_dof_rig.yaml: cannot open the config file"));
+  EXPECT_THAT(unmapped.output, Not(HasSubstr(": OK")));
 }
 
 TEST(Cli, RunWritesLogConfigAndSummary) {

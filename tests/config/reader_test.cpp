@@ -56,7 +56,7 @@ TEST(Config, RejectsUnknownKeyWithFileLineAndPath) {
 TEST(Config, UnknownKeyFarFromEveryKnownOneListsTheSectionsKeys) {
   const std::string e = e1_error_after("  duration_s: 34.0", "  duration_s: 34.0\n  realtime: true");
   EXPECT_THAT(e, HasSubstr("run.realtime: unknown key; known keys here: control_period_s, drift_window_s, duration_s, initial_angle_deg"));
-  EXPECT_THAT(e1_error_after("hold: true}", "hold: true, brekaway: up}"),
+  EXPECT_THAT(e1_error_after("hold: true,", "hold: true, brekaway: up,"),
               HasSubstr("finger.pushes[0].brekaway: unknown key; did you mean 'breakaway'?"));
 }
 

@@ -13,7 +13,7 @@ namespace {
 
 ScenarioCheck check_arm(const std::filesystem::path& config, const config::Document& doc) {
   const ArmScenario s = read_arm_scenario(doc);
-  fmt::print("{}: OK\n  experiment arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
+  fmt::print("{}\n  experiment arm: {}\n  {} actuated joints, {} postures (E3), {} goniometer movement(s) (E4), "
              "{} bandwidth frequencies (E6), control at {} Hz\n",
              config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
              s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);

@@ -138,7 +138,7 @@ class CreepJob final : public ExperimentRun {
 ScenarioCheck check_creep(const std::filesystem::path& config, const config::Document& doc) {
   const CreepScenario s = read_creep(doc);
   sim::load_mjcf(s.e1.plant.model_file);  // the model file must exist and load, too
-  fmt::print("{}: OK\n  experiment wire_creep: {}\n  {} s at {} Hz, {} finger push(es), {} plant variant(s) x {} trim rate(s) x "
+  fmt::print("{}\n  experiment wire_creep: {}\n  {} s at {} Hz, {} finger push(es), {} plant variant(s) x {} trim rate(s) x "
              "estimator off/on, plant model {}\n",
              config.string(), s.e1.description, s.e1.duration_s, 1.0 / s.e1.period_s, s.e1.plant.finger.pushes.size(),
              s.creep.variants.size(), s.creep.force_trim_rates_1ps.size(), s.e1.plant.model_file.string());

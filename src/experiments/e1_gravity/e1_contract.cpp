@@ -104,7 +104,7 @@ class E1Job final : public ExperimentRun {
 ScenarioCheck check_e1(const std::filesystem::path& config, const config::Document& doc) {
   const E1Scenario s = read_e1(doc);
   sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
-  fmt::print("{}: OK\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
+  fmt::print("{}\n  experiment gravity_compensation_1dof: {}\n  {} case(s), {} s at {} Hz, {} finger push(es), "
              "plant model {}\n",
              config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
              s.plant.model_file.string());

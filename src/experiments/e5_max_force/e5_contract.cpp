@@ -74,7 +74,7 @@ class E5Job final : public ExperimentRun {
 ScenarioCheck check_e5(const std::filesystem::path& config, const config::Document& doc) {
   const E5Scenario s = read_e5(doc);
   sim::load_mjcf(s.plant.model_file);  // the model file must exist and load, too
-  fmt::print("{}: OK\n  experiment max_force_ramp: {}\n  {} case(s), {} ramped at {} MPa/s, {} s at {} Hz, plant model {}\n",
+  fmt::print("{}\n  experiment max_force_ramp: {}\n  {} case(s), {} ramped at {} MPa/s, {} s at {} Hz, plant model {}\n",
              config.string(), s.description, s.cases.size(), s.ramp.muscle == 0 ? "agonist" : "antagonist", s.ramp.rate_Pa_per_s * 1e-6,
              s.duration_s, 1.0 / s.period_s, s.plant.model_file.string());
   return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
