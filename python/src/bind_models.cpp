@@ -88,10 +88,15 @@ void bind_models(py::module_& m) {
 
   const char* forward_doc =
       "Forward Tendon-spring model: muscle force in N for gauge pressure `pressure_Pa` (Pa) at rigid-wire "
-      "contraction `eps` (-). Arrays broadcast; a float for floats.";
-  m.def("forward_force", [](const TendonSpringParams& p, double P, double eps) { return models::forward_force_N(p, P, eps); },
+      "contraction `eps` (-). Arrays broadcast; a float for floats. A pressure outside 0 or 100 Pa .. 1.2 MPa "
+      "raises ValueError (0.3 is 0.3 MPa given as Pa).";
+  m.def("forward_force", [](const TendonSpringParams& p, double P, double eps) {
+    check_pressure_Pa(P, "pressure_Pa");
+    return models::forward_force_N(p, P, eps);
+  },
         py::arg("params"), py::arg("pressure_Pa"), py::arg("eps"), forward_doc);
   m.def("forward_force", [](const TendonSpringParams& p, Array P, Array eps) {
+    check_pressures_Pa(P, "pressure_Pa");
     return py::vectorize([&p](double x, double e) { return models::forward_force_N(p, x, e); })(P, eps);
   }, py::arg("params"), py::arg("pressure_Pa"), py::arg("eps"), forward_doc);
 
@@ -156,6 +161,7 @@ void bind_models(py::module_& m) {
       .def_readwrite("motor_max_torque_Nm", &models::JointModel::motor_max_torque_Nm, "motor rating at the joint, Nm");
   m.def("force_ceiling", &models::force_ceiling_N, py::arg("muscle"), "The muscle's force ceiling, N.");
   m.def("muscle_pressure", [](const MuscleModel& mm, Array F, Array eps, double supply) {
+    check_pressure_Pa(supply, "supply_pressure_Pa");
     return py::vectorize([&mm, supply](double f, double e) { return models::muscle_pressure(mm, f, e, supply).pressure_Pa; })(F, eps);
   }, py::arg("muscle"), py::arg("force_N"), py::arg("eps"), py::arg("supply_pressure_Pa"),
         "The controller's pressure model (Pa): inverse Tendon-spring + learned residual, within [0, supply].");

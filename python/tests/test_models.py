@@ -104,3 +104,15 @@ def test_bad_shapes_raise():
         peha.gravity_torque(model, np.zeros(model.dof + 1))
     with pytest.raises(ValueError):
         peha.Rig(str(E1), case="no_such_case")
+
+
+def test_a_pressure_in_mpa_or_beyond_any_muscle_is_refused(joint):
+    pam = joint.agonist.pam
+    assert peha.forward_force(pam, 3e5, 0.1) > 500.0  # 0.3 MPa: hundreds of N
+    with pytest.raises(ValueError, match="MPa given as Pa"):
+        peha.forward_force(pam, 0.3, 0.1)  # was 0.0012 N, silently
+    with pytest.raises(ValueError, match="kPa or bar given as Pa"):
+        peha.forward_force(pam, np.array([3e5, 3e6]), np.array([0.1, 0.1]))
+    with pytest.raises(ValueError, match="supply_pressure_Pa"):
+        peha.muscle_pressure(joint.agonist, np.array([500.0]), np.array([0.1]), 0.8)
+    assert peha.forward_force(pam, 0.0, 0.1) == 0.0  # vented is a pressure
