@@ -462,37 +462,33 @@ mfb_watchdog mfb_board_poll(mfb_board* b) {
   return was_live ? MFB_WATCHDOG_HOST_LOST : MFB_WATCHDOG_TRIPPED;
 }
 
-size_t mfb_board_state_packet(mfb_board* b, uint8_t* out, size_t capacity) {
-  if (!b->ever_adopted || capacity < MFB_STATE_PACKET_SIZE) return 0;
+/* One state packet of the latest inputs, for a session (or an asker's), encoded into out. */
+static size_t encode_state(mfb_board* b, uint32_t session_id, uint32_t ack_sequence, uint64_t echo_host_time_ns, uint8_t status,
+                           uint64_t nonce, uint8_t* out, size_t capacity) {
   mfb_state s;
-  s.session_id = b->session_id;
+  s.session_id = session_id;
   s.sequence = ++b->state_sequence;
-  s.ack_sequence = b->command.sequence;
-  s.echo_host_time_ns = b->command.host_time_ns;
+  s.ack_sequence = ack_sequence;
+  s.echo_host_time_ns = echo_host_time_ns;
   s.board_time_ns = b->inputs.time_ns;
   for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = b->inputs.ad[i];
   for (int i = 0; i < MFB_ENCODER_CHANNELS; ++i) s.encoder[i] = b->inputs.encoder[i];
   s.digital_in = b->inputs.digital_in;
-  s.status = mfb_board_status(b);
-  s.board_nonce = b->board_nonce;
+  s.status = status;
+  s.board_nonce = nonce;
   s.boot_id = b->boot_id;
   return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
 }
 
+size_t mfb_board_state_packet(mfb_board* b, uint8_t* out, size_t capacity) {
+  if (!b->ever_adopted || capacity < MFB_STATE_PACKET_SIZE) return 0;
+  return encode_state(b, b->session_id, b->command.sequence, b->command.host_time_ns, mfb_board_status(b), b->board_nonce, out, capacity);
+}
+
 size_t mfb_board_answer_packet(mfb_board* b, uint8_t* out, size_t capacity, mfb_endpoint* to) {
   if (capacity < MFB_STATE_PACKET_SIZE) return 0;
-  mfb_state s;
-  s.session_id = b->answer_for.session_id;
-  s.sequence = ++b->state_sequence;
-  s.ack_sequence = b->answer_for.sequence;
-  s.echo_host_time_ns = b->answer_for.host_time_ns;
-  s.board_time_ns = b->inputs.time_ns;
-  for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = b->inputs.ad[i];
-  for (int i = 0; i < MFB_ENCODER_CHANNELS; ++i) s.encoder[i] = b->inputs.encoder[i];
-  s.digital_in = b->inputs.digital_in;
-  s.status = (uint8_t)(mfb_board_status(b) | MFB_STATUS_NO_SESSION); /* the asker's session is not held */
-  s.board_nonce = b->answer_nonce;
-  s.boot_id = b->boot_id;
   *to = b->answer_to;
-  return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
+  /* the asker's session is not held */
+  return encode_state(b, b->answer_for.session_id, b->answer_for.sequence, b->answer_for.host_time_ns,
+                      (uint8_t)(mfb_board_status(b) | MFB_STATUS_NO_SESSION), b->answer_nonce, out, capacity);
 }
