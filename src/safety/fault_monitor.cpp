@@ -234,8 +234,10 @@ void FaultMonitor::check_encoder(int j, const io::JointSensors& in, double t_s, 
   if (js.has_previous) {
     const double dt_s = std::max(t_s - js.last_t_s, period_s_);
     const double step_rad = in.angle_rad - js.last_angle_rad;
-    const bool measured = std::abs(step_rad) <= p.encoder_max_step_rad;
-    if (!measured) raise(kFaultEncoderJump, j, -1, std::abs(step_rad), p.encoder_max_step_rad);
+    // Per control period elapsed: over a link that lost two samples a fast joint moves three steps.
+    const double max_step_rad = p.encoder_max_step_rad * std::max(1.0, std::round(dt_s / period_s_));
+    const bool measured = std::abs(step_rad) <= max_step_rad;
+    if (!measured) raise(kFaultEncoderJump, j, -1, std::abs(step_rad), max_step_rad);
     js.speed_radps = step_rad / dt_s;
     if (measured) {
       const double a = 1.0 - std::exp(-dt_s * 2.0 * 3.14159265358979323846 * p.speed_filter_Hz);
