@@ -53,6 +53,9 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
     m.fail("enabled", "the plausibility monitor cannot be switched off from a scenario (its checks protect the person); remove the key");
   }
   p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 5});
+  p.tension_taut_deadline_s = m.number_or("tension_taut_deadline_s", p.tension_taut_deadline_s, {1, 30});
+  p.loadcell_zero_max_N = m.number_or("loadcell_zero_max_N", p.loadcell_zero_max_N, {5, 500});
+  p.loadcell_zero_confirm_s = m.number_or("loadcell_zero_confirm_s", p.loadcell_zero_confirm_s, {0.01, 1});
   p.tension_taut_fraction = m.number_or("tension_taut_fraction", p.tension_taut_fraction, {0, 2});
   p.confirm_cycles = static_cast<int>(m.number_or("confirm_cycles", p.confirm_cycles, {1, 20}));
   p.loadcell_stuck_cycles = static_cast<int>(m.number_or("loadcell_stuck_cycles", p.loadcell_stuck_cycles, {2, 200}));
@@ -152,7 +155,7 @@ void FaultMonitor::clear() noexcept {
   for (auto& j : joints_) {
     for (auto& m : j.muscle) {
       m.taut = m.has_level = false;
-      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = 0;
+      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = 0;
     }
     j.same_angle = 0;
     j.supply_low = j.supply_lost = j.motor_off = 0;
@@ -171,10 +174,13 @@ struct FaultMonitor::MuscleSample {
   double tolerance_N = 0;  ///< how far the load cell may read from model_N
   double floor_N = 0;      ///< the wire's tension floor
   double taut_N = 0;       ///< at or above: the wire is taut (arms its slack checks)
+  double pretension_N = 0;
   double supply_Pa = 0;
   bool tension_checked = false;
   bool outputs_follow = false;
   bool arming = false;  ///< the outputs have followed for tension_arm_s: a taut wire arms its slack checks
+  bool carried = false;  ///< the joint's start-up is over (FaultMonitor::carried)
+  double followed_s = -1;  ///< how long the outputs have followed (< 0: they do not)
 };
 
 void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
@@ -348,10 +354,13 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
   x.tolerance_N = p.loadcell_tolerance_N + p.loadcell_tolerance_fraction * std::abs(x.model_N);
   x.floor_N = p.tension_floor_fraction * model.pretension_N;
   x.taut_N = std::max(x.floor_N, p.tension_taut_fraction * model.pretension_N);
+  x.pretension_N = model.pretension_N;
   x.supply_Pa = model.supply_pressure_Pa;
   x.tension_checked = p.tension_checked[static_cast<std::size_t>(j)];
   x.outputs_follow = outputs_follow;
   x.arming = outputs_follow && t_s - js.follow_since_s >= p.tension_arm_s;
+  x.carried = js.carried;
+  x.followed_s = outputs_follow && js.follow_since_s >= 0 ? t_s - js.follow_since_s : -1.0;
   return x;
 }
 
@@ -364,6 +373,7 @@ bool FaultMonitor::check_muscle(const MuscleSample& x, MuscleState& ms) noexcept
   if (x.arming && x.cell_N >= x.taut_N) ms.taut = true;
   check_load_cell(x, ms);
   check_tension_floor(x, ms);
+  check_startup(x, ms);
   check_load_cell_step(x, ms);
   return check_valve(x, ms);
 }
@@ -403,6 +413,27 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
 void FaultMonitor::check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept {
   ms.low_tension = x.tension_checked && ms.taut && x.cell_N < x.floor_N ? ms.low_tension + 1 : 0;
   if (ms.low_tension >= params_.confirm_cycles) raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
+}
+
+/// Start-up, before the joint is carried: the load cell's zero read vented (the pressure model says
+/// no force), and every checked wire taut by tension_taut_deadline_s. Both latch before the operator
+/// pulls the limb's support (docs/safety.md "Start-up").
+void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcept {
+  const MonitorParams& p = params_;
+  if (x.carried || x.followed_s < 0) {
+    ms.zero_off = 0;
+    return;
+  }
+  // Off beyond the range, or below the channel's bottom (a negative zero reads code 0 throughout:
+  // a live cell zeroed inside the range reads its noise around a positive offset).
+  // Vented: at most the pretension pressure, the limits' floor (below a real muscle's threshold).
+  const bool vented = x.model_N <= 1.05 * x.pretension_N;
+  const bool off = std::abs(x.cell_N) > p.loadcell_zero_max_N || x.cell_N <= p.loadcell_disconnected_N;
+  if (vented) ms.zero_off = off ? ms.zero_off + 1 : 0;  // a sample the pressure noise lifts past the floor counts neither way
+  if (ms.zero_off >= std::max(p.confirm_cycles, static_cast<int>(std::lround(p.loadcell_zero_confirm_s / period_s_)))) {
+    raise(kFaultLoadcellZero, x.joint, x.muscle, x.cell_N, p.loadcell_zero_max_N);
+  }
+  if (x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s) raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.taut_N);
 }
 
 /// Load-cell step (after the floor, so that a wire break that trips both is named by its floor): the

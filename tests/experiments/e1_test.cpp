@@ -123,6 +123,9 @@ TEST(E1, PureFeedForwardWithNominalModelIsReportedUnsafe) {
   E1Scenario s = shipped_scenario();
   s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured  // the controller's own figures (the supervisor's descent keeps it at -42 deg)
   s.controller.allocation.force_trim_rate_1ps = 0.0;
+  // Its wires never become taut, so the run is never ready and the start pin would stay in: a hand
+  // that lets go at 2 s whatever the console says shows what the controller does alone.
+  s.plant.finger.pushes.front().support_stiffness_N_per_m = 0.0;
   const E1Result r = run_e1_case(s, s.cases[0], nullptr);
   EXPECT_LT(r.min_angle_deg, -45.0);
   EXPECT_FALSE(r.within_limits);

@@ -86,8 +86,9 @@ enum FaultFlag : std::uint32_t {
   kFaultSupplyLow = 1u << 19,
   kFaultPressureRise = 1u << 20,
   kFaultEncoderDisagrees = 1u << 21,
+  kFaultLoadcellZero = 1u << 22,
 };
-inline constexpr int kFaultFlagCount = 22;
+inline constexpr int kFaultFlagCount = 23;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -143,6 +144,9 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
     {kFaultPressureRise, "pressure_rise", SafeAction::kVent, "pressure_rise_Pa"},
     // Which encoder lies is unknown: no angle to govern a descent with.
     {kFaultEncoderDisagrees, "encoder_disagrees", SafeAction::kHold, "encoder_disagree_rad"},
+    // A load cell's power-on zero out of range (read vented, at start-up): the limb stays on its
+    // support, the muscles keep what the run found.
+    {kFaultLoadcellZero, "loadcell_zero", SafeAction::kHold, "loadcell_zero_max_N"},
 }};
 
 /// The checks that judge the sensors and the hardware alone, whatever the run commands: a run that
@@ -181,6 +185,13 @@ struct MonitorParams {
   /// hysteresis keeps a wire that refills slowly through the floor, with sensor noise, from arming
   /// and faulting at once (robustness sensor_noise_x3: the antagonist at 16-18 N around 1.03 s).
   double tension_taut_fraction = 0.5;
+  /// Start-up: a wire of a tension-checked joint not taut this long after the outputs began to
+  /// follow (a broken or unhooked wire) latches tension_floor before the limb leaves its support.
+  double tension_taut_deadline_s = 5.0;
+  /// Start-up: a load cell reading beyond this while the pressure model says its muscle makes no
+  /// force (vented) for loadcell_zero_confirm_s: its zero is off (a -300 N offset drove E1 to 50 deg).
+  double loadcell_zero_max_N = 100.0;
+  double loadcell_zero_confirm_s = 0.1;  ///< longer than the vent's transient (the force lags the pressure)
   int confirm_cycles = 3;                     ///< consecutive samples a noisy check must fail
   double loadcell_disconnected_N = 0.01;      ///< at or below: AD code 0
   double loadcell_saturated_N = 4990.0;       ///< at or above: the channel's full scale
@@ -314,6 +325,8 @@ class FaultMonitor {
   /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
   void clear() noexcept;
   const MonitorParams& params() const noexcept { return params_; }
+  /// Joint `j` is carried: both wires taut with the outputs following (the start-up is over).
+  bool carried(int j) const noexcept { return j >= 0 && j < io::kMaxJoints && joints_[static_cast<std::size_t>(j)].carried; }
 
   /// The backend reports an e-stop (its input line, the board's status, or estop()): latched as the
   /// flag `estop` at the sample's time, so that logs, verdicts and the fault matrix name it.
@@ -336,6 +349,7 @@ class FaultMonitor {
     double disagreement_level_N = 0;  ///< low-passed (cell - model) for the step check
     bool has_level = false;
     int step = 0;
+    int zero_off = 0;  ///< consecutive vented samples with the cell beyond loadcell_zero_max_N
     double excess_fast_Pa = 0, excess_level_Pa = 0;  ///< the rise check's filtered excess and its level
     bool has_excess = false;
     int rise = 0;
@@ -380,6 +394,7 @@ class FaultMonitor {
   inline bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_startup(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
   inline bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;

@@ -112,10 +112,11 @@ class OneDofRigBackend final : public io::Backend {
   const OneDofRigTruth& sampled_truth() const { return sampled_truth_; }
   const OneDofRigParams& params() const { return params_; }
   /// The operator's side of the start-up procedure (docs/safety.md "Start-up"): the support (a hold
-  /// push with `support`) is pulled only once the run is ready; called while the run has a fault, it
-  /// stays in past its scheduled end, carrying the limb, until the operator lowers it by hand.
-  void keep_support() noexcept {
-    if (kept_support_ < 0) kept_support_ = active_support_;
+  /// push with `support`) is pulled only once the run is ready (every wire taut, no fault). While
+  /// `keep` (not ready) it stays in past its scheduled end, carrying the limb; pulled once not.
+  void keep_support(bool keep) noexcept {
+    if (!keep) kept_support_ = -1;
+    else if (kept_support_ < 0) kept_support_ = active_support_;
   }
 
  private:

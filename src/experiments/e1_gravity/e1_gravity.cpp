@@ -531,7 +531,8 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     // until the tare is done and the muscles have filled again (refill_s). Their tension is not judged
     // then; every other figure is.
     const control::OneDofDiagnostics& d = controller.diagnostics();
-    if (sim && limited.monitor().flags() != 0) sim->keep_support();  // the operator: no pin pulled on a fault
+    // The operator pulls the pin only when the run is ready: the joint carried, no fault shown.
+    if (sim) sim->keep_support(limited.monitor().flags() != 0 || !limited.monitor().carried(0));
     if (controller.wires_slack_on_purpose(state.time_s)) {
       j.min_tension_N = std::numeric_limits<double>::infinity();
       r.tare_slack_s = state.time_s;
