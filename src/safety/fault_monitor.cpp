@@ -155,7 +155,7 @@ void FaultMonitor::clear() noexcept {
   for (auto& j : joints_) {
     for (auto& m : j.muscle) {
       m.taut = m.has_level = false;
-      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = 0;
+      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = 0;
     }
     j.same_angle = 0;
     j.supply_low = j.supply_lost = j.motor_off = 0;
@@ -433,7 +433,13 @@ void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcep
   if (ms.zero_off >= std::max(p.confirm_cycles, static_cast<int>(std::lround(p.loadcell_zero_confirm_s / period_s_)))) {
     raise(kFaultLoadcellZero, x.joint, x.muscle, x.cell_N, p.loadcell_zero_max_N);
   }
-  if (x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s) raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.taut_N);
+  // Never taut and below the floor past the deadline, for as long as the zero check's window: a
+  // broken wire reads its noise around 0; an intact one a controller keeps low stays above the floor.
+  const bool slack = x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s && x.cell_N < x.floor_N;
+  ms.never_taut = slack ? ms.never_taut + 1 : 0;
+  if (ms.never_taut >= std::max(p.confirm_cycles, static_cast<int>(std::lround(p.loadcell_zero_confirm_s / period_s_)))) {
+    raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
+  }
 }
 
 /// Load-cell step (after the floor, so that a wire break that trips both is named by its floor): the

@@ -185,8 +185,9 @@ struct MonitorParams {
   /// hysteresis keeps a wire that refills slowly through the floor, with sensor noise, from arming
   /// and faulting at once (robustness sensor_noise_x3: the antagonist at 16-18 N around 1.03 s).
   double tension_taut_fraction = 0.5;
-  /// Start-up: a wire of a tension-checked joint not taut this long after the outputs began to
-  /// follow (a broken or unhooked wire) latches tension_floor before the limb leaves its support.
+  /// Start-up: a wire of a tension-checked joint never taut and below the floor this long after the
+  /// outputs began to follow (a broken or unhooked wire) latches tension_floor before the limb leaves
+  /// its support.
   double tension_taut_deadline_s = 5.0;
   /// Start-up: a load cell reading beyond this while the pressure model says its muscle makes no
   /// force (vented) for loadcell_zero_confirm_s: its zero is off (a -300 N offset drove E1 to 50 deg).
@@ -350,6 +351,7 @@ class FaultMonitor {
     bool has_level = false;
     int step = 0;
     int zero_off = 0;  ///< consecutive vented samples with the cell beyond loadcell_zero_max_N
+    int never_taut = 0;  ///< consecutive samples past tension_taut_deadline_s below the floor, never taut
     double excess_fast_Pa = 0, excess_level_Pa = 0;  ///< the rise check's filtered excess and its level
     bool has_excess = false;
     int rise = 0;
