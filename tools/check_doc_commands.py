@@ -17,7 +17,9 @@ Each command must be in exactly one of these categories:
            or `by hand: WHY` (must not run unattended: it writes a shipped file, or needs data
            outside the repository).
 
-Anything else fails, naming file:line and the command.
+Anything else fails, naming file:line and the command. Whatever its category, every option of a
+`peha ...` or `pd_gravity_example ...` in a command must be one its --help lists, and every
+configs/... file it names must exist, so a command too long to run cannot go stale unnoticed.
 
 Usage: check_doc_commands.py --build-dir BUILD [--root ROOT] [--registry FILE] [--no-run] [--list]
 Exit code: 0 if every command is accounted for, 1 otherwise, 2 on a usage error.
@@ -217,6 +219,49 @@ def run_commands(cmds, root, build_dir, registry):
     return errors
 
 
+PROGRAM_RE = re.compile(r"(?:^|/)(peha|pd_gravity_example)$")
+
+
+def check_invocations(commands, root, build_dir):
+    """Every command, whatever its category: each option of a peha (or pd_gravity_example)
+    invocation is one its --help lists, and each configs/... file it names exists. Catches a doc
+    gone stale even where the command is too long to run here. Returns the errors."""
+    errors = []
+    helps = {}
+    checked = 0
+
+    def help_text(program, sub):
+        if (program, sub) not in helps:
+            argv = [str(Path(build_dir) / program)] + ([sub] if sub else []) + ["--help"]
+            done = subprocess.run(argv, capture_output=True, text=True, timeout=30)
+            helps[(program, sub)] = done.stdout + done.stderr if done.returncode == 0 else None
+        return helps[(program, sub)]
+
+    for cmd in commands:
+        for segment in re.split(r"\s*(?:;|&&|\|\||\||&)\s*", re.sub(r"\[|\]|\.\.\.", " ", cmd.text)):
+            words = segment.split()
+            while words and "=" in words[0] and not words[0].startswith("-"):
+                words = words[1:]  # VAR=value prefixes
+            if not words or not PROGRAM_RE.search(words[0]):
+                continue
+            program = PROGRAM_RE.search(words[0]).group(1)
+            sub = words[1] if program == "peha" and len(words) > 1 and not words[1].startswith("-") else ""
+            text = help_text(program, sub)
+            checked += 1
+            if text is None:
+                errors.append(f"{cmd.where()}: `{program} {sub} --help` fails: {cmd.text}")
+                continue
+            for word in words[1:]:
+                option = word.split("=", 1)[0]
+                if re.fullmatch(r"--?[A-Za-z][\w-]*", option) and not re.search(
+                        r"(^|[\s,])" + re.escape(option) + r"\b", text):
+                    errors.append(f"{cmd.where()}: `{program} {sub}` has no option {option}: {cmd.text}")
+                if word.startswith("configs/") and not (Path(root) / word).exists():
+                    errors.append(f"{cmd.where()}: no file {word}: {cmd.text}")
+    print(f"checked the options and configs/ files of {checked} invocations against their --help")
+    return errors
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--build-dir", required=True, help="the build folder (holds peha and CTestTestfile.cmake)")
@@ -235,6 +280,7 @@ def main(argv=None):
         print(f"check_doc_commands: {err}", file=sys.stderr)
         return 2
     errors, groups = classify(commands, registry, names)
+    errors += check_invocations(commands, root, args.build_dir)
     if args.list:
         for category, cmds in groups.items():
             for cmd in cmds:

@@ -90,6 +90,25 @@ class CheckDocCommandsTest(unittest.TestCase):
         line = cdc.runnable("peha keygen --out /etc/peha/k.key [--force] && ./build/release/peha run", "/s")
         self.assertEqual(line, "build/release/peha keygen --out /s/etc/peha/k.key && build/release/peha run")
 
+    def test_an_option_the_help_does_not_list_or_a_missing_config_fails_whatever_the_category(self):
+        build = self.root / "build"
+        build.mkdir()
+        fake = build / "peha"
+        fake.write_text('#!/bin/sh\n[ "$1" = run ] && echo "  -c,--config TEXT  --case TEXT  --backend TEXT"\n'
+                        '[ "$1" = check-config ] && echo "  --config TEXT"\nexit 0\n')
+        fake.chmod(0o755)
+        (self.root / "configs").mkdir()
+        (self.root / "configs" / "b.yaml").write_text("")
+        errors = cdc.check_invocations(self.commands(), self.root, build)
+        # a.yaml and c.yaml are not in configs/ (and named without it): only options are checked
+        self.assertEqual(errors, [])
+        bad = [cdc.Command("docs/page.md", 3, "peha run -c configs/b.yaml --bogus 1 [--case x]", "long: x"),
+               cdc.Command("docs/page.md", 4, "X=1 peha run --config configs/gone.yaml", "")]
+        errors = cdc.check_invocations(bad, self.root, build)
+        self.assertEqual(len(errors), 2, errors)
+        self.assertIn("docs/page.md:3: `peha run` has no option --bogus", errors[0])
+        self.assertIn("docs/page.md:4: no file configs/gone.yaml", errors[1])
+
     def test_a_bad_registry_line_is_refused_with_its_line(self):
         reg = self.root / "commands.tsv"
         reg.write_text("# comment\nrunn\tpeha x\n")
