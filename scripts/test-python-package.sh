@@ -8,8 +8,10 @@ build_dir=$(cd "$1" && pwd)
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 /usr/bin/python3 -m venv --system-site-packages "$work/venv"
-cd "$source_dir"
-PEHA_BUILD_DIR="$build_dir" "$work/venv/bin/pip" install --no-build-isolation --no-deps --no-index -q ./python
+# From a copy of the package's sources: pip builds in place and must not write into the checkout.
+mkdir "$work/pkg"
+cp -r "$source_dir/python/pyproject.toml" "$source_dir/python/setup.py" "$source_dir/python/peha" "$work/pkg/"
+PEHA_BUILD_DIR="$build_dir" "$work/venv/bin/pip" install --no-build-isolation --no-deps --no-index -q "$work/pkg"
 cd "$work"
 "$work/venv/bin/python" - "$source_dir" "$work/venv" <<'PY'
 import pathlib, sys
