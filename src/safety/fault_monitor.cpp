@@ -54,6 +54,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   }
   p.tension_arm_s = m.number_or("tension_arm_s", p.tension_arm_s, {0, 5});
   p.tension_taut_deadline_s = m.number_or("tension_taut_deadline_s", p.tension_taut_deadline_s, {1, 30});
+  p.force_ceiling_window_s = m.number_or("force_ceiling_window_s", p.force_ceiling_window_s, {0.005, 0.2});
   p.loadcell_zero_max_N = m.number_or("loadcell_zero_max_N", p.loadcell_zero_max_N, {5, 500});
   p.loadcell_zero_confirm_s = m.number_or("loadcell_zero_confirm_s", p.loadcell_zero_confirm_s, {0.01, 1});
   p.tension_taut_fraction = m.number_or("tension_taut_fraction", p.tension_taut_fraction, {0, 2});
@@ -155,7 +156,7 @@ void FaultMonitor::clear() noexcept {
   for (auto& j : joints_) {
     for (auto& m : j.muscle) {
       m.taut = m.has_level = false;
-      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = 0;
+      m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = m.over_ceiling = 0;
     }
     j.same_angle = 0;
     j.supply_low = j.supply_lost = j.motor_off = 0;
@@ -393,6 +394,13 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
     } else {
       raise(kFaultLoadcellDisagrees, j, m, cell - x.model_N, x.tolerance_N);
     }
+  }
+  // Escalation that does not depend on the model: a reading over the ceiling (below the cell's full
+  // scale, which is loadcell_saturated's) for force_ceiling_window_s is a real over-force whatever the
+  // model says - a stuck-open valve behind a dead pressure sensor held 2740-2783 N under descend.
+  ms.over_ceiling = cell > x.ceiling_N && cell < p.loadcell_saturated_N ? ms.over_ceiling + 1 : 0;
+  if (ms.over_ceiling >= std::max(1, static_cast<int>(std::lround(p.force_ceiling_window_s / period_s_)))) {
+    raise(kFaultForceCeiling, j, m, cell, x.ceiling_N);
   }
   // On a joint whose wires may go slack by design (tension not checked: the constant-pressure
   // wrist) a slack wire reads code 0 as a disconnected cell does: not observable, not raised

@@ -192,7 +192,10 @@ struct MonitorParams {
   /// Start-up: a load cell reading beyond this while the pressure model says its muscle makes no
   /// force (vented) for loadcell_zero_confirm_s: its zero is off (a -300 N offset drove E1 to 50 deg).
   double loadcell_zero_max_N = 100.0;
-  double loadcell_zero_confirm_s = 0.1;  ///< longer than the vent's transient (the force lags the pressure)
+  double loadcell_zero_confirm_s = 0.1;
+  /// A reading over the muscle's ceiling this long vents whatever the pressure model says (the model
+  /// may be fed by a dead sensor); shorter readings the model cannot explain are a cell's (descend).
+  double force_ceiling_window_s = 0.05;  ///< longer than the vent's transient (the force lags the pressure)
   int confirm_cycles = 3;                     ///< consecutive samples a noisy check must fail
   double loadcell_disconnected_N = 0.01;      ///< at or below: AD code 0
   double loadcell_saturated_N = 4990.0;       ///< at or above: the channel's full scale
@@ -351,7 +354,8 @@ class FaultMonitor {
     bool has_level = false;
     int step = 0;
     int zero_off = 0;  ///< consecutive vented samples with the cell beyond loadcell_zero_max_N
-    int never_taut = 0;  ///< consecutive samples past tension_taut_deadline_s below the floor, never taut
+    int never_taut = 0;
+    int over_ceiling = 0;  ///< consecutive readings over the muscle's ceiling (below full scale)  ///< consecutive samples past tension_taut_deadline_s below the floor, never taut
     double excess_fast_Pa = 0, excess_level_Pa = 0;  ///< the rise check's filtered excess and its level
     bool has_excess = false;
     int rise = 0;
