@@ -130,6 +130,10 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.slow_valve_alpha = alpha(p.valve_slow_factor * p.valve_lag_s);
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
+  // Windows in samples (no cap at kMaxDelay: they count samples, they are no delay line).
+  auto samples = [&](double s) { return static_cast<int>(std::lround(s / period_s)); };
+  pp.zero_cycles = std::max(p.confirm_cycles, samples(p.loadcell_zero_confirm_s));
+  pp.over_ceiling_cycles = std::max(1, samples(p.force_ceiling_window_s));
   return pp;
 }
 
@@ -210,13 +214,14 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     if (!model) continue;
     check_supply(j, in, *model, js);
     check_motor(j, in, *model, outputs_follow, js);
+    const double followed_s = outputs_follow ? s.time_s - js.follow_since_s : -1.0;
     for (int m = 0; m < 2; ++m) {
-      const MuscleSample x = muscle_sample(j, m, in, *model, js, s.time_s, outputs_follow);
+      const MuscleSample x = muscle_sample(j, m, in, *model, js, followed_s);
       if (check_muscle(x, js.muscle[static_cast<std::size_t>(m)])) ++low_muscles;
     }
     // Carried: both wires taut with the outputs following; where slack is by design (tension not
     // checked), once the outputs have followed for tension_arm_s.
-    const bool armed = outputs_follow && s.time_s - js.follow_since_s >= params_.tension_arm_s;
+    const bool armed = followed_s >= params_.tension_arm_s;
     if (armed && (!params_.tension_checked[ji] || (js.muscle[0].taut && js.muscle[1].taut))) js.carried = true;
   }
   check_low_pressures(low_muscles, s.joint_count);
@@ -341,7 +346,7 @@ void FaultMonitor::check_motor(int j, const io::JointSensors& in, const models::
 }
 
 FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model,
-                                                       const JointState& js, double t_s, bool outputs_follow) const noexcept {
+                                                       const JointState& js, double followed_s) const noexcept {
   const MonitorParams& p = params_;
   const models::MuscleModel& mm = m == 0 ? model.agonist : model.antagonist;
   MuscleSample x;
@@ -358,10 +363,10 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
   x.pretension_N = model.pretension_N;
   x.supply_Pa = model.supply_pressure_Pa;
   x.tension_checked = p.tension_checked[static_cast<std::size_t>(j)];
-  x.outputs_follow = outputs_follow;
-  x.arming = outputs_follow && t_s - js.follow_since_s >= p.tension_arm_s;
+  x.outputs_follow = followed_s >= 0;
+  x.arming = followed_s >= p.tension_arm_s;
   x.carried = js.carried;
-  x.followed_s = outputs_follow && js.follow_since_s >= 0 ? t_s - js.follow_since_s : -1.0;
+  x.followed_s = followed_s;
   return x;
 }
 
@@ -399,7 +404,7 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
   // scale, which is loadcell_saturated's) for force_ceiling_window_s is a real over-force whatever the
   // model says - a stuck-open valve behind a dead pressure sensor held 2740-2783 N under descend.
   ms.over_ceiling = cell > x.ceiling_N && cell < p.loadcell_saturated_N ? ms.over_ceiling + 1 : 0;
-  if (ms.over_ceiling >= std::max(1, static_cast<int>(std::lround(p.force_ceiling_window_s / period_s_)))) {
+  if (ms.over_ceiling >= per_period_.over_ceiling_cycles) {
     raise(kFaultForceCeiling, j, m, cell, x.ceiling_N);
   }
   // On a joint whose wires may go slack by design (tension not checked: the constant-pressure
@@ -424,7 +429,7 @@ void FaultMonitor::check_tension_floor(const MuscleSample& x, MuscleState& ms) n
 }
 
 /// Start-up, before the joint is carried: the load cell's zero read vented (the pressure model says
-/// no force), and every checked wire taut by tension_taut_deadline_s. Both latch before the operator
+/// at most the pretension, the limits' floor), and no checked wire still slack past tension_taut_deadline_s. Both latch before the operator
 /// pulls the limb's support (docs/safety.md "Start-up").
 void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcept {
   const MonitorParams& p = params_;
@@ -438,14 +443,14 @@ void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcep
   const bool vented = x.model_N <= 1.05 * x.pretension_N;
   const bool off = std::abs(x.cell_N) > p.loadcell_zero_max_N || x.cell_N <= p.loadcell_disconnected_N;
   if (vented) ms.zero_off = off ? ms.zero_off + 1 : 0;  // a sample the pressure noise lifts past the floor counts neither way
-  if (ms.zero_off >= std::max(p.confirm_cycles, static_cast<int>(std::lround(p.loadcell_zero_confirm_s / period_s_)))) {
+  if (ms.zero_off >= per_period_.zero_cycles) {
     raise(kFaultLoadcellZero, x.joint, x.muscle, x.cell_N, p.loadcell_zero_max_N);
   }
   // Never taut and below the floor past the deadline, for as long as the zero check's window: a
   // broken wire reads its noise around 0; an intact one a controller keeps low stays above the floor.
   const bool slack = x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s && x.cell_N < x.floor_N;
   ms.never_taut = slack ? ms.never_taut + 1 : 0;
-  if (ms.never_taut >= std::max(p.confirm_cycles, static_cast<int>(std::lround(p.loadcell_zero_confirm_s / period_s_)))) {
+  if (ms.never_taut >= per_period_.zero_cycles) {
     raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
   }
 }

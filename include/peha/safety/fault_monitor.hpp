@@ -384,8 +384,9 @@ class FaultMonitor {
     DescendGovernorData governor{};
   };
   struct MuscleSample;  ///< one muscle of one sample and what its checks derive from it (fault_monitor.cpp)
+  /// `followed_s`: how long the joint's outputs have followed the commands (< 0: they do not).
   inline MuscleSample muscle_sample(int j, int m, const io::JointSensors& in, const models::JointModel& model, const JointState& js,
-                                    double t_s, bool outputs_follow) const noexcept;
+                                    double followed_s) const noexcept;
 
   // The check families, in the order check_sample runs them (their raises name a sample's first fault).
   // Inline: each has one caller, in fault_monitor.cpp, and folds back into it (no call per check per sample).
@@ -413,6 +414,8 @@ class FaultMonitor {
   struct PerPeriod {
     int delay_cycles = 0, slow_delay_cycles = 0;
     double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, rise_alpha = 0;
+    int zero_cycles = 0;          ///< loadcell_zero_confirm_s (also the never-taut wire's), at least confirm_cycles
+    int over_ceiling_cycles = 0;  ///< force_ceiling_window_s, at least 1
   };
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
   static DescendGovernorModel governor_model(const MonitorParams& p, double period_s, const CheckOverrides& o) noexcept;
