@@ -8,7 +8,9 @@
 #include "peha/safety/fault_monitor.hpp"
 #include "peha/sim/plant_faults.hpp"
 
+#include <array>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <set>
 #include <string>
@@ -176,6 +178,23 @@ TEST(FaultMonitor, AnOverForceThePressureModelConfirmsIsVented) {
   EXPECT_EQ(monitor.action(), safety::SafeAction::kVent);
 }
 
+/// Feeds `monitor` `cycles` samples of E1's joint at 1 kHz, both muscles at 0.1 MPa measured;
+/// `cells(k, noise_N)` gives sample k's agonist and antagonist load cells (`noise_N`: a live cell
+/// never repeats its code).
+void feed_at_constant_pressure(safety::FaultMonitor& monitor, int cycles, const std::function<std::array<double, 2>(int, double)>& cells) {
+  E1JointView view;
+  io::SensorState& state = view.state;
+  state.joints[0].agonist_pressure_Pa = 0.1e6;
+  state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  for (int k = 0; k < cycles; ++k) {
+    state.time_s = 1e-3 * k;
+    const std::array<double, 2> cell_N = cells(k, 0.01 * (k % 7));
+    state.joints[0].agonist_loadcell_N = cell_N[0];
+    state.joints[0].antagonist_loadcell_N = cell_N[1];
+    view.check(monitor, true);
+  }
+}
+
 // A wire that reads code 0 after it was taut: on a joint whose tension is checked that is a
 // disconnected cell (descend); on a joint whose wires may go slack by design (tension not checked:
 // the constant-pressure wrist) a slack wire reads the same 0, so nothing is raised (the arm's
@@ -184,17 +203,10 @@ std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
   safety::MonitorParams p;
   p.tension_checked[0] = tension_checked;
   safety::FaultMonitor monitor(p, 1e-3);
-  E1JointView view;
-  io::SensorState& state = view.state;
-  state.joints[0].agonist_pressure_Pa = 0.1e6;
-  state.joints[0].antagonist_pressure_Pa = 0.1e6;
-  for (int k = 0; k < 2000; ++k) {  // 1.5 s taut at the pretension, then the antagonist's cell at 0
-    state.time_s = 1e-3 * k;
-    const double noise_N = 0.01 * (k % 7);  // a live cell never repeats its code
-    state.joints[0].agonist_loadcell_N = 60.0 + noise_N;
-    state.joints[0].antagonist_loadcell_N = k < 1500 ? 60.0 + noise_N : 0.0;
-    view.check(monitor, true);
-  }
+  // 1.5 s taut at the pretension, then the antagonist's cell at 0.
+  feed_at_constant_pressure(monitor, 2000, [](int k, double noise_N) {
+    return std::array<double, 2>{60.0 + noise_N, k < 1500 ? 60.0 + noise_N : 0.0};
+  });
   return monitor.flags();
 }
 
@@ -202,19 +214,12 @@ std::uint32_t flags_after_a_taut_wire_reads_zero(bool tension_checked) {
 std::uint32_t flags_after_a_cell_moves(double change_N, double over_s) {
   safety::MonitorParams p;
   safety::FaultMonitor monitor(p, 1e-3);
-  E1JointView view;
-  io::SensorState& state = view.state;
-  state.joints[0].agonist_pressure_Pa = 0.1e6;
-  state.joints[0].antagonist_pressure_Pa = 0.1e6;
-  for (int k = 0; k < 4000; ++k) {  // 1.5 s taut, then the change, then the rest of 4 s
-    state.time_s = 1e-3 * k;
-    const double noise_N = 0.01 * (k % 7);
-    const double t_change = state.time_s - 1.5;
+  // 1.5 s taut, then the change, then the rest of 4 s.
+  feed_at_constant_pressure(monitor, 4000, [&](int k, double noise_N) {
+    const double t_change = 1e-3 * k - 1.5;
     const double moved = t_change <= 0 ? 0.0 : change_N * std::min(1.0, over_s > 0 ? t_change / over_s : 1.0);
-    state.joints[0].agonist_loadcell_N = 60.0 + moved + noise_N;
-    state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
-    view.check(monitor, true);
-  }
+    return std::array<double, 2>{60.0 + moved + noise_N, 60.0 + noise_N};
+  });
   return monitor.flags();
 }
 
@@ -522,17 +527,9 @@ namespace {
 std::pair<std::uint32_t, safety::SafeAction> after_over_ceiling(int cycles, double cell_N) {
   safety::MonitorParams p;
   safety::FaultMonitor monitor(p, 1e-3);
-  E1JointView view;
-  io::SensorState& state = view.state;
-  state.joints[0].agonist_pressure_Pa = 0.1e6;
-  state.joints[0].antagonist_pressure_Pa = 0.1e6;
-  for (int k = 0; k < 1500 + cycles; ++k) {
-    state.time_s = 1e-3 * k;
-    const double noise_N = 0.01 * (k % 7);
-    state.joints[0].agonist_loadcell_N = (k < 1500 ? 60.0 : cell_N) + noise_N;
-    state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
-    view.check(monitor, true);
-  }
+  feed_at_constant_pressure(monitor, 1500 + cycles, [&](int k, double noise_N) {
+    return std::array<double, 2>{(k < 1500 ? 60.0 : cell_N) + noise_N, 60.0 + noise_N};
+  });
   return {monitor.flags(), monitor.action()};
 }
 
