@@ -167,6 +167,9 @@ void FaultMonitor::clear() noexcept {
     j.motor_sent = 0;
     j.follow_since_s = -1;
     j.governor = {};
+    // Not carried (an outage, a governed return from a stop): the next sample is what holds the
+    // limb now, the start of any safe state after this recovery.
+    if (!j.carried) j.has_found = false;
   }
 }
 
@@ -199,10 +202,15 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     const io::JointSensors& in = s.joints[ji];
     JointState& js = joints_[ji];
     if (!check_finite(j, in)) continue;
-    if (!js.has_found) {
+    // What holds the limb while peha's outputs do not (before arming, during and after an outage:
+    // a board's safe outputs vented it, or it rests on a stop): a fault after the outputs follow
+    // again starts from these, not from the commands sent before - the stale pre-outage pressures,
+    // at the angle the limb fell to, launched it from stop to stop at 442 deg/s.
+    if (!js.has_found || !outputs_follow) {
       js.found_Pa = {std::max(0.0, in.agonist_pressure_Pa), std::max(0.0, in.antagonist_pressure_Pa)};
       js.has_found = true;
     }
+    if (!outputs_follow) js.carried = false;  // carried again only once both wires are taut again
     check_encoder(j, in, s.time_s, js);
     check_range(j, in.angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
     if (!outputs_follow) {

@@ -29,6 +29,9 @@ struct DescendGovernorModel {
   /// bled - bled, the elbow's flexor fell to 1.0-2.5 N under an operator flexing it. The descent
   /// speed; +inf only for the test that shows the old integral (CheckOverrides).
   double lift_speed_radps = 0;
+  /// Rising with a carrying force above (1 + this) x the balance force (the force while the joint
+  /// was last held or descending inside its range), the muscle lifts the joint, not an operator.
+  double balance_margin = 0.1;
   double period_s = 0;
 };
 
@@ -39,6 +42,7 @@ struct DescendGovernorData {
   double force_N = 0;           ///< the bled (integral) part of the carrying force
   double command_N = 0;         ///< the carrying force commanded last (its rise is slew-limited)
   double floor_N = 0, ceiling_N = 0;
+  double balance_N = 0;         ///< the carrying force while the joint was last held or descending inside its range (0: not yet)
   double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
   std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)
   double motor_Nm = 0;

@@ -373,13 +373,15 @@ class FaultMonitor {
     std::array<double, kMotorWindow> sent_motor_Nm{};
     int motor_head = 0, motor_sent = 0;
     bool has_previous = false;
-    /// The pressures measured on the joint's first sample: what held the limb before the run
-    /// touched it. A fault before the joint is `carried` holds (and descends from) these, not the
-    /// start-up's vent: vented muscles under a load drop it.
+    /// The pressures measured on the joint's first sample and on every sample while the outputs do
+    /// not follow: what holds the limb while the run does not (before arming, after an outage). A
+    /// fault before the joint is `carried` holds (and descends from) these, not the start-up's vent
+    /// nor the commands sent before an outage: vented muscles under a load drop it, stale ones
+    /// launch it.
     std::array<double, 2> found_Pa{};
     bool has_found = false;
     /// Both wires have been taut with the outputs following (the controller carries the joint);
-    /// stays set for the run (a recovery ramps from what is measured then, not from start-up).
+    /// cleared while the outputs do not follow (an outage, a disarmed board).
     bool carried = false;
     DescendGovernorData governor{};
   };
