@@ -42,6 +42,20 @@ void Supervisor::fault(double t_s, const char* why, const char* part) noexcept {
   fault(t_s, reason_);
 }
 
+void Supervisor::hold(double t_s, const io::Command& command, const char* part) noexcept {
+  const char* why = "backend silent for longer than host_watchdog_ms (holding the last command, motor off)";
+  if (part) std::snprintf(reason_, sizeof reason_, "%s on %s", why, part);
+  const char* reason = part ? reason_ : why;
+  lifecycle_.apply(Transition::kFault, t_s, reason);
+  ++faults_;
+  fault_t_ = t_s;
+  ramp_t_ = -1.0;
+  holding_ = true;
+  io::copy_used(held_, command);
+  for (int j = 0; j < held_.joint_count; ++j) held_.joints[static_cast<std::size_t>(j)].motor_torque_Nm = 0.0;
+  if (on_fault) on_fault(reason);
+}
+
 void Supervisor::raise(double t_s, const char* reason) noexcept {
   if (lifecycle_.state() != LifecycleState::kActive) return;
   lifecycle_.apply(Transition::kFault, t_s, reason);
@@ -61,7 +75,7 @@ void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state,
   switch (lifecycle_.state()) {
     case LifecycleState::kActive:
       if (silent) {
-        fault(t_s, "backend silent for longer than host_watchdog_ms", status.part);
+        hold(t_s, cmd, status.part);
       } else if (status.estop) {
         fault(t_s, "e-stop", status.part);
       } else if (status.rebooted) {
@@ -71,9 +85,15 @@ void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state,
       }
       break;
     case LifecycleState::kFault: {
+      if (holding_ && (status.estop || status.rebooted || status.watchdog_tripped)) {
+        holding_ = false;  // the board went safe on its own: nothing left to hold
+        backend_.deactivate();
+      }
+      if (holding_) io::copy_used(cmd, held_);
       const bool asked = recover_requested_.exchange(false) || (params_.recover_after_s >= 0 && t_s - fault_t_ >= params_.recover_after_s);
       if (asked && !silent && !status.estop && status.ready_to_arm) {
         lifecycle_.apply(Transition::kRecover, t_s, "operator's command");
+        holding_ = false;
         backend_.activate();  // the enable edge re-arms a board
         ramp_t_ = t_s;
         ramp_from_ = cmd;

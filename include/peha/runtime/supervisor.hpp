@@ -10,7 +10,11 @@
 ///   kSilentCycles of the loop's own cycles in a row - a loop that was itself descheduled has not
 ///   heard a dead board, it has not listened), reports an e-stop, a restart of the board (its new
 ///   boot id: "board reboot"), or its watchdog tripped ->
-///   fault: backend.deactivate() (outputs safe, valves vent slowly), on_fault(reason).
+///   fault: backend.deactivate() (outputs safe, valves vent slowly), on_fault(reason). A silent
+///   backend is the exception: the host cannot see, but the board may still hear it (only its
+///   state packets lost), so the outputs stay armed on the last command with the motor off (hold):
+///   disarmed, the board vented a 5 kg payload onto its stop at 120-160 deg/s. Should the board go
+///   safe on its own meanwhile (its watchdog, e-stop, a restart), the host disarms too.
 /// - fault: recovery only on the operator's request (request_recovery(), or recover_after_s for
 ///   unattended runs) and only once the backend is alive, its e-stop released and it is ready to
 ///   arm: -> recovering (activate) -> inactive -> active once its outputs are armed again; not
@@ -73,7 +77,9 @@ class Supervisor {
   void fault(double t_s, const char* why) noexcept;
   /// fault() with the backend's part named (BackendStatus::part: "e-stop on board 'left'").
   void fault(double t_s, const char* why, const char* part) noexcept;
-  char reason_[96] = {};  ///< a fault reason with its part (the lifecycle copies it)
+  /// A silent backend: -> fault, the outputs left armed on `command` with the motor off.
+  void hold(double t_s, const io::Command& command, const char* part) noexcept;
+  char reason_[160] = {};  ///< a fault reason with its part (the lifecycle copies it)
 
   io::Backend& backend_;
   SupervisorParams params_;
@@ -82,6 +88,8 @@ class Supervisor {
   std::uint64_t faults_ = 0, recoveries_ = 0, missed_ = 0;
   double fault_t_ = -1.0, ramp_t_ = -1.0;
   io::Command ramp_from_{};
+  bool holding_ = false;  ///< faulted on a silent backend: held_ goes out, the outputs stay armed
+  io::Command held_{};
   std::atomic<bool> recover_requested_{false};
 };
 
