@@ -93,8 +93,15 @@ Command add_run(CLI::App& app) {
   s->cpu_opt =
       run_cmd->add_option("--cpu", s->cpu, "With --backend: pin the loop to this CPU (-1 = don't)")->check(peha::app::signed_integer())->capture_default_str();
   run_cmd->add_option("--telemetry", run.telemetry,
-                      "With --backend: stream signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870\n"
-                      "(loopback only unless --telemetry-remote)");
+                      "Stream the per-cycle log's signals as JSON to a PlotJuggler UDP server, e.g. udp://127.0.0.1:9870\n"
+                      "(loopback only unless --telemetry-remote); in process at simulation speed (timestamp = simulated\n"
+                      "time), with --backend in real time. Overrides the scenario's telemetry.destination");
+  run_cmd->add_option("--telemetry-signal", run.telemetry_signals,
+                      "The signals to stream (repeatable, or comma-separated): the log's column names, exactly\n"
+                      "(tau_motor_cmd_Nm), a _rad column as _deg (angle_deg), globs (*_loadcell_N), and with --backend\n"
+                      "rtt_us and lifecycle_state. Default: the scenario's telemetry.signals, else each joint's angle,\n"
+                      "load cells, commanded pressures and motor torque (docs/runtime.md, 'Live telemetry')")
+      ->delimiter(',');
   run_cmd->add_flag("--telemetry-remote", run.telemetry_remote,
                     "With --telemetry: allow a destination beyond this machine. The stream is unencrypted and\n"
                     "unauthenticated (the wearer's forces and angles): use it only on a network you trust")

@@ -41,13 +41,11 @@ std::vector<CheckedOption> checked_options(const RunOptions& o) {
   };
 }
 
-/// The real-time options given (they apply to --backend runs only).
+/// The real-time options given (they apply to --backend runs only; the telemetry streams in process too).
 std::vector<std::string> realtime_options_given(const RunOptions& o) {
   std::vector<std::string> given;
   if (o.fifo_priority) given.emplace_back("--rt-priority");
   if (o.cpu) given.emplace_back("--cpu");
-  if (!o.telemetry.empty()) given.emplace_back("--telemetry");
-  if (o.telemetry_remote) given.emplace_back("--telemetry-remote");
   if (o.recover_after_s) given.emplace_back("--recover-after");
   return given;
 }
@@ -134,6 +132,7 @@ experiments::RunRequest make_request(const RunOptions& o) {
   r.backend = o.backend;
   r.telemetry = o.telemetry;
   r.telemetry_remote = o.telemetry_remote;
+  r.telemetry_signals = o.telemetry_signals;
   r.fifo_priority = o.fifo_priority.value_or(80);
   r.cpu = o.cpu.value_or(-1);
   r.recover_after_s = o.recover_after_s;

@@ -50,16 +50,24 @@ std::size_t edit_distance(std::string_view a, std::string_view b) {
   return d[a.size()][b.size()];
 }
 
-// The candidate nearest to `key` if it is near enough to be a misspelling of it: at most 2 edits, or
-// a quarter of the key's length for long keys ("pressure_rate_MPa_s" for "pressure_rate_MPa_per_s").
-std::string nearest(std::string_view key, const std::vector<std::string>& candidates) {
+}  // namespace
+
+std::string closest_name(std::string_view name, const std::vector<std::string>& candidates, std::size_t max_edits) {
   std::string best;
-  std::size_t best_d = std::max<std::size_t>(2, key.size() / 4) + 1;
+  std::size_t best_d = max_edits + 1;
   for (const std::string& c : candidates) {
-    const std::size_t d = edit_distance(key, c);
+    const std::size_t d = edit_distance(name, c);
     if (d < best_d) best_d = d, best = c;
   }
   return best;
+}
+
+namespace {
+
+// The candidate nearest to `key` if it is near enough to be a misspelling of it: at most 2 edits, or
+// a quarter of the key's length for long keys ("pressure_rate_MPa_s" for "pressure_rate_MPa_per_s").
+std::string nearest(std::string_view key, const std::vector<std::string>& candidates) {
+  return closest_name(key, candidates, std::max<std::size_t>(2, key.size() / 4));
 }
 
 }  // namespace
@@ -216,6 +224,22 @@ std::vector<std::string> Map::choices(std::string_view key, const std::vector<st
     }
     if (std::find(out.begin(), out.end(), s) != out.end()) fail_at(item, item_key, fmt::format("'{}' is listed twice", s));
     out.push_back(s);
+  }
+  return out;
+}
+
+std::vector<std::string> Map::strings(std::string_view key, std::size_t min_count, std::size_t max_count) {
+  const YAML::Node value = required(key);
+  if (!value.IsSequence() || value.size() < min_count || value.size() > max_count) {
+    fail_at(value, key, fmt::format("expected a list of {} to {} strings, found {}", min_count, max_count, describe(value)));
+  }
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < value.size(); ++i) {
+    const YAML::Node item = value[i];
+    const std::string item_key = fmt::format("{}[{}]", key, i);
+    if (!item.IsScalar() || item.Scalar().empty()) fail_at(item, item_key, fmt::format("expected a non-empty string, found {}", describe(item)));
+    if (std::find(out.begin(), out.end(), item.Scalar()) != out.end()) fail_at(item, item_key, fmt::format("'{}' is listed twice", item.Scalar()));
+    out.push_back(item.Scalar());
   }
   return out;
 }

@@ -19,8 +19,6 @@ std::optional<HardwareRunOptions> realtime_options(const RunRequest& request) {
   HardwareRunOptions o;
   try {
     o.backend = hardware::BackendUri::parse(request.backend);
-    if (!request.telemetry.empty()) o.telemetry = io::parse_udp_endpoint(request.telemetry);
-    o.telemetry_remote = request.telemetry_remote;
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "error: {}\n", e.what());
     return std::nullopt;
@@ -28,6 +26,41 @@ std::optional<HardwareRunOptions> realtime_options(const RunRequest& request) {
   o.realtime.fifo_priority = request.fifo_priority;
   o.realtime.cpu = request.cpu;
   o.recover_after_s = request.recover_after_s.value_or(-1.0);
+  return o;
+}
+
+std::optional<runtime::TelemetryOptions> telemetry_options(const std::string& doc_name, const runtime::TelemetryOptions& scenario,
+                                                          const std::vector<std::string>& columns, const RunRequest& request, bool on_boards) {
+  runtime::TelemetryOptions o = scenario;
+  o.allow_remote = request.telemetry_remote;
+  if (!request.telemetry_signals.empty()) o.signals = request.telemetry_signals;
+  try {
+    if (!request.telemetry.empty()) o.destination = io::parse_udp_endpoint(request.telemetry);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: --telemetry {}: {}\n", request.telemetry, e.what());
+    return std::nullopt;
+  }
+  if (!o.destination) {
+    if (request.telemetry_signals.empty()) return o;
+    fmt::print(stderr, "error: --telemetry-signal needs a destination: --telemetry udp://127.0.0.1:PORT, or telemetry.destination in {}\n",
+               doc_name);
+    return std::nullopt;
+  }
+  if (columns.empty()) {
+    if (request.telemetry.empty() && request.telemetry_signals.empty()) {
+      fmt::print("  telemetry: this experiment has no per-cycle log; {}'s telemetry.destination streams nothing\n", doc_name);
+      o.destination.reset();
+      return o;
+    }
+    fmt::print(stderr, "error: {}: this experiment has no per-cycle log, so --telemetry has nothing to stream\n", doc_name);
+    return std::nullopt;
+  }
+  try {
+    runtime::check_telemetry(o, columns, on_boards ? runtime::RealtimeHarness::telemetry_extras() : std::vector<std::string>{});
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: {}: {}\n", doc_name, e.what());
+    return std::nullopt;
+  }
   return o;
 }
 

@@ -1,7 +1,5 @@
 #include "peha/runtime/realtime_harness.hpp"
 
-#include "peha/models/units.hpp"
-
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -12,10 +10,6 @@
 #include <unistd.h>
 
 namespace peha::runtime {
-namespace {
-
-}  // namespace
-
 RealtimeHarness::RealtimeHarness(io::Backend& backend, const SupervisorParams& supervision, const RealtimeRunOptions& options,
                                  double period_s, double duration_s, std::string label, const std::filesystem::path& log_file,
                                  const std::vector<std::string>& columns, const std::vector<std::string>& comments)
@@ -26,26 +20,11 @@ RealtimeHarness::RealtimeHarness(io::Backend& backend, const SupervisorParams& s
       duration_s_(duration_s),
       label_(std::move(label)),
       log_(log_file, columns, comments, 1u << 14, static_cast<std::size_t>(std::llround(5.0 / period_s))),
-      sink_(log_),
+      sink_(*this),
       clock_(period_s) {
   result_.log_file = log_file.string();
   result_.timing.overrun_events.reserve(kOverrunEventsListed);
-  if (options.telemetry) {
-    std::vector<std::string> signals;
-    const auto& names = backend.info().joint_names;
-    for (const std::string& j : names) {
-      const std::string p = names.size() > 1 ? j + "." : std::string();
-      for (const char* s : {"angle_deg", "agonist_loadcell_N", "antagonist_loadcell_N", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "tau_motor_cmd_Nm"}) {
-        signals.push_back(p + s);
-      }
-    }
-    signals.push_back("rtt_us");
-    signals.push_back("lifecycle_state");
-    telemetry_values_.resize(signals.size());
-    const std::string dest = options.telemetry->to_string();
-    telemetry_ = std::make_unique<Telemetry>(dest.substr(0, dest.rfind(':')), options.telemetry->port, options.telemetry_rate_Hz,
-                                             "peha", signals, 256, options.telemetry_remote);
-  }
+  if (options.telemetry.destination) telemetry_ = std::make_unique<LogTelemetry>(options.telemetry, columns, telemetry_extras());
   // The operator's terminal: 'r' + Enter asks for a recovery (polled off the real-time thread).
   if (::isatty(STDIN_FILENO)) {
     console_ = std::thread([this] {
@@ -116,7 +95,16 @@ CycleHooks RealtimeHarness::start() {
   return hooks;
 }
 
-bool RealtimeHarness::after(const io::SensorState& state, const io::Command& cmd) noexcept {
+void RealtimeHarness::Sink::push_row(std::span<const double> row) noexcept {
+  harness_.log_.push(row);
+  if (!harness_.telemetry_) return;
+  // The row's cycle has been supervised and written: its round trip and state are this cycle's.
+  const double extras[] = {harness_.backend_.status().last_rtt_s * 1e6,
+                           static_cast<double>(static_cast<int>(harness_.supervisor_.lifecycle().state()))};
+  harness_.telemetry_->publish(row, extras);
+}
+
+bool RealtimeHarness::after(const io::SensorState&, const io::Command&) noexcept {
   const double t = clock_.deadline_s();
   const io::BackendStatus status = backend_.status();
   if (status.rtt_samples != rtt_samples_) {  // the round trip of the command this sample answers
@@ -124,20 +112,6 @@ bool RealtimeHarness::after(const io::SensorState& state, const io::Command& cmd
     result_.timing.rtt.add(status.last_rtt_s);
   }
   const LifecycleState lifecycle = supervisor_.lifecycle().state();
-  if (telemetry_) {
-    std::size_t k = 0;
-    for (int j = 0; j < state.joint_count && k + 6 <= telemetry_values_.size(); ++j) {
-      const auto& s = state.joints[static_cast<std::size_t>(j)];
-      const auto& o = cmd.joints[static_cast<std::size_t>(j)];
-      for (double v : {models::rad_to_deg(s.angle_rad), s.agonist_loadcell_N, s.antagonist_loadcell_N, o.agonist_pressure_Pa * 1e-6,
-                       o.antagonist_pressure_Pa * 1e-6, o.motor_torque_Nm}) {
-        telemetry_values_[k++] = v;
-      }
-    }
-    telemetry_values_[telemetry_values_.size() - 2] = status.last_rtt_s * 1e6;
-    telemetry_values_.back() = static_cast<double>(static_cast<int>(lifecycle));
-    telemetry_->publish(t, telemetry_values_);
-  }
   progress_t_.store(t, std::memory_order_relaxed);
   progress_state_.store(static_cast<int>(lifecycle), std::memory_order_relaxed);
   result_.timing.compute.add(static_cast<double>(PeriodicClock::now_ns() - cycle_start_ns_) * 1e-9);
@@ -177,7 +151,7 @@ void RealtimeHarness::finish(RealtimeRunResult& res) {
   result_.fault_dumps = log_.fault_dumps();
   if (telemetry_) {
     telemetry_->close();
-    result_.telemetry_datagrams = telemetry_->sent_datagrams();
+    result_.telemetry_datagrams = telemetry_->telemetry().sent_datagrams();
   }
   const Lifecycle& lifecycle = supervisor_.lifecycle();
   for (std::size_t i = 0; i < lifecycle.history_size(); ++i) {

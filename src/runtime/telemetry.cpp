@@ -122,6 +122,10 @@ Telemetry::Telemetry(const std::string& host, int port, double rate_Hz, std::str
 
 Telemetry::~Telemetry() { close(); }
 
+void Telemetry::check_destination(const std::string& host, int port, bool allow_non_loopback) {
+  (void)checked_address(host, port, allow_non_loopback);
+}
+
 void Telemetry::publish(double t_s, std::span<const double> values) noexcept {
   if (!(t_s + kDueTolerance_s >= next_publish_t_s_)) return;  // not due yet (or t_s is NaN)
   next_publish_t_s_ += interval_s_;

@@ -496,7 +496,7 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
       {"run --experiment postures --goniometer-csv " + any_file + arm, "--goniometer-csv", "--experiment postures"},
       {"run --experiment bandwidth --case slow" + arm, "--case", "--experiment bandwidth"},
       {"run --cpu 1" + e1, "--cpu", "--backend"},
-      {"run --telemetry udp://127.0.0.1:9870" + e1, "--telemetry", "--backend"},
+      {"run --experiment bandwidth --telemetry udp://127.0.0.1:9870" + arm, "--telemetry", "no per-cycle log"},
       {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
        "in-process"},
       // Plant faults: E1 and E3 in process; on the arm named by its joints.

@@ -10,6 +10,7 @@
 #include "peha/runtime/csv_log.hpp"
 
 #include "../support/alloc_counter.hpp"
+#include "../support/telemetry_receiver.hpp"
 
 #include <gtest/gtest.h>
 
@@ -22,6 +23,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -236,6 +238,49 @@ TEST(MfbEndToEnd, UdpRunAgreesWithTheInProcessSimulator) {
   EXPECT_GT(udp.timing.period.mean(), 0.99e-3);
   EXPECT_LT(udp.timing.period.mean(), 1.3e-3);
   EXPECT_EQ(udp.dropped_rows, 0u);
+}
+
+// Telemetry on the board: the harness streams the log columns chosen (a glob and a degree view
+// among them) and its own round trip and lifecycle state, each sample equal to the log's row at its
+// timestamp (both print 9 significant digits), at 100 Hz of the loop's time.
+TEST(MfbEndToEnd, TheBoardRunStreamsTheChosenLogColumnsAndTheHarnessSignals) {
+  const experiments::E1Scenario s = scenario(3.0);
+  Emulator emulator({});
+  ASSERT_GT(emulator.port, 0) << emulator.process.output();
+  peha::testing::TelemetryReceiver rx;
+  rx.start_collecting();
+  experiments::HardwareRunOptions o = options(emulator.port, "telemetry");
+  o.telemetry.destination = io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(rx.port()));
+  o.telemetry.signals = {"angle_deg", "*_loadcell_N", "rtt_us", "lifecycle_state"};
+  const experiments::E1RealtimeResult udp = experiments::run_e1_realtime(s, s.cases.front(), o);
+  const std::vector<std::string> datagrams = rx.stop();
+  EXPECT_EQ(udp.telemetry_datagrams, datagrams.size());
+  EXPECT_GT(datagrams.size(), 250u);  // 3 s at 100 Hz: 301 (a loaded machine may skip a few cycles)
+  EXPECT_LE(datagrams.size(), 301u);
+  const std::vector<std::vector<double>> log =
+      read_csv_log_columns(udp.log_file, {"t_s", "angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N"});
+  std::map<long long, std::size_t> row_of_cycle;
+  for (std::size_t i = 0; i < log[0].size(); ++i) row_of_cycle[std::llround(log[0][i] / s.period_s)] = i;
+  const std::vector<std::string> keys = {"angle_deg", "agonist_loadcell_N", "antagonist_loadcell_N", "rtt_us", "lifecycle_state"};
+  std::size_t active = 0, measured = 0;
+  for (const std::string& d : datagrams) {
+    const peha::testing::TelemetrySample t = peha::testing::parse_telemetry(d, "peha");
+    std::vector<std::string> names;
+    for (const auto& [name, value] : t.values) names.push_back(name);
+    ASSERT_EQ(names, keys) << d;
+    const auto row = row_of_cycle.find(std::llround(t.timestamp / s.period_s));
+    ASSERT_NE(row, row_of_cycle.end()) << "no log row at " << t.timestamp << " s";
+    const std::size_t r = row->second;
+    EXPECT_NEAR(t.values[0].second, models::rad_to_deg(log[1][r]), 1e-7 * (1 + std::abs(t.values[0].second))) << d;
+    EXPECT_NEAR(t.values[1].second, log[2][r], 1e-8 * (1 + std::abs(log[2][r]))) << d;
+    EXPECT_NEAR(t.values[2].second, log[3][r], 1e-8 * (1 + std::abs(log[3][r]))) << d;
+    EXPECT_GE(t.values[3].second, 0.0) << d;
+    EXPECT_LT(t.values[3].second, 100000.0) << d;  // within the host watchdog
+    measured += t.values[3].second > 0.0;
+    active += t.values[4].second == static_cast<double>(static_cast<int>(LifecycleState::kActive));
+  }
+  EXPECT_EQ(active, datagrams.size());  // no fault in this run
+  EXPECT_GT(measured, datagrams.size() * 9 / 10);  // a round trip behind (nearly) every sample
 }
 
 // Injected on the board's side: 3 % loss, 3 % duplicates, 3 % reordered, 2 % corrupted state

@@ -1,5 +1,7 @@
 #include "peha/runtime/telemetry.hpp"
 
+#include "../support/telemetry_receiver.hpp"
+
 #include <gtest/gtest.h>
 
 #include <arpa/inet.h>
@@ -16,43 +18,7 @@
 namespace peha::runtime {
 namespace {
 
-// PlotJuggler's side of the wire: a UDP socket bound to 127.0.0.1 on a free port.
-class Receiver {
- public:
-  Receiver() {
-    fd_ = ::socket(AF_INET, SOCK_DGRAM, 0);
-    sockaddr_in addr{};
-    addr.sin_family = AF_INET;
-    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    addr.sin_port = 0;
-    EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof(addr)), 0);
-    socklen_t len = sizeof(addr);
-    ::getsockname(fd_, reinterpret_cast<sockaddr*>(&addr), &len);
-    port_ = ntohs(addr.sin_port);
-    const int buffer = 4 << 20;
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVBUF, &buffer, sizeof(buffer));
-    timeval timeout{5, 0};  // generous: only reached if a datagram is missing
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof(timeout));
-  }
-  ~Receiver() { ::close(fd_); }
-  int port() const { return port_; }
-  /// The next datagram, or "" after the timeout.
-  std::string receive() {
-    char buffer[65536];
-    const ssize_t n = ::recv(fd_, buffer, sizeof(buffer), 0);
-    return n > 0 ? std::string(buffer, static_cast<std::size_t>(n)) : std::string();
-  }
-  /// Whether a datagram arrives within `ms`.
-  bool nothing_more(int ms) {
-    timeval timeout{0, ms * 1000};
-    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof(timeout));
-    return receive().empty();
-  }
-
- private:
-  int fd_ = -1;
-  int port_ = 0;
-};
+using Receiver = testing::TelemetryReceiver;
 
 // Counts the `"key":` entries of the innermost object of one datagram.
 std::vector<std::string> keys_of_group(const std::string& json, const std::string& group) {

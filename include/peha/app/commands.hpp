@@ -28,7 +28,8 @@ struct RunOptions {
   std::string backend;
   std::optional<int> fifo_priority;           ///< real-time loop: SCHED_FIFO priority (0 = don't ask; unset: 80)
   std::optional<int> cpu;                     ///< real-time loop: pin to this CPU (-1 = don't; unset: -1)
-  std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: off)
+  std::string telemetry;                      ///< "udp://A.B.C.D:PORT" of a PlotJuggler UDP server (empty: the scenario's, if any)
+  std::vector<std::string> telemetry_signals; ///< --telemetry-signal: log columns or globs (empty: the scenario's, or the default)
   bool telemetry_remote = false;              ///< --telemetry-remote: the telemetry may leave this machine
   std::optional<double> recover_after_s;      ///< unattended operator: recover this long after a fault
   std::vector<std::string> faults;            ///< --fault KIND@T[:TARGET[=VALUE]] (sim/plant_faults.hpp), in-process E1 and E3

@@ -37,6 +37,10 @@ struct Range {
 
 class Map;
 
+/// The candidate with the fewest edits (insertions, deletions, substitutions, swaps) from `name`,
+/// if at most `max_edits`; "" otherwise. For "did you mean" in messages.
+std::string closest_name(std::string_view name, const std::vector<std::string>& candidates, std::size_t max_edits);
+
 /// A parsed YAML document with the file name kept for error messages.
 /// Largest YAML file read (a calibration with M = 2000 pseudo-inputs is about 100 MiB).
 inline constexpr std::size_t kMaxFileBytes = std::size_t{256} << 20;
@@ -85,6 +89,8 @@ class Map {
   /// Required list of distinct strings, each one of `options`, with a length in [min_count, max_count].
   std::vector<std::string> choices(std::string_view key, const std::vector<std::string>& options, std::size_t min_count,
                                    std::size_t max_count);
+  /// Required list of distinct non-empty strings, with a length in [min_count, max_count].
+  std::vector<std::string> strings(std::string_view key, std::size_t min_count, std::size_t max_count);
   /// Required list of numbers, each within `range`, with a length in [min_count, max_count].
   std::vector<double> numbers(std::string_view key, Range range, std::size_t min_count,
                               std::size_t max_count);

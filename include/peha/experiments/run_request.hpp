@@ -29,7 +29,8 @@ struct RunRequest {
   /// The hardware (hardware::BackendUri): "" or "sim:" in process, "udp://A.B.C.D:PORT[,...]" a
   /// real-time run on the board(s), "replay:<log.csv>" a recorded run fed to the controller.
   std::string backend;
-  std::string telemetry;                        ///< "udp://A.B.C.D:PORT" of a PlotJuggler server (empty: off)
+  std::string telemetry;                        ///< "udp://A.B.C.D:PORT" of a PlotJuggler server (empty: the scenario's, if any)
+  std::vector<std::string> telemetry_signals;   ///< --telemetry-signal: log columns or globs (empty: the scenario's, or the default)
   bool telemetry_remote = false;                ///< allow a non-loopback telemetry destination
   int fifo_priority = 80;                       ///< SCHED_FIFO priority of the loop (0 = don't ask)
   int cpu = -1;                                 ///< pin the loop to this CPU (-1 = don't)
@@ -40,9 +41,15 @@ struct RunRequest {
   std::function<std::filesystem::path(std::uint64_t seed)> open_run_dir;
 };
 
-/// --backend (through hardware::BackendUri), --telemetry and the real-time options; nullopt (after
-/// a message) when malformed.
+/// --backend (through hardware::BackendUri) and the real-time options; nullopt (after a message)
+/// when malformed. The telemetry is the run's (telemetry_options).
 std::optional<HardwareRunOptions> realtime_options(const RunRequest& request);
+/// The run's telemetry: the scenario's `telemetry:` section `scenario` with the command line over it
+/// (--telemetry, --telemetry-signal, --telemetry-remote), checked against the per-cycle log's
+/// `columns` (with the harness's own signals `on_boards`). nullopt after a message naming the
+/// scenario `doc_name` (an unknown signal names the closest column), before anything is written.
+std::optional<runtime::TelemetryOptions> telemetry_options(const std::string& doc_name, const runtime::TelemetryOptions& scenario,
+                                                          const std::vector<std::string>& columns, const RunRequest& request, bool on_boards);
 /// True if --backend gave one address per board of `link` or one for all (mfb::board_endpoints);
 /// otherwise prints why (naming the scenario `doc_name`) and returns false.
 bool check_board_addresses(const std::string& doc_name, const mfb::LinkConfig& link, const HardwareRunOptions& realtime);

@@ -5,7 +5,7 @@
 /// its warnings, the run's supervisor (runtime::Supervisor: lifecycle, fault detection, the
 /// operator's recovery - `r` + Enter on the terminal or `recover_after_s` - and the ramp back), the
 /// writer-thread CSV log with a dump of the last 5 s on every fault, optional PlotJuggler
-/// telemetry, a progress line and the timing statistics. It takes any io::Backend. The experiment's
+/// telemetry of the log's columns (log_telemetry.hpp), a progress line and the timing statistics. It takes any io::Backend. The experiment's
 /// loop gets `hooks()` (pacing, supervisor, timing) and `sink()` (its log rows).
 
 #include "peha/io/udp_socket.hpp"
@@ -14,6 +14,7 @@
 #include "peha/runtime/csv_log.hpp"
 #include "peha/runtime/interrupt.hpp"
 #include "peha/runtime/lifecycle.hpp"
+#include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/realtime.hpp"
 #include "peha/runtime/supervisor.hpp"
 #include "peha/runtime/telemetry.hpp"
@@ -31,11 +32,8 @@ namespace peha::runtime {
 
 struct RealtimeRunOptions {
   RealtimeOptions realtime;                    ///< SCHED_FIFO priority, CPU, mlockall
-  std::optional<io::UdpEndpoint> telemetry;    ///< PlotJuggler UDP server, if streaming
-  double telemetry_rate_Hz = 100;
-  /// The stream is unencrypted and unauthenticated: without this only a loopback destination is
-  /// accepted (--telemetry-remote).
-  bool telemetry_remote = false;
+  /// Live telemetry of the log's columns (and the harness's telemetry_extras), if a destination is set.
+  TelemetryOptions telemetry;
   double recover_after_s = -1;                 ///< unattended operator: recover this long after a fault (< 0: only 'r' on stdin)
   std::filesystem::path dir;                   ///< run directory: log, fault dumps, timing
   bool quiet = false;                          ///< no progress line
@@ -65,7 +63,11 @@ class RealtimeHarness {
   RealtimeHarness(const RealtimeHarness&) = delete;
   RealtimeHarness& operator=(const RealtimeHarness&) = delete;
 
-  /// Where the experiment's loop puts its rows (the writer thread's ring).
+  /// The signals the harness streams beside the log's columns: the last round trip (us) and the
+  /// lifecycle state (LifecycleState as a number).
+  static std::vector<std::string> telemetry_extras() { return {"rtt_us", "lifecycle_state"}; }
+
+  /// Where the experiment's loop puts its rows (the writer thread's ring, and the telemetry's tee).
   RowSink& sink() noexcept { return sink_; }
   /// Configures the calling thread for real time, starts the supervisor (configure - a board's
   /// session handshake, last in set-up - and activate), starts the clock, and returns the hooks the
@@ -78,13 +80,14 @@ class RealtimeHarness {
   void finish(RealtimeRunResult& result);
 
  private:
+  /// The log, then the telemetry (the row with the harness's extras).
   class Sink final : public RowSink {
    public:
-    explicit Sink(AsyncCsvLog& log) : log_(log) {}
-    void push_row(std::span<const double> row) noexcept override { log_.push(row); }
+    explicit Sink(RealtimeHarness& harness) : harness_(harness) {}
+    void push_row(std::span<const double> row) noexcept override;
 
    private:
-    AsyncCsvLog& log_;
+    RealtimeHarness& harness_;
   };
   bool after(const io::SensorState& state, const io::Command& sent) noexcept;
 
@@ -95,8 +98,7 @@ class RealtimeHarness {
   std::string label_;
   AsyncCsvLog log_;
   Sink sink_;
-  std::unique_ptr<Telemetry> telemetry_;
-  std::vector<double> telemetry_values_;
+  std::unique_ptr<LogTelemetry> telemetry_;
   PeriodicClock clock_;
   RealtimeRunResult result_;
   std::int64_t cycle_start_ns_ = 0, last_wake_ns_ = 0;

@@ -31,7 +31,7 @@ namespace peha::runtime {
 
 class Telemetry {
  public:
-  static constexpr std::size_t kMaxSignals = 128;
+  static constexpr std::size_t kMaxSignals = 256;  ///< an arm's whole log row (172 columns) and its degree views
   static constexpr std::size_t kMaxDatagramBytes = 1400;
   static constexpr std::size_t kMaxNameBytes = 200;  ///< per signal and group name, after JSON escaping
 
@@ -46,6 +46,9 @@ class Telemetry {
   Telemetry(const std::string& host, int port, double rate_Hz, std::string group, std::vector<std::string> signals,
             std::size_t queue_capacity = 256, bool allow_non_loopback = false);
   ~Telemetry();
+  /// Throws std::invalid_argument as the constructor does for a destination it refuses (not an
+  /// IPv4 address, a port outside 1..65535, not loopback without `allow_non_loopback`).
+  static void check_destination(const std::string& host, int port, bool allow_non_loopback);
   Telemetry(const Telemetry&) = delete;
   Telemetry& operator=(const Telemetry&) = delete;
 

@@ -418,6 +418,7 @@ ArmScenario read_arm_scenario(const config::Document& doc) {
   // constant-pressure hold keeps no pretension by design: its wires are not held to the tension floor.
   safety::read_monitor_params(root, s.limits.monitor);
   s.lifecycle = runtime::read_lifecycle(root);
+  s.telemetry = runtime::read_telemetry(root);
   for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
     if (s.controller.joints[i].mode == control::ArmJointMode::kHoldPressure) {
       s.limits.monitor.tension_checked[i] = false;

@@ -55,12 +55,23 @@ std::size_t failed_figures(const safety::Verdict& verdict) {
   return failed;
 }
 
-void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw, const runtime::CsvLog& log, const char* prefix,
+void finish_telemetry(runtime::TelemetryTee& tee) {
+  runtime::LogTelemetry* t = tee.telemetry();
+  if (!t) return;
+  t->close();
+  const runtime::Telemetry& s = t->telemetry();
+  fmt::print("  telemetry: {} signal(s), {} samples ({} dropped), {} datagrams -> udp://{}\n", t->selection().names.size(),
+             s.published_samples(), s.dropped_samples(), s.sent_datagrams(), t->destination().to_string());
+}
+
+void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw, const runtime::CsvLog& log, runtime::TelemetryTee& tee,
+                            const char* prefix,
                             const std::string& case_name, const std::vector<std::string>& comments, double simulated_s,
                             double realtime_factor) {
   const std::filesystem::path log_path = ctx.dir / fmt::format("{}_{}.csv", prefix, case_name);
   log.write(log_path, comments);
   fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", simulated_s, hw.replay ? "replayed" : "simulated", realtime_factor, log_path.string());
+  finish_telemetry(tee);
   if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}.csv", case_name));
 }
 
@@ -72,8 +83,14 @@ int run_sequence(const config::Document& doc, const RunRequest& request, Experim
   for (const std::size_t i : cases) {
     if (!names.empty()) selected.push_back(names[i]);
   }
-  RunContext ctx{{}, request, {}, {}};
+  RunContext ctx{{}, request, {}, {}, {}};
   if (!check_hardware(doc.name(), experiment.link(), selected, request, ctx.backend, ctx.realtime)) return 2;
+  const TelemetrySource streamed = experiment.telemetry_source();
+  const std::optional<runtime::TelemetryOptions> telemetry =
+      telemetry_options(doc.name(), streamed.scenario, streamed.columns, request, ctx.realtime.has_value());
+  if (!telemetry) return 2;
+  ctx.telemetry = *telemetry;
+  if (ctx.realtime) ctx.realtime->telemetry = *telemetry;
 
   // Only now, with everything loaded and checked, does the run leave a trace on disk.
   ctx.dir = request.open_run_dir(experiment.seed());

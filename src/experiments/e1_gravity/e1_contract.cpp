@@ -18,15 +18,16 @@ namespace {
 E1Result run_in_process(const E1Scenario& scenario, const E1Case& c, const RunContext& ctx) {
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
   runtime::CsvLog log(e1_log_columns(), rows);
+  runtime::TelemetryTee tee(log, ctx.telemetry, e1_log_columns());
   const hardware::Hardware hw = hardware::open_backend(ctx.backend, e1_hardware(scenario, c));
-  E1Result r = run_e1_on(scenario, c, *hw.backend, dynamic_cast<sim::OneDofRigBackend*>(hw.backend.get()), &log);
+  E1Result r = run_e1_on(scenario, c, *hw.backend, dynamic_cast<sim::OneDofRigBackend*>(hw.backend.get()), &tee);
   std::vector<std::string> comments = {fmt::format("case: {} ({} kg payload)", c.name, c.payload_kg),
                                        fmt::format("config: {}", ctx.request.config.string()), fmt::format("seed: {}", scenario.seed),
                                        "pressures gauge; plant_* columns are simulator truth the controller never sees"};
   if (hw.replay) {
     comments.back() = "pressures gauge; replayed from " + ctx.backend.replay_log.string() + ": the sensors are the log's, plant_* columns NaN";
   }
-  finish_in_process_case(ctx, hw, log, "e1", c.name, comments, r.simulated_s, r.realtime_factor);
+  finish_in_process_case(ctx, hw, log, tee, "e1", c.name, comments, r.simulated_s, r.realtime_factor);
   return r;
 }
 
@@ -46,6 +47,7 @@ class E1Job final : public ExperimentRun {
   }
 
   std::uint64_t seed() const override { return scenario_.seed; }
+  TelemetrySource telemetry_source() const override { return {e1_log_columns(), scenario_.telemetry}; }
   const mfb::LinkConfig* link() const override { return scenario_.link ? &*scenario_.link : nullptr; }
   std::vector<std::string> case_names() const override {
     std::vector<std::string> names;

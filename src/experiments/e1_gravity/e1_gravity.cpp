@@ -134,6 +134,7 @@ E1Scenario read_e1(const config::Document& doc, const char* experiment, const st
   s.verdict = safety::read_verdict_thresholds(root);
   safety::read_monitor_params(root, s.limits.monitor);
   s.lifecycle = runtime::read_lifecycle(root);
+  s.telemetry = runtime::read_telemetry(root);
   s.plant.faults = sim::read_plant_faults(root, sim::one_dof_rig_joint_names(), s.duration_s);
 
   for (config::Map c : root.maps("cases", 1, 16)) {

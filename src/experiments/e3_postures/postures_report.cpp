@@ -40,7 +40,7 @@ namespace {
 class PosturesJob final : public ExperimentRun {
  public:
   PosturesJob(const config::Document& doc, const RunRequest& request)
-      : scenario_(arm_scenario_for_run(doc, request, "E3 (postures)", true)), doc_name_(doc.name()) {
+      : scenario_(arm_scenario_for_run(doc, request, "E3 (postures)", true)), doc_name_(doc.name()), log_columns_(arm_log_columns(scenario_)) {
     for (const std::string& spec : request.faults) {
       try {
         scenario_.faults.push_back(sim::parse_fault_spec(spec, arm_joint_names(scenario_), postures_duration_s(scenario_)));
@@ -51,6 +51,7 @@ class PosturesJob final : public ExperimentRun {
   }
 
   std::uint64_t seed() const override { return scenario_.seed; }
+  TelemetrySource telemetry_source() const override { return {log_columns_, scenario_.telemetry}; }
   const mfb::LinkConfig* link() const override { return scenario_.link ? &*scenario_.link : nullptr; }
   std::vector<std::string> case_names() const override { return {}; }
 
@@ -76,7 +77,7 @@ class PosturesJob final : public ExperimentRun {
     // commands are written beside the recorded ones (replay_postures.csv).
     const hardware::Hardware hw = hardware::open_backend(ctx.backend, postures_hardware(scenario_));
     const double duration_s = postures_duration_s(scenario_);
-    runtime::CsvLog log(arm_log_columns(scenario_), static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
+    runtime::CsvLog log(log_columns_, static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
     std::vector<std::string> comments = {fmt::format("case: E3 postures, {}", scenario_.description),
                                          fmt::format("config: {}; seed {}", ctx.request.config.string(), scenario_.seed),
                                          "plant_* columns are simulator truth the controller never sees"};
@@ -85,8 +86,10 @@ class PosturesJob final : public ExperimentRun {
     } else {
       for (const sim::PlantFault& f : scenario_.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario_)));
     }
-    result_ = run_postures_on(scenario_, *hw.backend, dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), &log);
+    runtime::TelemetryTee tee(log, ctx.telemetry, log_columns_);
+    result_ = run_postures_on(scenario_, *hw.backend, dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), &tee);
     log.write(ctx.dir / "e3_postures.csv", comments);
+    finish_telemetry(tee);
     if (hw.replay) print_replay(*hw.replay, ctx.dir / "replay_postures.csv");
   }
 
@@ -103,6 +106,7 @@ class PosturesJob final : public ExperimentRun {
  private:
   ArmScenario scenario_;
   std::string doc_name_;
+  std::vector<std::string> log_columns_;  ///< of e3_postures.csv
   PosturesResult result_;
   std::optional<PosturesRealtimeResult> realtime_;
 };

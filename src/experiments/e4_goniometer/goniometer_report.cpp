@@ -78,7 +78,9 @@ void print_board_table(const std::vector<GoniometerRealtimeResult>& results) {
 class GoniometerJob final : public ExperimentRun {
  public:
   GoniometerJob(const config::Document& doc, const RunRequest& request)
-      : scenario_(arm_scenario_for_run(doc, request, "E4 (goniometer)", false)), doc_name_(doc.name()) {
+      : scenario_(arm_scenario_for_run(doc, request, "E4 (goniometer)", false)),
+        doc_name_(doc.name()),
+        log_columns_(goniometer_log_columns(scenario_)) {
     const auto& g = scenario_.goniometer;
     if (g.movements.empty()) {
       throw RequestError(fmt::format("{} has no goniometer: section (E4's sensor, filter and movements; docs/right-arm.md)", doc.name()));
@@ -94,6 +96,7 @@ class GoniometerJob final : public ExperimentRun {
   }
 
   std::uint64_t seed() const override { return scenario_.seed; }
+  TelemetrySource telemetry_source() const override { return {log_columns_, scenario_.telemetry}; }
   const mfb::LinkConfig* link() const override { return scenario_.link ? &*scenario_.link : nullptr; }
   /// The synthetic person's movements; a recording is one run.
   std::vector<std::string> case_names() const override {
@@ -129,18 +132,20 @@ class GoniometerJob final : public ExperimentRun {
     const double duration_s = goniometer_run_duration_s(scenario_, trace);
     fmt::print("{:.1f} s simulated, open-loop and feedback\n", duration_s);
     std::fflush(stdout);
-    runtime::CsvLog log(goniometer_log_columns(scenario_), static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
+    runtime::CsvLog log(log_columns_, static_cast<std::size_t>(duration_s / scenario_.period_s) + 2);
     const bool replay = ctx.backend.kind == hardware::BackendKind::kReplay;
     for (const auto variant : kVariants) {
       log.clear();
       // Both variants on a replayed log too: the one that recorded it gives its commands back.
       const hardware::Hardware hw = hardware::open_backend(ctx.backend, goniometer_hardware(scenario_, goniometer_plant_params(scenario_, traces)));
-      results_.push_back(run_goniometer(scenario_, traces, variant, hw, &log));
+      runtime::TelemetryTee tee(log, ctx.telemetry, log_columns_);
+      results_.push_back(run_goniometer(scenario_, traces, variant, hw, &tee));
       log.write(ctx.dir / fmt::format("e4_{}_{}.csv", trace.name, to_string(variant)),
                 {fmt::format("case: E4 goniometer-driven {}, movement {}, variant {}", driven_names(scenario_), trace.name, to_string(variant)),
                  fmt::format("config: {}; seed {}", ctx.request.config.string(), scenario_.seed),
                  replay ? "replayed from " + ctx.backend.replay_log.string() + ": sensors and goniometers are the log's, person_* the goniometer, plant_* NaN"
                         : "person_* is the person's true joint; plant_* columns are simulator truth the controller never sees"});
+      finish_telemetry(tee);
       if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}_{}.csv", trace.name, to_string(variant)));
     }
     if (recording_.empty() && !replay) {
@@ -181,6 +186,7 @@ class GoniometerJob final : public ExperimentRun {
  private:
   ArmScenario scenario_;
   std::string doc_name_;
+  std::vector<std::string> log_columns_;  ///< of e4_<movement>_<variant>.csv
   std::vector<GoniometerTrace> recording_;  ///< --goniometer-csv on every driven joint (empty: synthetic movements)
   std::vector<GoniometerResult> results_;
   std::vector<GoniometerRealtimeResult> board_results_;

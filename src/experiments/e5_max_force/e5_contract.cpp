@@ -16,9 +16,10 @@ namespace {
 E5Result run_in_process(const E5Scenario& scenario, const E5Case& c, const RunContext& ctx) {
   const auto rows = static_cast<std::size_t>(std::llround(scenario.duration_s / scenario.period_s)) + 1;
   runtime::CsvLog log(e5_log_columns(), rows);
+  runtime::TelemetryTee tee(log, ctx.telemetry, e5_log_columns());
   const hardware::Hardware hw = hardware::open_backend(ctx.backend, e5_hardware(scenario, c));
-  E5Result r = run_e5_on(scenario, c, *hw.backend, dynamic_cast<sim::OneDofRigBackend*>(hw.backend.get()), &log);
-  finish_in_process_case(ctx, hw, log, "e5", c.name,
+  E5Result r = run_e5_on(scenario, c, *hw.backend, dynamic_cast<sim::OneDofRigBackend*>(hw.backend.get()), &tee);
+  finish_in_process_case(ctx, hw, log, tee, "e5", c.name,
                          {fmt::format("case: {} (clamp at {} deg)", c.name, r.locked_angle_deg), fmt::format("config: {}", ctx.request.config.string()),
                           fmt::format("seed: {}", scenario.seed),
                           "pressures gauge; stop: 0 none, 1 force ceiling, 2 supply, 3 rate limit, 4 supervisor; "
@@ -34,6 +35,7 @@ class E5Job final : public ExperimentRun {
   }
 
   std::uint64_t seed() const override { return scenario_.seed; }
+  TelemetrySource telemetry_source() const override { return {e5_log_columns(), scenario_.telemetry}; }
   const mfb::LinkConfig* link() const override { return scenario_.link ? &*scenario_.link : nullptr; }
   std::vector<std::string> case_names() const override {
     std::vector<std::string> names;

@@ -70,6 +70,7 @@ E5Scenario read_e5(const config::Document& doc) {
   s.verdict = safety::read_verdict_thresholds(root);
   safety::read_monitor_params(root, s.limits.monitor);  // the supervisor's plausibility stage (docs/safety.md)
   s.lifecycle = runtime::read_lifecycle(root);
+  s.telemetry = runtime::read_telemetry(root);
 
   for (config::Map c : root.maps("cases", 1, 16)) {
     E5Case e;

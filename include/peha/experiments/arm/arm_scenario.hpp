@@ -6,6 +6,7 @@
 
 #include "peha/config/reader.hpp"
 #include "peha/control/arm_controller.hpp"
+#include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/mfb/link_config.hpp"
 #include "peha/runtime/control_loop.hpp"
@@ -31,6 +32,8 @@ struct ArmScenario {
   std::optional<mfb::LinkConfig> link;   ///< optional `mfb:` section: the board link
   /// The lifecycle supervisor's parameters (`lifecycle:`): the same in process and on the board.
   runtime::SupervisorParams lifecycle;
+  /// The scenario's live telemetry (`telemetry:`, runtime::read_telemetry): what streams unless the command line says otherwise.
+  runtime::TelemetryOptions telemetry;
   std::uint64_t seed = 1;
   double period_s = 1e-3;
   control::ArmControllerModel controller;

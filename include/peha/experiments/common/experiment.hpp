@@ -16,6 +16,7 @@
 #include "peha/mfb/channel_map.hpp"
 #include "peha/mfb/link_config.hpp"
 #include "peha/runtime/csv_log.hpp"
+#include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/supervisor.hpp"
 
 #include <cstdint>
@@ -56,7 +57,15 @@ struct RunContext {
   std::filesystem::path dir;
   const RunRequest& request;
   hardware::BackendUri backend;                ///< sim:, replay: (in process) or udp:// (real time)
-  std::optional<HardwareRunOptions> realtime;  ///< set on boards only (dir filled in)
+  std::optional<HardwareRunOptions> realtime;  ///< set on boards only (dir filled in, and the telemetry)
+  runtime::TelemetryOptions telemetry;         ///< the run's (telemetry_options): in process a TelemetryTee streams with it
+};
+
+/// What an experiment's live telemetry can stream: its per-cycle log's columns (empty: it has none)
+/// and the scenario's `telemetry:` section (runtime::read_telemetry).
+struct TelemetrySource {
+  std::vector<std::string> columns;
+  runtime::TelemetryOptions scenario;
 };
 
 /// What an experiment concluded: the figures it judged that failed, and what it wrote.
@@ -86,6 +95,8 @@ class ExperimentRun {
   virtual void run_case(std::size_t i, const RunContext& ctx) = 0;
   /// Writes the summary files, prints the table and the verdict.
   virtual Conclusion conclude(const RunContext& ctx) = 0;
+  /// What --telemetry can stream (checked before anything is written); default: no per-cycle log.
+  virtual TelemetrySource telemetry_source() const { return {}; }
 };
 
 /// The one run sequence: selects the cases (--case, listing them when none matches), checks the
@@ -151,10 +162,15 @@ std::optional<std::size_t> emulator_case(const config::Document& doc, const std:
 /// The scenario's mfb: section exists; false after a message.
 bool has_link(const config::Document& doc, const std::optional<mfb::LinkConfig>& link);
 
+/// The end of a case's stream in process: sends what is queued and prints what streamed (nothing
+/// when `tee` was not streaming).
+void finish_telemetry(runtime::TelemetryTee& tee);
+
 /// The end of a case run in process through the door: writes its per-cycle log `<prefix>_<case>.csv`
-/// with `comments`, prints how long it ran and how fast, and for a replay writes the commands beside
-/// the recorded ones (replay_<case>.csv).
-void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw, const runtime::CsvLog& log, const char* prefix,
+/// with `comments`, prints how long it ran and how fast, ends its stream (`tee`, finish_telemetry),
+/// and for a replay writes the commands beside the recorded ones (replay_<case>.csv).
+void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw, const runtime::CsvLog& log, runtime::TelemetryTee& tee,
+                            const char* prefix,
                             const std::string& case_name, const std::vector<std::string>& comments, double simulated_s,
                             double realtime_factor);
 

@@ -12,6 +12,7 @@
 #include "peha/config/reader.hpp"
 #include "peha/mfb/link_config.hpp"
 #include "peha/models/joint.hpp"
+#include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/control_loop.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/safety/limits.hpp"
@@ -54,6 +55,8 @@ struct E5Scenario {
   std::optional<mfb::LinkConfig> link;  ///< optional `mfb:` section: the run over the board
   /// The lifecycle supervisor's parameters (`lifecycle:`): the same in process and on the board.
   runtime::SupervisorParams lifecycle;
+  /// The scenario's live telemetry (`telemetry:`, runtime::read_telemetry): what streams unless the command line says otherwise.
+  runtime::TelemetryOptions telemetry;
 };
 
 /// Reads a whole E5 scenario file; throws config::Error on anything the schema does not accept.
