@@ -55,6 +55,7 @@ class Renderer {
   /// Renders time t; returns the frame, top row first.
   const std::vector<unsigned char>& render(double t, const FrameSetter& set) {
     frame_.arrows.clear();
+    frame_.muscles.clear();
     frame_.overlay_names.clear();
     frame_.overlay_values.clear();
     data_->time = t;
@@ -62,9 +63,12 @@ class Renderer {
     mj_kinematics(model_, data_.get());
     mj_comPos(model_, data_.get());
     mjv_updateScene(model_, data_.get(), &option_, nullptr, &camera_, mjCAT_ALL, &scene_);
+    add_machine_geoms(model_, data_.get(), o_.machine.kind, o_.machine.supply_pressure_MPa, frame_.muscles, scene_);
     for (const Arrow& a : frame_.arrows) add_arrow(a);
+    if (o_.machine.kind != MachineKind::kNone) add_key_light();
     const mjrRect viewport{0, 0, o_.width, o_.height};
     mjr_render(viewport, &scene_, &context_);
+    if (o_.machine.kind != MachineKind::kNone) draw_pressure_legend();
     if (!o_.inset.empty()) draw_inset(t);
     mjr_overlay(mjFONT_NORMAL, mjGRID_TOPLEFT, viewport, frame_.overlay_names.c_str(), frame_.overlay_values.c_str(), &context_);
     if (!o_.title.empty()) mjr_overlay(mjFONT_BIG, mjGRID_TOPRIGHT, viewport, o_.title.c_str(), nullptr, &context_);
@@ -82,6 +86,41 @@ class Renderer {
     mjv_makeConnector(g, mjGEOM_ARROW, a.width_m, a.from[0], a.from[1], a.from[2], a.to[0], a.to[1], a.to[2]);
     g->category = mjCAT_DECOR;
     ++scene_.ngeom;
+  }
+
+  /// A light from above, in front and to the camera's left, as in a lab under ceiling lights; the
+  /// headlight stays as a fill.
+  void add_key_light() {
+    if (scene_.nlight >= mjMAXLIGHT) return;
+    mjvLight& l = scene_.lights[scene_.nlight++];
+    l = mjvLight{};
+    const double az = camera_.azimuth * M_PI / 180;
+    const double d[3] = {std::cos(az) + 0.5 * std::sin(az), std::sin(az) - 0.5 * std::cos(az), -1.6};
+    const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; ++k) {
+      l.dir[k] = static_cast<float>(d[k] / n);
+      l.pos[k] = static_cast<float>(camera_.lookat[k] - 4 * d[k] / n);
+      l.ambient[k] = 0.1f;
+      l.diffuse[k] = 0.6f;
+      l.specular[k] = 0.2f;
+    }
+    l.attenuation[0] = 1;
+    l.cutoff = 180;
+    l.directional = 1;
+    l.castshadow = 0;  // a shadow map costs llvmpipe three to four times the frame
+  }
+
+  /// The muscles' colour scale, 0 .. supply, bottom left.
+  void draw_pressure_legend() {
+    constexpr int kSteps = 24, kBarW = 240, kBarH = 14, kX = 12, kY = 34;
+    for (int i = 0; i < kSteps; ++i) {
+      const auto c = pressure_rgba(o_.machine.supply_pressure_MPa * (i + 0.5) / kSteps, o_.machine.supply_pressure_MPa);
+      mjr_rectangle(mjrRect{kX + i * kBarW / kSteps, kY, kBarW / kSteps + 1, kBarH}, c[0], c[1], c[2], 1);
+    }
+    const std::string top = fmt::format("{:.1f} MPa", o_.machine.supply_pressure_MPa);
+    mjr_overlay(mjFONT_NORMAL, mjGRID_BOTTOMLEFT, mjrRect{kX - 6, kY - 30, kBarW, 30}, "0", nullptr, &context_);
+    mjr_overlay(mjFONT_NORMAL, mjGRID_BOTTOMRIGHT, mjrRect{kX, kY - 30, kBarW + 6, 30}, top.c_str(), nullptr, &context_);
+    mjr_overlay(mjFONT_NORMAL, mjGRID_BOTTOMLEFT, mjrRect{kX - 6, kY + kBarH - 4, kBarW, 30}, "muscle pressure", nullptr, &context_);
   }
 
   /// The inset: each series over [t - window, t], bottom right.

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <sstream>
@@ -36,16 +37,62 @@ class Sampler {
   double w_ = 0;
 };
 
-/// The qpos address of the joint a log names `joint`: that joint, or ("sfe" on one arm) R_SFE, then
-/// L_SFE; "r_saa": R_SAA. -1 when the model has none.
-int joint_qpos(const mjModel* model, const std::string& joint) {
+/// The id of the joint a log names `joint`: that joint, or ("sfe" on one arm) R_SFE, then L_SFE;
+/// "r_saa": R_SAA. -1 when the model has none.
+int joint_id(const mjModel* model, const std::string& joint) {
   std::string upper = joint;
   for (char& ch : upper) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
   for (const std::string& name : {joint, upper, "R_" + upper, "L_" + upper}) {
     const int id = mj_name2id(model, mjOBJ_JOINT, name.c_str());
-    if (id >= 0) return model->jnt_qposadr[id];
+    if (id >= 0) return id;
   }
   return -1;
+}
+
+/// Its qpos address, -1 when the model has none.
+int joint_qpos(const mjModel* model, const std::string& joint) {
+  const int id = joint_id(model, joint);
+  return id >= 0 ? model->jnt_qposadr[id] : -1;
+}
+
+/// A joint's muscle columns: contraction (plant truth) and the chamber's pressure (plant truth, else
+/// the sensor, else the command); nullptr where the log has none.
+struct MuscleColumns {
+  std::array<const std::vector<double>*, 2> contraction{}, pressure_MPa{};
+};
+
+MuscleColumns muscle_columns(const LogTable& log, const std::string& prefix) {
+  MuscleColumns c;
+  const std::array<std::string, 2> muscles{"agonist", "antagonist"};
+  for (std::size_t m = 0; m < 2; ++m) {
+    auto column = [&](const std::string& name) { return log.has(prefix + name) ? &log.at(prefix + name) : nullptr; };
+    c.contraction[m] = column("plant_" + muscles[m] + "_contraction");
+    for (const std::string& p : {"plant_" + muscles[m] + "_pressure_MPa", muscles[m] + "_pressure_MPa", muscles[m] + "_pressure_cmd_MPa"}) {
+      if (!c.pressure_MPa[m]) c.pressure_MPa[m] = column(p);
+    }
+  }
+  return c;
+}
+
+/// The scenario's look of a MuJoCo joint, or the defaults (JointLook) under its name.
+JointLook look_of(const MachineLook& machine, const mjModel* model, int joint) {
+  const char* name = joint >= 0 ? mj_id2name(model, mjOBJ_JOINT, joint) : nullptr;
+  for (const JointLook& j : machine.joints) {
+    if (name && j.joint == name) return j;
+  }
+  JointLook look;
+  look.joint = name ? name : "";
+  return look;
+}
+
+/// A joint's muscles at the sampler's time (NaN where the log has no column).
+JointMuscles muscles_at(const Sampler& s, const MuscleColumns& c, int joint, const JointLook& look) {
+  JointMuscles j{joint, look, {}};
+  for (std::size_t m = 0; m < 2; ++m) {
+    j.muscle[m].contraction = c.contraction[m] ? s(*c.contraction[m]) : std::nan("");
+    j.muscle[m].pressure_MPa = c.pressure_MPa[m] ? s(*c.pressure_MPa[m]) : std::nan("");
+  }
+  return j;
 }
 
 int qpos_of(const mjModel* m, const std::string& joint) {
@@ -62,12 +109,25 @@ std::vector<double>& derived(LogTable& log, const std::string& name, const std::
   return out;
 }
 
-/// Points the free camera at everything the clip will show: the bounding box of the geoms over
-/// poses sampled through the clip (once per second), seen across its thinnest horizontal side.
+/// Points the free camera at everything the clip will show. With the machine drawn: as the paper's
+/// figures show it (machine_camera, from the pose at t = 0). The model alone: the bounding box of
+/// the geoms over poses sampled through the clip (once per second), seen across its thinnest
+/// horizontal side.
 void frame_model(mjModel* m, const FrameSetter& set, double duration_s, ClipOptions& o) {
   mjData* d = mj_makeData(m);
-  double lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
   Frame scratch;
+  if (o.machine.kind != MachineKind::kNone) {
+    set(0.0, d, scratch);
+    mj_kinematics(m, d);
+    const CameraPose c = machine_camera(m, d, o.machine.kind);
+    mj_deleteData(d);
+    o.lookat = c.lookat;
+    o.distance_m = c.distance_m;
+    o.azimuth_deg = c.azimuth_deg;
+    o.elevation_deg = c.elevation_deg;
+    return;
+  }
+  double lo[3] = {1e9, 1e9, 1e9}, hi[3] = {-1e9, -1e9, -1e9};
   for (double t = 0; t <= duration_s + 1e-9; t += std::max(1.0, duration_s / 200)) {
     set(t, d, scratch);
     mj_kinematics(m, d);
@@ -137,6 +197,7 @@ struct LogJoint {
   std::string prefix;
   int qpos = -1;
   std::string label;
+  int id = -1;  ///< MuJoCo joint id
 };
 
 /// Every joint with a column `<prefix><suffix>` whose prefix names a joint of `model` (an empty
@@ -152,11 +213,11 @@ std::vector<LogJoint> log_joints(const LogTable& log, const mjModel* model, cons
     }
     if (prefix.back() != '_') continue;
     const std::string joint = prefix.substr(0, prefix.size() - 1);
-    const int q = joint_qpos(model, joint);
-    if (q < 0) continue;
+    const int id = joint_id(model, joint);
+    if (id < 0) continue;
     std::string label = joint;
     for (char& ch : label) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
-    out.push_back({prefix, q, label});
+    out.push_back({prefix, model->jnt_qposadr[id], label, id});
   }
   return out;
 }
@@ -170,6 +231,10 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
   if (log.has("plant_angle_rad") && log.has("finger_force_N")) {  // E1, the one-DOF rig
     const int q = qpos_of(model, "joint");
     const int tip = mj_name2id(model, mjOBJ_SITE, "tip");
+    o.machine.kind = MachineKind::kRig;
+    const int id = mj_name2id(model, mjOBJ_JOINT, "joint");
+    const JointLook look = look_of(o.machine, model, id);
+    const MuscleColumns muscles = muscle_columns(log, "");
     const auto& angle_deg = derived(log, "video_angle_deg", "plant_angle_rad", models::kDegPerRad);
     o.inset = {{"angle / deg", &t, &angle_deg, blue}, {"finger / N", &t, &log.at("finger_force_N"), orange}};
     o.inset_title = "link angle and finger force";
@@ -180,6 +245,7 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
       const double plant = s(L->at("plant_angle_rad"));
       const double angle = std::isfinite(plant) || !L->has("angle_rad") ? plant : s(L->at("angle_rad"));
       d->qpos[q] = angle;
+      f.muscles.push_back(muscles_at(s, muscles, id, look));
       const double finger = s(L->at("finger_force_N"));
       const bool active = s.nearest(L->at("finger_active")) > 0.5;
       f.overlay_names = "time\nangle\nfinger\nF agonist / antagonist\np agonist / antagonist\nmotor";
@@ -215,6 +281,9 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
     }
     o.inset_title = e3.size() > 1 ? fmt::format("{} and {} angles", e3[0].label, e3[1].label) : e3[0].label + " angle";
     const bool compact = e3.size() > 3;  // two arms: one line per joint
+    o.machine.kind = MachineKind::kArm;
+    std::vector<std::pair<MuscleColumns, JointLook>> muscles;
+    for (const LogJoint& j : e3) muscles.emplace_back(muscle_columns(log, j.prefix), look_of(o.machine, model, j.id));
     return [=](double time, mjData* d, Frame& f) {
       sample->seek(time);
       const Sampler& s = *sample;
@@ -224,6 +293,8 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
         auto c = [&](const char* what) { return s(L->at(j.prefix + what)); };
         const double angle = std::isfinite(c("plant_angle_rad")) ? c("plant_angle_rad") : c("angle_rad");  // board: encoder
         d->qpos[j.qpos] = angle;
+        const auto& [columns, look] = muscles[static_cast<std::size_t>(&j - e3.data())];
+        f.muscles.push_back(muscles_at(s, columns, j.id, look));
         if (compact) {
           names += fmt::format("\n{}", j.label);
           values += fmt::format("\n{:.1f} deg  {:.0f} / {:.0f} N", models::rad_to_deg(angle), c("plant_agonist_force_N"), c("plant_antagonist_force_N"));
@@ -240,7 +311,11 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
   // E4: each driven joint's `<prefix>plant_elbow_deg` ("" for one elbow: R_EFE; "r_efe_" ...), each held
   // joint's `plant_<joint>_deg`.
   std::vector<LogJoint> driven = log_joints(log, model, "plant_elbow_deg");
-  if (driven.size() == 1 && driven[0].prefix.empty()) driven[0].qpos = joint_qpos(model, "efe"), driven[0].label = "EFE";
+  if (driven.size() == 1 && driven[0].prefix.empty()) {
+    driven[0].id = joint_id(model, "efe");
+    driven[0].qpos = joint_qpos(model, "efe");
+    driven[0].label = "EFE";
+  }
   std::erase_if(driven, [](const LogJoint& j) { return j.qpos < 0; });
   if (!driven.empty()) {
     std::vector<std::pair<int, std::string>> held;  // qpos, column
@@ -254,6 +329,9 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
     o.inset = {{"person / deg", &t, &log.at(first.prefix + "person_elbow_deg"), green},
                {"exo / deg", &t, &log.at(first.prefix + "plant_elbow_deg"), blue}};
     o.inset_title = driven.size() > 1 ? first.label + ": person and exoskeleton" : "elbow: person and exoskeleton";
+    o.machine.kind = MachineKind::kArm;
+    std::vector<std::pair<MuscleColumns, JointLook>> muscles;
+    for (const LogJoint& j : driven) muscles.emplace_back(muscle_columns(log, j.prefix), look_of(o.machine, model, j.id));
     return [=](double time, mjData* d, Frame& f) {
       sample->seek(time);
       const Sampler& s = *sample;
@@ -265,6 +343,8 @@ FrameSetter log_frame_setter(LogTable& log, const mjModel* model, ClipOptions& o
         auto c = [&](const char* what) { return s(L->at(j.prefix + what)); };
         const double elbow = c("plant_elbow_deg");
         d->qpos[j.qpos] = models::deg_to_rad(std::isfinite(elbow) ? elbow : c("elbow_encoder_deg"));  // board: encoder
+        const auto& [columns, look] = muscles[static_cast<std::size_t>(&j - driven.data())];
+        f.muscles.push_back(muscles_at(s, columns, j.id, look));
         const std::string who = driven.size() > 1 ? j.label + " " : std::string();
         names += fmt::format("\n{}person\n{}exo\n  F agonist / antagonist\n  p cmd\n  motor", who, who);
         values += fmt::format("\n{:.1f} deg\n{:.1f} deg\n{}\n{:.2f} Nm", c("person_elbow_deg"), elbow,

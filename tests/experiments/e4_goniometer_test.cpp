@@ -134,8 +134,10 @@ TEST(E4, LogColumnsFollowTheDrivenAndHeldJoints) {
                         "wfe_tau_motor_cmd_Nm"}) {
     EXPECT_THAT(one, ::testing::Contains(std::string(c)));
   }
-  EXPECT_EQ(one.size(), 20u + 3 * 11 - 5);  // as before the joint list: 2 + 8 + 2 + 7 + 1, then SFE, EFE, WFE
-  EXPECT_EQ(one[19], "plant_tension_min_N");  // the old columns first, where they were
+  // before the joint list: 2 + 8 + 2 + 11 (the actuator block: 7, then the muscles' contraction and
+  // pressure for the video) + 1, then SFE, EFE, WFE
+  EXPECT_EQ(one.size(), 24u + 3 * 11 - 5);
+  EXPECT_EQ(one[23], "plant_tension_min_N");
   const ArmScenario upper = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/upper_body.yaml"));
   const std::vector<std::string> both = goniometer_log_columns(upper);
   for (const char* c : {"r_efe_person_elbow_deg", "l_efe_person_elbow_deg", "r_efe_plant_elbow_deg", "l_efe_tau_motor_cmd_Nm",
@@ -143,7 +145,7 @@ TEST(E4, LogColumnsFollowTheDrivenAndHeldJoints) {
     EXPECT_THAT(both, ::testing::Contains(std::string(c)));
   }
   EXPECT_THAT(both, ::testing::Not(::testing::Contains(std::string("person_elbow_deg"))));
-  EXPECT_EQ(both.size(), 2u + 2 * 8 + 4 * 2 + 2 * 7 + 1 + 8 * 11 - 2 * 5);
+  EXPECT_EQ(both.size(), 2u + 2 * 8 + 4 * 2 + 2 * 11 + 1 + 8 * 11 - 2 * 5);
 }
 
 // Each driven joint's goniometer is its own sensor: the same movement, its own noise; the first is the

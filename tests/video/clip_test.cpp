@@ -148,6 +148,59 @@ TEST(VideoClip, AnUnknownLogIsSkippedWithTheReason) {
   std::filesystem::remove_all(dir);
 }
 
+/// Pixels of `pressurised` that are the colour scale's red (R high, G and B low) where `vented` shows
+/// the vented grey-blue (B above R) at the same place: the muscle that filled.
+int muscle_pixels_turned_red(const std::vector<unsigned char>& vented, const std::vector<unsigned char>& pressurised) {
+  int n = 0;
+  for (std::size_t i = 0; i + 2 < vented.size(); i += 3) {
+    const bool was_blue = vented[i + 2] > vented[i] + 10;
+    const bool is_red = pressurised[i] > 120 && pressurised[i] > 2 * pressurised[i + 1] && pressurised[i] > 2 * pressurised[i + 2];
+    n += was_blue && is_red;
+  }
+  return n;
+}
+
+// The rig's agonist (DMSP-40, 400 mm, 40 mm across) drawn vented at t = 0 and at the supply
+// (0.8 MPa, contracted 20 %) at t = 1: its pixels turn from grey-blue to red. At 640 x 360 from the
+// side camera (about 210 px per m) the muscle covers some 700 px; at least 250 must turn. Rendering
+// both frames vented turns none: the count sees the pressure, not the scene.
+TEST(VideoClip, AMuscleTurnsFromGreyBlueToRedWhenPressurised) {
+  sim::ModelPtr model = sim::load_mjcf(rig_model_file());
+  const int joint = mj_name2id(model.get(), mjOBJ_JOINT, "joint");
+  ClipOptions o;
+  o.width = 640;
+  o.height = 360;
+  o.machine.kind = MachineKind::kRig;
+  o.machine.supply_pressure_MPa = 0.8;
+  auto setter = [joint](bool pressurise) {
+    return [joint, pressurise](double t, mjData* d, Frame& f) {
+      d->qpos[0] = 0.0;
+      JointMuscles m{joint, JointLook{}, {}};
+      if (pressurise && t > 0.5) m.muscle[0] = MuscleState{0.2, 0.8};
+      f.muscles.push_back(m);
+    };
+  };
+  {
+    mjData* d = mj_makeData(model.get());
+    mj_kinematics(model.get(), d);
+    const CameraPose c = machine_camera(model.get(), d, MachineKind::kRig);
+    mj_deleteData(d);
+    o.lookat = c.lookat;
+    o.distance_m = c.distance_m;
+    o.azimuth_deg = c.azimuth_deg;
+    o.elevation_deg = c.elevation_deg;
+  }
+  const OffscreenContext gl;
+  const auto frames = render_frames(model.get(), {0.0, 1.0}, setter(true), o, gl);
+  const int turned = muscle_pixels_turned_red(frames[0], frames[1]);
+  const auto unchanged = render_frames(model.get(), {0.0, 1.0}, setter(false), o, gl);
+  const int turned_without_pressure = muscle_pixels_turned_red(unchanged[0], unchanged[1]);
+  std::printf("muscle pixels turned red: %d pressurised, %d vented twice\n", turned, turned_without_pressure);
+  RecordProperty("muscle_pixels_turned_red", std::to_string(turned));
+  EXPECT_GE(turned, 250);
+  EXPECT_EQ(turned_without_pressure, 0);
+}
+
 // A two-armed E3 log (the upper body's columns, prefixed by side) makes a clip: every joint named by a
 // `<joint>_plant_angle_rad` column drives its joint of the upper body's model, each side its own.
 TEST(VideoClip, ATwoArmedPosturesLogDrivesBothArms) {

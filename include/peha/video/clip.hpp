@@ -5,6 +5,7 @@
 /// plot of logged signals up to the frame's time, encoded by ffmpeg. The clip replays what was
 /// logged; it never steps a simulation.
 
+#include "peha/video/machine_scene.hpp"
 #include "peha/video/offscreen.hpp"
 
 #include <mujoco/mujoco.h>
@@ -28,6 +29,7 @@ struct Arrow {
 struct Frame {
   std::string overlay_names, overlay_values;  ///< two columns of the text overlay (lines separated by \n)
   std::vector<Arrow> arrows;
+  std::vector<JointMuscles> muscles;  ///< the actuated joints' muscles (drawn when ClipOptions::machine is not kNone)
 };
 
 /// A logged signal for the inset plot.
@@ -48,6 +50,7 @@ struct ClipOptions {
   double azimuth_deg = 90;
   double elevation_deg = -10;
   std::string title;                   ///< top-right overlay, e.g. "E1 payload_5.0kg"
+  MachineLook machine;                 ///< muscles, cables and scenery drawn around the model (kNone: the model alone)
   std::vector<Series> inset;           ///< inset plot of these (empty: none)
   std::string inset_title;
   double inset_window_s = 10;          ///< the inset shows the last this many seconds

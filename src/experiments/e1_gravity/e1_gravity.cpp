@@ -166,7 +166,8 @@ const std::vector<std::string>& e1_log_columns() {
       "agonist_force_cmd_N", "antagonist_force_cmd_N", "agonist_loadcell_N", "antagonist_loadcell_N",
       "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_pressure_MPa", "antagonist_pressure_MPa",
       "plant_angle_rad", "plant_agonist_tension_N", "plant_antagonist_tension_N",
-      "plant_agonist_force_N", "plant_antagonist_force_N", "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags", "fault_flags"};
+      "plant_agonist_force_N", "plant_antagonist_force_N", "plant_agonist_contraction", "plant_antagonist_contraction",
+      "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags", "fault_flags"};
   return columns;
 }
 
@@ -341,7 +342,8 @@ struct E1LogRow {
   double t_s, angle_rad, velocity_radps, finger_force_N, finger_active, tau_desired_Nm, tau_pam_cmd_Nm, tau_pam_measured_Nm,
       tau_motor_cmd_Nm, agonist_force_cmd_N, antagonist_force_cmd_N, agonist_loadcell_N, antagonist_loadcell_N, agonist_pressure_cmd_MPa,
       antagonist_pressure_cmd_MPa, agonist_pressure_MPa, antagonist_pressure_MPa, plant_angle_rad, plant_agonist_tension_N,
-      plant_antagonist_tension_N, plant_agonist_force_N, plant_antagonist_force_N, plant_cable_friction_Nm, plant_constraint_Nm, limit_flags,
+      plant_antagonist_tension_N, plant_agonist_force_N, plant_antagonist_force_N, plant_agonist_contraction,
+      plant_antagonist_contraction, plant_cable_friction_Nm, plant_constraint_Nm, limit_flags,
       fault_flags;
 };
 using E1LogColumns = decltype(as_columns(E1LogRow{}));
@@ -373,6 +375,8 @@ void e1_log_row(const io::SensorState& state, const io::JointCommand& cmd, const
       .plant_antagonist_tension_N = t ? t->pulley_tension_min_N[1] : kNaN,
       .plant_agonist_force_N = t ? t->muscle_force_N[0] : kNaN,
       .plant_antagonist_force_N = t ? t->muscle_force_N[1] : kNaN,
+      .plant_agonist_contraction = t ? t->muscle_contraction[0] : kNaN,
+      .plant_antagonist_contraction = t ? t->muscle_contraction[1] : kNaN,
       .plant_cable_friction_Nm = t ? t->cable_friction_Nm : kNaN,
       .plant_constraint_Nm = t ? t->constraint_torque_Nm : kNaN,
       .limit_flags = static_cast<double>(limit_flags),

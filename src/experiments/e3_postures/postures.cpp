@@ -41,7 +41,8 @@ std::vector<std::string> arm_log_columns(const ArmScenario& scenario) {
     for (const char* f : {"angle_rad", "plant_angle_rad", "tau_gravity_Nm", "tau_desired_Nm", "tau_motor_cmd_Nm",
                           "operator_torque_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
                           "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_gravity_Nm",
-                          "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N", "agonist_pressure_MPa",
+                          "plant_constraint_Nm", "plant_agonist_tension_N", "plant_antagonist_tension_N", "plant_agonist_contraction",
+                          "plant_antagonist_contraction", "agonist_pressure_MPa",
                           "antagonist_pressure_MPa", "supply_pressure_MPa", "redundant_angle_rad", "motor_torque_monitor_Nm"}) {
       c.push_back(fmt::format("{}_{}", arm_log_prefix(scenario, j), f));
     }
@@ -114,7 +115,8 @@ namespace {
 struct ArmJointColumns {
   double angle_rad, plant_angle_rad, tau_gravity_Nm, tau_desired_Nm, tau_motor_cmd_Nm, operator_torque_Nm, agonist_pressure_cmd_MPa,
       antagonist_pressure_cmd_MPa, agonist_loadcell_N, antagonist_loadcell_N, plant_agonist_force_N, plant_antagonist_force_N,
-      plant_gravity_Nm, plant_constraint_Nm, plant_agonist_tension_N, plant_antagonist_tension_N, agonist_pressure_MPa,
+      plant_gravity_Nm, plant_constraint_Nm, plant_agonist_tension_N, plant_antagonist_tension_N, plant_agonist_contraction,
+      plant_antagonist_contraction, agonist_pressure_MPa,
       antagonist_pressure_MPa, supply_pressure_MPa, redundant_angle_rad, motor_torque_monitor_Nm;
 };
 
@@ -215,6 +217,8 @@ struct PosturesRun {
           .plant_antagonist_force_N = j ? j->muscle_force_N[1] : kNaN, .plant_gravity_Nm = truth ? truth->bias_torque_Nm[a] : kNaN,
           .plant_constraint_Nm = truth ? truth->constraint_torque_Nm[a] : kNaN,
           .plant_agonist_tension_N = j ? j->pulley_tension_min_N[0] : kNaN, .plant_antagonist_tension_N = j ? j->pulley_tension_min_N[1] : kNaN,
+          .plant_agonist_contraction = j ? j->muscle_contraction[0] : kNaN,
+          .plant_antagonist_contraction = j ? j->muscle_contraction[1] : kNaN,
           .agonist_pressure_MPa = s.agonist_pressure_Pa * 1e-6, .antagonist_pressure_MPa = s.antagonist_pressure_Pa * 1e-6,
           .supply_pressure_MPa = s.supply_pressure_Pa * 1e-6, .redundant_angle_rad = s.redundant_angle_rad,
           .motor_torque_monitor_Nm = s.motor_torque_Nm});

@@ -241,7 +241,8 @@ std::vector<std::string> goniometer_own_columns(const ArmScenario& scenario) {
   }
   for (const int j : g.joints) {
     for (const char* c : {"tau_motor_cmd_Nm", "agonist_pressure_cmd_MPa", "antagonist_pressure_cmd_MPa", "agonist_loadcell_N",
-                          "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N"}) {
+                          "antagonist_loadcell_N", "plant_agonist_force_N", "plant_antagonist_force_N", "plant_agonist_contraction",
+                          "plant_antagonist_contraction", "plant_agonist_pressure_MPa", "plant_antagonist_pressure_MPa"}) {
       columns.push_back(prefix(j) + c);
     }
   }
@@ -420,7 +421,8 @@ struct HeldColumns {
 /// A driven joint's actuator block.
 struct DrivenActuatorColumns {
   double tau_motor_cmd_Nm, agonist_pressure_cmd_MPa, antagonist_pressure_cmd_MPa, agonist_loadcell_N, antagonist_loadcell_N,
-      plant_agonist_force_N, plant_antagonist_force_N;
+      plant_agonist_force_N, plant_antagonist_force_N, plant_agonist_contraction, plant_antagonist_contraction, plant_agonist_pressure_MPa,
+      plant_antagonist_pressure_MPa;
 };
 
 /// One E4 run: the controller, its per-cycle step (goniometer -> filter -> inverse dynamics ->
@@ -629,7 +631,11 @@ struct GoniometerRun {
                                                 .antagonist_pressure_cmd_MPa = cmd.antagonist_pressure_Pa * 1e-6,
                                                 .agonist_loadcell_N = s.agonist_loadcell_N, .antagonist_loadcell_N = s.antagonist_loadcell_N,
                                                 .plant_agonist_force_N = tr ? tr->actuators[j.io].muscle_force_N[0] : nan,
-                                                .plant_antagonist_force_N = tr ? tr->actuators[j.io].muscle_force_N[1] : nan});
+                                                .plant_antagonist_force_N = tr ? tr->actuators[j.io].muscle_force_N[1] : nan,
+                                                .plant_agonist_contraction = tr ? tr->actuators[j.io].muscle_contraction[0] : nan,
+                                                .plant_antagonist_contraction = tr ? tr->actuators[j.io].muscle_contraction[1] : nan,
+                                                .plant_agonist_pressure_MPa = tr ? tr->actuators[j.io].pressure_Pa[0] * 1e-6 : nan,
+                                                .plant_antagonist_pressure_MPa = tr ? tr->actuators[j.io].pressure_Pa[1] * 1e-6 : nan});
     }
     row[c++] = tension_min_N;
     for (const ReplayColumn& r : replay) {
