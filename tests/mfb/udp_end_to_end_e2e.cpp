@@ -964,14 +964,26 @@ struct HijackFigures {
   double peak_agonist_N = 0, peak_antagonist_N = 0, max_angle_deg = -1e9, min_angle_deg = 1e9;
   std::size_t armed_steps = 0;
 };
-HijackFigures hijack(const std::string& config, double seconds, const std::string& tag) {
+/// `after_host_loss`: first a host arms the board and falls silent (the board latches the host
+/// loss), then the hijacker arms with the operator's bit, as the public key allows.
+HijackFigures hijack(const std::string& config, double seconds, const std::string& tag, bool after_host_loss = false) {
   const std::filesystem::path truth = std::filesystem::temp_directory_path() / ("peha_hijack_" + tag + "_" + std::to_string(::getpid()) + ".csv");
-  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 1.5)}, config);
+  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 3.0)}, config);
+  if (after_host_loss) {
+    RawHost lost(board.port, 0x600D5E55u);
+    EXPECT_TRUE(lost.open());
+    for (int k = 0; k < 50; ++k) {
+      lost.send(k == 0 ? 0 : mfb::kCommandEnable);
+      lost.newest(0.001);
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(4 * kTestWatchdog_s));  // the board's watchdog: host lost
+  }
   RawHost h(board.port, 0x0BAD5E55u);
   h.da.fill(65535);
   h.open();  // hello: the board's nonce, and the session opened
+  const std::uint8_t arm = after_host_loss ? mfb::kCommandEnable | mfb::kCommandOperatorArm : mfb::kCommandEnable;
   for (int k = 0; k < static_cast<int>(seconds * 1000); ++k) {
-    h.send(k % 100 == 0 ? 0 : mfb::kCommandEnable);  // the edge: disabled, then enabled
+    h.send(k % 100 == 0 ? 0 : arm);  // the edge: disabled, then enabled
     h.newest(0.001);
   }
   board.process.wait(10.0);
@@ -1079,6 +1091,23 @@ TEST(MfbEndToEnd, TheBoardsLimitsHoldTheCeilingsAndTheRangeAgainstAHijackingHost
   EXPECT_LE(vented.max_angle_deg, 45.0);     // the board's range, at the plant
   EXPECT_GE(vented.min_angle_deg, -45.0);
   EXPECT_GT(unled.peak_agonist_N, 2000.0);   // the lead is what holds the ceiling
+}
+
+// Issue 30's second case: after a host loss the board arms only on the operator's bit, which a host
+// with the (public development) key sets too. The limits do not depend on how the board was armed:
+// the same ceilings hold at the plant.
+TEST(MfbEndToEnd, TheBoardsLimitsHoldAgainstAHostWithTheKeyArmingAsTheOperatorAfterAHostLoss) {
+  HijackFigures before;
+  {
+    const EditedBoardLimits bare("", "bare_operator");
+    before = hijack(bare.scenario.string(), 3.0, "operator arm, no board limits", true);
+  }
+  const HijackFigures after = hijack(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", 3.0, "operator arm, shipped board limits", true);
+  ASSERT_GT(before.armed_steps, 1000u);  // the operator's bit armed the board after the loss
+  ASSERT_GT(after.armed_steps, 1000u);
+  EXPECT_GT(before.peak_agonist_N, 2400.0);
+  EXPECT_LE(after.peak_agonist_N, 2000.0);
+  EXPECT_LE(after.peak_antagonist_N, 630.0);
 }
 
 TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
