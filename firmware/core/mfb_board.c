@@ -77,7 +77,9 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
     out->safe_da[i] = si->safe_da[i];
     out->da_min[i] = 0;
     out->da_max[i] = 65535;
+    out->da_rise_q16_per_us[i] = 0;
   }
+  out->da_rise_up = 0;
   uint8_t da_limited = 0; /* a DA channel limited twice is a channel map error */
   for (int j = 0; j < si->joint_count; ++j) {
     const mfb_joint_si* js = &si->joints[j];
@@ -103,10 +105,26 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
         return fail(error, size, j, kMuscleName[m], "valve: expected its safe code inside [0 Pa, ceiling]; safe code",
                     si->safe_da[da]);
       }
+      if (!(isfinite(ms->pressure_rise_Pa_per_s) && ms->pressure_rise_Pa_per_s > 0)) {
+        return fail(error, size, j, kMuscleName[m], "pressure_rise_Pa_per_s: expected a finite rate > 0", ms->pressure_rise_Pa_per_s);
+      }
+      /* In 1/65536 codes per microsecond: at least 1 (slower would never move the valve), at most
+       * the whole range per microsecond (no limit). */
+      const double rise = ms->pressure_rise_Pa_per_s / fabs(ms->valve.scale_SI) * 65536.0 / 1e6;
+      if (rise < 1.0) {
+        return fail(error, size, j, kMuscleName[m], "pressure_rise_Pa_per_s: expected at least one code per 65.536 ms",
+                    ms->pressure_rise_Pa_per_s);
+      }
+      out->da_rise_q16_per_us[da] = rise > 4294967295.0 ? 4294967295u : (uint32_t)rise;
+      if (ms->valve.scale_SI > 0) out->da_rise_up |= (uint8_t)(1u << da);
+      if (!(isfinite(ms->force_lead_s) && ms->force_lead_s >= 0 && ms->force_lead_s <= 1.0)) {
+        return fail(error, size, j, kMuscleName[m], "force_lead_s: expected 0 <= s <= 1", ms->force_lead_s);
+      }
       ml->valve_da = (int8_t)da;
       ml->loadcell_ad = -1;
       ml->trip_above = true;
       ml->trip_code = 65535;
+      ml->lead_us = (uint32_t)(ms->force_lead_s * 1e6 + 0.5);
       if (ms->loadcell.channel >= 0) {
         if (!good_channel(&ms->loadcell, MFB_AD_CHANNELS)) {
           return fail(error, size, j, kMuscleName[m], "loadcell: expected an AD channel 0..15 with a finite nonzero scale; channel",
@@ -143,8 +161,12 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
       jl->motor_da = (int8_t)da;
     }
     jl->encoder = -1;
+    jl->counts_rise_with_angle = true;
     jl->min_counts = INT32_MIN;
     jl->max_counts = INT32_MAX;
+    jl->range_vent = false;
+    jl->angle_lead_us = 0;
+    jl->brake_counts_per_s2 = 0;
     if (js->encoder.channel >= 0) {
       const mfb_encoder_si* e = &js->encoder;
       if (e->channel >= MFB_ENCODER_CHANNELS || !isfinite(e->rad_per_count) || e->rad_per_count == 0 || !isfinite(e->offset_rad)) {
@@ -163,9 +185,22 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
       if (!(a > -2147483647.0 && b < 2147483647.0)) {
         return fail(error, size, j, "", "angle range: expected it within the counter's int32 range; counts", a);
       }
+      if (!(isfinite(js->angle_lead_s) && js->angle_lead_s >= 0 && js->angle_lead_s <= 1.0)) {
+        return fail(error, size, j, "", "angle_lead_s: expected 0 <= s <= 1", js->angle_lead_s);
+      }
+      /* 0: no stopping distance; otherwise at least 1 count/s^2 and small enough that v^2 of any
+       * speed the window can measure stays in int64. */
+      const double brake = fabs(js->brake_rad_per_s2 / e->rad_per_count);
+      if (!(isfinite(js->brake_rad_per_s2) && js->brake_rad_per_s2 >= 0 && (js->brake_rad_per_s2 == 0 || (brake >= 1.0 && brake < 4e9)))) {
+        return fail(error, size, j, "", "brake_rad_per_s2: expected 0 (none) or at least one count/s^2", js->brake_rad_per_s2);
+      }
       jl->encoder = (int8_t)e->channel;
+      jl->counts_rise_with_angle = e->rad_per_count > 0;
       jl->min_counts = (int32_t)ceil(a);
       jl->max_counts = (int32_t)floor(b);
+      jl->range_vent = js->range_vent;
+      jl->angle_lead_us = js->range_vent ? (uint32_t)(js->angle_lead_s * 1e6 + 0.5) : 0;
+      jl->brake_counts_per_s2 = js->range_vent ? (uint32_t)brake : 0;
     }
   }
   return true;
@@ -254,7 +289,10 @@ uint8_t mfb_board_status(const mfb_board* b) {
 /* ---- the board --------------------------------------------------------------------------------- */
 
 static void write_safe(mfb_board* b) {
-  for (int i = 0; i < MFB_DA_CHANNELS; ++i) b->applied_da[i] = b->cfg->safe_da[i];
+  for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
+    b->applied_da[i] = b->cfg->safe_da[i];
+    b->slew_q16[i] = (uint32_t)b->applied_da[i] << 16;
+  }
   b->applied_digital = b->cfg->safe_digital_out;
   b->hal->write_outputs(b->hal->ctx, b->applied_da, b->applied_digital);
 }
@@ -342,33 +380,93 @@ mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, 
   return MFB_EVENT_NEW_SESSION;
 }
 
-static bool over_ceiling(const mfb_muscle_limit* m, const mfb_inputs* in) {
-  if (m->loadcell_ad < 0) return false;
-  const uint16_t code = in->ad[m->loadcell_ad];
-  return m->trip_above ? code > m->trip_code : code < m->trip_code;
+/* The oldest slot of the rate window and its age in ns (0: no rate yet). */
+static int64_t window(const mfb_board* b, int* oldest) {
+  if (b->history_count < 2) return 0;
+  *oldest = b->history_count < MFB_RATE_WINDOW ? 0 : b->history_next;
+  const int newest = (b->history_next + MFB_RATE_WINDOW - 1) % MFB_RATE_WINDOW;
+  return (int64_t)(b->history_ns[newest] - b->history_ns[*oldest]);
 }
 
-static bool out_of_range(const mfb_joint_limit* j, const mfb_inputs* in) {
-  if (j->encoder < 0) return false;
-  const int32_t counts = in->encoder[j->encoder];
-  return counts < j->min_counts || counts > j->max_counts;
+/* The load cell's code as a force that grows with it (a falling code is mirrored). */
+static int32_t rising(const mfb_muscle_limit* m, uint16_t code) { return m->trip_above ? code : 65535 - (int32_t)code; }
+
+/* The force over its ceiling, or about to be: the code led by its rate over the last
+ * MFB_RATE_WINDOW samples times the valve's reaction time, so the vent arrives before the force
+ * the valve's dead time and lag would still add. A falling force is judged as it is. */
+static bool over_ceiling(const mfb_board* b, int muscle_index, const mfb_muscle_limit* m) {
+  if (m->loadcell_ad < 0) return false;
+  const int32_t now = rising(m, b->inputs.ad[m->loadcell_ad]);
+  int64_t led = now;
+  int oldest = 0;
+  const int64_t span_ns = m->lead_us > 0 ? window(b, &oldest) : 0;
+  if (span_ns > 0) {
+    const int64_t delta = now - rising(m, b->history_ad[oldest][muscle_index]);
+    if (delta > 0) led += delta * (int64_t)m->lead_us * 1000 / span_ns;
+  }
+  return led > (int64_t)rising(m, m->trip_code);
+}
+
+/* The side joint `j` is (about to be) out of its range on: +1 above max_angle_rad, -1 below
+ * min_angle_rad, 0 inside. The counts are led, in the direction they move, by the speed over the
+ * rate window times the valves' reaction (the muscle keeps pulling that long after its vent) plus
+ * the distance the other muscle's deceleration needs to stop the joint. */
+static int range_side(const mfb_board* b, int j) {
+  const mfb_joint_limit* jl = &b->cfg->joints[j];
+  if (jl->encoder < 0) return 0;
+  const int64_t counts = b->inputs.encoder[jl->encoder];
+  int64_t led = counts;
+  int oldest = 0;
+  const int64_t span_ns = (jl->angle_lead_us > 0 || jl->brake_counts_per_s2 > 0) ? window(b, &oldest) : 0;
+  if (span_ns > 0) {
+    const int64_t delta = counts - b->history_counts[oldest][j];
+    int64_t speed = delta * 1000000000 / span_ns; /* counts/s; |delta| < 2^31, span >= 1 ns */
+    if (speed > 1000000000) speed = 1000000000;   /* its square and the lead stay in int64 */
+    if (speed < -1000000000) speed = -1000000000;
+    int64_t ahead = speed * (int64_t)jl->angle_lead_us / 1000000;
+    if (jl->brake_counts_per_s2 > 0) {
+      const int64_t stop = speed * speed / (2 * (int64_t)jl->brake_counts_per_s2);
+      ahead += speed > 0 ? stop : -stop;
+    }
+    led += ahead;
+  }
+  const int side = led > jl->max_counts ? 1 : led < jl->min_counts ? -1 : 0;
+  return jl->counts_rise_with_angle ? side : -side;
 }
 
 void mfb_board_sample(mfb_board* b) {
   b->hal->read_inputs(b->hal->ctx, &b->inputs);
   const mfb_board_config* cfg = b->cfg;
+  /* The ring of recent load-cell codes and encoder counts (the rates' baseline); a clock that goes
+   * back (the emulator's plant restarted with a session) starts it afresh. */
+  const int newest = (b->history_next + MFB_RATE_WINDOW - 1) % MFB_RATE_WINDOW;
+  if (b->history_count > 0 && b->inputs.time_ns <= b->history_ns[newest]) b->history_count = 0, b->history_next = 0;
+  for (int j = 0; j < cfg->joint_count; ++j) {
+    const mfb_joint_limit* jl = &cfg->joints[j];
+    for (int m = 0; m < 2; ++m) {
+      const int8_t ad = jl->muscle[m].loadcell_ad;
+      b->history_ad[b->history_next][2 * j + m] = ad >= 0 ? b->inputs.ad[ad] : 0;
+    }
+    b->history_counts[b->history_next][j] = jl->encoder >= 0 ? b->inputs.encoder[jl->encoder] : 0;
+  }
+  b->history_ns[b->history_next] = b->inputs.time_ns;
+  b->history_next = (uint8_t)((b->history_next + 1) % MFB_RATE_WINDOW);
+  if (b->history_count < MFB_RATE_WINDOW) ++b->history_count;
   for (int j = 0; j < cfg->joint_count; ++j) {
     for (int m = 0; m < 2; ++m) {
       const uint16_t bit = (uint16_t)(1u << (2 * j + m));
-      if (!(b->vented_muscles & bit) && over_ceiling(&cfg->joints[j].muscle[m], &b->inputs)) {
+      if (!(b->vented_muscles & bit) && over_ceiling(b, 2 * j + m, &cfg->joints[j].muscle[m])) {
         b->vented_muscles |= bit;
         ++b->counters.force_trips;
       }
     }
     const uint8_t bit = (uint8_t)(1u << j);
-    if (!(b->motors_off & bit) && out_of_range(&cfg->joints[j], &b->inputs)) {
+    const int side = range_side(b, j);
+    if (side != 0) { /* latched; the muscle vented is the one driving it out now (a swing may cross over) */
+      if (!(b->motors_off & bit)) ++b->counters.range_trips;
       b->motors_off |= bit;
-      ++b->counters.range_trips;
+      if (side > 0) b->out_high |= bit;
+      else b->out_high &= (uint8_t)~bit;
     }
   }
 }
@@ -378,15 +476,21 @@ static void rejudge_trips(mfb_board* b) {
   const mfb_board_config* cfg = b->cfg;
   b->vented_muscles = 0;
   b->motors_off = 0;
+  b->out_high = 0;
   for (int j = 0; j < cfg->joint_count; ++j) {
     for (int m = 0; m < 2; ++m) {
-      if (over_ceiling(&cfg->joints[j].muscle[m], &b->inputs)) b->vented_muscles |= (uint16_t)(1u << (2 * j + m));
+      if (over_ceiling(b, 2 * j + m, &cfg->joints[j].muscle[m])) b->vented_muscles |= (uint16_t)(1u << (2 * j + m));
     }
-    if (out_of_range(&cfg->joints[j], &b->inputs)) b->motors_off |= (uint8_t)(1u << j);
+    const int side = range_side(b, j);
+    if (side != 0) b->motors_off |= (uint8_t)(1u << j);
+    if (side > 0) b->out_high |= (uint8_t)(1u << j);
   }
 }
 
-/* Valves vented by a trip and motors of joints out of range go to their safe codes. */
+/* Valves vented by a force trip go to their safe codes; a joint (about to be) out of range has its
+ * motor at zero torque and, where the range vents, the muscle that drives it further out vented
+ * (the agonist above the range, the antagonist below), while the other muscle keeps its command: it
+ * brakes and holds. */
 static void apply_trips(mfb_board* b, uint16_t da[MFB_DA_CHANNELS]) {
   const mfb_board_config* cfg = b->cfg;
   for (int j = 0; j < cfg->joint_count; ++j) {
@@ -394,7 +498,36 @@ static void apply_trips(mfb_board* b, uint16_t da[MFB_DA_CHANNELS]) {
     for (int m = 0; m < 2; ++m) {
       if (b->vented_muscles & (1u << (2 * j + m))) da[jl->muscle[m].valve_da] = cfg->safe_da[jl->muscle[m].valve_da];
     }
-    if (jl->motor_da >= 0 && (b->motors_off & (1u << j))) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
+    if (b->motors_off & (1u << j)) {
+      if (jl->range_vent) {
+        const int out = (b->out_high & (1u << j)) ? MFB_AGONIST : MFB_ANTAGONIST;
+        da[jl->muscle[out].valve_da] = cfg->safe_da[jl->muscle[out].valve_da];
+      }
+      if (jl->motor_da >= 0) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
+    }
+  }
+}
+
+/* The slew limit: a code moves towards more pressure at most `da_rise_q16_per_us` per microsecond
+ * of sample clock since the last drive, from where the channel was; it falls freely. The fraction
+ * of a code is kept, so slow rates are exact. */
+static void apply_slew(mfb_board* b, uint16_t da[MFB_DA_CHANNELS], uint64_t elapsed_us) {
+  const mfb_board_config* cfg = b->cfg;
+  for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
+    const uint32_t rise = cfg->da_rise_q16_per_us[i];
+    if (rise == 0) continue;
+    const bool up = (cfg->da_rise_up >> i) & 1u;
+    const uint64_t from = up ? b->slew_q16[i] : (65535u << 16) - b->slew_q16[i]; /* towards more pressure = up */
+    const uint64_t wanted = (uint64_t)(up ? da[i] : 65535 - da[i]) << 16;
+    const uint64_t limit = from + (uint64_t)rise * elapsed_us;
+    if (wanted > limit) {
+      const uint32_t held = (uint32_t)limit; /* < wanted <= 65535 << 16 */
+      da[i] = (uint16_t)(up ? held >> 16 : 65535 - (held >> 16));
+      b->slew_q16[i] = up ? held : (65535u << 16) - held;
+      ++b->counters.slewed;
+    } else {
+      b->slew_q16[i] = (uint32_t)da[i] << 16;
+    }
   }
 }
 
@@ -403,6 +536,11 @@ void mfb_board_drive(mfb_board* b) {
   const bool estop = ((b->inputs.digital_in >> cfg->estop_line) & 1u) == (cfg->estop_active_high ? 1u : 0u);
   arming_set_estop(b, estop);
   const uint64_t now = b->hal->now_us(b->hal->ctx);
+  /* The sample clock since the last drive, capped at the watchdog: a board stalled that long has
+   * lost its session anyway. */
+  uint64_t elapsed_us = b->inputs.time_ns > b->drive_time_ns ? (b->inputs.time_ns - b->drive_time_ns) / 1000u : 0;
+  if (elapsed_us > cfg->watchdog_us) elapsed_us = cfg->watchdog_us;
+  b->drive_time_ns = b->inputs.time_ns;
   if (mfb_board_outputs_live(b)) {
     if (!b->live) rejudge_trips(b); /* the arming edge */
     b->live = true;
@@ -416,6 +554,7 @@ void mfb_board_drive(mfb_board* b) {
       b->applied_da[i] = code;
     }
     b->applied_digital = b->command.digital_out;
+    apply_slew(b, b->applied_da, elapsed_us);
     apply_trips(b, b->applied_da);
   } else {
     if (b->live) { /* the moment of disarming: the ramp starts from what the DA held */
@@ -445,6 +584,10 @@ void mfb_board_drive(mfb_board* b) {
       for (int i = 0; i < MFB_DA_CHANNELS; ++i) b->applied_da[i] = cfg->safe_da[i];
       b->applied_digital = cfg->safe_digital_out;
     }
+  }
+  /* The next rise starts from what the channels hold now (a trip's vent, the vent ramp). */
+  for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
+    if ((b->slew_q16[i] >> 16) != b->applied_da[i]) b->slew_q16[i] = (uint32_t)b->applied_da[i] << 16;
   }
   b->hal->write_outputs(b->hal->ctx, b->applied_da, b->applied_digital);
 }

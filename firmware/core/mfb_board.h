@@ -10,9 +10,14 @@
  *   the session; operator arming after a host loss), the watchdog and the safe outputs (motors cut
  *   at once, valves vented along a ramp over `vent_us`);
  * - hard limits of its own, independent of the host: every DA code clamped to its channel's
- *   ceiling (valve pressure, motor torque); a load cell over its force ceiling vents that muscle; a
- *   joint outside its encoder range turns its motor off. The two trips latch until the next arming
- *   edge finds the load cell and the joint back inside. No packet can change the limits.
+ *   ceiling (valve pressure, motor torque); each valve's setpoint rises no faster than its slew
+ *   limit; a load cell whose force, led by its rate over the valve's reaction time, passes its
+ *   ceiling vents that muscle; a joint outside its range turns its motor off, and where the range
+ *   vents (`range_vent`) a joint whose angle, led by its speed over the valves' reaction time plus
+ *   the distance the other muscle needs to stop it, passes an end of its range also has the muscle
+ *   driving it out vented (the other keeps its command: it brakes and holds the limb). The trips
+ *   latch until the next arming edge finds the load cell and the joint back inside. No packet can
+ *   change the limits.
  *
  * The rules are those of docs/mfb-protocol.md (the host's side: include/peha/mfb/protocol.hpp).
  * Every function here is O(1), allocates nothing and never blocks. */
@@ -26,8 +31,11 @@ extern "C" {
 #endif
 
 #define MFB_MAX_JOINTS 8
-#define MFB_AGONIST 0
+#define MFB_AGONIST 0 /* drives the joint's angle up (docs/models.md: positive in its direction) */
 #define MFB_ANTAGONIST 1
+/* Samples over which a load cell's rate and a joint's speed are measured for the trips' leads: 8
+ * board periods (8 ms), long enough that 1 N of load-cell noise leads the force by less than 10 N. */
+#define MFB_RATE_WINDOW 8
 
 /* ---- the HAL: what a board provides (docs/porting.md) ---------------------------------------- */
 
@@ -76,6 +84,8 @@ typedef struct mfb_muscle_si {
   mfb_channel_si loadcell;      /* AD, N */
   double pressure_ceiling_Pa;   /* the valve's setpoint never exceeds this */
   double force_ceiling_N;       /* the load cell above this vents the muscle */
+  double pressure_rise_Pa_per_s; /* the valve's setpoint rises no faster (falls freely) */
+  double force_lead_s;          /* the trip judges force + rate x this: the valve's reaction time */
 } mfb_muscle_si;
 
 typedef struct mfb_joint_si {
@@ -84,6 +94,9 @@ typedef struct mfb_joint_si {
   double motor_ceiling_Nm;      /* |torque| the driver is never asked for more than */
   mfb_encoder_si encoder;
   double min_angle_rad, max_angle_rad; /* outside: the motor is off */
+  bool range_vent;              /* and the muscle driving it out is vented, judged on the angle ... */
+  double angle_lead_s;          /* ... + speed x this (the valves' reaction) ... */
+  double brake_rad_per_s2;      /* ... + speed^2 / (2 x this): the deceleration the other muscle gives */
 } mfb_joint_si;
 
 typedef struct mfb_board_si {
@@ -103,6 +116,7 @@ typedef struct mfb_muscle_limit {
   int8_t loadcell_ad;           /* -1: none */
   bool trip_above;              /* the force rises with the code (false: falls) */
   uint16_t trip_code;           /* the code of the force ceiling */
+  uint32_t lead_us;             /* the trip's lead (0: the measured force alone) */
 } mfb_muscle_limit;
 
 typedef struct mfb_joint_limit {
@@ -110,6 +124,10 @@ typedef struct mfb_joint_limit {
   int8_t motor_da;              /* -1: none */
   int8_t encoder;               /* -1: no range check */
   int32_t min_counts, max_counts;
+  bool counts_rise_with_angle;  /* max_counts is the max_angle_rad side */
+  bool range_vent;              /* out of range also vents the muscle driving it out (else: motor only) */
+  uint32_t angle_lead_us;       /* the range's lead for the speed (0: none) */
+  uint32_t brake_counts_per_s2; /* the stopping distance's deceleration (0: no stopping distance) */
 } mfb_joint_limit;
 
 /* The board's configuration in codes: what the loop reads. Immutable once made. */
@@ -121,6 +139,10 @@ typedef struct mfb_board_config {
   uint8_t safe_digital_out;
   uint16_t da_min[MFB_DA_CHANNELS]; /* every DA code is clamped into [da_min, da_max] */
   uint16_t da_max[MFB_DA_CHANNELS];
+  /* The slew limit: how far a valve's code may move towards more pressure per microsecond, in
+   * 1/65536 codes (0: the channel is not slew-limited), and that direction (bit i: up the codes). */
+  uint32_t da_rise_q16_per_us[MFB_DA_CHANNELS];
+  uint8_t da_rise_up;
   uint8_t estop_line;
   bool estop_active_high;
   uint8_t joint_count;
@@ -157,8 +179,9 @@ typedef struct mfb_counters {
   uint64_t hellos;          /* hellos answered */
   uint64_t gaps;        /* sequence numbers skipped between accepted commands */
   uint64_t force_trips; /* muscles vented by their load cell's ceiling */
-  uint64_t range_trips; /* motors cut by their joint's range */
+  uint64_t range_trips; /* joints (about to be) out of range: motor cut, the muscle driving out vented */
   uint64_t clamped;     /* DA codes the ceilings clamped */
+  uint64_t slewed;      /* DA codes the slew limit held back */
 } mfb_counters;
 
 typedef struct mfb_endpoint {
@@ -210,10 +233,19 @@ typedef struct mfb_board {
   bool live, venting; /* live: the outputs followed the command last period */
   uint16_t vent_from_da[MFB_DA_CHANNELS];
   uint64_t vent_from_us;
-  /* the newest sample and the limits' latches */
+  /* the slew limit: where each DA code may rise from, in 1/65536 codes, and the sample clock of
+   * the last drive (the valve's time: on the emulator the plant's, not the host's) */
+  uint32_t slew_q16[MFB_DA_CHANNELS];
+  uint64_t drive_time_ns;
+  /* the newest sample, the recent load-cell codes and encoder counts (rates), the limits' latches */
   mfb_inputs inputs;
+  uint16_t history_ad[MFB_RATE_WINDOW][2 * MFB_MAX_JOINTS];
+  int32_t history_counts[MFB_RATE_WINDOW][MFB_MAX_JOINTS];
+  uint64_t history_ns[MFB_RATE_WINDOW];
+  uint8_t history_next, history_count;
   uint16_t vented_muscles; /* bit 2*joint + muscle */
-  uint8_t motors_off;      /* bit joint */
+  uint8_t motors_off;      /* bit joint: (about to be) out of range */
+  uint8_t out_high;        /* bit joint: out above max_angle_rad (else below min) */
   uint32_t state_sequence;
 } mfb_board;
 
@@ -226,11 +258,13 @@ void mfb_board_init(mfb_board* b, const mfb_board_config* cfg, const mfb_hal* ha
  * sends mfb_board_answer_packet. */
 mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, mfb_endpoint from, mfb_verdict* verdict);
 
-/* Samples every input through the HAL and checks the force ceilings and joint ranges (latching). */
+/* Samples every input through the HAL and checks the force ceilings (led by the force's rate) and
+ * the joint ranges (led by the speed and the stopping distance), latching. */
 void mfb_board_sample(mfb_board* b);
 
 /* Drives the outputs for this period from the newest sample and command: the command within the
- * ceilings and trips while armed, otherwise the safe outputs (valves along the vent ramp). */
+ * ceilings, the slew limit and the trips while armed, otherwise the safe outputs (valves along the
+ * vent ramp). The slew limit runs on the sample clock (mfb_inputs.time_ns): call once per sample. */
 void mfb_board_drive(mfb_board* b);
 
 /* The watchdog: call at least once per board period. */

@@ -49,7 +49,11 @@ typedef struct bench {
   int writes;
 } bench;
 
-static void bench_read(void* ctx, mfb_inputs* out) { *out = ((bench*)ctx)->in; }
+static void bench_read(void* ctx, mfb_inputs* out) {
+  bench* b = (bench*)ctx;
+  *out = b->in;
+  out->time_ns = b->now_us * 1000u; /* the sample clock is the board's clock */
+}
 static void bench_write(void* ctx, const uint16_t da[MFB_DA_CHANNELS], uint8_t dout) {
   bench* b = (bench*)ctx;
   memcpy(b->da, da, sizeof b->da);
@@ -84,8 +88,10 @@ static mfb_board_si rig_si(void) {
   si.estop_active_high = false;
   si.joint_count = 1;
   mfb_joint_si* j = &si.joints[0];
-  j->muscle[0] = (mfb_muscle_si){{0, 0.0, kPaPerCode}, {0, 0.0, 5000.0 / 65535.0}, 0.8e6, 2000.0};
-  j->muscle[1] = (mfb_muscle_si){{1, 0.0, kPaPerCode}, {1, 0.0, 1000.0 / 65535.0}, 0.8e6, 630.0};
+  /* No slew limit to speak of (1000 MPa/s: the whole range within one period), no leads and no
+   * stopping distance: the tests of those set their own. */
+  j->muscle[0] = (mfb_muscle_si){{0, 0.0, kPaPerCode}, {0, 0.0, 5000.0 / 65535.0}, 0.8e6, 2000.0, 1e9, 0.0};
+  j->muscle[1] = (mfb_muscle_si){{1, 0.0, kPaPerCode}, {1, 0.0, 1000.0 / 65535.0}, 0.8e6, 630.0, 1e9, 0.0};
   j->motor = (mfb_channel_si){2, -3.0, kNmPerCode};
   j->motor_ceiling_Nm = 2.5;
   j->encoder = (mfb_encoder_si){0, 0.0, kRadPerCount};
@@ -104,7 +110,7 @@ static const mfb_endpoint kHost = {0x7F000001u, 40000};
  * source is a deterministic xorshift, so that every run of these tests is the same). */
 static uint32_t g_boots;
 
-static void power_on(void) {
+static void power_on_with(const mfb_board_si* si) {
   memset(&g_bench, 0, sizeof g_bench);
   g_bench.rng = 0x12345678u + 0x9E3779B9u * ++g_boots;
   g_bench.now_us = 1000000;
@@ -112,12 +118,15 @@ static void power_on(void) {
   g_bench.in.ad[0] = 13107;     /* 1000 N */
   g_bench.in.ad[1] = 6553;      /* 100 N */
   g_hal = (mfb_hal){&g_bench, bench_read, bench_write, bench_now, test_mac, bench_random};
-  const mfb_board_si si = rig_si();
   char error[160];
-  const bool ok = mfb_configure(&si, &g_cfg, error, sizeof error);
+  const bool ok = mfb_configure(si, &g_cfg, error, sizeof error);
   CHECK(ok);
   if (!ok) printf("  %s\n", error);
   mfb_board_init(&g_board, &g_cfg, &g_hal);
+}
+static void power_on(void) {
+  const mfb_board_si si = rig_si();
+  power_on_with(&si);
 }
 
 static uint32_t g_sequence;
@@ -168,6 +177,7 @@ static uint64_t hello(uint32_t session) { return hello_from(kHost, session); }
 /* One command from `from`, encoded with the link's key, received, and (if it drives) applied. */
 static mfb_event send_from(mfb_endpoint from, uint32_t session, uint8_t flags, const uint16_t da[MFB_DA_CHANNELS],
                            mfb_verdict* verdict) {
+  g_bench.now_us += 1000; /* one board period per command */
   mfb_command c;
   memset(&c, 0, sizeof c);
   c.type = MFB_TYPE_COMMAND;
@@ -569,22 +579,148 @@ static void ATripSurvivesAnEdgeWhileItsCauseRemains(void) {
   CHECK_EQ(g_bench.da[1], kSafeValve);
 }
 
-static void AJointOutOfRangeTurnsItsMotorOff(void) {
+static void AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles(void) {
   power_on();
+  uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0}; /* +0.66 Nm */
+  arm(7, torque);
+  g_bench.in.encoder[0] = 8751;
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.da[0], 19661); /* without range_vent the muscles keep their commands */
+  CHECK_EQ(g_bench.da[1], 19661);
+  CHECK_EQ(mfb_board_counters(&g_board)->range_trips, 1);
+}
+
+static void AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  power_on_with(&si);
   uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0}; /* +0.66 Nm */
   arm(7, torque);
   CHECK_EQ(g_bench.da[2], 40000);
   g_bench.in.encoder[0] = 8750; /* 45.0 deg: the edge of the range, inside */
   send(7, MFB_COMMAND_ENABLE, torque);
   CHECK_EQ(g_bench.da[2], 40000);
-  g_bench.in.encoder[0] = 8751;
+  g_bench.in.encoder[0] = 8751; /* above: the agonist drives the angle up */
   send(7, MFB_COMMAND_ENABLE, torque);
   CHECK_EQ(g_bench.da[2], kSafeMotor);
-  CHECK_EQ(g_bench.da[0], 19661); /* the muscles keep their commands */
-  g_bench.in.encoder[0] = -8751;
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], 19661); /* the antagonist brakes and holds the limb */
+  g_bench.in.encoder[0] = 0; /* back inside: latched, the agonist stays vented */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  g_bench.in.encoder[0] = -8751; /* swung out below: now the antagonist drives it out, the agonist brakes */
   send(7, MFB_COMMAND_ENABLE, torque);
   CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
   CHECK_EQ(mfb_board_counters(&g_board)->range_trips, 1);
+  send(7, 0, torque); /* an edge while out: the trip stays */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  g_bench.in.encoder[0] = 0; /* back inside (and still, for the window): the next edge clears it */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, torque);
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[1], 19661);
+  CHECK_EQ(g_bench.da[2], 40000);
+}
+
+/* The range led by the speed: 20 ms of valve reaction and 1000 deg/s^2 of braking. At 298 deg/s
+ * (58 counts per 1 ms period) the joint needs 6 deg of lead plus 44.5 deg to stop, so it trips near
+ * -5 deg going up; moving as slowly as a legitimate host moves it (20 deg/s) it trips only past
+ * 44.4 deg. */
+static void TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  si.joints[0].angle_lead_s = 0.020;
+  si.joints[0].brake_rad_per_s2 = 1000.0 * 3.141592653589793 / 180.0;
+  power_on_with(&si);
+  g_bench.in.encoder[0] = -8000; /* -41.1 deg, still */
+  const uint16_t both[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, both);
+  arm(7, both);
+  CHECK(mfb_board_outputs_live(&g_board));
+  int fired_at = -1;
+  int32_t counts = -8000;
+  for (int k = 1; k <= 200 && fired_at < 0; ++k) {
+    counts += 58; /* 298 deg/s */
+    g_bench.in.encoder[0] = counts;
+    send(7, MFB_COMMAND_ENABLE, both);
+    if (g_bench.da[0] == kSafeValve) fired_at = k;
+  }
+  /* 58000 counts/s: a lead of 1160 counts and 58000^2 / (2 x 194444) = 8650 to stop: led past
+   * 8750 once counts > -1060, the first at k = 120 (-1040, -5.3 deg) */
+  CHECK_EQ(fired_at, 120);
+  CHECK_EQ(g_bench.da[1], 19661); /* the antagonist brakes */
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  /* slowly towards the end: 20 deg/s = 3.9 counts per period, from 41.1 deg held still */
+  g_bench.in.encoder[0] = 8000;
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, both);
+  send(7, MFB_COMMAND_ENABLE, both);
+  CHECK_EQ(g_bench.da[0], 19661);
+  counts = 8000;
+  fired_at = -1;
+  for (int k = 0; k < 200 && fired_at < 0; ++k) {
+    counts += (k % 10) < 9 ? 4 : 3; /* 39 counts per 10 ms: 20.06 deg/s */
+    g_bench.in.encoder[0] = counts;
+    send(7, MFB_COMMAND_ENABLE, both);
+    if (g_bench.da[0] == kSafeValve) fired_at = counts;
+  }
+  /* 20 deg/s: 28 counts in the 7 ms window (4000 counts/s), a lead of 80 counts and 41 to stop:
+   * led past 8750 once counts > 8629 (44.38 deg), the first sample there 8636 */
+  CHECK_EQ(fired_at, 8636);
+}
+
+/* 2 MPa/s on a 0..1 MPa valve: 131.07 codes per 1 ms period (8589 / 65536 codes per us). A step to
+ * the top rises along it to the 0.8 MPa ceiling in 401 ms; a fall is at once; the motor is not slewed. */
+static void TheSlewLimitHoldsAValveStepToItsRate(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].muscle[0].pressure_rise_Pa_per_s = 2e6;
+  si.joints[0].muscle[1].pressure_rise_Pa_per_s = 2e6;
+  power_on_with(&si);
+  arm(7, kEverythingMax); /* the edge's period: 1 ms of rise */
+  CHECK_EQ(g_bench.da[0], 131);
+  CHECK_EQ(g_bench.da[1], 131);
+  CHECK_EQ(g_bench.da[2], 60074);
+  for (int k = 0; k < 9; ++k) send(7, MFB_COMMAND_ENABLE, kEverythingMax);
+  CHECK_EQ(g_bench.da[0], 1310); /* 10 ms: 8589 * 10000 / 65536 = 1310.6, the fraction kept */
+  for (int k = 0; k < 390; ++k) send(7, MFB_COMMAND_ENABLE, kEverythingMax);
+  CHECK_EQ(g_bench.da[0], 52423); /* 400 ms: 8589 * 400000 / 65536 = 52423.8, short of the ceiling */
+  send(7, MFB_COMMAND_ENABLE, kEverythingMax);
+  CHECK_EQ(g_bench.da[0], 52428); /* 401 ms: the ceiling */
+  const uint16_t low[MFB_DA_CHANNELS] = {1000, 1000, 32768, 0, 0, 0, 0, 0};
+  send(7, MFB_COMMAND_ENABLE, low);
+  CHECK_EQ(g_bench.da[0], 1000);
+  send(7, MFB_COMMAND_ENABLE, kEverythingMax); /* and rises again from there */
+  CHECK_EQ(g_bench.da[0], 1131);
+  CHECK(mfb_board_counters(&g_board)->slewed > 800);
+}
+
+/* A lead of 20 ms on a force rising 10 N per period (131 codes, 10 kN/s): the trip fires when the
+ * force plus 200 N passes 2000 N, i.e. at the first sample above 1800 N, not at 2000 N. */
+static void TheForceTripLeadsTheForceByItsRateTimesTheReaction(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].muscle[0].force_lead_s = 0.020;
+  power_on_with(&si);
+  g_bench.in.ad[0] = 22282; /* 1700 N, held a whole rate window: no rate, no lead */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, kHalfBar);
+  arm(7, kHalfBar);
+  for (int k = 0; k < 10; ++k) send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
+  const uint64_t trips_before = mfb_board_counters(&g_board)->force_trips;
+  int fired_at = -1;
+  for (int k = 1; k <= 20 && fired_at < 0; ++k) {
+    g_bench.in.ad[0] = (uint16_t)(22282 + 131 * k);
+    send(7, MFB_COMMAND_ENABLE, kHalfBar);
+    if (g_bench.da[0] == kSafeValve) fired_at = k;
+  }
+  CHECK_EQ(fired_at, 11); /* 23723 = 1810 N measured; at k = 10 (1800 N) 23592 + 2620 < 26214 */
+  CHECK_EQ(mfb_board_counters(&g_board)->force_trips, trips_before + 1);
+  g_bench.in.ad[0] = 26000; /* 1984 N, steady: judged as it is after an edge */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
 }
 
 static void ConfigureNamesTheFieldAndWhatItFound(void) {
@@ -673,7 +809,11 @@ int main(void) {
   run(AHijackingHostGetsNoMoreThanTheCeilings, "AHijackingHostGetsNoMoreThanTheCeilings");
   run(ALoadCellOverItsCeilingVentsThatMuscleOnly, "ALoadCellOverItsCeilingVentsThatMuscleOnly");
   run(ATripSurvivesAnEdgeWhileItsCauseRemains, "ATripSurvivesAnEdgeWhileItsCauseRemains");
-  run(AJointOutOfRangeTurnsItsMotorOff, "AJointOutOfRangeTurnsItsMotorOff");
+  run(AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles, "AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles");
+  run(AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut, "AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut");
+  run(TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance, "TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance");
+  run(TheSlewLimitHoldsAValveStepToItsRate, "TheSlewLimitHoldsAValveStepToItsRate");
+  run(TheForceTripLeadsTheForceByItsRateTimesTheReaction, "TheForceTripLeadsTheForceByItsRateTimesTheReaction");
   run(ConfigureNamesTheFieldAndWhatItFound, "ConfigureNamesTheFieldAndWhatItFound");
   run(OnePacketsCost, "OnePacketsCost");
   printf("firmware core tests: %d run, %d failed (%d checks)\n", g_tests, g_failed_tests, g_failed_checks);

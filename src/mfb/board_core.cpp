@@ -38,6 +38,9 @@ mfb_board_config board_core_config(const ChannelMap& map, const LinkKey& key, do
       js.muscle[m].loadcell = channel_si(*loadcells[m]);
       js.muscle[m].pressure_ceiling_Pa = limited ? pressure[m] : valves[m]->max_si();
       js.muscle[m].force_ceiling_N = force[m];
+      // Without limits: a rise over the whole range in 1 us, i.e. none.
+      js.muscle[m].pressure_rise_Pa_per_s = limited ? l.pressure_rise_Pa_per_s : std::abs(valves[m]->max_si() - valves[m]->min_si()) * 1e6;
+      js.muscle[m].force_lead_s = limited ? l.force_lead_s : 0.0;
       if (!limited) js.muscle[m].loadcell.channel = -1;  // no trip without a configured ceiling
     }
     js.motor = channel_si(c.motor);
@@ -45,6 +48,9 @@ mfb_board_config board_core_config(const ChannelMap& map, const LinkKey& key, do
     js.encoder = {limited ? c.encoder.channel : -1, c.encoder.offset_rad, c.encoder.rad_per_count};
     js.min_angle_rad = l.min_angle_rad;
     js.max_angle_rad = l.max_angle_rad;
+    js.range_vent = l.range_vent;
+    js.angle_lead_s = l.angle_lead_s;
+    js.brake_rad_per_s2 = l.brake_rad_per_s2;
   }
   mfb_board_config cfg{};
   char error[200];

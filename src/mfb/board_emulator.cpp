@@ -39,11 +39,11 @@ std::string EmulatorStats::table() const {
       "oversized {}; hellos answered {}, unknown session (replays) {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
       "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}\n"
-      "board limits: {} muscle(s) vented at their force ceiling, {} motor cut(s) out of range, {} DA code(s) clamped",
+      "board limits: {} muscle(s) vented at their force ceiling, {} joint(s) (about to be) out of range, {} DA code(s) clamped, {} slewed",
       received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
       received.unauthenticated, received.gaps, oversized, received.hellos, received.unknown_session,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
-      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes);
+      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes, slewed_codes);
 }
 
 BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant)
@@ -113,6 +113,7 @@ void BoardEmulator::note_core_counters() noexcept {
   stats_.force_trips = c.force_trips;
   stats_.range_trips = c.range_trips;
   stats_.clamped_codes = c.clamped;
+  stats_.slewed_codes = c.slewed;
 }
 
 double BoardEmulator::uniform() noexcept {

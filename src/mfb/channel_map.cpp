@@ -246,6 +246,8 @@ void read_board_limits(config::Map& root, const std::vector<std::string>& names,
     l.antagonist_force_N = item.number("antagonist_force_N", {1.0, 1e5});
     l.agonist_pressure_Pa = item.number("agonist_pressure_MPa", {0.01, 10.0}) * 1e6;
     l.antagonist_pressure_Pa = item.number("antagonist_pressure_MPa", {0.01, 10.0}) * 1e6;
+    l.pressure_rise_Pa_per_s = item.number("pressure_rise_MPa_per_s", {0.01, 100.0}) * 1e6;
+    l.force_lead_s = item.number("force_lead_ms", {0.0, 1000.0}) * 1e-3;
     if (c.motor.mapped()) {
       l.motor_torque_Nm = item.number("motor_torque_Nm", {1e-3, 1e4});
     } else if (item.has("motor_torque_Nm")) {
@@ -255,6 +257,13 @@ void read_board_limits(config::Map& root, const std::vector<std::string>& names,
     if (!(range[0] < range[1])) item.fail("angle_deg", fmt::format("expected [min, max] with min < max, found [{}, {}]", range[0], range[1]));
     l.min_angle_rad = models::deg_to_rad(range[0]);
     l.max_angle_rad = models::deg_to_rad(range[1]);
+    if (item.has("range_vent")) {
+      config::Map vent = item.map("range_vent");
+      l.range_vent = true;
+      l.angle_lead_s = vent.number("lead_ms", {0.0, 1000.0}) * 1e-3;
+      l.brake_rad_per_s2 = models::deg_to_rad(vent.number("brake_deg_per_s2", {1.0, 1e6}));
+      vent.finish();
+    }
     item.finish();
   }
 }

@@ -1010,14 +1010,26 @@ struct HijackFigures {
   double peak_agonist_N = 0, peak_antagonist_N = 0, max_angle_deg = -1e9, min_angle_deg = 1e9;
   std::size_t armed_steps = 0;
 };
-HijackFigures hijack(const std::string& config, double seconds, const std::string& tag) {
+/// `after_host_loss`: first a host arms the board and falls silent (the board latches the host
+/// loss), then the hijacker arms with the operator's bit, as the public key allows.
+HijackFigures hijack(const std::string& config, double seconds, const std::string& tag, bool after_host_loss = false) {
   const std::filesystem::path truth = std::filesystem::temp_directory_path() / ("peha_hijack_" + tag + "_" + std::to_string(::getpid()) + ".csv");
-  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 1.5)}, config);
+  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 3.0)}, config);
+  if (after_host_loss) {
+    RawHost lost(board.port, 0x600D5E55u);
+    EXPECT_TRUE(lost.open());
+    for (int k = 0; k < 50; ++k) {
+      lost.send(k == 0 ? 0 : mfb::kCommandEnable);
+      lost.newest(0.001);
+    }
+    std::this_thread::sleep_for(std::chrono::duration<double>(4 * kTestWatchdog_s));  // the board's watchdog: host lost
+  }
   RawHost h(board.port, 0x0BAD5E55u);
   h.da.fill(65535);
   h.open();  // hello: the board's nonce, and the session opened
+  const std::uint8_t arm = after_host_loss ? mfb::kCommandEnable | mfb::kCommandOperatorArm : mfb::kCommandEnable;
   for (int k = 0; k < static_cast<int>(seconds * 1000); ++k) {
-    h.send(k % 100 == 0 ? 0 : mfb::kCommandEnable);  // the edge: disabled, then enabled
+    h.send(k % 100 == 0 ? 0 : arm);  // the edge: disabled, then enabled
     h.newest(0.001);
   }
   board.process.wait(10.0);
@@ -1036,47 +1048,112 @@ HijackFigures hijack(const std::string& config, double seconds, const std::strin
   return f;
 }
 
-// Issue 30: the board enforces limits of its own. A host with the key commands every output to its
-// top code for 3 s, once against a map without `board_limits:` (the core's ceilings then the
-// channels' full ranges) and once against the shipped map. Measured 2026-11-28: 2694 N -> 2235 N
-// peak on the agonist's load cell, 772 N -> 674 N on the antagonist's. NOT yet the 2000 N the wire
-// may carry: the trip vents the valve, whose 5 ms dead time and lag let the force rise about 235 N
-// more; nor the angle range (52 deg both times: the range trip cuts the motor, and the muscles
-// drive the joint to its stop). What this asserts is what the board guarantees today: the hijack
-// is armed, and the trips cut the peak force by more than 300 N.
-TEST(MfbEndToEnd, TheBoardsForceTripsCutTheForceAHijackingHostWithTheKeyReaches) {
+/// E1's scenario with its channel map's `board_limits:` entry replaced by `limits` (empty: none),
+/// written next to the shipped files (the scenario names its map relative to itself). Removed with
+/// the object.
+struct EditedBoardLimits {
+  std::filesystem::path map, scenario;
+  EditedBoardLimits(const std::string& limits, const std::string& tag) {
+    auto read = [](const std::filesystem::path& path) {
+      std::ifstream in(path);
+      std::stringstream text;
+      text << in.rdbuf();
+      return text.str();
+    };
+    std::string m = read(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
+    const std::size_t from = m.find("board_limits:");
+    const std::size_t to = m.find("# Enable drives");
+    EXPECT_NE(from, std::string::npos);
+    EXPECT_NE(to, std::string::npos);
+    m.replace(from, to - from, limits.empty() ? "" : "board_limits:\n  - " + limits + "\n\n");
+    const std::string suffix = tag + "_" + std::to_string(::getpid()) + ".yaml";
+    map = std::filesystem::path(PEHA_SOURCE_DIR "/configs/mfb") / ("_limits_" + suffix);
+    std::ofstream(map) << m;
+    std::string s = read(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
+    const std::string shipped = "channel_map: mfb/one_dof_rig.yaml";
+    EXPECT_NE(s.find(shipped), std::string::npos);
+    s.replace(s.find(shipped), shipped.size(), "channel_map: mfb/" + map.filename().string());
+    scenario = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e1_limits_" + suffix);
+    std::ofstream(scenario) << s;
+  }
+  ~EditedBoardLimits() {
+    std::filesystem::remove(map);
+    std::filesystem::remove(scenario);
+  }
+};
+
+/// The shipped rig map's `board_limits:` entry for its joint (one line, `{joint: joint, ...}`).
+std::string shipped_rig_limits() {
   std::ifstream in(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
   std::stringstream text;
   text << in.rdbuf();
-  std::string map = text.str();
-  const std::size_t from = map.find("board_limits:");
-  const std::size_t to = map.find("# Enable drives");
-  ASSERT_NE(from, std::string::npos);
-  ASSERT_NE(to, std::string::npos);
-  map.erase(from, to - from);
-  const std::string tag = std::to_string(::getpid());
-  const std::filesystem::path bare_map = std::filesystem::path(PEHA_SOURCE_DIR "/configs/mfb") / ("_no_limits_" + tag + ".yaml");
-  std::ofstream(bare_map) << map;
-  std::ifstream scenario_in(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
-  std::stringstream scenario_text;
-  scenario_text << scenario_in.rdbuf();
-  std::string scenario = scenario_text.str();
-  const std::string shipped = "channel_map: mfb/one_dof_rig.yaml";
-  ASSERT_NE(scenario.find(shipped), std::string::npos);
-  scenario.replace(scenario.find(shipped), shipped.size(), "channel_map: mfb/" + bare_map.filename().string());
-  const std::filesystem::path bare_scenario = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e1_no_limits_" + tag + ".yaml");
-  std::ofstream(bare_scenario) << scenario;
+  std::string entry = text.str();
+  entry = entry.substr(entry.find("{joint: joint"));
+  return entry.substr(0, entry.find('}') + 1);
+}
 
-  const HijackFigures before = hijack(bare_scenario.string(), 3.0, "no board limits");
-  std::filesystem::remove(bare_map);
-  std::filesystem::remove(bare_scenario);
-  const HijackFigures after = hijack(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", 3.0, "board limits");
+// Issue 30: the board enforces limits of its own. A host with the key commands every output to its
+// top code for 3 s: against a map without `board_limits:` (the channels' full ranges), the shipped
+// map, the shipped map with the range venting (`range_vent:`, which the shipped map leaves out: the
+// calibration recording sweeps the link into its stops), and the shipped map with the force trip's
+// lead taken away (force_lead_ms: 0). Judged on the plant's truth (the emulator's --truth-csv: the
+// simulated load cells with their noise, the joint's angle), not on what the host was told. The
+// valves react 5 ms late, with a 25-30 ms lag and at most 4 MPa/s, so a vent at the ceiling lets the
+// force rise on and the joint swing on: the trip leads the force by its rate over the valves'
+// reaction, and the range leads the angle by its speed over the vent's time plus the distance the
+// braking muscle needs to stop the joint (docs/safety.md). The figures asserted are the map's:
+// 2000 N and 630 N, the range [-45, 45] deg.
+TEST(MfbEndToEnd, TheBoardsLimitsHoldTheCeilingsAndTheRangeAgainstAHijackingHostWithTheKey) {
+  const std::string shipped = shipped_rig_limits();
+  auto without_lead = [](std::string entry) {
+    const std::size_t lead = entry.find("force_lead_ms: ");
+    EXPECT_NE(lead, std::string::npos);
+    return entry.replace(lead, entry.find(',', lead) - lead, "force_lead_ms: 0");
+  };
+  HijackFigures before, after, vented, unled;
+  {
+    const EditedBoardLimits bare("", "bare");
+    before = hijack(bare.scenario.string(), 3.0, "no board limits");
+  }
+  after = hijack(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", 3.0, "shipped board limits");
+  {
+    const EditedBoardLimits map(shipped.substr(0, shipped.size() - 1) + ", range_vent: {lead_ms: 150, brake_deg_per_s2: 500}}", "vent");
+    vented = hijack(map.scenario.string(), 3.0, "shipped board limits + range_vent");
+  }
+  {
+    const EditedBoardLimits map(without_lead(shipped), "unled");
+    unled = hijack(map.scenario.string(), 3.0, "shipped board limits, no force lead");
+  }
 
   ASSERT_GT(before.armed_steps, 1000u);  // the hijacker did drive the outputs
   ASSERT_GT(after.armed_steps, 1000u);
+  ASSERT_GT(vented.armed_steps, 1000u);
   EXPECT_GT(before.peak_agonist_N, 2400.0);  // unlimited: far past the wire's 2250 N
-  EXPECT_LT(after.peak_agonist_N, before.peak_agonist_N - 300.0);
-  EXPECT_LT(after.peak_antagonist_N, before.peak_antagonist_N - 50.0);
+  EXPECT_GT(before.max_angle_deg, 45.0);     // and out of the range
+  for (const HijackFigures* f : {&after, &vented}) {
+    EXPECT_LE(f->peak_agonist_N, 2000.0);    // the board's force ceilings, at the plant
+    EXPECT_LE(f->peak_antagonist_N, 630.0);
+  }
+  EXPECT_LE(vented.max_angle_deg, 45.0);     // the board's range, at the plant
+  EXPECT_GE(vented.min_angle_deg, -45.0);
+  EXPECT_GT(unled.peak_agonist_N, 2000.0);   // the lead is what holds the ceiling
+}
+
+// Issue 30's second case: after a host loss the board arms only on the operator's bit, which a host
+// with the (public development) key sets too. The limits do not depend on how the board was armed:
+// the same ceilings hold at the plant.
+TEST(MfbEndToEnd, TheBoardsLimitsHoldAgainstAHostWithTheKeyArmingAsTheOperatorAfterAHostLoss) {
+  HijackFigures before;
+  {
+    const EditedBoardLimits bare("", "bare_operator");
+    before = hijack(bare.scenario.string(), 3.0, "operator arm, no board limits", true);
+  }
+  const HijackFigures after = hijack(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", 3.0, "operator arm, shipped board limits", true);
+  ASSERT_GT(before.armed_steps, 1000u);  // the operator's bit armed the board after the loss
+  ASSERT_GT(after.armed_steps, 1000u);
+  EXPECT_GT(before.peak_agonist_N, 2400.0);
+  EXPECT_LE(after.peak_agonist_N, 2000.0);
+  EXPECT_LE(after.peak_antagonist_N, 630.0);
 }
 
 TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {

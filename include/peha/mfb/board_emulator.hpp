@@ -86,9 +86,9 @@ struct EmulatorStats {
   std::int64_t host_loss_ns = 0;
   double host_loss_t_s = -1;
   std::uint64_t injected_loss = 0, injected_duplicate = 0, injected_reorder = 0, injected_corrupt = 0, injected_delay = 0;
-  /// The board's own limits (firmware core): muscles vented by their load cell's ceiling, motors cut
-  /// by their joint's range, DA codes clamped to their ceilings.
-  std::uint64_t force_trips = 0, range_trips = 0, clamped_codes = 0;
+  /// The board's own limits (firmware core): muscles vented by their load cell's ceiling, joints
+  /// tripped by their range, DA codes clamped to their ceilings, valve codes held by the slew limit.
+  std::uint64_t force_trips = 0, range_trips = 0, clamped_codes = 0, slewed_codes = 0;
   std::string table() const;
 };
 

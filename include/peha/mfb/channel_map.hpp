@@ -89,14 +89,22 @@ struct DigitalLine {
 
 /// The board's own hard limits of one joint (`board_limits:`, docs/channel-maps.md), in SI. The
 /// board core (firmware/) enforces them whatever the host sends: valve setpoints and motor torque
-/// clamped to their ceilings, a load cell over its ceiling vents its muscle, a joint outside its
-/// range turns its motor off.
+/// clamped to their ceilings and their rise slew-limited, a load cell over its ceiling (led by its
+/// rate) vents its muscle, a joint outside its range turns its motor off (and with `range_vent`,
+/// about to be outside, also vents the muscle that drives it further out).
 struct BoardLimits {
   bool configured = false;                   ///< false: the map has no `board_limits:` entry for the joint
   double agonist_force_N = 0, antagonist_force_N = 0;          ///< load-cell ceilings
   double agonist_pressure_Pa = 0, antagonist_pressure_Pa = 0;  ///< valve setpoint ceilings
+  double pressure_rise_Pa_per_s = 0;         ///< fastest rise of either valve's setpoint
+  double force_lead_s = 0;                   ///< the force trip's lead: the valves' reaction time
   double motor_torque_Nm = 0;                ///< |torque| ceiling (joints with a motor channel)
   double min_angle_rad = 0, max_angle_rad = 0;  ///< the encoder's range; outside, the motor is off
+  /// `range_vent:` given: (about to be) out of range also vents the muscle driving the joint out,
+  /// judged on the angle led by the speed x `angle_lead_s` + speed^2 / (2 `brake_rad_per_s2`).
+  bool range_vent = false;
+  double angle_lead_s = 0;                   ///< the range's lead on the speed: the valves' reaction time
+  double brake_rad_per_s2 = 0;               ///< the deceleration the braking muscle gives (0: no stopping distance)
 };
 
 /// Every channel of one joint.
