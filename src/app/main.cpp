@@ -114,7 +114,7 @@ Command add_run(CLI::App& app) {
                       "E1 and an arm scenario's E3 (--experiment postures), in process only (repeatable): inject a plant\n"
                       "fault KIND@T[:TARGET[=VALUE]] at T s, TARGET [JOINT.]agonist|antagonist for muscle faults, JOINT\n"
                       "for the others (E1: joint; the arm: R_SFE|R_EFE|R_WFE; default the first), VALUE for loadcell_bias\n"
-                      "(N), encoder_jump (deg), wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
+                      "(N), loadcell_drift (N/s), encoder_jump (deg), wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");
   run_cmd->add_option("--gravity-identification", run.gravity_identification,
                       "Arm scenarios only: the controller's gravity parameters identified on the rig (a file from\n"
                       "peha identify-gravity) instead of the nominal arm model (docs/identification.md)")

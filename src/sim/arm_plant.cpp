@@ -167,6 +167,7 @@ bool ArmBackend::read(io::SensorState& state) noexcept {
 }
 
 void ArmBackend::apply_faults(double t_s) noexcept {
+  for (PehaJointPlant& j : joints_) advance_joint_faults(t_s, j.faults());
   for (std::size_t i = 0; i < params_.faults.size(); ++i) {
     const PlantFault& f = params_.faults[i];
     if (fault_applied_[i] || t_s + 1e-9 < f.time_s) continue;

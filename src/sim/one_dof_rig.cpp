@@ -168,6 +168,7 @@ bool OneDofRigBackend::read(io::SensorState& state) noexcept {
 }
 
 void OneDofRigBackend::apply_faults(double t_s) noexcept {
+  advance_joint_faults(t_s, joint_.faults());
   for (std::size_t i = 0; i < params_.faults.size(); ++i) {
     const PlantFault& f = params_.faults[i];
     if (fault_applied_[i] || t_s + 1e-9 < f.time_s) continue;

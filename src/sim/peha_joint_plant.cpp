@@ -312,7 +312,7 @@ void PehaJointPlant::sense(double pressure_noise_Pa, double pressure_range_Pa, s
   const MusclePlantParams* p[2] = {&params_.agonist, &params_.antagonist};
   double cell[2], pressure[2];
   for (int i = 0; i < 2; ++i) {
-    cell[i] = loadcell(*p[i], force[i] + faults_.loadcell_bias_N[i]);
+    cell[i] = loadcell(*p[i], force[i] + faults_.loadcell_bias_N[i] + faults_.loadcell_drift_N[i]);
     if (faults_.loadcell_stuck[i]) cell[i] = last_loadcell_N_[i];
     if (faults_.loadcell_disconnected[i]) cell[i] = 0.0;
     if (faults_.loadcell_saturated[i]) cell[i] = p[i]->loadcell_range_N;

@@ -16,7 +16,7 @@ namespace {
 constexpr std::array<const char*, kFaultKindCount> kNames = {
     "loadcell_stuck", "loadcell_bias",  "loadcell_disconnected", "loadcell_saturated", "encoder_jump",  "encoder_frozen",
     "pressure_sensor_fail", "supply_zero", "supply_half", "valve_stuck_open", "valve_stuck_closed", "wire_break",
-    "wire_slip", "motor_fault", "controller_nan", "estop"};
+    "wire_slip", "motor_fault", "controller_nan", "estop", "loadcell_drift"};
 
 std::optional<FaultKind> kind_named(std::string_view name) {
   for (int i = 0; i < kFaultKindCount; ++i) {
@@ -70,6 +70,7 @@ bool fault_targets_muscle(FaultKind kind) noexcept {
   switch (kind) {
     case FaultKind::kLoadcellStuck:
     case FaultKind::kLoadcellBias:
+    case FaultKind::kLoadcellDrift:
     case FaultKind::kLoadcellDisconnected:
     case FaultKind::kLoadcellSaturated:
     case FaultKind::kPressureSensorFail:
@@ -84,12 +85,14 @@ bool fault_targets_muscle(FaultKind kind) noexcept {
 }
 
 bool fault_takes_value(FaultKind kind) noexcept {
-  return kind == FaultKind::kLoadcellBias || kind == FaultKind::kEncoderJump || kind == FaultKind::kWireSlip;
+  return kind == FaultKind::kLoadcellBias || kind == FaultKind::kLoadcellDrift || kind == FaultKind::kEncoderJump ||
+         kind == FaultKind::kWireSlip;
 }
 
 double fault_default_value(FaultKind kind) noexcept {
   switch (kind) {
     case FaultKind::kLoadcellBias: return 400.0;  // N
+    case FaultKind::kLoadcellDrift: return 10.0;  // N/s
     case FaultKind::kEncoderJump: return 10.0;    // deg
     case FaultKind::kWireSlip: return 5.0;        // mm
     default: return 0.0;
@@ -176,6 +179,10 @@ void apply_joint_fault(const PlantFault& f, JointFaultState& j) noexcept {
   switch (f.kind) {
     case FaultKind::kLoadcellStuck: j.loadcell_stuck[m] = true; break;
     case FaultKind::kLoadcellBias: j.loadcell_bias_N[m] += f.value; break;
+    case FaultKind::kLoadcellDrift:
+      j.loadcell_drift_N_per_s[m] = f.value;
+      j.loadcell_drift_since_s[m] = f.time_s;
+      break;
     case FaultKind::kLoadcellDisconnected: j.loadcell_disconnected[m] = true; break;
     case FaultKind::kLoadcellSaturated: j.loadcell_saturated[m] = true; break;
     case FaultKind::kPressureSensorFail: j.pressure_sensor_failed[m] = true; break;
@@ -187,6 +194,12 @@ void apply_joint_fault(const PlantFault& f, JointFaultState& j) noexcept {
     case FaultKind::kWireSlip: j.wire_slip_m[m] += f.value * 1e-3; break;
     case FaultKind::kMotorFault: j.motor_failed = true; break;
     default: break;
+  }
+}
+
+void advance_joint_faults(double t_s, JointFaultState& j) noexcept {
+  for (int m = 0; m < 2; ++m) {
+    if (j.loadcell_drift_N_per_s[m] != 0.0) j.loadcell_drift_N[m] = j.loadcell_drift_N_per_s[m] * std::max(0.0, t_s - j.loadcell_drift_since_s[m]);
   }
 }
 

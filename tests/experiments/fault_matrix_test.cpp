@@ -53,6 +53,31 @@ TEST(FaultMatrix, HoldingRowsNameTheFlagTheCyclesAndThePlantsFigures) {
   std::filesystem::remove_all(dir);
 }
 
+// Issue 29: two faults at once are rows of the matrix. A dead pressure sensor behind a stuck-open
+// valve (E1 5 kg, holding): the sensor's failure parts the cell from the model at once
+// (loadcell_disagrees, 3 cycles), the over-ceiling window vents - and the stuck valve refills the
+// muscle past its ceiling anyway (2695 N measured): a row physics forbids, named with its reason. A
+// pair runs only when both its kinds are wanted.
+TEST(FaultMatrix, ADoubleFaultIsARowAndPhysicsForbidsIsNamed) {
+  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  FaultMatrixOptions o;
+  o.case_name = "payload_5.0kg";
+  o.kinds = {sim::FaultKind::kPressureSensorFail, sim::FaultKind::kValveStuckOpen};
+  o.moments = {"holding"};
+  o.after_fault_s = 2.0;
+  const std::vector<FaultRow> rows = run_fault_matrix(s, o);
+  ASSERT_EQ(rows.size(), 4u);  // none, the two singles, the pair
+  const FaultRow& pair = rows[3];
+  EXPECT_EQ(pair.fault, "pressure_sensor_fail+valve_stuck_open");
+  EXPECT_TRUE(pair.detected);
+  EXPECT_LE(pair.detection_cycles, 5.0);
+  EXPECT_GT(pair.peak_force_N, 2000.0);
+  EXPECT_GE(pair.limits_exceeded, 1);
+  EXPECT_NE(pair.physics_forbids.find("stuck valve"), std::string::npos) << pair.physics_forbids;
+  o.kinds = {sim::FaultKind::kPressureSensorFail};
+  EXPECT_EQ(run_fault_matrix(s, o).size(), 2u);  // the pair needs both kinds
+}
+
 // The E3 rows on the right arm, a subset: the nominal run, a stuck load cell on the elbow's agonist and
 // the supply falling to 0, each at `holding` (1 s after the first posture's release: 8.5 s) and
 // `moving` (the middle of the move to the second posture: 18.75 s). Measured (seed 1): the stuck cell

@@ -96,6 +96,9 @@ struct JointFaultState {
   bool loadcell_disconnected[2] = {false, false};  ///< reads AD code 0
   bool loadcell_saturated[2] = {false, false};     ///< reads full scale
   double loadcell_bias_N[2] = {0, 0};
+  double loadcell_drift_N_per_s[2] = {0, 0};       ///< a zero drifting from drift_since_s on
+  double loadcell_drift_since_s[2] = {0, 0};
+  double loadcell_drift_N[2] = {0, 0};             ///< how far it has drifted (advance_joint_faults)
   bool pressure_sensor_failed[2] = {false, false}; ///< reads AD code 0
   bool valve_stuck_open[2] = {false, false};
   bool valve_stuck_closed[2] = {false, false};

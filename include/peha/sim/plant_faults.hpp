@@ -35,9 +35,10 @@ enum class FaultKind {
   kMotorFault,            ///< the motor's driver gives no torque
   kControllerNan,         ///< the controller's command on the joint becomes NaN (applied by the loop's test driver)
   kEstop,                 ///< the operator presses the e-stop
+  kLoadcellDrift,         ///< the load cell's zero drifts by `value` N/s (default 10) from the fault on
 };
 
-inline constexpr int kFaultKindCount = 16;
+inline constexpr int kFaultKindCount = 17;
 
 /// "loadcell_stuck", ... (the names the YAML and --fault take).
 const char* fault_kind_name(FaultKind kind) noexcept;
@@ -70,6 +71,8 @@ struct JointFaultState;
 /// Sets the joint-level effect of `f` (load cells, pressure sensors, valves, wires, supply, motor) in
 /// `joint`; kinds the joint does not model (encoder, e-stop, controller) are left to the caller.
 void apply_joint_fault(const PlantFault& f, JointFaultState& joint) noexcept;
+/// The faults that grow with time (a drifting load cell) at time `t_s`; every step.
+void advance_joint_faults(double t_s, JointFaultState& joint) noexcept;
 
 /// The controller_nan faults of a run: the test driver's part of the plant's fault injection. From
 /// each one's time on, the controller's agonist command on its joint is NaN, before the supervisor.

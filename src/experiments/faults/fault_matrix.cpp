@@ -157,11 +157,45 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
       if (progress) progress(row);
       out.push_back(std::move(row));
     }
+    // Two faults at once, on the carrying muscle's joint: a pair runs when both its kinds are wanted.
+    for (const auto& [a, b] : double_faults()) {
+      if (std::find(kinds.begin(), kinds.end(), a) == kinds.end() || std::find(kinds.begin(), kinds.end(), b) == kinds.end()) continue;
+      std::vector<sim::PlantFault> pair;
+      for (sim::FaultKind kind : {a, b}) {
+        sim::PlantFault f;
+        f.kind = kind;
+        f.time_s = moment.time_s;
+        f.joint = joint;
+        f.muscle = 0;
+        f.value = sim::fault_default_value(kind);
+        pair.push_back(f);
+      }
+      const std::string name = std::string(sim::fault_kind_name(a)) + "+" + sim::fault_kind_name(b);
+      FaultRow row = judged(run_one(pair, named(name, target(a), moment)));
+      if (row.limits_exceeded > 0) {
+        const std::string why_a = physics_forbids(a), why_b = physics_forbids(b);
+        row.physics_forbids = why_a.empty() ? why_b : why_b.empty() ? why_a : why_a + "; " + why_b;
+      }
+      if (progress) progress(row);
+      out.push_back(std::move(row));
+    }
   }
   return out;
 }
 
 }  // namespace
+
+const std::vector<std::pair<sim::FaultKind, sim::FaultKind>>& double_faults() {
+  using K = sim::FaultKind;
+  // A dead pressure sensor hides a stuck-open valve from the pressure checks (the load cell read
+  // 2740-2783 N for seconds under descend); a stuck cell when the supply halves; a motor that dies
+  // as the wire slips; a frozen encoder (no speed to govern with) while a cell drifts.
+  static const std::vector<std::pair<K, K>> pairs = {{K::kPressureSensorFail, K::kValveStuckOpen},
+                                                     {K::kLoadcellStuck, K::kSupplyHalf},
+                                                     {K::kMotorFault, K::kWireSlip},
+                                                     {K::kEncoderFrozen, K::kLoadcellDrift}};
+  return pairs;
+}
 
 std::string physics_forbids(sim::FaultKind kind) {
   switch (kind) {

@@ -16,6 +16,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace peha::experiments {
@@ -81,6 +82,8 @@ struct FaultMatrixOptions {
 /// The reason no safe state can avoid a limit after fault `kind` (a wire break, a valve stuck open,
 /// the e-stop), or empty when a designed safe state must avoid every limit.
 std::string physics_forbids(sim::FaultKind kind);
+/// The double faults the matrix runs at every moment (both kinds wanted): a row "a+b" each.
+const std::vector<std::pair<sim::FaultKind, sim::FaultKind>>& double_faults();
 
 /// Runs the E1 matrix (the nominal row first). The scenario is run with the plausibility stage on
 /// (every check: it cannot be switched off) and its start-up tare as configured. `progress` (optional) gets each row as it finishes.
