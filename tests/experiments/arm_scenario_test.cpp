@@ -245,6 +245,10 @@ TEST(E6, HybridWithoutItsMotorFallsToThePamOnlyFigureAtTheJoint) {
   EXPECT_GT(hybrid.pass_band_at_joint.low_Hz, 1.0);  // below it the cables' stick band: high-pass
   EXPECT_LT(hybrid.pass_band_at_joint.low_Hz, 3.0);
   EXPECT_TRUE(hybrid.pass_band_at_joint.open_high);  // the motor still passes at 30 Hz
+  const char* figure = "hybrid torque band at the joint, upper -3 dB edge";
+  ASSERT_NE(hybrid.verdict.find(figure), nullptr);  // judged (configs/right_arm.yaml: >= 10 Hz)
+  EXPECT_TRUE(hybrid.verdict.find(figure)->passed());
+  EXPECT_EQ(pam.verdict.find(figure), nullptr);
 
   s.plant.actuators[static_cast<std::size_t>(s.bandwidth.joint)].has_motor = false;
   const BandwidthResult motorless = run_bandwidth(s, /*hybrid=*/true);
@@ -254,6 +258,9 @@ TEST(E6, HybridWithoutItsMotorFallsToThePamOnlyFigureAtTheJoint) {
     EXPECT_LT(motorless.bode_at_joint[i].gain, 0.5) << motorless.bode_at_joint[i].frequency_Hz << " Hz";
   }
   EXPECT_LE(motorless.bandwidth_3dB_Hz, pam.bandwidth_3dB_Hz);
+  ASSERT_NE(motorless.verdict.find(figure), nullptr);
+  EXPECT_FALSE(motorless.verdict.find(figure)->passed());  // and E6's exit code says so
+  EXPECT_FALSE(motorless.within_limits);
 }
 
 // The -3 dB band: the widest run at or above 1/sqrt(2), edges interpolated in log frequency, open at
@@ -433,7 +440,7 @@ TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
   };
   using ::testing::HasSubstr;
   const std::string passive = error_after("joints: [R_EFE]", "joints: [R_WR]");
-  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:262:"));  // file and line of the list item
+  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:263:"));  // file and line of the list item
   EXPECT_THAT(passive, HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'R_WR'"));
   EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [L_EFE]"), HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'L_EFE'"));
   EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [R_EFE, R_WFE]"),

@@ -233,6 +233,7 @@ void read_bandwidth(config::Map bw, ArmScenario& s) {
   s.bandwidth.frequencies_Hz = bw.numbers("frequencies_Hz", {0.01, 0.25 / s.period_s}, 2, 64);
   s.bandwidth.min_cycles = bw.number("min_cycles", {2.0, 1000.0});
   s.bandwidth.min_duration_s = bw.number("min_duration_s", {0.1, 600.0});
+  s.bandwidth.min_hybrid_band_at_joint_Hz = bw.number_or("min_hybrid_band_at_joint_Hz", 0.0, {0.0, 0.25 / s.period_s});
   bw.finish();
 }
 

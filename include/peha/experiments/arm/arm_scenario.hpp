@@ -57,6 +57,9 @@ struct ArmScenario {
     double amplitude_Nm = 2.0;          ///< sine amplitude on top of the gravity torque
     std::vector<double> frequencies_Hz;
     double min_cycles = 4, min_duration_s = 2.0;  ///< per frequency (the first cycle is not analysed)
+    /// The verdict: the hybrid's -3 dB band of the torque the joint receives (after the cables)
+    /// reaches at least this high, Hz (`min_hybrid_band_at_joint_Hz`; 0 = not judged).
+    double min_hybrid_band_at_joint_Hz = 0;
   } bandwidth;
   /// E4: the exoskeleton's joints (the elbows) driven by a person's joint angles, each measured by its
   /// own goniometer.
