@@ -25,9 +25,11 @@ struct DescendGovernorModel {
   double force_slew_N_per_s = 0;     ///< the carrying force rises at most this fast
   double damping_Nms_per_rad = 0;    ///< motor torque = -this x joint speed (within the rating)
   double stop_margin_rad = 0;        ///< the descent stops this far inside the range's end
-  /// Moving up faster than this, the joint is lifted (an operator): the carrying force is kept, not
-  /// bled - bled, the elbow's flexor fell to 1.0-2.5 N under an operator flexing it. The descent
-  /// speed; +inf only for the test that shows the old integral (CheckOverrides).
+  /// Moving up faster than this (beyond any wanted return into the range), the joint rises: kept
+  /// (not bled) when an operator lifts it - the carrying force within balance_margin of its balance
+  /// - since bled, the elbow's flexor fell to 1.0-2.5 N under an operator flexing it; bled and pushed
+  /// back when the muscle itself lifts it. The descent speed; +inf only for the test that shows the
+  /// old integral (CheckOverrides).
   double lift_speed_radps = 0;
   /// Rising with a carrying force above (1 + this) x the balance force (the force while the joint
   /// was last held or descending inside its range), the muscle lifts the joint, not an operator.
