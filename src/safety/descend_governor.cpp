@@ -9,12 +9,14 @@ namespace {
 /// The carrying muscle is the one whose force (by the pressure model, at the pressures held) wins:
 /// it holds the load, so the joint descends when it relaxes. It starts from what it held.
 void start_descent(const DescendGovernorModel& model, const models::JointModel& joint, const io::JointCommand& held,
-                   const double (&eps)[2], bool started_inside, DescendGovernorData& g) noexcept {
+                   const double (&eps)[2], int outside, DescendGovernorData& g) noexcept {
   const double held_Pa[2] = {held.agonist_pressure_Pa, held.antagonist_pressure_Pa};
   const models::MuscleModel* mm[2] = {&joint.agonist, &joint.antagonist};
   double held_N[2];
   for (int m = 0; m < 2; ++m) held_N[m] = models::forward_force_N(mm[m]->pam, std::max(0.0, held_Pa[m]), eps[m]);
-  g.carrying = held_N[0] >= held_N[1] ? 0 : 1;
+  // A joint found beyond an end of its range (on a stop after an outage, both muscles vented: their
+  // forces say nothing) is carried by the muscle that pulls it back inside.
+  g.carrying = outside < 0 ? 0 : outside > 0 ? 1 : held_N[0] >= held_N[1] ? 0 : 1;
   g.force_N = held_N[g.carrying];
   g.other_force_N = std::max(joint.pretension_N, held_N[1 - g.carrying]);
   g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
@@ -22,7 +24,7 @@ void start_descent(const DescendGovernorModel& model, const models::JointModel& 
   g.command_N = g.force_N;
   // A joint that starts inside its range was held there by this force (a fault while holding or
   // moving); one on a stop (after an outage) was not: its balance is not known yet.
-  g.balance_N = started_inside ? g.force_N : 0.0;
+  g.balance_N = outside == 0 ? g.force_N : 0.0;
   g.started = true;
 }
 
@@ -72,8 +74,8 @@ void govern_descent(const DescendGovernorModel& model, const models::JointModel&
   double eps[2];
   for (int m = 0; m < 2; ++m) eps[m] = models::rigid_contraction(*mm[m], joint.pulley_radius_m, m == 0 ? +1 : -1, sample.angle_rad);
   if (!g.started) {
-    const bool inside = sample.angle_rad > sample.min_angle_rad && sample.angle_rad < sample.max_angle_rad;
-    start_descent(model, joint, held, eps, inside, g);
+    const int outside = sample.angle_rad < sample.min_angle_rad ? -1 : sample.angle_rad > sample.max_angle_rad ? 1 : 0;
+    start_descent(model, joint, held, eps, outside, g);
   }
   const double force_N = carrying_force_N(model, sample, g);
   const auto c = static_cast<std::size_t>(g.carrying);
