@@ -144,15 +144,20 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
   std::vector<FaultRow> out;
   out.push_back(judged(run_one({}, named("none", "-", nominal))));
   if (progress) progress(out.back());
+  // A fault of `kind` at `moment` on the matrix's joint, muscle faults on the agonist, which carries
+  // the load (E1's payload, the arm's forearm).
+  auto fault_at = [&](sim::FaultKind kind, const FaultMoment& moment) {
+    sim::PlantFault f;
+    f.kind = kind;
+    f.time_s = moment.time_s;
+    f.joint = joint;
+    f.muscle = 0;
+    f.value = sim::fault_default_value(kind);
+    return f;
+  };
   for (const FaultMoment& moment : moments) {
     for (sim::FaultKind kind : kinds) {
-      sim::PlantFault f;
-      f.kind = kind;
-      f.time_s = moment.time_s;
-      f.joint = joint;
-      f.muscle = 0;  // muscle faults on the agonist, which carries the load (E1's payload, the arm's forearm)
-      f.value = sim::fault_default_value(kind);
-      FaultRow row = judged(run_one({f}, named(sim::fault_kind_name(kind), target(kind), moment)));
+      FaultRow row = judged(run_one({fault_at(kind, moment)}, named(sim::fault_kind_name(kind), target(kind), moment)));
       if (row.limits_exceeded > 0) row.physics_forbids = physics_forbids(kind);
       if (progress) progress(row);
       out.push_back(std::move(row));
@@ -160,18 +165,8 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
     // Two faults at once, on the carrying muscle's joint: a pair runs when both its kinds are wanted.
     for (const auto& [a, b] : double_faults()) {
       if (std::find(kinds.begin(), kinds.end(), a) == kinds.end() || std::find(kinds.begin(), kinds.end(), b) == kinds.end()) continue;
-      std::vector<sim::PlantFault> pair;
-      for (sim::FaultKind kind : {a, b}) {
-        sim::PlantFault f;
-        f.kind = kind;
-        f.time_s = moment.time_s;
-        f.joint = joint;
-        f.muscle = 0;
-        f.value = sim::fault_default_value(kind);
-        pair.push_back(f);
-      }
       const std::string name = std::string(sim::fault_kind_name(a)) + "+" + sim::fault_kind_name(b);
-      FaultRow row = judged(run_one(pair, named(name, target(a), moment)));
+      FaultRow row = judged(run_one({fault_at(a, moment), fault_at(b, moment)}, named(name, target(a), moment)));
       if (row.limits_exceeded > 0) {
         const std::string why_a = physics_forbids(a), why_b = physics_forbids(b);
         row.physics_forbids = why_a.empty() ? why_b : why_b.empty() ? why_a : why_a + "; " + why_b;
