@@ -354,8 +354,8 @@ class FaultMonitor {
     bool has_level = false;
     int step = 0;
     int zero_off = 0;  ///< consecutive vented samples with the cell beyond loadcell_zero_max_N
-    int never_taut = 0;
-    int over_ceiling = 0;  ///< consecutive readings over the muscle's ceiling (below full scale)  ///< consecutive samples past tension_taut_deadline_s below the floor, never taut
+    int never_taut = 0;    ///< consecutive samples past tension_taut_deadline_s below the floor, never taut
+    int over_ceiling = 0;  ///< consecutive readings over the muscle's ceiling (below full scale)
     double excess_fast_Pa = 0, excess_level_Pa = 0;  ///< the rise check's filtered excess and its level
     bool has_excess = false;
     int rise = 0;
