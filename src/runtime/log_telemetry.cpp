@@ -36,6 +36,12 @@ std::vector<Available> available_signals(const std::vector<std::string>& columns
   return out;
 }
 
+/// "A.B.C.D" of "A.B.C.D:PORT" (what Telemetry takes beside the port).
+std::string host_of(const io::UdpEndpoint& e) {
+  const std::string at = e.to_string();
+  return at.substr(0, at.rfind(':'));
+}
+
 bool is_glob(std::string_view pattern) { return pattern.find_first_of("*?") != std::string_view::npos; }
 
 /// `*` any run of characters, `?` one character; everything else literal.
@@ -137,8 +143,7 @@ TelemetrySelection select_telemetry(const std::vector<std::string>& wanted, cons
 void check_telemetry(const TelemetryOptions& options, const std::vector<std::string>& columns, const std::vector<std::string>& extras) {
   if (!options.destination) return;
   (void)select_telemetry(options.signals, columns, extras);
-  const std::string at = options.destination->to_string();
-  Telemetry::check_destination(at.substr(0, at.rfind(':')), options.destination->port, options.allow_remote);
+  Telemetry::check_destination(host_of(*options.destination), options.destination->port, options.allow_remote);
 }
 
 void pick_telemetry(const TelemetrySelection& selection, std::span<const double> row, std::span<const double> extras,
@@ -153,11 +158,6 @@ void pick_telemetry(const TelemetrySelection& selection, std::span<const double>
 }
 
 namespace {
-
-std::string host_of(const io::UdpEndpoint& e) {
-  const std::string at = e.to_string();
-  return at.substr(0, at.rfind(':'));
-}
 
 const io::UdpEndpoint& checked_destination(const TelemetryOptions& options) {
   if (!options.destination) throw std::invalid_argument("LogTelemetry: no destination");
