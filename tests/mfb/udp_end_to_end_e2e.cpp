@@ -1444,6 +1444,18 @@ TruthMotion truth_motion(const std::filesystem::path& truth, double from_s, doub
   return m;
 }
 
+/// E1's first case against `emulator` for `duration_s`, the unattended operator recovering
+/// `recover_after_s` after each fault; then the emulator is stopped, which writes its --truth-csv.
+experiments::E1RealtimeResult run_recovering(Emulator& emulator, double duration_s, double recover_after_s, const std::string& name) {
+  const experiments::E1Scenario s = scenario(duration_s);
+  experiments::HardwareRunOptions o = options(emulator.port, name);
+  o.recover_after_s = recover_after_s;
+  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
+  emulator.process.stop(SIGINT);
+  emulator.process.wait(10.0);
+  return r;
+}
+
 // Issue 29: the board's state packets lost for 2 s while the link holds its payload. The host is
 // blind, not the board: it faults (backend silent) but keeps the board armed on its last command,
 // motor off, instead of disarming it - disarmed, the board vented the payload onto its stop at
@@ -1453,12 +1465,7 @@ TEST(MfbEndToEnd, ALostUplinkHoldsTheLimbAndTheRecoveryStartsFromWhatIsMeasured)
   const std::filesystem::path truth = std::filesystem::temp_directory_path() / ("peha_uplink_" + std::to_string(::getpid()) + ".csv");
   Emulator emulator({"--loss-burst-at", "2.5", "--loss-burst-packets", "2000", "--truth-csv", truth.string(), "--max-runtime", "9"});
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const experiments::E1Scenario s = scenario(5.9);  // before the first push (6 s)
-  experiments::HardwareRunOptions o = options(emulator.port, "uplink_lost");
-  o.recover_after_s = 0.5;
-  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
-  emulator.process.stop(SIGINT);
-  emulator.process.wait(10.0);
+  const experiments::E1RealtimeResult r = run_recovering(emulator, 5.9, 0.5, "uplink_lost");  // before the first push (6 s)
   const std::string path = lifecycle_text(r);
   EXPECT_NE(path.find("active -> fault (backend silent for longer than host_watchdog_ms (holding the last command, motor off))"), std::string::npos) << path;
   EXPECT_EQ(r.recoveries, 1u) << path;
@@ -1500,12 +1507,8 @@ TEST(MfbEndToEnd, AJointReArmedOnItsStopIsBroughtBackTowardItsRangeSlowly) {
   const std::filesystem::path config = without_pushes("rearm_on_stop");
   Emulator emulator({"--estop-at", "1.0", "--estop-for", "0.5", "--truth-csv", truth.string(), "--max-runtime", "15"}, config.string());
   ASSERT_GT(emulator.port, 0) << emulator.process.output();
-  const experiments::E1Scenario s = scenario(10.0);
-  experiments::HardwareRunOptions o = options(emulator.port, "rearm_on_stop");
-  o.recover_after_s = 4.0;
-  const experiments::E1RealtimeResult r = experiments::run_e1_realtime(s, s.cases.front(), o);
-  emulator.process.stop(SIGINT);
-  emulator.process.wait(10.0);
+  constexpr double kDuration_s = 10.0;
+  const experiments::E1RealtimeResult r = run_recovering(emulator, kDuration_s, 4.0, "rearm_on_stop");
   const std::string path = lifecycle_text(r);
   EXPECT_NE(path.find("active -> fault (e-stop)"), std::string::npos) << path;
   // The governed phase: from the first re-arm, which finds the joint outside its range, to the next
@@ -1516,7 +1519,7 @@ TEST(MfbEndToEnd, AJointReArmedOnItsStopIsBroughtBackTowardItsRangeSlowly) {
     if (governed_from_s > 0 && governed_to_s == 0 && e.find("fault -> recovering") != std::string::npos) governed_to_s = std::stod(e);
   }
   ASSERT_GT(governed_from_s, 2.9) << path;
-  if (governed_to_s == 0) governed_to_s = s.duration_s;
+  if (governed_to_s == 0) governed_to_s = kDuration_s;
   const TruthMotion fell = truth_motion(truth, 1.0, governed_from_s), governed = truth_motion(truth, governed_from_s, governed_to_s);
   std::filesystem::remove(truth);
   std::filesystem::remove(config);
