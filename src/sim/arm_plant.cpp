@@ -89,6 +89,7 @@ ArmBackend::ArmBackend(const ArmPlantParams& params)
   info_.name = "sim:arm";
   info_.period_s = params_.control_period_s;
   state_.joint_count = static_cast<int>(params_.actuated.size());
+  settle();
   sample();
   sampled_truth_ = truth_;
 }
@@ -103,7 +104,8 @@ void ArmBackend::substep(const io::Command& command) noexcept {
   int move = -1;
   for (std::size_t k = 0; k < params_.operator_hands.moves.size(); ++k) {
     const OperatorMove& mv = params_.operator_hands.moves[k];
-    if (t >= mv.start_s && t < mv.start_s + mv.duration_s) move = static_cast<int>(k);
+    // Before t = 0 the hands of a move that starts at 0 already hold its posture (the person's own arm).
+    if (settling_ ? mv.start_s <= 0.0 : t >= mv.start_s && t < mv.start_s + mv.duration_s) move = static_cast<int>(k);
   }
   if (move != active_move_ && move >= 0) {
     for (std::size_t a = 0; a < dof_.size(); ++a) move_start_[a] = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
@@ -125,8 +127,8 @@ void ArmBackend::substep(const io::Command& command) noexcept {
       const OperatorMove& mv = params_.operator_hands.moves[static_cast<std::size_t>(move)];
       const double goal = mv.target_rad[a];
       if (std::isfinite(goal)) {
-        const double blend = minimum_jerk((t - mv.start_s) / mv.move_s);
-        const double target = move_start_[a] + (goal - move_start_[a]) * blend;
+        const double blend = settling_ ? 1.0 : minimum_jerk((t - mv.start_s) / mv.move_s);
+        const double target = settling_ ? goal : move_start_[a] + (goal - move_start_[a]) * blend;
         const OperatorParams& op = params_.operator_hands;
         hands = std::clamp(op.stiffness_Nm_per_rad * (target - angle) - op.damping_Nms_per_rad * omega,
                            -op.max_torque_Nm, op.max_torque_Nm);
@@ -136,6 +138,19 @@ void ArmBackend::substep(const io::Command& command) noexcept {
     truth_.operator_torque_Nm[a] = hands;
   }
   mj_step(m, d);
+}
+
+void ArmBackend::settle() {
+  if (params_.settle_s < 0.0) throw std::invalid_argument("arm plant: settle_s must be >= 0");
+  settling_ = true;
+  for (PehaJointPlant& j : joints_) j.faults().dump = true;
+  io::Command vented;
+  vented.joint_count = static_cast<int>(joints_.size());
+  const auto steps = static_cast<long>(std::llround(params_.settle_s / params_.timestep_s));
+  for (long k = 0; k < steps; ++k) substep(vented);
+  settling_ = false;
+  active_move_ = -1;  // at t = 0 the first move grips the arm where it rests
+  data_->time = 0.0;
 }
 
 void ArmBackend::sample() noexcept {

@@ -22,6 +22,7 @@ double shoulder_after_fall_rad(double unknown_hand_payload_kg) {
   ArmPlantParams p =
       experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")).plant;
   p.initial_q_rad.assign(p.initial_q_rad.size(), 0.0);
+  p.settle_s = 0.0;  // released held out at t = 0, not settled hanging
   p.unknown_hand_payload_kg = unknown_hand_payload_kg;
   ArmBackend arm(p);
   io::Command vented;

@@ -52,6 +52,10 @@ struct ArmPlantParams {
   std::vector<std::string> actuated;      ///< names of the actuated joints, in io order
   std::vector<PehaJointPlantParams> actuators;  ///< one per actuated joint
   std::vector<double> initial_q_rad;      ///< one per model joint
+  /// Physics run before t = 0 with the board's outputs safe (vented, motors off) and no hands on the
+  /// arm, s: a real arm at power-on hangs at rest, so the run starts from rest and its start-up
+  /// (vent, tare, refill) is judged on what the start-up does, not on a made-up initial state.
+  double settle_s = 1.5;
   double pressure_noise_Pa = 1000;
   double pressure_range_Pa = 1.0e6;
   double encoder_counts_per_rev = 70000;
@@ -99,6 +103,7 @@ class ArmBackend final : public io::Backend {
 
  private:
   void substep(const io::Command& command) noexcept;
+  void settle();
   void sample() noexcept;
   void apply_faults(double t_s) noexcept;
 
@@ -112,6 +117,7 @@ class ArmBackend final : public io::Backend {
   std::vector<double> move_start_;       ///< angle where the current move began, per actuated joint
   int active_move_ = -1;
   int substeps_ = 1;
+  bool settling_ = false;  ///< before t = 0: no operator's hands
   std::mt19937_64 rng_;
   io::SensorState state_;
   ArmTruth truth_, sampled_truth_;

@@ -330,15 +330,19 @@ sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const s
   }
   sim::ArmPlantParams p = scenario.plant;
   // Every io joint the posture names at its angle, each driven joint where its person starts; the
-  // others (the wrists unless named) where the plant starts them, and free in the operator's hands.
+  // others (the wrists unless named) where the plant starts them.
   std::vector<double> start = g.held_rad;
   start.resize(scenario.plant.actuated.size(), std::numeric_limits<double>::quiet_NaN());
   for (std::size_t k = 0; k < g.joints.size(); ++k) start[static_cast<std::size_t>(g.joints[k])] = traces[k].truth_rad.front();
   for (std::size_t i = 0; i < start.size(); ++i) {
-    if (!std::isnan(start[i])) p.initial_q_rad.at(static_cast<std::size_t>(scenario.controller.joints[i].model_joint)) = start[i];
+    double& q0 = p.initial_q_rad.at(static_cast<std::size_t>(scenario.controller.joints[i].model_joint));
+    if (!std::isnan(start[i])) q0 = start[i];
+    start[i] = q0;
   }
   const double release_s = g.settle_s - 1.0;
-  // The operator holds the arm where it starts while the compensation comes on, then lets go.
+  // The operator holds the whole arm where it starts while the compensation comes on (the person keeps
+  // the hand still: the constant-pressure wrist, vented at power-on, would otherwise swing to where its
+  // pressures put it), then lets go.
   p.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, start});
   return p;
 }
