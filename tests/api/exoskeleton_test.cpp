@@ -61,15 +61,15 @@ TEST(UserController, APdWithGravityHoldsTheArmWithinEveryLimit) {
   EXPECT_LT(models::rad_to_deg(error_rad), 3.0);
 }
 
-// A PD whose target jumps 10 deg jumps the torque faster than the muscles' valves follow: the
-// shoulder's wire falls below the tension floor (20 N), and the verdict says so. The same
-// move as a 1 s ramp passes.
+// A stiff PD (100 Nm/rad) whose target jumps 30 deg jumps the torque faster than the muscles' valves
+// follow: the shoulder's wire goes slack (0 N, floor 20 N), and the verdict says so. The same move as
+// a 1 s ramp passes. (With the arm started at rest a 10 deg jump at 30 Nm/rad no longer slackens it.)
 TEST(UserController, ATargetThatJumpsFailsTheWireTensionFigure) {
   Exoskeleton exo(kArm);
   double error_rad = 0;
-  const ControlResult ramped = exo.control(pd(30.0, exo, error_rad, 10.0, 1.0), 6.0);
+  const ControlResult ramped = exo.control(pd(100.0, exo, error_rad, 30.0, 1.0), 6.0);
   EXPECT_TRUE(ramped.passed) << ramped.verdict.failures();
-  const ControlResult r = exo.control(pd(30.0, exo, error_rad, 10.0, 0.0), 6.0);
+  const ControlResult r = exo.control(pd(100.0, exo, error_rad, 30.0, 0.0), 6.0);
   EXPECT_FALSE(r.passed);
   EXPECT_THAT(r.verdict.failures(), HasSubstr("lowest wire tension"));
 }
