@@ -75,7 +75,9 @@ TEST(UpperBodyScenario, BothArmsHoldMirrorPosturesWithinTheStaticErrorLimitOnceI
     for (const char* joint : {"SAA", "SFE", "EFE"}) {
       const PostureJointResult& right = figure(p, std::string("R_") + joint);
       const PostureJointResult& left = figure(p, std::string("L_") + joint);
-      EXPECT_NEAR(right.released_deg, left.released_deg, 0.05) << name << " " << joint;
+      // 0.1 deg: the identification fits each side's shoulder within its own uncertainty (R_SFE.hz
+      // -0.012 +- 0.007 kg m against the left's), which moves where the shoulder's stiction catches it by 0.08 deg.
+      EXPECT_NEAR(right.released_deg, left.released_deg, 0.1) << name << " " << joint;
       EXPECT_NEAR(right.gravity_torque_Nm, left.gravity_torque_Nm, 0.02 * std::abs(right.gravity_torque_Nm) + 0.05) << name << " " << joint;
     }
   }
