@@ -107,6 +107,7 @@ void ArmBackend::substep(const io::Command& command) noexcept {
     // Before t = 0 the hands of a move that starts at 0 already hold its posture (the person's own arm).
     if (settling_ ? mv.start_s <= 0.0 : t >= mv.start_s && t < mv.start_s + mv.duration_s) move = static_cast<int>(k);
   }
+  if (kept_move_ >= 0) move = kept_move_;
   if (move != active_move_ && move >= 0) {
     for (std::size_t a = 0; a < dof_.size(); ++a) move_start_[a] = d->qpos[m->jnt_qposadr[m->dof_jntid[dof_[a]]]];
   }

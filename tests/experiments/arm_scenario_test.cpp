@@ -363,6 +363,29 @@ TEST(E3, TheStartUpMovesNoJointMoreThanTwoDegreesOrTenDegreesPerSecond) {
   EXPECT_FALSE(speed->passed());
 }
 
+// A load cell whose zero is 20 N below code 0 reads 0 vented: the tare cannot measure it, and the
+// monitor latches loadcell_zero in the vent (0.12 s) -> hold on the pressures found. The operator lets
+// go of the arm only when the run is ready (ArmBackend::keep_hands), so the arm stays in the hands
+// that held it from t = 0: the shoulder moves < 1 deg in 10 s. A careless operator who lets go by the
+// clock drops it onto the vented muscles (measured: 74 deg at the first release).
+TEST(E3, AZeroBelowCodeZeroAtPowerOnIsCaughtVentedAndTheOperatorKeepsHoldingTheArm) {
+  ArmScenario s = shipped();
+  s.postures_stop_s = 10.0;  // the first release at 7.5 s
+  s.faults = {sim::parse_fault_spec("loadcell_bias@0:R_SFE.agonist=-20", arm_joint_names(s), postures_duration_s(s))};
+  auto shoulder_span_deg = [](const PosturesResult& r) {
+    const safety::Check* lo = r.verdict.find("R_SFE lowest angle");
+    const safety::Check* hi = r.verdict.find("R_SFE highest angle");
+    return lo && hi ? hi->value - lo->value : 1e9;
+  };
+  const PosturesResult r = run_postures(s, nullptr);
+  ASSERT_EQ(r.faults, 1u) << r.fault_reason;
+  EXPECT_EQ(r.fault_reason.find("loadcell_zero joint 0 agonist"), 0u) << r.fault_reason;
+  EXPECT_LT(shoulder_span_deg(r), 1.0);
+  ArmScenario careless = s;
+  careless.plant.operator_hands.waits_until_ready = false;
+  EXPECT_GT(shoulder_span_deg(run_postures(careless, nullptr)), 20.0);
+}
+
 // controller_nan (sim/plant_faults.hpp) is E3's step's part of the fault injection: from its time the
 // command on its joint carries a NaN, which the plausibility stage sees in the same cycle and answers
 // with hold. The run is cut at 10 s (postures_stop_s): the fault is 1 s after the first release.

@@ -218,7 +218,7 @@ TEST(ProceduresOverTheBoard, IdentifyGravityAndRunE3AsInProcess) {
   };
   auto in_process = [&](const ArmScenario& scenario) {
     const hardware::Hardware arm = hardware::open_backend(hardware::BackendUri{}, arm_hardware(scenario, postures_plant_params(scenario)));
-    return run_postures_on(scenario, *arm.backend, dynamic_cast<const sim::ArmBackend*>(arm.backend.get()), nullptr);
+    return run_postures_on(scenario, *arm.backend, dynamic_cast<sim::ArmBackend*>(arm.backend.get()), nullptr);
   };
   const PosturesResult local = in_process(with("sim"));
   const PosturesResult board_identification = in_process(with("board"));

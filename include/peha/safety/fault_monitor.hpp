@@ -331,6 +331,13 @@ class FaultMonitor {
   const MonitorParams& params() const noexcept { return params_; }
   /// Joint `j` is carried: both wires taut with the outputs following (the start-up is over).
   bool carried(int j) const noexcept { return j >= 0 && j < io::kMaxJoints && joints_[static_cast<std::size_t>(j)].carried; }
+  /// Joints 0..joint_count-1 are all carried: the start-up is over on every joint.
+  bool all_carried(int joint_count) const noexcept {
+    for (int j = 0; j < joint_count; ++j) {
+      if (!carried(j)) return false;
+    }
+    return true;
+  }
 
   /// The backend reports an e-stop (its input line, the board's status, or estop()): latched as the
   /// flag `estop` at the sample's time, so that logs, verdicts and the fault matrix name it.

@@ -37,6 +37,9 @@ struct OperatorParams {
   double stiffness_Nm_per_rad = 80;
   double damping_Nms_per_rad = 8;
   double max_torque_Nm = 25;
+  /// The operator follows the start-up procedure: lets go only when the run is ready (keep_hands).
+  /// false: a careless operator who follows the clock whatever peha shows.
+  bool waits_until_ready = true;
   std::vector<OperatorMove> moves;
 };
 
@@ -98,6 +101,14 @@ class ArmBackend final : public io::Backend {
   bool write(const io::Command& command) noexcept override;
   /// The truth at the latest sample (after the latest write()).
   const ArmTruth& truth() const { return truth_; }
+  /// The operator's side of the start-up procedure (docs/safety.md "Start-up"): the hands that hold
+  /// the arm from t = 0 (the first move, if it starts at 0) let go only once the run is ready (every
+  /// joint carried, no fault). While `keep` they stay on, holding the move's posture past its end, and
+  /// the rest of the script waits; once not, the script goes on from where its clock is.
+  void keep_hands(bool keep) noexcept {
+    if (!keep || !params_.operator_hands.waits_until_ready) kept_move_ = -1;
+    else if (kept_move_ < 0 && active_move_ == 0 && params_.operator_hands.moves.front().start_s <= 0.0) kept_move_ = 0;
+  }
   /// The truth at the instant of the sample the latest read() returned (see OneDofRigBackend).
   const ArmTruth& sampled_truth() const { return sampled_truth_; }
 
@@ -116,6 +127,7 @@ class ArmBackend final : public io::Backend {
   std::vector<double> base_frictionloss_, base_damping_;
   std::vector<double> move_start_;       ///< angle where the current move began, per actuated joint
   int active_move_ = -1;
+  int kept_move_ = -1;  ///< the start-up hold the operator keeps on (keep_hands)
   int substeps_ = 1;
   bool settling_ = false;  ///< before t = 0: no operator's hands
   std::mt19937_64 rng_;

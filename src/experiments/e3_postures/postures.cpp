@@ -105,7 +105,7 @@ hardware::HardwareRequest postures_hardware(const ArmScenario& scenario) { retur
 
 PosturesResult run_postures(const ArmScenario& scenario, runtime::RowSink* log) {
   const hardware::Hardware arm = hardware::open_backend(hardware::BackendUri{}, postures_hardware(scenario));
-  return run_postures_on(scenario, *arm.backend, dynamic_cast<const sim::ArmBackend*>(arm.backend.get()), log);
+  return run_postures_on(scenario, *arm.backend, dynamic_cast<sim::ArmBackend*>(arm.backend.get()), log);
 }
 
 namespace {
@@ -124,7 +124,7 @@ struct ArmJointColumns {
 /// torques, the envelope, the log row), and the buffers analyse_postures reads. Every buffer is sized
 /// here, before the loop: step, hold and observe allocate nothing.
 struct PosturesRun {
-  PosturesRun(const ArmScenario& scenario, const sim::ArmBackend* sim, std::size_t steps)
+  PosturesRun(const ArmScenario& scenario, sim::ArmBackend* sim, std::size_t steps)
       : scenario(scenario),
         sim(sim),
         script(postures_plant_params(scenario)),
@@ -173,7 +173,7 @@ struct PosturesRun {
   }
 
   const ArmScenario& scenario;
-  const sim::ArmBackend* sim;
+  sim::ArmBackend* sim;
   const sim::ArmPlantParams script;  ///< where the operator's hands are, by the clock
   control::ArmController controller;
   const safety::JointModels joints;
@@ -304,7 +304,7 @@ PosturesResult analyse_postures(const PosturesRun& run, std::size_t done, const 
 
 }  // namespace
 
-PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::ArmBackend* sim, runtime::RowSink* log,
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, sim::ArmBackend* sim, runtime::RowSink* log,
                                const runtime::CycleHooks& hooks) {
   const double duration_s = postures_duration_s(scenario);
   const auto steps = static_cast<std::size_t>(std::llround(duration_s / scenario.period_s));
@@ -317,6 +317,8 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, [&](std::size_t) { run.step(state, command); },
       [&](std::size_t k) { run.hold(k); },
       [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
+        // The operator lets go of the arm only when the run is ready: every joint carried, no fault shown.
+        if (sim) sim->keep_hands(limited.monitor().flags() != 0 || !limited.monitor().all_carried(state.joint_count));
         run.observe(k, state, sent, limit_flags, limited.monitor().flags(), log);
       });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -87,7 +87,7 @@ class PosturesJob final : public ExperimentRun {
       for (const sim::PlantFault& f : scenario_.faults) fmt::print("  plant fault: {}\n", sim::describe(f, arm_joint_names(scenario_)));
     }
     runtime::TelemetryTee tee(log, ctx.telemetry, log_columns_);
-    result_ = run_postures_on(scenario_, *hw.backend, dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), &tee);
+    result_ = run_postures_on(scenario_, *hw.backend, dynamic_cast<sim::ArmBackend*>(hw.backend.get()), &tee);
     log.write(ctx.dir / "e3_postures.csv", comments);
     finish_telemetry(tee);
     if (hw.replay) print_replay(*hw.replay, ctx.dir / "replay_postures.csv");

@@ -376,7 +376,7 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
     }
   }
   return run_goniometer_on(scenario, traces.front().name, variant, goniometer_run_duration_s(scenario, traces.front()), *hw.backend,
-                           dynamic_cast<const sim::ArmBackend*>(hw.backend.get()), readings, persons, log);
+                           dynamic_cast<sim::ArmBackend*>(hw.backend.get()), readings, persons, log);
 }
 
 namespace {
@@ -762,7 +762,7 @@ GoniometerResult analyse_goniometer(const GoniometerRun& run, const std::string&
 }  // namespace
 
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
+                                   io::Backend& backend, sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
                                    const std::vector<GoniometerSource>& persons, runtime::RowSink* log, const runtime::CycleHooks& hooks) {
   const ArmScenario::Goniometer& g = scenario.goniometer;
   if (readings.size() != g.joints.size() || (!persons.empty() && persons.size() != g.joints.size())) {
@@ -778,7 +778,11 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   const std::size_t done = runtime::run_cycles(
       limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command,
       [&](std::size_t k) { run.step(state, command, k); }, [&](std::size_t k) { run.hold(k); },
-      [&](std::size_t k, const io::Command& sent, std::uint32_t) { run.observe(k, state, sent, log); });
+      [&](std::size_t k, const io::Command& sent, std::uint32_t) {
+        // The person lets go of the arm only when the run is ready: every joint carried, no fault shown.
+        if (sim) sim->keep_hands(limited.monitor().flags() != 0 || !limited.monitor().all_carried(state.joint_count));
+        run.observe(k, state, sent, log);
+      });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   GoniometerResult r = analyse_goniometer(run, name, variant, done, limited.monitor());
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);

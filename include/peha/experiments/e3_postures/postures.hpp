@@ -83,7 +83,7 @@ double postures_duration_s(const ArmScenario& scenario);
 /// E3 on any backend. `sim` (optional) is the in-process arm when `backend` is it (truth figures);
 /// without it the drift comes from the joint encoders, forces and tensions from the load cells, and
 /// the operator is where the script puts them. A cycle whose read() fails holds the last command.
-PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, const sim::ArmBackend* sim, runtime::RowSink* log,
+PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend, sim::ArmBackend* sim, runtime::RowSink* log,
                                const runtime::CycleHooks& hooks = {});
 
 }  // namespace peha::experiments

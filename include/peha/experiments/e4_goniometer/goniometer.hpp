@@ -158,7 +158,7 @@ std::vector<GoniometerSource> logged_goniometers(const ArmScenario& scenario, co
 /// truth figures; without it the exoskeleton's joints are its encoders and forces are the load cells'.
 /// Throws std::invalid_argument on a wrong number of readings or persons.
 GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::string& name, GoniometerVariant variant, double duration_s,
-                                   io::Backend& backend, const sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
+                                   io::Backend& backend, sim::ArmBackend* sim, const std::vector<GoniometerSource>& readings,
                                    const std::vector<GoniometerSource>& persons, runtime::RowSink* log,
                                    const runtime::CycleHooks& hooks = {});
 
