@@ -30,6 +30,35 @@ TEST(Robustness, ShippedMatrixHasEveryVariantOfTheIssue) {
   EXPECT_EQ(c.goal_calibrated.min_share, 0.9);
 }
 
+// One sensor's own calibration error (issue 31): a variant moves one cell's zero or gain, or the
+// pulley's radius, and nothing else - equal errors on both cells cancel in the torque balance, these
+// do not. The shipped matrix has each at +-20 N, +-5 % and +-5 %.
+TEST(Robustness, ASingleSensorErrorActsOnItsOwnSensor) {
+  const RobustnessConfig c = read_robustness(config::Document::load_file(PEHA_SOURCE_DIR "/configs/robustness.yaml"));
+  std::vector<std::string> names;
+  for (const PlantVariant& v : c.variants) names.push_back(v.name);
+  for (const char* name : {"agonist_zero_+20N", "agonist_zero_-20N", "antagonist_zero_+20N", "antagonist_zero_-20N", "agonist_gain_+5%",
+                           "agonist_gain_-5%", "antagonist_gain_+5%", "antagonist_gain_-5%", "pulley_radius_+5%", "pulley_radius_-5%"}) {
+    EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
+  }
+  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const sim::PehaJointPlantParams& nominal = s.plant.joint;
+  PlantVariant zero;
+  zero.antagonist_loadcell_bias_N = -20.0;
+  const sim::OneDofRigParams z = e1_variant_plant(s, s.cases[0], zero);
+  EXPECT_DOUBLE_EQ(z.joint.antagonist.loadcell_offset_N, nominal.antagonist.loadcell_offset_N - 20.0);
+  EXPECT_DOUBLE_EQ(z.joint.agonist.loadcell_offset_N, nominal.agonist.loadcell_offset_N);
+  PlantVariant gain;
+  gain.agonist_loadcell_gain_scale = 0.95;
+  const sim::OneDofRigParams g = e1_variant_plant(s, s.cases[0], gain);
+  EXPECT_DOUBLE_EQ(g.joint.agonist.loadcell_gain, 0.95 * nominal.agonist.loadcell_gain);
+  EXPECT_DOUBLE_EQ(g.joint.antagonist.loadcell_gain, nominal.antagonist.loadcell_gain);
+  PlantVariant pulley;
+  pulley.pulley_radius_scale = 1.05;
+  EXPECT_DOUBLE_EQ(e1_variant_plant(s, s.cases[0], pulley).joint.pulley_radius_m, 1.05 * nominal.pulley_radius_m);
+  EXPECT_DOUBLE_EQ(e1_variant_plant(s, s.cases[0], pulley).joint.agonist.loadcell_gain, nominal.agonist.loadcell_gain);
+}
+
 // A variant changes only the plant: the E1 plant under "link mass +20 %" carries the payload with
 // the same extra gravity torque (0.45 kg arm at 0.2 m: +0.018 kg m -> +0.045 kg at 0.4 m), the
 // cable variant scales both cables' friction, and the E3 variant puts the unknown mass in the hand.

@@ -42,6 +42,11 @@ PlantVariant read_variant_keys(config::Map m) {
   v.muscle_strength_scale = m.number_or("muscle_strength_scale", 1.0, {0.1, 3.0});
   v.wire_stiffness_scale = m.number_or("wire_stiffness_scale", 1.0, {0.05, 10.0});
   v.loadcell_bias_N = m.number_or("loadcell_bias_N", 0.0, {-500.0, 500.0});
+  v.agonist_loadcell_bias_N = m.number_or("agonist_loadcell_bias_N", 0.0, {-500.0, 500.0});
+  v.antagonist_loadcell_bias_N = m.number_or("antagonist_loadcell_bias_N", 0.0, {-500.0, 500.0});
+  v.agonist_loadcell_gain_scale = m.number_or("agonist_loadcell_gain_scale", 1.0, {0.5, 2.0});
+  v.antagonist_loadcell_gain_scale = m.number_or("antagonist_loadcell_gain_scale", 1.0, {0.5, 2.0});
+  v.pulley_radius_scale = m.number_or("pulley_radius_scale", 1.0, {0.5, 2.0});
   v.sensor_noise_scale = m.number_or("sensor_noise_scale", 1.0, {0.0, 100.0});
   v.link_mass_scale = m.number_or("link_mass_scale", 1.0, {0.1, 5.0});
   v.payload_scale = m.number_or("payload_scale", 1.0, {0.0, 5.0});
@@ -70,6 +75,11 @@ void apply_to_joint(const PlantVariant& v, sim::PehaJointPlantParams& j) {
     m->loadcell_noise_N *= v.sensor_noise_scale;
     m->loadcell_offset_N += v.loadcell_bias_N;
   }
+  j.agonist.loadcell_offset_N += v.agonist_loadcell_bias_N;
+  j.antagonist.loadcell_offset_N += v.antagonist_loadcell_bias_N;
+  j.agonist.loadcell_gain *= v.agonist_loadcell_gain_scale;
+  j.antagonist.loadcell_gain *= v.antagonist_loadcell_gain_scale;
+  j.pulley_radius_m *= v.pulley_radius_scale;
 }
 
 void scale_body(models::ArmBody& b, double s) {

@@ -27,6 +27,11 @@ struct PlantVariant {
   double muscle_strength_scale = 1;  ///< gain (force per pressure) of every muscle's static law
   double wire_stiffness_scale = 1;   ///< every inner wire + housing
   double loadcell_bias_N = 0;        ///< added to every load cell (plant knob loadcell_offset_N)
+  /// One sensor's own calibration error (equal errors on both cells cancel in a torque balance):
+  /// added to that muscle's load cell of every joint, N, and its gain, x.
+  double agonist_loadcell_bias_N = 0, antagonist_loadcell_bias_N = 0;
+  double agonist_loadcell_gain_scale = 1, antagonist_loadcell_gain_scale = 1;
+  double pulley_radius_scale = 1;    ///< every joint's pulley (the controller keeps its nominal radius)
   double sensor_noise_scale = 1;     ///< load-cell and pressure-sensor noise
   double link_mass_scale = 1;        ///< E1: the link (as the payload with the same gravity torque); E3: the exoskeleton's links
   double payload_scale = 1;          ///< E1: the case's payload; E3: the mannequin arm - the controller is not told
