@@ -66,12 +66,18 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
     if (error) snprintf(error, size, "estop_line: expected 0..7, found %d", si->estop_line);
     return false;
   }
+  if (si->procedure_key_line < -1 || si->procedure_key_line > 7 || si->procedure_key_line == si->estop_line) {
+    if (error) snprintf(error, size, "procedure_key_line: expected -1 (none) or 0..7 other than the e-stop's, found %d", si->procedure_key_line);
+    return false;
+  }
   for (size_t i = 0; i < MFB_KEY_SIZE; ++i) out->key[i] = si->key[i];
   out->watchdog_us = (uint32_t)(si->watchdog_s * 1e6 + 0.5);
   out->vent_us = (uint32_t)(si->vent_s * 1e6 + 0.5);
   out->safe_digital_out = si->safe_digital_out;
   out->estop_line = (uint8_t)si->estop_line;
   out->estop_active_high = si->estop_active_high;
+  out->procedure_key_line = (int8_t)si->procedure_key_line;
+  out->procedure_key_active_high = si->procedure_key_active_high;
   out->joint_count = (uint8_t)si->joint_count;
   for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
     out->safe_da[i] = si->safe_da[i];
@@ -488,18 +494,20 @@ static void rejudge_trips(mfb_board* b) {
 }
 
 /* Valves vented by a force trip go to their safe codes; a joint (about to be) out of range has its
- * motor at zero torque and, where the range vents, the muscle that drives it further out vented
- * (the agonist above the range, the antagonist below), while the other muscle keeps its command: it
- * brakes and holds. */
+ * motor at zero torque and, where the range vents and the procedure key is not turned, the muscle
+ * that drives it further out vented (the agonist above the range, the antagonist below), while the
+ * other muscle keeps its command: it brakes and holds. */
 static void apply_trips(mfb_board* b, uint16_t da[MFB_DA_CHANNELS]) {
   const mfb_board_config* cfg = b->cfg;
+  const bool key = cfg->procedure_key_line >= 0 &&
+                   (((b->inputs.digital_in >> cfg->procedure_key_line) & 1u) != 0) == cfg->procedure_key_active_high;
   for (int j = 0; j < cfg->joint_count; ++j) {
     const mfb_joint_limit* jl = &cfg->joints[j];
     for (int m = 0; m < 2; ++m) {
       if (b->vented_muscles & (1u << (2 * j + m))) da[jl->muscle[m].valve_da] = cfg->safe_da[jl->muscle[m].valve_da];
     }
     if (b->motors_off & (1u << j)) {
-      if (jl->range_vent) {
+      if (jl->range_vent && !key) {
         const int out = (b->out_high & (1u << j)) ? MFB_AGONIST : MFB_ANTAGONIST;
         da[jl->muscle[out].valve_da] = cfg->safe_da[jl->muscle[out].valve_da];
       }

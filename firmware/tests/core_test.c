@@ -86,6 +86,7 @@ static mfb_board_si rig_si(void) {
   si.safe_da[2] = kSafeMotor;
   si.estop_line = 0;
   si.estop_active_high = false;
+  si.procedure_key_line = -1;
   si.joint_count = 1;
   mfb_joint_si* j = &si.joints[0];
   /* No slew limit to speak of (1000 MPa/s: the whole range within one period), no leads and no
@@ -626,6 +627,33 @@ static void AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut(void) {
   CHECK_EQ(g_bench.da[2], 40000);
 }
 
+/* The procedure key (input line 1, active high) lets a procedure drive the joint onto its stop: the
+ * motor is still cut outside the range, the muscles keep their commands; without the key the same
+ * sample vents the agonist. No command bit reaches the key: it is an input. */
+static void TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  si.procedure_key_line = 1;
+  si.procedure_key_active_high = true;
+  power_on_with(&si);
+  uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  g_bench.in.digital_in = 0x03; /* no e-stop, the key turned */
+  arm(7, torque);
+  g_bench.in.encoder[0] = 9500; /* 48.9 deg: on the stop */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], 19661);
+  g_bench.in.digital_in = 0x01; /* the key turned back: the range vents at once */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], 19661);
+  si.procedure_key_line = 0; /* the e-stop's line cannot be the key's */
+  char error[160];
+  mfb_board_config cfg;
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+}
+
 /* The range led by the speed: 20 ms of valve reaction and 1000 deg/s^2 of braking. At 298 deg/s
  * (58 counts per 1 ms period) the joint needs 6 deg of lead plus 44.5 deg to stop, so it trips near
  * -5 deg going up; moving as slowly as a legitimate host moves it (20 deg/s) it trips only past
@@ -811,6 +839,7 @@ int main(void) {
   run(ATripSurvivesAnEdgeWhileItsCauseRemains, "ATripSurvivesAnEdgeWhileItsCauseRemains");
   run(AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles, "AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles");
   run(AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut, "AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut");
+  run(TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor, "TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor");
   run(TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance, "TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance");
   run(TheSlewLimitHoldsAValveStepToItsRate, "TheSlewLimitHoldsAValveStepToItsRate");
   run(TheForceTripLeadsTheForceByItsRateTimesTheReaction, "TheForceTripLeadsTheForceByItsRateTimesTheReaction");

@@ -23,6 +23,8 @@ mfb_board_config board_core_config(const ChannelMap& map, const LinkKey& key, do
   si.safe_digital_out = safe.digital_out;
   si.estop_line = map.estop_line().line;
   si.estop_active_high = map.estop_line().active_high;
+  si.procedure_key_line = map.procedure_key_line() ? map.procedure_key_line()->line : -1;
+  si.procedure_key_active_high = map.procedure_key_line() && map.procedure_key_line()->active_high;
   si.joint_count = map.joint_count();
   const bool limited = map.has_board_limits();
   for (int j = 0; j < map.joint_count(); ++j) {

@@ -1082,66 +1082,72 @@ struct EditedBoardLimits {
   }
 };
 
-/// The shipped rig map's `board_limits:` entry for its joint (one line, `{joint: joint, ...}`).
+/// The shipped rig map's `board_limits:` entry for its joint (`{joint: joint, ...}`).
 std::string shipped_rig_limits() {
   std::ifstream in(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
   std::stringstream text;
   text << in.rdbuf();
   std::string entry = text.str();
   entry = entry.substr(entry.find("{joint: joint"));
-  return entry.substr(0, entry.find('}') + 1);
+  std::size_t end = 0;
+  for (int depth = 0; end < entry.size(); ++end) {  // to the brace that closes the entry (range_vent: {...} nests)
+    depth += entry[end] == '{' ? 1 : entry[end] == '}' ? -1 : 0;
+    if (depth == 0) break;
+  }
+  return entry.substr(0, end + 1);
 }
 
 // Issue 30: the board enforces limits of its own. A host with the key commands every output to its
 // top code for 3 s: against a map without `board_limits:` (the channels' full ranges), the shipped
-// map, the shipped map with the range venting (`range_vent:`, which the shipped map leaves out: the
-// calibration recording sweeps the link into its stops), and the shipped map with the force trip's
-// lead taken away (force_lead_ms: 0). Judged on the plant's truth (the emulator's --truth-csv: the
-// simulated load cells with their noise, the joint's angle), not on what the host was told. The
-// valves react 5 ms late, with a 25-30 ms lag and at most 4 MPa/s, so a vent at the ceiling lets the
-// force rise on and the joint swing on: the trip leads the force by its rate over the valves'
-// reaction, and the range leads the angle by its speed over the vent's time plus the distance the
-// braking muscle needs to stop the joint (docs/safety.md). The figures asserted are the map's:
-// 2000 N and 630 N, the range [-45, 45] deg.
+// map (ceilings, slew limit, the force trip's lead, the range's vent), the shipped map without the
+// range's vent, and the shipped map with the force trip's lead taken away (force_lead_ms: 0). Judged
+// on the plant's truth (the emulator's --truth-csv: the simulated load cells with their noise, the
+// joint's angle), not on what the host was told. The valves react 5 ms late, with a 25-30 ms lag and
+// at most 4 MPa/s, so a vent at the ceiling lets the force rise on and the joint swing on: the trip
+// leads the force by its rate over the valves' reaction, and the range leads the angle by its speed
+// over the vent's time plus the distance the braking muscle needs to stop the joint
+// (docs/safety.md). The figures asserted are the map's: 2000 N and 630 N, the range [-45, 45] deg.
 TEST(MfbEndToEnd, TheBoardsLimitsHoldTheCeilingsAndTheRangeAgainstAHijackingHostWithTheKey) {
   const std::string shipped = shipped_rig_limits();
-  auto without_lead = [](std::string entry) {
-    const std::size_t lead = entry.find("force_lead_ms: ");
-    EXPECT_NE(lead, std::string::npos);
-    return entry.replace(lead, entry.find(',', lead) - lead, "force_lead_ms: 0");
+  auto without = [](std::string entry, const std::string& field, const std::string& replacement) {
+    const std::size_t at = entry.find(field);
+    EXPECT_NE(at, std::string::npos) << field;
+    const std::size_t end = field == ", range_vent: " ? entry.find('}', at) + 1 : entry.find(',', at);
+    return entry.replace(at, end - at, replacement);
   };
-  HijackFigures before, after, vented, unled;
+  HijackFigures before, after, unvented, unled;
   {
     const EditedBoardLimits bare("", "bare");
     before = hijack(bare.scenario.string(), 3.0, "no board limits");
   }
   after = hijack(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", 3.0, "shipped board limits");
   {
-    const EditedBoardLimits map(shipped.substr(0, shipped.size() - 1) + ", range_vent: {lead_ms: 150, brake_deg_per_s2: 500}}", "vent");
-    vented = hijack(map.scenario.string(), 3.0, "shipped board limits + range_vent");
+    const EditedBoardLimits map(without(shipped, ", range_vent: ", ""), "unvented");
+    unvented = hijack(map.scenario.string(), 3.0, "shipped board limits without range_vent");
   }
   {
-    const EditedBoardLimits map(without_lead(shipped), "unled");
+    const EditedBoardLimits map(without(shipped, "force_lead_ms: ", "force_lead_ms: 0"), "unled");
     unled = hijack(map.scenario.string(), 3.0, "shipped board limits, no force lead");
   }
 
   ASSERT_GT(before.armed_steps, 1000u);  // the hijacker did drive the outputs
   ASSERT_GT(after.armed_steps, 1000u);
-  ASSERT_GT(vented.armed_steps, 1000u);
+  ASSERT_GT(unvented.armed_steps, 1000u);
   EXPECT_GT(before.peak_agonist_N, 2400.0);  // unlimited: far past the wire's 2250 N
   EXPECT_GT(before.max_angle_deg, 45.0);     // and out of the range
-  for (const HijackFigures* f : {&after, &vented}) {
+  for (const HijackFigures* f : {&after, &unvented}) {
     EXPECT_LE(f->peak_agonist_N, 2000.0);    // the board's force ceilings, at the plant
     EXPECT_LE(f->peak_antagonist_N, 630.0);
   }
-  EXPECT_LE(vented.max_angle_deg, 45.0);     // the board's range, at the plant
-  EXPECT_GE(vented.min_angle_deg, -45.0);
+  EXPECT_LE(after.max_angle_deg, 45.0);      // the board's range, at the plant
+  EXPECT_GE(after.min_angle_deg, -45.0);
+  EXPECT_GT(unvented.max_angle_deg, 45.0);   // the range's vent is what holds it
   EXPECT_GT(unled.peak_agonist_N, 2000.0);   // the lead is what holds the ceiling
 }
 
 // Issue 30's second case: after a host loss the board arms only on the operator's bit, which a host
 // with the (public development) key sets too. The limits do not depend on how the board was armed:
-// the same ceilings hold at the plant.
+// the same ceilings and the same range hold at the plant.
 TEST(MfbEndToEnd, TheBoardsLimitsHoldAgainstAHostWithTheKeyArmingAsTheOperatorAfterAHostLoss) {
   HijackFigures before;
   {
@@ -1154,6 +1160,8 @@ TEST(MfbEndToEnd, TheBoardsLimitsHoldAgainstAHostWithTheKeyArmingAsTheOperatorAf
   EXPECT_GT(before.peak_agonist_N, 2400.0);
   EXPECT_LE(after.peak_agonist_N, 2000.0);
   EXPECT_LE(after.peak_antagonist_N, 630.0);
+  EXPECT_LE(after.max_angle_deg, 45.0);
+  EXPECT_GE(after.min_angle_deg, -45.0);
 }
 
 TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {

@@ -126,9 +126,17 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorCa
       fmt::print(stderr, "config error: {}: no calibration.{} section to serve --case {}\n", doc.name(), muscle, request.case_name);
       return std::nullopt;
     }
-    return board_for(*scenario.link, scenario.period_s, e1_recording_hardware(scenario, scenario.plant, m),
-                     fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped segments)",
-                                 muscle, scenario.excitation[m]->payload_kg));
+    BoardPlant plant = board_for(*scenario.link, scenario.period_s, e1_recording_hardware(scenario, scenario.plant, m),
+                                 fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped "
+                                             "segments)",
+                                             muscle, scenario.excitation[m]->payload_kg));
+    // The recording sweeps the link onto its stops on purpose: the operator turns the rig's
+    // procedure key for it, so the board's range cuts the motor but does not vent (docs/safety.md).
+    if (const std::optional<mfb::DigitalLine>& key = plant.maps.front().procedure_key_line()) {
+      plant.input_hook = [line = *key](double, mfb::BoardInputs& in) { line.set(in.digital_in, true); };
+      plant.what += fmt::format(", the procedure key (input line {}) turned", key->line);
+    }
+    return plant;
   }
   std::vector<std::string> names;
   for (const auto& c : scenario.cases) names.push_back(c.name);
