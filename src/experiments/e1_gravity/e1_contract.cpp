@@ -110,7 +110,8 @@ ScenarioCheck check_e1(const std::filesystem::path& config, const config::Docume
              "plant model {}\n",
              config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
              s.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
+  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle,
+          {joint_envelope(sim::one_dof_rig_joint_names()[0], s.controller.joint, s.limits.joints[0])}};
 }
 
 /// The emulator's rig: a payload case, or a calibration recording (the rig with the excitation's
