@@ -66,12 +66,18 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
     if (error) snprintf(error, size, "estop_line: expected 0..7, found %d", si->estop_line);
     return false;
   }
+  if (si->procedure_key_line < -1 || si->procedure_key_line > 7 || si->procedure_key_line == si->estop_line) {
+    if (error) snprintf(error, size, "procedure_key_line: expected -1 (none) or 0..7 other than the e-stop's, found %d", si->procedure_key_line);
+    return false;
+  }
   for (size_t i = 0; i < MFB_KEY_SIZE; ++i) out->key[i] = si->key[i];
   out->watchdog_us = (uint32_t)(si->watchdog_s * 1e6 + 0.5);
   out->vent_us = (uint32_t)(si->vent_s * 1e6 + 0.5);
   out->safe_digital_out = si->safe_digital_out;
   out->estop_line = (uint8_t)si->estop_line;
   out->estop_active_high = si->estop_active_high;
+  out->procedure_key_line = (int8_t)si->procedure_key_line;
+  out->procedure_key_active_high = si->procedure_key_active_high;
   out->joint_count = (uint8_t)si->joint_count;
   for (int i = 0; i < MFB_DA_CHANNELS; ++i) {
     out->safe_da[i] = si->safe_da[i];
@@ -487,24 +493,34 @@ static void rejudge_trips(mfb_board* b) {
   }
 }
 
-/* Valves vented by a force trip go to their safe codes; a joint (about to be) out of range has its
- * motor at zero torque and, where the range vents, the muscle that drives it further out vented
- * (the agonist above the range, the antagonist below), while the other muscle keeps its command: it
- * brakes and holds. */
+/* The muscles a board limit vents now, bit 2 x joint + muscle: those of a force trip and, for a
+ * joint (about to be) out of range whose range vents while the procedure key is not turned, the
+ * muscle that drives it further out (the agonist above the range, the antagonist below); the other
+ * muscle keeps its command: it brakes and holds. */
+static uint16_t limit_vented(const mfb_board* b) {
+  const mfb_board_config* cfg = b->cfg;
+  const bool key = cfg->procedure_key_line >= 0 &&
+                   (((b->inputs.digital_in >> cfg->procedure_key_line) & 1u) != 0) == cfg->procedure_key_active_high;
+  uint16_t vented = b->vented_muscles;
+  for (int j = 0; j < cfg->joint_count; ++j) {
+    if ((b->motors_off & (1u << j)) && cfg->joints[j].range_vent && !key) {
+      vented |= (uint16_t)(1u << (2 * j + ((b->out_high & (1u << j)) ? MFB_AGONIST : MFB_ANTAGONIST)));
+    }
+  }
+  return vented;
+}
+
+/* Vented muscles' valves go to their safe codes; a joint (about to be) out of range has its motor
+ * at zero torque. */
 static void apply_trips(mfb_board* b, uint16_t da[MFB_DA_CHANNELS]) {
   const mfb_board_config* cfg = b->cfg;
+  const uint16_t vented = limit_vented(b);
   for (int j = 0; j < cfg->joint_count; ++j) {
     const mfb_joint_limit* jl = &cfg->joints[j];
     for (int m = 0; m < 2; ++m) {
-      if (b->vented_muscles & (1u << (2 * j + m))) da[jl->muscle[m].valve_da] = cfg->safe_da[jl->muscle[m].valve_da];
+      if (vented & (1u << (2 * j + m))) da[jl->muscle[m].valve_da] = cfg->safe_da[jl->muscle[m].valve_da];
     }
-    if (b->motors_off & (1u << j)) {
-      if (jl->range_vent) {
-        const int out = (b->out_high & (1u << j)) ? MFB_AGONIST : MFB_ANTAGONIST;
-        da[jl->muscle[out].valve_da] = cfg->safe_da[jl->muscle[out].valve_da];
-      }
-      if (jl->motor_da >= 0) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
-    }
+    if ((b->motors_off & (1u << j)) && jl->motor_da >= 0) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
   }
 }
 
@@ -620,6 +636,8 @@ static size_t encode_state(mfb_board* b, uint32_t session_id, uint32_t ack_seque
   s.status = status;
   s.board_nonce = nonce;
   s.boot_id = b->boot_id;
+  s.limit_vented = limit_vented(b);
+  s.limit_motor_off = b->motors_off;
   return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
 }
 

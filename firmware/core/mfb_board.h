@@ -15,7 +15,8 @@
  *   ceiling vents that muscle; a joint outside its range turns its motor off, and where the range
  *   vents (`range_vent`) a joint whose angle, led by its speed over the valves' reaction time plus
  *   the distance the other muscle needs to stop it, passes an end of its range also has the muscle
- *   driving it out vented (the other keeps its command: it brakes and holds the limb). The trips
+ *   driving it out vented (the other keeps its command: it brakes and holds the limb), unless the
+ *   rig's procedure key (a physical input) is turned. The trips
  *   latch until the next arming edge finds the load cell and the joint back inside. No packet can
  *   change the limits.
  *
@@ -107,6 +108,11 @@ typedef struct mfb_board_si {
   uint8_t safe_digital_out;
   int estop_line;               /* 0..7 */
   bool estop_active_high;
+  /* The procedure key (-1: none): a key switch at the rig, turned by a person for a procedure that
+   * drives joints onto their stops on purpose (the calibration recording). While its input is
+   * active the range does not vent (the motor cut outside the range stays); no packet can set it. */
+  int procedure_key_line;       /* -1 or 0..7, not the e-stop's */
+  bool procedure_key_active_high;
   int joint_count;
   mfb_joint_si joints[MFB_MAX_JOINTS];
 } mfb_board_si;
@@ -145,6 +151,8 @@ typedef struct mfb_board_config {
   uint8_t da_rise_up;
   uint8_t estop_line;
   bool estop_active_high;
+  int8_t procedure_key_line;    /* -1: none */
+  bool procedure_key_active_high;
   uint8_t joint_count;
   mfb_joint_limit joints[MFB_MAX_JOINTS];
 } mfb_board_config;

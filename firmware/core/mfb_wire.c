@@ -5,7 +5,8 @@ enum {
   kMagicAt = 0, kVersionAt = 4, kTypeAt = 5, kLengthAt = 6, kSessionAt = 8, kSequenceAt = 12,
   kCmdHostTimeAt = 16, kCmdDaAt = 24, kCmdDigitalOutAt = 40, kCmdFlagsAt = 41, kCmdBoardNonceAt = 42,
   kStEchoAt = 16, kStBoardTimeAt = 24, kStAckAt = 32, kStAdAt = 36, kStEncoderAt = 68,
-  kStDigitalInAt = 100, kStStatusAt = 101, kStBoardNonceAt = 102, kStBootIdAt = 110
+  kStDigitalInAt = 100, kStStatusAt = 101, kStBoardNonceAt = 102, kStBootIdAt = 110, kStLimitVentedAt = 114,
+  kStLimitMotorOffAt = 116
 };
 
 /* 1 KiB of flash, no RAM: CRC-32C of each byte value (reflected polynomial 0x82F63B78). */
@@ -152,6 +153,8 @@ size_t mfb_encode_state(const mfb_state* s, const uint8_t key[MFB_KEY_SIZE], mfb
   out[kStStatusAt] = s->status;
   put_u64(out, kStBoardNonceAt, s->board_nonce);
   put_u32(out, kStBootIdAt, s->boot_id);
+  put_u16(out, kStLimitVentedAt, s->limit_vented);
+  out[kStLimitMotorOffAt] = s->limit_motor_off;
   put_trailer(out, MFB_STATE_PACKET_SIZE, key, mac, mac_ctx);
   return MFB_STATE_PACKET_SIZE;
 }

@@ -1,4 +1,4 @@
-/* The MFB wire protocol, version 4, on the board's side (docs/mfb-protocol.md is the specification;
+/* The MFB wire protocol, version 5, on the board's side (docs/mfb-protocol.md is the specification;
  * include/peha/mfb/protocol.hpp is the host's C++ side of the same bytes).
  *
  * Freestanding C11: no heap, no libc beyond <stdint.h>, <stddef.h>, <stdbool.h>. Every field is
@@ -16,7 +16,7 @@ extern "C" {
 #endif
 
 #define MFB_MAGIC 0x3142464Du /* 'M','F','B','1' on the wire */
-#define MFB_PROTOCOL_VERSION 4u
+#define MFB_PROTOCOL_VERSION 5u
 #define MFB_KEY_SIZE 32u
 #define MFB_MAC_SIZE 16u
 #define MFB_AD_CHANNELS 16
@@ -31,9 +31,9 @@ extern "C" {
 #define MFB_CRC_SIZE 4u
 #define MFB_TRAILER_SIZE (MFB_CRC_SIZE + MFB_MAC_SIZE)
 #define MFB_COMMAND_PAYLOAD_SIZE 34u
-#define MFB_STATE_PAYLOAD_SIZE 98u
+#define MFB_STATE_PAYLOAD_SIZE 101u
 #define MFB_COMMAND_PACKET_SIZE (MFB_HEADER_SIZE + MFB_COMMAND_PAYLOAD_SIZE + MFB_TRAILER_SIZE) /* 70 */
-#define MFB_STATE_PACKET_SIZE (MFB_HEADER_SIZE + MFB_STATE_PAYLOAD_SIZE + MFB_TRAILER_SIZE)       /* 134 */
+#define MFB_STATE_PACKET_SIZE (MFB_HEADER_SIZE + MFB_STATE_PAYLOAD_SIZE + MFB_TRAILER_SIZE)       /* 137 */
 
 /* Command flags (byte 41). */
 #define MFB_COMMAND_ENABLE 0x01u
@@ -88,6 +88,8 @@ typedef struct mfb_state {
   uint8_t status;                   /* MFB_STATUS_* */
   uint64_t board_nonce;             /* the session's board nonce; 0: the board holds no such session */
   uint32_t boot_id;
+  uint16_t limit_vented;            /* bit 2 x joint + muscle (0 agonist, 1 antagonist): vented by a board limit */
+  uint8_t limit_motor_off;          /* bit joint: motor cut by the board's range */
 } mfb_state;
 
 /* Keyed BLAKE2b with a 16-byte output over `data` (the HAL's; never written by hand here). */

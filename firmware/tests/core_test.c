@@ -86,6 +86,7 @@ static mfb_board_si rig_si(void) {
   si.safe_da[2] = kSafeMotor;
   si.estop_line = 0;
   si.estop_active_high = false;
+  si.procedure_key_line = -1;
   si.joint_count = 1;
   mfb_joint_si* j = &si.joints[0];
   /* No slew limit to speak of (1000 MPa/s: the whole range within one period), no leads and no
@@ -216,22 +217,22 @@ static const uint16_t kEverythingMax[MFB_DA_CHANNELS] = {65535, 65535, 65535, 65
 /* The golden command of tests/mfb/protocol_test.cpp, its MAC made by Python's hashlib.blake2b under
  * the key 0x00..0x1F: the MAC on this machine (libsodium or the BLAKE2 reference) must agree. */
 static const uint8_t kGoldenCommand[MFB_COMMAND_PACKET_SIZE] = {
-    0x4D, 0x46, 0x42, 0x31, 0x04, 0x01, 0x22, 0x00, 0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55,
+    0x4D, 0x46, 0x42, 0x31, 0x05, 0x01, 0x22, 0x00, 0x44, 0x33, 0x22, 0x11, 0x88, 0x77, 0x66, 0x55,
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01, 0xB0, 0xA0, 0xB1, 0xA1, 0xB2, 0xA2, 0xB3, 0xA3,
     0xB4, 0xA4, 0xB5, 0xA5, 0xB6, 0xA6, 0xB7, 0xA7, 0xC3, 0x01, 0xF8, 0xF7, 0xF6, 0xF5, 0xF4, 0xF3,
-    0xF2, 0xF1, 0x78, 0xE6, 0xA6, 0xBE, 0xB1, 0x2C, 0x2C, 0x04, 0x50, 0x40, 0x90, 0x96, 0xEE, 0x6E,
-    0x53, 0xE3, 0x9C, 0xE3, 0x36, 0x62};
+    0xF2, 0xF1, 0x96, 0x87, 0xB6, 0xFE, 0x64, 0xEE, 0xD9, 0xBD, 0xED, 0x42, 0x91, 0x36, 0xB2, 0x09,
+    0x17, 0x1D, 0x01, 0xB4, 0x17, 0x6D};
 
 static const uint8_t kGoldenState[MFB_STATE_PACKET_SIZE] = {
-    0x4D, 0x46, 0x42, 0x31, 0x04, 0x02, 0x62, 0x00, 0x44, 0x33, 0x22, 0x11, 0x0D, 0x0C, 0x0B, 0x0A,
+    0x4D, 0x46, 0x42, 0x31, 0x05, 0x02, 0x65, 0x00, 0x44, 0x33, 0x22, 0x11, 0x0D, 0x0C, 0x0B, 0x0A,
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01, 0x18, 0x17, 0x16, 0x15, 0x14, 0x13, 0x12, 0x11,
     0x88, 0x77, 0x66, 0x55, 0xE0, 0xD0, 0xE1, 0xD1, 0xE2, 0xD2, 0xE3, 0xD3, 0xE4, 0xD4, 0xE5, 0xD5,
     0xE6, 0xD6, 0xE7, 0xD7, 0xE8, 0xD8, 0xE9, 0xD9, 0xEA, 0xDA, 0xEB, 0xDB, 0xEC, 0xDC, 0xED, 0xDD,
     0xEE, 0xDE, 0xEF, 0xDF, 0xFF, 0xFF, 0xFF, 0xFF, 0x01, 0x00, 0x00, 0x00, 0xFF, 0xFF, 0xFF, 0x7F,
     0x00, 0x00, 0x00, 0x80, 0xEB, 0x32, 0xA4, 0xF8, 0x04, 0x03, 0x02, 0x01, 0x00, 0x00, 0x00, 0x00,
     0xFE, 0xFF, 0xFF, 0xFF, 0x5A, 0x0A, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21, 0x34, 0x33,
-    0x32, 0x31, 0x5E, 0x5D, 0xA7, 0x21, 0xF4, 0xA9, 0x59, 0x37, 0x7A, 0x97, 0xD0, 0x12, 0xA9, 0xA1,
-    0x02, 0xEC, 0x17, 0x54, 0x42, 0x52};
+    0x32, 0x31, 0x21, 0x84, 0x5C, 0xE7, 0x46, 0xFF, 0x50, 0x7A, 0xF9, 0xFF, 0x78, 0x91, 0xBA, 0x3A,
+    0xE7, 0xE8, 0x8F, 0x42, 0x88, 0x9C, 0x3F, 0xDB, 0xB7};
 
 static uint8_t g_key[MFB_KEY_SIZE];
 static void golden_key(void) {
@@ -267,7 +268,7 @@ static void GoldenCommandDecodesWithItsPythonMac(void) {
 static void GoldenStateEncodesToItsBytes(void) {
   golden_key();
   mfb_state s = {0x11223344u, 0x0A0B0C0Du, 0x55667788u, 0x0102030405060708ull, 0x1112131415161718ull, {0}, {0},
-                 0x5A, MFB_STATUS_OUTPUTS_SAFE | MFB_STATUS_NO_SESSION, 0x2122232425262728ull, 0x31323334u};
+                 0x5A, MFB_STATUS_OUTPUTS_SAFE | MFB_STATUS_NO_SESSION, 0x2122232425262728ull, 0x31323334u, 0x8421, 0x5C};
   for (int i = 0; i < MFB_AD_CHANNELS; ++i) s.ad[i] = (uint16_t)(0xD0E0 + 0x0101 * i);
   const int32_t enc[MFB_ENCODER_CHANNELS] = {-1, 1, INT32_MAX, INT32_MIN, -123456789, 0x01020304, 0, -2};
   memcpy(s.encoder, enc, sizeof enc);
@@ -285,7 +286,7 @@ static void ChecksRunInTheProtocolsOrder(void) {
   CHECK_EQ(mfb_decode_command(copy, 15, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_SHORT);
   CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE - 1, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_SHORT);
   CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE + 1, g_key, test_mac, NULL, &c), MFB_PARSE_TOO_LONG);
-  copy[4] = 3; /* version 3 also differs in size: the version is reported */
+  copy[4] = 4; /* version 4 also differs in size: the version is reported */
   CHECK_EQ(mfb_decode_command(copy, MFB_COMMAND_PACKET_SIZE - 4, g_key, test_mac, NULL, &c), MFB_PARSE_BAD_VERSION);
   memcpy(copy, kGoldenCommand, MFB_COMMAND_PACKET_SIZE);
   copy[5] = MFB_TYPE_STATE;
@@ -626,6 +627,56 @@ static void AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut(void) {
   CHECK_EQ(g_bench.da[2], 40000);
 }
 
+/* The state packet tells the host what the limits cut (bytes 114..116): bit 2 x joint + muscle of
+ * each muscle a limit vents, bit joint of each motor the range cuts; 0 while nothing trips. */
+static void TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  power_on_with(&si);
+  uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  arm(7, torque);
+  uint8_t out[MFB_STATE_PACKET_SIZE];
+  CHECK_EQ(mfb_board_state_packet(&g_board, out, sizeof out), MFB_STATE_PACKET_SIZE);
+  CHECK_EQ(out[114] | out[115] | out[116], 0);
+  g_bench.in.encoder[0] = -8751; /* below the range: the antagonist drives it out */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(mfb_board_state_packet(&g_board, out, sizeof out), MFB_STATE_PACKET_SIZE);
+  CHECK_EQ(out[114], 0x02); /* joint 0's antagonist */
+  CHECK_EQ(out[115], 0x00);
+  CHECK_EQ(out[116], 0x01); /* joint 0's motor */
+  g_bench.in.ad[0] = 30000; /* and the agonist's load cell at 2289 N > 2000 N */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(mfb_board_state_packet(&g_board, out, sizeof out), MFB_STATE_PACKET_SIZE);
+  CHECK_EQ(out[114], 0x03);
+}
+
+/* The procedure key (input line 1, active high) lets a procedure drive the joint onto its stop: the
+ * motor is still cut outside the range, the muscles keep their commands; without the key the same
+ * sample vents the agonist. No command bit reaches the key: it is an input. */
+static void TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  si.procedure_key_line = 1;
+  si.procedure_key_active_high = true;
+  power_on_with(&si);
+  uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  g_bench.in.digital_in = 0x03; /* no e-stop, the key turned */
+  arm(7, torque);
+  g_bench.in.encoder[0] = 9500; /* 48.9 deg: on the stop */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], 19661);
+  g_bench.in.digital_in = 0x01; /* the key turned back: the range vents at once */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], 19661);
+  si.procedure_key_line = 0; /* the e-stop's line cannot be the key's */
+  char error[160];
+  mfb_board_config cfg;
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+}
+
 /* The range led by the speed: 20 ms of valve reaction and 1000 deg/s^2 of braking. At 298 deg/s
  * (58 counts per 1 ms period) the joint needs 6 deg of lead plus 44.5 deg to stop, so it trips near
  * -5 deg going up; moving as slowly as a legitimate host moves it (20 deg/s) it trips only past
@@ -785,7 +836,7 @@ static void OnePacketsCost(void) {
   const uint64_t mac_start = test_ticks();
   uint8_t mac[MFB_MAC_SIZE];
   for (int k = 0; k < kPackets; ++k) test_mac(NULL, g_cfg.key, kGoldenState, MFB_STATE_PACKET_SIZE - MFB_MAC_SIZE, mac);
-  test_report_cost("one MAC of a state packet (114 bytes)", (test_ticks() - mac_start) / kPackets);
+  test_report_cost("one MAC of a state packet (121 bytes)", (test_ticks() - mac_start) / kPackets);
 }
 
 int main(void) {
@@ -811,6 +862,8 @@ int main(void) {
   run(ATripSurvivesAnEdgeWhileItsCauseRemains, "ATripSurvivesAnEdgeWhileItsCauseRemains");
   run(AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles, "AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles");
   run(AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut, "AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut");
+  run(TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor, "TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor");
+  run(TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut, "TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut");
   run(TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance, "TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance");
   run(TheSlewLimitHoldsAValveStepToItsRate, "TheSlewLimitHoldsAValveStepToItsRate");
   run(TheForceTripLeadsTheForceByItsRateTimesTheReaction, "TheForceTripLeadsTheForceByItsRateTimesTheReaction");

@@ -3,12 +3,27 @@
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
+#include "peha/mfb/board_core.hpp"
 #include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
 namespace peha::app {
+namespace {
+
+/// The board's limits against the scenario, one row each: true if every row agrees.
+bool print_board_limit_checks(const std::vector<mfb::BoardLimitCheck>& rows) {
+  fmt::print("    {:<8} {:<24} {:>9} {:>9}  {:<8} {}\n", "joint", "board_limits field", "board", "scenario", "verdict", "rule");
+  bool all = true;
+  for (const mfb::BoardLimitCheck& r : rows) {
+    fmt::print("    {:<8} {:<24} {:>9.4g} {:>9.4g}  {:<8} {}\n", r.joint, r.field, r.board, r.scenario, r.agrees ? "agrees" : "DISAGREES", r.rule);
+    all = all && r.agrees;
+  }
+  return all;
+}
+
+}  // namespace
 
 int check_config(const std::filesystem::path& config) {
   try {
@@ -23,6 +38,7 @@ int check_config(const std::filesystem::path& config) {
       return 0;
     }
     const ScenarioCheck checked = find_experiment(doc).check(config, doc);
+    bool limits_agree = true;
     if (const auto& link = checked.link) {  // each board's channel map must load for its joints
       for (const mfb::BoardLink& b : link->boards) {
         const std::vector<std::string>& joints = link->boards.size() == 1 ? checked.joints : b.joint_names;
@@ -31,7 +47,13 @@ int check_config(const std::filesystem::path& config) {
         fmt::print("  mfb{}: channel map {} ({} joints: {}), watchdogs board {} ms / host {} ms, key file {} read\n",
                    b.name.empty() ? "" : " board '" + b.name + "'", b.channel_map.string(), map.joint_count(), fmt::join(joints, " "),
                    link->board_watchdog_s * 1e3, checked.lifecycle.host_watchdog_s * 1e3, b.key_file.string());
+        // The board enforces the scenario's own hard numbers, never looser ones (docs/commissioning.md).
+        if (!print_board_limit_checks(mfb::board_limit_checks(map, checked.envelopes))) limits_agree = false;
       }
+    }
+    if (!limits_agree) {
+      fmt::print(stderr, "config error: {}: the board_limits of its channel map disagree with the scenario (table above)\n", config.string());
+      return 2;
     }
     fmt::print("{}: OK\n", config.string());  // only once everything it names has loaded
     return 0;

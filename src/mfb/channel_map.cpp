@@ -335,6 +335,12 @@ ChannelMap read_channel_map(config::Map map, const std::vector<std::string>& joi
   config::Map digital = map.map("digital");
   m.enable_ = read_line(digital.map("enable_output"));
   m.estop_ = read_line(digital.map("estop_input"));
+  if (digital.has("procedure_key_input")) {
+    m.procedure_key_ = read_line(digital.map("procedure_key_input"));
+    if (m.procedure_key_->line == m.estop_.line) {
+      digital.fail("procedure_key_input", fmt::format("line {} is the e-stop's: the key needs an input of its own", m.procedure_key_->line));
+    }
+  }
   digital.finish();
   map.finish();
 

@@ -197,6 +197,8 @@ std::size_t encode(const StatePacket& packet, const LinkKey& key, std::span<std:
   put_u8(p, kStateStatusOffset, packet.status);
   put_u64(p, kStateBoardNonceOffset, packet.board_nonce);
   put_u32(p, kStateBootIdOffset, packet.boot_id);
+  put_u16(p, kStateLimitVentedOffset, packet.limit_vented);
+  put_u8(p, kStateLimitMotorOffOffset, packet.limit_motor_off);
   put_trailer(p, kStatePacketSize, key);
   return kStatePacketSize;
 }
@@ -248,6 +250,8 @@ ParseError decode(std::span<const std::uint8_t> in, const LinkKey& key, StatePac
   s.status = p[kStateStatusOffset];
   s.board_nonce = get_u64(p, kStateBoardNonceOffset);
   s.boot_id = get_u32(p, kStateBootIdOffset);
+  s.limit_vented = get_u16(p, kStateLimitVentedOffset);
+  s.limit_motor_off = p[kStateLimitMotorOffOffset];
   if ((s.status & ~kStatusKnownBits) != 0) return ParseError::kBadFlags;
   if (s.session_id == 0) return ParseError::kZeroSession;
   out = s;

@@ -181,6 +181,11 @@ bool UdpBackend::read(io::SensorState& state) noexcept {
   }
   state.time_s = static_cast<double>(last_.board_time_ns) * 1e-9;
   state.sequence = last_.sequence;
+  for (int j = 0; j < map_.joint_count(); ++j) {  // the board core's joints are the map's, in its order
+    const auto vented = static_cast<unsigned>(last_.limit_vented >> (2 * j)) & 3u;
+    const auto motor_off = static_cast<unsigned>(last_.limit_motor_off >> j) & 1u;
+    state.joints[static_cast<std::size_t>(j)].board_limits = static_cast<std::uint8_t>(vented | (motor_off ? io::kBoardMotorOff : 0u));
+  }
   return true;
 }
 

@@ -213,6 +213,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     if (!outputs_follow) js.carried = false;  // carried again only once both wires are taut again
     check_encoder(j, in, s.time_s, js);
     check_range(j, in.angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
+    check_board_limits(j, in, outputs_follow);  // after the range: a joint beyond it is named joint_range, the board's vent its echo
     if (!outputs_follow) {
       js.follow_since_s = -1;
     } else if (js.follow_since_s < 0) {
@@ -235,6 +236,14 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
   check_low_pressures(low_muscles, s.joint_count);
   synced_ = outputs_follow;
   if (action_ == SafeAction::kDescend) govern(s, models, min_angle_rad, max_angle_rad);
+}
+
+/// The board's own limits, reported with the sample: a muscle it vented while the outputs follow.
+void FaultMonitor::check_board_limits(int j, const io::JointSensors& in, bool outputs_follow) noexcept {
+  if (!outputs_follow) return;  // the board's safe outputs vent everything anyway
+  for (int m = 0; m < 2; ++m) {
+    if (in.board_limits & (m == 0 ? io::kBoardVentedAgonist : io::kBoardVentedAntagonist)) raise(kFaultBoardLimit, j, m, 1.0, 0.0);
+  }
 }
 
 /// A non-finite sample: no other check can read it.
@@ -334,9 +343,10 @@ void FaultMonitor::check_supply(int j, const io::JointSensors& in, const models:
 void FaultMonitor::check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow,
                                JointState& js) noexcept {
   const MonitorParams& p = params_;
-  if (!outputs_follow) js.motor_sent = 0;
+  const bool cut = (in.board_limits & io::kBoardMotorOff) != 0;  // the board's range: not the driver's fault
+  if (!outputs_follow || cut) js.motor_sent = 0;
   const int window = std::clamp(p.motor_window_cycles, 1, kMotorWindow);
-  if (!model.has_motor || !outputs_follow || !std::isfinite(in.motor_torque_Nm) || js.motor_sent < window) {
+  if (!model.has_motor || !outputs_follow || cut || !std::isfinite(in.motor_torque_Nm) || js.motor_sent < window) {
     js.motor_off = 0;
     return;
   }

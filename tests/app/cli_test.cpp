@@ -474,6 +474,54 @@ TEST(Cli, CheckConfigValidatesBothScenariosAndTheirChannelMaps) {
   }
 }
 
+// check-config compares each board's `board_limits:` with the scenario's own numbers, in a table:
+// the shipped scenarios agree row by row; the rig's map with a force ceiling above the agonist's
+// 2000 N, a range narrower than the scenario's +-45 deg and a pressure rise below the host's
+// 4 MPa/s disagrees on exactly those rows (exit 2), and a map without the section on its one row.
+TEST(Cli, CheckConfigComparesTheBoardsLimitsWithTheScenario) {
+  for (const char* name : {"e1_one_dof.yaml", "e5_max_force.yaml", "right_arm.yaml", "upper_body.yaml"}) {
+    const Result r = run(std::string("check-config --config ") + PEHA_SOURCE_DIR + "/configs/" + name);
+    EXPECT_EQ(r.code, 0) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("agonist_force_N"));
+    EXPECT_THAT(r.output, Not(HasSubstr("DISAGREES"))) << r.output;
+  }
+  auto read = [](const std::string& path) {
+    std::ifstream in(path);
+    return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  };
+  const std::string tag = std::to_string(::getpid());
+  const std::string shipped_map = read(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
+  auto with_map = [&](const std::string& map_text, const std::string& name) {
+    // Beside the shipped files: the scenario names its map and key relative to itself.
+    std::ofstream(std::string(PEHA_SOURCE_DIR "/configs/mfb/_") + name + tag + ".yaml") << map_text;
+    std::string scenario = read(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
+    scenario.replace(scenario.find("mfb/one_dof_rig.yaml"), 20, "mfb/_" + name + tag + ".yaml");
+    std::ofstream(std::string(PEHA_SOURCE_DIR "/configs/_") + name + tag + ".yaml") << scenario;
+    const Result r = run(std::string("check-config --config ") + PEHA_SOURCE_DIR + "/configs/_" + name + tag + ".yaml");
+    std::filesystem::remove(std::string(PEHA_SOURCE_DIR "/configs/mfb/_") + name + tag + ".yaml");
+    std::filesystem::remove(std::string(PEHA_SOURCE_DIR "/configs/_") + name + tag + ".yaml");
+    return r;
+  };
+  std::string wrong = shipped_map;
+  wrong.replace(wrong.find("agonist_force_N: 2000"), 21, "agonist_force_N: 2500");
+  wrong.replace(wrong.find("angle_deg: [-45, 45]"), 20, "angle_deg: [-40, 45]");
+  wrong.replace(wrong.find("pressure_rise_MPa_per_s: 10.0"), 29, "pressure_rise_MPa_per_s: 2.0");
+  const Result r = with_map(wrong, "wrong_limits");
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_THAT(r.output, testing::ContainsRegex("joint +agonist_force_N +2500 +2000 +DISAGREES"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("joint +angle_deg\\[0\\] +-40 +-45 +DISAGREES"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("joint +pressure_rise_MPa_per_s +2 +4 +DISAGREES"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("joint +antagonist_force_N +630 +630 +agrees"));
+  EXPECT_THAT(r.output, testing::ContainsRegex("joint +angle_deg\\[1\\] +45 +45 +agrees"));
+  EXPECT_THAT(r.output, HasSubstr("board_limits of its channel map disagree with the scenario"));
+  EXPECT_THAT(r.output, Not(HasSubstr(": OK")));
+  std::string bare = shipped_map;
+  bare.erase(bare.find("board_limits:"), bare.find("# Enable drives") - bare.find("board_limits:"));
+  const Result unlimited = with_map(bare, "no_limits");
+  EXPECT_EQ(unlimited.code, 2) << unlimited.output;
+  EXPECT_THAT(unlimited.output, testing::ContainsRegex("board_limits +0 +0 +DISAGREES"));
+}
+
 }  // namespace
 
 namespace {

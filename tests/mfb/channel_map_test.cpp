@@ -577,6 +577,16 @@ TEST(ChannelMapReader, RejectsEnableOrEstopDeclaredTwice) {
               HasSubstr("knee.yaml:16:3: digital.estop_input: duplicate key"));
 }
 
+TEST(ChannelMapReader, ReadsTheProcedureKeyOnALineOfItsOwn) {
+  EXPECT_FALSE(load(kKnee).procedure_key_line().has_value());  // optional: none, the range always vents
+  const ChannelMap keyed = load(kKnee + "  procedure_key_input: {line: 3, active: high}\n");
+  ASSERT_TRUE(keyed.procedure_key_line().has_value());
+  EXPECT_EQ(keyed.procedure_key_line()->line, 3);
+  EXPECT_TRUE(keyed.procedure_key_line()->active_high);
+  EXPECT_THAT(error_of(kKnee + "  procedure_key_input: {line: 0, active: high}\n"),
+              HasSubstr("digital.procedure_key_input: line 0 is the e-stop's: the key needs an input of its own"));
+}
+
 TEST(ChannelMapReader, RejectsUnknownKeys) {
   EXPECT_THAT(error_after("scale: 0.1, offset: 0}", "scale: 0.1, offset: 0, gain: 2}"),
               HasSubstr("knee.yaml:3:81: analog_inputs[0].gain: unknown key"));

@@ -79,6 +79,8 @@ StatePacket random_state(std::mt19937_64& rng) {
   s.status = static_cast<std::uint8_t>(rng() & kStatusKnownBits);
   s.board_nonce = rng();
   s.boot_id = static_cast<std::uint32_t>(rng());
+  s.limit_vented = static_cast<std::uint16_t>(rng());
+  s.limit_motor_off = static_cast<std::uint8_t>(rng());
   return s;
 }
 
@@ -137,6 +139,8 @@ StatePacket golden_state() {
   s.status = kStatusOutputsSafe | kStatusNoSession;
   s.board_nonce = 0x2122232425262728;
   s.boot_id = 0x31323334;
+  s.limit_vented = 0x8421;
+  s.limit_motor_off = 0x5C;
   return s;
 }
 
@@ -145,7 +149,7 @@ StatePacket golden_state() {
 // from Python's hashlib.blake2b(digest_size=16, key=bytes(range(32))) over everything before it.
 const Bytes kGoldenCommand = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x04,                                            // version
+    0x05,                                            // version
     0x01,                                            // type: command
     0x22, 0x00,                                      // payload length 34
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
@@ -156,16 +160,16 @@ const Bytes kGoldenCommand = {
     0xC3,                                            // digital_out
     0x01,                                            // flags: enable
     0xF8, 0xF7, 0xF6, 0xF5, 0xF4, 0xF3, 0xF2, 0xF1,  // board_nonce 0xF1F2F3F4F5F6F7F8
-    0x78, 0xE6, 0xA6, 0xBE,                          // CRC-32C of bytes 0..49
-    0xB1, 0x2C, 0x2C, 0x04, 0x50, 0x40, 0x90, 0x96,  // MAC (keyed BLAKE2b-128) of bytes 0..53
-    0xEE, 0x6E, 0x53, 0xE3, 0x9C, 0xE3, 0x36, 0x62,
+    0x96, 0x87, 0xB6, 0xFE,                          // CRC-32C of bytes 0..49
+    0x64, 0xEE, 0xD9, 0xBD, 0xED, 0x42, 0x91, 0x36,  // MAC (keyed BLAKE2b-128) of bytes 0..53
+    0xB2, 0x09, 0x17, 0x1D, 0x01, 0xB4, 0x17, 0x6D,
 };
 
 const Bytes kGoldenState = {
     0x4D, 0x46, 0x42, 0x31,                          // magic 'MFB1'
-    0x04,                                            // version
+    0x05,                                            // version
     0x02,                                            // type: state
-    0x62, 0x00,                                      // payload length 98
+    0x65, 0x00,                                      // payload length 101
     0x44, 0x33, 0x22, 0x11,                          // session 0x11223344
     0x0D, 0x0C, 0x0B, 0x0A,                          // sequence 0x0A0B0C0D
     0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,  // echo_host_time_ns
@@ -183,9 +187,11 @@ const Bytes kGoldenState = {
     0x0A,                                            // status: outputs safe | no session
     0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21,  // board_nonce 0x2122232425262728
     0x34, 0x33, 0x32, 0x31,                          // boot_id 0x31323334
-    0x5E, 0x5D, 0xA7, 0x21,                          // CRC-32C of bytes 0..113
-    0xF4, 0xA9, 0x59, 0x37, 0x7A, 0x97, 0xD0, 0x12,  // MAC (keyed BLAKE2b-128) of bytes 0..117
-    0xA9, 0xA1, 0x02, 0xEC, 0x17, 0x54, 0x42, 0x52,
+    0x21, 0x84,                                      // limit_vented 0x8421
+    0x5C,                                            // limit_motor_off 0x5C
+    0xE7, 0x46, 0xFF, 0x50,                          // CRC-32C of bytes 0..116
+    0x7A, 0xF9, 0xFF, 0x78, 0x91, 0xBA, 0x3A, 0xE7,  // MAC (keyed BLAKE2b-128) of bytes 0..120
+    0xE8, 0x8F, 0x42, 0x88, 0x9C, 0x3F, 0xDB, 0xB7,
 };
 
 // ---- CRC and layout -----------------------------------------------------------------------------
@@ -207,13 +213,15 @@ TEST(MfbProtocol, Crc32cTableAgreesWithBitwiseDefinition) {
 
 TEST(MfbProtocol, WireSizesMatchTheLayoutTable) {
   // 16 header + 8 time + 8x2 DA + 1 + 1 + 8 nonce + 4 CRC + 16 MAC;
-  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 8 nonce + 4 boot id + 4 CRC + 16 MAC.
+  // 16 header + 8 + 8 + 4 + 16x2 AD + 8x4 enc + 1 + 1 + 8 nonce + 4 boot id + 2 + 1 limits + 4 CRC + 16 MAC.
   EXPECT_EQ(kCommandPacketSize, 70u);
-  EXPECT_EQ(kStatePacketSize, 134u);
-  EXPECT_EQ(kMaxPacketSize, 134u);
+  EXPECT_EQ(kStatePacketSize, 137u);
+  EXPECT_EQ(kMaxPacketSize, 137u);
   EXPECT_EQ(kCommandBoardNonceOffset + 8, kHeaderSize + kCommandPayloadSize);
   EXPECT_EQ(kStateBoardNonceOffset + 8, kStateBootIdOffset);
-  EXPECT_EQ(kStateBootIdOffset + 4, kHeaderSize + kStatePayloadSize);
+  EXPECT_EQ(kStateBootIdOffset + 4, kStateLimitVentedOffset);
+  EXPECT_EQ(kStateLimitVentedOffset + 2, kStateLimitMotorOffOffset);
+  EXPECT_EQ(kStateLimitMotorOffOffset + 1, kHeaderSize + kStatePayloadSize);
   EXPECT_EQ(kGoldenCommand.size(), kCommandPacketSize);
   EXPECT_EQ(kGoldenState.size(), kStatePacketSize);
 }
@@ -342,7 +350,7 @@ TEST(MfbProtocol, RejectsWrongMagic) {
 }
 
 TEST(MfbProtocol, RejectsOtherVersionsEvenWithValidCrc) {
-  for (int version : {0, 1, 2, 3, 5, 255}) {
+  for (int version : {0, 1, 2, 3, 4, 6, 255}) {
     Bytes b = kGoldenState;
     b[kVersionOffset] = static_cast<std::uint8_t>(version);
     fix_trailer(b);

@@ -244,7 +244,8 @@ struct MonitoredE1 {
 
 /// Flags after 1 s of commands of `commanded_Nm` on E1's motor while the driver's monitor reads
 /// what the command of `latency_cycles` before asked for (`dead`: 0 Nm whatever the command).
-std::uint32_t flags_after_motor_commands(double commanded_Nm, int latency_cycles, bool dead, bool has_monitor = true) {
+/// With `board_cut` the board reports the motor cut by its range (io::kBoardMotorOff) on every sample.
+std::uint32_t flags_after_motor_commands(double commanded_Nm, int latency_cycles, bool dead, bool has_monitor = true, bool board_cut = false) {
   MonitoredE1 e1;
   safety::FaultMonitor& monitor = e1.monitor;
   E1JointView& view = e1.view;
@@ -256,6 +257,7 @@ std::uint32_t flags_after_motor_commands(double commanded_Nm, int latency_cycles
     state.joints[0].agonist_loadcell_N = state.joints[0].antagonist_loadcell_N = 60.0 + noise_N;
     const double shown = k > latency_cycles ? sent[static_cast<std::size_t>(k - 1 - latency_cycles)] : 0.0;
     state.joints[0].motor_torque_Nm = !has_monitor ? std::numeric_limits<double>::quiet_NaN() : dead ? 0.0 : shown;
+    state.joints[0].board_limits = board_cut ? io::kBoardMotorOff : 0;
     view.check(monitor, true);
     io::Command c;
     c.joint_count = 1;
@@ -280,6 +282,33 @@ TEST(FaultMonitor, AMotorThatDoesNotMakeItsTorqueIsRaisedAndALateSampleIsNot) {
   EXPECT_TRUE(flags_after_motor_commands(1.5, 30, false) & safety::kFaultMotorDisagrees);  // far beyond the 10-cycle window
   EXPECT_EQ(flags_after_motor_commands(0.2, 0, true), 0u);
   EXPECT_EQ(flags_after_motor_commands(1.5, 0, true, false), 0u);  // no monitor (NaN): not checked
+}
+
+// The board reports each muscle its own limits vent and each motor its range cuts
+// (io::JointSensors::board_limits). A motor the board cut reads 0 Nm while the host asks for 1.5 Nm:
+// not a dead driver. A muscle the board vented is board_limit at once, with the muscle named, and
+// descends on the other; not while the outputs do not follow (the board's safe outputs vent all).
+TEST(FaultMonitor, TheBoardsOwnCutsAreBoardLimitNotASensorOrDriverFault) {
+  EXPECT_EQ(flags_after_motor_commands(1.5, 0, true, true, true), 0u);
+  EXPECT_TRUE(flags_after_motor_commands(1.5, 0, true, true, false) & safety::kFaultMotorDisagrees);  // the same without the report
+  for (const bool follow : {true, false}) {
+    MonitoredE1 e1;
+    io::SensorState& state = e1.view.state;
+    state.joints[0].agonist_loadcell_N = state.joints[0].antagonist_loadcell_N = 60.0;
+    e1.view.check(e1.monitor, follow);
+    EXPECT_EQ(e1.monitor.flags(), 0u);
+    state.time_s = 1e-3;
+    state.joints[0].board_limits = io::kBoardVentedAntagonist | io::kBoardMotorOff;
+    e1.view.check(e1.monitor, follow);
+    if (!follow) {
+      EXPECT_EQ(e1.monitor.flags(), 0u);
+      continue;
+    }
+    EXPECT_EQ(e1.monitor.flags(), safety::kFaultBoardLimit);
+    EXPECT_EQ(e1.monitor.first().muscle, 1);
+    EXPECT_EQ(e1.monitor.action(), safety::SafeAction::kDescend);
+    EXPECT_NE(std::string(e1.monitor.run_reason()).find("board_limit joint 0 antagonist"), std::string::npos) << e1.monitor.run_reason();
+  }
 }
 
 struct PressureRun {

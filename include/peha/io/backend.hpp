@@ -41,7 +41,16 @@ struct JointSensors {
   /// A second encoder of the same joint, on the joint's own axis (angle_rad counts the motor shaft
   /// through the gear), rad: the supervisor's cross-check of the angle (a frozen or slipping encoder).
   double redundant_angle_rad = std::numeric_limits<double>::quiet_NaN();
+  /// What the board's own limits do to this joint now, whatever was commanded (a board's state
+  /// packet: docs/mfb-protocol.md): kBoardVentedAgonist, kBoardVentedAntagonist, kBoardMotorOff;
+  /// always 0 from a backend without limits of its own (the in-process simulators).
+  std::uint8_t board_limits = 0;
 };
+
+/// JointSensors::board_limits bits.
+inline constexpr std::uint8_t kBoardVentedAgonist = 0x01;     ///< the agonist vented by a board limit
+inline constexpr std::uint8_t kBoardVentedAntagonist = 0x02;  ///< the antagonist vented by a board limit
+inline constexpr std::uint8_t kBoardMotorOff = 0x04;          ///< the motor cut by the board's range
 
 struct SensorState {
   double time_s = 0;           ///< backend time stamp of the sample

@@ -22,6 +22,7 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -188,6 +189,10 @@ class ChannelMap {
   bool has_board_limits() const noexcept { return joints_[0].board_limits.configured; }
   /// The e-stop input and the enable output (the board core reads the e-stop itself).
   const DigitalLine& estop_line() const noexcept { return estop_; }
+  /// The rig's procedure key (`digital: procedure_key_input:`, optional): a key switch a person turns
+  /// for a procedure that drives joints onto their stops; while it is active the board's range does
+  /// not vent (docs/safety.md#the-boards-own-limits). No packet can set it.
+  const std::optional<DigitalLine>& procedure_key_line() const noexcept { return procedure_key_; }
 
  private:
   friend ChannelMap read_channel_map(config::Map map, const std::vector<std::string>& joint_names);
@@ -197,6 +202,7 @@ class ChannelMap {
   std::array<JointChannels, io::kMaxJoints> joints_{};
   DigitalLine enable_;
   DigitalLine estop_;
+  std::optional<DigitalLine> procedure_key_;
   BoardOutputs safe_{};
 };
 

@@ -35,7 +35,7 @@ namespace peha::mfb {
 inline constexpr std::uint32_t kMagic = 0x3142464D;
 /// Layout version. Any change to a layout or to the meaning of a field or bit bumps it; receivers
 /// accept exactly this version and reject every other (`ParseError::kBadVersion`).
-inline constexpr std::uint8_t kProtocolVersion = 4;
+inline constexpr std::uint8_t kProtocolVersion = 5;
 
 inline constexpr std::size_t kKeySize = 32;  ///< bytes of the pre-shared link key
 inline constexpr std::size_t kMacSize = 16;  ///< bytes of the MAC that ends every packet
@@ -142,6 +142,12 @@ struct StatePacket {
   /// A state packet of the host's session with another boot id than the ones before it tells the
   /// host that the board restarted (its sequence counter, session and arming started over).
   std::uint32_t boot_id = 0;
+  /// The board's own limits acting now (docs/safety.md#the-boards-own-limits), whatever the host
+  /// commands: bit 2 x joint + muscle (0 agonist, 1 antagonist) of each muscle a board limit vents
+  /// (its load cell's ceiling, or its joint's range), in the order of the board's channel map.
+  std::uint16_t limit_vented = 0;
+  /// Bit j: joint j's motor cut by the board's range (the joint is, or is about to be, outside it).
+  std::uint8_t limit_motor_off = 0;
 
   bool operator==(const StatePacket&) const = default;
 };
@@ -179,10 +185,12 @@ inline constexpr std::size_t kStateDigitalInOffset = 100;    ///< u8
 inline constexpr std::size_t kStateStatusOffset = 101;       ///< u8
 inline constexpr std::size_t kStateBoardNonceOffset = 102;   ///< u64
 inline constexpr std::size_t kStateBootIdOffset = 110;       ///< u32
+inline constexpr std::size_t kStateLimitVentedOffset = 114;  ///< u16
+inline constexpr std::size_t kStateLimitMotorOffOffset = 116;  ///< u8
 /// Bytes between the state's header and its CRC (the header's length field).
-inline constexpr std::size_t kStatePayloadSize = 98;
+inline constexpr std::size_t kStatePayloadSize = 101;
 /// Exact size of a state datagram.
-inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 134
+inline constexpr std::size_t kStatePacketSize = kHeaderSize + kStatePayloadSize + kTrailerSize;  // 137
 
 /// Largest datagram of this version: a receive buffer of this size holds any valid packet (use one
 /// byte more to tell "too long" from "exactly the largest").

@@ -37,7 +37,10 @@
 ///   motor): the driver's monitored torque outside the span of the commands sent over the last
 ///   motor_window_cycles (the link's latency: a sample may show any of them) by more than
 ///   motor_tolerance_Nm, for confirm_cycles (motor_disagrees: a dead driver, a broken motor lead);
-/// - a non-finite sample.
+/// - a non-finite sample;
+/// - the board's own limits (io::JointSensors::board_limits): a muscle the board vented while the
+///   outputs follow is board_limit (one sample: the board has acted already), never a sensor
+///   fault; a motor the board cut is not judged by the motor check.
 /// On the command (`check_command`): a non-finite value (the controller's NaN) - acted on in the
 /// same cycle: the command that goes out is the safe one.
 /// check_sample runs one small function per check family, always in the same order (a sample's first
@@ -87,8 +90,9 @@ enum FaultFlag : std::uint32_t {
   kFaultPressureRise = 1u << 20,
   kFaultEncoderDisagrees = 1u << 21,
   kFaultLoadcellZero = 1u << 22,
+  kFaultBoardLimit = 1u << 23,
 };
-inline constexpr int kFaultFlagCount = 23;
+inline constexpr int kFaultFlagCount = 24;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -147,6 +151,9 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
     // A load cell's power-on zero out of range (read vented, at start-up): the limb stays on its
     // support, the muscles keep what the run found.
     {kFaultLoadcellZero, "loadcell_zero", SafeAction::kHold, "loadcell_zero_max_N"},
+    // The board vented a muscle on its own (its force ceiling or its range): the other muscle is
+    // what is left to carry the limb, as the governor of a joint beyond its range uses.
+    {kFaultBoardLimit, "board_limit", SafeAction::kDescend, ""},
 }};
 
 /// The checks that judge the sensors and the hardware alone, whatever the run commands: a run that
@@ -156,7 +163,7 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
 inline constexpr std::uint32_t kHardwareChecks = kFaultNonFiniteCommand | kFaultNonFiniteSample | kFaultForceCeiling |
                                                  kFaultLoadcellSaturated | kFaultSupplyLoss |
                                                  kFaultPressureOverSupply | kFaultEncoderJump | kFaultEncoderFrozen | kFaultEstop |
-                                                 kFaultEncoderDisagrees;
+                                                 kFaultEncoderDisagrees | kFaultBoardLimit;
 inline constexpr std::uint32_t kAllChecks = (1u << kFaultFlagCount) - 1u;
 
 /// Every flag has exactly one row, at its bit's index (fault_flag_name and safe_action index by bit).
@@ -405,6 +412,7 @@ class FaultMonitor {
   inline void check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept;
   inline void check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept;
   inline void check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  inline void check_board_limits(int j, const io::JointSensors& in, bool outputs_follow) noexcept;
   inline void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
   inline void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
   inline bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;

@@ -17,7 +17,11 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
              "{} bandwidth frequencies (E6), control at {} Hz\n",
              config.string(), s.description, s.controller.joints.size(), s.postures.size(), s.goniometer.movements.size(),
              s.bandwidth.frequencies_Hz.size(), 1.0 / s.period_s);
-  return {arm_joint_names(s), s.link, s.lifecycle};
+  std::vector<mfb::JointEnvelope> envelopes;
+  for (std::size_t i = 0; i < s.controller.joints.size(); ++i) {
+    envelopes.push_back(joint_envelope(arm_joint_names(s)[i], s.controller.joints[i].actuator, s.limits.joints[i]));
+  }
+  return {arm_joint_names(s), s.link, s.lifecycle, envelopes};
 }
 
 /// Why an arm scenario's faults: list (E3's alone) does not go with `what`.

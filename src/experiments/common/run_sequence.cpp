@@ -118,6 +118,20 @@ int run_sequence(const config::Document& doc, const RunRequest& request, Experim
   return 3;
 }
 
+mfb::JointEnvelope joint_envelope(const std::string& name, const models::JointModel& joint, const safety::JointLimits& limits) {
+  mfb::JointEnvelope e;
+  e.joint = name;
+  e.agonist_force_N = models::force_ceiling_N(joint.agonist);
+  e.antagonist_force_N = models::force_ceiling_N(joint.antagonist);
+  e.supply_pressure_Pa = joint.supply_pressure_Pa;
+  e.has_motor = joint.has_motor;
+  e.motor_torque_Nm = joint.motor_max_torque_Nm;
+  e.min_angle_rad = limits.min_angle_rad;
+  e.max_angle_rad = limits.max_angle_rad;
+  e.pressure_rate_Pa_per_s = limits.pressure_rate_Pa_per_s;
+  return e;
+}
+
 BoardPlant board_for(const mfb::LinkConfig& link, double period_s, const hardware::HardwareRequest& request, std::string what) {
   return BoardPlant{period_s, link, {mfb::read_channel_map(config::Document::load_file(link.channel_map), request.joint_names)},
                     request.simulate, {}, std::move(what)};

@@ -142,7 +142,8 @@ ScenarioCheck check_creep(const std::filesystem::path& config, const config::Doc
              "estimator off/on, plant model {}\n",
              config.string(), s.e1.description, s.e1.duration_s, 1.0 / s.e1.period_s, s.e1.plant.finger.pushes.size(),
              s.creep.variants.size(), s.creep.force_trim_rates_1ps.size(), s.e1.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.e1.link, s.e1.lifecycle};
+  return {sim::one_dof_rig_joint_names(), s.e1.link, s.e1.lifecycle,
+          {joint_envelope(sim::one_dof_rig_joint_names()[0], s.e1.controller.joint, s.e1.limits.joints[0])}};
 }
 
 std::optional<BoardPlant> creep_board(const config::Document& doc, const EmulatorCase&) {

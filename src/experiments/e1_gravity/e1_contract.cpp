@@ -110,7 +110,8 @@ ScenarioCheck check_e1(const std::filesystem::path& config, const config::Docume
              "plant model {}\n",
              config.string(), s.description, s.cases.size(), s.duration_s, 1.0 / s.period_s, s.plant.finger.pushes.size(),
              s.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
+  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle,
+          {joint_envelope(sim::one_dof_rig_joint_names()[0], s.controller.joint, s.limits.joints[0])}};
 }
 
 /// The emulator's rig: a payload case, or a calibration recording (the rig with the excitation's
@@ -126,9 +127,17 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorCa
       fmt::print(stderr, "config error: {}: no calibration.{} section to serve --case {}\n", doc.name(), muscle, request.case_name);
       return std::nullopt;
     }
-    return board_for(*scenario.link, scenario.period_s, e1_recording_hardware(scenario, scenario.plant, m),
-                     fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped segments)",
-                                 muscle, scenario.excitation[m]->payload_kg));
+    BoardPlant plant = board_for(*scenario.link, scenario.period_s, e1_recording_hardware(scenario, scenario.plant, m),
+                                 fmt::format("one-DOF rig for peha record-calibration --muscle {} ({} kg, pinned for the tare and the clamped "
+                                             "segments)",
+                                             muscle, scenario.excitation[m]->payload_kg));
+    // The recording sweeps the link onto its stops on purpose: the operator turns the rig's
+    // procedure key for it, so the board's range cuts the motor but does not vent (docs/safety.md).
+    if (const std::optional<mfb::DigitalLine>& key = plant.maps.front().procedure_key_line()) {
+      plant.input_hook = [line = *key](double, mfb::BoardInputs& in) { line.set(in.digital_in, true); };
+      plant.what += fmt::format(", the procedure key (input line {}) turned", key->line);
+    }
+    return plant;
   }
   std::vector<std::string> names;
   for (const auto& c : scenario.cases) names.push_back(c.name);

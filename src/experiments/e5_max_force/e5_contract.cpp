@@ -79,7 +79,7 @@ ScenarioCheck check_e5(const std::filesystem::path& config, const config::Docume
   fmt::print("{}\n  experiment max_force_ramp: {}\n  {} case(s), {} ramped at {} MPa/s, {} s at {} Hz, plant model {}\n",
              config.string(), s.description, s.cases.size(), s.ramp.muscle == 0 ? "agonist" : "antagonist", s.ramp.rate_Pa_per_s * 1e-6,
              s.duration_s, 1.0 / s.period_s, s.plant.model_file.string());
-  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle};
+  return {sim::one_dof_rig_joint_names(), s.link, s.lifecycle, {joint_envelope(sim::one_dof_rig_joint_names()[0], s.joint, s.limits.joints[0])}};
 }
 
 std::optional<BoardPlant> e5_board(const config::Document& doc, const EmulatorCase& request) {

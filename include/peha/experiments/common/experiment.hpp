@@ -12,12 +12,15 @@
 #include "peha/config/reader.hpp"
 #include "peha/experiments/run_request.hpp"
 #include "peha/io/backend.hpp"
+#include "peha/mfb/board_core.hpp"
 #include "peha/mfb/board_emulator.hpp"
 #include "peha/mfb/channel_map.hpp"
 #include "peha/mfb/link_config.hpp"
+#include "peha/models/joint.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/supervisor.hpp"
+#include "peha/safety/limits.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -110,7 +113,12 @@ struct ScenarioCheck {
   std::vector<std::string> joints;
   std::optional<mfb::LinkConfig> link;
   runtime::SupervisorParams lifecycle;  ///< the scenario's `lifecycle:` (printed with the board's watchdog)
+  /// Per io joint, the scenario's own hard numbers: the boards' `board_limits:` must agree with them.
+  std::vector<mfb::JointEnvelope> envelopes;
 };
+
+/// One joint's envelope from the controller's set-up of it and the limits' range and rates.
+mfb::JointEnvelope joint_envelope(const std::string& name, const models::JointModel& joint, const safety::JointLimits& limits);
 
 /// What `peha mfb-emulator` was asked to simulate.
 struct EmulatorCase {
