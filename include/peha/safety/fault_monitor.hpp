@@ -52,6 +52,7 @@
 #include "peha/safety/descend_governor.hpp"
 
 #include <array>
+#include <bit>
 #include <cstdint>
 
 namespace peha::safety {
@@ -171,6 +172,18 @@ static_assert(checks_in_bit_order(), "kChecks: one row per FaultFlag, in bit ord
 const char* fault_flag_name(std::uint32_t single_flag) noexcept;  ///< "loadcell_stuck", ...
 SafeAction safe_action(std::uint32_t single_flag) noexcept;
 const char* safe_action_name(SafeAction a) noexcept;                ///< "hold", "descend", "vent"
+
+/// Per check (at its flag's bit), the largest ratio of the quantity the check compares with its
+/// threshold to that threshold: 1 = at the threshold (a check that must
+/// fail confirm_cycles samples in a row trips only once the ratio stays above 1 that long). For a
+/// check on a floor (tension, supply, a disconnected cell) the ratio is floor / value; for the range,
+/// how far the angle is beyond the range / range_margin; over supply, the pressure's excess over the
+/// supply / pressure_over_supply_Pa (a muscle at supply is 0); for a frozen encoder the smaller of its two
+/// conditions' ratios; for a load cell's zero at code 0 (no magnitude), how much of its window the
+/// code has lasted. 0: never evaluated (nonfinite, estop and checks of sensors a backend lacks).
+/// Recorded while no fault is latched (what follows one is its safe state's, not fault-free running).
+/// The false-alarm statistics (docs/safety.md "False alarms") are made of these.
+using CheckPeaks = std::array<double, kFaultFlagCount>;
 
 /// Thresholds (the scenario's optional `plausibility:` section; docs/safety.md).
 struct MonitorParams {
@@ -329,6 +342,8 @@ class FaultMonitor {
   /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
   void clear() noexcept;
   const MonitorParams& params() const noexcept { return params_; }
+  /// Every check's largest ratio to its threshold while no fault was latched (CheckPeaks).
+  const CheckPeaks& peaks() const noexcept { return peaks_; }
   /// Joint `j` is carried: both wires taut with the outputs following (the start-up is over).
   bool carried(int j) const noexcept { return j >= 0 && j < io::kMaxJoints && joints_[static_cast<std::size_t>(j)].carried; }
 
@@ -338,6 +353,12 @@ class FaultMonitor {
 
  private:
   void raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept;
+  /// The check of `flag` compared a quantity at `ratio` x its threshold (peaks()).
+  void observe(std::uint32_t flag, double ratio) noexcept {
+    if (flags_) return;  // a safe state's own motion is no statistic of fault-free running
+    double& peak = peaks_[static_cast<std::size_t>(std::countr_zero(flag))];
+    if (ratio > peak) peak = ratio;  // false for NaN
+  }
   bool on(std::uint32_t flag) const noexcept { return !((overrides_.unchecked | params_.unmodelled) & flag); }
 
   struct MuscleState {
@@ -434,6 +455,7 @@ class FaultMonitor {
   FaultRecord first_{};
   double t_s_ = 0;
   std::uint64_t sequence_ = 0, count_ = 0;
+  CheckPeaks peaks_{};
   io::Command held_{};       ///< the last command sent before the fault, or what start-up found (hold)
   io::Command last_sent_{};
   char reason_[160] = {};
