@@ -18,6 +18,9 @@ double below_ratio(double floor, double value) noexcept {
   return value > 1e-3 * floor ? floor / value : 1e3;
 }
 
+/// pressure_rise escalates to pressure_high (vent) at this x its threshold (check_pressure_rise).
+constexpr double kRiseVentFactor = 3.0;
+
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
 
 /// The flag's row of kChecks (its lowest bit's), or null for none or a bit past the table.
@@ -71,6 +74,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_tolerance_fraction = m.number_or("loadcell_tolerance_fraction", p.loadcell_tolerance_fraction, {0, 1});
   p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 2000});
   p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 1});
+  p.loadcell_step_noise_filter_s = m.number_or("loadcell_step_noise_filter_s", p.loadcell_step_noise_filter_s, {0.0005, 0.02});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
   p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 0.3}) * 1e6;
   p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 0.3}) * 1e6;
@@ -135,6 +139,7 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.valve_alpha = alpha(p.valve_lag_s);
   pp.slow_valve_alpha = alpha(p.valve_slow_factor * p.valve_lag_s);
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
+  pp.step_fast_alpha = alpha(p.loadcell_step_noise_filter_s);
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
   // Windows in samples (no cap at kMaxDelay: they count samples, they are no delay line).
   auto samples = [&](double s) { return static_cast<int>(std::lround(s / period_s)); };
@@ -499,12 +504,13 @@ void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcep
 void FaultMonitor::check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept {
   const double disagreement_N = x.cell_N - x.model_N;
   if (!ms.has_level || !x.outputs_follow || !ms.taut) {
-    ms.disagreement_level_N = disagreement_N;
+    ms.disagreement_level_N = ms.disagreement_fast_N = disagreement_N;
     ms.has_level = true;
     ms.step = 0;
     return;
   }
-  const double jump_N = disagreement_N - ms.disagreement_level_N;
+  ms.disagreement_fast_N += per_period_.step_fast_alpha * (disagreement_N - ms.disagreement_fast_N);
+  const double jump_N = ms.disagreement_fast_N - ms.disagreement_level_N;
   observe(kFaultLoadcellStep, std::abs(jump_N) / params_.loadcell_step_N);
   ms.step = std::abs(jump_N) > params_.loadcell_step_N ? ms.step + 1 : 0;
   if (ms.step >= params_.confirm_cycles) raise(kFaultLoadcellStep, x.joint, x.muscle, jump_N, params_.loadcell_step_N);
@@ -527,6 +533,7 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
     ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
     ms.pressure_low = ms.pressure_high = ms.rise = 0;
     ms.has_excess = false;
+    ms.above_fast_Pa = 0;
     return false;
   }
   // Advance the valve model by one period with the delayed command.
@@ -541,11 +548,12 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
   const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
   const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
-  observe(kFaultPressureHigh, above / p.pressure_tolerance_Pa);
+  ms.above_fast_Pa += pp.rise_alpha * (above - ms.above_fast_Pa);
+  observe(kFaultPressureHigh, ms.above_fast_Pa / p.pressure_tolerance_Pa);
   observe(kFaultPressureLow, -below / p.pressure_tolerance_Pa);
-  ms.pressure_high = above > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+  ms.pressure_high = ms.above_fast_Pa > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
   ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
-  if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, above, p.pressure_tolerance_Pa);
+  if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, ms.above_fast_Pa, p.pressure_tolerance_Pa);
   check_pressure_rise(x, above, ms);
   return ms.pressure_low >= p.confirm_cycles;
 }
@@ -570,6 +578,12 @@ void FaultMonitor::check_pressure_rise(const MuscleSample& x, double above_Pa, M
   observe(kFaultPressureRise, rise_Pa / p.pressure_rise_Pa);
   ms.rise = rise_Pa > p.pressure_rise_Pa ? ms.rise + 1 : 0;
   if (ms.rise >= p.confirm_cycles) raise(kFaultPressureRise, x.joint, x.muscle, rise_Pa, p.pressure_rise_Pa);
+  // A confirmed rise that goes on past kRiseVentFactor x the threshold is a valve that keeps filling:
+  // vent it now (pressure_high), not after the wide tolerance - descended until that, the arm's stuck
+  // elbow valve flexed it past its stop. Noise alone stayed below 2.1 x even at 10x (docs/safety.md).
+  if (on(kFaultPressureRise) && ms.rise >= p.confirm_cycles && rise_Pa > kRiseVentFactor * p.pressure_rise_Pa) {
+    raise(kFaultPressureHigh, x.joint, x.muscle, rise_Pa, kRiseVentFactor * p.pressure_rise_Pa);
+  }
   ms.excess_level_Pa += per_period_.step_alpha * (ms.excess_fast_Pa - ms.excess_level_Pa);
 }
 
