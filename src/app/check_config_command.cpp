@@ -2,6 +2,7 @@
 // the board's channel map for the backend's joints and the link's key file.
 #include "peha/app/commands.hpp"
 #include "peha/app/registry.hpp"
+#include "peha/experiments/false_alarms/false_alarms.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
 #include "peha/mfb/board_core.hpp"
 #include "peha/mfb/link_config.hpp"
@@ -35,6 +36,20 @@ int check_config(const std::filesystem::path& config) {
       if (!matrix.arm_config.empty()) experiments::read_arm_scenario(config::Document::load_file(matrix.arm_config));
       fmt::print("{}: robustness matrix, {} mode(s) x {} variant(s) x {} seed(s); scenarios {} and {} read\n", doc.name(),
                  matrix.modes.size(), matrix.variants.size(), matrix.seeds.size(), matrix.e1_config.string(), matrix.arm_config.string());
+      return 0;
+    }
+    if (config::Map root = doc.root(); root.has("experiment") && root.string("experiment") == "false_alarms") {
+      // The false-alarm statistics (peha false-alarms): its file, and every case's scenario.
+      const experiments::FalseAlarmConfig fa = experiments::read_false_alarms(doc);
+      for (const experiments::FalseAlarmCase& c : fa.cases) {
+        if (c.run == experiments::FalseAlarmRun::kE1) {
+          experiments::read_e1(config::Document::load_file(c.scenario));
+        } else {
+          experiments::read_arm_scenario(config::Document::load_file(c.scenario));
+        }
+      }
+      fmt::print("{}: false-alarm statistics, {} case(s) x {} noise scale(s) x {} seed(s), {} variant(s) x {} seed(s); scenarios read\n",
+                 doc.name(), fa.cases.size(), fa.noise_scales.size(), fa.seeds, fa.variants.size(), fa.variant_seeds);
       return 0;
     }
     const ScenarioCheck checked = find_experiment(doc).check(config, doc);

@@ -363,6 +363,36 @@ Command add_robustness(CLI::App& app) {
           }};
 }
 
+Command add_false_alarms(CLI::App& app) {
+  struct State {
+    peha::app::FalseAlarmsOptions options;
+    int threads = 2, seeds = 20, variant_seeds = 5;
+    CLI::Option *threads_opt = nullptr, *seeds_opt = nullptr, *variant_seeds_opt = nullptr;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App* cmd = app.add_subcommand(
+      "false-alarms", "Measure every plausibility check on fault-free runs (docs/safety.md \"False alarms\"): E1 (every payload),\n"
+                      "E3 and E4 on the arm scenarios, over seeds, raised sensor noise and the robustness matrix's plant variants.\n"
+                      "Per check: runs, trips (false alarms), the largest ratio of its quantity to its threshold, the 99th\n"
+                      "percentile, the margin and an estimated rate per hour. Prints one line per run; writes <out>/<run>/\n"
+                      "false_alarms.md, false_alarms.csv, config.yaml and margins.png. Exit code 0 = no trip at x1 and x3 noise\n"
+                      "and every margin at x1 >= the file's margin_goal, 3 = not, 2 = bad config.");
+  cmd->add_option("-c,--config", s->options.config, "False-alarm YAML, e.g. configs/false_alarms.yaml")->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--out", s->options.out_root, "Directory under which the run directory is created")->capture_default_str();
+  cmd->add_option("-n,--name", s->options.run_name, "Run directory name (default: <config stem>-<UTC time>)");
+  s->threads_opt = cmd->add_option("--threads", s->threads, "Worker threads over the runs (default: the file's threads:)")->check(CLI::Range(1, 64));
+  s->seeds_opt = cmd->add_option("--seeds", s->seeds, "Seeds per case and noise scale (default: the file's seeds:)")->check(CLI::Range(1, 1000));
+  s->variant_seeds_opt = cmd->add_option("--variant-seeds", s->variant_seeds, "Seeds per plant variant (default: the file's variant_seeds:; 0: none)")
+                             ->check(CLI::Range(0, 1000));
+  cmd->add_flag("!--no-plot", s->options.plot, "Do not render margins.png (no Python needed)");
+  return {cmd, [s] {
+            if (*s->threads_opt) s->options.threads = s->threads;
+            if (*s->seeds_opt) s->options.seeds = s->seeds;
+            if (*s->variant_seeds_opt) s->options.variant_seeds = s->variant_seeds;
+            return peha::app::false_alarms(s->options);
+          }};
+}
+
 Command add_faults(CLI::App& app) {
   auto o = std::make_shared<peha::app::FaultsOptions>();
   CLI::App* cmd = app.add_subcommand(
@@ -411,7 +441,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
   const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_identify_gravity(app), add_mfb_emulator(app),
-                              add_check_config(app), add_keygen(app), add_robustness(app), add_faults(app), add_version(app)};
+                              add_check_config(app), add_keygen(app), add_robustness(app), add_false_alarms(app), add_faults(app),
+                              add_version(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -424,7 +455,8 @@ int main(int argc, char** argv) {
     // The commands that run control loops end them at Ctrl-C and wind down (outputs off, logs
     // flushed); the others (a fit, a check) end at once, as without a handler.
     const std::string name = command.app->get_name();
-    if (name != "run" && name != "record-calibration" && name != "identify-gravity" && name != "robustness" && name != "faults") {
+    if (name != "run" && name != "record-calibration" && name != "identify-gravity" && name != "robustness" && name != "faults" &&
+        name != "false-alarms") {
       return command.run();
     }
     const peha::runtime::InterruptHandler interrupt;

@@ -12,6 +12,15 @@
 namespace peha::safety {
 namespace {
 
+/// A check on a floor: floor / value (a value at or below a thousandth of the floor: 1000).
+double below_ratio(double floor, double value) noexcept {
+  if (floor <= 0) return 0.0;
+  return value > 1e-3 * floor ? floor / value : 1e3;
+}
+
+/// pressure_rise escalates to pressure_high (vent) at this x its threshold (check_pressure_rise).
+constexpr double kRiseVentFactor = 3.0;
+
 int index_of(std::uint32_t flag) noexcept { return flag ? std::countr_zero(flag) : 0; }
 
 /// The flag's row of kChecks (its lowest bit's), or null for none or a bit past the table.
@@ -65,6 +74,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_tolerance_fraction = m.number_or("loadcell_tolerance_fraction", p.loadcell_tolerance_fraction, {0, 1});
   p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 2000});
   p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 1});
+  p.loadcell_step_noise_filter_s = m.number_or("loadcell_step_noise_filter_s", p.loadcell_step_noise_filter_s, {0.0005, 0.02});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
   p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 0.3}) * 1e6;
   p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 0.3}) * 1e6;
@@ -129,6 +139,7 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.valve_alpha = alpha(p.valve_lag_s);
   pp.slow_valve_alpha = alpha(p.valve_slow_factor * p.valve_lag_s);
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
+  pp.step_fast_alpha = alpha(p.loadcell_step_noise_filter_s);
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
   // Windows in samples (no cap at kMaxDelay: they count samples, they are no delay line).
   auto samples = [&](double s) { return static_cast<int>(std::lround(s / period_s)); };
@@ -266,6 +277,7 @@ void FaultMonitor::check_encoder(int j, const io::JointSensors& in, double t_s, 
     // Per control period elapsed: over a link that lost two samples a fast joint moves three steps.
     const double max_step_rad = p.encoder_max_step_rad * std::max(1.0, std::round(dt_s / period_s_));
     const bool measured = std::abs(step_rad) <= max_step_rad;
+    observe(kFaultEncoderJump, std::abs(step_rad) / max_step_rad);
     if (!measured) raise(kFaultEncoderJump, j, -1, std::abs(step_rad), max_step_rad);
     js.speed_radps = step_rad / dt_s;
     if (measured) {
@@ -293,6 +305,8 @@ void FaultMonitor::check_frozen(int j, double step_rad, double dt_s, double t_s,
     return;
   }
   ++js.same_angle;
+  observe(kFaultEncoderFrozen, std::min(static_cast<double>(js.same_angle) / p.encoder_frozen_cycles,
+                                        std::abs(js.last_change_speed_radps) / p.encoder_frozen_speed_radps));
   if (js.same_angle >= p.encoder_frozen_cycles && std::abs(js.last_change_speed_radps) > p.encoder_frozen_speed_radps) {
     raise(kFaultEncoderFrozen, j, -1, js.last_change_speed_radps, p.encoder_frozen_speed_radps);
   }
@@ -302,12 +316,14 @@ void FaultMonitor::check_frozen(int j, double step_rad, double dt_s, double t_s,
 void FaultMonitor::check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept {
   if (!std::isfinite(in.redundant_angle_rad)) return;
   const double apart_rad = in.angle_rad - in.redundant_angle_rad;
+  observe(kFaultEncoderDisagrees, std::abs(apart_rad) / params_.encoder_disagree_rad);
   js.encoder_apart = std::abs(apart_rad) > params_.encoder_disagree_rad ? js.encoder_apart + 1 : 0;
   if (js.encoder_apart >= params_.confirm_cycles) raise(kFaultEncoderDisagrees, j, -1, apart_rad, params_.encoder_disagree_rad);
 }
 
 /// Speed: a falling link (one sample is enough; its step was not a jump).
 void FaultMonitor::check_speed(int j, const JointState& js) noexcept {
+  observe(kFaultJointSpeed, std::abs(js.speed_radps) / params_.max_joint_speed_radps);
   if (std::abs(js.speed_radps) > params_.max_joint_speed_radps) {
     raise(kFaultJointSpeed, j, -1, std::abs(js.speed_radps), params_.max_joint_speed_radps);
   }
@@ -317,6 +333,9 @@ void FaultMonitor::check_speed(int j, const JointState& js) noexcept {
 void FaultMonitor::check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept {
   const double lo_rad = min_angle_rad - params_.range_margin_rad;
   const double hi_rad = max_angle_rad + params_.range_margin_rad;
+  if (params_.range_margin_rad > 0) {
+    observe(kFaultJointRange, std::max(min_angle_rad - angle_rad, angle_rad - max_angle_rad) / params_.range_margin_rad);
+  }
   if (angle_rad < lo_rad) raise(kFaultJointRange, j, -1, angle_rad, lo_rad);
   if (angle_rad > hi_rad) raise(kFaultJointRange, j, -1, angle_rad, hi_rad);
 }
@@ -328,6 +347,8 @@ void FaultMonitor::check_supply(int j, const io::JointSensors& in, const models:
   const MonitorParams& p = params_;
   const double low_Pa = p.supply_low_fraction * model.supply_pressure_Pa;
   const double lost_Pa = p.supply_lost_fraction * model.supply_pressure_Pa;
+  observe(kFaultSupplyLow, below_ratio(low_Pa, in.supply_pressure_Pa));
+  observe(kFaultSupplyLoss, below_ratio(lost_Pa, in.supply_pressure_Pa));
   js.supply_low = in.supply_pressure_Pa < low_Pa ? js.supply_low + 1 : 0;
   js.supply_lost = in.supply_pressure_Pa < lost_Pa ? js.supply_lost + 1 : 0;
   // A supply gone at once is a loss, not also a low supply (descend is the stronger safe state).
@@ -357,6 +378,7 @@ void FaultMonitor::check_motor(int j, const io::JointSensors& in, const models::
     hi_Nm = std::max(hi_Nm, c);
   }
   const double off_Nm = std::max(lo_Nm - in.motor_torque_Nm, in.motor_torque_Nm - hi_Nm);
+  observe(kFaultMotorDisagrees, off_Nm / p.motor_tolerance_Nm);
   js.motor_off = off_Nm > p.motor_tolerance_Nm ? js.motor_off + 1 : 0;
   if (js.motor_off >= p.confirm_cycles) {
     raise(kFaultMotorDisagrees, j, -1, in.motor_torque_Nm - js.sent_motor_Nm[static_cast<std::size_t>(js.motor_head)], p.motor_tolerance_Nm);
@@ -408,6 +430,10 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
   const MonitorParams& p = params_;
   const int j = x.joint, m = x.muscle;
   const double cell = x.cell_N;
+  observe(kFaultForceCeiling, cell / x.ceiling_N);
+  observe(kFaultLoadcellSaturated, cell / p.loadcell_saturated_N);
+  observe(kFaultLoadcellDisagrees, std::abs(cell - x.model_N) / x.tolerance_N);
+  if (x.tension_checked && ms.taut) observe(kFaultLoadcellDisconnected, below_ratio(p.loadcell_disconnected_N, cell));
   // Above the ceiling: a real over-force (the pressure model agrees, within the disagreement
   // tolerance) is relieved at once (vent); a reading the pressure model cannot explain is a load-cell
   // fault (descend on the model) - venting a loaded arm drops it.
@@ -435,6 +461,7 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
   // Stuck: a taut wire's live cell never repeats itself (noise); a slack wire's cell may sit at code 0.
   ms.same_loadcell = ms.taut && cell > p.loadcell_disconnected_N && cell == ms.last_loadcell_N ? ms.same_loadcell + 1 : 0;
   ms.last_loadcell_N = cell;
+  if (ms.taut) observe(kFaultLoadcellStuck, static_cast<double>(ms.same_loadcell + 1) / p.loadcell_stuck_cycles);
   if (ms.same_loadcell + 1 >= p.loadcell_stuck_cycles) raise(kFaultLoadcellStuck, j, m, cell, p.loadcell_stuck_cycles);
   ms.disagree = std::abs(cell - x.model_N) > x.tolerance_N ? ms.disagree + 1 : 0;
   if (ms.disagree >= p.confirm_cycles) raise(kFaultLoadcellDisagrees, j, m, cell - x.model_N, x.tolerance_N);
@@ -442,6 +469,7 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
 
 /// Tension: a taut wire's load cell below tension_floor_fraction x pretension (a wire near slack).
 void FaultMonitor::check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept {
+  if (x.tension_checked && ms.taut) observe(kFaultTensionFloor, below_ratio(x.floor_N, x.cell_N));
   ms.low_tension = x.tension_checked && ms.taut && x.cell_N < x.floor_N ? ms.low_tension + 1 : 0;
   if (ms.low_tension >= params_.confirm_cycles) raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
 }
@@ -460,13 +488,19 @@ void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcep
   // Vented: at most the pretension pressure, the limits' floor (below a real muscle's threshold).
   const bool vented = x.model_N <= 1.05 * x.pretension_N;
   const bool off = std::abs(x.cell_N) > p.loadcell_zero_max_N || x.cell_N <= p.loadcell_disconnected_N;
-  if (vented) ms.zero_off = off ? ms.zero_off + 1 : 0;  // a sample the pressure noise lifts past the floor counts neither way
+  if (vented) {
+    ms.zero_off = off ? ms.zero_off + 1 : 0;  // a sample the pressure noise lifts past the floor counts neither way
+    // Code 0 has no magnitude: how much of the window it has lasted.
+    observe(kFaultLoadcellZero, std::max(std::abs(x.cell_N) / p.loadcell_zero_max_N,
+                                         x.cell_N <= p.loadcell_disconnected_N ? static_cast<double>(ms.zero_off) / per_period_.zero_cycles : 0.0));
+  }
   if (ms.zero_off >= per_period_.zero_cycles) {
     raise(kFaultLoadcellZero, x.joint, x.muscle, x.cell_N, p.loadcell_zero_max_N);
   }
   // Never taut and below the floor past the deadline, for as long as the zero check's window: a
   // broken wire reads its noise around 0; an intact one a controller keeps low stays above the floor.
   const bool slack = x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s && x.cell_N < x.floor_N;
+  if (x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s) observe(kFaultTensionFloor, below_ratio(x.floor_N, x.cell_N));
   ms.never_taut = slack ? ms.never_taut + 1 : 0;
   if (ms.never_taut >= per_period_.zero_cycles) {
     raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
@@ -480,12 +514,14 @@ void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcep
 void FaultMonitor::check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept {
   const double disagreement_N = x.cell_N - x.model_N;
   if (!ms.has_level || !x.outputs_follow || !ms.taut) {
-    ms.disagreement_level_N = disagreement_N;
+    ms.disagreement_level_N = ms.disagreement_fast_N = disagreement_N;
     ms.has_level = true;
     ms.step = 0;
     return;
   }
-  const double jump_N = disagreement_N - ms.disagreement_level_N;
+  ms.disagreement_fast_N += per_period_.step_fast_alpha * (disagreement_N - ms.disagreement_fast_N);
+  const double jump_N = ms.disagreement_fast_N - ms.disagreement_level_N;
+  observe(kFaultLoadcellStep, std::abs(jump_N) / params_.loadcell_step_N);
   ms.step = std::abs(jump_N) > params_.loadcell_step_N ? ms.step + 1 : 0;
   if (ms.step >= params_.confirm_cycles) raise(kFaultLoadcellStep, x.joint, x.muscle, jump_N, params_.loadcell_step_N);
   ms.disagreement_level_N += per_period_.step_alpha * jump_N;
@@ -498,6 +534,7 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   const MonitorParams& p = params_;
   const PerPeriod& pp = per_period_;
   const double pressure = x.pressure_Pa;
+  observe(kFaultPressureOverSupply, (pressure - x.supply_Pa) / p.pressure_over_supply_Pa);
   if (pressure > x.supply_Pa + p.pressure_over_supply_Pa) {
     raise(kFaultPressureOverSupply, x.joint, x.muscle, pressure, x.supply_Pa + p.pressure_over_supply_Pa);
   }
@@ -506,6 +543,7 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
     ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
     ms.pressure_low = ms.pressure_high = ms.rise = 0;
     ms.has_excess = false;
+    ms.above_fast_Pa = 0;
     return false;
   }
   // Advance the valve model by one period with the delayed command.
@@ -520,9 +558,12 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
   const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
   const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
-  ms.pressure_high = above > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+  ms.above_fast_Pa += pp.rise_alpha * (above - ms.above_fast_Pa);
+  observe(kFaultPressureHigh, ms.above_fast_Pa / p.pressure_tolerance_Pa);
+  observe(kFaultPressureLow, -below / p.pressure_tolerance_Pa);
+  ms.pressure_high = ms.above_fast_Pa > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
   ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
-  if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, above, p.pressure_tolerance_Pa);
+  if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, ms.above_fast_Pa, p.pressure_tolerance_Pa);
   check_pressure_rise(x, above, ms);
   return ms.pressure_low >= p.confirm_cycles;
 }
@@ -544,8 +585,15 @@ void FaultMonitor::check_pressure_rise(const MuscleSample& x, double above_Pa, M
   }
   ms.excess_fast_Pa += per_period_.rise_alpha * (excess_Pa - ms.excess_fast_Pa);
   const double rise_Pa = ms.excess_fast_Pa - ms.excess_level_Pa;
+  observe(kFaultPressureRise, rise_Pa / p.pressure_rise_Pa);
   ms.rise = rise_Pa > p.pressure_rise_Pa ? ms.rise + 1 : 0;
   if (ms.rise >= p.confirm_cycles) raise(kFaultPressureRise, x.joint, x.muscle, rise_Pa, p.pressure_rise_Pa);
+  // A confirmed rise that goes on past kRiseVentFactor x the threshold is a valve that keeps filling:
+  // vent it now (pressure_high), not after the wide tolerance - descended until that, the arm's stuck
+  // elbow valve flexed it past its stop. Noise alone stayed below 2.1 x even at 10x (docs/safety.md).
+  if (on(kFaultPressureRise) && ms.rise >= p.confirm_cycles && rise_Pa > kRiseVentFactor * p.pressure_rise_Pa) {
+    raise(kFaultPressureHigh, x.joint, x.muscle, rise_Pa, kRiseVentFactor * p.pressure_rise_Pa);
+  }
   ms.excess_level_Pa += per_period_.step_alpha * (ms.excess_fast_Pa - ms.excess_level_Pa);
 }
 

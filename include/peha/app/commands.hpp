@@ -145,6 +145,21 @@ struct RobustnessOptions {
 /// share, 3 when one missed it, 2 bad config.
 int robustness(const RobustnessOptions& options);
 
+struct FalseAlarmsOptions {
+  std::filesystem::path config;           ///< false-alarm YAML (configs/false_alarms.yaml)
+  std::filesystem::path out_root = "out";
+  std::string run_name;                   ///< default: <config stem>-<UTC time stamp>
+  std::optional<int> threads;             ///< overrides the file's threads
+  std::optional<int> seeds;               ///< overrides the file's seeds (per case and noise scale)
+  std::optional<int> variant_seeds;       ///< overrides the file's variant_seeds
+  bool plot = true;                       ///< render margins.png with tools/plot_false_alarms.py
+};
+
+/// `peha false-alarms`: every plausibility check's largest ratio to its threshold on fault-free runs
+/// (docs/safety.md "False alarms"); writes false_alarms.md, false_alarms.csv and margins.png. Exit
+/// code 0 when no check trips at x1 or x3 noise and every margin at x1 holds, 3 otherwise, 2 bad config.
+int false_alarms(const FalseAlarmsOptions& options);
+
 struct FaultsOptions {
   std::filesystem::path config;           ///< E1 or arm scenario (configs/e1_one_dof.yaml, configs/right_arm.yaml, configs/upper_body.yaml)
   std::filesystem::path out_root = "out";

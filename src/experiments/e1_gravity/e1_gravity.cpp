@@ -402,6 +402,8 @@ void add_e1_envelope(const E1Scenario& scenario, const safety::JointModels& join
   r.fault_flags = limited.monitor().flags();
   r.faults = limited.monitor().count();
   r.fault_reason = limited.monitor().run_reason();
+  r.check_peaks = limited.monitor().peaks();
+  r.first_fault_flag = limited.monitor().first().flag;
   safety::add_supervisor_check(limited.monitor(), r.verdict);
 }
 

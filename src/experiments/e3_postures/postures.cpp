@@ -297,6 +297,8 @@ PosturesResult analyse_postures(const PosturesRun& run, std::size_t done, const 
   r.fault_flags = monitor.flags();
   r.faults = monitor.count();
   r.fault_reason = monitor.run_reason();
+  r.check_peaks = monitor.peaks();
+  r.first_fault_flag = monitor.first().flag;
   safety::add_supervisor_check(monitor, r.verdict);
   r.within_limits = r.verdict.passed();
   return r;

@@ -754,6 +754,9 @@ GoniometerResult analyse_goniometer(const GoniometerRun& run, const std::string&
     r.passive.push_back({arm_joint_names(scenario)[run.passive[p]], models::rad_to_deg(run.passive_peak_speed_radps[p])});
     r.verdict.at_most(r.passive.back().joint + " passive peak speed", "deg/s", r.passive.back().value, run.g.max_passive_speed_degps);
   }
+  r.fault_flags = monitor.flags();
+  r.check_peaks = monitor.peaks();
+  r.first_fault_flag = monitor.first().flag;
   safety::add_supervisor_check(monitor, r.verdict);
   r.within_limits = r.verdict.passed();
   return r;

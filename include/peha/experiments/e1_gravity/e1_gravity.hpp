@@ -120,6 +120,8 @@ struct E1Result {
   std::uint64_t faults = 0;      ///< faults the supervisor's plausibility stage latched (a faulted run fails)
   std::uint32_t fault_flags = 0; ///< safety::FaultFlag bits latched at the end
   std::string fault_reason;      ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
+  safety::CheckPeaks check_peaks{};  ///< every check's largest ratio to its threshold (FaultMonitor::peaks)
+  std::uint32_t first_fault_flag = 0;  ///< the run's first latched FaultFlag (0: none; FaultMonitor::first)
   bool within_limits = false;           ///< verdict.passed(): every figure held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;

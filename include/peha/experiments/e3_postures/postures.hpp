@@ -48,6 +48,8 @@ struct PosturesResult {
   std::uint64_t faults = 0;           ///< faults the supervisor's plausibility stage latched (a faulted run fails)
   std::uint32_t fault_flags = 0;      ///< safety::FaultFlag bits latched at the end
   std::string fault_reason;           ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
+  safety::CheckPeaks check_peaks{};   ///< every check's largest ratio to its threshold (FaultMonitor::peaks)
+  std::uint32_t first_fault_flag = 0;  ///< the run's first latched FaultFlag (0: none; FaultMonitor::first)
 };
 
 /// The joints E3 judges: every io joint in gravity mode (not the constant-pressure holds), in io order.

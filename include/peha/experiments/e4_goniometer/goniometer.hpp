@@ -107,6 +107,9 @@ struct GoniometerResult {
   /// passive joint's peak speed against `goniometer.thresholds`.
   safety::Verdict verdict;
   bool within_limits = false;         ///< verdict.passed()
+  std::uint32_t fault_flags = 0;      ///< safety::FaultFlag bits latched at the end
+  safety::CheckPeaks check_peaks{};   ///< every check's largest ratio to its threshold (FaultMonitor::peaks)
+  std::uint32_t first_fault_flag = 0;  ///< the run's first latched FaultFlag (0: none; FaultMonitor::first)
 };
 
 /// The per-cycle log's columns: t_s, operator_active; per driven joint its goniometer, filter,
