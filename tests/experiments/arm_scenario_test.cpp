@@ -337,8 +337,8 @@ TEST(E3, StartupTareMeasuresTheLoadCellsOffsets) {
   EXPECT_EQ(controller.loadcell_offset_N(2, 0), 0.0);
 }
 
-// The arm's start-up (vent, tare, refill, the operator letting go; until the first posture's move at
-// 4 s) is judged on every compensated joint. The plant starts at rest, as a real arm at power-on
+// The arm's start-up (vent, tare and the refill under the operator's hands, until the operator lets go
+// at 2 s) is judged on every compensated joint. The plant starts at rest, as a real arm at power-on
 // (ArmPlantParams::settle_s): the shoulder moves 0.24 deg at 4.1 deg/s. A plant started out of its
 // equilibrium (the pressures and slack of the file, no settling) throws the shoulder at about 28 deg/s
 // in its first 50 ms: the figure fails.

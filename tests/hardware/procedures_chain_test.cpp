@@ -194,6 +194,11 @@ TEST(ProceduresOverTheBoard, IdentifyGravityAndRunE3AsInProcess) {
   one.push_back(root["postures"]["list"][3]);  // elbow_90
   root["postures"]["list"] = one;
   root["postures"]["observe_s"] = 3.0;
+  // Four postures identify the elbow less well at the hanging pose than the shipped eight: at the
+  // refill its motor steps to -2.5 Nm and jolts the held elbow 0.47 deg at 11 deg/s, over the start-up
+  // figure's 10 deg/s (the figure catching a poor model, in process and on the board alike). This test
+  // compares the board with the process, so that figure's limit is raised here, for both.
+  root["verdict"]["max_startup_speed_degps"] = 20.0;
   const std::filesystem::path config = dir / "right_arm_short.yaml";
   std::ofstream(config) << YAML::Dump(root) << "\n";
 

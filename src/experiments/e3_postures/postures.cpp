@@ -275,9 +275,8 @@ PosturesResult analyse_postures(const PosturesRun& run, std::size_t done, const 
   r.peak_muscle_force_N = run.envelope.peak_muscle_force_N();
   r.min_wire_tension_N = run.envelope.min_tension_N();
   add_arm_envelope_checks(scenario, run.joints, run.envelope, r.verdict);
-  // The start-up (vent, tare, refill, the operator letting go) lasts until the first posture's move.
-  const std::vector<sim::OperatorMove>& moves = run.script.operator_hands.moves;
-  const double startup_end_s = moves.size() > 1 ? moves[1].start_s : moves.front().duration_s;
+  // The start-up (vent, tare and the refill, under the operator's hands) lasts until the operator lets go.
+  const double startup_end_s = run.script.operator_hands.moves.front().duration_s;
   const auto startup_end = std::min(done, static_cast<std::size_t>(std::llround(startup_end_s / scenario.period_s)));
   for (std::size_t j = 0; j < run.judged.size(); ++j) {
     safety::add_startup_checks(arm_joint_names(scenario)[run.judged[j]], run.angle[j], scenario.period_s, startup_end, scenario.verdict,
