@@ -1,5 +1,7 @@
 #include "peha/experiments/false_alarms/false_alarms.hpp"
 
+#include "peha/experiments/common/job_pool.hpp"
+
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
@@ -246,49 +248,34 @@ FalseAlarmResult run_false_alarms(const FalseAlarmConfig& config,
                                   const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
   const std::vector<Job> jobs = false_alarm_jobs(config);
   std::vector<std::vector<FalseAlarmRow>> rows_of(jobs.size());
-  std::atomic<std::size_t> next{0}, done{0};
+  std::size_t done = 0;
   std::mutex report;
-  std::exception_ptr error;
-  auto worker = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < jobs.size();) {
-      const Job& job = jobs[i];
-      std::vector<FalseAlarmRow> rows;
-      try {
-        switch (job.what->run) {
-          case FalseAlarmRun::kE1: rows = run_e1(config, job); break;
-          case FalseAlarmRun::kPostures: rows = run_postures_job(config, job); break;
-          case FalseAlarmRun::kGoniometer: rows = run_goniometer_job(config, job); break;
-        }
-      } catch (...) {
-        const std::lock_guard lock(report);
-        if (!error) error = std::current_exception();
-        next = jobs.size();
-        return;
-      }
-      const std::lock_guard lock(report);
-      const std::size_t n = ++done;
-      if (progress) {
-        std::string line;
-        for (const FalseAlarmRow& r : rows) {
-          double peak = 0;
-          std::uint32_t peak_flag = 0;
-          for (int k = 0; k < safety::kFaultFlagCount; ++k) {
-            if (r.peaks[static_cast<std::size_t>(k)] > peak) peak = r.peaks[static_cast<std::size_t>(k)], peak_flag = 1u << k;
-          }
-          line += fmt::format("{}{} {} x{:g} seed {}: largest {} {:.2f}, {}", line.empty() ? "" : "; ", r.case_name, r.variant,
-                              r.noise_scale, r.seed, safety::fault_flag_name(peak_flag), peak,
-                              r.first_flag ? fmt::format("FALSE ALARM {}", safety::fault_flag_name(r.first_flag)) : "no trip");
-        }
-        progress(n, jobs.size(), line);
-      }
-      rows_of[i] = std::move(rows);
+  run_job_pool(jobs.size(), config.threads, [&](std::size_t i) {
+    const Job& job = jobs[i];
+    std::vector<FalseAlarmRow> rows;
+    switch (job.what->run) {
+      case FalseAlarmRun::kE1: rows = run_e1(config, job); break;
+      case FalseAlarmRun::kPostures: rows = run_postures_job(config, job); break;
+      case FalseAlarmRun::kGoniometer: rows = run_goniometer_job(config, job); break;
     }
-  };
-  std::vector<std::thread> threads;
-  for (int t = 1; t < std::max(1, config.threads); ++t) threads.emplace_back(worker);
-  worker();
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+    const std::lock_guard lock(report);
+    const std::size_t n = ++done;
+    if (progress) {
+      std::string line;
+      for (const FalseAlarmRow& r : rows) {
+        double peak = 0;
+        std::uint32_t peak_flag = 0;
+        for (int k = 0; k < safety::kFaultFlagCount; ++k) {
+          if (r.peaks[static_cast<std::size_t>(k)] > peak) peak = r.peaks[static_cast<std::size_t>(k)], peak_flag = 1u << k;
+        }
+        line += fmt::format("{}{} {} x{:g} seed {}: largest {} {:.2f}, {}", line.empty() ? "" : "; ", r.case_name, r.variant,
+                            r.noise_scale, r.seed, safety::fault_flag_name(peak_flag), peak,
+                            r.first_flag ? fmt::format("FALSE ALARM {}", safety::fault_flag_name(r.first_flag)) : "no trip");
+      }
+      progress(n, jobs.size(), line);
+    }
+    rows_of[i] = std::move(rows);
+  });
   std::vector<FalseAlarmRow> rows;
   for (auto& r : rows_of) rows.insert(rows.end(), r.begin(), r.end());
   return judge_false_alarms(config, std::move(rows));

@@ -1,4 +1,6 @@
 #include "peha/experiments/robustness/robustness.hpp"
+
+#include "peha/experiments/common/job_pool.hpp"
 #include "peha/models/exoskeleton.hpp"
 
 #include "peha/calibration/calibrate.hpp"
@@ -444,46 +446,31 @@ std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config,
   std::size_t total = 0;
   for (const Job& j : jobs) total += is_e3(j.mode) ? 1 : scenarios.cases.size();
   std::vector<std::vector<RobustnessRow>> rows_of(jobs.size());
-  std::atomic<std::size_t> next{0}, done{0};
+  std::size_t done = 0;
   std::mutex report;
-  std::exception_ptr error;
-  auto worker = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < jobs.size();) {
-      const Job& job = jobs[i];
-      const auto start = std::chrono::steady_clock::now();
-      std::vector<RobustnessRow> rows;
-      try {
-        if (is_e3(job.mode)) {
-          rows.push_back(run_e3_job(scenarios.arm, job));
-        } else {
-          rows = run_e1_job(scenarios.e1, job, scenarios.cases, config);
-        }
-      } catch (...) {
-        const std::lock_guard lock(report);
-        if (!error) error = std::current_exception();
-        next = jobs.size();
-        return;
-      }
-      judge_rows(config, job, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), rows);
-      const std::lock_guard lock(report);
-      for (const RobustnessRow& row : rows) {
-        const std::size_t n = ++done;
-        if (progress) {
-          progress(n, total,
-                   fmt::format("{:<17} {:<22} {:<14} seed {}: static error {:>6.1f} %, drift {:>8.3f} deg, T_min/pretension {:>5.2f}, "
-                               "verdict {}, goal {} ({:.0f} s)",
-                               row.mode, row.variant, row.payload, row.seed, row.static_error_pct, row.drift_deg, row.tension_fraction,
-                               row.verdict ? "OK" : "FAIL", row.goal ? "met" : "missed", row.seconds));
-        }
-      }
-      rows_of[i] = std::move(rows);
+  run_job_pool(jobs.size(), config.threads, [&](std::size_t i) {
+    const Job& job = jobs[i];
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<RobustnessRow> rows;
+    if (is_e3(job.mode)) {
+      rows.push_back(run_e3_job(scenarios.arm, job));
+    } else {
+      rows = run_e1_job(scenarios.e1, job, scenarios.cases, config);
     }
-  };
-  std::vector<std::thread> threads;
-  for (int t = 1; t < std::max(1, config.threads); ++t) threads.emplace_back(worker);
-  worker();
-  for (auto& t : threads) t.join();
-  if (error) std::rethrow_exception(error);
+    judge_rows(config, job, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), rows);
+    const std::lock_guard lock(report);
+    for (const RobustnessRow& row : rows) {
+      const std::size_t n = ++done;
+      if (progress) {
+        progress(n, total,
+                 fmt::format("{:<17} {:<22} {:<14} seed {}: static error {:>6.1f} %, drift {:>8.3f} deg, T_min/pretension {:>5.2f}, "
+                             "verdict {}, goal {} ({:.0f} s)",
+                             row.mode, row.variant, row.payload, row.seed, row.static_error_pct, row.drift_deg, row.tension_fraction,
+                             row.verdict ? "OK" : "FAIL", row.goal ? "met" : "missed", row.seconds));
+      }
+    }
+    rows_of[i] = std::move(rows);
+  });
   return rows_of;
 }
 
