@@ -171,6 +171,7 @@ int run(const RunOptions& options) {
     RunDir run_dir(options.config, options.out_root, options.run_name, inputs);
     experiments::RunRequest request = make_request(options);
     request.open_run_dir = [&run_dir](std::uint64_t seed) { return run_dir.create(seed); };
+    request.run_folder = run_dir.final_path();
     std::unique_ptr<experiments::ExperimentRun> experiment;
     try {
       experiment = variant->make_run(doc, request);

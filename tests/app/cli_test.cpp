@@ -119,6 +119,9 @@ TEST(Cli, RunWritesLogConfigAndSummary) {
   EXPECT_EQ(meta["notes"][2].as<std::string>(), "seed: 1");
   EXPECT_THAT(r.output, HasSubstr("\n  and 1 <csv>.meta.json beside the CSVs (case, config, seed, column units, rows), "
                                   "e.g. e1_payload_2.5kg.csv.meta.json\n"));
+  // The files are named where the run ends up (it writes into a partial folder and is put in place).
+  EXPECT_THAT(r.output, HasSubstr("\nwritten: " + dir.string() + "/summary.csv"));
+  EXPECT_THAT(r.output, Not(HasSubstr(".partial-")));
   std::filesystem::remove_all(out);
 }
 

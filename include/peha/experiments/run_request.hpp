@@ -39,6 +39,9 @@ struct RunRequest {
   /// Creates the run directory (with the copy of the config and `seed`, the seed used) and returns
   /// it. Called once, when everything is loaded and checked.
   std::function<std::filesystem::path(std::uint64_t seed)> open_run_dir;
+  /// Where the run's folder will be once complete (the run writes into a partial folder first and is
+  /// put in place at its end): the paths printed for the user. Empty: the folder open_run_dir gave.
+  std::filesystem::path run_folder;
 };
 
 /// --backend (through hardware::BackendUri) and the real-time options; nullopt (after a message)

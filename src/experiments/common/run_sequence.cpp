@@ -70,7 +70,8 @@ void finish_in_process_case(const RunContext& ctx, const hardware::Hardware& hw,
                             double realtime_factor) {
   const std::filesystem::path log_path = ctx.dir / fmt::format("{}_{}.csv", prefix, case_name);
   log.write(log_path, comments);
-  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", simulated_s, hw.replay ? "replayed" : "simulated", realtime_factor, log_path.string());
+  fmt::print("{:.1f} s {} at {:.1f}x real time -> {}\n", simulated_s, hw.replay ? "replayed" : "simulated", realtime_factor,
+             (ctx.shown_dir() / log_path.filename()).string());
   finish_telemetry(tee);
   if (hw.replay) print_replay(*hw.replay, ctx.dir / fmt::format("replay_{}.csv", case_name));
 }
@@ -103,7 +104,7 @@ int run_sequence(const config::Document& doc, const RunRequest& request, Experim
     experiment.run_case(cases[k], ctx);
   }
   const Conclusion c = experiment.conclude(ctx);
-  fmt::print("\nwritten: {}/{}\n", ctx.dir.string(), c.written);
+  fmt::print("\nwritten: {}/{}\n", ctx.shown_dir().string(), c.written);
   print_sidecars(ctx.dir);
   if (request.plot && !c.plot_tool.empty()) plot_with(c.plot_tool.c_str(), ctx.dir, c.plot_args);
   if (c.comparison_failures > 0) {

@@ -71,7 +71,7 @@ class CreepJob final : public ExperimentRun {
     const auto& cable = scenario_.e1.plant.joint.agonist.cable;
     fmt::print("peha run: {}\n  {}\n  {} case(s), {:.0f} s simulated per run, plant creep {:g} m/(N s) up to {:g} mm, seed {}, output {}\n",
                ctx.request.config.string(), scenario_.e1.description, cases.size(), scenario_.e1.duration_s, cable.creep_m_per_N_s,
-               cable.max_creep_m * 1e3, scenario_.e1.seed, ctx.dir.string());
+               cable.max_creep_m * 1e3, scenario_.e1.seed, ctx.shown_dir().string());
   }
 
   /// Every plant variant x force-trim rate x estimator off/on on case `i`.

@@ -59,7 +59,7 @@ class E1Job final : public ExperimentRun {
     const double trim = scenario_.controller.allocation.force_trim_rate_1ps;
     fmt::print("peha run: {}\n  {}\n  {} case(s) x {} model(s), {:.1f} s simulated each, seed {}, force trim {}, output {}\n",
                ctx.request.config.string(), scenario_.description, cases.size(), variants_.size(), scenario_.duration_s, scenario_.seed,
-               trim > 0 ? fmt::format("{} /s", trim) : std::string("off"), ctx.dir.string());
+               trim > 0 ? fmt::format("{} /s", trim) : std::string("off"), ctx.shown_dir().string());
   }
 
   /// The case with every model variant (named <case>_<variant> when calibrated).

@@ -57,7 +57,7 @@ class PosturesJob final : public ExperimentRun {
 
   void print_header(const RunContext& ctx, const std::vector<std::size_t>&) const override {
     fmt::print("peha run: {} --experiment postures (E3)\n  {}\n  {} postures, {:.0f} s simulated, seed {}, output {}\n", doc_name_,
-               scenario_.description, scenario_.postures.size(), postures_duration_s(scenario_), scenario_.seed, ctx.dir.string());
+               scenario_.description, scenario_.postures.size(), postures_duration_s(scenario_), scenario_.seed, ctx.shown_dir().string());
     if (ctx.realtime && scenario_.link->boards.size() > 1) {
       const std::vector<io::UdpEndpoint> at = mfb::board_endpoints(*scenario_.link, ctx.realtime->backend.boards);
       fmt::print("  {} boards:", at.size());

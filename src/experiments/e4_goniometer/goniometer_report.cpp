@@ -111,7 +111,7 @@ class GoniometerJob final : public ExperimentRun {
     const auto& g = scenario_.goniometer;
     fmt::print("peha run: {} --experiment goniometer (E4), output {}\n  goniometer {:.0f} Hz, noise {:.2f} deg, Butterworth order {} at "
                "{:.1f} Hz (group delay {:.1f} ms) on {}; held (inverse dynamics + hold impedance): {}\n  {}; open-loop and feedback each\n",
-               doc_name_, ctx.dir.string(), g.sample_rate_Hz, models::rad_to_deg(g.noise_rad), g.filter_order, g.cutoff_Hz,
+               doc_name_, ctx.shown_dir().string(), g.sample_rate_Hz, models::rad_to_deg(g.noise_rad), g.filter_order, g.cutoff_Hz,
                control::group_delay_s(control::design_butterworth_lowpass(g.filter_order, g.cutoff_Hz, g.sample_rate_Hz), 0.0) * 1e3,
                driven_names(scenario_), held_posture(scenario_),
                recording_.empty() ? fmt::format("synthetic person: {} movement(s)", cases.size())

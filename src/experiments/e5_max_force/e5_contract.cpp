@@ -46,7 +46,7 @@ class E5Job final : public ExperimentRun {
   void print_header(const RunContext& ctx, const std::vector<std::size_t>& cases) const override {
     fmt::print("peha run: {}\n  {}\n  {} case(s), {} ramped at {} MPa/s from {} s, {:.1f} s each, seed {}, output {}\n",
                ctx.request.config.string(), scenario_.description, cases.size(), scenario_.ramp.muscle == 0 ? "agonist" : "antagonist",
-               scenario_.ramp.rate_Pa_per_s * 1e-6, scenario_.ramp.start_s, scenario_.duration_s, scenario_.seed, ctx.dir.string());
+               scenario_.ramp.rate_Pa_per_s * 1e-6, scenario_.ramp.start_s, scenario_.duration_s, scenario_.seed, ctx.shown_dir().string());
   }
 
   void run_case(std::size_t i, const RunContext& ctx) override {

@@ -76,7 +76,7 @@ class BandwidthJob final : public ExperimentRun {
     }
     fmt::print("peha run: {} --experiment bandwidth (E6), output {}\n  {} swept; locked at {} deg; gravity torque "
                "+ {:.1f} Nm sine at {} frequencies, PAM-only and hybrid\n",
-               doc_name_, ctx.dir.string(), arm_joint_names(scenario_)[static_cast<std::size_t>(b.joint)], fmt::join(locked, ", "),
+               doc_name_, ctx.shown_dir().string(), arm_joint_names(scenario_)[static_cast<std::size_t>(b.joint)], fmt::join(locked, ", "),
                b.amplitude_Nm, b.frequencies_Hz.size());
   }
 

@@ -62,6 +62,8 @@ struct RunContext {
   hardware::BackendUri backend;                ///< sim:, replay: (in process) or udp:// (real time)
   std::optional<HardwareRunOptions> realtime;  ///< set on boards only (dir filled in, and the telemetry)
   runtime::TelemetryOptions telemetry;         ///< the run's (telemetry_options): in process a TelemetryTee streams with it
+  /// The folder to name to the user: where the run will be once in place (`dir` is its partial folder).
+  std::filesystem::path shown_dir() const { return request.run_folder.empty() ? dir : request.run_folder; }
 };
 
 /// What an experiment's live telemetry can stream: its per-cycle log's columns (empty: it has none)
