@@ -129,7 +129,7 @@ void ArmBackend::substep(const io::Command& command) noexcept {
       const double goal = mv.target_rad[a];
       if (std::isfinite(goal)) {
         const double blend = settling_ ? 1.0 : minimum_jerk((t - mv.start_s) / mv.move_s);
-        const double target = settling_ ? goal : move_start_[a] + (goal - move_start_[a]) * blend;
+        const double target = move_start_[a] + (goal - move_start_[a]) * blend;
         const OperatorParams& op = params_.operator_hands;
         hands = std::clamp(op.stiffness_Nm_per_rad * (target - angle) - op.damping_Nms_per_rad * omega,
                            -op.max_torque_Nm, op.max_torque_Nm);

@@ -365,8 +365,10 @@ class FaultMonitor {
   const CheckPeaks& peaks() const noexcept { return peaks_; }
   /// Joint `j` is carried: both wires taut with the outputs following (the start-up is over).
   bool carried(int j) const noexcept { return j >= 0 && j < io::kMaxJoints && joints_[static_cast<std::size_t>(j)].carried; }
-  /// Joints 0..joint_count-1 are all carried: the start-up is over on every joint.
-  bool all_carried(int joint_count) const noexcept {
+  /// The run is ready for the operator to let go of the limb (docs/safety.md "Start-up"): no fault
+  /// shown, and joints 0..joint_count-1 all carried.
+  bool ready(int joint_count) const noexcept {
+    if (flags_ != 0) return false;
     for (int j = 0; j < joint_count; ++j) {
       if (!carried(j)) return false;
     }

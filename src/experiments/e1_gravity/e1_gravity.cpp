@@ -539,7 +539,7 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     // then; every other figure is.
     const control::OneDofDiagnostics& d = controller.diagnostics();
     // The operator pulls the pin only when the run is ready: the joint carried, no fault shown.
-    if (sim) sim->keep_support(limited.monitor().flags() != 0 || !limited.monitor().carried(0));
+    if (sim) sim->keep_support(!limited.monitor().ready(1));
     if (controller.wires_slack_on_purpose(state.time_s)) {
       j.min_tension_N = std::numeric_limits<double>::infinity();
       r.tare_slack_s = state.time_s;

@@ -319,7 +319,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       [&](std::size_t k) { run.hold(k); },
       [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
         // The operator lets go of the arm only when the run is ready: every joint carried, no fault shown.
-        if (sim) sim->keep_hands(limited.monitor().flags() != 0 || !limited.monitor().all_carried(state.joint_count));
+        if (sim) sim->keep_hands(!limited.monitor().ready(state.joint_count));
         run.observe(k, state, sent, limit_flags, limited.monitor().flags(), log);
       });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -783,7 +783,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
       [&](std::size_t k) { run.step(state, command, k); }, [&](std::size_t k) { run.hold(k); },
       [&](std::size_t k, const io::Command& sent, std::uint32_t) {
         // The person lets go of the arm only when the run is ready: every joint carried, no fault shown.
-        if (sim) sim->keep_hands(limited.monitor().flags() != 0 || !limited.monitor().all_carried(state.joint_count));
+        if (sim) sim->keep_hands(!limited.monitor().ready(state.joint_count));
         run.observe(k, state, sent, log);
       });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
