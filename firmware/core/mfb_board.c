@@ -257,6 +257,12 @@ static uint64_t nonce_for(const mfb_board* b, uint32_t session, mfb_endpoint fro
 
 /* ---- arming (the same rules as peha::mfb::OutputArming) -------------------------------------- */
 
+static bool procedure_key_turned(const mfb_board* b) {
+  const mfb_board_config* cfg = b->cfg;
+  return cfg->procedure_key_line >= 0 &&
+         (((b->inputs.digital_in >> cfg->procedure_key_line) & 1u) != 0) == cfg->procedure_key_active_high;
+}
+
 static void arming_on_command(mfb_board* b, const mfb_command* c) {
   if (c->board_nonce != b->arm_nonce) { /* a new session makes its own enable edge */
     b->arm_nonce = c->board_nonce;
@@ -271,6 +277,9 @@ static void arming_on_command(mfb_board* b, const mfb_command* c) {
              (!b->host_lost || (c->flags & MFB_COMMAND_OPERATOR_ARM) != 0)) {
     b->armed = true;
     b->host_lost = false;
+    /* The key counts only when turned before the arming edge: a key turned (or a line that fails
+     * active) while a run is armed does not switch its range vent off. */
+    b->key_at_arming = procedure_key_turned(b);
   }
 }
 
@@ -494,13 +503,12 @@ static void rejudge_trips(mfb_board* b) {
 }
 
 /* The muscles a board limit vents now, bit 2 x joint + muscle: those of a force trip and, for a
- * joint (about to be) out of range whose range vents while the procedure key is not turned, the
- * muscle that drives it further out (the agonist above the range, the antagonist below); the other
- * muscle keeps its command: it brakes and holds. */
+ * joint (about to be) out of range whose range vents (unless the procedure key was turned before
+ * the arming edge and still is), the muscle that drives it further out (the agonist above the
+ * range, the antagonist below); the other muscle keeps its command: it brakes and holds. */
 static uint16_t limit_vented(const mfb_board* b) {
   const mfb_board_config* cfg = b->cfg;
-  const bool key = cfg->procedure_key_line >= 0 &&
-                   (((b->inputs.digital_in >> cfg->procedure_key_line) & 1u) != 0) == cfg->procedure_key_active_high;
+  const bool key = b->armed && b->key_at_arming && procedure_key_turned(b);
   uint16_t vented = b->vented_muscles;
   for (int j = 0; j < cfg->joint_count; ++j) {
     if ((b->motors_off & (1u << j)) && cfg->joints[j].range_vent && !key) {

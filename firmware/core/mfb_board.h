@@ -233,6 +233,7 @@ typedef struct mfb_board {
   /* arming: the session (its board nonce) whose edge is being made */
   uint64_t arm_nonce;
   bool seen_disable, armed, tripped, estop, host_lost;
+  bool key_at_arming; /* the procedure key was turned at the arming edge (and the board is armed) */
   /* the command and what the outputs hold */
   mfb_command command;
   uint64_t last_command_us;

@@ -652,7 +652,8 @@ static void TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut(void) {
 
 /* The procedure key (input line 1, active high) lets a procedure drive the joint onto its stop: the
  * motor is still cut outside the range, the muscles keep their commands; without the key the same
- * sample vents the agonist. No command bit reaches the key: it is an input. */
+ * sample vents the agonist. No command bit reaches the key: it is an input, and it counts only when
+ * turned before the arming edge. */
 static void TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor(void) {
   mfb_board_si si = rig_si();
   si.joints[0].range_vent = true;
@@ -671,6 +672,17 @@ static void TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor(vo
   send(7, MFB_COMMAND_ENABLE, torque);
   CHECK_EQ(g_bench.da[0], kSafeValve);
   CHECK_EQ(g_bench.da[1], 19661);
+  /* A key turned while a run is armed does not switch the range vent off: it counts from the next
+   * arming edge only. */
+  g_bench.in.encoder[0] = 0;
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, torque);
+  send(7, MFB_COMMAND_ENABLE, torque); /* armed without the key */
+  CHECK_EQ(g_bench.da[0], 19661);
+  g_bench.in.digital_in = 0x03; /* turned mid-run */
+  g_bench.in.encoder[0] = 9500;
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
   si.procedure_key_line = 0; /* the e-stop's line cannot be the key's */
   char error[160];
   mfb_board_config cfg;

@@ -39,6 +39,7 @@ std::unique_ptr<mfb::BoardsBackend> open_boards(const mfb::LinkConfig& link, con
     bp.receive_timeout_s = link.receive_timeout_s;
     bp.joint_names = names;
     bp.key = mfb::load_link_key(board.key_file);
+    bp.procedure_key_wanted = request.drives_onto_stops;
     part.backend = std::make_unique<mfb::UdpBackend>(bp, mfb::read_channel_map(config::Document::load_file(board.channel_map), names));
     parts.push_back(std::move(part));
   }

@@ -107,12 +107,30 @@ void UdpBackend::connect() {
                      "arms it (type 'r' + Enter after the fault, or run with --recover-after S); see docs/mfb-protocol.md",
                      params_.board.to_string());
       }
+      check_procedure_key();
       return;
     }
   }
   throw std::runtime_error(fmt::format("no MFB answered at {} within {} s (session {:08x}): is the board (or peha mfb-emulator "
                                        "--port {}) running?",
                                        params_.board.to_string(), params_.connect_timeout_s, session_, params_.board.port));
+}
+
+void UdpBackend::check_procedure_key() const {
+  const std::optional<DigitalLine>& key = map_.procedure_key_line();
+  if (!key) return;
+  const bool turned = key->active(last_.digital_in);
+  if (turned && !params_.procedure_key_wanted) {
+    throw std::runtime_error(fmt::format("the procedure key at the MFB at {} (input line {}) is turned: with it the board's range does not "
+                                         "vent, which only a procedure that drives the joints onto their stops (peha record-calibration) "
+                                         "may ask for. Turn it back, then start the run again",
+                                         params_.board.to_string(), key->line));
+  }
+  if (!turned && params_.procedure_key_wanted) {
+    throw std::runtime_error(fmt::format("this procedure drives the joints onto their stops: turn the procedure key at the MFB at {} (input "
+                                         "line {}) first, or the board's range vents a muscle on the stop",
+                                         params_.board.to_string(), key->line));
+  }
 }
 
 void UdpBackend::drain(std::int64_t deadline_ns) noexcept {

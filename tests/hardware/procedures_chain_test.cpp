@@ -175,6 +175,36 @@ TEST(ProceduresOverTheBoard, RecordCalibrateAndRunE1AsInProcess) {
   std::filesystem::remove_all(dir);
 }
 
+// The rig's procedure key (a key switch at the board) switches the board's range vent off for a
+// procedure that drives the link onto its stops. The host refuses a run with the key turned and the
+// recording without it, at the handshake: nothing is armed, nothing written.
+TEST(ProceduresOverTheBoard, TheProcedureKeyIsTurnedForTheRecordingAndForNothingElse) {
+  const std::filesystem::path dir = test_dir("procedure_key");
+  const std::string config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
+  std::string out;
+  {
+    Emulator turned(config, "calibration_agonist");  // the emulator's recording rig: the key turned
+    ASSERT_GT(turned.port, 0) << turned.process.output();
+    const int status = peha({"run", "--config", config, "--case", "payload_2.5kg", "--backend", turned.uri(), "--rt-priority", "0", "--no-plot", "--out",
+                             dir.string(), "--name", "keyed"},
+                            out);
+    EXPECT_NE(status, 0) << out;
+    EXPECT_NE(out.find("(input line 1) is turned: with it the board's range does not vent"), std::string::npos) << out;
+    EXPECT_FALSE(std::filesystem::exists(dir / "keyed"));
+  }
+  {
+    Emulator rig(config, "payload_2.5kg");  // a run's rig: the key not turned
+    ASSERT_GT(rig.port, 0) << rig.process.output();
+    const int status = peha({"record-calibration", "--config", config, "--muscle", "agonist", "--out", (dir / "agonist.csv").string(),
+                             "--backend", rig.uri(), "--rt-priority", "0"},
+                            out);
+    EXPECT_NE(status, 0) << out;
+    EXPECT_NE(out.find("turn the procedure key at the MFB"), std::string::npos) << out;
+    EXPECT_FALSE(std::filesystem::exists(dir / "agonist.csv"));
+  }
+  std::filesystem::remove_all(dir);
+}
+
 // The arm's gravity identification on the board and in process: the shipped procedure cut to four
 // postures (44 s of real time on the rig), then E3 at one posture (elbow_90, 3 s of watching) with
 // each identification. The identification over the board must give the controller a gravity model

@@ -30,6 +30,9 @@ struct HardwareRequest {
   std::function<std::unique_ptr<io::Backend>()> simulate;
   /// Refuses more than one board (an experiment whose board-side inputs live on one board, e.g. E4's goniometer).
   bool one_board = false;
+  /// The run drives joints onto their stops on purpose (the calibration recording): a board whose
+  /// map has a procedure key needs it turned; every other run refuses a turned key.
+  bool drives_onto_stops = false;
 };
 
 /// The hardware a run drives. `backend` owns it; `boards` / `replay` point into it when it is one.

@@ -33,6 +33,10 @@ struct UdpBackendParams {
   double receive_timeout_s = 0.0008;         ///< how long read() waits for the reply to the last command
   double connect_timeout_s = 2.0;            ///< connect() gives up after this
   std::vector<std::string> joint_names;      ///< io joint order (the channel map's joints)
+  /// The run drives joints onto their stops on purpose (the calibration recording): the rig's
+  /// procedure key (the map's `procedure_key_input`) must be turned. Every other run refuses a
+  /// turned key: with it the board's range does not vent.
+  bool procedure_key_wanted = false;
 };
 
 /// What the host has seen of the link.
@@ -65,7 +69,8 @@ class UdpBackend final : public io::Backend {
   /// armed), the operator must arm it: activate() is refused until deactivate(), exactly like an
   /// e-stop, and status() reports the board's watchdog as tripped, so the run faults at once and
   /// the operator's recover (`r` + Enter, or --recover-after) sends the arming edge with
-  /// `kCommandOperatorArm`. Throws std::runtime_error after connect_timeout_s.
+  /// `kCommandOperatorArm`. Throws std::runtime_error after connect_timeout_s, and when the
+  /// map's procedure key is not as the run needs it (`procedure_key_wanted`).
   void connect();
 
   const io::BackendInfo& info() const override { return info_; }
@@ -125,6 +130,8 @@ class UdpBackend final : public io::Backend {
 
  private:
   void drain(std::int64_t deadline_ns) noexcept;
+  /// Throws unless the procedure key is as `procedure_key_wanted` asks (maps without a key: nothing).
+  void check_procedure_key() const;
   /// write() without counting a late reply (the handshake's commands are not the loop's).
   bool send_and_wait(const io::Command& command) noexcept;
   /// Encodes and sends one command or hello.

@@ -253,7 +253,9 @@ safety::LimitsModel e1_recording_limits(const E1Scenario& scenario) {
 }
 
 hardware::HardwareRequest e1_recording_hardware(const E1Scenario& scenario, const sim::OneDofRigParams& plant, int index) {
-  return one_dof_rig_hardware(scenario.period_s, scenario.link, e1_recording_plant_params(scenario, plant, index));
+  hardware::HardwareRequest r = one_dof_rig_hardware(scenario.period_s, scenario.link, e1_recording_plant_params(scenario, plant, index));
+  r.drives_onto_stops = true;  // the excitation sweeps the link onto its stops
+  return r;
 }
 
 calibration::Dataset record_e1_muscle(const E1Scenario& scenario, sim::OneDofRigParams plant, int index,
