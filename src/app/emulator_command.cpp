@@ -77,11 +77,24 @@ int serve(mfb::BoardEmulator& board, const mfb::EmulatorParams& p, const Emulato
                board.stats().host_loss_t_s, board.stats().host_loss_ns);
   }
   if (!options.truth_csv.empty()) {
+    // A one-joint map's columns are unprefixed; several joints' carry the map's joint name, as `R_EFE_angle_rad`.
+    const std::vector<std::string>& names = board.channel_map().joint_names();
+    const int joints = static_cast<int>(names.size());
     std::ofstream csv(options.truth_csv);
-    csv << "t_s,mono_ns,angle_rad,agonist_loadcell_N,antagonist_loadcell_N,armed,motor_off\n";
-    for (const mfb::BoardEmulator::TruthRow& r : board.truth()) {
-      csv << fmt::format("{:.6f},{},{:.7f},{:.4f},{:.4f},{},{}\n", r.t_s, r.mono_ns, r.angle_rad, r.agonist_N, r.antagonist_N, r.armed ? 1 : 0,
-                         r.motor_off ? 1 : 0);
+    csv << "t_s,mono_ns";
+    for (int j = 0; j < joints; ++j) {
+      const std::string p = joints == 1 ? std::string() : names[static_cast<std::size_t>(j)] + "_";
+      csv << fmt::format(",{0}angle_rad,{0}agonist_loadcell_N,{0}antagonist_loadcell_N", p);
+    }
+    csv << ",armed,motor_off\n";
+    const std::vector<mfb::BoardEmulator::TruthRow>& rows = board.truth();
+    for (std::size_t i = 0; i < rows.size(); ++i) {
+      csv << fmt::format("{:.6f},{}", rows[i].t_s, rows[i].mono_ns);
+      for (int j = 0; j < joints; ++j) {
+        const mfb::BoardEmulator::TruthJoint& t = board.truth_joint(i, j);
+        csv << fmt::format(",{:.7f},{:.4f},{:.4f}", t.angle_rad, t.agonist_N, t.antagonist_N);
+      }
+      csv << fmt::format(",{},{}\n", rows[i].armed ? 1 : 0, rows[i].motor_off ? 1 : 0);
     }
     if (!csv) throw std::runtime_error(fmt::format("mfb-emulator: cannot write {}", options.truth_csv.string()));
   }

@@ -291,8 +291,9 @@ Command add_mfb_emulator(CLI::App& app) {
   emu_cmd->add_option("--bind-retry", emu.bind_retry_s, "If --port is taken, retry binding it for this long, s, printing 'waiting for'\n"
                                                        "once: a board that reboots (its successor started before it is gone)")
       ->check(peha::app::decimal())->check(CLI::Range(0.0, 60.0));
-  emu_cmd->add_option("--truth-csv", emu.truth_csv, "When stopped, write the plant's truth per step (time, host monotonic ns, angle,\n"
-                                                   "load cells, armed, motor off) of the first 10 minutes to this CSV");
+  emu_cmd->add_option("--truth-csv", emu.truth_csv, "When stopped, write the plant's truth per step (time, host monotonic ns, each\n"
+                                                   "joint's angle and load cells - prefixed by its name when the map has several -,\n"
+                                                   "armed, motor off) of the first 10 minutes to this CSV");
   emu_cmd->add_option("--rt-priority", emu.fifo_priority, "SCHED_FIFO priority of the board's loop (0 = don't ask)")
       ->capture_default_str()->check(peha::app::signed_integer())->check(CLI::Range(0, 99));
   emu_cmd->add_option("--cpu", emu.cpu, "Pin the board's loop to this CPU (-1 = don't pin)")

@@ -59,6 +59,7 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
                  &BoardEmulator::hal_mac, &BoardEmulator::hal_random};
   pending_.reserve(kMaxPending);
   truth_.reserve(params.truth_steps);
+  truth_joints_.reserve(params.truth_steps * static_cast<std::size_t>(map_.joint_count()));
   plant_ = make_plant_();
   plant_->activate();  // the plant is the world behind the board's outputs: always driven
   plant_->read(state_);
@@ -150,8 +151,11 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
       const AnalogChannel& m = map_.joint(j).motor;
       if (m.mapped()) motor_off = motor_off && applied_.da[static_cast<std::size_t>(m.channel)] == safe.da[static_cast<std::size_t>(m.channel)];
     }
-    truth_.push_back({state_.time_s, io::monotonic_ns(), state_.joints[0].angle_rad, state_.joints[0].agonist_loadcell_N,
-                      state_.joints[0].antagonist_loadcell_N, live, motor_off});
+    truth_.push_back({state_.time_s, io::monotonic_ns(), live, motor_off});
+    for (int j = 0; j < map_.joint_count(); ++j) {
+      const io::JointSensors& s = state_.joints[static_cast<std::size_t>(j)];
+      truth_joints_.push_back({s.angle_rad, s.agonist_loadcell_N, s.antagonist_loadcell_N});
+    }
   }
 }
 

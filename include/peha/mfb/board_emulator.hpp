@@ -115,12 +115,20 @@ class BoardEmulator {
   struct TruthRow {
     double t_s;              ///< simulated time
     std::int64_t mono_ns;    ///< host monotonic clock at the step
-    double angle_rad;        ///< joint 0
-    double agonist_N, antagonist_N;
     bool armed;              ///< the outputs followed the command
     bool motor_off;          ///< every motor DA channel at its zero-torque code, digital outputs low
   };
+  /// One joint of a TruthRow: the plant's angle and load cells (with their noise).
+  struct TruthJoint {
+    double angle_rad;
+    double agonist_N, antagonist_N;
+  };
   const std::vector<TruthRow>& truth() const noexcept { return truth_; }
+  /// Joint `joint` (the channel map's order) of truth row `row`.
+  const TruthJoint& truth_joint(std::size_t row, int joint) const noexcept {
+    return truth_joints_[row * static_cast<std::size_t>(map_.joint_count()) + static_cast<std::size_t>(joint)];
+  }
+  const ChannelMap& channel_map() const noexcept { return map_; }
 
  private:
   void apply_and_step(bool by_command) noexcept;
@@ -162,6 +170,7 @@ class BoardEmulator {
   bool burst_started_ = false;
   bool reported_armed_ = false;          ///< "outputs armed" printed (once, for a supervising process)
   std::vector<TruthRow> truth_;          ///< reserved to truth_steps
+  std::vector<TruthJoint> truth_joints_; ///< reserved to truth_steps x the map's joints, row-major
   struct Pending {
     std::int64_t at_ns;
     std::size_t size;
