@@ -125,7 +125,8 @@ struct Emulator {
   int port = 0;
   explicit Emulator(std::vector<std::string> extra, const std::string& config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")
       : process([&] {
-          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", config, "--case", "payload_2.5kg", "--rt-priority", "0"};
+          std::vector<std::string> argv = {PEHA_BINARY, "mfb-emulator", "--config", config, "--rt-priority", "0"};
+          if (std::find(extra.begin(), extra.end(), "--case") == extra.end()) extra.insert(extra.end(), {"--case", "payload_2.5kg"});
           if (std::find(extra.begin(), extra.end(), "--port") == extra.end()) extra.insert(extra.end(), {"--port", "0"});
           if (std::find(extra.begin(), extra.end(), "--watchdog-ms") == extra.end()) {
             extra.insert(extra.end(), {"--watchdog-ms", std::to_string(kTestWatchdog_s * 1e3)});
@@ -1013,9 +1014,14 @@ struct HijackFigures {
 };
 /// `after_host_loss`: first a host arms the board and falls silent (the board latches the host
 /// loss), then the hijacker arms with the operator's bit, as the public key allows.
-HijackFigures hijack(const std::string& config, double seconds, const std::string& tag, bool after_host_loss = false) {
+/// `case_name` and `da`: the emulator's plant and the codes the hijacker asks for (every channel at
+/// its top by default); `joints`: the truth's joint column prefixes ({""}: a one-joint map).
+/// The figures are the worst over those joints.
+HijackFigures hijack(const std::string& config, double seconds, const std::string& tag, bool after_host_loss = false,
+                     const std::string& case_name = "payload_2.5kg", const std::array<std::uint16_t, mfb::kDaChannels>* da = nullptr,
+                     const std::vector<std::string>& joints = {""}, std::vector<HijackFigures>* per_joint = nullptr) {
   const std::filesystem::path truth = std::filesystem::temp_directory_path() / ("peha_hijack_" + tag + "_" + std::to_string(::getpid()) + ".csv");
-  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 3.0)}, config);
+  Emulator board({"--truth-csv", truth.string(), "--max-runtime", std::to_string(seconds + 3.0), "--case", case_name}, config);
   if (after_host_loss) {
     RawHost lost(board.port, 0x600D5E55u);
     EXPECT_TRUE(lost.open());
@@ -1027,6 +1033,7 @@ HijackFigures hijack(const std::string& config, double seconds, const std::strin
   }
   RawHost h(board.port, 0x0BAD5E55u);
   h.da.fill(65535);
+  if (da) h.da = *da;
   h.open();  // hello: the board's nonce, and the session opened
   const std::uint8_t arm = after_host_loss ? mfb::kCommandEnable | mfb::kCommandOperatorArm : mfb::kCommandEnable;
   HijackFigures f;
@@ -1035,13 +1042,26 @@ HijackFigures hijack(const std::string& config, double seconds, const std::strin
     f.states_reporting_a_vent += h.newest(0.001).limit_vented != 0 ? 1 : 0;
   }
   board.process.wait(10.0);
-  const auto cols = runtime::read_csv_log_columns(truth, {"angle_rad", "agonist_loadcell_N", "antagonist_loadcell_N", "armed"});
-  for (std::size_t i = 0; i < cols[0].size(); ++i) {
-    f.max_angle_deg = std::max(f.max_angle_deg, cols[0][i] * (180.0 / std::numbers::pi));
-    f.min_angle_deg = std::min(f.min_angle_deg, cols[0][i] * (180.0 / std::numbers::pi));
-    f.peak_agonist_N = std::max(f.peak_agonist_N, cols[1][i]);
-    f.peak_antagonist_N = std::max(f.peak_antagonist_N, cols[2][i]);
-    f.armed_steps += cols[3][i] > 0.5 ? 1 : 0;
+  for (const std::string& joint : joints) {
+    const auto cols = runtime::read_csv_log_columns(truth, {joint + "angle_rad", joint + "agonist_loadcell_N", joint + "antagonist_loadcell_N", "armed"});
+    HijackFigures j;
+    for (std::size_t i = 0; i < cols[0].size(); ++i) {
+      j.max_angle_deg = std::max(j.max_angle_deg, cols[0][i] * (180.0 / std::numbers::pi));
+      j.min_angle_deg = std::min(j.min_angle_deg, cols[0][i] * (180.0 / std::numbers::pi));
+      j.peak_agonist_N = std::max(j.peak_agonist_N, cols[1][i]);
+      j.peak_antagonist_N = std::max(j.peak_antagonist_N, cols[2][i]);
+      j.armed_steps += cols[3][i] > 0.5 ? 1 : 0;
+    }
+    if (joints.size() > 1) {
+      std::printf("hijack (%s) %s: peak agonist %.1f N, peak antagonist %.1f N, angle %.1f .. %.1f deg\n", tag.c_str(), joint.c_str(),
+                  j.peak_agonist_N, j.peak_antagonist_N, j.min_angle_deg, j.max_angle_deg);
+    }
+    if (per_joint) per_joint->push_back(j);
+    f.max_angle_deg = std::max(f.max_angle_deg, j.max_angle_deg);
+    f.min_angle_deg = std::min(f.min_angle_deg, j.min_angle_deg);
+    f.peak_agonist_N = std::max(f.peak_agonist_N, j.peak_agonist_N);
+    f.peak_antagonist_N = std::max(f.peak_antagonist_N, j.peak_antagonist_N);
+    f.armed_steps = j.armed_steps;
   }
   std::filesystem::remove(truth);
   std::printf("hijack (%s): peak agonist %.1f N, peak antagonist %.1f N, angle %.1f .. %.1f deg, %zu steps armed, %zu states report a vent\n",
@@ -1083,6 +1103,37 @@ struct EditedBoardLimits {
   }
 };
 
+/// A shipped scenario whose channel map has every `from` replaced by `to`, written next to the
+/// shipped files (the scenario names its map relative to itself). Removed with the object.
+struct EditedMap {
+  std::filesystem::path map, scenario;
+  EditedMap(const std::string& scenario_file, const std::string& map_file, const std::string& from, const std::string& to, const std::string& tag) {
+    auto read = [](const std::filesystem::path& path) {
+      std::ifstream in(path);
+      std::stringstream text;
+      text << in.rdbuf();
+      return text.str();
+    };
+    std::string m = read(std::filesystem::path(PEHA_SOURCE_DIR "/configs/mfb") / map_file);
+    std::size_t replaced = 0;
+    for (std::size_t at = m.find(from); at != std::string::npos; at = m.find(from, at + to.size()), ++replaced) m.replace(at, from.size(), to);
+    EXPECT_GT(replaced, 0u) << from;
+    const std::string suffix = tag + "_" + std::to_string(::getpid()) + ".yaml";
+    map = std::filesystem::path(PEHA_SOURCE_DIR "/configs/mfb") / ("_edited_" + suffix);
+    std::ofstream(map) << m;
+    std::string s = read(std::filesystem::path(PEHA_SOURCE_DIR "/configs") / scenario_file);
+    const std::string shipped = "channel_map: mfb/" + map_file;
+    EXPECT_NE(s.find(shipped), std::string::npos);
+    s.replace(s.find(shipped), shipped.size(), "channel_map: mfb/" + map.filename().string());
+    scenario = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_edited_scenario_" + suffix);
+    std::ofstream(scenario) << s;
+  }
+  ~EditedMap() {
+    std::filesystem::remove(map);
+    std::filesystem::remove(scenario);
+  }
+};
+
 /// The shipped rig map's `board_limits:` entry for its joint (`{joint: joint, ...}`).
 std::string shipped_rig_limits() {
   std::ifstream in(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
@@ -1109,8 +1160,8 @@ std::string shipped_rig_limits() {
 // over the vent's time plus the distance the braking muscle needs to stop the joint
 // (docs/safety.md). The figures asserted are the map's: 2000 N and 630 N, the range [-45, 45] deg
 // with a margin of 2 deg (the hijacker re-arms every 100 ms, and each edge that finds the joint
-// inside and slow gives the agonist its pressure back: 38-44.6 deg at the top over 5 runs; the
-// stop is at 49.85 deg, where the link ends without the range's vent).
+// inside and slow gives the agonist its pressure back; without the range's vent the link leaves
+// the range at one end or the other, and ends on a stop at +-49.85 deg).
 TEST(MfbEndToEnd, TheBoardsLimitsHoldTheCeilingsAndTheRangeAgainstAHijackingHostWithTheKey) {
   const std::string shipped = shipped_rig_limits();
   auto without = [](std::string entry, const std::string& field, const std::string& replacement) {
@@ -1145,7 +1196,8 @@ TEST(MfbEndToEnd, TheBoardsLimitsHoldTheCeilingsAndTheRangeAgainstAHijackingHost
   }
   EXPECT_LE(after.max_angle_deg, 45.0 + 2.0);  // the board's range and its margin, at the plant
   EXPECT_GE(after.min_angle_deg, -45.0 - 2.0);
-  EXPECT_GT(unvented.max_angle_deg, 45.0);   // the range's vent is what holds it
+  EXPECT_TRUE(unvented.max_angle_deg > 45.0 || unvented.min_angle_deg < -45.0)  // the range's vent is what holds it
+      << unvented.min_angle_deg << " .. " << unvented.max_angle_deg;
   EXPECT_GT(unled.peak_agonist_N, 2000.0);   // the lead is what holds the ceiling
   EXPECT_EQ(before.states_reporting_a_vent, 0u);  // the host is told what the board's limits vent
   EXPECT_GT(after.states_reporting_a_vent, 100u);
@@ -1168,6 +1220,43 @@ TEST(MfbEndToEnd, TheBoardsLimitsHoldAgainstAHostWithTheKeyArmingAsTheOperatorAf
   EXPECT_LE(after.peak_antagonist_N, 630.0);
   EXPECT_LE(after.max_angle_deg, 45.0 + 2.0);
   EXPECT_GE(after.min_angle_deg, -45.0 - 2.0);
+}
+
+// The arm's board against the same hijacker (the public key, every valve at its top code and every
+// motor at +3 Nm, or only the agonists' valves, the antagonists' at 0 - the arm driven into its
+// upper stops). The arm's map has force ceilings and a motor cut outside each joint's range but no
+// range vent (docs/safety.md "The board's own limits"): the ceilings hold at the plant on every
+// muscle (2000 N agonists of the shoulder and elbow, 630 N their antagonists and the wrist's two);
+// the range is then the mechanical stops', what physics leaves (each joint's range printed).
+TEST(MfbEndToEnd, TheArmsBoardHoldsItsForceCeilingsAgainstAHijackingHostWithTheKey) {
+  const std::string config = PEHA_SOURCE_DIR "/configs/right_arm.yaml";
+  const std::vector<std::string> joints = {"R_SFE_", "R_EFE_", "R_WFE_"};
+  std::array<std::uint16_t, mfb::kDaChannels> agonists{};
+  for (int v : {0, 2, 4}) agonists[static_cast<std::size_t>(v)] = 65535;  // the agonists' valves (configs/mfb/right_arm.yaml)
+  agonists[6] = agonists[7] = 65535;                                      // both motors at +3 Nm
+  std::vector<HijackFigures> top_joints, up_joints;
+  const HijackFigures top = hijack(config, 3.0, "arm, every output at its top", false, "postures", nullptr, joints, &top_joints);
+  const HijackFigures up = hijack(config, 3.0, "arm, the agonists and motors at their top", false, "postures", &agonists, joints, &up_joints);
+  for (const HijackFigures* f : {&top, &up}) {
+    ASSERT_GT(f->armed_steps, 1000u);  // the hijacker did drive the outputs
+  }
+  // The force trip's lead is what holds the ceilings: with the rig's first 25 ms the elbow's
+  // agonist reached 2076 N and the antagonists 636-666 N.
+  HijackFigures short_lead;
+  {
+    const EditedMap map("right_arm.yaml", "right_arm.yaml", "force_lead_ms: 50", "force_lead_ms: 25", "arm_lead25");
+    short_lead = hijack(map.scenario.string(), 3.0, "arm, every output at its top, 25 ms lead", false, "postures", nullptr, joints);
+  }
+  EXPECT_TRUE(short_lead.peak_agonist_N > 2000.0 || short_lead.peak_antagonist_N > 630.0)
+      << short_lead.peak_agonist_N << " / " << short_lead.peak_antagonist_N;
+  for (const std::vector<HijackFigures>* per : {&top_joints, &up_joints}) {
+    ASSERT_EQ(per->size(), 3u);
+    for (int j = 0; j < 3; ++j) {
+      const HijackFigures& f = (*per)[static_cast<std::size_t>(j)];
+      EXPECT_LE(f.peak_agonist_N, j == 2 ? 630.0 : 2000.0) << joints[static_cast<std::size_t>(j)];  // the map's ceilings, at the plant
+      EXPECT_LE(f.peak_antagonist_N, 630.0) << joints[static_cast<std::size_t>(j)];
+    }
+  }
 }
 
 TEST(MfbEndToEnd, MaxForceRampHoldsTheCeilingOverTheBoard) {
