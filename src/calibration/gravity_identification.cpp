@@ -12,7 +12,7 @@
 namespace peha::calibration {
 namespace {
 
-constexpr double kBig = 1e6;
+constexpr double kLargestFigure = 1e6;
 
 std::string joined(const std::vector<std::string>& v) {
   std::string out;
@@ -206,7 +206,7 @@ models::ArmModel read_gravity_identification(const config::Document& doc, const 
   config::Map f = root.map("fit");
   (void)f.integer("rank", 0, 10000);
   (void)f.integer("rows", 0, 1000000);
-  for (const char* k : {"residual_rms_Nm", "residual_max_Nm", "uncertainty_rms_Nm", "nominal_rms_Nm", "max_change_fraction"}) (void)f.number(k, {0.0, kBig});
+  for (const char* k : {"residual_rms_Nm", "residual_max_Nm", "uncertainty_rms_Nm", "nominal_rms_Nm", "max_change_fraction"}) (void)f.number(k, {0.0, kLargestFigure});
   f.finish();
   const int p = models::gravity_parameter_count(nominal);
   Eigen::VectorXd theta = Eigen::VectorXd::Constant(p, std::numeric_limits<double>::quiet_NaN());
@@ -217,15 +217,15 @@ models::ArmModel read_gravity_identification(const config::Document& doc, const 
     while (k < p && models::gravity_parameter_name(nominal, k) != name) ++k;
     if (k == p) m.fail("name", fmt::format("'{}' is not a gravity parameter of this arm", name));
     if (!std::isnan(theta[k])) m.fail("name", fmt::format("'{}' appears twice", name));
-    theta[k] = m.number("value", {-kBig, kBig});
-    (void)m.number("std", {0.0, kBig});
-    (void)m.number("nominal", {-kBig, kBig});
+    theta[k] = m.number("value", {-kLargestFigure, kLargestFigure});
+    (void)m.number("std", {0.0, kLargestFigure});
+    (void)m.number("nominal", {-kLargestFigure, kLargestFigure});
     m.finish();
   }
   for (config::Map& s : root.maps("samples", 0, 100000)) {
     (void)s.string("name");
     (void)s.numbers("q_deg", {-360.0, 360.0}, 1, 64);
-    for (const char* k : {"measured_Nm", "identified_Nm", "nominal_Nm"}) (void)s.numbers(k, {-kBig, kBig}, measured.size(), measured.size());
+    for (const char* k : {"measured_Nm", "identified_Nm", "nominal_Nm"}) (void)s.numbers(k, {-kLargestFigure, kLargestFigure}, measured.size(), measured.size());
     s.finish();
   }
   root.finish();

@@ -1,4 +1,5 @@
 #include "peha/hardware/replay_backend.hpp"
+#include "peha/io/backend.hpp"
 
 #include "peha/runtime/csv_log.hpp"
 
@@ -13,7 +14,7 @@
 namespace peha::hardware {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 }  // namespace
 

@@ -14,7 +14,7 @@ namespace {
 
 constexpr double kSteelDensity_kg_per_m3 = 7850.0;
 
-void require(bool ok, const std::string& what) {
+void require_exoskeleton(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("exoskeleton: " + what);
 }
 
@@ -38,26 +38,26 @@ int find_joint(const std::vector<ArmJointSpec>& joints, const std::string& name,
 /// Checks the one-arm list and returns, per site, the joint the segment beyond it hangs on (the
 /// last joint of that site no joint of the same site names as parent).
 std::array<int, 3> check_arm(const std::vector<ArmJointSpec>& joints) {
-  require(!joints.empty(), "the arm has no joints");
+  require_exoskeleton(!joints.empty(), "the arm has no joints");
   std::array<int, 3> last{-1, -1, -1};
   for (std::size_t i = 0; i < joints.size(); ++i) {
     const ArmJointSpec& j = joints[i];
-    require(!j.name.empty(), fmt::format("joint {} has no name", i));
-    require(find_joint(joints, j.name, i) < 0, fmt::format("joint '{}' is listed twice", j.name));
-    require(j.axis.allFinite() && std::abs(j.axis.norm() - 1.0) < 1e-9, fmt::format("joint '{}' needs a unit axis", j.name));
-    require(std::isfinite(j.min_angle_rad) && std::isfinite(j.max_angle_rad) && j.min_angle_rad < j.max_angle_rad,
+    require_exoskeleton(!j.name.empty(), fmt::format("joint {} has no name", i));
+    require_exoskeleton(find_joint(joints, j.name, i) < 0, fmt::format("joint '{}' is listed twice", j.name));
+    require_exoskeleton(j.axis.allFinite() && std::abs(j.axis.norm() - 1.0) < 1e-9, fmt::format("joint '{}' needs a unit axis", j.name));
+    require_exoskeleton(std::isfinite(j.min_angle_rad) && std::isfinite(j.max_angle_rad) && j.min_angle_rad < j.max_angle_rad,
             fmt::format("joint '{}' needs a range with min < max", j.name));
-    require(!j.locked || (j.locked_at_rad >= j.min_angle_rad && j.locked_at_rad <= j.max_angle_rad),
+    require_exoskeleton(!j.locked || (j.locked_at_rad >= j.min_angle_rad && j.locked_at_rad <= j.max_angle_rad),
             fmt::format("joint '{}' is locked outside its range", j.name));
-    require(std::isfinite(j.damping_Nms_per_rad) && j.damping_Nms_per_rad >= 0, fmt::format("joint '{}' needs damping >= 0", j.name));
+    require_exoskeleton(std::isfinite(j.damping_Nms_per_rad) && j.damping_Nms_per_rad >= 0, fmt::format("joint '{}' needs damping >= 0", j.name));
     if (j.parent.empty()) {
-      require(j.site == JointSite::kShoulder, fmt::format("joint '{}' has no parent, so it sits at the shoulder, not the {}", j.name,
+      require_exoskeleton(j.site == JointSite::kShoulder, fmt::format("joint '{}' has no parent, so it sits at the shoulder, not the {}", j.name,
                                                           site_name(j.site)));
     } else {
       const int p = find_joint(joints, j.parent, i);
-      require(p >= 0, fmt::format("joint '{}' names parent '{}', which is not a joint listed before it", j.name, j.parent));
+      require_exoskeleton(p >= 0, fmt::format("joint '{}' names parent '{}', which is not a joint listed before it", j.name, j.parent));
       const JointSite ps = joints[static_cast<std::size_t>(p)].site;
-      require(static_cast<int>(j.site) >= static_cast<int>(ps) && static_cast<int>(j.site) <= static_cast<int>(ps) + 1,
+      require_exoskeleton(static_cast<int>(j.site) >= static_cast<int>(ps) && static_cast<int>(j.site) <= static_cast<int>(ps) + 1,
               fmt::format("joint '{}' at the {} cannot follow '{}' at the {} (shoulder -> elbow -> wrist, one step at a time)",
                           j.name, site_name(j.site), j.parent, site_name(ps)));
     }
@@ -69,13 +69,13 @@ std::array<int, 3> check_arm(const std::vector<ArmJointSpec>& joints) {
       for (const ArmJointSpec& c : joints) has_same_site_child |= c.parent == joints[i].name && c.site == joints[i].site;
       if (has_same_site_child) continue;
       if (last[static_cast<std::size_t>(site)] >= 0) {
-        require(false, fmt::format("the {} has two last joints ('{}' and '{}'): its joints must form one chain",
+        require_exoskeleton(false, fmt::format("the {} has two last joints ('{}' and '{}'): its joints must form one chain",
                                    site_name(static_cast<JointSite>(site)),
                                    joints[static_cast<std::size_t>(last[static_cast<std::size_t>(site)])].name, joints[i].name));
       }
       last[static_cast<std::size_t>(site)] = static_cast<int>(i);
     }
-    require(last[static_cast<std::size_t>(site)] >= 0, fmt::format("no joint sits at the {}", site_name(static_cast<JointSite>(site))));
+    require_exoskeleton(last[static_cast<std::size_t>(site)] >= 0, fmt::format("no joint sits at the {}", site_name(static_cast<JointSite>(site))));
   }
   return last;
 }
@@ -105,10 +105,10 @@ std::vector<ArmJointSpec> paper_right_arm_joints() {
 
 ArmModel build_exoskeleton_model(const ExoskeletonSpec& spec) {
   const std::array<int, 3> carrier = check_arm(spec.arm_joints);
-  require(!spec.sides.empty(), "no side to build");
-  require(spec.sides.size() <= 2 && (spec.sides.size() == 1 || spec.sides[0] != spec.sides[1]), "each side at most once");
-  require(std::isfinite(spec.shoulder_width_m) && spec.shoulder_width_m >= 0, "shoulder_width_m must be >= 0");
-  require(std::isfinite(spec.payload_kg) && spec.payload_kg >= 0, "payload_kg must be finite and >= 0");
+  require_exoskeleton(!spec.sides.empty(), "no side to build");
+  require_exoskeleton(spec.sides.size() <= 2 && (spec.sides.size() == 1 || spec.sides[0] != spec.sides[1]), "each side at most once");
+  require_exoskeleton(std::isfinite(spec.shoulder_width_m) && spec.shoulder_width_m >= 0, "shoulder_width_m must be >= 0");
+  require_exoskeleton(std::isfinite(spec.payload_kg) && spec.payload_kg >= 0, "payload_kg must be finite and >= 0");
   check_arm_parameters(spec.exo, spec.user);
 
   const Eigen::Matrix3d mirror = Eigen::Vector3d(1, -1, 1).asDiagonal();

@@ -18,7 +18,6 @@ namespace {
 
 constexpr std::size_t kFileBufferBytes = 1 << 20;
 constexpr std::size_t kPendingFaultRequests = 8;
-constexpr std::size_t kMaxValueChars = kMaxLogValueChars;
 constexpr auto kIdleFlushInterval = std::chrono::milliseconds(250);
 
 void check_columns(const std::vector<std::string>& columns) {
@@ -92,7 +91,7 @@ AsyncCsvLog::AsyncCsvLog(std::filesystem::path path, std::vector<std::string> co
       requests_(kPendingFaultRequests),
       window_(checked_window(fault_window_rows) * columns_.size()),
       window_rows_(fault_window_rows),
-      line_(columns_.size() * (kMaxValueChars + 1) + 1),
+      line_(columns_.size() * (kMaxLogValueChars + 1) + 1),
       last_flush_(std::chrono::steady_clock::now()),
       writer_("peha-log", {[this] { return writer_step(); }, [this](bool flush) { writer_idle(flush); },
                            [this] { writer_finish(); }}) {}

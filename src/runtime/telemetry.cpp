@@ -26,7 +26,7 @@ static_assert(sizeof(sockaddr_in) <= 16);
 // a sample due at exactly 10 ms may carry 9.999999999 ms. Keep it.
 constexpr double kDueTolerance_s = 1e-6;
 // "{:.9g}" of a finite double, or "null": at most 16 characters.
-constexpr std::size_t kMaxValueChars = 24;
+constexpr std::size_t kMaxTelemetryValueChars = 24;
 
 std::string json_string(const std::string& s) {
   std::string out = "\"";
@@ -149,7 +149,7 @@ bool Telemetry::sender_step() noexcept {
   char* const body = p;
   constexpr std::size_t kClose = 2;  // "}}"
   for (std::size_t i = 0; i < keys_.size(); ++i) {
-    char entry[kMaxNameBytes + 1 + kMaxValueChars];
+    char entry[kMaxNameBytes + 1 + kMaxTelemetryValueChars];
     char* e = std::copy(keys_[i].begin(), keys_[i].end(), entry);
     e = write_number(e, sample_.values[i]);
     const auto entry_size = static_cast<std::size_t>(e - entry);

@@ -1,4 +1,5 @@
 #include "peha/runtime/timing_stats.hpp"
+#include "peha/io/backend.hpp"
 
 #include "peha/config/csv_sidecar.hpp"
 
@@ -13,7 +14,7 @@
 namespace peha::runtime {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
 std::ofstream open_for_writing(const std::filesystem::path& path) {

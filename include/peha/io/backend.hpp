@@ -25,6 +25,8 @@ namespace peha::io {
 
 /// Fixed capacity so that states and commands are plain values (no allocation in the loop).
 inline constexpr int kMaxJoints = 16;
+/// "Not measured" (an optional sensor a backend lacks, a figure a run did not produce).
+inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 /// What the sensors of one joint report, already converted to SI by the backend's channel map.
 struct JointSensors {

@@ -1,4 +1,5 @@
 #include "peha/experiments/creep/creep.hpp"
+#include "peha/io/backend.hpp"
 
 #include "peha/calibration/calibrate.hpp"
 #include "peha/calibration/calibration_file.hpp"
@@ -18,7 +19,7 @@
 namespace peha::experiments {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 CreepSettings read_creep_section(config::Map m, double duration_s) {
   CreepSettings c;

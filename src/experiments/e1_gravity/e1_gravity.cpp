@@ -1,4 +1,5 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "peha/io/backend.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/release_checks.hpp"
@@ -291,7 +292,7 @@ E1Result run_e1_case(const E1Scenario& scenario, const E1Case& c, runtime::RowSi
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 /// What E1's loop records per cycle for the analysis after it; preallocated for the whole run.
 struct E1Trace {

@@ -1,4 +1,5 @@
 #include "peha/experiments/e5_max_force/max_force.hpp"
+#include "peha/io/backend.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
@@ -113,7 +114,7 @@ E5Result run_e5_case(const E5Scenario& scenario, const E5Case& c, runtime::RowSi
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 /// E5's log row: e5_log_columns, the same names in order.
 struct E5LogRow {

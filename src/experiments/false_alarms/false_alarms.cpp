@@ -34,7 +34,7 @@ const char* run_key(FalseAlarmRun r) {
 
 /// One job: a case's scenario under one plant variant, noise scale and seed (E1: every payload, E4:
 /// every movement - several rows).
-struct Job {
+struct AlarmRun {
   const FalseAlarmCase* what;
   PlantVariant variant;  ///< sensor_noise_scale already multiplied by the noise scale
   std::string variant_name;
@@ -44,11 +44,11 @@ struct Job {
 
 /// A run's row from its result (E1Result, PosturesResult, GoniometerResult).
 template <class Result>
-FalseAlarmRow row_of(const Job& job, std::string case_name, double duration_s, const Result& r) {
+FalseAlarmRow row_of(const AlarmRun& job, std::string case_name, double duration_s, const Result& r) {
   return {std::move(case_name), job.variant_name, job.noise_scale, job.seed, duration_s, r.fault_flags, r.first_fault_flag, r.check_peaks};
 }
 
-std::vector<FalseAlarmRow> run_e1(const FalseAlarmConfig& config, const Job& job) {
+std::vector<FalseAlarmRow> run_e1(const FalseAlarmConfig& config, const AlarmRun& job) {
   E1Scenario scenario = read_e1(config::Document::load_file(job.what->scenario));
   if (config.e1_duration_s > 0) scenario.duration_s = config.e1_duration_s;
   if (config.adjust_thresholds) config.adjust_thresholds(scenario.limits.monitor);
@@ -67,7 +67,7 @@ std::vector<FalseAlarmRow> run_e1(const FalseAlarmConfig& config, const Job& job
   return rows;
 }
 
-ArmScenario arm_scenario(const FalseAlarmConfig& config, const Job& job) {
+ArmScenario arm_scenario(const FalseAlarmConfig& config, const AlarmRun& job) {
   const ArmScenario nominal = read_arm_scenario(config::Document::load_file(job.what->scenario));
   ArmScenario scenario = nominal;
   if (config.adjust_thresholds) config.adjust_thresholds(scenario.limits.monitor);
@@ -76,7 +76,7 @@ ArmScenario arm_scenario(const FalseAlarmConfig& config, const Job& job) {
   return scenario;
 }
 
-std::vector<FalseAlarmRow> run_postures_job(const FalseAlarmConfig& config, const Job& job) {
+std::vector<FalseAlarmRow> run_postures_job(const FalseAlarmConfig& config, const AlarmRun& job) {
   const ArmScenario scenario = arm_scenario(config, job);
   std::unique_ptr<sim::ArmBackend> plant;
   {
@@ -87,7 +87,7 @@ std::vector<FalseAlarmRow> run_postures_job(const FalseAlarmConfig& config, cons
   return {row_of(job, job.what->name, postures_duration_s(scenario), r)};
 }
 
-std::vector<FalseAlarmRow> run_goniometer_job(const FalseAlarmConfig& config, const Job& job) {
+std::vector<FalseAlarmRow> run_goniometer_job(const FalseAlarmConfig& config, const AlarmRun& job) {
   const ArmScenario scenario = arm_scenario(config, job);
   const auto& g = scenario.goniometer;
   std::vector<FalseAlarmRow> rows;
@@ -105,8 +105,8 @@ std::vector<FalseAlarmRow> run_goniometer_job(const FalseAlarmConfig& config, co
   return rows;
 }
 
-std::vector<Job> false_alarm_jobs(const FalseAlarmConfig& config) {
-  std::vector<Job> jobs;
+std::vector<AlarmRun> false_alarm_jobs(const FalseAlarmConfig& config) {
+  std::vector<AlarmRun> jobs;
   for (const FalseAlarmCase& c : config.cases) {
     for (double k : config.noise_scales) {
       PlantVariant v;
@@ -246,12 +246,12 @@ FalseAlarmResult judge_false_alarms(const FalseAlarmConfig& config, std::vector<
 
 FalseAlarmResult run_false_alarms(const FalseAlarmConfig& config,
                                   const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
-  const std::vector<Job> jobs = false_alarm_jobs(config);
+  const std::vector<AlarmRun> jobs = false_alarm_jobs(config);
   std::vector<std::vector<FalseAlarmRow>> rows_of(jobs.size());
   std::size_t done = 0;
   std::mutex report;
   run_job_pool(jobs.size(), config.threads, [&](std::size_t i) {
-    const Job& job = jobs[i];
+    const AlarmRun& job = jobs[i];
     std::vector<FalseAlarmRow> rows;
     switch (job.what->run) {
       case FalseAlarmRun::kE1: rows = run_e1(config, job); break;

@@ -1,4 +1,5 @@
 #include "peha/experiments/faults/fault_matrix.hpp"
+#include "peha/io/backend.hpp"
 
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/models/units.hpp"
@@ -16,7 +17,7 @@
 namespace peha::experiments {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 /// Keeps the few log columns the matrix reads, one vector each (the run is short: a few thousand
 /// rows): time and fault flags, and per joint (its columns named by a prefix: "" on E1, "sfe_", ...

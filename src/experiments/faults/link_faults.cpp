@@ -1,4 +1,5 @@
 #include "peha/experiments/faults/link_faults.hpp"
+#include "peha/io/backend.hpp"
 
 #include "peha/experiments/e1_gravity/e1_realtime.hpp"
 #include "peha/experiments/faults/fault_matrix.hpp"
@@ -25,7 +26,7 @@
 namespace peha::experiments {
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 /// `peha mfb-emulator` as a child process, with the port it names once it listens; signalled by the
 /// row (stall, kill), ended with SIGTERM (the ChildProcess kills what is left).

@@ -1,4 +1,5 @@
 #include "peha/experiments/robustness/robustness.hpp"
+#include "peha/io/backend.hpp"
 
 #include "peha/experiments/common/job_pool.hpp"
 #include "peha/models/exoskeleton.hpp"
@@ -34,7 +35,7 @@ bool is_e3(RobustnessMode m) noexcept { return m == RobustnessMode::kE3 || m == 
 bool any_e3_mode(const std::vector<RobustnessMode>& modes) { return std::any_of(modes.begin(), modes.end(), is_e3); }
 bool any_e1_mode(const std::vector<RobustnessMode>& modes) { return !std::all_of(modes.begin(), modes.end(), is_e3); }
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+using io::kNaN;
 
 PlantVariant read_variant_keys(config::Map m) {
   PlantVariant v;
@@ -108,7 +109,7 @@ std::string failures_of(const safety::Verdict& verdict) {
   return out;
 }
 
-struct Job {
+struct MatrixCase {
   RobustnessMode mode;
   const PlantVariant* variant;
   std::uint64_t seed;
@@ -191,7 +192,7 @@ RobustnessRow e1_row(const E1Scenario& scenario, const E1Case& c, const PlantVar
 }
 
 /// One E1 job: every selected case of one variant and seed (the calibrated mode calibrates once for all).
-std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const Job& job, const std::vector<std::size_t>& cases,
+std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const MatrixCase& job, const std::vector<std::size_t>& cases,
                                       const RobustnessConfig& config) {
   std::vector<RobustnessRow> rows;
   E1Scenario scenario = nominal;
@@ -217,7 +218,7 @@ std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const Job& job,
   return rows;
 }
 
-RobustnessRow run_e3_job(const ArmScenario& nominal, const Job& job) {
+RobustnessRow run_e3_job(const ArmScenario& nominal, const MatrixCase& job) {
   ArmScenario scenario = nominal;
   if (job.mode == RobustnessMode::kE3Identified) {
     // Identified on this variant's arm as the user would on the rig - before picking up the hand's
@@ -397,14 +398,14 @@ RobustnessScenarios read_scenarios(const RobustnessConfig& config) {
 
 /// Every mode x variant x seed, the calibrated jobs first: they take longest (two recordings and two
 /// fits each).
-std::vector<Job> robustness_jobs(const RobustnessConfig& config) {
-  std::vector<Job> jobs;
+std::vector<MatrixCase> robustness_jobs(const RobustnessConfig& config) {
+  std::vector<MatrixCase> jobs;
   for (RobustnessMode mode : config.modes) {
     for (const PlantVariant& v : config.variants) {
       for (std::uint64_t seed : config.seeds) jobs.push_back({mode, &v, seed});
     }
   }
-  std::stable_sort(jobs.begin(), jobs.end(), [](const Job& a, const Job& b) {
+  std::stable_sort(jobs.begin(), jobs.end(), [](const MatrixCase& a, const MatrixCase& b) {
     return (a.mode == RobustnessMode::kE1CalibratedFF) > (b.mode == RobustnessMode::kE1CalibratedFF);
   });
   return jobs;
@@ -412,7 +413,7 @@ std::vector<Job> robustness_jobs(const RobustnessConfig& config) {
 
 /// A job's rows named (variant, mode, seed) and judged against its mode's goal, with physics' reason
 /// where no controller without position feedback can meet it; `seconds` the job's wall time.
-void judge_rows(const RobustnessConfig& config, const Job& job, double seconds, std::vector<RobustnessRow>& rows) {
+void judge_rows(const RobustnessConfig& config, const MatrixCase& job, double seconds, std::vector<RobustnessRow>& rows) {
   const RobustnessGoal& g = goal_of(config, job.mode);
   for (RobustnessRow& row : rows) {
     row.variant = job.variant->name;
@@ -442,14 +443,14 @@ using RobustnessProgress = std::function<void(std::size_t, std::size_t, const st
 /// Runs the jobs on config.threads threads, job i's rows into element i, each row reported to
 /// `progress` as it is done. A job's exception stops the others and is rethrown.
 std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config, const RobustnessScenarios& scenarios,
-                                                 const std::vector<Job>& jobs, const RobustnessProgress& progress) {
+                                                 const std::vector<MatrixCase>& jobs, const RobustnessProgress& progress) {
   std::size_t total = 0;
-  for (const Job& j : jobs) total += is_e3(j.mode) ? 1 : scenarios.cases.size();
+  for (const MatrixCase& j : jobs) total += is_e3(j.mode) ? 1 : scenarios.cases.size();
   std::vector<std::vector<RobustnessRow>> rows_of(jobs.size());
   std::size_t done = 0;
   std::mutex report;
   run_job_pool(jobs.size(), config.threads, [&](std::size_t i) {
-    const Job& job = jobs[i];
+    const MatrixCase& job = jobs[i];
     const auto start = std::chrono::steady_clock::now();
     std::vector<RobustnessRow> rows;
     if (is_e3(job.mode)) {
@@ -495,7 +496,7 @@ std::vector<RobustnessResult::Share> goal_shares(const RobustnessConfig& config,
 RobustnessResult run_robustness(const RobustnessConfig& config,
                                 const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
   const RobustnessScenarios scenarios = read_scenarios(config);
-  const std::vector<Job> jobs = robustness_jobs(config);
+  const std::vector<MatrixCase> jobs = robustness_jobs(config);
   std::vector<std::vector<RobustnessRow>> rows_of = run_jobs(config, scenarios, jobs, progress);
   // The table in the configuration's order: mode, variant, seed, case.
   RobustnessResult result;
