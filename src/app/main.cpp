@@ -205,6 +205,37 @@ Command add_calibrate(CLI::App& app) {
   return {cal_cmd, [options] { return peha::app::calibrate(*options); }};
 }
 
+Command add_check_sensors(CLI::App& app) {
+  struct State {
+    peha::app::CheckSensorsOptions options;
+    double mass = 0, lever = 0;
+    std::uint64_t seed = 0;
+    CLI::Option *mass_opt, *lever_opt, *seed_opt;
+  };
+  auto s = std::make_shared<State>();
+  CLI::App* cmd = app.add_subcommand(
+      "check-sensors",
+      "The one-DOF rig's sensor check on the simulated rig (the config's sensor_check: section): each load\n"
+      "cell's vented zero on the pin, then a known mass swept slowly up and down through the check angle\n"
+      "(the link alone, the mass, the mass against the antagonist), giving each cell's gain x pulley-radius\n"
+      "product. Writes the corrections file an E1 scenario loads (controller: sensor_corrections: FILE).\n"
+      "Exit code 0 = written, 2 = bad config or a check refused (nothing written), 1 = other error.");
+  cmd->add_option("-c,--config", s->options.config, "E1 scenario YAML with a sensor_check: section")->required()->check(CLI::ExistingFile);
+  cmd->add_option("-o,--out", s->options.out, "Corrections YAML to write (folders are created; never a file the scenario reads)")->required();
+  s->mass_opt = cmd->add_option("--known-mass-kg", s->mass, "The mass the operator placed, kg (default: sensor_check.known_mass_kg;\n"
+                                                            "the simulated rig carries the section's)")
+                    ->check(peha::app::decimal())->check(CLI::Range(0.1, 20.0));
+  s->lever_opt = cmd->add_option("--lever-m", s->lever, "Its lever from the joint axis, m (default: sensor_check.lever_m)")
+                     ->check(peha::app::decimal())->check(CLI::Range(0.01, 2.0));
+  s->seed_opt = cmd->add_option("--seed", s->seed, "Override the sensor-noise seed")->check(peha::app::unsigned_integer());
+  return {cmd, [s] {
+            if (*s->mass_opt) s->options.known_mass_kg = s->mass;
+            if (*s->lever_opt) s->options.lever_m = s->lever;
+            if (*s->seed_opt) s->options.seed = s->seed;
+            return peha::app::check_sensors(s->options);
+          }};
+}
+
 Command add_identify_gravity(CLI::App& app) {
   struct State {
     peha::app::IdentifyGravityOptions id;
@@ -441,7 +472,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("peha 0.1.0"));
 
-  const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_identify_gravity(app), add_mfb_emulator(app),
+  const Command commands[] = {add_run(app), add_record_calibration(app), add_calibrate(app), add_identify_gravity(app), add_check_sensors(app), add_mfb_emulator(app),
                               add_check_config(app), add_keygen(app), add_robustness(app), add_false_alarms(app), add_faults(app),
                               add_version(app)};
   try {

@@ -37,8 +37,12 @@ OneDofGravityController::OneDofGravityController(OneDofControllerModel model)
   allocation_data_.loadcell_offset_N[1] = diag_.loadcell_offset_N[1] = model_.joint.antagonist.loadcell_zero_N;
 }
 
-void OneDofGravityController::update(const io::SensorState& state, io::Command& command) noexcept {
-  const io::JointSensors& s = state.joints[0];
+void OneDofGravityController::update(const io::SensorState& raw, io::Command& command) noexcept {
+  // The sensor check's corrections first: the tare then measures only what is left of the zero.
+  io::SensorState state = raw;
+  io::JointSensors& s = state.joints[0];
+  s.agonist_loadcell_N = corrected_loadcell_N(model_.loadcell[0], s.agonist_loadcell_N);
+  s.antagonist_loadcell_N = corrected_loadcell_N(model_.loadcell[1], s.antagonist_loadcell_N);
   const double dt_s = started_ ? state.time_s - last_time_s_ : 0.0;
   last_time_s_ = state.time_s;
   const bool first = !started_;

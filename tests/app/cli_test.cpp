@@ -670,4 +670,44 @@ TEST(Cli, StrictNumbersRunNamesAndOutputsThatAreNotInputs) {
   std::filesystem::remove_all(dir);
 }
 
+// `peha check-sensors` on a rig whose agonist cell reads 5 % low: the corrections it writes, named by
+// the scenario (controller.sensor_corrections), bring E1 back within its 5 % static torque error
+// (exit 0); without them the same run fails it (exit 3, 9.3 %). Its output never replaces an input.
+TEST(Cli, CheckSensorsWritesCorrectionsThatBringE1BackWithinItsVerdict) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_cli_check_sensors_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::ifstream in(std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  auto replace = [&text](const std::string& from, const std::string& to) {
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  replace("../models/", std::string(PEHA_SOURCE_DIR) + "/models/");
+  replace("law: plant/", std::string("law: ") + PEHA_SOURCE_DIR + "/configs/plant/");
+  replace("law: plant/", std::string("law: ") + PEHA_SOURCE_DIR + "/configs/plant/");
+  replace("channel_map: mfb/", std::string("channel_map: ") + PEHA_SOURCE_DIR + "/configs/mfb/");
+  replace("key_file: mfb/", std::string("key_file: ") + PEHA_SOURCE_DIR + "/configs/mfb/");
+  replace("loadcell: {noise_N: 1.0, range_N: 5000.0}", "loadcell: {noise_N: 1.0, range_N: 5000.0, gain: 0.95}");
+  const std::filesystem::path rig = dir / "rig.yaml";
+  std::ofstream(rig) << text;
+  const Result refused = run("check-sensors --config " + rig.string() + " --out " + rig.string());
+  EXPECT_EQ(refused.code, 2);
+  EXPECT_THAT(refused.output, HasSubstr("refusing to overwrite it"));
+  const Result check = run("check-sensors --config " + rig.string() + " --out " + (dir / "sensors.yaml").string());
+  ASSERT_EQ(check.code, 0) << check.output;
+  EXPECT_THAT(check.output, HasSubstr("gain x r_controller/r_rig 0.9366"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "sensors.run0.csv"));
+  replace("controller:\n", "controller:\n  sensor_corrections: sensors.yaml\n");
+  std::ofstream(dir / "corrected.yaml") << text;
+  const std::string e1 = " --no-plot --case payload_2.5kg --out " + dir.string() + " --config ";
+  const Result before = run("run --name before" + e1 + rig.string());
+  EXPECT_EQ(before.code, 3) << before.output;
+  EXPECT_THAT(before.output, HasSubstr("static torque error"));
+  const Result after = run("run --name after" + e1 + (dir / "corrected.yaml").string());
+  EXPECT_EQ(after.code, 0) << after.output;
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace

@@ -122,6 +122,18 @@ struct IdentifyGravityOptions {
 /// Exit code 0 = written, 2 = bad config or an identification the fit's checks refuse (nothing written).
 int identify_gravity(const IdentifyGravityOptions& options);
 
+struct CheckSensorsOptions {
+  std::filesystem::path config;         ///< E1 scenario with a sensor_check: section
+  std::filesystem::path out;            ///< corrections YAML to write
+  std::optional<double> known_mass_kg;  ///< what the operator says the mass is (default: the section's)
+  std::optional<double> lever_m;        ///< its lever (default: the section's)
+  std::optional<std::uint64_t> seed;
+};
+
+/// `peha check-sensors`: the sensor check on the simulated rig, the corrections file
+/// (docs/calibration.md "Sensor check"). Exit code 0 = written, 2 = bad config or refused (nothing written).
+int check_sensors(const CheckSensorsOptions& options);
+
 /// `peha check-config`: parses and validates a scenario, prints what it would run. Exit code.
 int check_config(const std::filesystem::path& config);
 

@@ -38,8 +38,25 @@ struct VelocityEstimator {
   double update(double angle_rad, double dt_s) noexcept;
 };
 
+/// One load cell's correction from the rig's sensor check (`peha check-sensors`, docs/calibration.md
+/// "Sensor check"): the controller uses (reading - zero_N) / gain. `gain` is the cell's effective
+/// gain: its own gain x the controller's pulley radius / the rig's (for torque only their product
+/// matters). Neutral: 0 N and 1.
+struct LoadcellCorrection {
+  double zero_N = 0.0;
+  double gain = 1.0;
+};
+
+/// The force the controller believes from a raw reading, N.
+inline double corrected_loadcell_N(const LoadcellCorrection& c, double reading_N) noexcept {
+  return (reading_N - c.zero_N) / c.gain;
+}
+
 struct OneDofControllerModel {
   models::JointModel joint;
+  /// Per load cell (agonist, antagonist): applied to every reading before the start-up tare and the
+  /// allocation see it (`controller.sensor_corrections`).
+  LoadcellCorrection loadcell[2];
   OneDofGravityModel gravity;
   AllocationParams allocation;
   double velocity_cutoff_Hz = 20.0;

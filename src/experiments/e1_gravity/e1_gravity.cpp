@@ -1,4 +1,6 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+
+#include "peha/calibration/sensor_corrections.hpp"
 #include "peha/io/backend.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/experiments/common/mujoco_lock.hpp"
@@ -123,6 +125,7 @@ E1Scenario read_e1(const config::Document& doc, const char* experiment, const st
   gravity.finish();
   s.controller.velocity_cutoff_Hz = ctl.number("velocity_cutoff_Hz", {0.1, 500.0});
   if (ctl.has("creep_estimator")) s.controller.creep = control::read_creep_estimator(ctl.map("creep_estimator"));
+  if (ctl.has("sensor_corrections")) use_sensor_corrections(s, ctl.path_value("sensor_corrections"));
   ctl.finish();
 
   s.limits = read_one_joint_limits(limits, s.period_s);
@@ -155,6 +158,7 @@ E1Scenario read_e1(const config::Document& doc, const char* experiment, const st
     if (cal.has("acceptance")) s.acceptance = experiments::read_calibration_acceptance(cal.map("acceptance"));
     cal.finish();
   }
+  if (root.has("sensor_check")) s.sensor_check = read_sensor_check(root.map("sensor_check"));
   if (extra) extra(root);
   root.finish();
   return s;
@@ -170,6 +174,13 @@ const std::vector<std::string>& e1_log_columns() {
       "plant_agonist_force_N", "plant_antagonist_force_N", "plant_agonist_contraction", "plant_antagonist_contraction",
       "plant_cable_friction_Nm", "plant_constraint_Nm", "limit_flags", "fault_flags"};
   return columns;
+}
+
+void use_sensor_corrections(E1Scenario& scenario, const std::filesystem::path& path) {
+  const calibration::SensorCorrections c = calibration::read_sensor_corrections(
+      config::Document::load_file(path), scenario.controller.allocation.loadcell_check.max_tare_N);
+  for (int i = 0; i < 2; ++i) scenario.controller.loadcell[i] = {c.loadcell_zero_N[i], c.loadcell_gain[i]};
+  scenario.sensor_corrections_file = path;
 }
 
 void use_calibration_loadcell_zero(E1Scenario& scenario) { scenario.controller.allocation.loadcell_check.tare_s = 0.0; }

@@ -7,6 +7,7 @@
 
 #include "peha/hardware/door.hpp"
 #include "peha/experiments/calibration_recording/excitation.hpp"
+#include "peha/experiments/sensor_check/sensor_check_params.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/mfb/link_config.hpp"
@@ -51,10 +52,14 @@ struct E1Scenario {
   /// Optional `calibration.acceptance`: the closed-loop check a calibration must pass
   /// (experiments/calibration_recording/acceptance.hpp).
   std::optional<experiments::CalibrationAcceptance> acceptance;
+  /// Optional `sensor_check:` section: the procedure of `peha check-sensors`.
+  std::optional<experiments::SensorCheckParams> sensor_check;
   /// Optional `mfb:` section: how the scenario runs on the multifunction board over UDP.
   std::optional<mfb::LinkConfig> link;
   /// The lifecycle supervisor's parameters (`lifecycle:`): the same in process and on the board.
   runtime::SupervisorParams lifecycle;
+  /// `controller.sensor_corrections`: the load-cell corrections file the controller uses (empty: none).
+  std::filesystem::path sensor_corrections_file;
   /// The scenario's live telemetry (`telemetry:`, runtime::read_telemetry): what streams unless the command line says otherwise.
   runtime::TelemetryOptions telemetry;
 };
@@ -165,6 +170,10 @@ hardware::HardwareRequest e1_hardware(const E1Scenario& scenario, const E1Case& 
 control::OneDofControllerModel e1_controller_model(const E1Scenario& scenario, const E1Case& c);
 /// The simulated rig's parameters for a case (the scenario's plant with the case's payload).
 sim::OneDofRigParams e1_plant_params(const E1Scenario& scenario, const E1Case& c);
+
+/// Loads a corrections file of `peha check-sensors` (calibration/sensor_corrections.hpp) into the
+/// controller's load-cell corrections; its zeros are checked against the tare's max_tare_N.
+void use_sensor_corrections(E1Scenario& scenario, const std::filesystem::path& path);
 
 /// Switches the start-up load-cell tare off in a scenario whose controller carries calibrated
 /// muscle models. The tare assumes the vented muscles make no force: the limits layer keeps each
