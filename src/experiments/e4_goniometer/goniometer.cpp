@@ -488,7 +488,10 @@ struct GoniometerRun {
     // The reference at the control rate: extrapolated from the latest sample with the smoothed
     // derivatives, and the inverse dynamics of it every cycle (no 200 Hz staircase).
     encoders_into_q(state);
-    for (std::size_t i = 0; i < encoder_velocity.size(); ++i) encoder_velocity[i].update(state.joints[i].angle_rad, scenario.period_s);
+    // By the time between the encoder readings, as the controller's own rate (a board's late cycle).
+    const double encoder_dt_s = std::isnan(encoder_time_s) ? 0.0 : state.time_s - encoder_time_s;
+    encoder_time_s = state.time_s;
+    for (std::size_t i = 0; i < encoder_velocity.size(); ++i) encoder_velocity[i].update(state.joints[i].angle_rad, encoder_dt_s);
     for (Driven& j : driven) {
       const double dt = state.time_s - j.sample_time_s;
       const double acceleration = control::read_motion_estimate(j.acceleration_estimator, j.motion, state.time_s).acceleration_radps2;
@@ -579,6 +582,7 @@ struct GoniometerRun {
   std::vector<int> joints_q;    ///< model joint of each io joint
   std::vector<Driven> driven;
   std::vector<control::VelocityEstimator> encoder_velocity;  ///< per io joint: the rate the impedances damp
+  double encoder_time_s = std::numeric_limits<double>::quiet_NaN();  ///< when encoder_velocity last read the encoders
   const std::vector<std::size_t> held;
   std::vector<std::size_t> torque_held;     ///< the held joints a torque drives (not a constant pressure)
   std::vector<std::size_t> passive;         ///< io joints held at a constant pressure (the wrist)
