@@ -278,9 +278,10 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   config::Map sm = gon.map("smoothing");
   g.smoothing_order = static_cast<int>(sm.integer("order", 1, control::kButterworthMaxOrder));
   g.rate_cutoff_Hz = sm.number("rate_cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
-  g.acceleration_cutoff_Hz = sm.number("acceleration_cutoff_Hz", {0.1, 0.45 * g.sample_rate_Hz});
+  g.acceleration_jerk_density_rad2ps5 = sm.number("acceleration_jerk_density_rad2_per_s5", {1e-3, 1e9});
   g.command_cutoff_Hz = sm.number("command_cutoff_Hz", {0.1, 0.45 / s.period_s});
   sm.finish();
+  g.encoder_velocity_cutoff_Hz = gon.number("encoder_velocity_cutoff_Hz", {1.0, 0.45 / s.period_s});
   config::Map hold = gon.map("hold");
   g.hold_stiffness_Nm_per_rad = hold.number("stiffness_Nm_per_rad", {0.0, 1000.0});
   g.hold_damping_Nms_per_rad = hold.number("damping_Nms_per_rad", {0.0, 100.0});

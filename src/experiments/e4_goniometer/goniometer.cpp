@@ -4,6 +4,8 @@
 #include "peha/config/csv_sidecar.hpp"
 #include "peha/config/input_file.hpp"
 #include "peha/control/butterworth.hpp"
+#include "peha/control/motion_estimator.hpp"
+#include "peha/control/one_dof_gravity.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/models/joint.hpp"
 #include "peha/models/units.hpp"
@@ -381,15 +383,19 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
 
 namespace {
 
-/// One driven joint: its goniometer's filter and derivatives, their smoothing, its command and its
-/// trajectories.
+/// The goniometer's noise as the acceleration estimator sees it: its noise and its quantisation's.
+double goniometer_noise_rad(const ArmScenario::Goniometer& g) { return std::hypot(g.noise_rad, g.resolution_rad / std::sqrt(12.0)); }
+
+/// One driven joint: its goniometer's filter and derivatives, the rate's smoothing, the acceleration's
+/// estimator, its command and its trajectories.
 struct Driven {
   Driven(std::size_t io, int q, const ArmScenario& s, std::size_t steps)
       : io(io),
         q(q),
         derivative(s.goniometer.filter_order, s.goniometer.cutoff_Hz, s.goniometer.sample_rate_Hz),
         rate_smooth(s.goniometer.smoothing_order, s.goniometer.rate_cutoff_Hz, s.goniometer.sample_rate_Hz),
-        acceleration_smooth(s.goniometer.smoothing_order, s.goniometer.acceleration_cutoff_Hz, s.goniometer.sample_rate_Hz),
+        acceleration_estimator(control::make_motion_estimator(s.goniometer.sample_rate_Hz, goniometer_noise_rad(s.goniometer),
+                                                              s.goniometer.acceleration_jerk_density_rad2ps5)),
         command_smooth(s.goniometer.smoothing_order, s.goniometer.command_cutoff_Hz, 1.0 / s.period_s),
         exo(steps + 1),
         truth(steps + 1),
@@ -399,9 +405,12 @@ struct Driven {
   int q = 0;  ///< model joint
   control::FilteredDerivative derivative;
   control::FilteredDerivative::Derivatives d{};
-  control::ButterworthFilter rate_smooth, acceleration_smooth;  ///< at the goniometer's rate
-  control::ButterworthFilter command_smooth;                    ///< at the control rate
-  double rate = 0.0, acceleration = 0.0;  ///< the smoothed derivatives at the latest sample, rad/s, rad/s^2
+  control::ButterworthFilter rate_smooth;  ///< at the goniometer's rate
+  /// The inverse dynamics' acceleration: quieter than the second difference's for the same angle lag
+  const control::MotionEstimatorModel acceleration_estimator;
+  control::MotionEstimatorData motion;
+  control::ButterworthFilter command_smooth;  ///< at the control rate
+  double rate = 0.0;                      ///< the smoothed rate at the latest sample, rad/s
   double sample_time_s = 0.0;             ///< when the latest goniometer sample came
   bool sampled = false;
   double goniometer = 0.0, tau_cmd = 0.0;
@@ -471,6 +480,7 @@ struct GoniometerRun {
       if (controller.model().joints[i].mode == control::ArmJointMode::kHoldPressure) passive.push_back(i);
     }
     passive_peak_speed_radps.assign(passive.size(), 0.0);
+    encoder_velocity.assign(controller.model().joints.size(), control::VelocityEstimator{.cutoff_Hz = g.encoder_velocity_cutoff_Hz});
   }
 
   void step(const io::SensorState& state, io::Command& command, std::size_t k) {
@@ -478,18 +488,23 @@ struct GoniometerRun {
     // The reference at the control rate: extrapolated from the latest sample with the smoothed
     // derivatives, and the inverse dynamics of it every cycle (no 200 Hz staircase).
     encoders_into_q(state);
+    // By the time between the encoder readings, as the controller's own rate (a board's late cycle).
+    const double encoder_dt_s = std::isnan(encoder_time_s) ? 0.0 : state.time_s - encoder_time_s;
+    encoder_time_s = state.time_s;
+    for (std::size_t i = 0; i < encoder_velocity.size(); ++i) encoder_velocity[i].update(state.joints[i].angle_rad, encoder_dt_s);
     for (Driven& j : driven) {
       const double dt = state.time_s - j.sample_time_s;
-      q[j.q] = j.d.value + (j.rate + 0.5 * j.acceleration * dt) * dt;
-      qd[j.q] = j.rate + j.acceleration * dt;
-      qdd[j.q] = j.acceleration;
+      const double acceleration = control::read_motion_estimate(j.acceleration_estimator, j.motion, state.time_s).acceleration_radps2;
+      q[j.q] = j.d.value + (j.rate + 0.5 * acceleration * dt) * dt;
+      qd[j.q] = j.rate + acceleration * dt;
+      qdd[j.q] = acceleration;
     }
     const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
     for (Driven& j : driven) {
-      const double q_exo = state.joints[j.io].angle_rad, qd_exo = controller.diagnostics()[j.io].velocity_radps;
+      const double q_exo = state.joints[j.io].angle_rad, qd_exo = encoder_velocity[j.io].velocity_radps;
       double tau_cmd = tau[j.q];
       j.tau_raw = j.tau_id_raw;
-      if (feedback) {  // the exo's encoder and the controller's velocity estimate (from the last step)
+      if (feedback) {  // the exo's encoder and E4's own rate of it
         tau_cmd += g.feedback_stiffness_Nm_per_rad * (q[j.q] - q_exo) + g.feedback_damping_Nms_per_rad * (qd[j.q] - qd_exo);
         j.tau_raw += g.feedback_stiffness_Nm_per_rad * (j.d.value - q_exo) + g.feedback_damping_Nms_per_rad * (j.d.rate - qd_exo);
       }
@@ -504,7 +519,7 @@ struct GoniometerRun {
       const auto m = static_cast<std::size_t>(joints_q[h]);
       controller.set_desired_torque(static_cast<int>(h), tau[static_cast<Eigen::Index>(m)] +
                                                              g.hold_stiffness_Nm_per_rad * (g.held_rad[h] - state.joints[h].angle_rad) -
-                                                             g.hold_damping_Nms_per_rad * controller.diagnostics()[h].velocity_radps);
+                                                             g.hold_damping_Nms_per_rad * encoder_velocity[h].velocity_radps);
     }
     controller.update(state, command);
   }
@@ -566,6 +581,8 @@ struct GoniometerRun {
   Eigen::VectorXd q, qd, qdd;   ///< the model's joints for the inverse dynamics
   std::vector<int> joints_q;    ///< model joint of each io joint
   std::vector<Driven> driven;
+  std::vector<control::VelocityEstimator> encoder_velocity;  ///< per io joint: the rate the impedances damp
+  double encoder_time_s = std::numeric_limits<double>::quiet_NaN();  ///< when encoder_velocity last read the encoders
   const std::vector<std::size_t> held;
   std::vector<std::size_t> torque_held;     ///< the held joints a torque drives (not a constant pressure)
   std::vector<std::size_t> passive;         ///< io joints held at a constant pressure (the wrist)
@@ -585,7 +602,7 @@ struct GoniometerRun {
     }
   }
 
-  /// A goniometer sample: filter, differentiate, smooth the derivatives; the un-smoothed command's
+  /// A goniometer sample: filter, differentiate, smooth the rate, estimate the acceleration; the un-smoothed command's
   /// inverse dynamics (the raw derivatives, held until the next sample).
   void sample_goniometers(const io::SensorState& state) {
     encoders_into_q(state);
@@ -595,11 +612,10 @@ struct GoniometerRun {
       j.d = j.derivative.step(j.goniometer);
       if (!j.sampled) {
         j.rate_smooth.reset(j.d.rate);
-        j.acceleration_smooth.reset(j.d.acceleration);
         j.sampled = true;
       }
       j.rate = j.rate_smooth.step(j.d.rate);
-      j.acceleration = j.acceleration_smooth.step(j.d.acceleration);
+      control::update_motion_estimate(j.acceleration_estimator, j.motion, j.goniometer, state.time_s);
       j.sample_time_s = state.time_s;
       q[j.q] = j.d.value;
       qd[j.q] = j.d.rate;
@@ -620,8 +636,8 @@ struct GoniometerRun {
     row[c++] = operator_active ? 1.0 : 0.0;
     for (const Driven& j : driven) {
       put_columns(row, c, DrivenAngleColumns{.person_elbow_deg = rad_to_deg(j.truth[k]), .goniometer_deg = rad_to_deg(j.goniometer),
-                                             .filtered_elbow_deg = rad_to_deg(j.d.value), .filtered_rate_degps = rad_to_deg(j.d.rate),
-                                             .filtered_accel_degps2 = rad_to_deg(j.d.acceleration), .tau_elbow_cmd_Nm = j.tau_cmd,
+                                             .filtered_elbow_deg = rad_to_deg(j.d.value), .filtered_rate_degps = rad_to_deg(j.rate),
+                                             .filtered_accel_degps2 = rad_to_deg(j.motion.posterior.acceleration_radps2), .tau_elbow_cmd_Nm = j.tau_cmd,
                                              .plant_elbow_deg = tr ? rad_to_deg(j.exo[k]) : nan,
                                              .elbow_encoder_deg = rad_to_deg(state.joints[j.io].angle_rad)});
     }

@@ -84,15 +84,20 @@ struct ArmScenario {
     /// tau += K (q_person - q_exo) + D (qd_person - qd_exo). The paper's variant is pure replay.
     double feedback_stiffness_Nm_per_rad = 40.0;
     double feedback_damping_Nms_per_rad = 2.0;
-    /// Smoothing of each driven joint's torque command (`smoothing:`): the goniometer's rate and
-    /// acceleration (the noisy derivatives) each through a second Butterworth low-pass of this order
-    /// at the goniometer's rate; between samples the reference is extrapolated at the control rate
-    /// (no staircase) and the inverse dynamics run every cycle; the command through a last low-pass
-    /// at the control rate.
+    /// Smoothing of each driven joint's torque command (`smoothing:`): the goniometer's rate (a noisy
+    /// derivative) through a second Butterworth low-pass of this order at the goniometer's rate; the
+    /// inverse dynamics' acceleration from a constant-acceleration Kalman filter of the goniometer
+    /// (control/motion_estimator.hpp) whose jerk has this spectral density, rad^2/s^5; between samples
+    /// the reference is extrapolated at the control rate (no staircase) and the inverse dynamics run
+    /// every cycle; the command through a last low-pass at the control rate.
     int smoothing_order = 2;
     double rate_cutoff_Hz = 8.0;
-    double acceleration_cutoff_Hz = 12.0;
+    double acceleration_jerk_density_rad2ps5 = 25.0;
     double command_cutoff_Hz = 60.0;
+    /// The exoskeleton's joint rate the impedances damp (`feedback`'s and `hold`'s D): E4's own
+    /// first-order low-pass of the encoder's backward differences at this cut-off, Hz (the
+    /// controller's own estimate, 20 Hz, lagged the damping enough to feed the loop's 10-20 Hz activity).
+    double encoder_velocity_cutoff_Hz = 100.0;
     /// The held joints (angles_deg; not held at a constant pressure) get the shoulder's row of the same
     /// inverse dynamics (the forearm's reaction, gravity included) plus this impedance toward their
     /// posture: tau = ID + K (q_held - q) - D qd (`hold:`).
