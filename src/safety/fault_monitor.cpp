@@ -170,7 +170,7 @@ void FaultMonitor::clear() noexcept {
   synced_ = false;
   for (auto& j : joints_) {
     for (auto& m : j.muscle) {
-      m.taut = m.has_level = false;
+      m.taut = m.has_level = m.not_following = false;
       m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = m.over_ceiling = 0;
     }
     j.same_angle = 0;
@@ -561,7 +561,7 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   ms.above_fast_Pa += pp.rise_alpha * (above - ms.above_fast_Pa);
   observe(kFaultPressureHigh, ms.above_fast_Pa / p.pressure_tolerance_Pa);
   observe(kFaultPressureLow, -below / p.pressure_tolerance_Pa);
-  ms.pressure_high = ms.above_fast_Pa > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+  ms.pressure_high = ms.above_fast_Pa > p.pressure_tolerance_Pa && !ms.not_following ? ms.pressure_high + 1 : 0;
   ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
   if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, ms.above_fast_Pa, p.pressure_tolerance_Pa);
   check_pressure_rise(x, above, ms);
@@ -608,7 +608,9 @@ void FaultMonitor::check_low_pressures(int low_muscles, int joint_count) noexcep
   for (int j = 0; j < joint_count && j < io::kMaxJoints; ++j) {
     for (int m = 0; m < 2; ++m) {
       const MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
-      if (ms.pressure_low >= params_.confirm_cycles) raise(kFaultPressureLow, j, m, ms.predicted_Pa, params_.pressure_tolerance_Pa);
+      if (ms.pressure_low < params_.confirm_cycles) continue;
+      raise(kFaultPressureLow, j, m, ms.predicted_Pa, params_.pressure_tolerance_Pa);
+      if (flags_ & kFaultPressureLow) joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)].not_following = true;
     }
   }
 }

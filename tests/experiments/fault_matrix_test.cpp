@@ -78,6 +78,24 @@ TEST(FaultMatrix, ADoubleFaultIsARowAndPhysicsForbidsIsNamed) {
   EXPECT_EQ(run_fault_matrix(s, o).size(), 2u);  // the pair needs both kinds
 }
 
+// A carrying valve stuck closed during the push (E1 5 kg) keeps the air the finger's help needed:
+// pressure_low, descend. The governor bleeds its command below that air - which a pressure_high
+// judged as a valve filling by itself and vented: the dump valve emptied the muscle and the link
+// fell at 222 deg/s out of its range. Not judged on a muscle that does not follow, the trapped air
+// holds the link (24.5 deg/s at most, the finger's own move) and no limit is exceeded.
+TEST(FaultMatrix, AStuckClosedValveUnderDescendIsNotVentedAsAFillingOne) {
+  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  FaultMatrixOptions o;
+  o.case_name = "payload_5.0kg";
+  o.kinds = {sim::FaultKind::kValveStuckClosed};
+  o.moments = {"push"};
+  const FaultRow row = run_fault_matrix(s, o).at(1);
+  EXPECT_EQ(row.flag, "pressure_low");
+  EXPECT_EQ(row.safe_state, "descend");
+  EXPECT_EQ(row.limits_exceeded, 0);
+  EXPECT_LE(row.peak_speed_degps, 30.0);
+}
+
 // The E3 rows on the right arm, a subset: the nominal run, a stuck load cell on the elbow's agonist and
 // the supply falling to 0, each at `holding` (1 s after the first posture's release: 8.5 s) and
 // `moving` (the middle of the move to the second posture: 18.75 s). Measured (seed 1): the stuck cell

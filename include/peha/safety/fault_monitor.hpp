@@ -410,6 +410,10 @@ class FaultMonitor {
     double above_fast_Pa = 0;  ///< the pressure above the envelope low-passed with pressure_rise_filter_s (pressure_high)
     bool has_excess = false;
     int rise = 0;
+    /// pressure_low latched on this muscle: its valve or sensor does not follow, so a pressure it keeps
+    /// while the commands fall past it (a stuck-closed valve under the governor's bleed) is the same
+    /// fault, not a valve that fills (pressure_high is not judged; force_ceiling still is).
+    bool not_following = false;
   };
   struct JointState {
     std::array<MuscleState, 2> muscle{};
