@@ -75,6 +75,12 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 2000});
   p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 1});
   p.loadcell_step_noise_filter_s = m.number_or("loadcell_step_noise_filter_s", p.loadcell_step_noise_filter_s, {0.0005, 0.02});
+  p.loadcell_drift_N = m.number_or("loadcell_drift_N", p.loadcell_drift_N, {20, 500});
+  p.loadcell_drift_filter_s = m.number_or("loadcell_drift_filter_s", p.loadcell_drift_filter_s, {0.01, 5});
+  p.loadcell_drift_settle_s = m.number_or("loadcell_drift_settle_s", p.loadcell_drift_settle_s, {0, 10});
+  p.loadcell_drift_still_radps = deg_to_rad(m.number_or("loadcell_drift_still_degps", rad_to_deg(p.loadcell_drift_still_radps), {0.1, 10}));
+  p.loadcell_drift_leak_N_per_s = m.number_or("loadcell_drift_leak_N_per_s", p.loadcell_drift_leak_N_per_s, {0, 5});
+  p.loadcell_drift_max_rate_N_per_s = m.number_or("loadcell_drift_max_rate_N_per_s", p.loadcell_drift_max_rate_N_per_s, {5, 200});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
   p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 0.3}) * 1e6;
   p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 0.3}) * 1e6;
@@ -141,6 +147,8 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
   pp.step_fast_alpha = alpha(p.loadcell_step_noise_filter_s);
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
+  pp.drift_alpha = alpha(p.loadcell_drift_filter_s);
+  pp.drift_slow_alpha = alpha(4.0 * p.loadcell_drift_filter_s);
   // Windows in samples (no cap at kMaxDelay: they count samples, they are no delay line).
   auto samples = [&](double s) { return static_cast<int>(std::lround(s / period_s)); };
   pp.zero_cycles = std::max(p.confirm_cycles, samples(p.loadcell_zero_confirm_s));
@@ -170,7 +178,7 @@ void FaultMonitor::clear() noexcept {
   synced_ = false;
   for (auto& j : joints_) {
     for (auto& m : j.muscle) {
-      m.taut = m.has_level = m.not_following = false;
+      m.taut = m.has_level = m.has_drift = m.not_following = false;
       m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = m.over_ceiling = 0;
     }
     j.same_angle = 0;
@@ -200,6 +208,7 @@ struct FaultMonitor::MuscleSample {
   bool arming = false;  ///< the outputs have followed for tension_arm_s: a taut wire arms its slack checks
   bool carried = false;  ///< the joint's start-up is over (FaultMonitor::carried)
   double followed_s = -1;  ///< how long the outputs have followed (< 0: they do not)
+  double still_s = 0;      ///< how long the joint has been still (JointState::still_s)
 };
 
 void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
@@ -283,6 +292,7 @@ void FaultMonitor::check_encoder(int j, const io::JointSensors& in, double t_s, 
     if (measured) {
       const double a = 1.0 - std::exp(-dt_s * 2.0 * 3.14159265358979323846 * p.speed_filter_Hz);
       js.filtered_speed_radps += a * (js.speed_radps - js.filtered_speed_radps);
+      js.still_s = std::abs(js.filtered_speed_radps) < p.loadcell_drift_still_radps ? js.still_s + dt_s : 0.0;
       check_speed(j, js);
     }
     check_frozen(j, step_rad, dt_s, t_s, js);
@@ -407,6 +417,7 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
   x.arming = followed_s >= p.tension_arm_s;
   x.carried = js.carried;
   x.followed_s = followed_s;
+  x.still_s = js.still_s;
   return x;
 }
 
@@ -421,6 +432,7 @@ bool FaultMonitor::check_muscle(const MuscleSample& x, MuscleState& ms) noexcept
   check_tension_floor(x, ms);
   check_startup(x, ms);
   check_load_cell_step(x, ms);
+  check_load_cell_drift(x, ms);
   return check_valve(x, ms);
 }
 
@@ -525,6 +537,38 @@ void FaultMonitor::check_load_cell_step(const MuscleSample& x, MuscleState& ms) 
   ms.step = std::abs(jump_N) > params_.loadcell_step_N ? ms.step + 1 : 0;
   if (ms.step >= params_.confirm_cycles) raise(kFaultLoadcellStep, x.joint, x.muscle, jump_N, params_.loadcell_step_N);
   ms.disagreement_level_N += per_period_.step_alpha * jump_N;
+}
+
+/// Drift (issue 29): a cell's zero that creeps, tens of N per second - the step check's level follows
+/// it, the disagreement tolerance hides it for tens of seconds, and the force trim follows the cell,
+/// so the real force leaves the wanted one until the joint falls. Only the disagreement's changes
+/// while the joint has been still for the settle time count (the model's error moves with the
+/// operating point, and the muscle relaxes after it stops), summed across still spans both ways.
+void FaultMonitor::check_load_cell_drift(const MuscleSample& x, MuscleState& ms) noexcept {
+  const MonitorParams& p = params_;
+  const double disagreement_N = x.cell_N - x.model_N;
+  if (!ms.has_drift || !x.carried || !ms.taut) {
+    ms.drift_fast_N = ms.drift_last_N = disagreement_N;
+    ms.drift_model_fast_N = ms.drift_model_slow_N = x.model_N;
+    ms.drift_up_N = ms.drift_down_N = 0;
+    ms.has_drift = x.carried && ms.taut;
+    return;
+  }
+  ms.drift_fast_N += per_period_.drift_alpha * (disagreement_N - ms.drift_fast_N);
+  ms.drift_model_fast_N += per_period_.drift_alpha * (x.model_N - ms.drift_model_fast_N);
+  ms.drift_model_slow_N += per_period_.drift_slow_alpha * (x.model_N - ms.drift_model_slow_N);
+  const bool force_holds =
+      std::abs(ms.drift_model_fast_N - ms.drift_model_slow_N) <= p.loadcell_drift_max_rate_N_per_s * 3.0 * p.loadcell_drift_filter_s;
+  if (x.still_s >= p.loadcell_drift_settle_s && force_holds) {
+    const double change_N = ms.drift_fast_N - ms.drift_last_N;
+    const double leak_N = p.loadcell_drift_leak_N_per_s * period_s_;
+    ms.drift_up_N = std::max(0.0, ms.drift_up_N + change_N - leak_N);
+    ms.drift_down_N = std::max(0.0, ms.drift_down_N - change_N - leak_N);
+  }
+  ms.drift_last_N = ms.drift_fast_N;  // moving, settling or a force that moves: the change is not counted
+  const double drift_N = ms.drift_up_N >= ms.drift_down_N ? ms.drift_up_N : -ms.drift_down_N;
+  observe(kFaultLoadcellDrift, std::abs(drift_N) / p.loadcell_drift_N);
+  if (std::abs(drift_N) > p.loadcell_drift_N) raise(kFaultLoadcellDrift, x.joint, x.muscle, drift_N, p.loadcell_drift_N);
 }
 
 /// Valve: the pressure sensor against what the valve makes of the commands sent (sent() writes them

@@ -242,6 +242,33 @@ TEST(FaultMonitor, ALoadCellStepIsRaisedButASlowDriftIsNot) {
   EXPECT_FALSE(flags_after_a_cell_moves(60.0, 0.0) & safety::kFaultLoadcellStep);  // below the 100 N step
 }
 
+/// When loadcell_drift latches (NaN: never in 20 s) for a still, taut E1 joint at constant pressure whose
+/// agonist cell creeps `drift_N_per_s` from 1.5 s, after a relaxation of `relax_N` (time constant 1 s).
+double drift_latched_s(double drift_N_per_s, double relax_N, std::uint32_t unchecked = 0) {
+  safety::CheckOverrides o;
+  o.unchecked = unchecked;
+  safety::FaultMonitor monitor(safety::MonitorParams{}, 1e-3, o);
+  feed_at_constant_pressure(monitor, 20000, [&](int k, double noise_N) {
+    const double t_s = std::max(0.0, 1e-3 * k - 1.5);
+    return std::array<double, 2>{300.0 + relax_N * (1.0 - std::exp(-t_s)) + drift_N_per_s * t_s + noise_N, 60.0 + noise_N};
+  });
+  return monitor.flags() & safety::kFaultLoadcellDrift ? monitor.first().time_s : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Issue 29: a cell whose zero creeps 10 N/s while its joint is still is raised (loadcell_drift,
+// descend) once the still samples' change passes 80 N: 80 / (10 - 0.5 leak) N/s after the 0.5 s
+// settle and the 0.5 s filter, about 10 s; a muscle that relaxes 40 N after it stops (the arm's
+// relax 30-55 N) is not; with the check off the drift is not raised at all.
+TEST(FaultMonitor, ALoadCellZeroThatCreepsIsRaisedButARelaxingMuscleIsNot) {
+  const double latched_s = drift_latched_s(10.0, 0.0);
+  EXPECT_GE(latched_s, 1.5 + 8.0);
+  EXPECT_LE(latched_s, 1.5 + 11.0);
+  EXPECT_EQ(safety::safe_action(safety::kFaultLoadcellDrift), safety::SafeAction::kDescend);
+  EXPECT_TRUE(std::isnan(drift_latched_s(0.0, 40.0)));
+  EXPECT_TRUE(std::isnan(drift_latched_s(0.0, -40.0)));
+  EXPECT_TRUE(std::isnan(drift_latched_s(10.0, 0.0, safety::kFaultLoadcellDrift)));
+}
+
 /// A monitor with the default parameters (stage on) on E1's joint, both muscles at 0.1 MPa.
 struct MonitoredE1 {
   safety::FaultMonitor monitor{[] {
@@ -468,12 +495,12 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
 }
 
 // A joint running away (here: a +400 N load-cell bias that the controller's force trim turns into a
-// falling link, with the load-cell step check off so that only the speed sees it) is caught by its
+// falling link, with the load-cell step and drift checks off so that only the speed sees it) is caught by its
 // speed (90 deg/s) and descends instead of holding: no limit exceeded. With the old 229 deg/s
 // threshold and hold, the link reached the stop (1 limit).
 TEST(Descend, ARunawayCaughtByItsSpeedIsBrakedInsideTheRange) {
   experiments::E1Scenario s = e1();
-  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStep;
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStep | safety::kFaultLoadcellDrift;
   const experiments::FaultRow r = matrix_row(std::move(s), sim::FaultKind::kLoadcellBias);
   EXPECT_EQ(r.flag, "joint_speed");
   EXPECT_EQ(r.safe_state, "descend");

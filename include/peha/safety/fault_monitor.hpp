@@ -92,8 +92,9 @@ enum FaultFlag : std::uint32_t {
   kFaultEncoderDisagrees = 1u << 21,
   kFaultLoadcellZero = 1u << 22,
   kFaultBoardLimit = 1u << 23,
+  kFaultLoadcellDrift = 1u << 24,
 };
-inline constexpr int kFaultFlagCount = 24;
+inline constexpr int kFaultFlagCount = 25;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -157,6 +158,9 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
     // The board vented a muscle on its own (its force ceiling or its range): the other muscle is
     // what is left to carry the limb, as the governor of a joint beyond its range uses.
     {kFaultBoardLimit, "board_limit", SafeAction::kDescend, ""},
+    // A load cell whose zero creeps: the governor lowers the joint on the pressure model and the
+    // encoder, which do not read the cell.
+    {kFaultLoadcellDrift, "loadcell_drift", SafeAction::kDescend, "loadcell_drift_N"},
 }};
 
 /// The checks that judge the sensors and the hardware alone, whatever the run commands: a run that
@@ -240,6 +244,23 @@ struct MonitorParams {
   /// pressure sensor's noise into force noise (about 17 N per kPa on E1's agonist), and unfiltered
   /// the step reached 1.0-1.3 x its threshold with 3x sensor noise (docs/safety.md "False alarms").
   double loadcell_step_noise_filter_s = 0.003;
+  /// loadcell_drift: a cell's zero that creeps (too slowly for the step check, inside the
+  /// disagreement tolerance for tens of seconds). The disagreement (cell - model), low-passed with
+  /// loadcell_drift_filter_s, is summed over the samples its joint has been still (below
+  /// loadcell_drift_still_radps) for loadcell_drift_settle_s - a muscle relaxes after it stops, and
+  /// its model error moves with the operating point while it moves - in both directions, each sum
+  /// leaking loadcell_drift_leak_N_per_s of stillness (a two-sided CUSUM); either above
+  /// loadcell_drift_N: drift. The sums run across still spans (E1's link is pushed every ~9 s) and
+  /// restart only when the joint is not carried. Nor do samples count while the muscle's force by
+  /// the model moves faster than loadcell_drift_max_rate_N_per_s (the model's error moves with the
+  /// force: E5's clamped ramp at hundreds of N/s tripped it); a creeping zero that the force trim
+  /// follows moves the model force at about its own rate.
+  double loadcell_drift_N = 80.0;
+  double loadcell_drift_max_rate_N_per_s = 30.0;
+  double loadcell_drift_filter_s = 0.5;
+  double loadcell_drift_settle_s = 0.5;
+  double loadcell_drift_still_radps = 0.0175;  ///< 1 deg/s
+  double loadcell_drift_leak_N_per_s = 0.5;
   double tension_floor_fraction = 0.3;        ///< of the joint's pretension: a wire near slack (the verdict judges 0.5)
   /// pressure_high / pressure_low: the pressure beyond the envelope by this. pressure_high (vent)
   /// compares the excess low-passed with pressure_rise_filter_s: unfiltered, 10x sensor noise took it
@@ -410,6 +431,12 @@ class FaultMonitor {
     double above_fast_Pa = 0;  ///< the pressure above the envelope low-passed with pressure_rise_filter_s (pressure_high)
     bool has_excess = false;
     int rise = 0;
+    double drift_fast_N = 0, drift_last_N = 0;  ///< the drift check's filtered disagreement and its last counted value
+    double drift_up_N = 0, drift_down_N = 0;    ///< its two sums (CUSUM)
+    /// The model's force low-passed with loadcell_drift_filter_s and with 4 x that: on a ramp of r N/s
+    /// they part by r x 3 x loadcell_drift_filter_s (the rate gate, without a noisy derivative).
+    double drift_model_fast_N = 0, drift_model_slow_N = 0;
+    bool has_drift = false;
     /// pressure_low latched on this muscle: its valve or sensor does not follow, so a pressure it keeps
     /// while the commands fall past it (a stuck-closed valve under the governor's bleed) is the same
     /// fault, not a valve that fills (pressure_high is not judged; force_ceiling still is).
@@ -419,6 +446,7 @@ class FaultMonitor {
     std::array<MuscleState, 2> muscle{};
     double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
     double filtered_speed_radps = 0;
+    double still_s = 0;  ///< how long the filtered speed has stayed below loadcell_drift_still_radps
     double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
     int encoder_apart = 0;  ///< consecutive samples the two encoders disagree
@@ -461,6 +489,7 @@ class FaultMonitor {
   inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_startup(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_load_cell_drift(const MuscleSample& x, MuscleState& ms) noexcept;
   inline bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;
   inline void check_low_pressures(int low_muscles, int joint_count) noexcept;
@@ -471,7 +500,7 @@ class FaultMonitor {
   /// and the first-order filters' factors per period (derived once, not per sample).
   struct PerPeriod {
     int delay_cycles = 0, slow_delay_cycles = 0;
-    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0;
+    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0, drift_alpha = 0, drift_slow_alpha = 0;
     int zero_cycles = 0;          ///< loadcell_zero_confirm_s (also the never-taut wire's), at least confirm_cycles
     int over_ceiling_cycles = 0;  ///< force_ceiling_window_s, at least 1
   };
