@@ -107,6 +107,10 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
   p.descent_stop_margin_rad = deg_to_rad(m.number_or("descent_stop_margin_deg", rad_to_deg(p.descent_stop_margin_rad), {0.5, 20}));
   p.speed_filter_Hz = m.number_or("speed_filter_Hz", p.speed_filter_Hz, {0.5, 200});
+  // A runaway is judged above the descent speed and below a fall's (the speed check's 90 deg/s on E1).
+  p.descent_runaway_speed_radps =
+      deg_to_rad(m.number_or("descent_runaway_speed_degps", rad_to_deg(p.descent_runaway_speed_radps), {2.0 * rad_to_deg(p.descent_speed_radps), 90}));
+  p.descent_runaway_window_s = m.number_or("descent_runaway_window_s", p.descent_runaway_window_s, {0.02, 1});
   m.finish();
 }
 
@@ -153,6 +157,7 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   auto samples = [&](double s) { return static_cast<int>(std::lround(s / period_s)); };
   pp.zero_cycles = std::max(p.confirm_cycles, samples(p.loadcell_zero_confirm_s));
   pp.over_ceiling_cycles = std::max(1, samples(p.force_ceiling_window_s));
+  pp.runaway_cycles = std::max(1, samples(p.descent_runaway_window_s));
   return pp;
 }
 
@@ -181,7 +186,7 @@ void FaultMonitor::clear() noexcept {
       m.taut = m.has_level = m.has_drift = m.not_following = false;
       m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = m.over_ceiling = 0;
     }
-    j.same_angle = 0;
+    j.same_angle = j.runaway = 0;
     j.supply_low = j.supply_lost = j.motor_off = 0;
     j.motor_sent = 0;
     j.follow_since_s = -1;
@@ -716,6 +721,25 @@ void FaultMonitor::govern(const io::SensorState& s, const std::array<const model
     JointState& js = joints_[ji];
     const DescentSample sample{angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]};
     govern_descent(governor_, *models[ji], held_.joints[ji], sample, js.governor);
+    // A descent that does not slow: moving down (the carrying muscle lets go toward negative angles
+    // when it is the agonist) faster than the runaway speed for its window. The muscle pulling the
+    // joint down is vented; the carrying muscle keeps braking (venting it would drop the limb).
+    const double down_radps = (js.governor.carrying == 0 ? -1.0 : 1.0) * js.filtered_speed_radps;
+    js.runaway = down_radps > params_.descent_runaway_speed_radps ? js.runaway + 1 : 0;
+    if (js.runaway >= per_period_.runaway_cycles && on(kFaultDescentRunaway)) {
+      raise(kFaultDescentRunaway, j, 1 - js.governor.carrying, down_radps, params_.descent_runaway_speed_radps);
+      js.governor.other_vented = true;
+    }
+  }
+}
+
+void FaultMonitor::vent_escalated(io::Command& c) const noexcept {
+  if (action_ != SafeAction::kDescend) return;
+  for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
+    const DescendGovernorData& g = joints_[static_cast<std::size_t>(j)].governor;
+    if (!g.started || !g.other_vented) continue;
+    io::JointCommand& o = c.joints[static_cast<std::size_t>(j)];
+    (g.carrying == 0 ? o.antagonist_pressure_Pa : o.agonist_pressure_Pa) = 0.0;
   }
 }
 

@@ -6,14 +6,17 @@
 #include "peha/experiments/faults/fault_matrix.hpp"
 #include "peha/models/units.hpp"
 #include "peha/safety/fault_monitor.hpp"
+#include "peha/safety/limits.hpp"
 #include "peha/sim/plant_faults.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -267,6 +270,79 @@ TEST(FaultMonitor, ALoadCellZeroThatCreepsIsRaisedButARelaxingMuscleIsNot) {
   EXPECT_TRUE(std::isnan(drift_latched_s(0.0, 40.0)));
   EXPECT_TRUE(std::isnan(drift_latched_s(0.0, -40.0)));
   EXPECT_TRUE(std::isnan(drift_latched_s(10.0, 0.0, safety::kFaultLoadcellDrift)));
+}
+
+/// The last command sent to E1's antagonist (after the limits and vent_escalated) and the flags, when
+/// the link, held at 0.5 rad, drops one sample at 115 deg/s at 1.5 s (joint_speed: descend) and then
+/// keeps descending at `down_degps` for 1 s whatever the governor commands. The pressures follow
+/// the commands through the monitor's own valve model (dead time, rate, lag), so no pressure check trips.
+std::pair<std::uint32_t, double> after_a_descent_at(double down_degps, std::uint32_t unchecked = 0) {
+  safety::MonitorParams p;
+  safety::CheckOverrides o;
+  o.unchecked = unchecked;
+  safety::FaultMonitor monitor(p, 1e-3, o);
+  E1JointView view;
+  io::SensorState& s = view.state;
+  safety::LimitsModel limits = view.scenario.limits;
+  safety::LimitsData data;
+  safety::JointModels models{};
+  models[0] = &view.scenario.controller.joint;
+  io::Command sent;
+  sent.joint_count = 1;
+  std::array<std::array<double, 8>, 2> line{};  // the valve's dead time (5 cycles)
+  std::array<double, 2> setpoint_Pa{0.3e6, 0.1e6}, pressure_Pa = setpoint_Pa;
+  line[0].fill(0.3e6);
+  line[1].fill(0.1e6);
+  double angle_rad = 0.5;
+  for (int k = 0; k < 2500; ++k) {
+    s.time_s = 1e-3 * k;
+    if (k == 1500) angle_rad -= models::deg_to_rad(115.0) * 1e-3;
+    if (k > 1500) angle_rad -= models::deg_to_rad(down_degps) * 1e-3;
+    s.joints[0].angle_rad = angle_rad;
+    s.joints[0].agonist_pressure_Pa = pressure_Pa[0];
+    s.joints[0].antagonist_pressure_Pa = pressure_Pa[1];
+    s.joints[0].agonist_loadcell_N = 300.0 + 0.01 * (k % 7);
+    s.joints[0].antagonist_loadcell_N = 60.0 + 0.01 * (k % 7);
+    view.check(monitor, true);
+    sent.joints[0].agonist_pressure_Pa = 0.3e6;  // the controller's (replaced by the governor's under descend)
+    sent.joints[0].antagonist_pressure_Pa = 0.1e6;
+    sent.joints[0].motor_torque_Nm = 0.0;
+    monitor.shape(sent);
+    safety::apply_limits(limits, models, data, s, sent);
+    monitor.vent_escalated(sent);
+    monitor.sent(sent);
+    const double command_Pa[2] = {sent.joints[0].agonist_pressure_Pa, sent.joints[0].antagonist_pressure_Pa};
+    for (int m = 0; m < 2; ++m) {  // the monitor's valve model: dead time, rate limit, first-order lag
+      auto& l = line[static_cast<std::size_t>(m)];
+      std::rotate(l.rbegin(), l.rbegin() + 1, l.rend());
+      l[0] = command_Pa[m];
+      const double delayed_Pa = l[static_cast<std::size_t>(std::lround(p.valve_dead_time_s / 1e-3))];
+      const double step_Pa = p.valve_rate_Pa_per_s * 1e-3;
+      auto& sp = setpoint_Pa[static_cast<std::size_t>(m)];
+      sp += std::clamp(delayed_Pa - sp, -step_Pa, step_Pa);
+      pressure_Pa[static_cast<std::size_t>(m)] += (1.0 - std::exp(-1e-3 / p.valve_lag_s)) * (sp - pressure_Pa[static_cast<std::size_t>(m)]);
+    }
+  }
+  return {monitor.flags(), sent.joints[0].antagonist_pressure_Pa};
+}
+
+// Issue 29: a descent the governor cannot slow (the link keeps falling at 45 deg/s whatever the
+// agonist is asked for) escalates after descent_runaway_window_s: descent_runaway vents the muscle
+// that pulls the link down (the antagonist, 0 Pa below the limits' pretension floor); the carrying
+// agonist is never vented. A descent at 20 deg/s (below 30) is the governor's to slow: nothing
+// escalates. With the check off the runaway keeps the antagonist pulling.
+TEST(Descend, ARunawayTheGovernorCannotSlowVentsTheMusclePullingDown) {
+  const auto [flags, antagonist_Pa] = after_a_descent_at(45.0);
+  EXPECT_TRUE(flags & safety::kFaultJointSpeed);
+  EXPECT_TRUE(flags & safety::kFaultDescentRunaway);
+  EXPECT_EQ(antagonist_Pa, 0.0);
+  EXPECT_FALSE(flags & (safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss));
+  const auto [slow_flags, slow_antagonist_Pa] = after_a_descent_at(20.0);
+  EXPECT_FALSE(slow_flags & safety::kFaultDescentRunaway);
+  EXPECT_GT(slow_antagonist_Pa, 0.0);
+  const auto [off_flags, off_antagonist_Pa] = after_a_descent_at(45.0, safety::kFaultDescentRunaway);
+  EXPECT_FALSE(off_flags & safety::kFaultDescentRunaway);
+  EXPECT_GT(off_antagonist_Pa, 0.0);
 }
 
 /// A monitor with the default parameters (stage on) on E1's joint, both muscles at 0.1 MPa.

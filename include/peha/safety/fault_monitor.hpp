@@ -93,8 +93,9 @@ enum FaultFlag : std::uint32_t {
   kFaultLoadcellZero = 1u << 22,
   kFaultBoardLimit = 1u << 23,
   kFaultLoadcellDrift = 1u << 24,
+  kFaultDescentRunaway = 1u << 25,
 };
-inline constexpr int kFaultFlagCount = 25;
+inline constexpr int kFaultFlagCount = 26;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -161,6 +162,10 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
     // A load cell whose zero creeps: the governor lowers the joint on the pressure model and the
     // encoder, which do not read the cell.
     {kFaultLoadcellDrift, "loadcell_drift", SafeAction::kDescend, "loadcell_drift_N"},
+    // Descending, the joint keeps running down faster than the governor allows: the carrying muscle
+    // cannot brake it, so the muscle that pulls the joint down is vented (the carrying one never is:
+    // that would drop the limb); the governor and the motor keep braking.
+    {kFaultDescentRunaway, "descent_runaway", SafeAction::kDescend, "descent_runaway_speed_radps"},
 }};
 
 /// The checks that judge the sensors and the hardware alone, whatever the run commands: a run that
@@ -313,6 +318,11 @@ struct MonitorParams {
   double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
   double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
   double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
+  /// Descending, the joint moving down (toward the end the carrying muscle lets it go to) faster than
+  /// this for descent_runaway_window_s does not slow: descent_runaway vents the muscle that pulls it
+  /// down. The window: longer than an operator's brisk push down during a descent (E1: 0.11 s above 30 deg/s).
+  double descent_runaway_speed_radps = 0.5236;  ///< 30 deg/s
+  double descent_runaway_window_s = 0.3;
   std::array<bool, io::kMaxJoints> tension_checked = all_joints(true);  ///< per joint
   /// Per joint: the descend safe state governs it (false: it keeps the pressures held at the fault -
   /// a constant-pressure joint such as the arm's wrist, whose held pressures are its design; governed,
@@ -370,6 +380,9 @@ class FaultMonitor {
   /// The safe state's command (hold: the last command before the fault, motor off; descend: the
   /// governor's, computed on the newest sample by check_sample). Leaves `c` alone otherwise.
   void shape(io::Command& c) const noexcept;
+  /// After the limits (whose pressure floor keeps every wire's pretension): the muscles
+  /// descent_runaway vents, at 0 Pa. Leaves every other value alone.
+  void vent_escalated(io::Command& c) const noexcept;
 
   SafeAction action() const noexcept { return action_; }
   std::uint32_t flags() const noexcept { return flags_; }  ///< every latched FaultFlag
@@ -450,6 +463,7 @@ class FaultMonitor {
     double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
     int encoder_apart = 0;  ///< consecutive samples the two encoders disagree
+    int runaway = 0;        ///< consecutive descending samples faster than descent_runaway_speed_radps
     int supply_low = 0, supply_lost = 0, motor_off = 0;  ///< consecutive samples failing the supply and motor checks
     /// The motor torque of the commands sent while the outputs followed, a ring of the last
     /// kMotorWindow (newest at motor_head; motor_sent counts them, up to kMotorWindow).
@@ -502,6 +516,7 @@ class FaultMonitor {
     int delay_cycles = 0, slow_delay_cycles = 0;
     double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0, drift_alpha = 0, drift_slow_alpha = 0;
     int zero_cycles = 0;          ///< loadcell_zero_confirm_s (also the never-taut wire's), at least confirm_cycles
+    int runaway_cycles = 0;       ///< descent_runaway_window_s, at least 1
     int over_ceiling_cycles = 0;  ///< force_ceiling_window_s, at least 1
   };
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;
