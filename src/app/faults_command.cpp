@@ -131,7 +131,7 @@ int faults(const FaultsOptions& options) {
       std::fflush(stdout);
     };
     const auto rows = arm ? experiments::run_fault_matrix(*e3, m, print_row) : experiments::run_fault_matrix(*e1, m, print_row);
-    experiments::write_fault_matrix(dir, rows, doc.name(), m.after_fault_s);
+    experiments::write_fault_matrix(dir, rows, doc.name(), m.after_fault_s, m.slow_after_fault_s);
     std::size_t missed = 0, slow = 0, exceeded = 0, forbidden = 0, false_alarm = 0;
     for (const auto& r : rows) {
       if (r.fault == "none") {

@@ -75,6 +75,12 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_step_N = m.number_or("loadcell_step_N", p.loadcell_step_N, {1, 2000});
   p.loadcell_step_filter_s = m.number_or("loadcell_step_filter_s", p.loadcell_step_filter_s, {0.002, 1});
   p.loadcell_step_noise_filter_s = m.number_or("loadcell_step_noise_filter_s", p.loadcell_step_noise_filter_s, {0.0005, 0.02});
+  p.loadcell_drift_N = m.number_or("loadcell_drift_N", p.loadcell_drift_N, {20, 500});
+  p.loadcell_drift_filter_s = m.number_or("loadcell_drift_filter_s", p.loadcell_drift_filter_s, {0.01, 5});
+  p.loadcell_drift_settle_s = m.number_or("loadcell_drift_settle_s", p.loadcell_drift_settle_s, {0, 10});
+  p.loadcell_drift_still_radps = deg_to_rad(m.number_or("loadcell_drift_still_degps", rad_to_deg(p.loadcell_drift_still_radps), {0.1, 10}));
+  p.loadcell_drift_leak_N_per_s = m.number_or("loadcell_drift_leak_N_per_s", p.loadcell_drift_leak_N_per_s, {0, 5});
+  p.loadcell_drift_max_rate_N_per_s = m.number_or("loadcell_drift_max_rate_N_per_s", p.loadcell_drift_max_rate_N_per_s, {5, 200});
   p.tension_floor_fraction = m.number_or("tension_floor_fraction", p.tension_floor_fraction, {0, 1});
   p.pressure_tolerance_Pa = m.number_or("pressure_tolerance_MPa", p.pressure_tolerance_Pa * 1e-6, {0.001, 0.3}) * 1e6;
   p.pressure_rise_Pa = m.number_or("pressure_rise_MPa", p.pressure_rise_Pa * 1e-6, {0.001, 0.3}) * 1e6;
@@ -101,6 +107,10 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
   p.descent_stop_margin_rad = deg_to_rad(m.number_or("descent_stop_margin_deg", rad_to_deg(p.descent_stop_margin_rad), {0.5, 20}));
   p.speed_filter_Hz = m.number_or("speed_filter_Hz", p.speed_filter_Hz, {0.5, 200});
+  // A runaway is judged above the descent speed and below a fall's (the speed check's 90 deg/s on E1).
+  p.descent_runaway_speed_radps =
+      deg_to_rad(m.number_or("descent_runaway_speed_degps", rad_to_deg(p.descent_runaway_speed_radps), {2.0 * rad_to_deg(p.descent_speed_radps), 90}));
+  p.descent_runaway_window_s = m.number_or("descent_runaway_window_s", p.descent_runaway_window_s, {0.02, 1});
   m.finish();
 }
 
@@ -141,10 +151,13 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
   pp.step_fast_alpha = alpha(p.loadcell_step_noise_filter_s);
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
+  pp.drift_alpha = alpha(p.loadcell_drift_filter_s);
+  pp.drift_slow_alpha = alpha(4.0 * p.loadcell_drift_filter_s);
   // Windows in samples (no cap at kMaxDelay: they count samples, they are no delay line).
   auto samples = [&](double s) { return static_cast<int>(std::lround(s / period_s)); };
   pp.zero_cycles = std::max(p.confirm_cycles, samples(p.loadcell_zero_confirm_s));
   pp.over_ceiling_cycles = std::max(1, samples(p.force_ceiling_window_s));
+  pp.runaway_cycles = std::max(1, samples(p.descent_runaway_window_s));
   return pp;
 }
 
@@ -170,10 +183,10 @@ void FaultMonitor::clear() noexcept {
   synced_ = false;
   for (auto& j : joints_) {
     for (auto& m : j.muscle) {
-      m.taut = m.has_level = false;
+      m.taut = m.has_level = m.has_drift = m.not_following = false;
       m.disconnected = m.saturated = m.disagree = m.low_tension = m.pressure_low = m.pressure_high = m.same_loadcell = m.step = m.zero_off = m.never_taut = m.over_ceiling = 0;
     }
-    j.same_angle = 0;
+    j.same_angle = j.runaway = 0;
     j.supply_low = j.supply_lost = j.motor_off = 0;
     j.motor_sent = 0;
     j.follow_since_s = -1;
@@ -200,6 +213,7 @@ struct FaultMonitor::MuscleSample {
   bool arming = false;  ///< the outputs have followed for tension_arm_s: a taut wire arms its slack checks
   bool carried = false;  ///< the joint's start-up is over (FaultMonitor::carried)
   double followed_s = -1;  ///< how long the outputs have followed (< 0: they do not)
+  double still_s = 0;      ///< how long the joint has been still (JointState::still_s)
 };
 
 void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const models::JointModel*, io::kMaxJoints>& models,
@@ -283,6 +297,7 @@ void FaultMonitor::check_encoder(int j, const io::JointSensors& in, double t_s, 
     if (measured) {
       const double a = 1.0 - std::exp(-dt_s * 2.0 * 3.14159265358979323846 * p.speed_filter_Hz);
       js.filtered_speed_radps += a * (js.speed_radps - js.filtered_speed_radps);
+      js.still_s = std::abs(js.filtered_speed_radps) < p.loadcell_drift_still_radps ? js.still_s + dt_s : 0.0;
       check_speed(j, js);
     }
     check_frozen(j, step_rad, dt_s, t_s, js);
@@ -407,6 +422,7 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
   x.arming = followed_s >= p.tension_arm_s;
   x.carried = js.carried;
   x.followed_s = followed_s;
+  x.still_s = js.still_s;
   return x;
 }
 
@@ -421,6 +437,7 @@ bool FaultMonitor::check_muscle(const MuscleSample& x, MuscleState& ms) noexcept
   check_tension_floor(x, ms);
   check_startup(x, ms);
   check_load_cell_step(x, ms);
+  check_load_cell_drift(x, ms);
   return check_valve(x, ms);
 }
 
@@ -527,6 +544,38 @@ void FaultMonitor::check_load_cell_step(const MuscleSample& x, MuscleState& ms) 
   ms.disagreement_level_N += per_period_.step_alpha * jump_N;
 }
 
+/// Drift (issue 29): a cell's zero that creeps, tens of N per second - the step check's level follows
+/// it, the disagreement tolerance hides it for tens of seconds, and the force trim follows the cell,
+/// so the real force leaves the wanted one until the joint falls. Only the disagreement's changes
+/// while the joint has been still for the settle time count (the model's error moves with the
+/// operating point, and the muscle relaxes after it stops), summed across still spans both ways.
+void FaultMonitor::check_load_cell_drift(const MuscleSample& x, MuscleState& ms) noexcept {
+  const MonitorParams& p = params_;
+  const double disagreement_N = x.cell_N - x.model_N;
+  if (!ms.has_drift || !x.carried || !ms.taut) {
+    ms.drift_fast_N = ms.drift_last_N = disagreement_N;
+    ms.drift_model_fast_N = ms.drift_model_slow_N = x.model_N;
+    ms.drift_up_N = ms.drift_down_N = 0;
+    ms.has_drift = x.carried && ms.taut;
+    return;
+  }
+  ms.drift_fast_N += per_period_.drift_alpha * (disagreement_N - ms.drift_fast_N);
+  ms.drift_model_fast_N += per_period_.drift_alpha * (x.model_N - ms.drift_model_fast_N);
+  ms.drift_model_slow_N += per_period_.drift_slow_alpha * (x.model_N - ms.drift_model_slow_N);
+  const bool force_holds =
+      std::abs(ms.drift_model_fast_N - ms.drift_model_slow_N) <= p.loadcell_drift_max_rate_N_per_s * 3.0 * p.loadcell_drift_filter_s;
+  if (x.still_s >= p.loadcell_drift_settle_s && force_holds) {
+    const double change_N = ms.drift_fast_N - ms.drift_last_N;
+    const double leak_N = p.loadcell_drift_leak_N_per_s * period_s_;
+    ms.drift_up_N = std::max(0.0, ms.drift_up_N + change_N - leak_N);
+    ms.drift_down_N = std::max(0.0, ms.drift_down_N - change_N - leak_N);
+  }
+  ms.drift_last_N = ms.drift_fast_N;  // moving, settling or a force that moves: the change is not counted
+  const double drift_N = ms.drift_up_N >= ms.drift_down_N ? ms.drift_up_N : -ms.drift_down_N;
+  observe(kFaultLoadcellDrift, std::abs(drift_N) / p.loadcell_drift_N);
+  if (std::abs(drift_N) > p.loadcell_drift_N) raise(kFaultLoadcellDrift, x.joint, x.muscle, drift_N, p.loadcell_drift_N);
+}
+
 /// Valve: the pressure sensor against what the valve makes of the commands sent (sent() writes them
 /// into the delay line): above supply, above or below the envelope of the modelled and the slow valve.
 /// True when the pressure has stayed below the envelope for confirm_cycles.
@@ -561,7 +610,7 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   ms.above_fast_Pa += pp.rise_alpha * (above - ms.above_fast_Pa);
   observe(kFaultPressureHigh, ms.above_fast_Pa / p.pressure_tolerance_Pa);
   observe(kFaultPressureLow, -below / p.pressure_tolerance_Pa);
-  ms.pressure_high = ms.above_fast_Pa > p.pressure_tolerance_Pa ? ms.pressure_high + 1 : 0;
+  ms.pressure_high = ms.above_fast_Pa > p.pressure_tolerance_Pa && !ms.not_following ? ms.pressure_high + 1 : 0;
   ms.pressure_low = below < -p.pressure_tolerance_Pa ? ms.pressure_low + 1 : 0;
   if (ms.pressure_high >= p.confirm_cycles) raise(kFaultPressureHigh, x.joint, x.muscle, ms.above_fast_Pa, p.pressure_tolerance_Pa);
   check_pressure_rise(x, above, ms);
@@ -608,7 +657,9 @@ void FaultMonitor::check_low_pressures(int low_muscles, int joint_count) noexcep
   for (int j = 0; j < joint_count && j < io::kMaxJoints; ++j) {
     for (int m = 0; m < 2; ++m) {
       const MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
-      if (ms.pressure_low >= params_.confirm_cycles) raise(kFaultPressureLow, j, m, ms.predicted_Pa, params_.pressure_tolerance_Pa);
+      if (ms.pressure_low < params_.confirm_cycles) continue;
+      raise(kFaultPressureLow, j, m, ms.predicted_Pa, params_.pressure_tolerance_Pa);
+      if (flags_ & kFaultPressureLow) joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)].not_following = true;
     }
   }
 }
@@ -670,6 +721,25 @@ void FaultMonitor::govern(const io::SensorState& s, const std::array<const model
     JointState& js = joints_[ji];
     const DescentSample sample{angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]};
     govern_descent(governor_, *models[ji], held_.joints[ji], sample, js.governor);
+    // A descent that does not slow: moving down (the carrying muscle lets go toward negative angles
+    // when it is the agonist) faster than the runaway speed for its window. The muscle pulling the
+    // joint down is vented; the carrying muscle keeps braking (venting it would drop the limb).
+    const double down_radps = (js.governor.carrying == 0 ? -1.0 : 1.0) * js.filtered_speed_radps;
+    js.runaway = down_radps > params_.descent_runaway_speed_radps ? js.runaway + 1 : 0;
+    if (js.runaway >= per_period_.runaway_cycles && on(kFaultDescentRunaway)) {
+      raise(kFaultDescentRunaway, j, 1 - js.governor.carrying, down_radps, params_.descent_runaway_speed_radps);
+      js.governor.other_vented = true;
+    }
+  }
+}
+
+void FaultMonitor::vent_escalated(io::Command& c) const noexcept {
+  if (action_ != SafeAction::kDescend) return;
+  for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
+    const DescendGovernorData& g = joints_[static_cast<std::size_t>(j)].governor;
+    if (!g.started || !g.other_vented) continue;
+    io::JointCommand& o = c.joints[static_cast<std::size_t>(j)];
+    (g.carrying == 0 ? o.antagonist_pressure_Pa : o.agonist_pressure_Pa) = 0.0;
   }
 }
 

@@ -2,6 +2,7 @@
 // cell and a NaN from the controller while holding; E3's on the right arm's elbow. The rows report what the monitor did, measured
 // from the log: the flag, the cycles to it, and the plant's figures after the fault.
 #include "peha/experiments/faults/fault_matrix.hpp"
+#include "peha/safety/fault_monitor.hpp"
 
 #include <gtest/gtest.h>
 
@@ -76,6 +77,48 @@ TEST(FaultMatrix, ADoubleFaultIsARowAndPhysicsForbidsIsNamed) {
   EXPECT_NE(pair.physics_forbids.find("stuck valve"), std::string::npos) << pair.physics_forbids;
   o.kinds = {sim::FaultKind::kPressureSensorFail};
   EXPECT_EQ(run_fault_matrix(s, o).size(), 2u);  // the pair needs both kinds
+}
+
+// A carrying valve stuck closed during the push (E1 5 kg) keeps the air the finger's help needed:
+// pressure_low, descend. The governor bleeds its command below that air - which a pressure_high
+// judged as a valve filling by itself and vented: the dump valve emptied the muscle and the link
+// fell at 222 deg/s out of its range. Not judged on a muscle that does not follow, the trapped air
+// holds the link (24.5 deg/s at most, the finger's own move) and no limit is exceeded.
+TEST(FaultMatrix, AStuckClosedValveUnderDescendIsNotVentedAsAFillingOne) {
+  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  FaultMatrixOptions o;
+  o.case_name = "payload_5.0kg";
+  o.kinds = {sim::FaultKind::kValveStuckClosed};
+  o.moments = {"push"};
+  const FaultRow row = run_fault_matrix(s, o).at(1);
+  EXPECT_EQ(row.flag, "pressure_low");
+  EXPECT_EQ(row.safe_state, "descend");
+  EXPECT_EQ(row.limits_exceeded, 0);
+  EXPECT_LE(row.peak_speed_degps, 30.0);
+}
+
+// Issue 29: a load cell whose zero creeps 10 N/s from `holding` (E1 2.5 kg) is too slow for the step
+// check and inside the disagreement tolerance; the force trim follows it, the real force leaves the
+// wanted one, and left alone the link leaves its range 14 s later. The drift check sums the
+// disagreement's change while the link is still: caught inside the range (descend), no limit
+// exceeded; with the check off the same row leaves its range.
+TEST(FaultMatrix, ADriftingLoadCellIsCaughtBeforeTheLinkLeavesItsRange) {
+  E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  FaultMatrixOptions o;
+  o.case_name = "payload_2.5kg";
+  o.kinds = {sim::FaultKind::kLoadcellDrift};
+  o.moments = {"holding"};
+  o.after_fault_s = 1.0;  // the slow fault's row runs slow_after_fault_s (20 s) all the same
+  const FaultRow drift = run_fault_matrix(s, o).at(1);
+  EXPECT_EQ(drift.flag, "loadcell_drift");
+  EXPECT_EQ(drift.safe_state, "descend");
+  EXPECT_LE(drift.detection_cycles, 10000.0);  // 10 s: 100 N of drift (6.9 s measured)
+  EXPECT_EQ(drift.limits_exceeded, 0);
+  EXPECT_LT(drift.peak_speed_degps, 90.0);  // governed (the finger's release at 18 s is caught at 60); a fall trips 90
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellDrift;
+  const FaultRow unchecked = run_fault_matrix(s, o).at(1);
+  EXPECT_NE(unchecked.flag, "loadcell_drift");
+  EXPECT_GE(unchecked.limits_exceeded, 1);  // the range
 }
 
 // The E3 rows on the right arm, a subset: the nominal run, a stuck load cell on the elbow's agonist and

@@ -6,14 +6,17 @@
 #include "peha/experiments/faults/fault_matrix.hpp"
 #include "peha/models/units.hpp"
 #include "peha/safety/fault_monitor.hpp"
+#include "peha/safety/limits.hpp"
 #include "peha/sim/plant_faults.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <functional>
 #include <limits>
 #include <set>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -242,6 +245,106 @@ TEST(FaultMonitor, ALoadCellStepIsRaisedButASlowDriftIsNot) {
   EXPECT_FALSE(flags_after_a_cell_moves(60.0, 0.0) & safety::kFaultLoadcellStep);  // below the 100 N step
 }
 
+/// When loadcell_drift latches (NaN: never in 20 s) for a still, taut E1 joint at constant pressure whose
+/// agonist cell creeps `drift_N_per_s` from 1.5 s, after a relaxation of `relax_N` (time constant 1 s).
+double drift_latched_s(double drift_N_per_s, double relax_N, std::uint32_t unchecked = 0) {
+  safety::CheckOverrides o;
+  o.unchecked = unchecked;
+  safety::FaultMonitor monitor(safety::MonitorParams{}, 1e-3, o);
+  feed_at_constant_pressure(monitor, 20000, [&](int k, double noise_N) {
+    const double t_s = std::max(0.0, 1e-3 * k - 1.5);
+    return std::array<double, 2>{300.0 + relax_N * (1.0 - std::exp(-t_s)) + drift_N_per_s * t_s + noise_N, 60.0 + noise_N};
+  });
+  return monitor.flags() & safety::kFaultLoadcellDrift ? monitor.first().time_s : std::numeric_limits<double>::quiet_NaN();
+}
+
+// Issue 29: a cell whose zero creeps 10 N/s while its joint is still is raised (loadcell_drift,
+// descend) once the still samples' change passes 80 N: 80 / (10 - 0.5 leak) N/s after the 0.5 s
+// settle and the 0.5 s filter, about 10 s; a muscle that relaxes 40 N after it stops (the arm's
+// relax 30-55 N) is not; with the check off the drift is not raised at all.
+TEST(FaultMonitor, ALoadCellZeroThatCreepsIsRaisedButARelaxingMuscleIsNot) {
+  const double latched_s = drift_latched_s(10.0, 0.0);
+  EXPECT_GE(latched_s, 1.5 + 8.0);
+  EXPECT_LE(latched_s, 1.5 + 11.0);
+  EXPECT_EQ(safety::safe_action(safety::kFaultLoadcellDrift), safety::SafeAction::kDescend);
+  EXPECT_TRUE(std::isnan(drift_latched_s(0.0, 40.0)));
+  EXPECT_TRUE(std::isnan(drift_latched_s(0.0, -40.0)));
+  EXPECT_TRUE(std::isnan(drift_latched_s(10.0, 0.0, safety::kFaultLoadcellDrift)));
+}
+
+/// The last command sent to E1's antagonist (after the limits and vent_escalated) and the flags, when
+/// the link, held at 0.5 rad, drops one sample at 115 deg/s at 1.5 s (joint_speed: descend) and then
+/// keeps descending at `down_degps` for 1 s whatever the governor commands. The pressures follow
+/// the commands through the monitor's own valve model (dead time, rate, lag), so no pressure check trips.
+std::pair<std::uint32_t, double> after_a_descent_at(double down_degps, std::uint32_t unchecked = 0) {
+  safety::MonitorParams p;
+  safety::CheckOverrides o;
+  o.unchecked = unchecked;
+  safety::FaultMonitor monitor(p, 1e-3, o);
+  E1JointView view;
+  io::SensorState& s = view.state;
+  safety::LimitsModel limits = view.scenario.limits;
+  safety::LimitsData data;
+  safety::JointModels models{};
+  models[0] = &view.scenario.controller.joint;
+  io::Command sent;
+  sent.joint_count = 1;
+  std::array<std::array<double, 8>, 2> line{};  // the valve's dead time (5 cycles)
+  std::array<double, 2> setpoint_Pa{0.3e6, 0.1e6}, pressure_Pa = setpoint_Pa;
+  line[0].fill(0.3e6);
+  line[1].fill(0.1e6);
+  double angle_rad = 0.5;
+  for (int k = 0; k < 2500; ++k) {
+    s.time_s = 1e-3 * k;
+    if (k == 1500) angle_rad -= models::deg_to_rad(115.0) * 1e-3;
+    if (k > 1500) angle_rad -= models::deg_to_rad(down_degps) * 1e-3;
+    s.joints[0].angle_rad = angle_rad;
+    s.joints[0].agonist_pressure_Pa = pressure_Pa[0];
+    s.joints[0].antagonist_pressure_Pa = pressure_Pa[1];
+    s.joints[0].agonist_loadcell_N = 300.0 + 0.01 * (k % 7);
+    s.joints[0].antagonist_loadcell_N = 60.0 + 0.01 * (k % 7);
+    view.check(monitor, true);
+    sent.joints[0].agonist_pressure_Pa = 0.3e6;  // the controller's (replaced by the governor's under descend)
+    sent.joints[0].antagonist_pressure_Pa = 0.1e6;
+    sent.joints[0].motor_torque_Nm = 0.0;
+    monitor.shape(sent);
+    safety::apply_limits(limits, models, data, s, sent);
+    monitor.vent_escalated(sent);
+    monitor.sent(sent);
+    const double command_Pa[2] = {sent.joints[0].agonist_pressure_Pa, sent.joints[0].antagonist_pressure_Pa};
+    for (int m = 0; m < 2; ++m) {  // the monitor's valve model: dead time, rate limit, first-order lag
+      auto& l = line[static_cast<std::size_t>(m)];
+      std::rotate(l.rbegin(), l.rbegin() + 1, l.rend());
+      l[0] = command_Pa[m];
+      const double delayed_Pa = l[static_cast<std::size_t>(std::lround(p.valve_dead_time_s / 1e-3))];
+      const double step_Pa = p.valve_rate_Pa_per_s * 1e-3;
+      auto& sp = setpoint_Pa[static_cast<std::size_t>(m)];
+      sp += std::clamp(delayed_Pa - sp, -step_Pa, step_Pa);
+      pressure_Pa[static_cast<std::size_t>(m)] += (1.0 - std::exp(-1e-3 / p.valve_lag_s)) * (sp - pressure_Pa[static_cast<std::size_t>(m)]);
+    }
+  }
+  return {monitor.flags(), sent.joints[0].antagonist_pressure_Pa};
+}
+
+// Issue 29: a descent the governor cannot slow (the link keeps falling at 45 deg/s whatever the
+// agonist is asked for) escalates after descent_runaway_window_s: descent_runaway vents the muscle
+// that pulls the link down (the antagonist, 0 Pa below the limits' pretension floor); the carrying
+// agonist is never vented. A descent at 20 deg/s (below 30) is the governor's to slow: nothing
+// escalates. With the check off the runaway keeps the antagonist pulling.
+TEST(Descend, ARunawayTheGovernorCannotSlowVentsTheMusclePullingDown) {
+  const auto [flags, antagonist_Pa] = after_a_descent_at(45.0);
+  EXPECT_TRUE(flags & safety::kFaultJointSpeed);
+  EXPECT_TRUE(flags & safety::kFaultDescentRunaway);
+  EXPECT_EQ(antagonist_Pa, 0.0);
+  EXPECT_FALSE(flags & (safety::kFaultPressureHigh | safety::kFaultPressureLow | safety::kFaultSupplyLoss));
+  const auto [slow_flags, slow_antagonist_Pa] = after_a_descent_at(20.0);
+  EXPECT_FALSE(slow_flags & safety::kFaultDescentRunaway);
+  EXPECT_GT(slow_antagonist_Pa, 0.0);
+  const auto [off_flags, off_antagonist_Pa] = after_a_descent_at(45.0, safety::kFaultDescentRunaway);
+  EXPECT_FALSE(off_flags & safety::kFaultDescentRunaway);
+  EXPECT_GT(off_antagonist_Pa, 0.0);
+}
+
 /// A monitor with the default parameters (stage on) on E1's joint, both muscles at 0.1 MPa.
 struct MonitoredE1 {
   safety::FaultMonitor monitor{[] {
@@ -468,12 +571,12 @@ TEST(Descend, LowersTheLinkSlowlyAfterAStuckLoadCellWhereVentingDropsIt) {
 }
 
 // A joint running away (here: a +400 N load-cell bias that the controller's force trim turns into a
-// falling link, with the load-cell step check off so that only the speed sees it) is caught by its
+// falling link, with the load-cell step and drift checks off so that only the speed sees it) is caught by its
 // speed (90 deg/s) and descends instead of holding: no limit exceeded. With the old 229 deg/s
 // threshold and hold, the link reached the stop (1 limit).
 TEST(Descend, ARunawayCaughtByItsSpeedIsBrakedInsideTheRange) {
   experiments::E1Scenario s = e1();
-  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStep;
+  s.limits.test_overrides.unchecked = safety::kFaultLoadcellStep | safety::kFaultLoadcellDrift;
   const experiments::FaultRow r = matrix_row(std::move(s), sim::FaultKind::kLoadcellBias);
   EXPECT_EQ(r.flag, "joint_speed");
   EXPECT_EQ(r.safe_state, "descend");

@@ -46,6 +46,8 @@ struct DescendGovernorData {
   double floor_N = 0, ceiling_N = 0;
   double balance_N = 0;         ///< the carrying force while the joint was last held or descending inside its range (0: not yet)
   double other_force_N = 0;     ///< the other muscle's force, held (>= the pretension)
+  /// descent_runaway: the other muscle (the one pulling the joint down) is vented (FaultMonitor::vent_escalated).
+  bool other_vented = false;
   std::array<double, 2> pressure_Pa{};  ///< the command (agonist, antagonist)
   double motor_Nm = 0;
 };

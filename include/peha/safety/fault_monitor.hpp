@@ -92,8 +92,10 @@ enum FaultFlag : std::uint32_t {
   kFaultEncoderDisagrees = 1u << 21,
   kFaultLoadcellZero = 1u << 22,
   kFaultBoardLimit = 1u << 23,
+  kFaultLoadcellDrift = 1u << 24,
+  kFaultDescentRunaway = 1u << 25,
 };
-inline constexpr int kFaultFlagCount = 24;
+inline constexpr int kFaultFlagCount = 26;
 
 /// The designed safe states, mildest first (a later fault can only make the action stronger).
 enum class SafeAction { kNone = 0, kHold = 1, kDescend = 2, kVent = 3 };
@@ -157,6 +159,13 @@ inline constexpr std::array<CheckInfo, kFaultFlagCount> kChecks = {{
     // The board vented a muscle on its own (its force ceiling or its range): the other muscle is
     // what is left to carry the limb, as the governor of a joint beyond its range uses.
     {kFaultBoardLimit, "board_limit", SafeAction::kDescend, ""},
+    // A load cell whose zero creeps: the governor lowers the joint on the pressure model and the
+    // encoder, which do not read the cell.
+    {kFaultLoadcellDrift, "loadcell_drift", SafeAction::kDescend, "loadcell_drift_N"},
+    // Descending, the joint keeps running down faster than the governor allows: the carrying muscle
+    // cannot brake it, so the muscle that pulls the joint down is vented (the carrying one never is:
+    // that would drop the limb); the governor and the motor keep braking.
+    {kFaultDescentRunaway, "descent_runaway", SafeAction::kDescend, "descent_runaway_speed_radps"},
 }};
 
 /// The checks that judge the sensors and the hardware alone, whatever the run commands: a run that
@@ -240,6 +249,23 @@ struct MonitorParams {
   /// pressure sensor's noise into force noise (about 17 N per kPa on E1's agonist), and unfiltered
   /// the step reached 1.0-1.3 x its threshold with 3x sensor noise (docs/safety.md "False alarms").
   double loadcell_step_noise_filter_s = 0.003;
+  /// loadcell_drift: a cell's zero that creeps (too slowly for the step check, inside the
+  /// disagreement tolerance for tens of seconds). The disagreement (cell - model), low-passed with
+  /// loadcell_drift_filter_s, is summed over the samples its joint has been still (below
+  /// loadcell_drift_still_radps) for loadcell_drift_settle_s - a muscle relaxes after it stops, and
+  /// its model error moves with the operating point while it moves - in both directions, each sum
+  /// leaking loadcell_drift_leak_N_per_s of stillness (a two-sided CUSUM); either above
+  /// loadcell_drift_N: drift. The sums run across still spans (E1's link is pushed every ~9 s) and
+  /// restart only when the joint is not carried. Nor do samples count while the muscle's force by
+  /// the model moves faster than loadcell_drift_max_rate_N_per_s (the model's error moves with the
+  /// force: E5's clamped ramp at hundreds of N/s tripped it); a creeping zero that the force trim
+  /// follows moves the model force at about its own rate.
+  double loadcell_drift_N = 80.0;
+  double loadcell_drift_max_rate_N_per_s = 30.0;
+  double loadcell_drift_filter_s = 0.5;
+  double loadcell_drift_settle_s = 0.5;
+  double loadcell_drift_still_radps = 0.0175;  ///< 1 deg/s
+  double loadcell_drift_leak_N_per_s = 0.5;
   double tension_floor_fraction = 0.3;        ///< of the joint's pretension: a wire near slack (the verdict judges 0.5)
   /// pressure_high / pressure_low: the pressure beyond the envelope by this. pressure_high (vent)
   /// compares the excess low-passed with pressure_rise_filter_s: unfiltered, 10x sensor noise took it
@@ -292,6 +318,11 @@ struct MonitorParams {
   double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
   double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
   double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
+  /// Descending, the joint moving down (toward the end the carrying muscle lets it go to) faster than
+  /// this for descent_runaway_window_s does not slow: descent_runaway vents the muscle that pulls it
+  /// down. The window: longer than an operator's brisk push down during a descent (E1: 0.11 s above 30 deg/s).
+  double descent_runaway_speed_radps = 0.5236;  ///< 30 deg/s
+  double descent_runaway_window_s = 0.3;
   std::array<bool, io::kMaxJoints> tension_checked = all_joints(true);  ///< per joint
   /// Per joint: the descend safe state governs it (false: it keeps the pressures held at the fault -
   /// a constant-pressure joint such as the arm's wrist, whose held pressures are its design; governed,
@@ -349,6 +380,9 @@ class FaultMonitor {
   /// The safe state's command (hold: the last command before the fault, motor off; descend: the
   /// governor's, computed on the newest sample by check_sample). Leaves `c` alone otherwise.
   void shape(io::Command& c) const noexcept;
+  /// After the limits (whose pressure floor keeps every wire's pretension): the muscles
+  /// descent_runaway vents, at 0 Pa. Leaves every other value alone.
+  void vent_escalated(io::Command& c) const noexcept;
 
   SafeAction action() const noexcept { return action_; }
   std::uint32_t flags() const noexcept { return flags_; }  ///< every latched FaultFlag
@@ -410,14 +444,26 @@ class FaultMonitor {
     double above_fast_Pa = 0;  ///< the pressure above the envelope low-passed with pressure_rise_filter_s (pressure_high)
     bool has_excess = false;
     int rise = 0;
+    double drift_fast_N = 0, drift_last_N = 0;  ///< the drift check's filtered disagreement and its last counted value
+    double drift_up_N = 0, drift_down_N = 0;    ///< its two sums (CUSUM)
+    /// The model's force low-passed with loadcell_drift_filter_s and with 4 x that: on a ramp of r N/s
+    /// they part by r x 3 x loadcell_drift_filter_s (the rate gate, without a noisy derivative).
+    double drift_model_fast_N = 0, drift_model_slow_N = 0;
+    bool has_drift = false;
+    /// pressure_low latched on this muscle: its valve or sensor does not follow, so a pressure it keeps
+    /// while the commands fall past it (a stuck-closed valve under the governor's bleed) is the same
+    /// fault, not a valve that fills (pressure_high is not judged; force_ceiling still is).
+    bool not_following = false;
   };
   struct JointState {
     std::array<MuscleState, 2> muscle{};
     double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
     double filtered_speed_radps = 0;
+    double still_s = 0;  ///< how long the filtered speed has stayed below loadcell_drift_still_radps
     double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
     int encoder_apart = 0;  ///< consecutive samples the two encoders disagree
+    int runaway = 0;        ///< consecutive descending samples faster than descent_runaway_speed_radps
     int supply_low = 0, supply_lost = 0, motor_off = 0;  ///< consecutive samples failing the supply and motor checks
     /// The motor torque of the commands sent while the outputs followed, a ring of the last
     /// kMotorWindow (newest at motor_head; motor_sent counts them, up to kMotorWindow).
@@ -457,6 +503,7 @@ class FaultMonitor {
   inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_startup(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_load_cell_step(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline void check_load_cell_drift(const MuscleSample& x, MuscleState& ms) noexcept;
   inline bool check_valve(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_pressure_rise(const MuscleSample& x, double above_Pa, MuscleState& ms) noexcept;
   inline void check_low_pressures(int low_muscles, int joint_count) noexcept;
@@ -467,8 +514,9 @@ class FaultMonitor {
   /// and the first-order filters' factors per period (derived once, not per sample).
   struct PerPeriod {
     int delay_cycles = 0, slow_delay_cycles = 0;
-    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0;
+    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0, drift_alpha = 0, drift_slow_alpha = 0;
     int zero_cycles = 0;          ///< loadcell_zero_confirm_s (also the never-taut wire's), at least confirm_cycles
+    int runaway_cycles = 0;       ///< descent_runaway_window_s, at least 1
     int over_ceiling_cycles = 0;  ///< force_ceiling_window_s, at least 1
   };
   static PerPeriod per_period(const MonitorParams& p, double period_s) noexcept;

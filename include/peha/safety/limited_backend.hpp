@@ -56,6 +56,7 @@ class LimitedBackend final : public io::Backend {
       vented_ = true;
     }
     flags_ = apply_limits(limits_, joints_, data_, last_state_, sent_);
+    monitor_.vent_escalated(sent_);  // below the pretension floor: a runaway's vented muscle
     monitor_.sent(sent_);
     return inner_.write(sent_);
   }

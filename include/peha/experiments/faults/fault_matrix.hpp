@@ -75,9 +75,16 @@ struct FaultRow {
 struct FaultMatrixOptions {
   std::string case_name;         ///< E1 case (default: the first); E3 has none
   double after_fault_s = 5.0;    ///< each run ends this long after its fault
+  /// A slow fault's rows (a drifting load cell alone) end this long after it instead:
+  /// 10 N/s takes seconds to become a force a check can tell from the model's error.
+  double slow_after_fault_s = 20.0;
   std::vector<sim::FaultKind> kinds;  ///< default: every kind
   std::vector<std::string> moments;   ///< default: every moment
 };
+
+/// How long the row of `fault` (a kind's name, or "a+b") runs after the fault: slow_after_fault_s
+/// for a slow kind alone (loadcell_drift), after_fault_s otherwise (a pair: its fast member's).
+double row_after_fault_s(const FaultMatrixOptions& options, const std::string& fault);
 
 /// The reason no safe state can avoid a limit after fault `kind` (a wire break, a valve stuck open,
 /// the e-stop), or empty when a designed safe state must avoid every limit.
@@ -97,8 +104,8 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario scenario, const FaultMatrixOp
                                        const std::function<void(const FaultRow&)>& progress = {});
 
 /// faults.md (table + summary, naming the rows' experiment) and faults.csv in `dir`.
-/// `after_fault_s` as the runs used (FaultMatrixOptions::after_fault_s).
+/// `after_fault_s` and `slow_after_fault_s` as the runs used (FaultMatrixOptions).
 void write_fault_matrix(const std::filesystem::path& dir, const std::vector<FaultRow>& rows, const std::string& scenario_name,
-                        double after_fault_s = 5.0);
+                        double after_fault_s = 5.0, double slow_after_fault_s = 20.0);
 
 }  // namespace peha::experiments
