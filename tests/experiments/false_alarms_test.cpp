@@ -47,6 +47,22 @@ TEST(FalseAlarms, ShortE1RunsTripNoCheckAndKeepTheMargin) {
   EXPECT_GT(stats(r, 1, safety::kFaultPressureRise).max_ratio, stats(r, 0, safety::kFaultPressureRise).max_ratio);
 }
 
+// E4's runs complete: the job once held MuJoCo's loading lock around the door, whose simulated arm
+// takes it again, and the whole tool hung on its first E4 case. Both movements, one seed, x1 noise
+// (a second each): they compared and tripped nothing.
+TEST(FalseAlarms, AnE4CaseRunsBothMovementsToTheirEnd) {
+  FalseAlarmConfig c;
+  c.cases = {{"e4", FalseAlarmRun::kGoniometer, PEHA_SOURCE_DIR "/configs/right_arm.yaml"}};
+  c.noise_scales = {1.0};
+  c.seeds = 1;
+  c.variant_seeds = 0;
+  const FalseAlarmResult r = run_false_alarms(c);
+  ASSERT_EQ(r.rows.size(), 2u);  // slow, brisk
+  for (const FalseAlarmRow& row : r.rows) EXPECT_GT(row.duration_s, 10.0) << row.case_name;
+  EXPECT_GT(stats(r, 0, safety::kFaultLoadcellDisagrees).max_ratio, 0.0);
+  EXPECT_TRUE(r.passed()) << ::testing::PrintToString(r.failures);
+}
+
 // The verdict can fail: a loadcell_step threshold at the noise the pressure model makes of the
 // pressure sensors' (5 N instead of 100) trips on fault-free runs, and the tool reports it as false
 // alarms of that check.

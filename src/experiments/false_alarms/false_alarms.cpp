@@ -93,13 +93,11 @@ std::vector<FalseAlarmRow> run_goniometer_job(const FalseAlarmConfig& config, co
   std::vector<FalseAlarmRow> rows;
   for (std::size_t i = 0; i < g.movements.size(); ++i) {
     const std::vector<GoniometerTrace> traces = synthesize_goniometers(g, g.movements[i], job.seed + i);
-    std::unique_ptr<hardware::Hardware> hw;
-    {
-      const std::lock_guard lock(mujoco_load_mutex());
-      hw = std::make_unique<hardware::Hardware>(
-          hardware::open_backend(hardware::BackendUri{}, goniometer_hardware(scenario, goniometer_plant_params(scenario, traces))));
-    }
-    const GoniometerResult r = run_goniometer(scenario, traces, GoniometerVariant::kOpenLoop, *hw, nullptr);
+    // The door's simulated arm takes MuJoCo's loading lock itself (arm_hardware): taking it here too
+    // deadlocked the first E4 job.
+    const hardware::Hardware hw =
+        hardware::open_backend(hardware::BackendUri{}, goniometer_hardware(scenario, goniometer_plant_params(scenario, traces)));
+    const GoniometerResult r = run_goniometer(scenario, traces, GoniometerVariant::kOpenLoop, hw, nullptr);
     rows.push_back(row_of(job, job.what->name + "_" + traces.front().name, goniometer_run_duration_s(scenario, traces.front()), r));
   }
   return rows;
