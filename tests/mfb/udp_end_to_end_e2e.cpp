@@ -1069,40 +1069,6 @@ HijackFigures hijack(const std::string& config, double seconds, const std::strin
   return f;
 }
 
-/// E1's scenario with its channel map's `board_limits:` entry replaced by `limits` (empty: none),
-/// written next to the shipped files (the scenario names its map relative to itself). Removed with
-/// the object.
-struct EditedBoardLimits {
-  std::filesystem::path map, scenario;
-  EditedBoardLimits(const std::string& limits, const std::string& tag) {
-    auto read = [](const std::filesystem::path& path) {
-      std::ifstream in(path);
-      std::stringstream text;
-      text << in.rdbuf();
-      return text.str();
-    };
-    std::string m = read(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
-    const std::size_t from = m.find("board_limits:");
-    const std::size_t to = m.find("# Enable drives");
-    EXPECT_NE(from, std::string::npos);
-    EXPECT_NE(to, std::string::npos);
-    m.replace(from, to - from, limits.empty() ? "" : "board_limits:\n  - " + limits + "\n\n");
-    const std::string suffix = tag + "_" + std::to_string(::getpid()) + ".yaml";
-    map = std::filesystem::path(PEHA_SOURCE_DIR "/configs/mfb") / ("_limits_" + suffix);
-    std::ofstream(map) << m;
-    std::string s = read(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
-    const std::string shipped = "channel_map: mfb/one_dof_rig.yaml";
-    EXPECT_NE(s.find(shipped), std::string::npos);
-    s.replace(s.find(shipped), shipped.size(), "channel_map: mfb/" + map.filename().string());
-    scenario = std::filesystem::path(PEHA_SOURCE_DIR "/configs") / ("_e1_limits_" + suffix);
-    std::ofstream(scenario) << s;
-  }
-  ~EditedBoardLimits() {
-    std::filesystem::remove(map);
-    std::filesystem::remove(scenario);
-  }
-};
-
 /// A shipped scenario whose channel map has every `from` replaced by `to`, written next to the
 /// shipped files (the scenario names its map relative to itself). Removed with the object.
 struct EditedMap {
@@ -1131,6 +1097,25 @@ struct EditedMap {
   ~EditedMap() {
     std::filesystem::remove(map);
     std::filesystem::remove(scenario);
+  }
+};
+
+/// E1's scenario with its channel map's `board_limits:` entry replaced by `limits` (empty: none).
+struct EditedBoardLimits : EditedMap {
+  EditedBoardLimits(const std::string& limits, const std::string& tag)
+      : EditedMap("e1_one_dof.yaml", "one_dof_rig.yaml", shipped_board_limits_section(),
+                  limits.empty() ? "" : "board_limits:\n  - " + limits + "\n\n", tag) {}
+  /// The rig map's text from `board_limits:` to the enable line's comment.
+  static std::string shipped_board_limits_section() {
+    std::ifstream in(PEHA_SOURCE_DIR "/configs/mfb/one_dof_rig.yaml");
+    std::stringstream text;
+    text << in.rdbuf();
+    const std::string m = text.str();
+    const std::size_t from = m.find("board_limits:");
+    const std::size_t to = m.find("# Enable drives");
+    EXPECT_NE(from, std::string::npos);
+    EXPECT_NE(to, std::string::npos);
+    return m.substr(from, to - from);
   }
 };
 
