@@ -656,10 +656,10 @@ void FaultMonitor::check_low_pressures(int low_muscles, int joint_count) noexcep
   if (low_muscles != 1) return;
   for (int j = 0; j < joint_count && j < io::kMaxJoints; ++j) {
     for (int m = 0; m < 2; ++m) {
-      const MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
+      MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
       if (ms.pressure_low < params_.confirm_cycles) continue;
       raise(kFaultPressureLow, j, m, ms.predicted_Pa, params_.pressure_tolerance_Pa);
-      if (flags_ & kFaultPressureLow) joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)].not_following = true;
+      if (flags_ & kFaultPressureLow) ms.not_following = true;
     }
   }
 }
