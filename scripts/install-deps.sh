@@ -18,6 +18,7 @@ packages=(
   pybind11-dev python3-pytest   # the Python module peha (python/) and its tests under ctest (python.pytest)
   ffmpeg                 # peha run --video: H.264 encoding of the rendered frames (ffmpeg, ffprobe in the tests)
   libegl-dev libgl1-mesa-dri   # offscreen OpenGL for MuJoCo's renderer: EGL on Mesa's surfaceless platform (llvmpipe)
+  libopengl-dev          # libOpenGL.so (GLVND): CMake's FindOpenGL requires it; nothing else pulls it in without recommends
   libglfw3-dev xvfb xauth      # fallback: a hidden GLFW window, on an Xvfb that peha starts when DISPLAY is unset
   clang-14 libclang-rt-14-dev   # libFuzzer (+ ASan/UBSan) for the MFB packet parser's fuzz target
   python3-numpy python3-scipy python3-matplotlib python3-sklearn  # tools/ on /usr/bin/python3
