@@ -21,7 +21,13 @@ Anything else fails, naming file:line and the command. Whatever its category, ev
 `peha ...` or `pd_gravity_example ...` in a command must be one its --help lists, and every
 configs/... file it names must exist, so a command too long to run cannot go stale unnoticed.
 
+Then the figures blocks (`<!-- figures: run="..." show="..." -->` ... `<!-- /figures -->`,
+tools/doc_figures.py): each block's command runs (once, if a doc command already ran it) and the
+block must equal what it makes now; --update-figures rewrites the blocks instead, --long also runs
+the blocks marked long="...".
+
 Usage: check_doc_commands.py --build-dir BUILD [--root ROOT] [--registry FILE] [--no-run] [--list]
+                             [--docs FILE...] [--update-figures] [--long]
 Exit code: 0 if every command is accounted for, 1 otherwise, 2 on a usage error.
 Standard library only; runs on /usr/bin/python3.
 """
@@ -35,6 +41,9 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import doc_figures  # noqa: E402  (beside this file)
 
 SHELL_LANGS = {"sh", "bash", "console", "shell"}
 HARDWARE_RE = re.compile(r"\bneeds hardware\b")
@@ -185,12 +194,15 @@ def runnable(text, scratch):
     return text
 
 
-def run_commands(cmds, root, build_dir, registry):
+def run_commands(cmds, root, build_dir, registry, blocks=()):
     """Runs the commands in document order (README, then docs/ by name) in one scratch folder, so
     a command finds what an earlier one wrote (a run its replay reads); a command already run
-    with the same text is not run again. Returns the errors."""
+    with the same text is not run again. Then the figures blocks' commands (those not run yet),
+    each block rendered from its command's output and run folder (tools/doc_figures.py).
+    Returns (errors, [(block, fresh body)])."""
     errors = []
-    done_texts = set()
+    rendered = []
+    outputs = {}  # command text -> (stdout, run folder or None)
     with tempfile.TemporaryDirectory(prefix="peha-doc-") as scratch:
         for name in LINKED_DIRS:
             if (Path(root) / name).exists():
@@ -199,23 +211,44 @@ def run_commands(cmds, root, build_dir, registry):
         os.symlink(Path(build_dir).resolve(), Path(scratch) / "build" / "release")
         (Path(scratch) / "etc" / "peha").mkdir(parents=True)
         env = dict(os.environ, MPLBACKEND="Agg")
-        for cmd in cmds:
-            if cmd.text in done_texts:
+        latest = Path(scratch) / "out" / "latest"
+        jobs = [(c.text, c.where()) for c in cmds] + [(b.command, b.where()) for b in blocks]
+        for text, where in jobs:
+            line = runnable(text, scratch)
+            if line in outputs:  # the same command as run: once
                 continue
-            done_texts.add(cmd.text)
-            how = registry[cmd.text]
+            how = registry.get(text, "run")
             expected = int(how.split(":")[1]) if ":" in how else 0
-            line = runnable(cmd.text, scratch)
+            before = os.path.realpath(latest) if latest.is_symlink() else None
             start = time.monotonic()
             try:
                 done = subprocess.run(["bash", "-c", line], cwd=scratch, env=env, capture_output=True,
                                       text=True, timeout=RUN_TIMEOUT_S)
-                code, tail = done.returncode, (done.stdout + done.stderr)[-1500:]
+                code, tail, stdout = done.returncode, (done.stdout + done.stderr)[-1500:], done.stdout
             except subprocess.TimeoutExpired:
-                code, tail = None, f"timed out after {RUN_TIMEOUT_S} s"
-            print(f"  ran {cmd.where()} in {time.monotonic() - start:.1f} s, exit {code}: {line}")
+                code, tail, stdout = None, f"timed out after {RUN_TIMEOUT_S} s", ""
+            after = os.path.realpath(latest) if latest.is_symlink() else None
+            outputs[line] = (stdout, after if after and after != before else None)
+            print(f"  ran {where} in {time.monotonic() - start:.1f} s, exit {code}: {line}")
             if code != expected:
-                errors.append(f"{cmd.where()}: exit {code}, expected {expected}: {cmd.text}\n{tail}")
+                errors.append(f"{where}: exit {code}, expected {expected}: {text}\n{tail}")
+            for block in blocks:
+                if runnable(block.command, scratch) == line:
+                    try:
+                        rendered.append((block, doc_figures.render(block, *outputs[line])))
+                    except ValueError as err:
+                        errors.append(str(err))
+    return errors, rendered
+
+
+def check_figures(rendered):
+    """Errors for every figures block whose text is not what its command makes now."""
+    errors = []
+    for block, body in rendered:
+        diff = doc_figures.first_difference(block.body, body, block.attrs.get("mask"))
+        if diff:
+            errors.append(f"{block.where()}: figures out of date ({block.command}), {diff}\n"
+                          f"  regenerate: tools/check_doc_commands.py --build-dir build/release --update-figures")
     return errors
 
 
@@ -269,26 +302,53 @@ def main(argv=None):
     parser.add_argument("--registry", help="default: ROOT/docs/commands.tsv")
     parser.add_argument("--no-run", action="store_true", help="classify only, run nothing")
     parser.add_argument("--list", action="store_true", help="print every command and its category")
+    parser.add_argument("--update-figures", action="store_true",
+                        help="rewrite every figures block with what its command makes now (tools/doc_figures.py)")
+    parser.add_argument("--docs", nargs="+", metavar="FILE",
+                        help="only these docs (e.g. docs/python.md): their commands and figures blocks")
+    parser.add_argument("--long", action="store_true",
+                        help="also run the figures blocks marked long=\"...\" (minutes each)")
     args = parser.parse_args(argv)
     root = Path(args.root)
     registry_path = Path(args.registry) if args.registry else root / "docs" / "commands.tsv"
     try:
-        commands = [c for rel in doc_files(root) for c in extract_commands(root, rel)]
+        files = doc_files(root)
+        if args.docs:
+            unknown = [d for d in args.docs if d not in files]
+            if unknown:
+                raise ValueError(f"--docs: {', '.join(unknown)} not among README.md and docs/*.md")
+            files = args.docs
+        commands = [c for rel in files for c in extract_commands(root, rel)]
         registry = read_registry(registry_path)
+        blocks = [b for rel in files for b in doc_figures.parse_blocks(root, rel)]
         names = ctest_names(args.build_dir)
     except (ValueError, OSError, subprocess.CalledProcessError) as err:
         print(f"check_doc_commands: {err}", file=sys.stderr)
         return 2
     errors, groups = classify(commands, registry, names)
-    errors += check_invocations(commands, root, args.build_dir)
+    if args.docs:  # the other docs' registry entries are not stale
+        errors = [e for e in errors if "(stale entry)" not in e]
+    errors += check_invocations(commands + [Command(b.path, b.line, b.command, "") for b in blocks],
+                                root, args.build_dir)
     if args.list:
         for category, cmds in groups.items():
             for cmd in cmds:
                 print(f"{category:8} {cmd.where()}: {cmd.text}")
+    long_blocks = [b for b in blocks if "long" in b.attrs]
+    chosen = [b for b in blocks if args.long or "long" not in b.attrs]
     if not args.no_run:
         start = time.monotonic()
-        errors += run_commands(groups["run"], root, args.build_dir, registry)
+        run_errors, rendered = run_commands(groups["run"], root, args.build_dir, registry, chosen)
+        errors += run_errors
         print(f"ran {len(groups['run'])} commands in {time.monotonic() - start:.1f} s")
+        if args.update_figures:
+            doc_figures.rewrite(root, rendered)
+            print(f"rewrote {len(rendered)} figures blocks")
+        else:
+            errors += check_figures(rendered)
+        print(f"{len(blocks)} figures blocks: {len(rendered)} regenerated"
+              + ("" if args.long else f", {len(long_blocks)} long not run (--long runs them: "
+                 + ", ".join(sorted({b.attrs['long'] for b in long_blocks})) + ")"))
     print(f"{len(commands)} commands: {len(groups['run'])} run here, {len(groups['test'])} run by a test, "
           f"{len(groups['hardware'])} need hardware, {len(groups['long'])} long, "
           f"{len(groups['by hand'])} by hand")

@@ -81,8 +81,8 @@ class CheckDocCommandsTest(unittest.TestCase):
         cmds = [c for c in self.commands() if c.line in (10,)]
         build = self.root / "build"
         build.mkdir()
-        self.assertEqual(cdc.run_commands(cmds, self.root, build, {cmds[0].text: "run"}), [])
-        errors = cdc.run_commands(cmds, self.root, build, {cmds[0].text: "run:3"})
+        self.assertEqual(cdc.run_commands(cmds, self.root, build, {cmds[0].text: "run"}), ([], []))
+        errors, _ = cdc.run_commands(cmds, self.root, build, {cmds[0].text: "run:3"})
         self.assertEqual(len(errors), 1)
         self.assertIn("docs/page.md:10: exit 0, expected 3", errors[0])
 
@@ -114,6 +114,93 @@ class CheckDocCommandsTest(unittest.TestCase):
         reg.write_text("# comment\nrunn\tpeha x\n")
         with self.assertRaisesRegex(ValueError, "commands.tsv:2: expected"):
             cdc.read_registry(reg)
+
+
+FIGURES_DOC = """# Results
+
+<!-- figures: run="printf 'noise\\ncase x 1.50 RTF 30.1\\ncase y 2.25 RTF 12.0\\nwritten: out\\n'"
+     show="stdout" from="^case" to="^written" mask="RTF [0-9.]+" -->
+```text
+case x 1.50 RTF 99.0
+case y 2.25 RTF 99.0
+```
+<!-- /figures -->
+
+Text between.
+
+<!-- figures: run="mkdir -p out/r1 && ln -sfn r1 out/latest && printf 'case,f_N,stop\\na,1.234,ceiling\\nb,20,supply\\n' > out/r1/summary.csv"
+     show="csv:summary.csv" table="case={case} | force N={f_N:.1f} | stopped by={stop}" -->
+| case | force N | stopped by |
+|---|---|---|
+| a | 1.2 | ceiling |
+| b | 20.0 | supply |
+<!-- /figures -->
+"""
+
+
+class DocFiguresTest(unittest.TestCase):
+    def setUp(self):
+        self._tmp = tempfile.TemporaryDirectory()
+        self.root = Path(self._tmp.name)
+        (self.root / "docs").mkdir()
+        (self.root / "build").mkdir()
+        self.page = self.root / "docs" / "results.md"
+        self.page.write_text(FIGURES_DOC)
+
+    def tearDown(self):
+        self._tmp.cleanup()
+
+    def regenerate(self):
+        blocks = cdc.doc_figures.parse_blocks(self.root, "docs/results.md")
+        errors, rendered = cdc.run_commands([], self.root, self.root / "build", {}, blocks)
+        self.assertEqual(errors, [])
+        return rendered
+
+    def test_blocks_made_by_their_commands_are_current_masks_aside(self):
+        rendered = self.regenerate()
+        self.assertEqual(len(rendered), 2)
+        self.assertEqual(cdc.check_figures(rendered), [])  # RTF differs, masked
+
+    def test_a_figure_the_command_no_longer_makes_fails_naming_the_block_and_the_line(self):
+        self.page.write_text(FIGURES_DOC.replace("| a | 1.2 | ceiling |", "| a | 1.3 | ceiling |"))
+        errors = cdc.check_figures(self.regenerate())
+        self.assertEqual(len(errors), 1)
+        self.assertIn("docs/results.md:13: figures out of date", errors[0])
+        self.assertIn("doc: | a | 1.3 | ceiling |", errors[0])
+        self.assertIn("now: | a | 1.2 | ceiling |", errors[0])
+
+    def test_update_rewrites_every_block_in_place_and_leaves_the_text_around(self):
+        self.page.write_text(FIGURES_DOC.replace("case y 2.25 RTF 99.0", "case y 9.99 RTF 99.0").replace("| b | 20.0", "| b | 0"))
+        cdc.doc_figures.rewrite(self.root, self.regenerate())
+        text = self.page.read_text()
+        self.assertIn("case y 2.25 RTF 12.0", text)   # the mask compares, the update writes
+        self.assertIn("| b | 20.0 | supply |", text)
+        self.assertIn("Text between.", text)
+        self.assertEqual(cdc.check_figures(self.regenerate()), [])
+
+    def test_malformed_blocks_are_refused_with_their_line(self):
+        cases = {
+            "<!-- figures: show=\"stdout\" -->\n<!-- /figures -->\n": "needs run=",
+            "<!-- figures: run=\"x\" show=\"png\" -->\n<!-- /figures -->\n": "show must be",
+            "<!-- figures: run=\"x\" show=\"csv:s.csv\" -->\n<!-- /figures -->\n": "needs table=",
+            "<!-- figures: run=\"x\" show=\"stdout\" colour=\"red\" -->\n<!-- /figures -->\n": "unknown figures attribute",
+            "<!-- figures: run=\"x\" show=\"stdout\" -->\nno end\n": "not closed",
+            "text\n<!-- /figures -->\n": "without an opening",
+        }
+        for text, message in cases.items():
+            self.page.write_text("# P\n" + text)
+            with self.assertRaises(ValueError) as caught:
+                cdc.doc_figures.parse_blocks(self.root, "docs/results.md")
+            self.assertIn(message, str(caught.exception))
+            self.assertIn("docs/results.md:", str(caught.exception))
+
+    def test_a_table_naming_a_column_the_csv_lacks_says_which_columns_it_has(self):
+        self.page.write_text(FIGURES_DOC.replace("{f_N:.1f}", "{force_N:.1f}"))
+        blocks = cdc.doc_figures.parse_blocks(self.root, "docs/results.md")
+        errors, _ = cdc.run_commands([], self.root, self.root / "build", {}, blocks)
+        self.assertEqual(len(errors), 1)
+        self.assertIn("force_N", errors[0])
+        self.assertIn("columns of summary.csv: case, f_N, stop", errors[0])
 
 
 if __name__ == "__main__":
