@@ -13,7 +13,7 @@
 namespace peha {
 namespace {
 
-constexpr double kPretension_N = 60.0;
+constexpr double kCheckPretension_N = 60.0;
 
 struct LoadcellError {
   const char* name;
@@ -42,7 +42,7 @@ TEST_P(LoadcellErrors, TaredE1KeepsTheWiresTautAndTheLinkOffTheStops) {
   for (const experiments::E1Case& c : s.cases) {
     const testing::E1Figures f = testing::run_e1_figures(s, c);
     std::cout << GetParam().name << ", tared, " << c.name << ": " << testing::describe(f) << "\n";
-    EXPECT_GE(f.min_tension_after_start_N, 0.5 * kPretension_N) << c.name;
+    EXPECT_GE(f.min_tension_after_start_N, 0.5 * kCheckPretension_N) << c.name;
     EXPECT_LE(f.max_abs_angle_deg, 40.0) << c.name;
     EXPECT_TRUE(f.settled) << c.name;
   }
@@ -70,7 +70,7 @@ TEST(LoadcellCheck, UntaredAntagonistBiasSlackensItsWire) {
   s.controller.allocation.loadcell_check.tare_s = 0.0;
   const testing::E1Figures f = testing::run_e1_figures(s, s.cases.front());
   std::cout << "antagonist +60 N, no tare, " << s.cases.front().name << ": " << testing::describe(f) << "\n";
-  EXPECT_LT(f.min_tension_after_start_N, 0.5 * kPretension_N);
+  EXPECT_LT(f.min_tension_after_start_N, 0.5 * kCheckPretension_N);
 }
 
 }  // namespace

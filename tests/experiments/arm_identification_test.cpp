@@ -1,5 +1,6 @@
 // The rig procedure of peha identify-gravity on the shipped simulated arm, and E3 with its result.
 #include "peha/experiments/arm_identification/arm_identification.hpp"
+#include "../support/shipped_scenarios.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
 
 #include "peha/models/gravity_parameters.hpp"
@@ -10,8 +11,6 @@
 
 namespace peha::experiments {
 namespace {
-
-ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
 
 /// Worst |static torque error| (plant truth) over E3's postures and joints with a judged gravity torque, %;
 /// or, with `model`, the worst |controller's gravity torque - plant's| at rest there.
@@ -34,7 +33,7 @@ double worst_pct(const PosturesResult& r, double min_gravity_Nm, bool model = fa
 // <= 1.5 %; the nominal model is 6-12 % light) and every static torque error <= 5 % (measured <= 1.7 %;
 // nominal 6-11 %), and the arm stays where it is left (drift < 0.5 deg).
 TEST(ArmIdentification, IdentifiedModelHoldsE3WhereTheNominalDoesNot) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   ASSERT_TRUE(s.identification);
   const models::ArmModel shipped_identification = s.controller.arm;
   s.controller.arm = s.nominal_arm;  // from the body file's prior, as on a new rig
@@ -81,7 +80,7 @@ TEST(ArmIdentification, IdentifiedModelHoldsE3WhereTheNominalDoesNot) {
 // 5-6 deg and it sticks and slips through a window (measured: 8 % of the reference's speed at
 // mid_75), and the identification is refused with the posture, joint and sweep named.
 TEST(ArmIdentification, RefusesWhenAJointSticksInAWindow) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   ASSERT_TRUE(s.identification);
   s.identification->friction_learning_gain = 0.0;
   try {

@@ -8,6 +8,7 @@
 #include "../support/alloc_counter.hpp"
 #include "../support/edited_config.hpp"
 #include "../support/verdict_checks.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -22,8 +23,6 @@
 namespace peha::experiments {
 namespace {
 
-ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
-
 // E3 on the simulated right arm (the paper's claim): released in each posture, including (0, 0) where
 // the shoulder carries the most, the arm stays - under 0.5 deg in the 10 s after release at both
 // joints, with feed-forward J^T G only. The verdict fails two kinds of figure, both real: the wrist,
@@ -32,7 +31,7 @@ ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEH
 // 8-12 % heavier than the controller's model and the cable friction holds the difference
 // (docs/right-arm.md).
 TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   const PosturesResult r = run_postures(s, nullptr);
   ASSERT_EQ(r.postures.size(), s.postures.size());
   for (const std::string& f : testing::failed_figures(r.verdict)) {
@@ -59,7 +58,7 @@ TEST(E3, ArmStaysInEveryPostureWhereTheOperatorLeavesIt) {
 // threshold at the elbow; a controller given the plant's own bodies passes it everywhere (what is left:
 // the pulleys' 1 % and the allocation's rounding).
 TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.controller.arm = s.nominal_arm;  // the prior, before identification
   const PosturesResult nominal = run_postures(s, nullptr);
   int judged = 0;
@@ -89,7 +88,7 @@ TEST(E3, StaticTorqueErrorIsTheGravityTheControllerDoesNotKnow) {
 // feedback - the arm must move (physics forbids holding it), and E3's verdict says so: the drift,
 // excursion and supervisor figures fail instead of "OK".
 TEST(E3, UnknownPayloadInTheHandFailsTheDriftFigures) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   PlantVariant v;
   v.extra_payload_kg = 1.0;
   s.plant = arm_variant_plant(s, v);
@@ -114,7 +113,7 @@ TEST(E3, UnknownPayloadInTheHandFailsTheDriftFigures) {
 // The actuators as peha sizes them (docs/models.md): peak pulley torques at the 2000 N force limit of
 // about 100 Nm (shoulder) and 76 Nm (elbow); the wrist's DMSP-10 pair, no motor, held at 0.25 MPa.
 TEST(RightArmScenario, ActuatorsAreSizedAsSpecified) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   ASSERT_EQ(s.controller.joints.size(), 3u);
   EXPECT_NEAR(2000.0 * s.controller.joints[0].actuator.pulley_radius_m, 100.0, 1e-9);
   EXPECT_NEAR(2000.0 * s.controller.joints[1].actuator.pulley_radius_m, 76.0, 1e-9);
@@ -125,7 +124,7 @@ TEST(RightArmScenario, ActuatorsAreSizedAsSpecified) {
 
 // The arm's control step (J^T G + three allocations + limits) allocates nothing.
 TEST(ArmController, StepAllocatesNothing) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   sim::ArmBackend plant(s.plant);
   control::ArmController controller(s.controller);
   safety::LimitedBackend limited(plant, s.limits, arm_joint_models(controller.model()));
@@ -149,11 +148,11 @@ TEST(ArmController, StepAllocatesNothing) {
 // takes no reference here), not on the wrist's constant-pressure hold; still allocation-free. Off
 // (the shipped default) nothing of it runs.
 TEST(ArmController, RunsTheCreepEstimatorOnEveryAllocatedJointWhenOn) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.controller.creep.enabled = true;
   sim::ArmBackend plant(s.plant);
   control::ArmController controller(s.controller);
-  control::ArmController shipped_controller(shipped().controller);
+  control::ArmController shipped_controller(test_support::shipped_right_arm().controller);
   safety::LimitedBackend limited(plant, s.limits, arm_joint_models(controller.model()));
   limited.activate();
   io::SensorState state;
@@ -184,7 +183,7 @@ namespace {
 // dead time, lag and rate limit) with its -3 dB point between 2 and 20 Hz, while the hybrid joint's
 // motor keeps the gain within 10 % up to the highest frequency tested (30 Hz).
 TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   const BandwidthResult pam = run_bandwidth(s, /*hybrid=*/false);
   const BandwidthResult hybrid = run_bandwidth(s, /*hybrid=*/true);
   EXPECT_NEAR(pam.bode.front().gain, 1.0, 0.1);
@@ -210,7 +209,7 @@ TEST(E6, HybridJointHasTheWiderTorqueBandwidth) {
 // below 1 Hz neither variant delivers it there; what passes at high frequency is the hybrid's motor.
 // With no cable friction in the plant the torque after the cable is the muscle-side torque.
 TEST(E6, TorqueAfterTheCableLosesWhatTheCablesStictionHolds) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.bandwidth.frequencies_Hz = {0.2, 1.0, 30.0};
   const BandwidthResult pam = run_bandwidth(s, /*hybrid=*/false);
   const BandwidthResult hybrid = run_bandwidth(s, /*hybrid=*/true);
@@ -236,7 +235,7 @@ TEST(E6, TorqueAfterTheCableLosesWhatTheCablesStictionHolds) {
 // PAM-only figure - no band at the joint - and on the muscle side to at most PAM-only's bandwidth (its
 // PAMs get only the low-passed share).
 TEST(E6, HybridWithoutItsMotorFallsToThePamOnlyFigureAtTheJoint) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.bandwidth.frequencies_Hz = {0.2, 1.0, 3.0, 10.0, 30.0};
   const BandwidthResult pam = run_bandwidth(s, /*hybrid=*/false);
   const BandwidthResult hybrid = run_bandwidth(s, /*hybrid=*/true);
@@ -282,7 +281,7 @@ TEST(E6, PassBandFindsTheWidestRunAboveMinus3dB) {
 // literal 2000 N): with the elbow antagonist's ceiling configured below what it delivers, E6 fails
 // and names it. Two frequencies keep the run short.
 TEST(E6, VerdictUsesEachMusclesConfiguredCeiling) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.bandwidth.frequencies_Hz = {1.0, 5.0};
   const BandwidthResult nominal = run_bandwidth(s, true);
   EXPECT_FALSE(testing::fails_on(nominal.verdict, "R_EFE antagonist peak force"));
@@ -309,7 +308,7 @@ namespace {
 // a +40 N bias on every load cell is measured as 40 N (within the noise and the vented muscles' last
 // newtons) on both muscles of both joints; the wrist (held at constant pressure) is not tared.
 TEST(E3, StartupTareMeasuresTheLoadCellsOffsets) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.controller.allocation.loadcell_check.tare_s = 0.5;
   PlantVariant v;
   v.loadcell_bias_N = 40.0;
@@ -343,7 +342,7 @@ TEST(E3, StartupTareMeasuresTheLoadCellsOffsets) {
 // equilibrium (the pressures and slack of the file, no settling) throws the shoulder at about 28 deg/s
 // in its first 50 ms: the figure fails.
 TEST(E3, TheStartUpMovesNoJointMoreThanTwoDegreesOrTenDegreesPerSecond) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.postures_stop_s = 5.0;
   const PosturesResult r = run_postures(s, nullptr);
   for (const char* joint : {"R_SFE", "R_EFE"}) {
@@ -369,7 +368,7 @@ TEST(E3, TheStartUpMovesNoJointMoreThanTwoDegreesOrTenDegreesPerSecond) {
 // that held it from t = 0: the shoulder moves < 1 deg in 10 s. A careless operator who lets go by the
 // clock drops it onto the vented muscles (measured: 74 deg at the first release).
 TEST(E3, AZeroBelowCodeZeroAtPowerOnIsCaughtVentedAndTheOperatorKeepsHoldingTheArm) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.postures_stop_s = 10.0;  // the first release at 7.5 s
   s.faults = {sim::parse_fault_spec("loadcell_bias@0:R_SFE.agonist=-20", arm_joint_names(s), postures_duration_s(s))};
   auto shoulder_span_deg = [](const PosturesResult& r) {
@@ -390,7 +389,7 @@ TEST(E3, AZeroBelowCodeZeroAtPowerOnIsCaughtVentedAndTheOperatorKeepsHoldingTheA
 // command on its joint carries a NaN, which the plausibility stage sees in the same cycle and answers
 // with hold. The run is cut at 10 s (postures_stop_s): the fault is 1 s after the first release.
 TEST(E3, AControllerNanOnTheElbowIsCaughtInItsCycleAndHeld) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.postures_stop_s = 10.0;
   EXPECT_DOUBLE_EQ(postures_duration_s(s), 10.0);
   s.faults = {sim::parse_fault_spec("controller_nan@8.5:R_EFE", arm_joint_names(s), postures_duration_s(s))};
@@ -409,7 +408,7 @@ TEST(E3, AControllerNanOnTheElbowIsCaughtInItsCycleAndHeld) {
 // and 3 cycles. Without the redundant encoder the same run went on blind to 46 s, the elbow drifting
 // 50 deg from what its encoder said, until a wire's tension floor latched.
 TEST(E3, AnEncoderFrozenAtRestIsCaughtByTheRedundantEncoderWhenTheJointFirstTurns) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   s.postures_stop_s = 40.0;
   s.faults = {sim::parse_fault_spec("encoder_frozen@8.5:R_EFE", arm_joint_names(s), postures_duration_s(s))};
   const PosturesResult r = run_postures(s, nullptr);
@@ -456,7 +455,7 @@ TEST(RightArmScenario, FaultsListIsE3sAndNamesTheArmsJoints) {
 // every side, or by io joint). The right arm holds its shoulder and drives its elbow; the upper body
 // drives both elbows with both shoulders held, and sweeps the left elbow.
 TEST(ArmScenario, E4AndE6ReadTheirJointsAndPosturesByName) {
-  const ArmScenario right = shipped();
+  const ArmScenario right = test_support::shipped_right_arm();
   EXPECT_EQ(right.goniometer.joints, std::vector<int>{1});
   ASSERT_EQ(right.goniometer.held_rad.size(), 3u);
   EXPECT_NEAR(right.goniometer.held_rad[0], models::deg_to_rad(-90), 1e-12);

@@ -2,6 +2,7 @@
 // reach the antagonist's E1 hold point, and the closed-loop check on the rig accepts a fitted
 // calibration and refuses a wrong one (docs/calibration.md, "Operating points" and "Acceptance").
 #include "peha/calibration/calibrate.hpp"
+#include "../support/shipped_scenarios.hpp"
 #include "peha/calibration/calibration_file.hpp"
 #include "peha/experiments/calibration_recording/acceptance.hpp"
 #include "peha/sim/plant_faults.hpp"
@@ -15,8 +16,6 @@ namespace peha::experiments {
 namespace {
 
 using ::testing::HasSubstr;
-
-E1Scenario shipped() { return read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")); }
 
 /// Rows of the recording in E1's antagonist hold region: contraction of the link between -15 and
 /// +25 deg (nominal geometry) and force within 30..100 N around the 60 N pretension.
@@ -32,7 +31,7 @@ std::size_t rows_at_hold_point(const calibration::Dataset& d, double t_from_s, d
 // The main triangle never brings the antagonist near its pretension after the start-up transient;
 // the operating-point segment does, for seconds, without a slack wire.
 TEST(CalibrationCoverage, AntagonistRecordingVisitsTheE1HoldPointWithATautWire) {
-  const E1Scenario s = shipped();
+  const E1Scenario s = test_support::shipped_e1();
   ASSERT_TRUE(s.excitation[1]);
   ASSERT_FALSE(s.excitation[1]->segments.empty());
   const double start_s = s.excitation[1]->excitation_start_s();
@@ -55,7 +54,7 @@ TEST(CalibrationCoverage, AntagonistRecordingVisitsTheE1HoldPointWithATautWire) 
 // reading 40 N high on the plant gives a zero of 40 N (plus what the vented muscle still pulls,
 // a few N), and the recorded forces are the true ones, so the fitted model never sees the bias.
 TEST(CalibrationCoverage, RecordingTaresTheLoadCellSoABiasDoesNotEnterTheData) {
-  const E1Scenario s = shipped();
+  const E1Scenario s = test_support::shipped_e1();
   ASSERT_TRUE(s.excitation[1]);
   ASSERT_GT(s.excitation[1]->tare_s, 0.0);
   sim::OneDofRigParams plain = s.plant, biased = s.plant;
@@ -118,7 +117,7 @@ AcceptanceResult check_with(E1Scenario s, const calibration::MuscleCalibration& 
 // shipped excitation tracks its force request; the same calibration with its gain scaled by 1.5
 // (a model that believes the muscle 50 % stronger) under-delivers and is refused, saying why.
 TEST(CalibrationAcceptance, AcceptsTheFittedCalibrationAndRefusesAGainScaledOne) {
-  E1Scenario s = shipped();
+  E1Scenario s = test_support::shipped_e1();
   ASSERT_TRUE(s.acceptance);
   s.cases = {s.cases.back()};  // one payload keeps the test short
   const calibration::CalibrationOutcome fit = fitted_antagonist(s);
@@ -147,7 +146,7 @@ TEST(CalibrationAcceptance, AcceptsTheFittedCalibrationAndRefusesAGainScaledOne)
 // The recording is guarded by the checks of the hardware itself: a jumping encoder stops it, and the
 // data recorded into the safe state is refused (nothing returned), naming the check.
 TEST(CalibrationCoverage, AHardwareFaultStopsTheRecordingAndItsDataIsRefused) {
-  const E1Scenario s = shipped();
+  const E1Scenario s = test_support::shipped_e1();
   ASSERT_TRUE(s.excitation[0]);
   sim::OneDofRigParams plant = s.plant;
   plant.faults.push_back(sim::parse_fault_spec("encoder_jump@10:joint", sim::one_dof_rig_joint_names(), s.excitation[0]->total_duration_s()));

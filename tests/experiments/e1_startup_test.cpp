@@ -5,6 +5,7 @@
 #include "peha/sim/plant_faults.hpp"
 
 #include "../support/verdict_checks.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,10 +16,6 @@
 namespace peha::experiments {
 namespace {
 
-E1Scenario shipped_scenario() {
-  return read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
-}
-
 const safety::Check& figure(const E1Result& r, const std::string& name) {
   const safety::Check* c = r.verdict.find(name);
   if (!c) throw std::runtime_error("the verdict has no figure '" + name + "':\n" + r.verdict.describe_all());
@@ -28,7 +25,7 @@ const safety::Check& figure(const E1Result& r, const std::string& name) {
 // On the pin the vent moves the link a fraction of a degree (0.1-0.2 deg, 5-6 deg/s while the pin
 // takes the load): within 2 deg and 10 deg/s for both payloads.
 TEST(E1Startup, OnItsPinTheLinkStaysWithinTwoDegreesThroughVentTareAndRefill) {
-  const E1Scenario s = shipped_scenario();
+  const E1Scenario s = test_support::shipped_e1();
   for (const E1Case& c : s.cases) {
     const E1Result r = run_e1_case(s, c, nullptr);
     EXPECT_LE(figure(r, "joint start-up excursion").value, 0.5) << c.name;
@@ -41,7 +38,7 @@ TEST(E1Startup, OnItsPinTheLinkStaysWithinTwoDegreesThroughVentTareAndRefill) {
 // The figure fails when the support is a hand (the paper's finger, 600 N/m at 0.4 m): venting the
 // 5 kg payload into it drops the link about 15 deg at about 80 deg/s.
 TEST(E1Startup, HeldByAHandTheVentDropsTheLinkAndBothStartupFiguresFail) {
-  E1Scenario s = shipped_scenario();
+  E1Scenario s = test_support::shipped_e1();
   s.plant.finger.pushes.front().support_stiffness_N_per_m = 0.0;
   const E1Result r = run_e1_case(s, s.cases.back(), nullptr);
   EXPECT_GT(figure(r, "joint start-up excursion").value, 10.0);
@@ -56,7 +53,7 @@ TEST(E1Startup, HeldByAHandTheVentDropsTheLinkAndBothStartupFiguresFail) {
 // whatever the safe state: hold (encoder jump), descend (load-cell bias), vent (valve stuck open).
 TEST(E1Startup, AFaultInTheVentOrTareKeepsTheLimbOnItsSupport) {
   for (const char* spec : {"encoder_jump@0.2", "loadcell_bias@0.2:agonist", "valve_stuck_open@0.6:agonist", "supply_zero@0.2"}) {
-    E1Scenario s = shipped_scenario();
+    E1Scenario s = test_support::shipped_e1();
     s.duration_s = 5.0;
     s.plant.faults.push_back(sim::parse_fault_spec(spec, sim::one_dof_rig_joint_names(), s.duration_s));
     const E1Result r = run_e1_case(s, s.cases.back(), nullptr);
@@ -101,7 +98,7 @@ TEST(E1Startup, APayloadBeyondTheMusclesIsRefusedBeforeArming) {
     EXPECT_NE(what.find("force ceiling of 2000 N"), std::string::npos) << what;
     EXPECT_NE(what.find("refused before arming"), std::string::npos) << what;
   }
-  const E1Scenario shipped = shipped_scenario();
+  const E1Scenario shipped = test_support::shipped_e1();
   for (const E1Case& c : shipped.cases) EXPECT_EQ(e1_case_beyond_the_muscles(shipped, c), "") << c.name;
   E1Scenario weak = shipped;
   weak.controller.joint.supply_pressure_Pa = 0.1e6;  // the DMSP-40 makes about 580 N at 0 deg
@@ -115,7 +112,7 @@ namespace peha::experiments {
 namespace {
 
 E1Result startup_fault(const std::string& spec, double duration_s = 8.0) {
-  E1Scenario s = shipped_scenario();
+  E1Scenario s = test_support::shipped_e1();
   s.duration_s = duration_s;
   s.plant.faults.push_back(sim::parse_fault_spec(spec, sim::one_dof_rig_joint_names(), s.duration_s));
   return run_e1_case(s, s.cases.back(), nullptr);
@@ -147,7 +144,7 @@ TEST(E1Startup, AWireThatNeverBecomesTautIsCaughtBeforeThePinIsPulled) {
   EXPECT_NE(r.fault_reason.find("tension_floor joint 0 antagonist"), std::string::npos) << r.fault_reason;
   EXPECT_GT(r.min_angle_deg, -2.0);
   EXPECT_LT(r.max_angle_deg, 2.0);
-  E1Scenario s = shipped_scenario();  // without the deadline (checks off), the fault goes unseen
+  E1Scenario s = test_support::shipped_e1();  // without the deadline (checks off), the fault goes unseen
   s.duration_s = 8.0;
   s.limits.test_overrides.unchecked = safety::kFaultTensionFloor;
   s.plant.faults.push_back(sim::parse_fault_spec("wire_break@0.2:antagonist", sim::one_dof_rig_joint_names(), s.duration_s));

@@ -1,6 +1,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include "../support/verdict_checks.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -9,15 +10,11 @@
 namespace peha::experiments {
 namespace {
 
-E1Scenario shipped_scenario() {
-  return read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
-}
-
 // The paper's E1 claim, in the simulated rig: with feed-forward gravity compensation only, the link
 // stays where the operator leaves it. Bound: 0.5 deg over 5 s (the paper's Fig. 9 shows no visible
 // drift; the encoder resolves 0.005 deg). Safety figures hold throughout.
 TEST(E1, LinkStaysWhereReleasedForBothPayloads) {
-  const E1Scenario s = shipped_scenario();
+  const E1Scenario s = test_support::shipped_e1();
   ASSERT_EQ(s.cases.size(), 2u);
   for (const E1Case& c : s.cases) {
     const E1Result r = run_e1_case(s, c, nullptr);
@@ -56,7 +53,7 @@ TEST(E1, LinkStaysWhereReleasedForBothPayloads) {
 // breakaway estimate a person can measure shows the same sign and size.
 TEST(E1, PayloadLeverTenPercentWrongFailsTheStaticTorqueFigure) {
   for (const double factor : {1.1, 0.9}) {
-    E1Scenario s = shipped_scenario();
+    E1Scenario s = test_support::shipped_e1();
     s.controller.gravity.payload_lever_m *= factor;
     for (const E1Case& c : s.cases) {
       const E1Result r = run_e1_case(s, c, nullptr);
@@ -77,7 +74,7 @@ TEST(E1, PayloadLeverTenPercentWrongFailsTheStaticTorqueFigure) {
 // The supervisor is off: it is the controller's figures that are shown to fail here (on, its descend
 // safe state now keeps the falling link off its stop).
 TEST(E1, DriftAndStopFiguresFailWhenTheLinkRunsAway) {
-  E1Scenario s = shipped_scenario();
+  E1Scenario s = test_support::shipped_e1();
   s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured
   s.controller.gravity.payload_lever_m *= 0.5;
   const E1Result r = run_e1_case(s, s.cases[1], nullptr);
@@ -90,7 +87,7 @@ TEST(E1, DriftAndStopFiguresFailWhenTheLinkRunsAway) {
 // Each muscle is judged against its own configured ceiling: configured at 80 N (below the ~99 N the
 // antagonist's initial pressure gives), the antagonist fails and is named; the agonist does not.
 TEST(E1, EachMuscleIsJudgedAgainstItsOwnCeiling) {
-  E1Scenario s = shipped_scenario();
+  E1Scenario s = test_support::shipped_e1();
   s.duration_s = 3.0;
   s.controller.joint.antagonist.max_force_N = 80.0;
   const E1Result r = run_e1_case(s, s.cases[0], nullptr);
@@ -104,7 +101,7 @@ TEST(E1, EachMuscleIsJudgedAgainstItsOwnCeiling) {
 // Without compensation (no pressure, no motor) the same rig drops to its lower stop: the holding in
 // the test above is the controller's doing, not the plant's friction alone.
 TEST(E1, WithoutCompensationTheLinkFalls) {
-  const E1Scenario s = shipped_scenario();
+  const E1Scenario s = test_support::shipped_e1();
   sim::OneDofRigParams p = s.plant;
   p.payload_kg = 5.0;
   p.finger.pushes.clear();
@@ -120,7 +117,7 @@ TEST(E1, WithoutCompensationTheLinkFalls) {
 // The paper's pure feed-forward (no force trim) with the uncalibrated nominal model cannot hold the
 // rig: the model misses the muscles' pressure threshold. The run reports it as a range violation.
 TEST(E1, PureFeedForwardWithNominalModelIsReportedUnsafe) {
-  E1Scenario s = shipped_scenario();
+  E1Scenario s = test_support::shipped_e1();
   s.limits.test_overrides.unchecked = ~0u;  // an unprotected controller, measured  // the controller's own figures (the supervisor's descent keeps it at -42 deg)
   s.controller.allocation.force_trim_rate_1ps = 0.0;
   // Its wires never become taut, so the run is never ready and the start pin would stay in: a hand
@@ -136,7 +133,7 @@ TEST(E1, PureFeedForwardWithNominalModelIsReportedUnsafe) {
 // Same seed, same run: simulated time does not depend on wall time. Another seed changes only the
 // sensor noise, so the plant's trajectory stays close but the logs differ.
 TEST(E1, SameSeedReproducesTheLogExactly) {
-  E1Scenario s = shipped_scenario();
+  E1Scenario s = test_support::shipped_e1();
   s.duration_s = 4.0;
   const E1Case c = s.cases[1];
   const std::size_t rows = 4001;
@@ -168,7 +165,7 @@ namespace {
 // simulated rig at t = 3 s faults the run (active -> fault), the supervisor deactivates the backend
 // and the plant gets the safe state - motor torque exactly 0 from then on, pressures vented.
 TEST(E1, AnEstopInProcessFaultsTheRunAndTheRigGoesSafe) {
-  const E1Scenario s = shipped_scenario();
+  const E1Scenario s = test_support::shipped_e1();
   const E1Case& c = s.cases.front();
   sim::OneDofRigBackend plant(e1_plant_params(s, c));
   runtime::Supervisor supervisor(plant, runtime::SupervisorParams{});

@@ -9,6 +9,7 @@
 
 #include <gmock/gmock.h>
 #include "../support/verdict_checks.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -25,8 +26,6 @@ namespace peha::experiments {
 namespace {
 
 
-ArmScenario shipped() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
-
 const ArmScenario::Goniometer::Movement& movement(const ArmScenario& s, const std::string& name) {
   for (const auto& m : s.goniometer.movements) {
     if (m.name == name) return m;
@@ -37,7 +36,7 @@ const ArmScenario::Goniometer::Movement& movement(const ArmScenario& s, const st
 // The synthetic person: minimum-jerk flexion 40 -> 100 deg and back, sampled at 200 Hz; the
 // goniometer adds its 0.2 deg noise and 0.1 deg quantisation to the truth.
 TEST(E4, SyntheticGoniometerIsThePersonsMovementPlusNoise) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   const auto& m = movement(s, "slow");
   const GoniometerTrace t = synthesize_goniometer(s.goniometer, m, 7);
   const double expected_s = m.repetitions * 2.0 * (m.move_s + m.pause_s) + m.pause_s;
@@ -62,7 +61,7 @@ TEST(E4, SyntheticGoniometerIsThePersonsMovementPlusNoise) {
 // lags far behind. Adding the impedance toward the goniometer angle makes it follow within a few
 // degrees, the lag being the filter's 35 ms plus the valves'. Safety figures hold throughout.
 TEST(E4, ExoskeletonElbowFollowsThePersonWithFeedbackButNotOnPureReplay) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   for (const char* name : {"slow", "brisk"}) {
     const GoniometerTrace t = synthesize_goniometer(s.goniometer, movement(s, name), s.seed);
     const GoniometerResult open = run_goniometer(s, {t}, GoniometerVariant::kOpenLoop, nullptr);
@@ -109,7 +108,7 @@ TEST(E4, ExoskeletonElbowFollowsThePersonWithFeedbackButNotOnPureReplay) {
 // trim rate (controller.allocation.force_trim_slack_rate_1ps, 300 /s) keeps the wire >= 20 N (21.9 N);
 // without it the same run fails that figure.
 TEST(E4, BriskFeedbackKeepsTheElbowWiresAboveHalfThePretension) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   ASSERT_GT(s.controller.allocation.force_trim_slack_rate_1ps, 0.0);
   const GoniometerTrace t = synthesize_goniometer(s.goniometer, movement(s, "brisk"), s.seed);
   const GoniometerResult fb = run_goniometer(s, {t}, GoniometerVariant::kFeedback, nullptr);
@@ -128,7 +127,7 @@ TEST(E4, BriskFeedbackKeepsTheElbowWiresAboveHalfThePretension) {
 // torque. Last, every io joint's sensors and commands for a replay: 11 columns per joint (8 sensors,
 // 3 commands), less the 5 a driven joint's actuator block has already (load cells, commands).
 TEST(E4, LogColumnsFollowTheDrivenAndHeldJoints) {
-  const std::vector<std::string> one = goniometer_log_columns(shipped());
+  const std::vector<std::string> one = goniometer_log_columns(test_support::shipped_right_arm());
   for (const char* c : {"person_elbow_deg", "plant_elbow_deg", "tau_elbow_cmd_Nm", "plant_sfe_deg", "tau_sfe_gravity_Nm",
                         "agonist_loadcell_N", "plant_tension_min_N", "angle_rad", "agonist_pressure_MPa", "sfe_angle_rad",
                         "wfe_tau_motor_cmd_Nm"}) {
@@ -165,7 +164,7 @@ TEST(E4, EachDrivenJointHasItsOwnGoniometer) {
 // and column, what would make the derivatives meaningless: wrong spacing, no unit, NaN, a reading
 // outside the elbow's range, a missing column.
 TEST(E4, GoniometerCsvRoundTripsAndRejectsBadRecordings) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   const double lo = s.limits.joints[1].min_angle_rad, hi = s.limits.joints[1].max_angle_rad;
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_e4_csv_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
@@ -205,7 +204,7 @@ TEST(E4, GoniometerCsvRoundTripsAndRejectsBadRecordings) {
 
 // --goniometer-csv /dev/zero was read without bound; a device is refused at once, before any byte.
 TEST(E4, GoniometerCsvRefusesADeviceAtOnce) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   try {
     read_goniometer_csv("/dev/zero", 200.0, s.limits.joints[1].min_angle_rad, s.limits.joints[1].max_angle_rad);
     ADD_FAILURE() << "/dev/zero was accepted";
@@ -217,7 +216,7 @@ TEST(E4, GoniometerCsvRefusesADeviceAtOnce) {
 // The CLI end to end on a recording: `peha run --experiment goniometer --goniometer-csv FILE` runs
 // both variants on it and writes their logs and the summary; a bad recording exits 2.
 TEST(E4, CliReplaysARecordedGoniometerFile) {
-  const ArmScenario s = shipped();
+  const ArmScenario s = test_support::shipped_right_arm();
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("peha_e4_cli_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
@@ -263,7 +262,7 @@ TEST(E4, CliReplaysARecordedGoniometerFile) {
 // the shoulder's hold impedance the forearm's reaction swings it; an un-smoothed reference (the raw
 // derivatives) and the damping on the controller's own 20 Hz rate each fail the command figure.
 TEST(E4, EveryHeldAndPassiveJointAndTheCommandAreJudged) {
-  ArmScenario s = shipped();
+  ArmScenario s = test_support::shipped_right_arm();
   const GoniometerTrace slow = synthesize_goniometer(s.goniometer, movement(s, "slow"), s.seed);
   const GoniometerTrace brisk = synthesize_goniometer(s.goniometer, movement(s, "brisk"), s.seed);
   const GoniometerResult nominal = run_goniometer(s, {slow}, GoniometerVariant::kFeedback, nullptr);

@@ -1,6 +1,7 @@
 #include "peha/experiments/e5_max_force/max_force.hpp"
 
 #include "../support/verdict_checks.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -12,14 +13,9 @@
 namespace peha::experiments {
 namespace {
 
-E5Scenario shipped_scenario() {
-  E5Scenario s = read_e5(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e5_max_force.yaml"));
-  return s;
-}
-
 /// A shorter run for the tests: a faster ramp (0.3 MPa/s) reaches the ceiling at ~1.5 s; 5 s in all.
 E5Scenario fast_scenario() {
-  E5Scenario s = shipped_scenario();
+  E5Scenario s = test_support::shipped_e5();
   s.ramp.rate_Pa_per_s = 0.3e6;
   s.duration_s = 5.0;
   return s;

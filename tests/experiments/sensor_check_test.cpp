@@ -2,6 +2,7 @@
 // calibration error (the robustness matrix's single-sensor rows), and E1's static torque error before
 // and after its corrections.
 #include "peha/experiments/sensor_check/sensor_check.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include "peha/calibration/sensor_corrections.hpp"
 #include "peha/experiments/robustness/robustness.hpp"
@@ -19,8 +20,6 @@ namespace {
 using namespace peha;
 using namespace peha::experiments;
 using ::testing::HasSubstr;
-
-E1Scenario shipped() { return read_e1(config::Document::load_file(std::string(PEHA_SOURCE_DIR) + "/configs/e1_one_dof.yaml")); }
 
 /// E1's payload_2.5kg case on a plant with one variant: the worst static torque error over its releases.
 double e1_static_error_pct(const E1Scenario& s, const sim::OneDofRigParams& plant) {
@@ -63,7 +62,7 @@ PlantVariant variant(const char* name, double agonist_gain, double antagonist_ga
 // static torque error is within the 5 % goal. The rows and their figures (gain found vs truth, E1
 // before -> after, %) are recorded as test properties.
 TEST(SensorCheck, FindsEachCellsZeroAndGainTimesPulleyRadiusAndE1ComesBackWithinFivePercent) {
-  const E1Scenario s = shipped();
+  const E1Scenario s = test_support::shipped_e1();
   ASSERT_TRUE(s.sensor_check);
   for (const PlantVariant& v :
        {variant("agonist_gain_+5%", 1.05, 1.0, 1.0), variant("agonist_gain_-5%", 0.95, 1.0, 1.0), variant("antagonist_gain_+5%", 1.0, 1.05, 1.0),
@@ -93,7 +92,7 @@ TEST(SensorCheck, FindsEachCellsZeroAndGainTimesPulleyRadiusAndE1ComesBackWithin
 // A known mass told 10 % heavier than the one on the link (2.75 kg for 2.5 kg) scales both gains 10 %
 // too low, and E1 with those corrections fails its 5 % static error: the figure can fail.
 TEST(SensorCheck, AWrongKnownMassGivesCorrectionsThatFailE1sStaticError) {
-  const E1Scenario s = shipped();
+  const E1Scenario s = test_support::shipped_e1();
   SensorCheckParams wrong = *s.sensor_check;
   wrong.known_mass_kg = 2.75;
   const sim::OneDofRigParams plant = e1_plant_params(s, s.cases[0]);
@@ -109,7 +108,7 @@ TEST(SensorCheck, AWrongKnownMassGivesCorrectionsThatFailE1sStaticError) {
 // A cell zeroed 20 N below code 0 reads 0 N vented: its zero cannot be seen, and software cannot undo
 // an ADC's clipping. The check refuses, naming the fix; +20 N is found within 1 N.
 TEST(SensorCheck, FindsAZeroAboveCodeZeroAndRefusesOneBelowIt) {
-  const E1Scenario s = shipped();
+  const E1Scenario s = test_support::shipped_e1();
   PlantVariant above;
   above.agonist_loadcell_bias_N = 20.0;
   const SensorCheckResult r = check_sensors(s, *s.sensor_check, e1_variant_plant(s, s.cases[0], above), 2.5);

@@ -22,7 +22,7 @@ namespace {
 
 using ::testing::HasSubstr;
 
-const std::vector<std::string> kColumns = {"t_s", "angle_rad", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "limit_flags"};
+const std::vector<std::string> kTelemetryColumns = {"t_s", "angle_rad", "velocity_radps", "agonist_loadcell_N", "antagonist_loadcell_N", "limit_flags"};
 
 /// The message of the std::invalid_argument `f` throws ("" if it throws none).
 template <class F>
@@ -36,7 +36,7 @@ std::string refusal(F&& f) {
 }
 
 TEST(LogTelemetry, SelectsColumnsByNameGlobAndDegreeView) {
-  const TelemetrySelection s = select_telemetry({"angle_deg", "*_loadcell_N", "t_s", "agonist_loadcell_N"}, kColumns);
+  const TelemetrySelection s = select_telemetry({"angle_deg", "*_loadcell_N", "t_s", "agonist_loadcell_N"}, kTelemetryColumns);
   // The glob's matches in the log's order; a name chosen twice streams once.
   EXPECT_EQ(s.names, (std::vector<std::string>{"angle_deg", "agonist_loadcell_N", "antagonist_loadcell_N", "t_s"}));
   const std::vector<double> row = {0.5, 0.25, -1.0, 100.0, 200.0, 0.0};
@@ -47,7 +47,7 @@ TEST(LogTelemetry, SelectsColumnsByNameGlobAndDegreeView) {
   EXPECT_EQ(values[2], 200.0);
   EXPECT_EQ(values[3], 0.5);
   // The harness's extras come after the row.
-  const TelemetrySelection e = select_telemetry({"rtt_us", "velocity_degps"}, kColumns, {"rtt_us", "lifecycle_state"});
+  const TelemetrySelection e = select_telemetry({"rtt_us", "velocity_degps"}, kTelemetryColumns, {"rtt_us", "lifecycle_state"});
   const double extras[] = {87.5, 2.0};
   std::vector<double> two(2);
   pick_telemetry(e, row, extras, two);
@@ -56,21 +56,21 @@ TEST(LogTelemetry, SelectsColumnsByNameGlobAndDegreeView) {
 }
 
 TEST(LogTelemetry, RefusesAnUnknownNameNamingTheClosestColumn) {
-  EXPECT_THAT(refusal([] { select_telemetry({"agonist_loadcel_N"}, kColumns); }), HasSubstr("did you mean 'agonist_loadcell_N'"));
-  EXPECT_THAT(refusal([] { select_telemetry({"angle_dg"}, kColumns); }), HasSubstr("did you mean 'angle_deg'"));
-  EXPECT_THAT(refusal([] { select_telemetry({"*_pressure_MPa"}, kColumns); }), HasSubstr("matches no column"));
+  EXPECT_THAT(refusal([] { select_telemetry({"agonist_loadcel_N"}, kTelemetryColumns); }), HasSubstr("did you mean 'agonist_loadcell_N'"));
+  EXPECT_THAT(refusal([] { select_telemetry({"angle_dg"}, kTelemetryColumns); }), HasSubstr("did you mean 'angle_deg'"));
+  EXPECT_THAT(refusal([] { select_telemetry({"*_pressure_MPa"}, kTelemetryColumns); }), HasSubstr("matches no column"));
   // The harness's own signals exist on the board only.
-  EXPECT_THAT(refusal([] { select_telemetry({"rtt_us"}, kColumns); }), HasSubstr("'rtt_us' is not a column of the log"));
-  EXPECT_EQ(refusal([] { select_telemetry({"rtt_us"}, kColumns, {"rtt_us"}); }), "");
+  EXPECT_THAT(refusal([] { select_telemetry({"rtt_us"}, kTelemetryColumns); }), HasSubstr("'rtt_us' is not a column of the log"));
+  EXPECT_EQ(refusal([] { select_telemetry({"rtt_us"}, kTelemetryColumns, {"rtt_us"}); }), "");
   // The same check before a run, and the destination's: loopback unless allowed.
   TelemetryOptions o;
   o.destination = io::parse_udp_endpoint("udp://192.0.2.7:9870");
   o.signals = {"angle_rad"};
-  EXPECT_THAT(refusal([&] { check_telemetry(o, kColumns); }), HasSubstr("not a loopback address"));
+  EXPECT_THAT(refusal([&] { check_telemetry(o, kTelemetryColumns); }), HasSubstr("not a loopback address"));
   o.allow_remote = true;
-  EXPECT_EQ(refusal([&] { check_telemetry(o, kColumns); }), "");
+  EXPECT_EQ(refusal([&] { check_telemetry(o, kTelemetryColumns); }), "");
   o.signals = {"angle"};
-  EXPECT_THAT(refusal([&] { check_telemetry(o, kColumns); }), HasSubstr("not a column of the log"));
+  EXPECT_THAT(refusal([&] { check_telemetry(o, kTelemetryColumns); }), HasSubstr("not a column of the log"));
 }
 
 // With nothing chosen the one-DOF rig streams what it streamed before signals could be chosen:
@@ -119,11 +119,11 @@ TEST(LogTelemetry, ReadsTheScenarioKeyStrictly) {
 // signals and whose values are those of the row at their timestamp; the log keeps every row.
 TEST(LogTelemetry, TeeStreamsTheChosenColumnsOfEachRowOverUdp) {
   testing::TelemetryReceiver rx;
-  CsvLog log(kColumns, 1001);
+  CsvLog log(kTelemetryColumns, 1001);
   TelemetryOptions o;
   o.destination = io::parse_udp_endpoint("udp://127.0.0.1:" + std::to_string(rx.port()));
   o.signals = {"antagonist_loadcell_N", "angle_deg"};
-  TelemetryTee tee(log, o, kColumns);
+  TelemetryTee tee(log, o, kTelemetryColumns);
   auto row_at = [](int k) { return std::vector<double>{k * 1e-3, 0.001 * k, 0.0, 3.0 * k, -0.5 * k, 0.0}; };
   for (int k = 0; k <= 1000; ++k) tee.push_row(row_at(k));
   ASSERT_NE(tee.telemetry(), nullptr);
@@ -144,8 +144,8 @@ TEST(LogTelemetry, TeeStreamsTheChosenColumnsOfEachRowOverUdp) {
 }
 
 TEST(LogTelemetry, TeeWithoutADestinationOnlyLogs) {
-  CsvLog log(kColumns, 2);
-  TelemetryTee tee(log, {}, kColumns);
+  CsvLog log(kTelemetryColumns, 2);
+  TelemetryTee tee(log, {}, kTelemetryColumns);
   EXPECT_EQ(tee.telemetry(), nullptr);
   tee.push_row(std::vector<double>{0.0, 1.0, 2.0, 3.0, 4.0, 5.0});
   EXPECT_EQ(log.rows(), 1u);
@@ -154,12 +154,12 @@ TEST(LogTelemetry, TeeWithoutADestinationOnlyLogs) {
 
 // The tee's loop side (pick + publish) allocates nothing once set up.
 TEST(LogTelemetry, TeeAllocatesNothingPerRow) {
-  CsvLog log(kColumns, 300);
+  CsvLog log(kTelemetryColumns, 300);
   TelemetryOptions o;
   o.destination = io::parse_udp_endpoint("udp://127.0.0.1:9");  // nobody listens: sendto still succeeds
   o.signals = {"*"};
-  TelemetryTee tee(log, o, kColumns);
-  std::vector<double> row(kColumns.size());
+  TelemetryTee tee(log, o, kTelemetryColumns);
+  std::vector<double> row(kTelemetryColumns.size());
   tee.push_row(row);
   ASSERT_TRUE(tee.telemetry()->telemetry().flush());  // the sender thread in its steady state
   const std::size_t allocations = testing::allocations_during([&] {

@@ -14,7 +14,7 @@
 namespace peha::runtime {
 namespace {
 
-std::filesystem::path fresh_dir(const std::string& name) {
+std::filesystem::path fresh_timing_dir(const std::string& name) {
   const auto dir = std::filesystem::temp_directory_path() / ("peha_timing_" + std::to_string(getpid()) + "_" + name);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
@@ -74,7 +74,7 @@ TEST(Histogram, WritesEveryBinToCsv) {
   Histogram h;
   for (int i = 1; i <= 1000; ++i) h.add(i * 1e-5);
   for (std::size_t i = 0; i + 1 < h.bin_count(); ++i) EXPECT_DOUBLE_EQ(h.upper_s(i), h.lower_s(i + 1));
-  const auto path = fresh_dir("hist") / "h.csv";
+  const auto path = fresh_timing_dir("hist") / "h.csv";
   h.write_csv(path);
   std::ifstream in(path);
   std::string line;
@@ -114,7 +114,7 @@ TEST(LoopTiming, TablesAndWritesTheLoopStatistics) {
   EXPECT_NE(table.find("compute"), std::string::npos);
   EXPECT_NE(table.find("p99.9"), std::string::npos);
   EXPECT_NE(table.find("deadline misses 3 (miss rate 0.2991 %)"), std::string::npos) << table;  // 3 / 1003
-  const auto dir = fresh_dir("loop");
+  const auto dir = fresh_timing_dir("loop");
   t.write_csv(dir);
   for (const char* f : {"timing_summary.csv", "timing_period_hist.csv", "timing_compute_hist.csv", "timing_rtt_hist.csv"}) {
     EXPECT_TRUE(std::filesystem::exists(dir / f)) << f;
