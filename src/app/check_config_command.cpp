@@ -34,6 +34,7 @@ int check_config(const std::filesystem::path& config) {
       const experiments::RobustnessConfig matrix = experiments::read_robustness(doc);
       if (!matrix.e1_config.empty()) experiments::read_e1(config::Document::load_file(matrix.e1_config));
       if (!matrix.arm_config.empty()) experiments::read_arm_scenario(config::Document::load_file(matrix.arm_config));
+      experiments::read_robustness_scenarios(matrix);  // and E4's persons against the arm's range
       fmt::print("{}: robustness matrix, {} mode(s) x {} variant(s) x {} seed(s); scenarios {} and {} read\n", doc.name(),
                  matrix.modes.size(), matrix.variants.size(), matrix.seeds.size(), matrix.e1_config.string(), matrix.arm_config.string());
       return 0;

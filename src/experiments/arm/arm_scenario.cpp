@@ -237,6 +237,26 @@ void read_bandwidth(config::Map bw, ArmScenario& s) {
   bw.finish();
 }
 
+}  // namespace
+
+ArmScenario::Goniometer::Movement read_goniometer_movement(config::Map& item, double lo_deg, double hi_deg) {
+  ArmScenario::Goniometer::Movement m;
+  m.name = item.string("name");
+  m.from_rad = models::deg_to_rad(item.number("from_deg", {lo_deg, hi_deg}));
+  m.to_rad = models::deg_to_rad(item.number("to_deg", {lo_deg, hi_deg}));
+  m.move_s = item.number("move_s", {0.05, 60.0});
+  m.pause_s = item.number("pause_s", {0.0, 60.0});
+  m.repetitions = static_cast<int>(item.integer("repetitions", 1, 1000));
+  m.tremor_amplitude_rad = models::deg_to_rad(item.number_or("tremor_amplitude_deg", 0.0, {0.0, 20.0}));
+  m.tremor_frequency_Hz = item.number_or("tremor_frequency_Hz", 0.0, {0.0, 30.0});
+  if ((m.tremor_amplitude_rad > 0) != (m.tremor_frequency_Hz > 0)) {
+    item.fail("tremor_frequency_Hz", "a tremor needs both tremor_amplitude_deg and tremor_frequency_Hz above 0 (or neither)");
+  }
+  return m;
+}
+
+namespace {
+
 /// `goniometer:` (E4): the driven joints, the held posture, the sensor, its filter, the feedback and
 /// the movements.
 void read_goniometer(config::Map gon, ArmScenario& s) {
@@ -294,15 +314,8 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   g.max_command_delay_s = th.number("max_command_delay_ms", {0.0, 1000.0}) * 1e-3;
   th.finish();
   for (config::Map item : gon.maps("movements", 1, 16)) {
-    ArmScenario::Goniometer::Movement m;
-    m.name = item.string("name");
-    m.from_rad = models::deg_to_rad(item.number("from_deg", {lo, hi}));
-    m.to_rad = models::deg_to_rad(item.number("to_deg", {lo, hi}));
-    m.move_s = item.number("move_s", {0.05, 60.0});
-    m.pause_s = item.number("pause_s", {0.0, 60.0});
-    m.repetitions = static_cast<int>(item.integer("repetitions", 1, 1000));
+    g.movements.push_back(read_goniometer_movement(item, lo, hi));
     item.finish();
-    g.movements.push_back(m);
   }
   gon.finish();
 }

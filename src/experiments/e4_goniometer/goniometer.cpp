@@ -20,6 +20,7 @@
 #include <fstream>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -80,6 +81,8 @@ GoniometerTrace synthesize_goniometer(const ArmScenario::Goniometer& g, const Ar
         angle = m.to_rad + (m.from_rad - m.to_rad) * sim::minimum_jerk((tc - 2.0 * m.pause_s - m.move_s) / m.move_s);
       }
     }
+    // The tremor starts from 0 at t = 0, so the arm starts where the person does.
+    angle += m.tremor_amplitude_rad * std::sin(2.0 * std::numbers::pi * m.tremor_frequency_Hz * t);
     trace.truth_rad.push_back(angle);
     trace.measured_rad.push_back(quantize(angle + g.noise_rad * noise(rng), g.resolution_rad));
   }

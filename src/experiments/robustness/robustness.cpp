@@ -12,6 +12,9 @@
 #include "peha/experiments/common/mujoco_lock.hpp"
 #include "peha/experiments/common/scenario_header.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
+#include "peha/experiments/e4_goniometer/goniometer.hpp"
+#include "peha/hardware/door.hpp"
+#include "peha/models/units.hpp"
 #include "peha/sim/mujoco_model.hpp"
 
 #include <fmt/format.h>
@@ -30,10 +33,13 @@
 namespace peha::experiments {
 namespace {
 
-/// E3's modes run the arm scenario; the others E1's.
-bool is_e3(RobustnessMode m) noexcept { return m == RobustnessMode::kE3 || m == RobustnessMode::kE3Identified; }
-bool any_e3_mode(const std::vector<RobustnessMode>& modes) { return std::any_of(modes.begin(), modes.end(), is_e3); }
-bool any_e1_mode(const std::vector<RobustnessMode>& modes) { return !std::all_of(modes.begin(), modes.end(), is_e3); }
+/// E3's and E4's modes run the arm scenario; the others E1's.
+bool is_arm(RobustnessMode m) noexcept {
+  return m == RobustnessMode::kE3 || m == RobustnessMode::kE3Identified || m == RobustnessMode::kE4;
+}
+bool any_arm_mode(const std::vector<RobustnessMode>& modes) { return std::any_of(modes.begin(), modes.end(), is_arm); }
+bool any_e1_mode(const std::vector<RobustnessMode>& modes) { return !std::all_of(modes.begin(), modes.end(), is_arm); }
+bool has_mode(const std::vector<RobustnessMode>& modes, RobustnessMode m) { return std::find(modes.begin(), modes.end(), m) != modes.end(); }
 
 using io::kNaN;
 
@@ -56,6 +62,53 @@ PlantVariant read_variant_keys(config::Map m) {
   v.extra_payload_kg = m.number_or("extra_payload_kg", 0.0, {0.0, 20.0});
   m.finish();
   return v;
+}
+
+/// A person of `e4.persons`: the arm scenario's movement by name (`movement: brisk`, with an optional
+/// tremor) or its own (the keys of goniometer.movements), and its own arm's segments.
+GoniometerPerson read_person(config::Map m) {
+  GoniometerPerson p;
+  if (m.has("movement")) {
+    p.name = m.string("name");
+    p.scenario_movement = m.string("movement");
+    p.movement.name = p.name;
+    p.movement.tremor_amplitude_rad = models::deg_to_rad(m.number_or("tremor_amplitude_deg", 0.0, {0.0, 20.0}));
+    p.movement.tremor_frequency_Hz = m.number_or("tremor_frequency_Hz", 0.0, {0.0, 30.0});
+    if ((p.movement.tremor_amplitude_rad > 0) != (p.movement.tremor_frequency_Hz > 0)) {
+      m.fail("tremor_frequency_Hz", "a tremor needs both tremor_amplitude_deg and tremor_frequency_Hz above 0 (or neither)");
+    }
+  } else {
+    // The driven joints' range is checked against the arm scenario when it is read (person_movement).
+    p.movement = read_goniometer_movement(m, -180.0, 180.0);
+    p.name = p.movement.name;
+  }
+  p.segment_length_scale = m.number_or("segment_length_scale", 1.0, {0.5, 2.0});
+  p.segment_mass_scale = m.number_or("segment_mass_scale", 1.0, {0.2, 5.0});
+  m.finish();
+  return p;
+}
+
+/// `e4:` - the plant variants E4 runs on (by name), its paces (the arm scenario's movements) and persons.
+E4Matrix read_e4(config::Map m, const std::vector<PlantVariant>& variants) {
+  E4Matrix e;
+  if (m.has("variants")) {
+    std::vector<std::string> names;
+    for (const PlantVariant& v : variants) names.push_back(v.name);
+    e.variants = m.choices("variants", names, 1, names.size());
+  }
+  for (const std::string& pace : m.strings("paces", 1, 16)) {
+    GoniometerPerson p;
+    p.name = p.scenario_movement = pace;
+    e.paces.push_back(p);
+  }
+  if (m.has("persons")) {
+    for (config::Map p : m.maps("persons", 1, 64)) e.persons.push_back(read_person(p));
+    if (std::none_of(variants.begin(), variants.end(), [](const PlantVariant& v) { return v.name == "nominal"; })) {
+      m.fail("persons", "the persons run on the variant named nominal: add {name: nominal} to variants");
+    }
+  }
+  m.finish();
+  return e;
 }
 
 RobustnessGoal read_goal(config::Map m, RobustnessGoal g) {
@@ -90,6 +143,8 @@ void scale_body(models::ArmBody& b, double s) {
   b.inertia_kgm2 *= s;
 }
 
+
+
 /// The worst tension over the verdict's tension checks as a fraction of each joint's pretension.
 double tension_fraction(const safety::Verdict& verdict) {
   double worst = std::numeric_limits<double>::infinity();
@@ -113,6 +168,7 @@ struct MatrixCase {
   RobustnessMode mode;
   const PlantVariant* variant;
   std::uint64_t seed;
+  const GoniometerPerson* person = nullptr;  ///< E4 only
 };
 
 /// The controller of the calibrated mode: both muscles recorded and fitted on this variant's plant.
@@ -266,14 +322,77 @@ RobustnessRow run_e3_job(const ArmScenario& nominal, const MatrixCase& job) {
   return row;
 }
 
+/// E4 on one variant's plant with one person: the feedback variant (the one judged; the paper's pure
+/// replay fails its tracking figures on the nominal plant). Physics forbids the verdict, before the run,
+/// when the person moves faster than the supervisor lets any joint move, or when a tremor alone puts
+/// the tracking RMS past its limit.
+RobustnessRow run_e4_job(const ArmScenario& nominal, const MatrixCase& job) {
+  const GoniometerPerson& person = *job.person;
+  ArmScenario scenario = nominal;
+  scenario.plant = arm_variant_plant(nominal, *job.variant);
+  scale_user_arm(scenario.plant, person.segment_length_scale, person.segment_mass_scale);
+  scenario.plant.seed = scenario.seed = job.seed;
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  // The goniometer's noise as `peha run` draws it for the scenario's k-th movement (seed + k).
+  std::uint64_t noise_seed = job.seed;
+  for (std::size_t k = 0; k < g.movements.size(); ++k) {
+    if (g.movements[k].name == person.scenario_movement) noise_seed += k;
+  }
+  std::vector<GoniometerTrace> traces = synthesize_goniometers(g, person_movement(nominal, person), noise_seed);
+  for (GoniometerTrace& t : traces) t.name = person.name;
+  const hardware::Hardware hw =
+      hardware::open_backend(hardware::BackendUri{}, goniometer_hardware(scenario, goniometer_plant_params(scenario, traces)));
+  const GoniometerResult r = run_goniometer(scenario, traces, GoniometerVariant::kFeedback, hw, nullptr);
+  RobustnessRow row;
+  row.payload = person.name;
+  row.static_error_pct = row.breakaway_error_pct = row.drift_deg = kNaN;
+  const GoniometerJointResult& j = r.joints.front();
+  row.e4.rms_error_deg = j.rms_error_deg;
+  row.e4.max_error_deg = j.max_error_deg;
+  row.e4.delay_ms = 1e3 * j.delay_s;
+  row.e4.command_hf_rms_Nm = j.command_hf_rms_Nm;
+  row.e4.held_excursion_deg = j.held_excursion_deg;
+  row.e4.passive_speed_degps = 0;
+  for (const GoniometerJointFigure& p : r.passive) row.e4.passive_speed_degps = std::max(row.e4.passive_speed_degps, p.value);
+  double peak_radps = 0;
+  const std::vector<double>& q = traces.front().truth_rad;
+  for (std::size_t k = 1; k < q.size(); ++k) peak_radps = std::max(peak_radps, std::abs(q[k] - q[k - 1]) * g.sample_rate_Hz);
+  row.e4.person_speed_degps = models::rad_to_deg(peak_radps);
+  // The judged wires (the wrist's constant-pressure pair has no tension floor).
+  row.min_tension_N = kNaN;
+  for (const safety::Check& c : r.verdict.checks) {
+    if (c.figure.ends_with("lowest wire tension")) row.min_tension_N = std::isnan(row.min_tension_N) ? c.value : std::min(row.min_tension_N, c.value);
+  }
+  row.tension_fraction = tension_fraction(r.verdict);
+  row.verdict = r.within_limits;
+  row.failures = failures_of(r.verdict);
+  // The supervisor's first fault is the cause; the figures that fail after its safe state are its effects.
+  if (r.first_fault_flag != 0) row.failures = fmt::format("first fault {}; {}", safety::fault_flag_name(r.first_fault_flag), row.failures);
+  const double speed_limit_degps = models::rad_to_deg(scenario.limits.monitor.max_joint_speed_radps);
+  const double tremor_rms_deg = models::rad_to_deg(person_movement(nominal, person).tremor_amplitude_rad) / std::sqrt(2.0);
+  if (row.e4.person_speed_degps > speed_limit_degps) {
+    row.physics_reason = fmt::format("the person moves at {:.0f} deg/s, faster than the supervisor lets any joint move ({:.0f} deg/s)",
+                                     row.e4.person_speed_degps, speed_limit_degps);
+  } else if (tremor_rms_deg > scenario.verdict.max_tracking_rms_deg) {
+    row.physics_reason = fmt::format("the tremor alone is {:.1f} deg RMS, above the {:.1f} deg tracking limit, and no arm follows it",
+                                     tremor_rms_deg, scenario.verdict.max_tracking_rms_deg);
+  }
+  return row;
+}
+
 const RobustnessGoal& goal_of(const RobustnessConfig& c, RobustnessMode m) {
   switch (m) {
     case RobustnessMode::kE1Default: return c.goal_default;
     case RobustnessMode::kE1CalibratedFF: return c.goal_calibrated;
     case RobustnessMode::kE3: return c.goal_e3;
     case RobustnessMode::kE3Identified: return c.goal_e3_identified;
+    case RobustnessMode::kE4: break;  // its verdict, not a static error (required_share)
   }
   return c.goal_default;
+}
+
+double required_share(const RobustnessConfig& c, RobustnessMode m) {
+  return m == RobustnessMode::kE4 ? c.e4_min_share : goal_of(c, m).min_share;
 }
 
 }  // namespace
@@ -286,6 +405,7 @@ const char* to_string(RobustnessMode m) {
     case RobustnessMode::kE1CalibratedFF: return "e1_calibrated_ff";
     case RobustnessMode::kE3: return "e3_postures";
     case RobustnessMode::kE3Identified: return "e3_identified";
+    case RobustnessMode::kE4: return "e4_goniometer";
   }
   return "?";
 }
@@ -308,7 +428,7 @@ RobustnessConfig read_robustness(const config::Document& doc) {
   if (c.modes.empty()) root.fail("modes", "no mode is on: set one of " + robustness_mode_names() + " to true");
   // Each scenario is needed by the modes that run it only (a matrix of E3 modes names no E1 scenario).
   if (any_e1_mode(c.modes) || root.has("e1_scenario")) c.e1_config = root.path_value("e1_scenario");
-  if (any_e3_mode(c.modes) || root.has("arm_scenario")) c.arm_config = root.path_value("arm_scenario");
+  if (any_arm_mode(c.modes) || root.has("arm_scenario")) c.arm_config = root.path_value("arm_scenario");
   if (root.has("seeds")) {
     for (double s : root.numbers("seeds", {0.0, 1e9}, 1, 16)) c.seeds.push_back(static_cast<std::uint64_t>(s));
   } else {
@@ -328,9 +448,15 @@ RobustnessConfig read_robustness(const config::Document& doc) {
     if (goals.has("e1_calibrated_ff")) c.goal_calibrated = read_goal(goals.map("e1_calibrated_ff"), c.goal_calibrated);
     if (goals.has("e3_postures")) c.goal_e3 = read_goal(goals.map("e3_postures"), c.goal_e3);
     if (goals.has("e3_identified")) c.goal_e3_identified = read_goal(goals.map("e3_identified"), c.goal_e3_identified);
+    if (goals.has("e4_goniometer")) {
+      config::Map e4 = goals.map("e4_goniometer");  // its verdict's figures are the arm scenario's
+      c.e4_min_share = e4.number("min_share", {0.0, 1.0});
+      e4.finish();
+    }
     goals.finish();
   }
   for (config::Map v : root.maps("variants", 1, 256)) c.variants.push_back(read_variant_keys(v));
+  if (has_mode(c.modes, RobustnessMode::kE4) || root.has("e4")) c.e4 = read_e4(root.map("e4"), c.variants);
   root.finish();
   return c;
 }
@@ -372,15 +498,50 @@ sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVa
 
 namespace {
 
-/// The scenarios the modes run: E1's with its selected cases, and the arm's (each read only when a
-/// mode runs it).
-struct RobustnessScenarios {
-  E1Scenario e1;
-  ArmScenario arm;
-  std::vector<std::size_t> cases;  ///< E1's cases the matrix runs, by index
-};
+}  // namespace
 
-RobustnessScenarios read_scenarios(const RobustnessConfig& config) {
+void scale_user_arm(sim::ArmPlantParams& p, double length_scale, double mass_scale) {
+  for (models::ArmBody& b : p.model.bodies) {
+    if (!models::without_side(b.name).starts_with("user_")) continue;
+    scale_body(b, mass_scale);
+    b.com_m *= length_scale;
+    b.inertia_kgm2 *= length_scale * length_scale;
+  }
+}
+
+ArmScenario::Goniometer::Movement person_movement(const ArmScenario& scenario, const GoniometerPerson& person) {
+  const ArmScenario::Goniometer& g = scenario.goniometer;
+  ArmScenario::Goniometer::Movement m = person.movement;
+  if (!person.scenario_movement.empty()) {
+    const auto it = std::find_if(g.movements.begin(), g.movements.end(),
+                                 [&](const ArmScenario::Goniometer::Movement& s) { return s.name == person.scenario_movement; });
+    if (it == g.movements.end()) {
+      throw config::Error(fmt::format("E4 person {}: the arm scenario has no goniometer movement named {}", person.name,
+                                      person.scenario_movement));
+    }
+    m = *it;
+    m.name = person.name;
+    if (person.movement.tremor_amplitude_rad > 0) {
+      m.tremor_amplitude_rad = person.movement.tremor_amplitude_rad;
+      m.tremor_frequency_Hz = person.movement.tremor_frequency_Hz;
+    }
+  }
+  for (const int j : g.joints) {
+    const auto& lim = scenario.limits.joints[static_cast<std::size_t>(j)];
+    for (const double end : {m.from_rad, m.to_rad}) {
+      for (const double a : {end - m.tremor_amplitude_rad, end + m.tremor_amplitude_rad}) {
+        if (a < lim.min_angle_rad || a > lim.max_angle_rad) {
+          throw config::Error(fmt::format("E4 person {}: reaches {:.1f} deg, outside the driven joint's range [{:.1f}, {:.1f}] deg",
+                                          person.name, models::rad_to_deg(a), models::rad_to_deg(lim.min_angle_rad),
+                                          models::rad_to_deg(lim.max_angle_rad)));
+        }
+      }
+    }
+  }
+  return m;
+}
+
+RobustnessScenarios read_robustness_scenarios(const RobustnessConfig& config) {
   RobustnessScenarios s;
   if (any_e1_mode(config.modes)) {
     s.e1 = read_e1(config::Document::load_file(config.e1_config));
@@ -392,9 +553,16 @@ RobustnessScenarios read_scenarios(const RobustnessConfig& config) {
     }
     if (s.cases.empty()) throw config::Error(fmt::format("{}: none of e1_cases is a case of the E1 scenario", config.e1_config.string()));
   }
-  if (any_e3_mode(config.modes)) s.arm = read_arm_scenario(config::Document::load_file(config.arm_config));
+  if (any_arm_mode(config.modes)) s.arm = read_arm_scenario(config::Document::load_file(config.arm_config));
+  if (has_mode(config.modes, RobustnessMode::kE4)) {
+    for (const auto* list : {&config.e4.paces, &config.e4.persons}) {
+      for (const GoniometerPerson& p : *list) person_movement(s.arm, p);  // throws naming the person
+    }
+  }
   return s;
 }
+
+namespace {
 
 /// Every mode x variant x seed, the calibrated jobs first: they take longest (two recordings and two
 /// fits each).
@@ -402,7 +570,20 @@ std::vector<MatrixCase> robustness_jobs(const RobustnessConfig& config) {
   std::vector<MatrixCase> jobs;
   for (RobustnessMode mode : config.modes) {
     for (const PlantVariant& v : config.variants) {
-      for (std::uint64_t seed : config.seeds) jobs.push_back({mode, &v, seed});
+      for (std::uint64_t seed : config.seeds) {
+        if (mode != RobustnessMode::kE4) {
+          jobs.push_back({mode, &v, seed});
+          continue;
+        }
+        // E4: every pace on its variants, and its persons on the nominal plant.
+        const auto& names = config.e4.variants;
+        if (names.empty() || std::find(names.begin(), names.end(), v.name) != names.end()) {
+          for (const GoniometerPerson& p : config.e4.paces) jobs.push_back({mode, &v, seed, &p});
+        }
+        if (v.name == "nominal") {
+          for (const GoniometerPerson& p : config.e4.persons) jobs.push_back({mode, &v, seed, &p});
+        }
+      }
     }
   }
   std::stable_sort(jobs.begin(), jobs.end(), [](const MatrixCase& a, const MatrixCase& b) {
@@ -419,6 +600,14 @@ void judge_rows(const RobustnessConfig& config, const MatrixCase& job, double se
     row.variant = job.variant->name;
     row.mode = to_string(job.mode);
     row.seed = job.seed;
+    row.seconds = seconds / static_cast<double>(rows.size());
+    if (job.mode == RobustnessMode::kE4) {
+      // E4 feeds the elbow's angle back: an untold gravity or no cable friction is not out of its reach
+      // (run_e4_job names what is). Its goal is its verdict.
+      row.physics_forbids = !row.physics_reason.empty();
+      row.goal = row.verdict;
+      continue;
+    }
     // A gravity the controller cannot know: the variant's unknown payload or mass. Its own model's
     // error (E3's arm model) is not physics: identification on the rig removes it, so it counts.
     // After an identification on the variant, only the payload picked up afterwards is unknown.
@@ -432,7 +621,6 @@ void judge_rows(const RobustnessConfig& config, const MatrixCase& job, double se
           "no cable friction: without position feedback any error of the gravity model moves the joint (a neutral equilibrium)";
     }
     row.physics_forbids = !row.physics_reason.empty();
-    row.seconds = seconds / static_cast<double>(rows.size());
     const bool error_ok = row.static_error_pct <= g.max_static_error_pct;
     row.goal = error_ok && row.tension_fraction >= g.min_tension_fraction;
   }
@@ -445,7 +633,7 @@ using RobustnessProgress = std::function<void(std::size_t, std::size_t, const st
 std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config, const RobustnessScenarios& scenarios,
                                                  const std::vector<MatrixCase>& jobs, const RobustnessProgress& progress) {
   std::size_t total = 0;
-  for (const MatrixCase& j : jobs) total += is_e3(j.mode) ? 1 : scenarios.cases.size();
+  for (const MatrixCase& j : jobs) total += is_arm(j.mode) ? 1 : scenarios.cases.size();
   std::vector<std::vector<RobustnessRow>> rows_of(jobs.size());
   std::size_t done = 0;
   std::mutex report;
@@ -453,7 +641,9 @@ std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config,
     const MatrixCase& job = jobs[i];
     const auto start = std::chrono::steady_clock::now();
     std::vector<RobustnessRow> rows;
-    if (is_e3(job.mode)) {
+    if (job.mode == RobustnessMode::kE4) {
+      rows.push_back(run_e4_job(scenarios.arm, job));
+    } else if (is_arm(job.mode)) {
       rows.push_back(run_e3_job(scenarios.arm, job));
     } else {
       rows = run_e1_job(scenarios.e1, job, scenarios.cases, config);
@@ -462,7 +652,14 @@ std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config,
     const std::lock_guard lock(report);
     for (const RobustnessRow& row : rows) {
       const std::size_t n = ++done;
-      if (progress) {
+      if (progress && job.mode == RobustnessMode::kE4) {
+        progress(n, total,
+                 fmt::format("{:<17} {:<22} {:<14} seed {}: RMS {:>5.2f} deg, max {:>5.1f} deg, delay {:>3.0f} ms, command > 10 Hz {:.3f} Nm, "
+                             "shoulder {:.2f} deg, wrist {:>4.0f} deg/s, T_min {:>5.1f} N, verdict {} ({:.0f} s)",
+                             row.mode, row.variant, row.payload, row.seed, row.e4.rms_error_deg, row.e4.max_error_deg, row.e4.delay_ms,
+                             row.e4.command_hf_rms_Nm, row.e4.held_excursion_deg, row.e4.passive_speed_degps, row.min_tension_N,
+                             row.verdict ? "OK" : "FAIL", row.seconds));
+      } else if (progress) {
         progress(n, total,
                  fmt::format("{:<17} {:<22} {:<14} seed {}: static error {:>6.1f} %, drift {:>8.3f} deg, T_min/pretension {:>5.2f}, "
                              "verdict {}, goal {} ({:.0f} s)",
@@ -479,7 +676,7 @@ std::vector<std::vector<RobustnessRow>> run_jobs(const RobustnessConfig& config,
 std::vector<RobustnessResult::Share> goal_shares(const RobustnessConfig& config, const std::vector<RobustnessRow>& rows) {
   std::vector<RobustnessResult::Share> shares;
   for (RobustnessMode mode : config.modes) {
-    RobustnessResult::Share s{to_string(mode), 0, 0, 0, goal_of(config, mode).min_share};
+    RobustnessResult::Share s{to_string(mode), 0, 0, 0, required_share(config, mode)};
     for (const RobustnessRow& r : rows) {
       if (r.mode != s.mode) continue;
       ++s.total;
@@ -495,7 +692,11 @@ std::vector<RobustnessResult::Share> goal_shares(const RobustnessConfig& config,
 
 RobustnessResult run_robustness(const RobustnessConfig& config,
                                 const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
-  const RobustnessScenarios scenarios = read_scenarios(config);
+  return run_robustness(config, read_robustness_scenarios(config), progress);
+}
+
+RobustnessResult run_robustness(const RobustnessConfig& config, const RobustnessScenarios& scenarios,
+                                const std::function<void(std::size_t, std::size_t, const std::string&)>& progress) {
   const std::vector<MatrixCase> jobs = robustness_jobs(config);
   std::vector<std::vector<RobustnessRow>> rows_of = run_jobs(config, scenarios, jobs, progress);
   // The table in the configuration's order: mode, variant, seed, case.
@@ -503,7 +704,7 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
   for (RobustnessMode mode : config.modes) {
     for (const PlantVariant& v : config.variants) {
       for (std::uint64_t seed : config.seeds) {
-        for (std::size_t i = 0; i < jobs.size(); ++i) {
+        for (std::size_t i = 0; i < jobs.size(); ++i) {  // E4's persons in their order after its paces
           if (jobs[i].mode == mode && jobs[i].variant == &v && jobs[i].seed == seed) {
             result.rows.insert(result.rows.end(), rows_of[i].begin(), rows_of[i].end());
           }
@@ -518,14 +719,17 @@ RobustnessResult run_robustness(const RobustnessConfig& config,
 void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& config, const RobustnessResult& result) {
   std::ofstream csv(dir / "robustness.csv");
   csv << "mode,variant,payload,seed,static_torque_error_pct,breakaway_error_pct,drift_deg,min_tension_N,tension_fraction,"
-         "verdict,goal,physics_forbids,model_gravity_error_pct,seconds,failures\n";
+         "verdict,goal,physics_forbids,model_gravity_error_pct,e4_rms_error_deg,e4_max_error_deg,e4_delay_ms,e4_command_hf_rms_Nm,"
+         "e4_held_excursion_deg,e4_passive_speed_degps,e4_person_speed_degps,seconds,failures\n";
   for (const RobustnessRow& r : result.rows) {
     std::string failures = r.failures;
     std::replace(failures.begin(), failures.end(), ',', ' ');
     std::replace(failures.begin(), failures.end(), '"', '\'');
-    csv << fmt::format("{},{},{},{},{:.3f},{:.3f},{:.4f},{:.2f},{:.3f},{},{},{},{:.3f},{:.1f},\"{}\"\n", r.mode, r.variant, r.payload, r.seed,
-                       r.static_error_pct, r.breakaway_error_pct, r.drift_deg, r.min_tension_N, r.tension_fraction, r.verdict ? 1 : 0,
-                       r.goal ? 1 : 0, r.physics_forbids ? 1 : 0, r.model_gravity_error_pct, r.seconds, failures);
+    csv << fmt::format("{},{},{},{},{:.3f},{:.3f},{:.4f},{:.2f},{:.3f},{},{},{},{:.3f},{:.3f},{:.2f},{:.1f},{:.4f},{:.3f},{:.1f},{:.1f},{:.1f},\"{}\"\n",
+                       r.mode, r.variant, r.payload, r.seed, r.static_error_pct, r.breakaway_error_pct, r.drift_deg, r.min_tension_N,
+                       r.tension_fraction, r.verdict ? 1 : 0, r.goal ? 1 : 0, r.physics_forbids ? 1 : 0, r.model_gravity_error_pct,
+                       r.e4.rms_error_deg, r.e4.max_error_deg, r.e4.delay_ms, r.e4.command_hf_rms_Nm, r.e4.held_excursion_deg,
+                       r.e4.passive_speed_degps, r.e4.person_speed_degps, r.seconds, failures);
   }
   std::ofstream md(dir / "robustness.md");
   md << "# Robustness matrix\n\n";
@@ -536,6 +740,11 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
                     config.variants.size());
   md << "Goals: ";
   for (RobustnessMode m : config.modes) {
+    if (m == RobustnessMode::kE4) {
+      md << fmt::format("e4_goniometer its verdict (every figure of E4, the arm scenario's thresholds) in >= {:.0f} % of the cases; ",
+                        100 * config.e4_min_share);
+      continue;
+    }
     const RobustnessGoal& g = goal_of(config, m);
     md << fmt::format("{} |static torque error| <= {} % and T_min >= {} x pretension in >= {:.0f} % of the variants; ", to_string(m),
                       g.max_static_error_pct, g.min_tension_fraction, 100 * g.min_share);
@@ -553,8 +762,9 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
   }
   md << "\n| variant | payload | mode | seed | static torque error % | breakaway estimate % | worst drift deg | T_min N | T_min / pretension "
         "| verdict | goal | note |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  auto num = [](double v, const char* f) { return std::isnan(v) ? std::string("-") : fmt::format(fmt::runtime(f), v); };
   for (const RobustnessRow& r : result.rows) {
-    auto num = [](double v, const char* f) { return std::isnan(v) ? std::string("-") : fmt::format(fmt::runtime(f), v); };
+    if (r.mode == to_string(RobustnessMode::kE4)) continue;  // its own table below
     std::string note;
     if (r.physics_forbids) note = r.physics_reason;
     if (!std::isnan(r.model_gravity_error_pct) && r.model_gravity_error_pct > config.goal_e3.max_static_error_pct) {  // E3 rows only
@@ -568,6 +778,26 @@ void write_robustness(const std::filesystem::path& dir, const RobustnessConfig& 
     md << fmt::format("| {} | {} | {} | {} | {} | {} | {:.3f} | {:.1f} | {:.2f} | {} | {} | {} |\n", r.variant, r.payload, r.mode, r.seed,
                       num(r.static_error_pct, "{:.1f}"), num(r.breakaway_error_pct, "{:.1f}"), r.drift_deg, r.min_tension_N,
                       r.tension_fraction, r.verdict ? "OK" : "FAIL", r.goal ? "met" : "missed", note);
+  }
+  // E4: its own figures; a failed case says whether physics forbids it (with the number) or the control fails.
+  if (!has_mode(config.modes, RobustnessMode::kE4)) return;
+  md << "\n## E4, the goniometer-driven elbow (feedback variant)\n\n"
+        "Person: a pace of the arm scenario on each variant's plant, or a person of `e4.persons` on the nominal plant. Figures "
+        "from the release on (plant truth): tracking RMS / max / delay of the exoskeleton's elbow behind the person's, the torque "
+        "command above 10 Hz, the held shoulder's excursion, the passive wrist's peak speed, the lowest wire.\n\n"
+        "| variant | person | person's peak deg/s | RMS deg | max deg | delay ms | command > 10 Hz Nm | shoulder deg | wrist deg/s "
+        "| T_min N | verdict | cause |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+  for (const RobustnessRow& r : result.rows) {
+    if (r.mode != to_string(RobustnessMode::kE4)) continue;
+    std::string cause = "-";
+    if (!r.verdict) {
+      cause = (r.physics_forbids ? "physics forbids: " + r.physics_reason : std::string("control defect (physics allows it)")) + ": " +
+              r.failures.substr(0, r.failures.find(';'));
+    }
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.1f} | {} | {} |\n", r.variant, r.payload,
+                      num(r.e4.person_speed_degps, "{:.0f}"), num(r.e4.rms_error_deg, "{:.2f}"), num(r.e4.max_error_deg, "{:.1f}"),
+                      num(r.e4.delay_ms, "{:.0f}"), num(r.e4.command_hf_rms_Nm, "{:.3f}"), num(r.e4.held_excursion_deg, "{:.2f}"),
+                      num(r.e4.passive_speed_degps, "{:.0f}"), r.min_tension_N, r.verdict ? "OK" : "FAIL", cause);
   }
 }
 

@@ -116,6 +116,9 @@ struct ArmScenario {
       std::string name;
       double from_rad = 0.7, to_rad = 1.75, move_s = 2.0, pause_s = 0.5;
       int repetitions = 3;
+      /// A tremor on top of the movement (the person's, not the goniometer's): A sin(2 pi f t) over the
+      /// whole recording (`tremor_amplitude_deg`, `tremor_frequency_Hz`; 0 = none).
+      double tremor_amplitude_rad = 0.0, tremor_frequency_Hz = 0.0;
     };
     std::vector<Movement> movements;
   } goniometer;
@@ -153,6 +156,11 @@ struct ArmScenario {
 /// `scenario` with the controller's arm from the identification file `path` (its bodies replaced by the
 /// identified gravity parameters, nominal_arm kept). Throws config::Error.
 void use_gravity_identification(ArmScenario& scenario, const std::filesystem::path& path);
+
+/// Reads one movement of `goniometer.movements` (or a person of the robustness matrix): name, from_deg,
+/// to_deg (inside [lo_deg, hi_deg]), move_s, pause_s, repetitions and the optional tremor; throws
+/// config::Error. Leaves `m` unfinished: the caller may read more keys, then calls finish().
+ArmScenario::Goniometer::Movement read_goniometer_movement(config::Map& m, double lo_deg, double hi_deg);
 
 /// Reads configs/right_arm.yaml (and the body file it names); throws config::Error.
 ArmScenario read_arm_scenario(const config::Document& doc);

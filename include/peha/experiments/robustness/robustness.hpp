@@ -1,7 +1,8 @@
 #pragma once
 /// \file
-/// The robustness matrix (docs/robustness.md): E1 and E3 on plant variants x payloads x seeds,
-/// each judged by the experiment's own verdict, with the goals of issue 10 reported beside it.
+/// The robustness matrix (docs/robustness.md): E1 and E3 on plant variants x payloads x seeds, and E4
+/// on plant variants x paces plus persons, each judged by the experiment's own verdict, with the goals
+/// of issues 10 and 31 reported beside it.
 /// A variant changes only the plant (the truth); the controller keeps its nominal model. In the
 /// calibrated feed-forward mode the controller's muscle models come from a calibration recorded and
 /// fitted on that variant (the code of `peha record-calibration` and `peha calibrate`).
@@ -52,10 +53,11 @@ enum class RobustnessMode {
   kE1CalibratedFF,  ///< E1 on the paper's pure feed-forward after calibrating both muscles on the variant
   kE3,              ///< E3 postures with the arm scenario's controller as shipped
   kE3Identified,    ///< E3 after identifying the arm's gravity parameters on the variant (peha identify-gravity)
+  kE4,              ///< E4, the goniometer-driven elbow (its feedback variant), on the variants' plants and the persons
 };
 /// Every mode, in the order the file's `modes:` and the table list them.
 inline constexpr RobustnessMode kRobustnessModes[] = {RobustnessMode::kE1Default, RobustnessMode::kE1CalibratedFF,
-                                                      RobustnessMode::kE3, RobustnessMode::kE3Identified};
+                                                      RobustnessMode::kE3, RobustnessMode::kE3Identified, RobustnessMode::kE4};
 const char* to_string(RobustnessMode m);
 /// The modes' names, ", "-separated (for messages).
 std::string robustness_mode_names();
@@ -64,6 +66,29 @@ struct RobustnessGoal {
   double max_static_error_pct = 5;   ///< |static torque error| at every release
   double min_tension_fraction = 0.5; ///< lowest wire tension / pretension
   double min_share = 1.0;            ///< of the variants that must meet both
+};
+
+/// A person of E4 in the matrix (`e4.paces` and `e4.persons`): a movement - the arm scenario's, by
+/// name, or its own - with an optional tremor, and the person's own arm (the user's segments in the
+/// plant; the controller keeps its nominal model: it is not told who wears it).
+struct GoniometerPerson {
+  std::string name;
+  std::string scenario_movement;  ///< the arm scenario's goniometer.movements entry ("" = `movement` below)
+  ArmScenario::Goniometer::Movement movement;  ///< own movement, or only its tremor on the scenario's
+  double segment_length_scale = 1;  ///< the user's forearm, hand and upper arm: centre of mass x s, inertia x s^2
+  double segment_mass_scale = 1;    ///< their masses and inertias x s
+};
+
+/// The person's movement: the scenario's (with the person's tremor) or its own, inside the range of
+/// every driven joint. Throws config::Error naming the person.
+ArmScenario::Goniometer::Movement person_movement(const ArmScenario& scenario, const GoniometerPerson& person);
+
+/// E4's section of the matrix (`e4:`): its plant variants, each run at every pace, and its persons,
+/// each run on the variant named `nominal`.
+struct E4Matrix {
+  std::vector<std::string> variants;       ///< names from `variants:` (empty: every one)
+  std::vector<GoniometerPerson> paces;     ///< the arm scenario's movements (`paces: [slow, brisk]`)
+  std::vector<GoniometerPerson> persons;   ///< faster strokes, tremor, another anthropometry
 };
 
 struct RobustnessConfig {
@@ -84,12 +109,27 @@ struct RobustnessConfig {
   RobustnessGoal goal_calibrated{10, 0.2, 0.9};
   RobustnessGoal goal_e3{5, 0.5, 1.0};
   RobustnessGoal goal_e3_identified{5, 0.5, 1.0};
+  E4Matrix e4;
+  /// E4's goal: its own verdict (every figure, thresholds from the arm scenario) in this share of the
+  /// cases physics allows (issue 31: 0.9).
+  double e4_min_share = 0.9;
 };
 
 /// Reads a robustness file (configs/robustness.yaml); throws config::Error.
 RobustnessConfig read_robustness(const config::Document& doc);
 
-/// One variant x payload x mode x seed.
+/// E4's figures of a case (docs/right-arm.md, E4), the driven elbow's (NaN on E1/E3 rows).
+struct GoniometerFigures {
+  double rms_error_deg = std::numeric_limits<double>::quiet_NaN();     ///< exo - person, from the release
+  double max_error_deg = std::numeric_limits<double>::quiet_NaN();
+  double delay_ms = std::numeric_limits<double>::quiet_NaN();          ///< lag that best aligns exo and person
+  double command_hf_rms_Nm = std::numeric_limits<double>::quiet_NaN(); ///< torque command above 10 Hz
+  double held_excursion_deg = std::numeric_limits<double>::quiet_NaN();///< the held shoulder
+  double passive_speed_degps = std::numeric_limits<double>::quiet_NaN();///< the passive wrist's peak speed
+  double person_speed_degps = std::numeric_limits<double>::quiet_NaN();///< the person's peak speed (truth)
+};
+
+/// One variant x payload (E4: person) x mode x seed.
 struct RobustnessRow {
   std::string variant, mode, payload;
   std::uint64_t seed = 1;
@@ -107,6 +147,7 @@ struct RobustnessRow {
   std::string physics_reason;    ///< why physics forbids it ("" when it does not)
   std::string failures;          ///< the verdict's failed figures, "; "-separated
   double seconds = 0;            ///< wall time of the case
+  GoniometerFigures e4;          ///< E4 rows only
 };
 
 struct RobustnessResult {
@@ -132,9 +173,25 @@ PlantVariant read_plant_variant(config::Map m);
 sim::OneDofRigParams e1_variant_plant(const E1Scenario& scenario, const E1Case& c, const PlantVariant& v);
 /// The arm scenario's plant under `v`.
 sim::ArmPlantParams arm_variant_plant(const ArmScenario& scenario, const PlantVariant& v);
+/// Another person's arm in the plant (GoniometerPerson): the user's segments, not the exoskeleton's,
+/// with their centres of mass x length_scale, masses x mass_scale, inertias x mass_scale x length_scale^2.
+void scale_user_arm(sim::ArmPlantParams& p, double length_scale, double mass_scale);
+
+/// The scenarios the modes run: E1's with its selected cases, and the arm's (each read only when a
+/// mode runs it).
+struct RobustnessScenarios {
+  E1Scenario e1;
+  ArmScenario arm;
+  std::vector<std::size_t> cases;  ///< E1's cases the matrix runs, by index
+};
+/// Reads the scenarios `config` names and checks E4's persons against the arm's; throws config::Error.
+RobustnessScenarios read_robustness_scenarios(const RobustnessConfig& config);
 
 /// Runs the matrix; `progress(done, total, line)` after each case (from the worker threads, serialised).
 RobustnessResult run_robustness(const RobustnessConfig& config,
+                                const std::function<void(std::size_t, std::size_t, const std::string&)>& progress = {});
+/// The same on scenarios already read (read_robustness_scenarios).
+RobustnessResult run_robustness(const RobustnessConfig& config, const RobustnessScenarios& scenarios,
                                 const std::function<void(std::size_t, std::size_t, const std::string&)>& progress = {});
 
 /// robustness.csv (one row per case) and robustness.md (the table, the shares against the goals).
