@@ -85,6 +85,12 @@ const LifecycleEvent& Lifecycle::history(std::size_t i) const noexcept {
   return events_[(oldest + i) % kHistory];
 }
 
+std::vector<LifecycleEvent> history_of(const Lifecycle& lifecycle) {
+  std::vector<LifecycleEvent> events;
+  for (std::size_t i = 0; i < lifecycle.history_size(); ++i) events.push_back(lifecycle.history(i));
+  return events;
+}
+
 std::string Lifecycle::describe_history() const {
   std::string out;
   for (std::size_t i = 0; i < history_size(); ++i) {

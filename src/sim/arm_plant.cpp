@@ -177,6 +177,7 @@ void ArmBackend::sample() noexcept {
 }
 
 bool ArmBackend::read(io::SensorState& state) noexcept {
+  if (!gate_.samples()) return false;  // an outage (OutputGate): the host hears nothing
   state = state_;
   sampled_truth_ = truth_;  // same sizes every time: no allocation after the constructor's copy
   return true;
@@ -197,6 +198,8 @@ void ArmBackend::apply_faults(double t_s) noexcept {
       case FaultKind::kEncoderJump: encoder_offset_rad_[a] += models::deg_to_rad(f.value); break;
       case FaultKind::kEncoderFrozen: encoder_frozen_[a] = 1; break;
       case FaultKind::kEstop: gate_.estop(); break;
+      case FaultKind::kStateLoss: gate_.lose_samples(f.value); break;
+      case FaultKind::kBoardReboot: gate_.reboot(f.value); break;
       default: apply_joint_fault(f, joints_[a].faults()); break;
     }
   }

@@ -162,6 +162,7 @@ void OneDofRigBackend::sample() noexcept {
 }
 
 bool OneDofRigBackend::read(io::SensorState& state) noexcept {
+  if (!gate_.samples()) return false;  // an outage (OutputGate): the host hears nothing
   state = state_;
   sampled_truth_ = truth_;
   return true;
@@ -178,6 +179,8 @@ void OneDofRigBackend::apply_faults(double t_s) noexcept {
       case FaultKind::kEncoderJump: encoder_offset_rad_ += models::deg_to_rad(f.value); break;
       case FaultKind::kEncoderFrozen: encoder_frozen_ = true; break;
       case FaultKind::kEstop: gate_.estop(); break;
+      case FaultKind::kStateLoss: gate_.lose_samples(f.value); break;
+      case FaultKind::kBoardReboot: gate_.reboot(f.value); break;
       default: break;
     }
   }

@@ -13,12 +13,22 @@ void OutputGate::go_safe() noexcept {
 }
 
 void OutputGate::activate() noexcept {
-  if (!estop_) active_ = true;
+  if (!estop_ && off_periods_ <= 0) active_ = true;
 }
 
 void OutputGate::deactivate() noexcept {
   go_safe();
   estop_ = false;
+  rebooted_ = false;
+}
+
+// Both are called before this period's apply(), which counts one down: + 1, so that exactly
+// duration_s / period_s samples are missed.
+void OutputGate::lose_samples(double duration_s) noexcept { lost_periods_ = std::max(lost_periods_, std::lround(duration_s / period_s_) + 1); }
+
+void OutputGate::reboot(double duration_s) noexcept {
+  go_safe();
+  off_periods_ = std::max(off_periods_, std::lround(duration_s / period_s_) + 1);
 }
 
 void OutputGate::estop() noexcept {
@@ -30,11 +40,14 @@ io::BackendStatus OutputGate::status() const noexcept {
   io::BackendStatus s;
   s.active = active_;
   s.estop = estop_;
-  s.ready_to_arm = !estop_;
+  s.ready_to_arm = !estop_ && off_periods_ <= 0;
+  s.rebooted = rebooted_;
   return s;
 }
 
 const io::Command& OutputGate::apply(const io::Command& wanted) noexcept {
+  if (lost_periods_ > 0) --lost_periods_;
+  if (off_periods_ > 0 && --off_periods_ == 0) rebooted_ = true;  // booted again: disarmed, says so
   if (active_) {
     applied_ = wanted;
     return applied_;

@@ -16,7 +16,7 @@ namespace {
 constexpr std::array<const char*, kFaultKindCount> kNames = {
     "loadcell_stuck", "loadcell_bias",  "loadcell_disconnected", "loadcell_saturated", "encoder_jump",  "encoder_frozen",
     "pressure_sensor_fail", "supply_zero", "supply_half", "valve_stuck_open", "valve_stuck_closed", "wire_break",
-    "wire_slip", "motor_fault", "controller_nan", "estop", "loadcell_drift"};
+    "wire_slip", "motor_fault", "controller_nan", "estop", "loadcell_drift", "state_loss", "board_reboot"};
 
 std::optional<FaultKind> kind_named(std::string_view name) {
   for (int i = 0; i < kFaultKindCount; ++i) {
@@ -84,9 +84,11 @@ bool fault_targets_muscle(FaultKind kind) noexcept {
   }
 }
 
+bool is_outage(FaultKind kind) noexcept { return kind == FaultKind::kStateLoss || kind == FaultKind::kBoardReboot; }
+
 bool fault_takes_value(FaultKind kind) noexcept {
   return kind == FaultKind::kLoadcellBias || kind == FaultKind::kLoadcellDrift || kind == FaultKind::kEncoderJump ||
-         kind == FaultKind::kWireSlip;
+         kind == FaultKind::kWireSlip || is_outage(kind);
 }
 
 double fault_default_value(FaultKind kind) noexcept {
@@ -95,6 +97,8 @@ double fault_default_value(FaultKind kind) noexcept {
     case FaultKind::kLoadcellDrift: return 10.0;  // N/s
     case FaultKind::kEncoderJump: return 10.0;    // deg
     case FaultKind::kWireSlip: return 5.0;        // mm
+    case FaultKind::kStateLoss:
+    case FaultKind::kBoardReboot: return 2.5;     // s: issue 29's outages lasted 2-4 s
     default: return 0.0;
   }
 }

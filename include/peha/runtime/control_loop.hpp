@@ -35,6 +35,9 @@ struct CycleHooks {
   /// Once, right after the last cycle, on the loop's thread, before the experiment works on its
   /// results: what the loop alone did ends here (a real-time harness's thread counters).
   std::function<void()> done;
+  /// Once, after the last cycle and before an own supervisor finishes, with the run's supervisor:
+  /// its lifecycle's transitions (faults, recoveries) for the experiment's result.
+  std::function<void(const Supervisor&)> finished;
 };
 
 /// `hooks` with the scenario's `lifecycle` for the supervisor run_cycles starts itself in process
@@ -81,6 +84,7 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
     if (interrupt_requested()) break;  // Ctrl-C: the run ends here and winds down as at its end
   }
   if (hooks.done) hooks.done();
+  if (hooks.finished) hooks.finished(supervisor);
   const std::size_t last = std::min(k, steps);
   if (own) own->finish(static_cast<double>(last) * period_s, "experiment finished");
   return last;

@@ -31,6 +31,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace peha::runtime {
 
@@ -76,5 +77,8 @@ class Lifecycle {
   std::array<LifecycleEvent, kHistory> events_{};
   std::uint64_t applied_ = 0;
 };
+
+/// The kept history of `lifecycle`, oldest first (after a run: its faults and recoveries).
+std::vector<LifecycleEvent> history_of(const Lifecycle& lifecycle);
 
 }  // namespace peha::runtime

@@ -8,6 +8,8 @@
 
 #include "peha/io/backend.hpp"
 
+#include <cmath>
+
 namespace peha::sim {
 
 /// How long the simulated hardware takes to vent its valves in the safe state, s (a board's default).
@@ -26,6 +28,15 @@ class OutputGate {
   void estop() noexcept;
   io::BackendStatus status() const noexcept;
 
+  /// The board's state packets are lost for `duration_s` from now: samples() is false meanwhile;
+  /// the outputs go on following the commands (the board still hears the host).
+  void lose_samples(double duration_s) noexcept;
+  /// The board is off for `duration_s` from now: safe outputs, no samples, not ready to arm; then
+  /// it is back, disarmed, reporting its restart (status().rebooted) until deactivate().
+  void reboot(double duration_s) noexcept;
+  /// A sample reaches the host this period (no state loss, the board on).
+  bool samples() const noexcept { return lost_periods_ <= 0 && off_periods_ <= 0; }
+
   /// The command the actuators get this period: `wanted` while active, else the safe command.
   const io::Command& apply(const io::Command& wanted) noexcept;
 
@@ -33,7 +44,9 @@ class OutputGate {
   void go_safe() noexcept;
 
   double period_s_, vent_s_;
-  bool active_ = false, estop_ = false;
+  bool active_ = false, estop_ = false, rebooted_ = false;
+  long lost_periods_ = 0;   ///< state packets lost this many periods longer
+  long off_periods_ = 0;    ///< the board off this many periods longer
   io::Command applied_{};   ///< what the actuators got last period
   io::Command vent_from_{}; ///< the command when the outputs went safe
   double safe_for_s_ = 0;   ///< time in the safe state

@@ -36,9 +36,17 @@ enum class FaultKind {
   kControllerNan,         ///< the controller's command on the joint becomes NaN (applied by the loop's test driver)
   kEstop,                 ///< the operator presses the e-stop
   kLoadcellDrift,         ///< the load cell's zero drifts by `value` N/s (default 10) from the fault on
+  /// The board's state packets are lost for `value` s (default 2.5): no sample reaches the host,
+  /// while the board still hears it and its outputs follow the last command (an outage, not a fault
+  /// of the plant: OutputGate); then the samples come back.
+  kStateLoss,
+  /// The board is off for `value` s (default 2.5) and boots again: no sample, its outputs in their
+  /// safe state (vented, motor off) from the fault on; back, it reports the restart and stays
+  /// disarmed until the host re-arms it (OutputGate).
+  kBoardReboot,
 };
 
-inline constexpr int kFaultKindCount = 17;
+inline constexpr int kFaultKindCount = 19;
 
 /// "loadcell_stuck", ... (the names the YAML and --fault take).
 const char* fault_kind_name(FaultKind kind) noexcept;
@@ -46,6 +54,9 @@ const char* fault_kind_name(FaultKind kind) noexcept;
 const std::array<FaultKind, kFaultKindCount>& all_fault_kinds() noexcept;
 /// The kind hits one muscle (else the joint or the whole plant).
 bool fault_targets_muscle(FaultKind kind) noexcept;
+/// The kind is an outage of the link or the board (state_loss, board_reboot; `value` is its length
+/// in s), which the plant's OutputGate plays, not its joints.
+bool is_outage(FaultKind kind) noexcept;
 /// The kind takes a value, and its default.
 bool fault_takes_value(FaultKind kind) noexcept;
 double fault_default_value(FaultKind kind) noexcept;

@@ -573,8 +573,12 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
       log->push_row(row);
     }
   };
-  trace.angle_rad.resize(runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold,
-                                             observe) + 1);
+  runtime::CycleHooks loop_hooks = runtime::with_lifecycle(hooks, scenario.lifecycle);
+  loop_hooks.finished = [&r, outer = hooks.finished](const runtime::Supervisor& supervisor) {
+    r.lifecycle = runtime::history_of(supervisor.lifecycle());
+    if (outer) outer(supervisor);
+  };
+  trace.angle_rad.resize(runtime::run_cycles(limited, loop_hooks, steps, state, command, step, hold, observe) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = trace.angle_rad.size() - 1;  // a run ended early analyses what it has
   r.simulated_s = static_cast<double>(done) * scenario.period_s;

@@ -313,9 +313,15 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   safety::LimitedBackend limited(backend, scenario.limits, run.joints);
   io::SensorState state;
   io::Command command;
+  std::vector<runtime::LifecycleEvent> lifecycle;
+  runtime::CycleHooks loop_hooks = runtime::with_lifecycle(hooks, scenario.lifecycle);
+  loop_hooks.finished = [&lifecycle, outer = hooks.finished](const runtime::Supervisor& supervisor) {
+    lifecycle = runtime::history_of(supervisor.lifecycle());
+    if (outer) outer(supervisor);
+  };
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(
-      limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, [&](std::size_t) { run.step(state, command); },
+      limited, loop_hooks, steps, state, command, [&](std::size_t) { run.step(state, command); },
       [&](std::size_t k) { run.hold(k); },
       [&](std::size_t k, const io::Command& sent, std::uint32_t limit_flags) {
         // The operator lets go of the arm only when the run is ready: every joint carried, no fault shown.
@@ -324,6 +330,7 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
       });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   PosturesResult r = analyse_postures(run, done, limited.monitor());
+  r.lifecycle = std::move(lifecycle);
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
   return r;
 }

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 
 namespace peha::experiments {
@@ -72,14 +73,36 @@ struct RunOutcome {
   std::string fault_reason;
   const safety::Verdict* verdict = nullptr;
   bool passed = false;
+  const std::vector<runtime::LifecycleEvent>* lifecycle = nullptr;  ///< the supervisor's transitions
+  const safety::LimitsModel* limits = nullptr;  ///< the joints' ranges (io order) and the monitor's speed threshold
+  double host_watchdog_s = 0.02;                ///< the lifecycle's silence before a fault
 };
+
+/// The outage (state_loss, board_reboot) a row injects, or nullopt.
+std::optional<sim::FaultKind> outage_of(const std::string& fault) {
+  for (sim::FaultKind k : {sim::FaultKind::kStateLoss, sim::FaultKind::kBoardReboot}) {
+    if (fault == sim::fault_kind_name(k)) return k;
+  }
+  return std::nullopt;
+}
+
+/// "backend silent for longer than ... (holding ...)" -> "backend silent".
+std::string short_reason(const char* reason) {
+  std::string s(reason);
+  for (const char* cut : {" (", " for longer"}) s = s.substr(0, s.find(cut));
+  return s;
+}
 
 FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, std::size_t expected_rows) {
   FaultRow row = what;
   row.log_complete = log.t().size() == expected_rows;
   row.passed = r.passed;
   const std::size_t n = log.t().size();
-  const auto k0 = std::min(n ? n - 1 : 0, static_cast<std::size_t>(std::llround(row.fault_time_s / r.period_s)));
+  // Rows by time: an outage's cycles have none (no sample, no row).
+  auto row_at = [&](double t_s) {
+    return static_cast<std::size_t>(std::lower_bound(log.t().begin(), log.t().end(), t_s - 0.5 * r.period_s) - log.t().begin());
+  };
+  const auto k0 = std::min(n ? n - 1 : 0, row_at(row.fault_time_s));
   std::size_t detected_at = n;
   for (std::size_t k = 0; k < n; ++k) {
     if (log.flags()[k] != 0 && std::isfinite(log.flags()[k])) {
@@ -90,15 +113,40 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
   row.detected = detected_at < n;
   const auto first_flag = row.detected ? static_cast<std::uint32_t>(log.flags()[detected_at]) : 0u;
   row.flag = row.detected ? safety::fault_flag_name(first_flag & (~first_flag + 1)) : "-";
-  row.detection_cycles = row.detected ? static_cast<double>(detected_at) - static_cast<double>(k0) : kNaN;
+  row.detection_cycles = row.detected ? std::round((log.t()[detected_at] - row.fault_time_s) / r.period_s) : kNaN;
   row.safe_state = row.detected ? safe_state_of(r.fault_reason) : "-";
+  // An outage is the lifecycle's to detect (the host hears nothing: no flag, no row); the row is judged
+  // from the samples after it, when the operator re-arms.
+  const std::optional<sim::FaultKind> outage = outage_of(row.fault);
+  std::size_t judged_from = std::max<std::size_t>(k0, 1);
+  if (outage) {
+    row.detected = false, row.flag = "-", row.detection_cycles = kNaN, row.safe_state = "-";
+    for (const runtime::LifecycleEvent& e : *r.lifecycle) {
+      if (e.t_s + 1e-9 < row.fault_time_s) continue;
+      if (!row.detected && e.transition == runtime::Transition::kFault) {
+        row.detected = true;
+        row.flag = short_reason(e.reason);
+        row.detection_cycles = std::round((e.t_s - row.fault_time_s) / r.period_s);
+        // A silent link holds the last command; any other outage disarms (the board's vent).
+        row.safe_state = std::string(e.reason).find("holding") != std::string::npos ? "hold" : "vent";
+      }
+      if (row.detected && e.transition == runtime::Transition::kRecovered && std::isnan(row.recovered_after_s)) {
+        row.recovered_after_s = e.t_s - row.fault_time_s;
+      }
+    }
+    // Prompt for an outage: within the host's watchdog, the designed silence before it faults.
+    row.prompt_cycles = static_cast<int>(std::ceil(r.host_watchdog_s / r.period_s)) + 1;
+    const double back_s = row.fault_time_s + sim::fault_default_value(*outage);
+    judged_from = std::min(n, row_at(back_s) + 1);  // the first speed spans two samples after the outage
+  }
   row.min_tension_N = std::numeric_limits<double>::infinity();
   row.rest_after_s = kNaN;
   double quiet_s = 0;
-  for (std::size_t k = std::max<std::size_t>(k0, 1); k < n; ++k) {
+  for (std::size_t k = judged_from; k < n; ++k) {
     double speed = 0;  // the fastest joint's
+    const double dt_s = log.t()[k] - log.t()[k - 1];
     for (std::size_t j = 0; j < log.joints(); ++j) {
-      const double joint_speed = models::rad_to_deg(std::abs(log.angle(j)[k] - log.angle(j)[k - 1]) / r.period_s);
+      const double joint_speed = models::rad_to_deg(std::abs(log.angle(j)[k] - log.angle(j)[k - 1]) / dt_s);
       speed = std::max(speed, joint_speed);
       if (joint_speed > row.peak_speed_degps) row.peak_speed_degps = joint_speed, row.peak_speed_joint = log.joint_name(j);
       const double force = std::max(log.force(j, 0)[k], log.force(j, 1)[k]);
@@ -112,9 +160,24 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
     }
   }
   for (const safety::Check& c : r.verdict->checks) {
+    const bool range = c.figure.ends_with("lowest angle") || c.figure.ends_with("highest angle");
     const bool envelope = c.figure.ends_with("peak force") || c.figure.ends_with("highest pressure") || c.figure.ends_with("peak motor torque") ||
-                          c.figure.ends_with("lowest angle") || c.figure.ends_with("highest angle");
+                          (range && !outage);
     if (envelope && !c.passed()) ++row.limits_exceeded;
+  }
+  if (outage) {
+    // Recovers without launching the joint: re-armed, never faster than the monitor's speed trip, and
+    // never further out of the range than where the outage left the joint (a board that went safe
+    // may have let it down onto its stop: physics, while nothing is armed).
+    if (std::isnan(row.recovered_after_s)) ++row.limits_exceeded;
+    if (row.peak_speed_degps > models::rad_to_deg(r.limits->monitor.max_joint_speed_radps)) ++row.limits_exceeded;
+    const std::size_t back = judged_from - 1;
+    for (std::size_t j = 0; j < log.joints() && back < n; ++j) {
+      const double lo = std::min(r.limits->joints[j].min_angle_rad, log.angle(j)[back]) - safety::kRangeTolerance_rad;
+      const double hi = std::max(r.limits->joints[j].max_angle_rad, log.angle(j)[back]) + safety::kRangeTolerance_rad;
+      const auto [low, high] = std::minmax_element(log.angle(j).begin() + static_cast<std::ptrdiff_t>(back), log.angle(j).end());
+      row.limits_exceeded += (*low < lo) + (*high > hi);
+    }
   }
   return row;
 }
@@ -139,6 +202,7 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
   // Prompt: within 5 cycles, or within the caught flag's own designed window when that is longer (a
   // stuck load cell needs loadcell_stuck_cycles equal readings: fewer happen by chance).
   auto judged = [&](FaultRow row) {
+    if (outage_of(row.fault)) return row;  // analyse set the watchdog's window
     row.prompt_cycles = row.flag == safety::fault_flag_name(safety::kFaultLoadcellStuck) ? std::max(5, monitor.loadcell_stuck_cycles) : 5;
     return row;
   };
@@ -193,7 +257,24 @@ const std::vector<std::pair<sim::FaultKind, sim::FaultKind>>& double_faults() {
   return pairs;
 }
 
+namespace {
+/// An outage row's unattended operator: recovers recover_delay_s after the samples come back; other
+/// rows stay in their fault (-1: only on request).
+double recover_after_s(const FaultMatrixOptions& options, const std::string& fault) {
+  const std::optional<sim::FaultKind> outage = outage_of(fault);
+  return outage ? sim::fault_default_value(*outage) + options.recover_delay_s : -1.0;
+}
+/// The cycles an outage row has no sample in (hence no log row).
+std::size_t outage_cycles(const std::string& fault, double period_s) {
+  const std::optional<sim::FaultKind> outage = outage_of(fault);
+  return outage ? static_cast<std::size_t>(std::llround(sim::fault_default_value(*outage) / period_s)) : 0;
+}
+}  // namespace
+
 double row_after_fault_s(const FaultMatrixOptions& options, const std::string& fault) {
+  if (const std::optional<sim::FaultKind> outage = outage_of(fault)) {
+    return sim::fault_default_value(*outage) + options.recover_delay_s + options.after_fault_s;
+  }
   // A pair is as slow as its fastest member: encoder_frozen+loadcell_drift is judged in the frozen
   // encoder's window, as its single row is.
   const bool slow = fault == sim::fault_kind_name(sim::FaultKind::kLoadcellDrift);
@@ -261,10 +342,11 @@ std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& o
     E1Scenario run = s;
     run.duration_s = std::min(s.duration_s, what.fault_time_s + row_after_fault_s(options, what.fault));
     run.plant.faults = faults;
+    run.lifecycle.recover_after_s = recover_after_s(options, what.fault);
     Columns log(names, {""}, sim::one_dof_rig_joint_names());
     const E1Result r = run_e1_case(run, c, &log);
-    const auto rows = static_cast<std::size_t>(std::llround(run.duration_s / run.period_s)) + 1;
-    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);
+    const auto rows = static_cast<std::size_t>(std::llround(run.duration_s / run.period_s)) + 1 - outage_cycles(what.fault, run.period_s);
+    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits, &r.lifecycle, &run.limits, run.lifecycle.host_watchdog_s}, log, what, rows);
   };
   auto target = [](sim::FaultKind kind) { return std::string(sim::fault_targets_muscle(kind) ? "joint.agonist" : "joint"); };
   return matrix_rows("E1", {"nominal", 4.0}, moments, options, s.limits.monitor, 0, target, run_one, progress);
@@ -318,10 +400,11 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& 
     const double after_s = row_after_fault_s(options, what.fault);
     run.postures_stop_s = faults.empty() ? std::max(end_s, what.fault_time_s + after_s) : what.fault_time_s + after_s;
     run.faults = faults;
+    run.lifecycle.recover_after_s = recover_after_s(options, what.fault);
     Columns log(arm_log_columns(s), prefixes, joints);
     const PosturesResult r = run_postures(run, &log);
-    const auto rows = static_cast<std::size_t>(std::llround(postures_duration_s(run) / run.period_s)) + 1;
-    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits}, log, what, rows);
+    const auto rows = static_cast<std::size_t>(std::llround(postures_duration_s(run) / run.period_s)) + 1 - outage_cycles(what.fault, run.period_s);
+    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits, &r.lifecycle, &run.limits, run.lifecycle.host_watchdog_s}, log, what, rows);
   };
   const std::string joint = joints[elbow];
   auto target = [&joint](sim::FaultKind kind) {
@@ -337,12 +420,14 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   auto num = [](double v, const char* f) { return std::isfinite(v) ? fmt::format(fmt::runtime(f), v) : std::string("-"); };
   std::ofstream csv(dir / "faults.csv");
   csv << "experiment,fault,target,moment,fault_time_s,detected,flag,detection_cycles,prompt_cycles,safe_state,rest_after_s,peak_force_N,peak_speed_degps,"
-         "min_tension_N,limits_exceeded,physics_forbids,log_complete,verdict_passed,peak_force_joint,peak_speed_joint,min_tension_joint\n";
+         "min_tension_N,limits_exceeded,physics_forbids,log_complete,verdict_passed,peak_force_joint,peak_speed_joint,min_tension_joint,"
+         "recovered_after_s\n";
   for (const FaultRow& r : rows) {
-    csv << fmt::format("{},{},{},{},{:.3f},{},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{},{},{},{}\n", r.experiment, r.fault, r.target,
+    csv << fmt::format("{},{},{},{},{:.3f},{},{},{},{},{},{},{:.1f},{:.2f},{:.2f},{},\"{}\",{},{},{},{},{},{}\n", r.experiment, r.fault, r.target,
                        r.moment, r.fault_time_s, r.detected ? 1 : 0, r.flag, num(r.detection_cycles, "{:.0f}"), r.prompt_cycles, r.safe_state,
                        num(r.rest_after_s, "{:.3f}"), r.peak_force_N, r.peak_speed_degps, r.min_tension_N, r.limits_exceeded, r.physics_forbids,
-                       r.log_complete ? 1 : 0, r.passed ? 1 : 0, r.peak_force_joint, r.peak_speed_joint, r.min_tension_joint);
+                       r.log_complete ? 1 : 0, r.passed ? 1 : 0, r.peak_force_joint, r.peak_speed_joint, r.min_tension_joint,
+                       num(r.recovered_after_s, "{:.3f}"));
   }
   std::size_t faults = 0, detected = 0, within5 = 0, clean = 0, complete = 0, forbidden = 0;
   for (const FaultRow& r : rows) {
@@ -369,7 +454,9 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   std::ofstream md(dir / "faults.md");
   md << "# Fault matrix: " << experiment << "\n\n";
   md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare as configured. {}. Each fault "
-                    "starts at its moment and stays; the run ends {:g} s later ({:g} s for a drifting load cell alone).\n\n",
+                    "starts at its moment and stays; the run ends {:g} s later ({:g} s for a drifting load cell alone). An outage "
+                    "(`state_loss`, `board_reboot`) lasts its value and ends; the operator recovers 0.5 s after it, and its row is judged "
+                    "from the samples after it: re-armed, no joint faster than the speed trip or further out of its range than it lay.\n\n",
                     scenario_name, what, after_fault_s, std::max(after_fault_s, slow_after_fault_s));
   md << fmt::format("Faults injected: {}; detected: {}; promptly (within 5 control cycles, or a stuck load cell within its "
                     "loadcell_stuck_cycles window): {}; no limit exceeded: {}; a limit exceeded where physics "

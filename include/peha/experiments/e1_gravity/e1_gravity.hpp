@@ -13,6 +13,7 @@
 #include "peha/mfb/link_config.hpp"
 #include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/control_loop.hpp"
+#include "peha/runtime/lifecycle.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/safety/limits.hpp"
 #include "peha/safety/verdict.hpp"
@@ -127,6 +128,8 @@ struct E1Result {
   std::string fault_reason;      ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
   safety::CheckPeaks check_peaks{};  ///< every check's largest ratio to its threshold (FaultMonitor::peaks)
   std::uint32_t first_fault_flag = 0;  ///< the run's first latched FaultFlag (0: none; FaultMonitor::first)
+  /// The run's lifecycle transitions (runtime::Supervisor: the link's faults, the recoveries), oldest first.
+  std::vector<runtime::LifecycleEvent> lifecycle;
   bool within_limits = false;           ///< verdict.passed(): every figure held
   double realtime_factor = 0;           ///< simulated time / wall time
   double simulated_s = 0;

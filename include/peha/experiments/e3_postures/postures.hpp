@@ -7,6 +7,7 @@
 
 #include "peha/hardware/door.hpp"
 #include "peha/experiments/arm/arm_scenario.hpp"
+#include "peha/runtime/lifecycle.hpp"
 
 #include <string>
 #include <vector>
@@ -50,6 +51,8 @@ struct PosturesResult {
   std::string fault_reason;           ///< the first fault: flag, joint, muscle, value, threshold, time, safe state
   safety::CheckPeaks check_peaks{};   ///< every check's largest ratio to its threshold (FaultMonitor::peaks)
   std::uint32_t first_fault_flag = 0;  ///< the run's first latched FaultFlag (0: none; FaultMonitor::first)
+  /// The run's lifecycle transitions (runtime::Supervisor: the link's faults, the recoveries), oldest first.
+  std::vector<runtime::LifecycleEvent> lifecycle;
 };
 
 /// The joints E3 judges: every io joint in gravity mode (not the constant-pressure holds), in io order.

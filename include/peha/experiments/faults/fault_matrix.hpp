@@ -14,6 +14,7 @@
 
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -68,7 +69,12 @@ struct FaultRow {
   /// Why no safe state can keep this fault within the limits (a limit was exceeded and the kind is one
   /// physics_forbids names); empty otherwise - then an exceeded limit is a miss of the designed outcome.
   std::string physics_forbids;
-  bool log_complete = false; ///< one log row per control cycle to the end
+  /// An outage row (state_loss, board_reboot): from the fault to the operator's recovery re-arming the
+  /// outputs (NaN: never re-armed, a miss). Its figures and range are judged from the first sample after
+  /// the outage: the joint's speed within the monitor's max_joint_speed, never further out of its range
+  /// than it lay when the samples came back (FaultMatrixOptions::recover_delay_s).
+  double recovered_after_s = std::numeric_limits<double>::quiet_NaN();
+  bool log_complete = false; ///< one log row per control cycle to the end (an outage's cycles have none)
   bool passed = false;       ///< the run's verdict (a faulted run never passes)
 };
 
@@ -78,12 +84,16 @@ struct FaultMatrixOptions {
   /// A slow fault's rows (a drifting load cell alone) end this long after it instead:
   /// 10 N/s takes seconds to become a force a check can tell from the model's error.
   double slow_after_fault_s = 20.0;
+  /// An outage row's operator recovers this long after the samples come back (an unattended
+  /// operator's recover_after_s: the outage's length plus this, from the fault).
+  double recover_delay_s = 0.5;
   std::vector<sim::FaultKind> kinds;  ///< default: every kind
   std::vector<std::string> moments;   ///< default: every moment
 };
 
 /// How long the row of `fault` (a kind's name, or "a+b") runs after the fault: slow_after_fault_s
-/// for a slow kind alone (loadcell_drift), after_fault_s otherwise (a pair: its fast member's).
+/// for a slow kind alone (loadcell_drift), after_fault_s otherwise (a pair: its fast member's); an
+/// outage's row runs its length (the kind's default value) and recover_delay_s longer.
 double row_after_fault_s(const FaultMatrixOptions& options, const std::string& fault);
 
 /// The reason no safe state can avoid a limit after fault `kind` (a wire break, a valve stuck open,
