@@ -422,13 +422,11 @@ static bool over_ceiling(const mfb_board* b, int muscle_index, const mfb_muscle_
   return led > (int64_t)rising(m, m->trip_code);
 }
 
-/* The side joint `j` is (about to be) out of its range on: +1 above max_angle_rad, -1 below
- * min_angle_rad, 0 inside. The counts are led, in the direction they move, by the speed over the
- * rate window times the valves' reaction (the muscle keeps pulling that long after its vent) plus
- * the distance the other muscle's deceleration needs to stop the joint. */
-static int range_side(const mfb_board* b, int j) {
+/* Joint `j`'s counts as its range judges them: led, in the direction they move, by the speed over
+ * the rate window times the valves' reaction (the muscle keeps pulling that long after its vent)
+ * plus the distance the other muscle's deceleration needs to stop the joint. */
+static int64_t led_counts(const mfb_board* b, int j) {
   const mfb_joint_limit* jl = &b->cfg->joints[j];
-  if (jl->encoder < 0) return 0;
   const int64_t counts = b->inputs.encoder[jl->encoder];
   int64_t led = counts;
   int oldest = 0;
@@ -445,8 +443,26 @@ static int range_side(const mfb_board* b, int j) {
     }
     led += ahead;
   }
+  return led;
+}
+
+/* The side joint `j` is (about to be) out of its range on: +1 above max_angle_rad, -1 below
+ * min_angle_rad, 0 inside, judged on its led counts. */
+static int range_side(const mfb_board* b, int j) {
+  const mfb_joint_limit* jl = &b->cfg->joints[j];
+  if (jl->encoder < 0) return 0;
+  const int64_t led = led_counts(b, j);
   const int side = led > jl->max_counts ? 1 : led < jl->min_counts ? -1 : 0;
   return jl->counts_rise_with_angle ? side : -side;
+}
+
+int32_t mfb_board_range_margin(const mfb_board* b, int joint) {
+  if (joint < 0 || joint >= b->cfg->joint_count || b->cfg->joints[joint].encoder < 0) return INT32_MAX;
+  const mfb_joint_limit* jl = &b->cfg->joints[joint];
+  const int64_t led = led_counts(b, joint);
+  const int64_t above = jl->max_counts - led, below = led - jl->min_counts;
+  const int64_t margin = above < below ? above : below;
+  return margin > INT32_MAX ? INT32_MAX : margin < INT32_MIN ? INT32_MIN : (int32_t)margin;
 }
 
 void mfb_board_sample(mfb_board* b) {

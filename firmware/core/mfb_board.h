@@ -302,6 +302,11 @@ static inline mfb_parse_error mfb_board_last_error(const mfb_board* b) { return 
 static inline const uint16_t* mfb_board_applied_da(const mfb_board* b) { return b->applied_da; }
 static inline uint8_t mfb_board_applied_digital(const mfb_board* b) { return b->applied_digital; }
 static inline const mfb_inputs* mfb_board_inputs(const mfb_board* b) { return &b->inputs; }
+/* How far joint `joint`'s angle, led as its range judges it (the speed x the lead + the stopping
+ * distance), is inside the nearer end of its range, in encoder counts of the newest sample:
+ * negative outside (a trip); INT32_MAX for a joint without a range. A commissioning figure: how
+ * close a legitimate run came to the range's vent. */
+int32_t mfb_board_range_margin(const mfb_board* b, int joint);
 /* The status bits of the next state packet. */
 uint8_t mfb_board_status(const mfb_board* b);
 

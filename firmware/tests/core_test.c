@@ -735,6 +735,34 @@ static void TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance(void) {
   CHECK_EQ(fired_at, 8636);
 }
 
+/* The range margin is what the range judges: the led counts' distance inside the nearer end. With
+ * 20 ms of lead and 1000 deg/s^2 of braking, still at -8000 counts it is 750 (to -8750); moving up
+ * at 58000 counts/s it is 8750 - (counts + 1160 + 8650); past the end it is negative (the trip). */
+static void TheRangeMarginIsTheLedAnglesDistanceInsideTheNearerEnd(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  si.joints[0].angle_lead_s = 0.020;
+  si.joints[0].brake_rad_per_s2 = 1000.0 * 3.141592653589793 / 180.0;
+  power_on_with(&si);
+  const uint16_t both[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  g_bench.in.encoder[0] = -8000;
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, both);
+  CHECK_EQ(mfb_board_range_margin(&g_board, 0), 750);
+  int32_t counts = -8000;
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) {
+    counts += 58;
+    g_bench.in.encoder[0] = counts;
+    send(7, 0, both);
+  }
+  CHECK_EQ(counts, -7536);
+  CHECK_EQ(mfb_board_range_margin(&g_board, 0), 8750 - (-7536 + 1160 + 8650)); /* 6476: the upper end is nearer now */
+  g_bench.in.encoder[0] = 8700; /* inside, but jumped there: its speed leads it far past 8750 */
+  send(7, 0, both);
+  CHECK(mfb_board_range_margin(&g_board, 0) < 0);
+  CHECK_EQ(mfb_board_range_margin(&g_board, 1), INT32_MAX); /* no such joint */
+  CHECK_EQ(mfb_board_range_margin(&g_board, -1), INT32_MAX);
+}
+
 /* 2 MPa/s on a 0..1 MPa valve: 131.07 codes per 1 ms period (8589 / 65536 codes per us). A step to
  * the top rises along it to the 0.8 MPa ceiling in 401 ms; a fall is at once; the motor is not slewed. */
 static void TheSlewLimitHoldsAValveStepToItsRate(void) {
@@ -877,6 +905,7 @@ int main(void) {
   run(TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor, "TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor");
   run(TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut, "TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut");
   run(TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance, "TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance");
+  run(TheRangeMarginIsTheLedAnglesDistanceInsideTheNearerEnd, "TheRangeMarginIsTheLedAnglesDistanceInsideTheNearerEnd");
   run(TheSlewLimitHoldsAValveStepToItsRate, "TheSlewLimitHoldsAValveStepToItsRate");
   run(TheForceTripLeadsTheForceByItsRateTimesTheReaction, "TheForceTripLeadsTheForceByItsRateTimesTheReaction");
   run(ConfigureNamesTheFieldAndWhatItFound, "ConfigureNamesTheFieldAndWhatItFound");

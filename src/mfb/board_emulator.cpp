@@ -2,6 +2,7 @@
 #include "peha/mfb/link_config.hpp"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <sodium.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 #include <time.h>
 
@@ -39,11 +41,13 @@ std::string EmulatorStats::table() const {
       "oversized {}; hellos answered {}, unknown session (replays) {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
       "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}\n"
-      "board limits: {} muscle(s) vented at their force ceiling, {} joint(s) (about to be) out of range, {} DA code(s) clamped, {} slewed",
+      "board limits: {} muscle(s) vented at their force ceiling, {} joint(s) (about to be) out of range, {} DA code(s) clamped, {} slewed\n"
+      "range margin while armed (the led angle's least distance inside the board range, per joint): {:.1f} deg",
       received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
       received.unauthenticated, received.gaps, oversized, received.hellos, received.unknown_session,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
-      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes, slewed_codes);
+      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes, slewed_codes,
+      fmt::join(closest_range_deg.begin(), closest_range_deg.begin() + joints, ", "));
 }
 
 BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant)
@@ -55,6 +59,7 @@ BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::
   if (sodium_init() < 0) throw std::runtime_error("mfb-emulator: libsodium failed to initialise (no entropy source?)");
   require_private_key_off_loopback(params.key, params.bind.address, "emulator's bind");
   core_config_ = board_core_config(map_, params.key, params.watchdog_s, params.vent_s);
+  stats_.joints = map_.joint_count();
   hal_ = mfb_hal{this, &BoardEmulator::hal_read_inputs, &BoardEmulator::hal_write_outputs, &BoardEmulator::hal_now_us,
                  &BoardEmulator::hal_mac, &BoardEmulator::hal_random};
   pending_.reserve(kMaxPending);
@@ -143,6 +148,14 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
   plant_->read(state_);
   mfb_board_sample(&core_);  // the inputs after the step: the limits judge them, the state packet carries them
   note_core_counters();
+  if (mfb_board_outputs_live(&core_)) {
+    for (int j = 0; j < map_.joint_count(); ++j) {
+      const std::int32_t margin = mfb_board_range_margin(&core_, j);
+      if (margin == INT32_MAX) continue;
+      double& closest = stats_.closest_range_deg[static_cast<std::size_t>(j)];
+      closest = std::min(closest, margin * std::abs(map_.joint(j).encoder.rad_per_count) * (180.0 / std::numbers::pi));
+    }
+  }
   ++(by_command ? stats_.steps_on_command : stats_.steps_free_running);
   if (truth_.size() < truth_.capacity()) {
     const BoardOutputs safe = map_.safe_outputs();

@@ -1209,7 +1209,7 @@ TEST(MfbEndToEnd, TheBoardsLimitsHoldAgainstAHostWithTheKeyArmingAsTheOperatorAf
 
 // The arm's board against the same hijacker (the public key, every valve at its top code and every
 // motor at +3 Nm, or only the agonists' valves, the antagonists' at 0 - the arm driven into its
-// upper stops). The arm's map has force ceilings and a motor cut outside each joint's range but no
+// upper stops - or only the antagonists' with the motors at -3 Nm, into its lower stops). The arm's map has force ceilings and a motor cut outside each joint's range but no
 // range vent (docs/safety.md "The board's own limits"): the ceilings hold at the plant on every
 // muscle (2000 N agonists of the shoulder and elbow, 630 N their antagonists and the wrist's two);
 // the range is then the mechanical stops', what physics leaves (each joint's range printed).
@@ -1219,10 +1219,13 @@ TEST(MfbEndToEnd, TheArmsBoardHoldsItsForceCeilingsAgainstAHijackingHostWithTheK
   std::array<std::uint16_t, mfb::kDaChannels> agonists{};
   for (int v : {0, 2, 4}) agonists[static_cast<std::size_t>(v)] = 65535;  // the agonists' valves (configs/mfb/right_arm.yaml)
   agonists[6] = agonists[7] = 65535;                                      // both motors at +3 Nm
-  std::vector<HijackFigures> top_joints, up_joints;
+  std::array<std::uint16_t, mfb::kDaChannels> antagonists{};               // both motors at -3 Nm (code 0)
+  for (int v : {1, 3, 5}) antagonists[static_cast<std::size_t>(v)] = 65535;
+  std::vector<HijackFigures> top_joints, up_joints, down_joints;
   const HijackFigures top = hijack(config, 3.0, "arm, every output at its top", false, "postures", nullptr, joints, &top_joints);
   const HijackFigures up = hijack(config, 3.0, "arm, the agonists and motors at their top", false, "postures", &agonists, joints, &up_joints);
-  for (const HijackFigures* f : {&top, &up}) {
+  const HijackFigures down = hijack(config, 3.0, "arm, the antagonists at their top, motors down", false, "postures", &antagonists, joints, &down_joints);
+  for (const HijackFigures* f : {&top, &up, &down}) {
     ASSERT_GT(f->armed_steps, 1000u);  // the hijacker did drive the outputs
   }
   // The force trip's lead is what holds the ceilings: with the rig's first 25 ms the elbow's
@@ -1234,7 +1237,7 @@ TEST(MfbEndToEnd, TheArmsBoardHoldsItsForceCeilingsAgainstAHijackingHostWithTheK
   }
   EXPECT_TRUE(short_lead.peak_agonist_N > 2000.0 || short_lead.peak_antagonist_N > 630.0)
       << short_lead.peak_agonist_N << " / " << short_lead.peak_antagonist_N;
-  for (const std::vector<HijackFigures>* per : {&top_joints, &up_joints}) {
+  for (const std::vector<HijackFigures>* per : {&top_joints, &up_joints, &down_joints}) {
     ASSERT_EQ(per->size(), 3u);
     for (int j = 0; j < 3; ++j) {
       const HijackFigures& f = (*per)[static_cast<std::size_t>(j)];
@@ -1620,3 +1623,4 @@ TEST(MfbEndToEnd, AJointReArmedOnItsStopIsBroughtBackTowardItsRangeSlowly) {
 
 }  // namespace
 }  // namespace peha::runtime
+

@@ -28,9 +28,11 @@
 #include "peha/mfb/channel_map.hpp"
 #include "peha/mfb/protocol.hpp"
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -89,6 +91,12 @@ struct EmulatorStats {
   /// The board's own limits (firmware core): muscles vented by their load cell's ceiling, joints
   /// tripped by their range, DA codes clamped to their ceilings, valve codes held by the slew limit.
   std::uint64_t force_trips = 0, range_trips = 0, clamped_codes = 0, slewed_codes = 0;
+  /// Per joint (the channel map's order), the least margin of its led angle (as the range vent
+  /// judges it: the speed x lead + the stopping distance) inside its board range while the outputs
+  /// were armed, deg; negative: it tripped; +inf: never armed, or no range (mfb_board_range_margin).
+  std::array<double, MFB_MAX_JOINTS> closest_range_deg;
+  int joints = 0;  ///< joints of the map: the entries of closest_range_deg that count
+  EmulatorStats() { closest_range_deg.fill(std::numeric_limits<double>::infinity()); }
   std::string table() const;
 };
 
