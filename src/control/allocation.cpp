@@ -57,8 +57,10 @@ MuscleCommand command_muscle(const models::JointModel& joint, const models::Musc
   if (params.force_trim_rate_1ps > 0.0 && sensors_valid && first && bumpless && std::isfinite(measured_pressure_Pa)) {
     trim_N = std::clamp(model_force_N - force, lowest_trim_N, params.force_trim_max_N);  // what the model says P makes
   } else if (params.force_trim_rate_1ps > 0.0 && sensors_valid && loadcell_ok) {
-    // Below the pretension the wire is near slack: the trim may integrate faster there (only upward).
-    const double rate_1ps = loadcell_N < floor_N && force > loadcell_N ? std::max(params.force_trim_rate_1ps, params.force_trim_slack_rate_1ps)
+    // Below the pretension the wire is near slack: the trim may integrate faster there (only upward);
+    // not while the wires refill from the start-up's vent: that would wind the trim up against the
+    // wires' take-up, and the muscle overshoots as its wire comes taut.
+    const double rate_1ps = in.tension_expected && loadcell_N < floor_N && force > loadcell_N ? std::max(params.force_trim_rate_1ps, params.force_trim_slack_rate_1ps)
                                                                        : params.force_trim_rate_1ps;
     const double step = rate_1ps * (force - loadcell_N) * in.dt_s;
     const double next = trim_N + step;

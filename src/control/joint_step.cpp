@@ -36,6 +36,7 @@ void step_joint(const models::JointModel& joint, const AllocationParams& allocat
   in.agonist_pressure_Pa = s.agonist_pressure_Pa;
   in.antagonist_pressure_Pa = s.antagonist_pressure_Pa;
   in.dt_s = step.dt_s;
+  in.tension_expected = step.tension_expected;
   allocate(joint, allocation, data, in, out);
 }
 

@@ -129,9 +129,10 @@ namespace {
 /// whose agonist load cell reads the model's force; the antagonist's reading is `antagonist(k)`.
 template <class Reading>
 void run_ideal(const models::JointModel& joint, const AllocationParams& params, AllocationData& data, AllocationOutput& out,
-               int n, Reading antagonist) {
+               int n, Reading antagonist, bool tension_expected = true) {
   for (int k = 0; k < n; ++k) {
     AllocationInput in;
+    in.tension_expected = tension_expected;
     in.tau_desired_Nm = 5.0;
     in.agonist_pressure_Pa = out.agonist_pressure_Pa;
     in.antagonist_pressure_Pa = out.antagonist_pressure_Pa;
@@ -229,6 +230,33 @@ TEST(Allocation, TrimClimbsAtTheSlackRateOnlyWhileTheCellReadsBelowThePretension
   EXPECT_LT(fast, 45.0);  // stops near the 35 N it lacks: above the pretension the ordinary rate
   // A muscle pulling 35 N more than the model says: the slack rate plays no part (same trim, bit for bit).
   EXPECT_EQ(trim_after(300.0, 500, strong), trim_after(0.0, 500, strong));
+}
+
+// While the wires refill from the start-up tare's vent (tension not yet expected) a cell below the
+// pretension is a wire still taking up its slack, not a model that misses the threshold: the trim
+// integrates at the ordinary rate there. At 300 /s it wound up during the take-up and the muscle
+// overshot as its wire came taut (the shoulder's agonist to 520 N; with valves twice as fast the
+// antagonist's pressure then led the monitor's valve model: pressure_high at start-up).
+TEST(Allocation, TrimWaitsForTheRefillBeforeItsSlackRate) {
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 60.0;
+  AllocationParams params;
+  params.force_trim_rate_1ps = 4.0;
+  params.force_trim_max_N = 600.0;
+  auto weak = [&](const AllocationOutput& o) {
+    return std::max(0.0, models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction) - 35.0);
+  };
+  auto trim_after = [&](double slack_rate_1ps, bool tension_expected) {
+    AllocationParams p = params;
+    p.force_trim_slack_rate_1ps = slack_rate_1ps;
+    AllocationData data;
+    AllocationOutput out;
+    run_ideal(joint, p, data, out, 20, weak, tension_expected);
+    return out.antagonist_trim_N;
+  };
+  EXPECT_EQ(trim_after(300.0, false), trim_after(0.0, false));  // the ordinary rate, bit for bit
+  EXPECT_LT(trim_after(300.0, false), 5.0);
+  EXPECT_GT(trim_after(300.0, true), 30.0);  // once the wires are expected taut: the slack rate
 }
 
 }  // namespace

@@ -103,6 +103,9 @@ struct AllocationInput {
   double agonist_pressure_Pa = 0;     ///< measured; used for the bumpless start only
   double antagonist_pressure_Pa = 0;  ///< measured; used for the bumpless start only
   double dt_s = 1e-3;
+  /// False while the wires are slack on purpose (the start-up tare's vent and refill): the trim's
+  /// slack rate waits, as the wires are still taking up their slack from vented.
+  bool tension_expected = true;
 };
 
 struct AllocationOutput {
