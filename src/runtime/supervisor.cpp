@@ -103,6 +103,7 @@ void Supervisor::supervise(double t_s, bool fresh, const io::SensorState& state,
           ramp_from_.joints[i].antagonist_pressure_Pa = state.joints[i].antagonist_pressure_Pa;
           ramp_from_.joints[i].motor_torque_Nm = 0.0;
         }
+        if (on_recover) on_recover();
       }
       break;
     }

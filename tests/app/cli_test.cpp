@@ -461,6 +461,25 @@ TEST(Cli, MfbEmulatorAndBackendRejectAmbiguousOrBadInvocations) {
   }
 }
 
+// The in-process plant's outages (state_loss, board_reboot) are not the board emulator's to play
+// (over UDP the link's faults are): a scenario listing one is refused before the board listens.
+TEST(Cli, MfbEmulatorRefusesTheInProcessOutages) {
+  std::ifstream in(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml");
+  const std::string shipped((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string tag = std::to_string(::getpid());
+  for (const char* kind : {"state_loss", "board_reboot"}) {
+    // Beside the shipped scenario: it names its plant, map and key relative to itself.
+    const std::string path = std::string(PEHA_SOURCE_DIR "/configs/_outage_") + kind + tag + ".yaml";
+    std::ofstream(path) << shipped << "\nfaults:\n  - {kind: " << kind << ", time_s: 4.0}\n";
+    const Result r = run("mfb-emulator --case payload_5.0kg --port 0 --max-runtime 1 --config " + path);
+    std::filesystem::remove(path);
+    EXPECT_EQ(r.code, 2) << kind << "\n" << r.output;
+    EXPECT_THAT(r.output, HasSubstr(std::string("faults: ") + kind + " at 4 s is an outage of the in-process plant"));
+    EXPECT_THAT(r.output, HasSubstr("peha faults --link"));
+    EXPECT_THAT(r.output, Not(HasSubstr("listening")));
+  }
+}
+
 }  // namespace
 
 

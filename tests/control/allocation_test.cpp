@@ -259,5 +259,38 @@ TEST(Allocation, TrimWaitsForTheRefillBeforeItsSlackRate) {
   EXPECT_GT(trim_after(300.0, true), 30.0);  // once the wires are expected taut: the slack rate
 }
 
+// The operator's recovery after an outage (control::resume_allocation). While a supervisor held the
+// muscles at other pressures, the trim integrated against commands that never went out: here the
+// held antagonist's cell reads 20 N under a 60 N pretension for 1 s and the trim winds up (E3 re-armed
+// its shoulder's antagonist toward 0.8 MPa that way and drove the arm onto its stop at 115 deg/s).
+// Resumed, the next command is the pressure measured; not resumed, it is the wound trim's.
+TEST(Allocation, AResumedAllocationStartsFromTheMeasuredPressureNotItsWoundTrim) {
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 60.0;
+  AllocationParams params;
+  params.force_trim_rate_1ps = 4.0;
+  params.force_trim_max_N = 600.0;
+  AllocationData data;
+  AllocationOutput out;
+  run_ideal(joint, params, data, out, 500, [&](const AllocationOutput& o) {
+    return models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction);
+  });
+  AllocationInput held;
+  held.tau_desired_Nm = 5.0;
+  held.agonist_pressure_Pa = out.agonist_pressure_Pa;
+  held.antagonist_pressure_Pa = out.antagonist_pressure_Pa;
+  held.agonist_loadcell_N = models::forward_force_N(joint.agonist.pam, out.agonist_pressure_Pa, out.agonist_contraction);
+  held.antagonist_loadcell_N = 20.0;
+  for (int k = 0; k < 1000; ++k) allocate(joint, params, data, held, out);
+  AllocationData wound = data;
+  AllocationOutput wound_out = out;
+  allocate(joint, params, wound, held, wound_out);
+  resume_allocation(data);
+  allocate(joint, params, data, held, out);
+  EXPECT_NEAR(out.antagonist_pressure_Pa, held.antagonist_pressure_Pa, 1e3);
+  EXPECT_NEAR(out.agonist_pressure_Pa, held.agonist_pressure_Pa, 1e3);
+  EXPECT_GT(wound_out.antagonist_pressure_Pa - held.antagonist_pressure_Pa, 2e4);
+}
+
 }  // namespace
 }  // namespace peha::control

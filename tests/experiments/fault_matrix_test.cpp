@@ -84,16 +84,23 @@ TEST(FaultMatrix, AnOutageRowRecoversWithoutLaunchingTheJoint) {
     EXPECT_TRUE(r.log_complete);  // a row per sample: none in the outage
   }
   EXPECT_GT(rows[1].min_tension_N, 20.0);  // the lost uplink held the link: its wires stay taut
-  // The same loss during the start-up's tare (open, issue 29): re-armed, the link is launched at
-  // 118 deg/s and 1226 N - counted as a miss of the designed outcome.
+  // The same loss during the start-up's tare and vent (issue 29 item 2): re-armed, the start pin
+  // stays in until the recovery ramp has refilled the muscles (FaultMonitor::controller_in_command)
+  // and the controller restarts from the measured pressures. Measured 25.8 deg/s, 878 N; before: the
+  // pin pulled at 30 % of the ramp, the link fell at 118 deg/s and the catch pulled 1226 N (at the
+  // vent 76.5 deg/s; the pin alone left in the ramp: 89 deg/s).
   o.kinds = {sim::FaultKind::kStateLoss};
-  o.moments = {"tare"};
-  const std::vector<FaultRow> tare = run_fault_matrix(s, o);
-  ASSERT_EQ(tare.size(), 2u);
-  EXPECT_FALSE(std::isnan(tare[1].recovered_after_s));
-  EXPECT_GT(tare[1].peak_speed_degps, 90.0);
-  EXPECT_GE(tare[1].limits_exceeded, 1);
-  EXPECT_TRUE(tare[1].physics_forbids.empty());
+  o.moments = {"startup_vent", "tare"};
+  const std::vector<FaultRow> startup = run_fault_matrix(s, o);
+  ASSERT_EQ(startup.size(), 3u);
+  for (std::size_t i = 1; i < startup.size(); ++i) {
+    SCOPED_TRACE(startup[i].moment);
+    EXPECT_FALSE(std::isnan(startup[i].recovered_after_s));
+    EXPECT_LE(startup[i].peak_speed_degps, 40.0);
+    EXPECT_LE(startup[i].peak_force_N, 950.0);
+    EXPECT_EQ(startup[i].limits_exceeded, 0);
+    EXPECT_GT(startup[i].min_tension_N, 20.0);  // judged from the ramp's end: refilled
+  }
 }
 
 // Issue 29: two faults at once are rows of the matrix. A dead pressure sensor behind a stuck-open
@@ -293,6 +300,37 @@ TEST(FaultMatrix, E3DescendKeepsTheFlexorTautWhileTheOperatorFlexesTheElbow) {
   const FaultRow o = row(old);
   EXPECT_LT(o.min_tension_N, 3.0);
   EXPECT_EQ(o.min_tension_joint, "R_EFE");
+}
+
+// Issue 29 item 2 on the arm: the state packets lost while the operator moves the arm (`moving`).
+// The host held the last command; between the samples' return and the recovery the controller's trims
+// integrated against it (and over the outage's 2.5 s as one step): re-armed, the shoulder's antagonist
+// ramped toward 0.8 MPa, the arm was driven onto its stop at 115 deg/s and the wrist swung at 623
+// deg/s, the elbow's flexor wire at 0.7 N. Restarted from the measured pressures (ArmController::resume)
+// the fastest joint is the shoulder pulled back by the held pressures as the samples return (111 deg/s,
+// the operator gone) and every wire stays taut (19.3 N, the wrist's).
+TEST(FaultMatrix, E3StateLossWhileMovingReArmsFromTheMeasuredPressures) {
+  const FaultRow r = e3_row(shipped_arm(), sim::FaultKind::kStateLoss, "moving");
+  EXPECT_EQ(r.flag, "backend silent");
+  EXPECT_FALSE(std::isnan(r.recovered_after_s));
+  EXPECT_EQ(r.limits_exceeded, 0);
+  EXPECT_LE(r.peak_speed_degps, 150.0);
+  EXPECT_GT(r.min_tension_N, 10.0);
+}
+
+// A board that reboots while the operator flexes the elbow is off for 2.5 s: its outputs vent, the
+// arm falls onto its stops while nothing is armed, and the first samples back show the tail of that
+// fall (the wrist at 821 deg/s, before the re-arm at 3.0 s). The limits exceeded are counted and the
+// row names why physics forbids them; from the re-arm on every joint stays within them (45 deg/s).
+// A lost uplink at the same moment keeps the outputs armed: no such reason, and none needed.
+TEST(FaultMatrix, E3BoardRebootFallWhileDisarmedIsNamedPhysicsAndTheReArmIsClean) {
+  const FaultRow reboot = e3_row(shipped_arm(), sim::FaultKind::kBoardReboot, "elbow_moving");
+  EXPECT_GT(reboot.peak_speed_degps, 500.0);
+  EXPECT_GE(reboot.limits_exceeded, 1);
+  EXPECT_NE(reboot.physics_forbids.find("from the re-arm on every joint within the limits"), std::string::npos) << reboot.physics_forbids;
+  const FaultRow loss = e3_row(shipped_arm(), sim::FaultKind::kStateLoss, "elbow_moving");
+  EXPECT_EQ(loss.limits_exceeded, 0);
+  EXPECT_TRUE(loss.physics_forbids.empty());
 }
 
 // A moment the experiment does not have is an error, not an empty matrix.

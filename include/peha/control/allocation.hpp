@@ -144,6 +144,15 @@ struct AllocationData {
   double contraction_offset[2] = {0, 0};
 };
 
+/// The muscles were not driven by this allocation's commands for a while (an outage, a safe state,
+/// the supervisor's hold): the next step starts from what is measured, as the very first one does -
+/// the trim so that the command is the measured pressure, the torque filter at the desired torque -
+/// not from what it integrated against commands that never went out. noexcept.
+inline void resume_allocation(AllocationData& data) noexcept {
+  data.initialized = false;
+  data.bumpless_start = true;
+}
+
 /// One allocation step. Never throws, never allocates; every output is finite and within limits.
 void allocate(const models::JointModel& joint, const AllocationParams& params, AllocationData& data,
               const AllocationInput& in, AllocationOutput& out) noexcept;

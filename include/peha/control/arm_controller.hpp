@@ -70,6 +70,12 @@ class ArmController {
   bool wires_slack_on_purpose(double t_s) const noexcept {
     return control::wires_slack_on_purpose(model_.allocation.loadcell_check, tare_, t_s);
   }
+  /// The operator's recovery after a fault: every allocated joint's next step starts from its measured
+  /// pressures (control::resume_allocation), not from what it integrated while its commands did not
+  /// go out. noexcept.
+  void resume() noexcept {
+    for (AllocationData& a : allocation_data_) resume_allocation(a);
+  }
   /// The tare of allocated joint i (agonist, antagonist), N; 0 before it is done.
   double loadcell_offset_N(std::size_t joint, int muscle) const noexcept {
     return allocation_data_[joint].loadcell_offset_N[muscle];

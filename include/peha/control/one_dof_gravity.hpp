@@ -87,6 +87,10 @@ class OneDofGravityController {
   bool wires_slack_on_purpose(double t_s) const noexcept {
     return control::wires_slack_on_purpose(model_.allocation.loadcell_check, tare_, t_s);
   }
+  /// The operator's recovery after a fault: its commands did not go out meanwhile (held, governed,
+  /// vented), so the next step starts from the measured pressures (control::resume_allocation), not
+  /// from what it integrated against them. noexcept.
+  void resume() noexcept { resume_allocation(allocation_data_); }
 
  private:
   const OneDofControllerModel model_;

@@ -38,6 +38,9 @@ struct CycleHooks {
   /// Once, after the last cycle and before an own supervisor finishes, with the run's supervisor:
   /// its lifecycle's transitions (faults, recoveries) for the experiment's result.
   std::function<void(const Supervisor&)> finished;
+  /// Each time the supervisor starts the operator's recovery (Supervisor::on_recover, after any it
+  /// has): the controller's commands did not go out since the fault; it restarts from what is measured.
+  std::function<void()> recovered;
 };
 
 /// `hooks` with the scenario's `lifecycle` for the supervisor run_cycles starts itself in process
@@ -63,6 +66,13 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
     own->start(0.0);
   }
   Supervisor& supervisor = hooks.supervisor ? *hooks.supervisor : *own;
+  const std::function<void()> outer_recover = supervisor.on_recover;
+  if (hooks.recovered) {
+    supervisor.on_recover = [&outer_recover, &hooks] {
+      if (outer_recover) outer_recover();
+      hooks.recovered();
+    };
+  }
   std::size_t k = 0;
   for (; k <= steps; ++k) {
     if (hooks.wait) hooks.wait();
@@ -78,6 +88,7 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
     // the operator's recovery clears its latch.
     if (backend.monitor().flags() != 0) supervisor.raise(t_s, backend.monitor().reason());
     if (supervisor.lifecycle().state() == LifecycleState::kRecovering && backend.monitor().flags() != 0) backend.clear_faults();
+    backend.controller_in_command(supervisor.controller_in_command());
     backend.write(command);
     if (fresh) observe(k, backend.sent(), backend.flags());
     if (hooks.after && !hooks.after(state, backend.sent())) break;
@@ -85,6 +96,7 @@ std::size_t run_cycles(safety::LimitedBackend& backend, const CycleHooks& hooks,
   }
   if (hooks.done) hooks.done();
   if (hooks.finished) hooks.finished(supervisor);
+  supervisor.on_recover = outer_recover;
   const std::size_t last = std::min(k, steps);
   if (own) own->finish(static_cast<double>(last) * period_s, "experiment finished");
   return last;

@@ -54,6 +54,9 @@ class Supervisor {
 
   /// Called (from the loop's thread) when a fault is raised, with its reason; may be empty.
   std::function<void(const char* reason)> on_fault;
+  /// Called (from the loop's thread) when the operator's recovery re-arms the outputs: the command
+  /// ramps from the measured pressures from this cycle on; the controller restarts from them too.
+  std::function<void()> on_recover;
 
   /// configure + activate. Throws (set-up) if the backend cannot be configured.
   void start(double t_s);
@@ -69,6 +72,8 @@ class Supervisor {
   void request_recovery() noexcept { recover_requested_ = true; }
 
   const Lifecycle& lifecycle() const noexcept { return lifecycle_; }
+  /// Active and no recovery ramp: the controller's own command goes out (supervise leaves it as it is).
+  bool controller_in_command() const noexcept { return lifecycle_.state() == LifecycleState::kActive && ramp_t_ < 0.0; }
   std::uint64_t faults() const noexcept { return faults_; }
   std::uint64_t recoveries() const noexcept { return recoveries_; }
   std::uint64_t cycles_without_sample() const noexcept { return missed_; }

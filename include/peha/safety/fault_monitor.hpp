@@ -392,6 +392,11 @@ class FaultMonitor {
   std::uint64_t count() const noexcept { return count_; }  ///< faults latched over the run
   /// The run's first fault as reason() gave it (kept across recoveries; empty before any fault).
   const char* run_reason() const noexcept { return run_reason_; }
+  /// Whether what goes out is the controller's own command (runtime::run_cycles, every cycle, from the
+  /// supervisor): not while a fault holds the outputs nor while a recovery ramps them from the
+  /// measured pressures - the muscles are refilling then, taut wires carry no load yet (let go at
+  /// 30 % of the ramp, E1's link fell at 118 deg/s). Not ready() meanwhile.
+  void controller_in_command(bool in_command) noexcept { controller_in_command_ = in_command; }
   /// The operator's recovery: the latch clears, the valve model restarts from the measured pressures.
   void clear() noexcept;
   const MonitorParams& params() const noexcept { return params_; }
@@ -400,9 +405,10 @@ class FaultMonitor {
   /// Joint `j` is carried: both wires taut with the outputs following (the start-up is over).
   bool carried(int j) const noexcept { return j >= 0 && j < io::kMaxJoints && joints_[static_cast<std::size_t>(j)].carried; }
   /// The run is ready for the operator to let go of the limb (docs/safety.md "Start-up"): no fault
-  /// shown, and joints 0..joint_count-1 all carried.
+  /// shown, the controller's own command going out (controller_in_command), and joints
+  /// 0..joint_count-1 all carried.
   bool ready(int joint_count) const noexcept {
-    if (flags_ != 0) return false;
+    if (flags_ != 0 || !controller_in_command_) return false;
     for (int j = 0; j < joint_count; ++j) {
       if (!carried(j)) return false;
     }
@@ -529,6 +535,7 @@ class FaultMonitor {
   DescendGovernorModel governor_;
   std::array<JointState, io::kMaxJoints> joints_{};
   bool synced_ = false;
+  bool controller_in_command_ = true;  ///< controller_in_command: what goes out is the controller's own command
   SafeAction action_ = SafeAction::kNone;
   std::uint32_t flags_ = 0;
   FaultRecord first_{};

@@ -68,6 +68,8 @@ class LimitedBackend final : public io::Backend {
     vented_ = false;
   }
 
+  /// What goes out is the controller's own command (FaultMonitor::controller_in_command).
+  void controller_in_command(bool in_command) noexcept { monitor_.controller_in_command(in_command); }
   const io::Command& sent() const noexcept { return sent_; }  ///< the last command as limited and written
   std::uint32_t flags() const noexcept { return flags_; }     ///< its LimitFlag bits
   const LimitsData& data() const noexcept { return data_; }   ///< counts per flag, previous command

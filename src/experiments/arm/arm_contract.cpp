@@ -40,6 +40,10 @@ std::optional<BoardPlant> arm_board(const config::Document& doc, const EmulatorC
   auto scenario = std::make_shared<ArmScenario>(read_arm_scenario(doc));
   if (options.seed) scenario->plant.seed = scenario->seed = *options.seed;
   if (!has_link(doc, scenario->link)) return std::nullopt;
+  if (const std::string outage = emulator_outage_error(scenario->faults); !outage.empty()) {
+    fmt::print(stderr, "config error: {}: {}\n", doc.name(), outage);
+    return std::nullopt;
+  }
   BoardPlant board{scenario->period_s, *scenario->link, {}, {}, {}, {}};
   for (const mfb::BoardLink& b : scenario->link->boards) {  // each board's map with its joints (all of them on one board)
     board.maps.push_back(mfb::read_channel_map(config::Document::load_file(b.channel_map), b.joint_names));

@@ -138,6 +138,17 @@ BoardPlant board_for(const mfb::LinkConfig& link, double period_s, const hardwar
                     request.simulate, {}, std::move(what)};
 }
 
+std::string emulator_outage_error(const std::vector<sim::PlantFault>& faults) {
+  for (const sim::PlantFault& f : faults) {
+    if (!sim::is_outage(f.kind)) continue;
+    return fmt::format("faults: {} at {:g} s is an outage of the in-process plant (its gate withholds the samples or switches the "
+                       "board off); the board emulator cannot play it - over UDP the link's faults do (peha faults --link: loss "
+                       "bursts, the board stalled, killed or rebooted). Remove it from the scenario's faults: list",
+                       sim::fault_kind_name(f.kind), f.time_s);
+  }
+  return {};
+}
+
 std::optional<std::size_t> emulator_case(const config::Document& doc, const std::vector<std::string>& names, const std::string& given,
                                          const char* meaning, const std::string& also) {
   std::string cases = joined(names);

@@ -120,6 +120,10 @@ std::optional<BoardPlant> e1_board(const config::Document& doc, const EmulatorCa
   E1Scenario scenario = read_e1(doc);
   if (request.seed) scenario.plant.seed = scenario.seed = *request.seed;
   if (!has_link(doc, scenario.link)) return std::nullopt;
+  if (const std::string outage = emulator_outage_error(scenario.plant.faults); !outage.empty()) {
+    fmt::print(stderr, "config error: {}: {}\n", doc.name(), outage);
+    return std::nullopt;
+  }
   for (int m = 0; m < 2; ++m) {
     const char* muscle = m == 0 ? "agonist" : "antagonist";
     if (request.case_name != std::string("calibration_") + muscle) continue;

@@ -578,6 +578,10 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
     r.lifecycle = runtime::history_of(supervisor.lifecycle());
     if (outer) outer(supervisor);
   };
+  loop_hooks.recovered = [&controller, outer = hooks.recovered] {
+    controller.resume();
+    if (outer) outer();
+  };
   trace.angle_rad.resize(runtime::run_cycles(limited, loop_hooks, steps, state, command, step, hold, observe) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = trace.angle_rad.size() - 1;  // a run ended early analyses what it has

@@ -319,6 +319,10 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
     lifecycle = runtime::history_of(supervisor.lifecycle());
     if (outer) outer(supervisor);
   };
+  loop_hooks.recovered = [&run, outer = hooks.recovered] {
+    run.controller.resume();
+    if (outer) outer();
+  };
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(
       limited, loop_hooks, steps, state, command, [&](std::size_t) { run.step(state, command); },

@@ -76,6 +76,7 @@ struct RunOutcome {
   const std::vector<runtime::LifecycleEvent>* lifecycle = nullptr;  ///< the supervisor's transitions
   const safety::LimitsModel* limits = nullptr;  ///< the joints' ranges (io order) and the monitor's speed threshold
   double host_watchdog_s = 0.02;                ///< the lifecycle's silence before a fault
+  double recovery_ramp_s = 1.0;                 ///< the lifecycle's ramp from the measured pressures after a recovery
 };
 
 /// The outage (state_loss, board_reboot) a row injects, or nullopt.
@@ -141,6 +142,15 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
   }
   row.min_tension_N = std::numeric_limits<double>::infinity();
   row.rest_after_s = kNaN;
+  // An outage's re-arm: the outputs follow the host again from here (a rebooted board is safe, venting,
+  // until then); its wires are judged from the ramp's end, when the muscles have refilled - as the
+  // start-up's are judged after its refill (before it they are slack on purpose: vented).
+  std::size_t rearm_k = n, tension_from = judged_from;
+  if (outage && !std::isnan(row.recovered_after_s)) {
+    rearm_k = std::min(n, row_at(row.fault_time_s + row.recovered_after_s));
+    tension_from = std::min(n, row_at(row.fault_time_s + row.recovered_after_s + r.recovery_ramp_s));
+  }
+  double rearmed_speed_degps = 0;  // the fastest joint from the re-arm on
   double quiet_s = 0;
   for (std::size_t k = judged_from; k < n; ++k) {
     double speed = 0;  // the fastest joint's
@@ -149,10 +159,11 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
       const double joint_speed = models::rad_to_deg(std::abs(log.angle(j)[k] - log.angle(j)[k - 1]) / dt_s);
       speed = std::max(speed, joint_speed);
       if (joint_speed > row.peak_speed_degps) row.peak_speed_degps = joint_speed, row.peak_speed_joint = log.joint_name(j);
+      if (k > rearm_k) rearmed_speed_degps = std::max(rearmed_speed_degps, joint_speed);
       const double force = std::max(log.force(j, 0)[k], log.force(j, 1)[k]);
       if (force > row.peak_force_N) row.peak_force_N = force, row.peak_force_joint = log.joint_name(j);
       const double tension = std::min(log.tension(j, 0)[k], log.tension(j, 1)[k]);
-      if (tension < row.min_tension_N) row.min_tension_N = tension, row.min_tension_joint = log.joint_name(j);
+      if (k >= tension_from && tension < row.min_tension_N) row.min_tension_N = tension, row.min_tension_joint = log.joint_name(j);
     }
     if (row.detected && k >= detected_at && std::isnan(row.rest_after_s)) {
       quiet_s = speed < 5.0 ? quiet_s + r.period_s : 0.0;
@@ -169,14 +180,30 @@ FaultRow analyse(const RunOutcome& r, const Columns& log, const FaultRow& what, 
     // Recovers without launching the joint: re-armed, never faster than the monitor's speed trip, and
     // never further out of the range than where the outage left the joint (a board that went safe
     // may have let it down onto its stop: physics, while nothing is armed).
+    const double max_speed_degps = models::rad_to_deg(r.limits->monitor.max_joint_speed_radps);
     if (std::isnan(row.recovered_after_s)) ++row.limits_exceeded;
-    if (row.peak_speed_degps > models::rad_to_deg(r.limits->monitor.max_joint_speed_radps)) ++row.limits_exceeded;
+    if (row.peak_speed_degps > max_speed_degps) ++row.limits_exceeded;
     const std::size_t back = judged_from - 1;
+    int rearmed_exceeded = rearmed_speed_degps > max_speed_degps;
     for (std::size_t j = 0; j < log.joints() && back < n; ++j) {
       const double lo = std::min(r.limits->joints[j].min_angle_rad, log.angle(j)[back]) - safety::kRangeTolerance_rad;
       const double hi = std::max(r.limits->joints[j].max_angle_rad, log.angle(j)[back]) + safety::kRangeTolerance_rad;
       const auto [low, high] = std::minmax_element(log.angle(j).begin() + static_cast<std::ptrdiff_t>(back), log.angle(j).end());
       row.limits_exceeded += (*low < lo) + (*high > hi);
+      if (rearm_k < n) {  // from the re-arm on: never further out than where the joint lay then
+        const double rearmed_lo = std::min(lo, log.angle(j)[rearm_k] - safety::kRangeTolerance_rad);
+        const double rearmed_hi = std::max(hi, log.angle(j)[rearm_k] + safety::kRangeTolerance_rad);
+        const auto [rlow, rhigh] = std::minmax_element(log.angle(j).begin() + static_cast<std::ptrdiff_t>(rearm_k), log.angle(j).end());
+        rearmed_exceeded += (*rlow < rearmed_lo) + (*rhigh > rearmed_hi);
+      }
+    }
+    // A rebooting board is off: its outputs safe, its muscles venting, nothing peha sends reaches them
+    // until the operator re-arms it. What the limb does until then (a fall onto its stop, its swing)
+    // is physics; a limit exceeded from the re-arm on is a miss.
+    if (*outage == sim::FaultKind::kBoardReboot && row.limits_exceeded > 0 && rearm_k < n && rearmed_exceeded == 0) {
+      row.physics_forbids = fmt::format("the board is off until the re-arm: its outputs vent the limb and nothing reaches them, so it falls "
+                                        "while nothing is armed; from the re-arm on every joint within the limits ({:.1f} deg/s at most)",
+                                        rearmed_speed_degps);
     }
   }
   return row;
@@ -223,7 +250,7 @@ std::vector<FaultRow> matrix_rows(const std::string& experiment, const FaultMome
   for (const FaultMoment& moment : moments) {
     for (sim::FaultKind kind : kinds) {
       FaultRow row = judged(run_one({fault_at(kind, moment)}, named(sim::fault_kind_name(kind), target(kind), moment)));
-      if (row.limits_exceeded > 0) row.physics_forbids = physics_forbids(kind);
+      if (row.limits_exceeded > 0 && row.physics_forbids.empty()) row.physics_forbids = physics_forbids(kind);
       if (progress) progress(row);
       out.push_back(std::move(row));
     }
@@ -346,7 +373,7 @@ std::vector<FaultRow> run_fault_matrix(E1Scenario s, const FaultMatrixOptions& o
     Columns log(names, {""}, sim::one_dof_rig_joint_names());
     const E1Result r = run_e1_case(run, c, &log);
     const auto rows = static_cast<std::size_t>(std::llround(run.duration_s / run.period_s)) + 1 - outage_cycles(what.fault, run.period_s);
-    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits, &r.lifecycle, &run.limits, run.lifecycle.host_watchdog_s}, log, what, rows);
+    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits, &r.lifecycle, &run.limits, run.lifecycle.host_watchdog_s, run.lifecycle.recovery_ramp_s}, log, what, rows);
   };
   auto target = [](sim::FaultKind kind) { return std::string(sim::fault_targets_muscle(kind) ? "joint.agonist" : "joint"); };
   return matrix_rows("E1", {"nominal", 4.0}, moments, options, s.limits.monitor, 0, target, run_one, progress);
@@ -404,7 +431,7 @@ std::vector<FaultRow> run_fault_matrix(ArmScenario s, const FaultMatrixOptions& 
     Columns log(arm_log_columns(s), prefixes, joints);
     const PosturesResult r = run_postures(run, &log);
     const auto rows = static_cast<std::size_t>(std::llround(postures_duration_s(run) / run.period_s)) + 1 - outage_cycles(what.fault, run.period_s);
-    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits, &r.lifecycle, &run.limits, run.lifecycle.host_watchdog_s}, log, what, rows);
+    return analyse({run.period_s, r.fault_reason, &r.verdict, r.within_limits, &r.lifecycle, &run.limits, run.lifecycle.host_watchdog_s, run.lifecycle.recovery_ramp_s}, log, what, rows);
   };
   const std::string joint = joints[elbow];
   auto target = [&joint](sim::FaultKind kind) {
@@ -456,7 +483,8 @@ void write_fault_matrix(const std::filesystem::path& dir, const std::vector<Faul
   md << fmt::format("Scenario `{}`, in process, the supervisor's plausibility stage on, the start-up tare as configured. {}. Each fault "
                     "starts at its moment and stays; the run ends {:g} s later ({:g} s for a drifting load cell alone). An outage "
                     "(`state_loss`, `board_reboot`) lasts its value and ends; the operator recovers 0.5 s after it, and its row is judged "
-                    "from the samples after it: re-armed, no joint faster than the speed trip or further out of its range than it lay.\n\n",
+                    "from the samples after it: re-armed, no joint faster than the speed trip or further out of its range than it lay (a rebooting "
+                    "board's fall before the re-arm is physics), its wires from the end of the re-arm's ramp.\n\n",
                     scenario_name, what, after_fault_s, std::max(after_fault_s, slow_after_fault_s));
   md << fmt::format("Faults injected: {}; detected: {}; promptly (within 5 control cycles, or a stuck load cell within its "
                     "loadcell_stuck_cycles window): {}; no limit exceeded: {}; a limit exceeded where physics "

@@ -21,6 +21,7 @@
 #include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/supervisor.hpp"
 #include "peha/safety/limits.hpp"
+#include "peha/sim/plant_faults.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -163,6 +164,10 @@ struct Experiment {
 /// The emulator's plant of one case: the one the door simulates for `request` (exactly what a sim:
 /// run of the same case drives), behind the scenario's one board.
 BoardPlant board_for(const mfb::LinkConfig& link, double period_s, const hardware::HardwareRequest& request, std::string what);
+/// `peha mfb-emulator` plays no outage of the in-process plant (state_loss, board_reboot: its gate
+/// withholds the samples or switches the board off; over UDP the link's faults play them, `peha
+/// faults --link`): empty when `faults` has none, else the error naming the first.
+std::string emulator_outage_error(const std::vector<sim::PlantFault>& faults);
 
 /// The index of the emulator's --case among `names` (the only one when none is given); nullopt after
 /// a message listing the cases (`meaning`: what a case is; `also`: cases served besides `names`).
