@@ -24,7 +24,8 @@ packages=(
   python3-numpy python3-scipy python3-matplotlib python3-sklearn  # tools/ on /usr/bin/python3
   gcc-arm-none-eabi picolibc-arm-none-eabi qemu-system-arm  # the board core (firmware/) built for a Cortex-M7 and tested on QEMU
   python3-pandas         # the test that peha's CSVs open unmodified in pandas.read_csv (runtime.logs_open_unmodified)
-  python3-venv python3-setuptools   # pip install ./python into a virtual environment, offline (python.package)
+  python3-venv python3-setuptools python3-wheel   # pip install ./python into a virtual environment, offline (python.package; pip builds a wheel)
+  python3-yaml           # tools/plot_identification.py reads an identification's YAML
 )
 
 missing=()
