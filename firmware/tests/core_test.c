@@ -871,8 +871,9 @@ static void OnePacketsCost(void) {
     mfb_encode_command(&c, g_cfg.key, test_mac, NULL, in, sizeof in);
   }
   const uint64_t host = test_ticks() - host_start;
-  CHECK(total > host);
-  test_report_cost("board period (receive, sample, drive, poll, state packet)", (total - host) / kPackets);
+  /* A report, not a check (costs are the benchmarks' to judge): on a loaded host machine the
+   * host's half alone can take longer than both, and the difference means nothing then. */
+  test_report_cost("board period (receive, sample, drive, poll, state packet)", total > host ? (total - host) / kPackets : 0);
   const uint64_t mac_start = test_ticks();
   uint8_t mac[MFB_MAC_SIZE];
   for (int k = 0; k < kPackets; ++k) test_mac(NULL, g_cfg.key, kGoldenState, MFB_STATE_PACKET_SIZE - MFB_MAC_SIZE, mac);
