@@ -125,6 +125,28 @@ TEST(Allocation, NegativeTorqueLoadsTheAntagonistUpToItsCeiling) {
 namespace peha::control {
 namespace {
 
+/// The trim tests' joint: the rig's with a 60 N pretension.
+models::JointModel trim_test_joint() {
+  models::JointModel joint = peha::testing::rig_joint();
+  joint.pretension_N = 60.0;
+  return joint;
+}
+
+/// The trim tests' allocation: a load-cell trim of 4 /s, up to 600 N.
+AllocationParams trim_test_params() {
+  AllocationParams params;
+  params.force_trim_rate_1ps = 4.0;
+  params.force_trim_max_N = 600.0;
+  return params;
+}
+
+/// An antagonist's load cell when the muscle makes `missing_N` less than the model says (never below 0 N).
+auto antagonist_weaker_by(const models::JointModel& joint, double missing_N) {
+  return [&joint, missing_N](const AllocationOutput& o) {
+    return std::max(0.0, models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction) - missing_N);
+  };
+}
+
 /// Steps the allocation `n` times on an ideal plant whose chamber pressure is the last command and
 /// whose agonist load cell reads the model's force; the antagonist's reading is `antagonist(k)`.
 template <class Reading>
@@ -147,11 +169,8 @@ void run_ideal(const models::JointModel& joint, const AllocationParams& params, 
 // within 0.2 s: the flag is raised, its trim is frozen, and the motor's PAM torque uses the
 // model's force for it. Once it reads plausibly again it is trusted again.
 TEST(Allocation, LoadcellThatDisagreesWithTheModelIsDropped) {
-  models::JointModel joint = peha::testing::rig_joint();
-  joint.pretension_N = 60.0;
-  AllocationParams params;
-  params.force_trim_rate_1ps = 4.0;
-  params.force_trim_max_N = 600.0;
+  const models::JointModel joint = trim_test_joint();
+  const AllocationParams params = trim_test_params();
   AllocationData data;
   AllocationOutput out;
   auto agrees = [&](const AllocationOutput& o) {
@@ -179,11 +198,8 @@ TEST(Allocation, LoadcellThatDisagreesWithTheModelIsDropped) {
 // tolerance at 60 N, so it is trusted) would trim the command down until the reading is 60 N, i.e.
 // the wire at 0 N. The trim stops where the model's force (force + trim) is the pretension.
 TEST(Allocation, TrimCannotTakeTheModelForceBelowThePretension) {
-  models::JointModel joint = peha::testing::rig_joint();
-  joint.pretension_N = 60.0;
-  AllocationParams params;
-  params.force_trim_rate_1ps = 4.0;
-  params.force_trim_max_N = 600.0;
+  const models::JointModel joint = trim_test_joint();
+  const AllocationParams params = trim_test_params();
   AllocationData data;
   AllocationOutput out;
   bool floor_flag = false;
@@ -204,14 +220,9 @@ TEST(Allocation, TrimCannotTakeTheModelForceBelowThePretension) {
 // model says), its trim climbs at the slack rate; once the cell reads the pretension it integrates at
 // the ordinary rate again, and a muscle pulling too hard is never trimmed down faster than that.
 TEST(Allocation, TrimClimbsAtTheSlackRateOnlyWhileTheCellReadsBelowThePretension) {
-  models::JointModel joint = peha::testing::rig_joint();
-  joint.pretension_N = 60.0;
-  AllocationParams params;
-  params.force_trim_rate_1ps = 4.0;
-  params.force_trim_max_N = 600.0;
-  auto weak = [&](const AllocationOutput& o) {
-    return std::max(0.0, models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction) - 35.0);
-  };
+  const models::JointModel joint = trim_test_joint();
+  const AllocationParams params = trim_test_params();
+  const auto weak = antagonist_weaker_by(joint, 35.0);
   auto strong = [&](const AllocationOutput& o) {
     return models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction) + 35.0;
   };
@@ -238,14 +249,9 @@ TEST(Allocation, TrimClimbsAtTheSlackRateOnlyWhileTheCellReadsBelowThePretension
 // overshot as its wire came taut (the shoulder's agonist to 520 N; with valves twice as fast the
 // antagonist's pressure then led the monitor's valve model: pressure_high at start-up).
 TEST(Allocation, TrimWaitsForTheRefillBeforeItsSlackRate) {
-  models::JointModel joint = peha::testing::rig_joint();
-  joint.pretension_N = 60.0;
-  AllocationParams params;
-  params.force_trim_rate_1ps = 4.0;
-  params.force_trim_max_N = 600.0;
-  auto weak = [&](const AllocationOutput& o) {
-    return std::max(0.0, models::forward_force_N(joint.antagonist.pam, o.antagonist_pressure_Pa, o.antagonist_contraction) - 35.0);
-  };
+  const models::JointModel joint = trim_test_joint();
+  const AllocationParams params = trim_test_params();
+  const auto weak = antagonist_weaker_by(joint, 35.0);
   auto trim_after = [&](double slack_rate_1ps, bool tension_expected) {
     AllocationParams p = params;
     p.force_trim_slack_rate_1ps = slack_rate_1ps;
@@ -265,11 +271,8 @@ TEST(Allocation, TrimWaitsForTheRefillBeforeItsSlackRate) {
 // its shoulder's antagonist toward 0.8 MPa that way and drove the arm onto its stop at 115 deg/s).
 // Resumed, the next command is the pressure measured; not resumed, it is the wound trim's.
 TEST(Allocation, AResumedAllocationStartsFromTheMeasuredPressureNotItsWoundTrim) {
-  models::JointModel joint = peha::testing::rig_joint();
-  joint.pretension_N = 60.0;
-  AllocationParams params;
-  params.force_trim_rate_1ps = 4.0;
-  params.force_trim_max_N = 600.0;
+  const models::JointModel joint = trim_test_joint();
+  const AllocationParams params = trim_test_params();
   AllocationData data;
   AllocationOutput out;
   run_ideal(joint, params, data, out, 500, [&](const AllocationOutput& o) {
