@@ -6,6 +6,7 @@
 #include "peha/calibration/spgp.hpp"
 #include "peha/config/reader.hpp"
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -20,7 +21,7 @@ using ::testing::HasSubstr;
 
 struct Rig {
   experiments::E1Scenario scenario =
-      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+      peha::test_support::shipped_e1();
   models::JointModel& joint() { return scenario.controller.joint; }
   double lo() const { return scenario.limits.joints[0].min_angle_rad; }
   double hi() const { return scenario.limits.joints[0].max_angle_rad; }

@@ -6,6 +6,7 @@
 #include "peha/safety/limits.hpp"
 
 #include "../support/alloc_counter.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -33,7 +34,7 @@ std::size_t closed_loop_allocations(io::Backend& plant, const experiments::E1Sce
 
 TEST(ControlStep, AllocatesNothing) {
   const experiments::E1Scenario scenario =
-      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+      peha::test_support::shipped_e1();
   sim::OneDofRigParams plant_params = scenario.plant;
   sim::OneDofRigBackend plant(plant_params);
   control::OneDofGravityController controller(scenario.controller);
@@ -46,7 +47,7 @@ TEST(ControlStep, AllocatesNothing) {
 // both paths really ran.
 TEST(ControlStep, AllocatesNothingWhileTaringOrDistrustingALoadcell) {
   experiments::E1Scenario scenario =
-      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+      peha::test_support::shipped_e1();
   scenario.controller.allocation.loadcell_check.tare_s = 0.3;
   scenario.plant.joint.antagonist.loadcell_gain = 2.0;
   scenario.plant.joint.antagonist.loadcell_offset_N = 300.0;
@@ -78,7 +79,7 @@ TEST(ControlStep, AllocatesNothingWhileTaringOrDistrustingALoadcell) {
 // start-up hold, then the link left alone until the first push at 6 s).
 TEST(ControlStep, AllocatesNothingWithTheCreepEstimator) {
   experiments::E1Scenario scenario =
-      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+      peha::test_support::shipped_e1();
   scenario.controller.creep.enabled = true;
   scenario.controller.creep.reference_s = 0.5;
   scenario.controller.creep.reference_delay_s = 1.0;
@@ -101,7 +102,7 @@ TEST(ControlStep, AllocatesNothingWithTheCreepEstimator) {
 // The simulated plant steps without allocating too (MuJoCo works in its preallocated arena).
 TEST(SimulatedRig, StepsWithoutAllocating) {
   const experiments::E1Scenario scenario =
-      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+      peha::test_support::shipped_e1();
   sim::OneDofRigBackend plant(scenario.plant);
   plant.activate();
   io::SensorState state;

@@ -5,6 +5,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/models/units.hpp"
 #include "peha/safety/limited_backend.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -17,7 +18,7 @@ namespace peha {
 namespace {
 
 models::JointModel e1_joint() {
-  return experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")).controller.joint;
+  return peha::test_support::shipped_e1().controller.joint;
 }
 
 control::CreepEstimatorParams enabled_params() {
@@ -255,7 +256,7 @@ TEST(WireCreepEstimator, CorrectionIsBoundedAndOptional) {
 // With the correction on, the commands differ once the estimator has a reference.
 TEST(WireCreepEstimator, EstimatingWithoutCorrectingLeavesTheClosedLoopUnchanged) {
   experiments::E1Scenario scenario =
-      experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+      peha::test_support::shipped_e1();
   for (auto* m : {&scenario.plant.joint.agonist, &scenario.plant.joint.antagonist}) m->cable.creep_m_per_N_s = 5e-7;
   auto run = [&](bool enabled, bool correct) {
     control::OneDofControllerModel model = scenario.controller;

@@ -1,6 +1,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/safety/fault_monitor.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -38,7 +39,7 @@ class PeakSpeed final : public runtime::RowSink {
 // (joint_speed). Measured 57.7 deg/s, as the governor catches the link the finger lets go at 9.2 s:
 // the 30 deg/s of issue 29 is not met yet.
 TEST(FalseAlarmSafeState, TenfoldPressureNoiseNoLongerDropsTheLink) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   const E1Case& c = s.cases.at(1);
   ASSERT_EQ(c.payload_kg, 5.0);
   sim::OneDofRigParams p = e1_plant_params(s, c);

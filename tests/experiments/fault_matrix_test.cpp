@@ -3,6 +3,7 @@
 // from the log: the flag, the cycles to it, and the plant's figures after the fault.
 #include "peha/experiments/faults/fault_matrix.hpp"
 #include "peha/safety/fault_monitor.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -18,7 +19,7 @@ namespace peha::experiments {
 namespace {
 
 TEST(FaultMatrix, HoldingRowsNameTheFlagTheCyclesAndThePlantsFigures) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   FaultMatrixOptions o;
   o.kinds = {sim::FaultKind::kLoadcellStuck, sim::FaultKind::kControllerNan};
   o.moments = {"holding"};
@@ -61,7 +62,7 @@ TEST(FaultMatrix, HoldingRowsNameTheFlagTheCyclesAndThePlantsFigures) {
 // after the fault, and judged from the first sample after the outage: within 90 deg/s and never
 // further out of the range than where the outage left the link (measured: 26.4 and 66.6 deg/s).
 TEST(FaultMatrix, AnOutageRowRecoversWithoutLaunchingTheJoint) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   FaultMatrixOptions o;
   o.case_name = "payload_5.0kg";
   o.kinds = {sim::FaultKind::kStateLoss, sim::FaultKind::kBoardReboot};
@@ -109,7 +110,7 @@ TEST(FaultMatrix, AnOutageRowRecoversWithoutLaunchingTheJoint) {
 // muscle past its ceiling anyway (2695 N measured): a row physics forbids, named with its reason. A
 // pair runs only when both its kinds are wanted.
 TEST(FaultMatrix, ADoubleFaultIsARowAndPhysicsForbidsIsNamed) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   FaultMatrixOptions o;
   o.case_name = "payload_5.0kg";
   o.kinds = {sim::FaultKind::kPressureSensorFail, sim::FaultKind::kValveStuckOpen};
@@ -134,7 +135,7 @@ TEST(FaultMatrix, ADoubleFaultIsARowAndPhysicsForbidsIsNamed) {
 // fell at 222 deg/s out of its range. Not judged on a muscle that does not follow, the trapped air
 // holds the link (24.5 deg/s at most, the finger's own move) and no limit is exceeded.
 TEST(FaultMatrix, AStuckClosedValveUnderDescendIsNotVentedAsAFillingOne) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   FaultMatrixOptions o;
   o.case_name = "payload_5.0kg";
   o.kinds = {sim::FaultKind::kValveStuckClosed};
@@ -152,7 +153,7 @@ TEST(FaultMatrix, AStuckClosedValveUnderDescendIsNotVentedAsAFillingOne) {
 // disagreement's change while the link is still: caught inside the range (descend), no limit
 // exceeded; with the check off the same row leaves its range.
 TEST(FaultMatrix, ADriftingLoadCellIsCaughtBeforeTheLinkLeavesItsRange) {
-  E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  E1Scenario s = peha::test_support::shipped_e1();
   FaultMatrixOptions o;
   o.case_name = "payload_2.5kg";
   o.kinds = {sim::FaultKind::kLoadcellDrift};
@@ -177,7 +178,7 @@ TEST(FaultMatrix, ADriftingLoadCellIsCaughtBeforeTheLinkLeavesItsRange) {
 // shoulder cell repeats codes in nominal runs) and the arm descends without exceeding a limit; the
 // supply loss is seen by the supply sensor in 3 cycles, at rest and moving, and held.
 TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndHoldAfterASupplyLoss) {
-  const ArmScenario s = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  const ArmScenario s = peha::test_support::shipped_right_arm();
   const std::vector<FaultMoment> moments = e3_fault_moments(s);
   ASSERT_EQ(moments.size(), 4u);
   EXPECT_NEAR(moments[0].time_s, 8.5, 1e-9);   // first posture released at 7.5 s
@@ -245,7 +246,7 @@ TEST(FaultMatrix, E3RowsOnTheElbowDetectTheStuckCellAndHoldAfterASupplyLoss) {
 }
 
 /// The shipped right-arm scenario.
-ArmScenario shipped_arm() { return read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")); }
+ArmScenario shipped_arm() { return peha::test_support::shipped_right_arm(); }
 
 /// E3's fault matrix on `s` with one fault kind at one moment: the faulted row (after the nominal one).
 FaultRow e3_row(ArmScenario s, sim::FaultKind kind, const char* moment) {
@@ -335,7 +336,7 @@ TEST(FaultMatrix, E3BoardRebootFallWhileDisarmedIsNamedPhysicsAndTheReArmIsClean
 
 // A moment the experiment does not have is an error, not an empty matrix.
 TEST(FaultMatrix, AMomentTheExperimentLacksIsRefused) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   FaultMatrixOptions o;
   o.moments = {"moving"};
   EXPECT_THROW(run_fault_matrix(s, o), std::invalid_argument);

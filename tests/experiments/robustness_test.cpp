@@ -5,6 +5,7 @@
 
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
 #include "peha/models/units.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <cmath>
 #include <fstream>
@@ -45,7 +46,7 @@ TEST(Robustness, ASingleSensorErrorActsOnItsOwnSensor) {
                            "agonist_gain_-5%", "antagonist_gain_+5%", "antagonist_gain_-5%", "pulley_radius_+5%", "pulley_radius_-5%"}) {
     EXPECT_NE(std::find(names.begin(), names.end(), name), names.end()) << name;
   }
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   const sim::PehaJointPlantParams& nominal = s.plant.joint;
   PlantVariant zero;
   zero.antagonist_loadcell_bias_N = -20.0;
@@ -67,7 +68,7 @@ TEST(Robustness, ASingleSensorErrorActsOnItsOwnSensor) {
 // the same extra gravity torque (0.45 kg arm at 0.2 m: +0.018 kg m -> +0.045 kg at 0.4 m), the
 // cable variant scales both cables' friction, and the E3 variant puts the unknown mass in the hand.
 TEST(Robustness, VariantsChangeOnlyThePlant) {
-  const E1Scenario s = read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  const E1Scenario s = peha::test_support::shipped_e1();
   PlantVariant link;
   link.link_mass_scale = 1.2;
   EXPECT_EQ(e1_variant_plant(s, s.cases[0], link).payload_kg, 2.5);  // what the controller is told, unchanged
@@ -77,7 +78,7 @@ TEST(Robustness, VariantsChangeOnlyThePlant) {
   const sim::OneDofRigParams p = e1_variant_plant(s, s.cases[0], cable);
   EXPECT_DOUBLE_EQ(p.joint.agonist.cable.static_friction, 0.5 * s.plant.joint.agonist.cable.static_friction);
   EXPECT_DOUBLE_EQ(p.joint.antagonist.cable.kinetic_friction, 0.5 * s.plant.joint.antagonist.cable.kinetic_friction);
-  const ArmScenario arm = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  const ArmScenario arm = peha::test_support::shipped_right_arm();
   PlantVariant hand;
   hand.extra_payload_kg = 1.0;
   EXPECT_EQ(arm_variant_plant(arm, hand).unknown_hand_payload_kg, 1.0);
@@ -228,7 +229,7 @@ TEST(RobustnessE4, ReaderRefusesWrongPersons) {
 // The tremor is the person's: the truth is the movement plus A sin(2 pi f t) exactly (zero at the start,
 // where the arm is put), and the goniometer reads it with its noise.
 TEST(RobustnessE4, ATremorIsAddedToThePersonsMovement) {
-  const ArmScenario arm = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  const ArmScenario arm = peha::test_support::shipped_right_arm();
   ArmScenario::Goniometer::Movement m = arm.goniometer.movements.back();
   const GoniometerTrace plain = synthesize_goniometer(arm.goniometer, m, 1);
   m.tremor_amplitude_rad = models::deg_to_rad(3.0);
@@ -252,7 +253,7 @@ TEST(RobustnessE4, ATremorIsAddedToThePersonsMovement) {
 // heavier has its centre of mass x 1.15, its mass x 1.15 and its inertia x 1.15^3; the exoskeleton's
 // links and the controller's model are untouched.
 TEST(RobustnessE4, AnotherArmScalesOnlyTheUsersSegments) {
-  const ArmScenario arm = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  const ArmScenario arm = peha::test_support::shipped_right_arm();
   RobustnessConfig c;
   c.arm_config = PEHA_SOURCE_DIR "/configs/right_arm.yaml";
   const sim::ArmPlantParams before = arm.plant;

@@ -5,6 +5,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 
 #include "../support/edited_config.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -31,7 +32,7 @@ TEST(ScenarioSections, LifecycleAndPlausibilityAreReadUnderTheirOwnNames) {
   EXPECT_EQ(shipped.limits.monitor.unmodelled, 0u);  // every check on
   const E1Scenario slower = read_e1(config::Document::load_file(e1.write_replacing("  host_watchdog_ms: 20.0", "  host_watchdog_ms: 40.0")));
   EXPECT_DOUBLE_EQ(slower.lifecycle.host_watchdog_s, 0.04);
-  const ArmScenario arm = read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml"));
+  const ArmScenario arm = peha::test_support::shipped_right_arm();
   EXPECT_DOUBLE_EQ(arm.lifecycle.recovery_ramp_s, 1.0);
 }
 

@@ -8,6 +8,7 @@
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
 #include "peha/runtime/csv_log.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -134,7 +135,7 @@ TEST(ReplayBackend, RefusesALogWithoutTheSensorsOrAtAnotherRate) {
 // commanded; what is left is the log's 9 significant digits and the rig's redundant encoder, which
 // the log does not record.
 TEST(ReplayBackend, AnE1LogReplayedIntoItsControllerGivesItsCommandsBack) {
-  experiments::E1Scenario s = experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  experiments::E1Scenario s = peha::test_support::shipped_e1();
   s.duration_s = 6.0;
   const experiments::E1Case& c = s.cases.front();
   runtime::CsvLog log(experiments::e1_log_columns(), 6002);

@@ -11,6 +11,7 @@
 
 #include "../support/alloc_counter.hpp"
 #include "../support/telemetry_receiver.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -43,7 +44,7 @@ namespace {
 constexpr double kTestWatchdog_s = 0.25;
 
 experiments::E1Scenario scenario(double duration_s) {
-  experiments::E1Scenario s = experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  experiments::E1Scenario s = peha::test_support::shipped_e1();
   s.duration_s = duration_s;
   s.lifecycle.host_watchdog_s = kTestWatchdog_s;
   return s;

@@ -8,6 +8,7 @@
 #include "peha/safety/fault_monitor.hpp"
 #include "peha/safety/limits.hpp"
 #include "peha/sim/plant_faults.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <algorithm>
 #include <array>
@@ -29,7 +30,7 @@ namespace {
 constexpr double kFaultAt_s = 3.0;  // the link is held still by the controller here
 
 experiments::E1Scenario short_e1() {
-  experiments::E1Scenario s = experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  experiments::E1Scenario s = peha::test_support::shipped_e1();
   s.duration_s = 5.0;
   s.plant.finger.pushes.resize(1);  // the start-up hold only
   s.probe_direction.resize(1);
@@ -544,7 +545,7 @@ experiments::FaultRow matrix_row(experiments::E1Scenario s, sim::FaultKind kind,
 }
 
 experiments::E1Scenario e1() {
-  return experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"));
+  return peha::test_support::shipped_e1();
 }
 
 // The descend safe state governs the link's speed with the carrying muscle (the agonist) and damps it

@@ -2,6 +2,7 @@
 #include "peha/experiments/arm/arm_scenario.hpp"
 #include "peha/models/units.hpp"
 #include "peha/sim/arm_plant.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -20,7 +21,7 @@ namespace {
 /// backend inactive (valves vented, motors off): where the shoulder is 0.3 s later.
 double shoulder_after_fall_rad(double unknown_hand_payload_kg) {
   ArmPlantParams p =
-      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")).plant;
+      peha::test_support::shipped_right_arm().plant;
   p.initial_q_rad.assign(p.initial_q_rad.size(), 0.0);
   p.settle_s = 0.0;  // released held out at t = 0, not settled hanging
   p.unknown_hand_payload_kg = unknown_hand_payload_kg;
@@ -56,7 +57,7 @@ namespace {
 // muscle commanded to `pressure_MPa` (motors off).
 const ArmPlantParams& shipped_arm() {
   static const ArmPlantParams plant =
-      experiments::read_arm_scenario(config::Document::load_file(PEHA_SOURCE_DIR "/configs/right_arm.yaml")).plant;
+      peha::test_support::shipped_right_arm().plant;
   return plant;
 }
 

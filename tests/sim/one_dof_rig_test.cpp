@@ -1,6 +1,7 @@
 #include "peha/experiments/e1_gravity/e1_gravity.hpp"
 #include "peha/sim/one_dof_rig.hpp"
 #include "../support/replaced.hpp"
+#include "../support/shipped_scenarios.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,7 +16,7 @@ namespace peha::sim {
 namespace {
 
 OneDofRigParams rig() {
-  return experiments::read_e1(config::Document::load_file(PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml")).plant;
+  return peha::test_support::shipped_e1().plant;
 }
 
 std::string e1_text() {
