@@ -52,6 +52,7 @@ BY_HAND_RE = re.compile(r"\bby hand:\s*\S")
 # Folders of the checkout a command may read, linked into the scratch folder.
 LINKED_DIRS = ("configs", "examples", "tools", "fuzz", "data", "python", "scripts")
 RUN_TIMEOUT_S = 120
+LONG_TIMEOUT_S = 4 * 3600  # a long figures block: a whole matrix
 
 
 @dataclass
@@ -212,21 +213,23 @@ def run_commands(cmds, root, build_dir, registry, blocks=()):
         (Path(scratch) / "etc" / "peha").mkdir(parents=True)
         env = dict(os.environ, MPLBACKEND="Agg")
         latest = Path(scratch) / "out" / "latest"
-        jobs = [(c.text, c.where()) for c in cmds] + [(b.command, b.where()) for b in blocks]
-        for text, where in jobs:
+        jobs = ([(c.text, c.where(), None, RUN_TIMEOUT_S) for c in cmds]
+                + [(b.command, b.where(), int(b.attrs.get("exit", "0")),
+                    LONG_TIMEOUT_S if "long" in b.attrs else RUN_TIMEOUT_S) for b in blocks])
+        for text, where, block_exit, timeout_s in jobs:
             line = runnable(text, scratch)
             if line in outputs:  # the same command as run: once
                 continue
             how = registry.get(text, "run")
-            expected = int(how.split(":")[1]) if ":" in how else 0
+            expected = block_exit if block_exit is not None else int(how.split(":")[1]) if ":" in how else 0
             before = os.path.realpath(latest) if latest.is_symlink() else None
             start = time.monotonic()
             try:
                 done = subprocess.run(["bash", "-c", line], cwd=scratch, env=env, capture_output=True,
-                                      text=True, timeout=RUN_TIMEOUT_S)
+                                      text=True, timeout=timeout_s)
                 code, tail, stdout = done.returncode, (done.stdout + done.stderr)[-1500:], done.stdout
             except subprocess.TimeoutExpired:
-                code, tail, stdout = None, f"timed out after {RUN_TIMEOUT_S} s", ""
+                code, tail, stdout = None, f"timed out after {timeout_s} s", ""
             after = os.path.realpath(latest) if latest.is_symlink() else None
             outputs[line] = (stdout, after if after and after != before else None)
             print(f"  ran {where} in {time.monotonic() - start:.1f} s, exit {code}: {line}")

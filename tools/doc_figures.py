@@ -19,11 +19,14 @@ The opening comment says how the block is made:
           `csv:FILE`: a Markdown table, one row per row of FILE in the run folder the command made
           (out/latest), the columns from `table`: `Header={field:format} | ...`, Python format
           fields over the CSV's columns (numbers as floats), `where` optionally `column=value`;
-          `file:FILE`: FILE of that run folder as it is (a Markdown table a command writes).
+          `file:FILE`: FILE of that run folder as it is (a Markdown table a command writes),
+          optionally only its lines from `from` up to `to`, as for stdout.
   mask    optional regex: what it matches is not compared (wall-clock figures such as the
           real-time factor); the block keeps the values of its last regeneration.
   long    optional: the block's command is too long for `make test` (`long="make robustness"`
           says what runs it): checked only with --long.
+  exit    optional: the command's exit code when it is the documented outcome (default 0; e.g. 3,
+          a matrix that reports a goal missed).
 
 A block is current when its text equals what the command makes now, masks aside (the simulator is
 deterministic for a seed, so figures are compared exactly). `check_doc_commands.py` (ctest
@@ -42,7 +45,7 @@ from pathlib import Path
 OPEN_RE = re.compile(r"^<!-- figures:(.*)$")
 CLOSE = "<!-- /figures -->"
 ATTR_RE = re.compile(r'(\w+)="((?:[^"\\]|\\.)*)"')
-KEYS = {"run", "show", "from", "to", "table", "where", "mask", "long"}
+KEYS = {"run", "show", "from", "to", "table", "where", "mask", "long", "exit"}
 
 
 @dataclass
@@ -125,28 +128,33 @@ class _NumberFormatter(string.Formatter):
         return super().format_field(value, format_spec)
 
 
+def _between(block, lines):
+    """The lines from the first matching the block's `from` up to, not including, the first later
+    one matching its `to` (defaults: the first line, the end), trailing blank lines dropped."""
+    start = 0
+    if "from" in block.attrs:
+        hits = [k for k, l in enumerate(lines) if re.search(block.attrs["from"], l)]
+        if not hits:
+            raise ValueError(f"{block.where()}: no output line matches from={block.attrs['from']!r}")
+        start = hits[0]
+    end = len(lines)
+    if "to" in block.attrs:
+        hits = [k for k in range(start + 1, len(lines)) if re.search(block.attrs["to"], lines[k])]
+        if not hits:
+            raise ValueError(f"{block.where()}: no output line after the first matches "
+                             f"to={block.attrs['to']!r}")
+        end = hits[0]
+    chosen = [l.rstrip() for l in lines[start:end]]
+    while chosen and not chosen[-1]:
+        chosen.pop()
+    return chosen
+
+
 def render(block, stdout, run_dir):
     """The block's body (list of lines) from the command's stdout and its run folder."""
     show = block.attrs["show"]
     if show == "stdout":
-        lines = stdout.splitlines()
-        start = 0
-        if "from" in block.attrs:
-            hits = [k for k, l in enumerate(lines) if re.search(block.attrs["from"], l)]
-            if not hits:
-                raise ValueError(f"{block.where()}: no output line matches from={block.attrs['from']!r}")
-            start = hits[0]
-        end = len(lines)
-        if "to" in block.attrs:
-            hits = [k for k in range(start + 1, len(lines)) if re.search(block.attrs["to"], lines[k])]
-            if not hits:
-                raise ValueError(f"{block.where()}: no output line after the first matches "
-                                 f"to={block.attrs['to']!r}")
-            end = hits[0]
-        chosen = [l.rstrip() for l in lines[start:end]]
-        while chosen and not chosen[-1]:
-            chosen.pop()
-        return ["```text"] + chosen + ["```"]
+        return ["```text"] + _between(block, stdout.splitlines()) + ["```"]
     kind, name = show.split(":", 1)
     if run_dir is None:
         raise ValueError(f"{block.where()}: the command made no run folder (out/latest) to read {name} from")
@@ -154,7 +162,7 @@ def render(block, stdout, run_dir):
     if not path.is_file():
         raise ValueError(f"{block.where()}: {path} does not exist after the command")
     if kind == "file":
-        return path.read_text().rstrip("\n").splitlines()
+        return _between(block, path.read_text().splitlines())
     rows = list(csv.DictReader(io.StringIO(path.read_text())))
     if "where" in block.attrs:
         column, _, value = block.attrs["where"].partition("=")

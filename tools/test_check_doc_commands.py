@@ -178,6 +178,20 @@ class DocFiguresTest(unittest.TestCase):
         self.assertIn("Text between.", text)
         self.assertEqual(cdc.check_figures(self.regenerate()), [])
 
+    def test_a_file_block_shows_its_lines_between_from_and_to_and_takes_its_documented_exit(self):
+        doc = ("# R\n\n<!-- figures: run=\"mkdir -p out/r1 && ln -sfn r1 out/latest && printf '# T\\n\\n| a |\\n|---|\\n| 1 |\\n\\n## E4\\n' "
+               "> out/r1/t.md && exit 3\"\n     show=\"file:t.md\" from=\"^[|]\" to=\"^## \" exit=\"3\" -->\n<!-- /figures -->\n")
+        self.page.write_text(doc)
+        blocks = cdc.doc_figures.parse_blocks(self.root, "docs/results.md")
+        errors, rendered = cdc.run_commands([], self.root, self.root / "build", {}, blocks)
+        self.assertEqual(errors, [])
+        self.assertEqual(rendered[0][1], ["| a |", "|---|", "| 1 |"])
+        self.page.write_text(doc.replace('exit="3"', 'exit="0"'))
+        blocks = cdc.doc_figures.parse_blocks(self.root, "docs/results.md")
+        errors, _ = cdc.run_commands([], self.root, self.root / "build", {}, blocks)
+        self.assertEqual(len(errors), 1)
+        self.assertIn("exit 3, expected 0", errors[0])
+
     def test_malformed_blocks_are_refused_with_their_line(self):
         cases = {
             "<!-- figures: show=\"stdout\" -->\n<!-- /figures -->\n": "needs run=",
