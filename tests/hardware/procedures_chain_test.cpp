@@ -121,7 +121,7 @@ TEST(ProceduresOverTheBoard, RecordCalibrateAndRunE1AsInProcess) {
   for (const char* where : {"sim", "board"}) {
     for (const char* m : {"antagonist", "agonist"}) {
       const std::filesystem::path d = dir / where;
-      ASSERT_EQ(peha({"calibrate", (d / (std::string(m) + ".csv")).string(), "--muscle", m, "--out", (d / (std::string(m) + ".yaml")).string()}, out), 0)
+      ASSERT_EQ(peha({"calibrate", (d / (std::string(m) + ".csv")).string(), "--muscle", m, "--out", (d / (std::string(m) + ".yaml")).string(), "--no-plot"}, out), 0)
           << where << " " << m << ": " << out;
     }
   }
