@@ -95,7 +95,8 @@ struct UserLoop {
       return go && !finished;
     };
     const auto steps = static_cast<std::size_t>(std::llround(duration_s / period_s));
-    const std::size_t done = runtime::run_cycles(limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command, step, hold, observe);
+    const std::size_t done = runtime::run_cycles(limited, runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [this] { controller.resume(); }),
+                                                 steps, state, command, step, hold, observe);
     experiments::add_arm_envelope_checks(scenario, joints, envelope, result.verdict);
     safety::add_supervisor_check(limited.monitor(), result.verdict);
     result.cycles = done + 1;

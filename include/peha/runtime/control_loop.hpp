@@ -50,6 +50,17 @@ inline CycleHooks with_lifecycle(CycleHooks hooks, const SupervisorParams& lifec
   return hooks;
 }
 
+/// `hooks` whose recovery first restarts the controller from what is measured now (`resume`: an
+/// allocation's trims wound up while its commands did not go out, e.g. ArmController::resume), then
+/// runs the hooks' own. Every loop whose controller integrates takes its hooks through this.
+inline CycleHooks resuming(CycleHooks hooks, std::function<void()> resume) {
+  hooks.recovered = [resume = std::move(resume), outer = std::move(hooks.recovered)] {
+    resume();
+    if (outer) outer();
+  };
+  return hooks;
+}
+
 /// Runs cycles k = 0..steps on `backend`: wait, read; with a new sample `step(k)` computes
 /// `command`, without one `hold(k)` and the previous command goes out again (it also feeds a board's
 /// watchdog); the supervisor supervises (it may fault the run or ramp the command); the command is

@@ -301,7 +301,7 @@ CreepRun run_creep_case(const CreepScenario& s, const E1Case& c, const PlantVari
   io::Command command;
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(
-      limited, runtime::with_lifecycle({}, sc.lifecycle), steps, state, command, [&](std::size_t) { run.step(state, command); },
+      limited, runtime::resuming(runtime::with_lifecycle({}, sc.lifecycle), [&controller] { controller.resume(); }), steps, state, command, [&](std::size_t) { run.step(state, command); },
       [&](std::size_t k) { run.hold(k); }, [&](std::size_t k, const io::Command&, std::uint32_t) { run.observe(k, state); });
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   CreepRun r = std::move(run.r);  // the samples; the figures follow

@@ -573,14 +573,10 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
       log->push_row(row);
     }
   };
-  runtime::CycleHooks loop_hooks = runtime::with_lifecycle(hooks, scenario.lifecycle);
+  runtime::CycleHooks loop_hooks = runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&controller] { controller.resume(); });
   loop_hooks.finished = [&r, outer = hooks.finished](const runtime::Supervisor& supervisor) {
     r.lifecycle = runtime::history_of(supervisor.lifecycle());
     if (outer) outer(supervisor);
-  };
-  loop_hooks.recovered = [&controller, outer = hooks.recovered] {
-    controller.resume();
-    if (outer) outer();
   };
   trace.angle_rad.resize(runtime::run_cycles(limited, loop_hooks, steps, state, command, step, hold, observe) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();

@@ -314,14 +314,10 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   io::SensorState state;
   io::Command command;
   std::vector<runtime::LifecycleEvent> lifecycle;
-  runtime::CycleHooks loop_hooks = runtime::with_lifecycle(hooks, scenario.lifecycle);
+  runtime::CycleHooks loop_hooks = runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&run] { run.controller.resume(); });
   loop_hooks.finished = [&lifecycle, outer = hooks.finished](const runtime::Supervisor& supervisor) {
     lifecycle = runtime::history_of(supervisor.lifecycle());
     if (outer) outer(supervisor);
-  };
-  loop_hooks.recovered = [&run, outer = hooks.recovered] {
-    run.controller.resume();
-    if (outer) outer();
   };
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(

@@ -145,7 +145,8 @@ BandwidthResult run_bandwidth(const ArmScenario& scenario, bool hybrid) {
       sg.Y_joint += y_joint * e;
     }
   };
-  runtime::run_cycles(limited, runtime::with_lifecycle({}, scenario.lifecycle), end - 1, state, command, step, hold, observe);
+  runtime::run_cycles(limited, runtime::resuming(runtime::with_lifecycle({}, scenario.lifecycle), [&controller] { controller.resume(); }), end - 1,
+                      state, command, step, hold, observe);
   for (const Segment& sg : segments) {
     const std::complex<double> H = sg.Y / sg.U;
     r.bode.push_back({sg.frequency_Hz, std::abs(H), models::rad_to_deg(std::arg(H))});
