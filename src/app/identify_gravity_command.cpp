@@ -20,7 +20,7 @@ int identify_gravity(const IdentifyGravityOptions& options) {
     inputs.push_back(scenario.gravity_identification_file);
     refuse_unsafe_output(options.out, inputs);
     if (!scenario.faults.empty()) {
-      fmt::print(stderr, "config error: {}: its faults: list is injected in E3 (--experiment postures) only, not in the "
+      fmt::print(stderr, "config error: {}: its faults: list is injected in E3 and E4 (--experiment postures, goniometer) only, not in the "
                          "identification: remove it for this run\n", options.config.string());
       return 2;
     }

@@ -111,7 +111,7 @@ Command add_run(CLI::App& app) {
       "With --backend: the operator's recover command this many s after a fault (unattended runs);\n"
       "without it, type r + Enter on the terminal to recover")->check(peha::app::decimal())->check(CLI::Range(0.0, 3600.0));
   run_cmd->add_option("--fault", run.faults,
-                      "E1 and an arm scenario's E3 (--experiment postures), in process only (repeatable): inject a plant\n"
+                      "E1 and an arm scenario's E3 and E4 (--experiment postures, goniometer), in process only (repeatable): inject a plant\n"
                       "fault KIND@T[:TARGET[=VALUE]] at T s, TARGET [JOINT.]agonist|antagonist for muscle faults, JOINT\n"
                       "for the others (E1: joint; the arm: R_SFE|R_EFE|R_WFE; default the first), VALUE for loadcell_bias\n"
                       "(N), loadcell_drift (N/s), encoder_jump (deg), wire_slip (mm). KIND: " + peha::sim::fault_kind_list() + " (docs/safety.md)");

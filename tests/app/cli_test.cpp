@@ -568,9 +568,10 @@ TEST(Cli, RunRejectsOptionsTheExperimentDoesNotTake) {
       {"run --experiment bandwidth --telemetry udp://127.0.0.1:9870" + arm, "--telemetry", "no per-cycle log"},
       {"run --experiment goniometer --backend udp://127.0.0.1:9 --goniometer-csv " + any_file + arm, "--goniometer-csv",
        "in-process"},
-      // Plant faults: E1 and E3 in process; on the arm named by its joints.
-      {"run --experiment goniometer --fault estop@1" + arm, "--fault", "is for E1 gravity compensation, arm --experiment postures (E3 postures)\n"},
-      {"run --experiment bandwidth --fault estop@1" + arm, "--fault", "is for E1 gravity compensation, arm --experiment postures (E3 postures)\n"},
+      // Plant faults: E1, E3 and E4 in process; on the arm named by its joints.
+      {"run --experiment bandwidth --fault estop@1" + arm, "--fault",
+       "is for E1 gravity compensation, arm --experiment postures (E3 postures), arm --experiment goniometer (E4 goniometer)\n"},
+      {"run --experiment goniometer --backend udp://127.0.0.1:9 --fault estop@1" + arm, "--fault", "faults: list"},
       {"run --experiment postures --backend udp://127.0.0.1:9 --fault estop@1" + arm, "--fault", "faults: list"},
       {"run --experiment postures --fault wire_break@9:joint.agonist" + arm, "--fault", "R_SFE|R_EFE|R_WFE"},
   };

@@ -4,6 +4,9 @@
 
 #include "peha/calibration/dataset.hpp"
 #include "peha/models/units.hpp"
+#include "peha/sim/plant_faults.hpp"
+
+#include <fmt/format.h>
 
 #include <yaml-cpp/yaml.h>
 
@@ -14,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <functional>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -331,6 +335,75 @@ TEST(E4, EveryHeldAndPassiveJointAndTheCommandAreJudged) {
   lagged_damping.goniometer.encoder_velocity_cutoff_Hz = 20.0;
   const GoniometerResult buzzing = run_goniometer(lagged_damping, {brisk}, GoniometerVariant::kFeedback, nullptr);
   EXPECT_TRUE(testing::fails_on(buzzing.verdict, "R_EFE torque command above 10 Hz (RMS)")) << buzzing.verdict.failures();
+}
+
+}  // namespace
+}  // namespace peha::experiments
+
+namespace peha::experiments {
+namespace {
+
+/// Figures of an E4 feedback run from the operator's recovery on (plant truth; the wrist's encoder).
+struct AfterReArm {
+  double recovered_s = -1, elbow_degps = 0, shoulder_degps = 0, wrist_degps = 0, lowest_wire_N = 1e9, final_gap_deg = 0;
+};
+
+/// E4 at `pace` with the state packets lost for 1 s from `at_s` (the person keeps moving), the
+/// unattended operator recovering 0.5 s after they return; `edit` changes the scenario first.
+AfterReArm state_loss_in_e4(const std::string& pace, double at_s, const std::function<void(ArmScenario&)>& edit = {}) {
+  ArmScenario s = test_support::shipped_right_arm();
+  if (edit) edit(s);
+  const GoniometerTrace t = synthesize_goniometers(s.goniometer, movement(s, pace), s.seed).front();
+  const double outage_s = 1.0, duration_s = goniometer_run_duration_s(s, t);
+  s.faults.push_back(sim::parse_fault_spec(fmt::format("state_loss@{}:R_EFE={}", at_s, outage_s), arm_joint_names(s), duration_s));
+  s.lifecycle.recover_after_s = outage_s + 0.5;
+  runtime::CsvLog log(goniometer_log_columns(s), static_cast<std::size_t>(duration_s / s.period_s) + 2);
+  const GoniometerResult r = run_goniometer(s, {t}, GoniometerVariant::kFeedback, &log);
+  AfterReArm a;
+  for (const runtime::LifecycleEvent& e : r.lifecycle) {
+    if (e.transition == runtime::Transition::kRecovered && a.recovered_s < 0) a.recovered_s = e.t_s;
+  }
+  const std::size_t time = log.column("t_s"), elbow = log.column("plant_elbow_deg"), shoulder = log.column("plant_sfe_deg"),
+                    wrist = log.column("wfe_angle_rad"), tension = log.column("plant_tension_min_N"), person = log.column("person_elbow_deg");
+  for (std::size_t k = 1; a.recovered_s >= 0 && k < log.rows(); ++k) {
+    const double t_s = log.at(k, time), dt = t_s - log.at(k - 1, time);
+    if (t_s < a.recovered_s || !(dt > 0)) continue;
+    a.elbow_degps = std::max(a.elbow_degps, std::abs(log.at(k, elbow) - log.at(k - 1, elbow)) / dt);
+    a.shoulder_degps = std::max(a.shoulder_degps, std::abs(log.at(k, shoulder) - log.at(k - 1, shoulder)) / dt);
+    a.wrist_degps = std::max(a.wrist_degps, models::rad_to_deg(std::abs(log.at(k, wrist) - log.at(k - 1, wrist))) / dt);
+    if (t_s > a.recovered_s + s.lifecycle.recovery_ramp_s) a.lowest_wire_N = std::min(a.lowest_wire_N, log.at(k, tension));
+    if (t_s > duration_s - 1.0) a.final_gap_deg = std::max(a.final_gap_deg, std::abs(log.at(k, elbow) - log.at(k, person)));
+  }
+  std::printf("%s, state loss at %.1f s: re-armed at %.3f s; then elbow %.0f deg/s, shoulder %.0f deg/s, wrist %.0f deg/s, lowest wire "
+              "%.1f N after the ramp; in the last second the elbow within %.1f deg of the person\n",
+              pace.c_str(), at_s, a.recovered_s, a.elbow_degps, a.shoulder_degps, a.wrist_degps, a.lowest_wire_N, a.final_gap_deg);
+  return a;
+}
+
+// Issue 29 item 2 in E4: after an outage the person has moved on. At the operator's recovery the
+// allocation restarts from the pressures measured now, and E4's reference starts where the elbow is
+// and moves toward the person at goniometer.rejoin's 30 deg/s, at most 5 deg ahead of the elbow,
+// until it reaches the person at a pause after the recovery's ramp (the held shoulder's posture
+// closes its gap the same way). A 1 s loss of the state packets in the slow movement, at three
+// moments: no lunge after the re-arm (before, the impedance pulled the elbow to the person's angle:
+// 214-384 deg/s, the shoulder 61-111 deg/s, the wrist 288-453 deg/s), no slack wire after the ramp,
+// and the elbow with the person again by the end. A rejoin as fast and as far ahead as the reader
+// allows (180 deg/s, 30 deg) is that lunge again.
+TEST(E4, AStateLossMidMovementReArmsWithoutALungeAndRejoinsThePerson) {
+  for (double at_s : {6.0, 7.0, 8.0}) {
+    const AfterReArm a = state_loss_in_e4("slow", at_s);
+    ASSERT_GT(a.recovered_s, at_s + 1.0) << at_s;  // after the samples came back
+    EXPECT_LT(a.elbow_degps, 120.0) << at_s;
+    EXPECT_LT(a.shoulder_degps, 30.0) << at_s;
+    EXPECT_LT(a.wrist_degps, 250.0) << at_s;
+    EXPECT_GT(a.lowest_wire_N, 0.5 * 20.0) << at_s;
+    EXPECT_LT(a.final_gap_deg, 10.0) << at_s;
+  }
+  const AfterReArm lunge = state_loss_in_e4("slow", 6.0, [](ArmScenario& s) {
+    s.goniometer.rejoin_rate_radps = models::deg_to_rad(180.0);
+    s.goniometer.rejoin_lead_rad = models::deg_to_rad(30.0);
+  });
+  EXPECT_GT(lunge.elbow_degps, 120.0);
 }
 
 }  // namespace

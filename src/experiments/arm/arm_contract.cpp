@@ -24,15 +24,17 @@ ScenarioCheck check_arm(const std::filesystem::path& config, const config::Docum
   return {arm_joint_names(s), s.link, s.lifecycle, envelopes};
 }
 
-/// Why an arm scenario's faults: list (E3's alone) does not go with `what`.
+/// Why an arm scenario's faults: list does not go with `what` (in process: E3 and E4 take it).
 std::string faults_not_for(const config::Document& doc, const char* what) {
-  return fmt::format("{}: its faults: list is injected in E3 (--experiment postures) only, not in {}: remove it for this run", doc.name(), what);
+  return fmt::format("{}: its faults: list is injected in E3 and E4 (--experiment postures, goniometer) only, not in {}: remove it for "
+                     "this run", doc.name(), what);
 }
 
 /// The emulator's cases other than E3's refuse the scenario's faults: list (with a message).
 bool refuse_arm_faults(const config::Document& doc, const ArmScenario& scenario, const char* what) {
   if (scenario.faults.empty()) return false;
-  fmt::print(stderr, "config error: {}\n", faults_not_for(doc, what));
+  fmt::print(stderr, "config error: {}: its faults: list is injected by the emulator in E3's plant only (--case postures), not in {}: "
+                     "remove it for this run (in process, E4 takes it)\n", doc.name(), what);
   return true;
 }
 
@@ -125,7 +127,7 @@ Experiment arm_experiment() {
   Takes e3;
   e3.force_trim = e3.gravity_identification = e3.faults = e3.boards = e3.replay = true;
   Takes e4;
-  e4.cases = e4.goniometer_csv = e4.force_trim = e4.gravity_identification = e4.boards = e4.replay = true;
+  e4.cases = e4.goniometer_csv = e4.force_trim = e4.gravity_identification = e4.faults = e4.boards = e4.replay = true;
   Takes e6;
   e6.force_trim = e6.gravity_identification = true;
   e6.why_not_hardware = "E6 runs in-process only: it needs the joint's true delivered torque, which no board sensor measures";

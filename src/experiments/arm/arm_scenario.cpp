@@ -306,6 +306,10 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   g.hold_stiffness_Nm_per_rad = hold.number("stiffness_Nm_per_rad", {0.0, 1000.0});
   g.hold_damping_Nms_per_rad = hold.number("damping_Nms_per_rad", {0.0, 100.0});
   hold.finish();
+  config::Map rejoin = gon.map("rejoin");
+  g.rejoin_rate_radps = models::deg_to_rad(rejoin.number("rate_degps", {1.0, 180.0}));
+  g.rejoin_lead_rad = models::deg_to_rad(rejoin.number("lead_deg", {0.1, 30.0}));
+  rejoin.finish();
   config::Map th = gon.map("thresholds");
   g.max_held_excursion_deg = th.number("max_held_excursion_deg", {0.0, 180.0});
   g.max_passive_speed_degps = th.number("max_passive_speed_degps", {0.0, 5000.0});

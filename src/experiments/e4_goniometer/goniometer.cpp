@@ -4,6 +4,7 @@
 #include "peha/config/csv_sidecar.hpp"
 #include "peha/config/input_file.hpp"
 #include "peha/control/butterworth.hpp"
+#include "peha/sim/plant_faults.hpp"
 #include "peha/control/motion_estimator.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/experiments/common/log_row.hpp"
@@ -349,6 +350,7 @@ sim::ArmPlantParams goniometer_plant_params(const ArmScenario& scenario, const s
   // the hand still: the constant-pressure wrist, vented at power-on, would otherwise swing to where its
   // pressures put it), then lets go.
   p.operator_hands.moves.push_back({"start", 0.0, release_s, release_s, start});
+  p.faults = scenario.faults;
   return p;
 }
 
@@ -420,6 +422,10 @@ struct Driven {
   /// The command without the smoothing (the inverse dynamics of the raw derivatives at the goniometer's
   /// rate, held, plus the same feedback): the reference the smoothing's delay is measured against.
   double tau_id_raw = 0.0, tau_raw = 0.0;
+  /// After a recovery, until it has caught the person: the reference, from where the joint was and
+  /// moving toward the person at rejoin_rate_radps (rad).
+  bool rejoining = false;
+  double rejoin_rad = 0.0;
   std::vector<double> exo, truth;  ///< the exoskeleton's and the person's angle per cycle, rad
   std::vector<double> command, raw_command;  ///< tau_cmd and tau_raw per cycle, Nm
   GoniometerJointResult r;
@@ -455,6 +461,7 @@ struct GoniometerRun {
         feedback(variant == GoniometerVariant::kFeedback),
         decimation(static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * scenario.period_s)))),
         controller(scenario.controller),
+        controller_nan(scenario.faults),
         arm(controller.model().arm),
         arm_data(arm),
         held(held_joints(scenario)),
@@ -483,6 +490,7 @@ struct GoniometerRun {
       if (controller.model().joints[i].mode == control::ArmJointMode::kHoldPressure) passive.push_back(i);
     }
     passive_peak_speed_radps.assign(passive.size(), 0.0);
+    hold_offset_rad.assign(controller.model().joints.size(), 0.0);
     encoder_velocity.assign(controller.model().joints.size(), control::VelocityEstimator{.cutoff_Hz = g.encoder_velocity_cutoff_Hz});
   }
 
@@ -502,6 +510,7 @@ struct GoniometerRun {
       qd[j.q] = j.rate + acceleration * dt;
       qdd[j.q] = acceleration;
     }
+    rejoin_step(state);
     const Eigen::VectorXd& tau = models::inverse_dynamics(arm, arm_data, q, qd, qdd);
     for (Driven& j : driven) {
       const double q_exo = state.joints[j.io].angle_rad, qd_exo = encoder_velocity[j.io].velocity_radps;
@@ -509,7 +518,8 @@ struct GoniometerRun {
       j.tau_raw = j.tau_id_raw;
       if (feedback) {  // the exo's encoder and E4's own rate of it
         tau_cmd += g.feedback_stiffness_Nm_per_rad * (q[j.q] - q_exo) + g.feedback_damping_Nms_per_rad * (qd[j.q] - qd_exo);
-        j.tau_raw += g.feedback_stiffness_Nm_per_rad * (j.d.value - q_exo) + g.feedback_damping_Nms_per_rad * (j.d.rate - qd_exo);
+        j.tau_raw += j.rejoining ? g.feedback_stiffness_Nm_per_rad * (q[j.q] - q_exo) + g.feedback_damping_Nms_per_rad * (qd[j.q] - qd_exo)
+                                 : g.feedback_stiffness_Nm_per_rad * (j.d.value - q_exo) + g.feedback_damping_Nms_per_rad * (j.d.rate - qd_exo);
       }
       if (k == 0) j.command_smooth.reset(tau_cmd);
       j.tau_cmd = j.command_smooth.step(tau_cmd);
@@ -521,11 +531,16 @@ struct GoniometerRun {
     for (const std::size_t h : torque_held) {
       const auto m = static_cast<std::size_t>(joints_q[h]);
       controller.set_desired_torque(static_cast<int>(h), tau[static_cast<Eigen::Index>(m)] +
-                                                             g.hold_stiffness_Nm_per_rad * (g.held_rad[h] - state.joints[h].angle_rad) -
+                                                             g.hold_stiffness_Nm_per_rad * (g.held_rad[h] + hold_offset_rad[h] - state.joints[h].angle_rad) -
                                                              g.hold_damping_Nms_per_rad * encoder_velocity[h].velocity_radps);
     }
     controller.update(state, command);
+    controller_nan.apply(state.time_s, command);
   }
+
+  /// The operator's recovery from an outage: the next step starts the reference and the held
+  /// postures from where the joints are (the controller itself restarts from the measured pressures).
+  void rejoin() noexcept { rejoin_pending = true; }
 
   void hold(std::size_t k) {  // no new sample: the command is held
     for (Driven& j : driven) {
@@ -577,7 +592,45 @@ struct GoniometerRun {
   const sim::ArmBackend* sim;
   const bool feedback;
   const std::size_t decimation;  ///< control cycles per goniometer sample
+  /// After a recovery: each driven joint's reference starts where the joint is and moves toward
+  /// the person (q, set just before) at rejoin_rate_radps, at rest otherwise, until it reaches a
+  /// person slower than that rate; each held joint's posture starts where it is and closes its gap
+  /// at the same rate. Replaces q, qd, qdd of a joint still rejoining.
+  void rejoin_step(const io::SensorState& state) noexcept {
+    const double dt = std::isnan(rejoin_time_s) ? 0.0 : std::max(0.0, state.time_s - rejoin_time_s);
+    rejoin_time_s = state.time_s;
+    const double step = g.rejoin_rate_radps * dt;
+    if (rejoin_pending) {
+      rejoin_pending = false;
+      for (Driven& j : driven) j.rejoining = true, j.rejoin_rad = state.joints[j.io].angle_rad;
+      rejoin_from_s = state.time_s;
+      for (const std::size_t h : torque_held) hold_offset_rad[h] = state.joints[h].angle_rad - g.held_rad[h];
+    }
+    for (Driven& j : driven) {
+      if (!j.rejoining) continue;
+      const double gap = q[j.q] - j.rejoin_rad;
+      // Caught only with the controller wholly in command again (after the recovery's ramp).
+      const bool ramped = state.time_s >= rejoin_from_s + scenario.lifecycle.recovery_ramp_s;
+      if (ramped && std::abs(gap) <= step && std::abs(qd[j.q]) <= g.rejoin_rate_radps) {
+        j.rejoining = false;  // caught: the person's reference from here on
+        continue;
+      }
+      const double from = j.rejoin_rad, joint = state.joints[j.io].angle_rad;
+      j.rejoin_rad = std::clamp(from + (std::abs(gap) <= step ? gap : std::copysign(step, gap)), joint - g.rejoin_lead_rad, joint + g.rejoin_lead_rad);
+      q[j.q] = j.rejoin_rad;
+      qd[j.q] = dt > 0 ? (j.rejoin_rad - from) / dt : 0.0;
+      qdd[j.q] = 0.0;
+    }
+    for (const std::size_t h : torque_held) {
+      double& x = hold_offset_rad[h];
+      x = std::abs(x) <= step ? 0.0 : x - std::copysign(step, x);
+    }
+  }
+
   control::ArmController controller;
+  /// An injected controller fault (sim/plant_faults.hpp: controller_nan) corrupts the command on its
+  /// joint here, before the supervisor, as in E1 and E3.
+  const sim::ControllerNanInjection controller_nan;
   const models::ArmModel& arm;
   models::ArmData arm_data;
   safety::JointModels joints;
@@ -588,6 +641,10 @@ struct GoniometerRun {
   double encoder_time_s = std::numeric_limits<double>::quiet_NaN();  ///< when encoder_velocity last read the encoders
   const std::vector<std::size_t> held;
   std::vector<std::size_t> torque_held;     ///< the held joints a torque drives (not a constant pressure)
+  std::vector<double> hold_offset_rad;      ///< per io joint: a held joint's gap to its posture after a recovery, closing
+  bool rejoin_pending = false;              ///< the operator recovered: take the gaps at the next step
+  double rejoin_from_s = 0.0;               ///< the samples' clock when the last rejoin began
+  double rejoin_time_s = std::numeric_limits<double>::quiet_NaN();  ///< the samples' clock at the last step
   std::vector<std::size_t> passive;         ///< io joints held at a constant pressure (the wrist)
   std::vector<double> passive_peak_speed_radps;  ///< per passive joint, after the release
   std::vector<std::vector<double>> held_q;  ///< per held joint and cycle, rad
@@ -796,10 +853,18 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   safety::LimitedBackend limited(backend, scenario.limits, run.joints);
   io::SensorState state;
   io::Command command;
+  std::vector<runtime::LifecycleEvent> lifecycle;
+  runtime::CycleHooks loop_hooks = runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&run] {
+    run.controller.resume();
+    run.rejoin();
+  });
+  loop_hooks.finished = [&lifecycle, outer = hooks.finished](const runtime::Supervisor& supervisor) {
+    lifecycle = runtime::history_of(supervisor.lifecycle());
+    if (outer) outer(supervisor);
+  };
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(
-      limited, runtime::with_lifecycle(hooks, scenario.lifecycle), steps, state, command,
-      [&](std::size_t k) { run.step(state, command, k); }, [&](std::size_t k) { run.hold(k); },
+      limited, loop_hooks, steps, state, command, [&](std::size_t k) { run.step(state, command, k); }, [&](std::size_t k) { run.hold(k); },
       [&](std::size_t k, const io::Command& sent, std::uint32_t) {
         // The person lets go of the arm only when the run is ready: every joint carried, no fault shown.
         if (sim) sim->keep_hands(!limited.monitor().ready(state.joint_count));
@@ -808,6 +873,7 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   GoniometerResult r = analyse_goniometer(run, name, variant, done, limited.monitor());
   r.realtime_factor = duration_s / std::max(wall_s, 1e-9);
+  r.lifecycle = std::move(lifecycle);
   return r;
 }
 

@@ -1,6 +1,7 @@
 #include "peha/experiments/e4_goniometer/goniometer_report.hpp"
 
 #include "peha/control/butterworth.hpp"
+#include "peha/sim/plant_faults.hpp"
 #include "peha/experiments/arm/arm_contract.hpp"
 #include "peha/experiments/e4_goniometer/goniometer_realtime.hpp"
 #include "peha/models/units.hpp"
@@ -78,7 +79,7 @@ void print_board_table(const std::vector<GoniometerRealtimeResult>& results) {
 class GoniometerJob final : public ExperimentRun {
  public:
   GoniometerJob(const config::Document& doc, const RunRequest& request)
-      : scenario_(arm_scenario_for_run(doc, request, "E4 (goniometer)", false)),
+      : scenario_(arm_scenario_for_run(doc, request, "E4 (goniometer)", true)),
         doc_name_(doc.name()),
         log_columns_(goniometer_log_columns(scenario_)) {
     const auto& g = scenario_.goniometer;
@@ -92,6 +93,19 @@ class GoniometerJob final : public ExperimentRun {
         hi = std::min(hi, scenario_.limits.joints[static_cast<std::size_t>(j)].max_angle_rad);
       }
       recording_.assign(g.joints.size(), read_goniometer_csv(request.goniometer_csv, g.sample_rate_Hz, lo, hi));
+    }
+    // Injected plant faults (in process), timed within the longest of the runs.
+    double longest_s = 0;
+    if (!recording_.empty()) longest_s = goniometer_run_duration_s(scenario_, recording_.front());
+    for (std::size_t i = 0; i < g.movements.size() && recording_.empty(); ++i) {
+      longest_s = std::max(longest_s, goniometer_run_duration_s(scenario_, synthesize_goniometers(g, g.movements[i], scenario_.seed + i).front()));
+    }
+    for (const std::string& spec : request.faults) {
+      try {
+        scenario_.faults.push_back(sim::parse_fault_spec(spec, arm_joint_names(scenario_), longest_s));
+      } catch (const std::invalid_argument& e) {
+        throw RequestError(e.what());
+      }
     }
   }
 

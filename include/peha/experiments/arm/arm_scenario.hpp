@@ -103,6 +103,13 @@ struct ArmScenario {
     /// posture: tau = ID + K (q_held - q) - D qd (`hold:`).
     double hold_stiffness_Nm_per_rad = 0.0;
     double hold_damping_Nms_per_rad = 0.0;
+    /// After the operator's recovery from an outage (`rejoin:`) each driven joint's reference starts
+    /// where the joint is and moves toward the person at rate_radps, never more than lead_rad from the
+    /// joint's measured angle (a joint held by the cable's stiction does not wind the impedance up
+    /// against it), until it reaches a person moving slower than that rate; each held joint's posture
+    /// starts where the joint is and closes its gap at the same rate. No catch-up lunge.
+    double rejoin_rate_radps = 0.5;
+    double rejoin_lead_rad = 0.09;
     /// E4's own figures' thresholds (`thresholds:`), judged in its verdict with the tracking figures.
     double max_held_excursion_deg = 2.0;      ///< each held joint: largest |q - q at release|
     double max_passive_speed_degps = 400.0;   ///< each joint held at a constant pressure (the wrist): peak |speed|

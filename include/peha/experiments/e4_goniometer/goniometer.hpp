@@ -99,6 +99,8 @@ struct GoniometerResult {
   double min_wire_tension_N = 0;      ///< any wire, plant truth
   double peak_motor_torque_Nm = 0;
   double realtime_factor = 0;
+  /// The run's lifecycle transitions (runtime::Supervisor: the link's faults, the recoveries), oldest first.
+  std::vector<runtime::LifecycleEvent> lifecycle;
   std::vector<GoniometerJointFigure> held;     ///< each held joint's largest |q - q at release|, deg
   std::vector<GoniometerJointFigure> passive;  ///< each joint at a constant pressure: peak |speed| after the release, deg/s
   /// The safety envelope's checks (safety/verdict.hpp) and each driven joint's tracking figures
