@@ -289,7 +289,7 @@ TEST(Cli, RobustnessDocumentsItselfAndRejectsBadInput) {
   EXPECT_THAT(mode.output, HasSubstr("--mode"));
   const Result check = run("check-config --config " PEHA_SOURCE_DIR "/configs/robustness.yaml");
   EXPECT_EQ(check.code, 0) << check.output;
-  EXPECT_THAT(check.output, HasSubstr("robustness matrix, 5 mode(s) x 31 variant(s)"));
+  EXPECT_THAT(check.output, HasSubstr("robustness matrix, 6 mode(s) x 31 variant(s)"));
   std::filesystem::remove_all(dir);
 }
 

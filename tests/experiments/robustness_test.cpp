@@ -22,8 +22,9 @@ using ::testing::HasSubstr;
 // The shipped matrix reads: every variant of issue 10 is there, as plant-only knobs.
 TEST(Robustness, ShippedMatrixHasEveryVariantOfTheIssue) {
   const RobustnessConfig c = read_robustness(config::Document::load_file(PEHA_SOURCE_DIR "/configs/robustness.yaml"));
-  EXPECT_EQ(c.modes.size(), 5u);
-  EXPECT_EQ(c.modes[3], RobustnessMode::kE3Identified);
+  EXPECT_EQ(c.modes.size(), 6u);
+  EXPECT_EQ(c.modes[2], RobustnessMode::kE1SensorChecked);
+  EXPECT_EQ(c.modes[4], RobustnessMode::kE3Identified);
   std::vector<std::string> names;
   for (const PlantVariant& v : c.variants) names.push_back(v.name);
   for (const char* name : {"nominal", "cable_friction_x0", "cable_friction_x0.25", "cable_friction_x0.5", "cable_friction_x1.5",
@@ -369,6 +370,63 @@ TEST(RobustnessShare, IsJudgedOverTheCasesPhysicsAllows) {
   EXPECT_FALSE(s.ok());
   RobustnessResult::Share all_forbidden{"e3_postures", 0, 4, 4, 1.0};
   EXPECT_FALSE(all_forbidden.ok());
+}
+
+}  // namespace
+}  // namespace peha::experiments
+
+namespace peha::experiments {
+namespace {
+
+PlantVariant one_sensor_variant(const char* name, double agonist_gain, double pulley) {
+  PlantVariant v;
+  v.name = name;
+  v.agonist_loadcell_gain_scale = agonist_gain;
+  v.pulley_radius_scale = pulley;
+  return v;
+}
+
+// Issue 31 item 5 in the matrix: the single-sensor errors E1's default controller misses its 5 % on
+// (an agonist cell 5 % low, the pulley 5 % larger: 9.3 and 7.9 % at 2.5 kg) meet it once the sensor
+// check has run on the variant (`e1_sensor_checked`: its corrections in the controller, then E1 as
+// e1_default). A cell whose zero lies below its channel's range is refused by the check and its
+// variant fails with the reason (the corrections' own failure, a wrong known mass, is
+// SensorCheck.AWrongKnownMassGivesCorrectionsThatFailE1sStaticError).
+TEST(RobustnessSensorCheck, AfterTheCheckEachSingleSensorErrorMeetsTheGoalAndARefusedCheckMissesIt) {
+  RobustnessConfig c;
+  c.e1_config = PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml";
+  c.modes = {RobustnessMode::kE1Default, RobustnessMode::kE1SensorChecked};
+  c.seeds = {1};
+  c.threads = 2;
+  c.e1_cases = {"payload_2.5kg"};
+  c.variants = {one_sensor_variant("agonist_gain_-5%", 0.95, 1.0), one_sensor_variant("pulley_radius_+5%", 1.0, 1.05)};
+  const RobustnessResult good = run_robustness(c);
+  ASSERT_EQ(good.rows.size(), 4u);
+  for (const RobustnessRow& r : good.rows) {
+    std::printf("%s %s: static torque error %.1f %%, goal %s\n", r.mode.c_str(), r.variant.c_str(), r.static_error_pct, r.goal ? "met" : "missed");
+    if (r.mode == "e1_default") {
+      EXPECT_GT(r.static_error_pct, 5.0) << r.variant;
+      EXPECT_FALSE(r.goal) << r.variant;
+    } else {
+      EXPECT_EQ(r.mode, "e1_sensor_checked");
+      EXPECT_LE(r.static_error_pct, 5.0) << r.variant;
+      EXPECT_TRUE(r.goal) << r.variant << ": " << r.failures;
+    }
+  }
+  ASSERT_EQ(good.shares.size(), 2u);
+  EXPECT_FALSE(good.shares[0].ok());
+  EXPECT_TRUE(good.shares[1].ok());
+
+  PlantVariant below = one_sensor_variant("agonist_zero_-20N", 1.0, 1.0);
+  below.agonist_loadcell_bias_N = -20.0;
+  c.modes = {RobustnessMode::kE1SensorChecked};
+  c.variants = {below};
+  const RobustnessResult refused = run_robustness(c);
+  ASSERT_EQ(refused.rows.size(), 1u);
+  EXPECT_FALSE(refused.rows[0].goal);
+  EXPECT_FALSE(refused.rows[0].physics_forbids);
+  EXPECT_THAT(refused.rows[0].failures, HasSubstr("sensor check refused: "));
+  EXPECT_FALSE(refused.shares[0].ok());
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include "peha/experiments/common/scenario_header.hpp"
 #include "peha/experiments/e3_postures/postures.hpp"
 #include "peha/experiments/e4_goniometer/goniometer.hpp"
+#include "peha/experiments/sensor_check/sensor_check.hpp"
 #include "peha/hardware/door.hpp"
 #include "peha/models/units.hpp"
 #include "peha/sim/mujoco_model.hpp"
@@ -270,6 +271,33 @@ std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const MatrixCas
       return rows;
     }
   }
+  if (job.mode == RobustnessMode::kE1SensorChecked) {
+    if (!nominal.sensor_check) throw std::invalid_argument("e1_sensor_checked: the E1 scenario has no sensor_check: section");
+    // Checked as a lab would on the rig: the variant's sensors, cables and link, with the check's known
+    // mass on the link instead of a case's payload (which the check does not see).
+    PlantVariant rig = *job.variant;
+    rig.payload_scale = 1.0;
+    rig.extra_payload_kg = 0.0;
+    sim::OneDofRigParams plant = e1_variant_plant(nominal, nominal.cases.front(), rig);
+    plant.seed = job.seed;
+    try {
+      const SensorCheckResult check = check_sensors(nominal, *nominal.sensor_check, plant, nominal.sensor_check->known_mass_kg);
+      for (int i = 0; i < 2; ++i) {
+        scenario.controller.loadcell[i] = {check.corrections.loadcell_zero_N[i], check.corrections.loadcell_gain[i]};
+      }
+    } catch (const SensorCheckRejected& e) {
+      // A check that refuses the sensors (a zero below the channel's range) leaves them uncorrected:
+      // the variant fails, and says why.
+      for (std::size_t c : cases) {
+        RobustnessRow row;
+        row.payload = nominal.cases[c].name;
+        row.static_error_pct = row.breakaway_error_pct = row.drift_deg = row.min_tension_N = row.tension_fraction = kNaN;
+        row.failures = std::string("sensor check refused: ") + e.what();
+        rows.push_back(row);
+      }
+      return rows;
+    }
+  }
   for (std::size_t c : cases) rows.push_back(e1_row(scenario, nominal.cases[c], *job.variant, job.seed));
   return rows;
 }
@@ -384,6 +412,7 @@ const RobustnessGoal& goal_of(const RobustnessConfig& c, RobustnessMode m) {
   switch (m) {
     case RobustnessMode::kE1Default: return c.goal_default;
     case RobustnessMode::kE1CalibratedFF: return c.goal_calibrated;
+    case RobustnessMode::kE1SensorChecked: return c.goal_sensor_checked;
     case RobustnessMode::kE3: return c.goal_e3;
     case RobustnessMode::kE3Identified: return c.goal_e3_identified;
     case RobustnessMode::kE4: break;  // its verdict, not a static error (required_share)
@@ -403,6 +432,7 @@ const char* to_string(RobustnessMode m) {
   switch (m) {
     case RobustnessMode::kE1Default: return "e1_default";
     case RobustnessMode::kE1CalibratedFF: return "e1_calibrated_ff";
+    case RobustnessMode::kE1SensorChecked: return "e1_sensor_checked";
     case RobustnessMode::kE3: return "e3_postures";
     case RobustnessMode::kE3Identified: return "e3_identified";
     case RobustnessMode::kE4: return "e4_goniometer";
@@ -446,6 +476,7 @@ RobustnessConfig read_robustness(const config::Document& doc) {
     config::Map goals = root.map("goals");
     if (goals.has("e1_default")) c.goal_default = read_goal(goals.map("e1_default"), c.goal_default);
     if (goals.has("e1_calibrated_ff")) c.goal_calibrated = read_goal(goals.map("e1_calibrated_ff"), c.goal_calibrated);
+    if (goals.has("e1_sensor_checked")) c.goal_sensor_checked = read_goal(goals.map("e1_sensor_checked"), c.goal_sensor_checked);
     if (goals.has("e3_postures")) c.goal_e3 = read_goal(goals.map("e3_postures"), c.goal_e3);
     if (goals.has("e3_identified")) c.goal_e3_identified = read_goal(goals.map("e3_identified"), c.goal_e3_identified);
     if (goals.has("e4_goniometer")) {

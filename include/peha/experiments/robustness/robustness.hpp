@@ -51,13 +51,15 @@ struct PlantVariant {
 enum class RobustnessMode {
   kE1Default,       ///< E1 with the scenario's controller (force trim on)
   kE1CalibratedFF,  ///< E1 on the paper's pure feed-forward after calibrating both muscles on the variant
+  kE1SensorChecked, ///< E1 as kE1Default after the sensor check on the variant (peha check-sensors) corrected its load cells
   kE3,              ///< E3 postures with the arm scenario's controller as shipped
   kE3Identified,    ///< E3 after identifying the arm's gravity parameters on the variant (peha identify-gravity)
   kE4,              ///< E4, the goniometer-driven elbow (its feedback variant), on the variants' plants and the persons
 };
 /// Every mode, in the order the file's `modes:` and the table list them.
 inline constexpr RobustnessMode kRobustnessModes[] = {RobustnessMode::kE1Default, RobustnessMode::kE1CalibratedFF,
-                                                      RobustnessMode::kE3, RobustnessMode::kE3Identified, RobustnessMode::kE4};
+                                                      RobustnessMode::kE1SensorChecked, RobustnessMode::kE3,
+                                                      RobustnessMode::kE3Identified, RobustnessMode::kE4};
 const char* to_string(RobustnessMode m);
 /// The modes' names, ", "-separated (for messages).
 std::string robustness_mode_names();
@@ -107,6 +109,7 @@ struct RobustnessConfig {
   std::filesystem::path keep_calibrations_dir;
   RobustnessGoal goal_default{5, 0.5, 1.0};
   RobustnessGoal goal_calibrated{10, 0.2, 0.9};
+  RobustnessGoal goal_sensor_checked{5, 0.5, 1.0};
   RobustnessGoal goal_e3{5, 0.5, 1.0};
   RobustnessGoal goal_e3_identified{5, 0.5, 1.0};
   E4Matrix e4;
