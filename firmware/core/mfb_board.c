@@ -130,6 +130,7 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
       ml->loadcell_ad = -1;
       ml->trip_above = true;
       ml->trip_code = 65535;
+      ml->release_code = 65535;
       ml->lead_us = (uint32_t)(ms->force_lead_s * 1e6 + 0.5);
       if (ms->loadcell.channel >= 0) {
         if (!good_channel(&ms->loadcell, MFB_AD_CHANNELS)) {
@@ -147,6 +148,7 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
         ml->loadcell_ad = (int8_t)ms->loadcell.channel;
         ml->trip_above = ms->loadcell.scale_SI > 0;
         ml->trip_code = (uint16_t)code;
+        ml->release_code = (uint16_t)mfb_code_within(&ms->loadcell, MFB_RELEASE_FRACTION * ms->force_ceiling_N, +1);
       }
     }
     jl->motor_da = -1;
@@ -422,6 +424,19 @@ static bool over_ceiling(const mfb_board* b, int muscle_index, const mfb_muscle_
   return led > (int64_t)rising(m, m->trip_code);
 }
 
+/* A tripped muscle's force has fallen below half its ceiling: refilled from there, the force trip
+ * (led by the rate) stops it again before its ceiling; released nearer the ceiling, its valve's
+ * dead time and lag carried the force past it. */
+static bool released_below(const mfb_board* b, const mfb_muscle_limit* m) {
+  return m->loadcell_ad < 0 || rising(m, b->inputs.ad[m->loadcell_ad]) <= rising(m, m->release_code);
+}
+
+/* Joint `j`'s range vents the muscle driving it out: its map asks for it, and the procedure key was
+ * not turned before the arming edge (or is not turned now). */
+static bool range_vents(const mfb_board* b, int j) {
+  return b->cfg->joints[j].range_vent && !(b->armed && b->key_at_arming && procedure_key_turned(b));
+}
+
 /* Joint `j`'s counts as its range judges them: led, in the direction they move, by the speed over
  * the rate window times the valves' reaction (the muscle keeps pulling that long after its vent)
  * plus the distance the other muscle's deceleration needs to stop the joint. */
@@ -495,6 +510,12 @@ void mfb_board_sample(mfb_board* b) {
     const int side = range_side(b, j);
     if (side != 0) { /* latched; the muscle vented is the one driving it out now (a swing may cross over) */
       if (!(b->motors_off & bit)) ++b->counters.range_trips;
+      /* The range's vent needs the other muscle to brake: a force trip of its own (an earlier
+       * swing's) lets it refill as soon as its force is low, without waiting for an arming edge. */
+      const int brake = side > 0 ? MFB_ANTAGONIST : MFB_AGONIST;
+      if (range_vents(b, j) && released_below(b, &cfg->joints[j].muscle[brake])) {
+        b->vented_muscles &= (uint16_t)~(1u << (2 * j + brake));
+      }
       b->motors_off |= bit;
       if (side > 0) b->out_high |= bit;
       else b->out_high &= (uint8_t)~bit;
@@ -505,16 +526,32 @@ void mfb_board_sample(mfb_board* b) {
 /* The trips hold until an arming edge finds their cause gone: re-judged from the newest sample. */
 static void rejudge_trips(mfb_board* b) {
   const mfb_board_config* cfg = b->cfg;
+  const uint16_t tripped = b->vented_muscles;
+  const uint8_t was_out = b->motors_off, was_high = b->out_high;
   b->vented_muscles = 0;
   b->motors_off = 0;
   b->out_high = 0;
   for (int j = 0; j < cfg->joint_count; ++j) {
     for (int m = 0; m < 2; ++m) {
-      if (over_ceiling(b, 2 * j + m, &cfg->joints[j].muscle[m])) b->vented_muscles |= (uint16_t)(1u << (2 * j + m));
+      const uint16_t bit = (uint16_t)(1u << (2 * j + m));
+      const mfb_muscle_limit* ml = &cfg->joints[j].muscle[m];
+      if ((tripped & bit) ? !released_below(b, ml) : over_ceiling(b, 2 * j + m, ml)) b->vented_muscles |= bit;
     }
+    /* A joint's trips are released together: a muscle released while the other still vents
+     * refills against nothing and swings the limb. So a force trip that holds keeps the joint's
+     * other force trip and its range trip (the muscle it vents, the motor cut) too. */
+    const uint16_t both = (uint16_t)(3u << (2 * j));
+    const uint8_t bit = (uint8_t)(1u << j);
+    const bool force_holds = (b->vented_muscles & both) != 0;
+    if (force_holds) b->vented_muscles |= (uint16_t)(tripped & both);
     const int side = range_side(b, j);
-    if (side != 0) b->motors_off |= (uint8_t)(1u << j);
-    if (side > 0) b->out_high |= (uint8_t)(1u << j);
+    if (side != 0) {
+      b->motors_off |= bit;
+      if (side > 0) b->out_high |= bit;
+    } else if (force_holds && (was_out & bit)) {
+      b->motors_off |= bit;
+      b->out_high |= (uint8_t)(was_high & bit);
+    }
   }
 }
 
@@ -524,10 +561,9 @@ static void rejudge_trips(mfb_board* b) {
  * range, the antagonist below); the other muscle keeps its command: it brakes and holds. */
 static uint16_t limit_vented(const mfb_board* b) {
   const mfb_board_config* cfg = b->cfg;
-  const bool key = b->armed && b->key_at_arming && procedure_key_turned(b);
   uint16_t vented = b->vented_muscles;
   for (int j = 0; j < cfg->joint_count; ++j) {
-    if ((b->motors_off & (1u << j)) && cfg->joints[j].range_vent && !key) {
+    if ((b->motors_off & (1u << j)) && range_vents(b, j)) {
       vented |= (uint16_t)(1u << (2 * j + ((b->out_high & (1u << j)) ? MFB_AGONIST : MFB_ANTAGONIST)));
     }
   }

@@ -17,8 +17,10 @@
  *   the distance the other muscle needs to stop it, passes an end of its range also has the muscle
  *   driving it out vented (the other keeps its command: it brakes and holds the limb), unless the
  *   rig's procedure key (a physical input) is turned. The trips
- *   latch until the next arming edge finds the load cell and the joint back inside. No packet can
- *   change the limits.
+ *   latch until an arming edge finds the joint back inside and the load cell below half its
+ *   ceiling, a joint's trips together (one muscle released while the other still vents would
+ *   swing the limb); while the range vents, the muscle that brakes is released from a force trip
+ *   of its own as soon as its load cell is below half its ceiling. No packet can change the limits.
  *
  * The rules are those of docs/mfb-protocol.md (the host's side: include/peha/mfb/protocol.hpp).
  * Every function here is O(1), allocates nothing and never blocks. */
@@ -37,6 +39,10 @@ extern "C" {
 /* Samples over which a load cell's rate and a joint's speed are measured for the trips' leads: 8
  * board periods (8 ms), long enough that 1 N of load-cell noise leads the force by less than 10 N. */
 #define MFB_RATE_WINDOW 8
+/* A force trip is released (at an arming edge, or for the muscle a range trip needs as its brake)
+ * only once the load cell is below this fraction of its ceiling: refilled from nearer the ceiling,
+ * the valve's dead time and lag carry the force past it before the trip's lead sees it rise. */
+#define MFB_RELEASE_FRACTION 0.5
 
 /* ---- the HAL: what a board provides (docs/porting.md) ---------------------------------------- */
 
@@ -122,6 +128,7 @@ typedef struct mfb_muscle_limit {
   int8_t loadcell_ad;           /* -1: none */
   bool trip_above;              /* the force rises with the code (false: falls) */
   uint16_t trip_code;           /* the code of the force ceiling */
+  uint16_t release_code;        /* the code of half the ceiling: a trip is released only below it */
   uint32_t lead_us;             /* the trip's lead (0: the measured force alone) */
 } mfb_muscle_limit;
 

@@ -580,6 +580,118 @@ static void ATripSurvivesAnEdgeWhileItsCauseRemains(void) {
   CHECK_EQ(g_bench.da[1], kSafeValve);
 }
 
+/* An arming edge releases a force trip only once its load cell is below half the ceiling (1000 N of
+ * 2000): refilled from nearer the ceiling, the valve's dead time and lag carry the force past it. */
+static void AnEdgeReleasesAForceTripOnlyBelowHalfItsCeiling(void) {
+  power_on();
+  arm(7, kHalfBar);
+  g_bench.in.ad[0] = 26215; /* 2000.08 N */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  g_bench.in.ad[0] = 13120; /* 1001 N: under the ceiling, not under half of it */
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  g_bench.in.ad[0] = 13107; /* 1000 N */
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
+}
+
+/* Both muscles of a joint tripped: the agonist below half its ceiling (500 N) stays vented while the
+ * antagonist is not (400 N, half is 315 N) - released alone it would pull the limb against nothing -
+ * and both are released by the edge that finds both below half. */
+static void AJointsTrippedMusclesAreReleasedTogether(void) {
+  power_on();
+  arm(7, kHalfBar);
+  g_bench.in.ad[0] = 26215; /* 2000.08 N */
+  g_bench.in.ad[1] = 45000; /* 687 N > 630 N */
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  g_bench.in.ad[0] = 6553;  /* 500 N */
+  g_bench.in.ad[1] = 26214; /* 400 N */
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  g_bench.in.ad[1] = 19661; /* 300 N */
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], 19661);
+  /* One muscle tripped alone is released by itself. */
+  g_bench.in.ad[1] = 45000;
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  g_bench.in.ad[1] = 19661;
+  send(7, 0, kHalfBar);
+  send(7, MFB_COMMAND_ENABLE, kHalfBar);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], 19661);
+}
+
+/* A force trip that holds keeps its joint's range trip too: the link out above the range (the
+ * agonist vented by the range) with its antagonist tripped at its ceiling, then back inside. The
+ * edge that finds the antagonist still above half its ceiling (400 N) keeps the agonist vented and
+ * the motor cut - released alone, the agonist would swing the link against a vented antagonist -
+ * and the edge that finds it below (300 N) releases all. */
+static void AForceTripThatHoldsKeepsItsJointsRangeTrip(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].range_vent = true;
+  power_on_with(&si);
+  uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  arm(7, torque);
+  g_bench.in.encoder[0] = 8751; /* above the range */
+  g_bench.in.ad[1] = 45000;     /* 687 N > 630 N */
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  g_bench.in.encoder[0] = 0; /* back inside, still for the window */
+  g_bench.in.ad[1] = 26214;  /* 400 N */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, torque);
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  g_bench.in.ad[1] = 19661; /* 300 N */
+  send(7, 0, torque);
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], 19661);
+  CHECK_EQ(g_bench.da[2], 40000);
+}
+
+/* The range's vent needs the other muscle to brake. The agonist tripped at its ceiling (the swing up)
+ * and the link then out below the range: the range vents the antagonist, and the agonist's own trip
+ * lets it refill once its load cell is below half its ceiling, without waiting for an arming edge.
+ * Without range_vent nothing brakes for the range and the trip holds until the edge. */
+static void ARangeTripReleasesTheForceTripOfTheMuscleThatBrakes(void) {
+  for (int vent = 1; vent >= 0; --vent) {
+    mfb_board_si si = rig_si();
+    si.joints[0].range_vent = vent != 0;
+    power_on_with(&si);
+    uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+    arm(7, torque);
+    g_bench.in.ad[0] = 26215; /* 2000.08 N */
+    send(7, MFB_COMMAND_ENABLE, torque);
+    CHECK_EQ(g_bench.da[0], kSafeValve);
+    g_bench.in.ad[0] = 19661;      /* 1500 N, falling */
+    g_bench.in.encoder[0] = -8751; /* below the range: the antagonist drives it out */
+    send(7, MFB_COMMAND_ENABLE, torque);
+    CHECK_EQ(g_bench.da[2], kSafeMotor);
+    CHECK_EQ(g_bench.da[0], kSafeValve); /* above half its ceiling: the trip holds */
+    CHECK_EQ(g_bench.da[1], vent ? kSafeValve : 19661);
+    g_bench.in.ad[0] = 13107; /* 1000 N */
+    send(7, MFB_COMMAND_ENABLE, torque);
+    CHECK_EQ(g_bench.da[0], vent ? 19661 : kSafeValve); /* it brakes */
+    CHECK_EQ(g_bench.da[1], vent ? kSafeValve : 19661);
+  }
+}
+
 static void AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles(void) {
   power_on();
   uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0}; /* +0.66 Nm */
@@ -794,7 +906,8 @@ static void TheForceTripLeadsTheForceByItsRateTimesTheReaction(void) {
   mfb_board_si si = rig_si();
   si.joints[0].muscle[0].force_lead_s = 0.020;
   power_on_with(&si);
-  g_bench.in.ad[0] = 22282; /* 1700 N, held a whole rate window: no rate, no lead */
+  g_bench.in.ad[0] = 22282; /* 1700 N from power-on (a jump would trip it), held a whole rate window: no rate, no lead */
+  mfb_board_init(&g_board, &g_cfg, &g_hal);
   for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, kHalfBar);
   arm(7, kHalfBar);
   for (int k = 0; k < 10; ++k) send(7, MFB_COMMAND_ENABLE, kHalfBar);
@@ -808,10 +921,10 @@ static void TheForceTripLeadsTheForceByItsRateTimesTheReaction(void) {
   }
   CHECK_EQ(fired_at, 11); /* 23723 = 1810 N measured; at k = 10 (1800 N) 23592 + 2620 < 26214 */
   CHECK_EQ(mfb_board_counters(&g_board)->force_trips, trips_before + 1);
-  g_bench.in.ad[0] = 26000; /* 1984 N, steady: judged as it is after an edge */
+  g_bench.in.ad[0] = 26000; /* 1984 N, steady: under the ceiling, but a trip is released only below half of it */
   for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, kHalfBar);
   send(7, MFB_COMMAND_ENABLE, kHalfBar);
-  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
 }
 
 static void ConfigureNamesTheFieldAndWhatItFound(void) {
@@ -901,6 +1014,10 @@ int main(void) {
   run(AHijackingHostGetsNoMoreThanTheCeilings, "AHijackingHostGetsNoMoreThanTheCeilings");
   run(ALoadCellOverItsCeilingVentsThatMuscleOnly, "ALoadCellOverItsCeilingVentsThatMuscleOnly");
   run(ATripSurvivesAnEdgeWhileItsCauseRemains, "ATripSurvivesAnEdgeWhileItsCauseRemains");
+  run(AnEdgeReleasesAForceTripOnlyBelowHalfItsCeiling, "AnEdgeReleasesAForceTripOnlyBelowHalfItsCeiling");
+  run(AJointsTrippedMusclesAreReleasedTogether, "AJointsTrippedMusclesAreReleasedTogether");
+  run(AForceTripThatHoldsKeepsItsJointsRangeTrip, "AForceTripThatHoldsKeepsItsJointsRangeTrip");
+  run(ARangeTripReleasesTheForceTripOfTheMuscleThatBrakes, "ARangeTripReleasesTheForceTripOfTheMuscleThatBrakes");
   run(AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles, "AJointOutOfRangeTurnsItsMotorOffAndKeepsTheMuscles");
   run(AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut, "AJointOutOfRangeCutsItsMotorAndVentsTheMuscleDrivingItOut");
   run(TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor, "TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor");
