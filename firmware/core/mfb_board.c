@@ -463,13 +463,15 @@ static int64_t led_counts(const mfb_board* b, int j) {
 
 /* The side joint `j` is (about to be) out of its range on: +1 above max_angle_rad, -1 below
  * min_angle_rad, 0 inside, judged on its led counts. */
-static int range_side(const mfb_board* b, int j) {
+static int range_side_inset(const mfb_board* b, int j, int64_t inset_counts) {
   const mfb_joint_limit* jl = &b->cfg->joints[j];
   if (jl->encoder < 0) return 0;
   const int64_t led = led_counts(b, j);
-  const int side = led > jl->max_counts ? 1 : led < jl->min_counts ? -1 : 0;
+  const int side = led > jl->max_counts - inset_counts ? 1 : led < jl->min_counts + inset_counts ? -1 : 0;
   return jl->counts_rise_with_angle ? side : -side;
 }
+
+static int range_side(const mfb_board* b, int j) { return range_side_inset(b, j, 0); }
 
 int32_t mfb_board_range_margin(const mfb_board* b, int joint) {
   if (joint < 0 || joint >= b->cfg->joint_count || b->cfg->joints[joint].encoder < 0) return INT32_MAX;
@@ -544,7 +546,12 @@ static void rejudge_trips(mfb_board* b) {
     const uint8_t bit = (uint8_t)(1u << j);
     const bool force_holds = (b->vented_muscles & both) != 0;
     if (force_holds) b->vented_muscles |= (uint16_t)(tripped & both);
-    const int side = range_side(b, j);
+    /* A range trip is released only once the joint's led angle is back inside the range by
+     * MFB_RANGE_RELEASE_FRACTION of its span: released at the range's edge, the muscle it vented
+     * refilled before its vent had acted, and a host re-arming every 30 ms walked the joint out. */
+    const mfb_joint_limit* jl = &cfg->joints[j];
+    const int64_t inset = (was_out & bit) ? (int64_t)((double)(jl->max_counts - jl->min_counts) * MFB_RANGE_RELEASE_FRACTION) : 0;
+    const int side = range_side_inset(b, j, inset);
     if (side != 0) {
       b->motors_off |= bit;
       if (side > 0) b->out_high |= bit;

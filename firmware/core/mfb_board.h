@@ -43,6 +43,9 @@ extern "C" {
  * only once the load cell is below this fraction of its ceiling: refilled from nearer the ceiling,
  * the valve's dead time and lag carry the force past it before the trip's lead sees it rise. */
 #define MFB_RELEASE_FRACTION 0.5
+/* A joint's range trip is released at an arming edge only once its led angle is inside the range
+ * by this fraction of the range's span (hysteresis: docs/safety.md "The board's own limits"). */
+#define MFB_RANGE_RELEASE_FRACTION 0.05
 
 /* ---- the HAL: what a board provides (docs/porting.md) ---------------------------------------- */
 

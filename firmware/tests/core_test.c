@@ -803,8 +803,8 @@ static void TheProcedureKeyKeepsTheMusclesOutsideTheRangeAndStillCutsTheMotor(vo
 
 /* The range led by the speed: 20 ms of valve reaction and 1000 deg/s^2 of braking. At 298 deg/s
  * (58 counts per 1 ms period) the joint needs 6 deg of lead plus 44.5 deg to stop, so it trips near
- * -5 deg going up; moving as slowly as a legitimate host moves it (20 deg/s) it trips only past
- * 44.4 deg. */
+ * -5 deg going up; an arming edge releases the trip only 5 % of the span inside the range; moving as
+ * slowly as a legitimate host moves it (20 deg/s) it trips only past 44.4 deg. */
 static void TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance(void) {
   mfb_board_si si = rig_si();
   si.joints[0].range_vent = true;
@@ -829,22 +829,29 @@ static void TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance(void) {
   CHECK_EQ(fired_at, 120);
   CHECK_EQ(g_bench.da[1], 19661); /* the antagonist brakes */
   CHECK_EQ(g_bench.da[2], kSafeMotor);
-  /* slowly towards the end: 20 deg/s = 3.9 counts per period, from 41.1 deg held still */
+  /* An arming edge releases the range trip only once the joint is inside by 5 % of the span (875
+   * counts, to 7875): at 41.1 deg (8000) it holds; at 40.1 deg (7800) it is released. */
   g_bench.in.encoder[0] = 8000;
   for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, both);
   send(7, MFB_COMMAND_ENABLE, both);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  g_bench.in.encoder[0] = 7800;
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, both);
+  send(7, MFB_COMMAND_ENABLE, both);
   CHECK_EQ(g_bench.da[0], 19661);
-  counts = 8000;
+  /* slowly towards the end: 20 deg/s = 3.9 counts per period, from 40.1 deg held still */
+  counts = 7800;
   fired_at = -1;
-  for (int k = 0; k < 200 && fired_at < 0; ++k) {
+  for (int k = 0; k < 400 && fired_at < 0; ++k) {
     counts += (k % 10) < 9 ? 4 : 3; /* 39 counts per 10 ms: 20.06 deg/s */
     g_bench.in.encoder[0] = counts;
     send(7, MFB_COMMAND_ENABLE, both);
     if (g_bench.da[0] == kSafeValve) fired_at = counts;
   }
   /* 20 deg/s: 28 counts in the 7 ms window (4000 counts/s), a lead of 80 counts and 41 to stop:
-   * led past 8750 once counts > 8629 (44.38 deg), the first sample there 8636 */
-  CHECK_EQ(fired_at, 8636);
+   * led past 8750 once counts pass 8629 (44.38 deg) with 28 counts in the window, 8635 with 27; from
+   * 7800 the first sample past either is 8639 */
+  CHECK_EQ(fired_at, 8639);
 }
 
 /* The range margin is what the range judges: the led counts' distance inside the nearer end. With
