@@ -15,7 +15,7 @@ help:
 	@echo "            record + calibrate both muscles, run E1 again with the calibrated models"
 	@echo "make test   install missing packages, build Release, run every test"
 	@echo "make robustness  E1 (default + calibrated pure feed-forward), E3 (nominal + identified arm model) and E4 (both paces, and persons) over plant variants:"
-	@echo "            out/robustness/robustness.md and heatmap.png; then E3 on the upper body: out/robustness_upper_body/ (docs/robustness.md; about 5 minutes on 2 cores)"
+	@echo "            out/robustness/robustness.md and heatmap.png; then E3 on the upper body: out/robustness_upper_body/ (docs/robustness.md; about 8 minutes on 2 cores)"
 	@echo "make bench  build, run the benchmarks and the peers (SciPy LM, sklearn dense GP); one JSON in out/bench,"
 	@echo "            the table in docs/performance.md (incl. 60 s of the bare 1 kHz timer loop, the machine's floor, and 60 s of MFB"
 	@echo "            round trips over UDP, host and emulator pinned to CPU 1)"
