@@ -102,40 +102,36 @@ struct RawHost {
     }
     return false;
   }
+  /// The state packets of the session received until `wait_s` has passed, each given to `take`
+  /// (the board's nonce kept); ends early when `take` returns true.
+  template <class Take>
+  void receive_for(double wait_s, std::int64_t poll_ns, Take&& take) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
+    while (std::chrono::steady_clock::now() < end) {
+      if (!socket.wait_readable(poll_ns)) continue;
+      std::array<std::uint8_t, 512> buf;
+      io::UdpEndpoint from;
+      mfb::StatePacket p;
+      const long n = socket.receive(buf, from);
+      if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
+                       mfb::Verdict::kAccept) {
+        nonce = p.board_nonce;
+        if (take(p)) return;
+      }
+    }
+  }
   /// The state packet that acknowledges the last command sent, waited for at most `wait_s` (zeroed
   /// if none came): one plant step per command, in lock-step with the board however loaded the
   /// machine is.
   mfb::StatePacket answer(double wait_s) {
-    mfb::StatePacket p;
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
-    while (std::chrono::steady_clock::now() < end) {
-      if (!socket.wait_readable(1'000'000)) continue;
-      std::array<std::uint8_t, 512> buf;
-      io::UdpEndpoint from;
-      const long n = socket.receive(buf, from);
-      if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
-                       mfb::Verdict::kAccept && p.ack_sequence == sequence) {
-        nonce = p.board_nonce;
-        return p;
-      }
-    }
-    return {};
+    mfb::StatePacket answered{};
+    receive_for(wait_s, 1'000'000, [&](const mfb::StatePacket& p) { return p.ack_sequence == sequence && (answered = p, true); });
+    return answered;
   }
   /// The newest state packet of the session received within `wait_s` (zeroed if none).
   mfb::StatePacket newest(double wait_s) {
-    mfb::StatePacket last{}, p;
-    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(wait_s);
-    while (std::chrono::steady_clock::now() < end) {
-      if (!socket.wait_readable(5'000'000)) continue;
-      std::array<std::uint8_t, 512> buf;
-      io::UdpEndpoint from;
-      const long n = socket.receive(buf, from);
-      if (n > 0 && filter.accept(std::span<const std::uint8_t>(buf.data(), static_cast<std::size_t>(n)), from == board, p) ==
-                       mfb::Verdict::kAccept) {
-        last = p;
-        nonce = p.board_nonce;
-      }
-    }
+    mfb::StatePacket last{};
+    receive_for(wait_s, 5'000'000, [&](const mfb::StatePacket& p) { return last = p, false; });
     return last;
   }
 };
