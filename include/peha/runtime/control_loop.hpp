@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <vector>
 
 namespace peha::runtime {
 
@@ -57,6 +58,16 @@ inline CycleHooks resuming(CycleHooks hooks, std::function<void()> resume) {
   hooks.recovered = [resume = std::move(resume), outer = std::move(hooks.recovered)] {
     resume();
     if (outer) outer();
+  };
+  return hooks;
+}
+
+/// `hooks` that copy the run's lifecycle transitions into `history` when the run finishes (oldest
+/// first), then run the hooks' own `finished`.
+inline CycleHooks recording_lifecycle(CycleHooks hooks, std::vector<LifecycleEvent>& history) {
+  hooks.finished = [&history, outer = std::move(hooks.finished)](const Supervisor& supervisor) {
+    history = history_of(supervisor.lifecycle());
+    if (outer) outer(supervisor);
   };
   return hooks;
 }

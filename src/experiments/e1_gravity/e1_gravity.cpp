@@ -573,11 +573,8 @@ E1Result run_e1_on(const E1Scenario& scenario, const E1Case& c, io::Backend& bac
       log->push_row(row);
     }
   };
-  runtime::CycleHooks loop_hooks = runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&controller] { controller.resume(); });
-  loop_hooks.finished = [&r, outer = hooks.finished](const runtime::Supervisor& supervisor) {
-    r.lifecycle = runtime::history_of(supervisor.lifecycle());
-    if (outer) outer(supervisor);
-  };
+  const runtime::CycleHooks loop_hooks = runtime::recording_lifecycle(
+      runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&controller] { controller.resume(); }), r.lifecycle);
   trace.angle_rad.resize(runtime::run_cycles(limited, loop_hooks, steps, state, command, step, hold, observe) + 1);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
   const std::size_t done = trace.angle_rad.size() - 1;  // a run ended early analyses what it has

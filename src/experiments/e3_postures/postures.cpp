@@ -314,11 +314,8 @@ PosturesResult run_postures_on(const ArmScenario& scenario, io::Backend& backend
   io::SensorState state;
   io::Command command;
   std::vector<runtime::LifecycleEvent> lifecycle;
-  runtime::CycleHooks loop_hooks = runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&run] { run.controller.resume(); });
-  loop_hooks.finished = [&lifecycle, outer = hooks.finished](const runtime::Supervisor& supervisor) {
-    lifecycle = runtime::history_of(supervisor.lifecycle());
-    if (outer) outer(supervisor);
-  };
+  const runtime::CycleHooks loop_hooks = runtime::recording_lifecycle(
+      runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&run] { run.controller.resume(); }), lifecycle);
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(
       limited, loop_hooks, steps, state, command, [&](std::size_t) { run.step(state, command); },

@@ -517,9 +517,13 @@ struct GoniometerRun {
       double tau_cmd = tau[j.q];
       j.tau_raw = j.tau_id_raw;
       if (feedback) {  // the exo's encoder and E4's own rate of it
-        tau_cmd += g.feedback_stiffness_Nm_per_rad * (q[j.q] - q_exo) + g.feedback_damping_Nms_per_rad * (qd[j.q] - qd_exo);
-        j.tau_raw += j.rejoining ? g.feedback_stiffness_Nm_per_rad * (q[j.q] - q_exo) + g.feedback_damping_Nms_per_rad * (qd[j.q] - qd_exo)
-                                 : g.feedback_stiffness_Nm_per_rad * (j.d.value - q_exo) + g.feedback_damping_Nms_per_rad * (j.d.rate - qd_exo);
+        auto impedance = [&](double q_ref, double qd_ref) {
+          return g.feedback_stiffness_Nm_per_rad * (q_ref - q_exo) + g.feedback_damping_Nms_per_rad * (qd_ref - qd_exo);
+        };
+        const double toward_reference = impedance(q[j.q], qd[j.q]);
+        tau_cmd += toward_reference;
+        // The raw reference is the goniometer's held sample, or the rejoining reference while it runs.
+        j.tau_raw += j.rejoining ? toward_reference : impedance(j.d.value, j.d.rate);
       }
       if (k == 0) j.command_smooth.reset(tau_cmd);
       j.tau_cmd = j.command_smooth.step(tau_cmd);
@@ -854,14 +858,12 @@ GoniometerResult run_goniometer_on(const ArmScenario& scenario, const std::strin
   io::SensorState state;
   io::Command command;
   std::vector<runtime::LifecycleEvent> lifecycle;
-  runtime::CycleHooks loop_hooks = runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), [&run] {
+  auto resume = [&run] {
     run.controller.resume();
     run.rejoin();
-  });
-  loop_hooks.finished = [&lifecycle, outer = hooks.finished](const runtime::Supervisor& supervisor) {
-    lifecycle = runtime::history_of(supervisor.lifecycle());
-    if (outer) outer(supervisor);
   };
+  const runtime::CycleHooks loop_hooks =
+      runtime::recording_lifecycle(runtime::resuming(runtime::with_lifecycle(hooks, scenario.lifecycle), resume), lifecycle);
   const auto wall_start = std::chrono::steady_clock::now();
   const std::size_t done = runtime::run_cycles(
       limited, loop_hooks, steps, state, command, [&](std::size_t k) { run.step(state, command, k); }, [&](std::size_t k) { run.hold(k); },

@@ -248,6 +248,20 @@ RobustnessRow e1_row(const E1Scenario& scenario, const E1Case& c, const PlantVar
   return row;
 }
 
+/// Each case's row when the procedure before E1 (a calibration, the sensor check) refused the variant:
+/// no figures, the reason as its failure (judge_rows names the variant, mode and seed).
+std::vector<RobustnessRow> refused_rows(const E1Scenario& nominal, const std::vector<std::size_t>& cases, const std::string& reason) {
+  std::vector<RobustnessRow> rows;
+  for (std::size_t c : cases) {
+    RobustnessRow row;
+    row.payload = nominal.cases[c].name;
+    row.static_error_pct = row.breakaway_error_pct = row.drift_deg = row.min_tension_N = row.tension_fraction = kNaN;
+    row.failures = reason;
+    rows.push_back(row);
+  }
+  return rows;
+}
+
 /// One E1 job: every selected case of one variant and seed (the calibrated mode calibrates once for all).
 std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const MatrixCase& job, const std::vector<std::size_t>& cases,
                                       const RobustnessConfig& config) {
@@ -258,17 +272,7 @@ std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const MatrixCas
       scenario = calibrated_on(nominal, *job.variant, job.seed, config);
     } catch (const calibration::CalibrationRejected& e) {
       // A calibration the checks refuse is never run: the variant fails, and says why.
-      for (std::size_t c : cases) {
-        RobustnessRow row;
-        row.variant = job.variant->name;
-        row.mode = to_string(job.mode);
-        row.payload = nominal.cases[c].name;
-        row.seed = job.seed;
-        row.static_error_pct = row.breakaway_error_pct = row.drift_deg = row.min_tension_N = row.tension_fraction = kNaN;
-        row.failures = std::string("calibration refused: ") + e.what();
-        rows.push_back(row);
-      }
-      return rows;
+      return refused_rows(nominal, cases, std::string("calibration refused: ") + e.what());
     }
   }
   if (job.mode == RobustnessMode::kE1SensorChecked) {
@@ -288,14 +292,7 @@ std::vector<RobustnessRow> run_e1_job(const E1Scenario& nominal, const MatrixCas
     } catch (const SensorCheckRejected& e) {
       // A check that refuses the sensors (a zero below the channel's range) leaves them uncorrected:
       // the variant fails, and says why.
-      for (std::size_t c : cases) {
-        RobustnessRow row;
-        row.payload = nominal.cases[c].name;
-        row.static_error_pct = row.breakaway_error_pct = row.drift_deg = row.min_tension_N = row.tension_fraction = kNaN;
-        row.failures = std::string("sensor check refused: ") + e.what();
-        rows.push_back(row);
-      }
-      return rows;
+      return refused_rows(nominal, cases, std::string("sensor check refused: ") + e.what());
     }
   }
   for (std::size_t c : cases) rows.push_back(e1_row(scenario, nominal.cases[c], *job.variant, job.seed));
