@@ -44,7 +44,7 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
       const double hold = j.mode == ArmJointMode::kHoldPressure ? j.hold_pressure_Pa : 0.0;
       diag_[i].allocation = AllocationOutput{};
       diag_[i].tau_desired_Nm = 0.0;
-      command.joints[i] = {hold, hold, 0.0};
+      command.joints[i] = {hold, hold, 0.0, declared_zero(allocation_data_[i])};
     }
     return;
   }
@@ -82,6 +82,7 @@ void ArmController::update(const io::SensorState& state, io::Command& command) n
     c.antagonist_pressure_Pa = d.allocation.antagonist_pressure_Pa;
     c.motor_torque_Nm = d.allocation.tau_motor_cmd_Nm;
   }
+  for (std::size_t i = 0; i < model_.joints.size(); ++i) command.joints[i].loadcell_zero_N = declared_zero(allocation_data_[i]);
 }
 
 }  // namespace peha::control

@@ -60,7 +60,7 @@ void OneDofGravityController::update(const io::SensorState& raw, io::Command& co
   diag_.phase = tare_.phase;
   if (venting) {
     diag_.allocation = AllocationOutput{};
-    command.joints[0] = {0.0, 0.0, 0.0};
+    command.joints[0] = {0.0, 0.0, 0.0, declared_zero(allocation_data_)};
     return;
   }
   if (was_starting) {
@@ -83,6 +83,7 @@ void OneDofGravityController::update(const io::SensorState& raw, io::Command& co
   command.joints[0].agonist_pressure_Pa = diag_.allocation.agonist_pressure_Pa;
   command.joints[0].antagonist_pressure_Pa = diag_.allocation.antagonist_pressure_Pa;
   command.joints[0].motor_torque_Nm = diag_.allocation.tau_motor_cmd_Nm;
+  command.joints[0].loadcell_zero_N = declared_zero(allocation_data_);
 }
 
 }  // namespace peha::control

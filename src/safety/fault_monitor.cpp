@@ -78,6 +78,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.loadcell_drift_N = m.number_or("loadcell_drift_N", p.loadcell_drift_N, {20, 500});
   p.loadcell_drift_filter_s = m.number_or("loadcell_drift_filter_s", p.loadcell_drift_filter_s, {0.01, 5});
   p.loadcell_drift_settle_s = m.number_or("loadcell_drift_settle_s", p.loadcell_drift_settle_s, {0, 10});
+  p.loadcell_drift_arm_s = m.number_or("loadcell_drift_arm_s", p.loadcell_drift_arm_s, {0, 10});
   p.loadcell_drift_still_radps = deg_to_rad(m.number_or("loadcell_drift_still_degps", rad_to_deg(p.loadcell_drift_still_radps), {0.1, 10}));
   p.loadcell_drift_leak_N_per_s = m.number_or("loadcell_drift_leak_N_per_s", p.loadcell_drift_leak_N_per_s, {0, 5});
   p.loadcell_drift_max_rate_N_per_s = m.number_or("loadcell_drift_max_rate_N_per_s", p.loadcell_drift_max_rate_N_per_s, {5, 200});
@@ -207,11 +208,13 @@ struct FaultMonitor::MuscleSample {
   double floor_N = 0;      ///< the wire's tension floor
   double taut_N = 0;       ///< at or above: the wire is taut (arms its slack checks)
   double pretension_N = 0;
+  double tension_N = 0;    ///< cell_N less the zero the controller subtracts from it (check_muscle)
   double supply_Pa = 0;
   bool tension_checked = false;
   bool outputs_follow = false;
   bool arming = false;  ///< the outputs have followed for tension_arm_s: a taut wire arms its slack checks
   bool carried = false;  ///< the joint's start-up is over (FaultMonitor::carried)
+  double carried_s = -1;  ///< how long it has been carried (< 0: it is not)
   double followed_s = -1;  ///< how long the outputs have followed (< 0: they do not)
   double still_s = 0;      ///< how long the joint has been still (JointState::still_s)
 };
@@ -256,7 +259,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     // Carried: both wires taut with the outputs following; where slack is by design (tension not
     // checked), once the outputs have followed for tension_arm_s.
     const bool armed = followed_s >= params_.tension_arm_s;
-    if (armed && (!params_.tension_checked[ji] || (js.muscle[0].taut && js.muscle[1].taut))) js.carried = true;
+    if (armed && (!params_.tension_checked[ji] || (js.muscle[0].taut && js.muscle[1].taut))) {
+      if (!js.carried) js.carried_since_s = s.time_s;
+      js.carried = true;
+    }
   }
   check_low_pressures(low_muscles, s.joint_count);
   synced_ = outputs_follow;
@@ -421,6 +427,7 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
   x.outputs_follow = followed_s >= 0;
   x.arming = followed_s >= p.tension_arm_s;
   x.carried = js.carried;
+  x.carried_s = js.carried ? t_s_ - js.carried_since_s : -1.0;
   x.followed_s = followed_s;
   x.still_s = js.still_s;
   return x;
@@ -428,11 +435,18 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
 
 /// One muscle's checks, in their order; true when its pressure has stayed below the valve's
 /// envelope for confirm_cycles (pressure_low, or with another muscle a supply loss).
-bool FaultMonitor::check_muscle(const MuscleSample& x, MuscleState& ms) noexcept {
+bool FaultMonitor::check_muscle(MuscleSample x, MuscleState& ms) noexcept {
+  // The wire's tension as its cell tells it: less the zero the controller subtracts (its start-up
+  // tare, check_command: a +20 N zero read a slack wire as taut and armed the drift sums through the
+  // refill), and for arming low-passed (3x noise armed a wire refilling slowly past the taut level
+  // at 12 N, and its floor tripped at once).
+  x.tension_N = x.cell_N - ms.zero_N;
+  ms.cell_level_N += ms.has_cell_level ? per_period_.step_alpha * (x.cell_N - ms.cell_level_N) : x.cell_N - ms.cell_level_N;
+  ms.has_cell_level = true;
   // Tension: a wire's slack checks (and its cell's disconnect) arm once it has been taut since the
   // outputs began to follow: after a vent or at start-up the wires are slack by design.
   if (!x.outputs_follow) ms.taut = false;
-  if (x.arming && x.cell_N >= x.taut_N) ms.taut = true;
+  if (x.arming && ms.cell_level_N - ms.zero_N >= x.taut_N) ms.taut = true;
   check_load_cell(x, ms);
   check_tension_floor(x, ms);
   check_startup(x, ms);
@@ -486,9 +500,9 @@ void FaultMonitor::check_load_cell(const MuscleSample& x, MuscleState& ms) noexc
 
 /// Tension: a taut wire's load cell below tension_floor_fraction x pretension (a wire near slack).
 void FaultMonitor::check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept {
-  if (x.tension_checked && ms.taut) observe(kFaultTensionFloor, below_ratio(x.floor_N, x.cell_N));
-  ms.low_tension = x.tension_checked && ms.taut && x.cell_N < x.floor_N ? ms.low_tension + 1 : 0;
-  if (ms.low_tension >= params_.confirm_cycles) raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
+  if (x.tension_checked && ms.taut) observe(kFaultTensionFloor, below_ratio(x.floor_N, x.tension_N));
+  ms.low_tension = x.tension_checked && ms.taut && x.tension_N < x.floor_N ? ms.low_tension + 1 : 0;
+  if (ms.low_tension >= params_.confirm_cycles) raise(kFaultTensionFloor, x.joint, x.muscle, x.tension_N, x.floor_N);
 }
 
 /// Start-up, before the joint is carried: the load cell's zero read vented (the pressure model says
@@ -516,11 +530,11 @@ void FaultMonitor::check_startup(const MuscleSample& x, MuscleState& ms) noexcep
   }
   // Never taut and below the floor past the deadline, for as long as the zero check's window: a
   // broken wire reads its noise around 0; an intact one a controller keeps low stays above the floor.
-  const bool slack = x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s && x.cell_N < x.floor_N;
-  if (x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s) observe(kFaultTensionFloor, below_ratio(x.floor_N, x.cell_N));
+  const bool slack = x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s && x.tension_N < x.floor_N;
+  if (x.tension_checked && !ms.taut && x.followed_s >= p.tension_taut_deadline_s) observe(kFaultTensionFloor, below_ratio(x.floor_N, x.tension_N));
   ms.never_taut = slack ? ms.never_taut + 1 : 0;
   if (ms.never_taut >= per_period_.zero_cycles) {
-    raise(kFaultTensionFloor, x.joint, x.muscle, x.cell_N, x.floor_N);
+    raise(kFaultTensionFloor, x.joint, x.muscle, x.tension_N, x.floor_N);
   }
 }
 
@@ -552,11 +566,15 @@ void FaultMonitor::check_load_cell_step(const MuscleSample& x, MuscleState& ms) 
 void FaultMonitor::check_load_cell_drift(const MuscleSample& x, MuscleState& ms) noexcept {
   const MonitorParams& p = params_;
   const double disagreement_N = x.cell_N - x.model_N;
-  if (!ms.has_drift || !x.carried || !ms.taut) {
+  // Armed loadcell_drift_arm_s after the joint is carried: the start-up refill's last pressure
+  // steps near the muscles' threshold move the model's force while the cell stays (3x noise: -100 N
+  // at 3.76 s on the upper body's shoulder, 0.35 s after the refill).
+  const bool armed = x.carried && ms.taut && x.carried_s >= p.loadcell_drift_arm_s;
+  if (!ms.has_drift || !armed) {
     ms.drift_fast_N = ms.drift_last_N = disagreement_N;
     ms.drift_model_fast_N = ms.drift_model_slow_N = x.model_N;
     ms.drift_up_N = ms.drift_down_N = 0;
-    ms.has_drift = x.carried && ms.taut;
+    ms.has_drift = armed;
     return;
   }
   ms.drift_fast_N += per_period_.drift_alpha * (disagreement_N - ms.drift_fast_N);
@@ -668,6 +686,16 @@ bool FaultMonitor::check_command(const io::Command& c, double t_s) noexcept {
   bool ok = true;
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
     const io::JointCommand& jc = c.joints[static_cast<std::size_t>(j)];
+    for (int m = 0; m < 2; ++m) {
+      // The controller's zero, bounded by what the start-up zero check lets pass: a wire judged
+      // against another zero than before is judged afresh (its taut arms again).
+      MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
+      const double declared_N = jc.loadcell_zero_N[static_cast<std::size_t>(m)];
+      const double max_N = params_.loadcell_zero_max_N;
+      const double zero_N = std::isfinite(declared_N) ? std::clamp(declared_N, -max_N, max_N) : 0.0;
+      if (std::abs(zero_N - ms.zero_N) > kZeroChange_N) ms.taut = false;
+      ms.zero_N = zero_N;
+    }
     if (!std::isfinite(jc.agonist_pressure_Pa) || !std::isfinite(jc.antagonist_pressure_Pa) || !std::isfinite(jc.motor_torque_Nm)) {
       if (on(kFaultNonFiniteCommand)) t_s_ = std::max(t_s_, t_s);
       raise(kFaultNonFiniteCommand, j, -1, 0.0, 0.0);

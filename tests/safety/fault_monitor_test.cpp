@@ -176,6 +176,44 @@ struct E1JointView {
   void check(safety::FaultMonitor& monitor, bool outputs_follow) const { monitor.check_sample(state, joints, lo, hi, outputs_follow); }
 };
 
+/// When E1's joint is first carried (both wires taut), s (NaN: never in 4 s), for cells that read a
+/// `zero_N` offset on top of their wires' tension, the agonist's wire slack (0 N) until 1.5 s and then
+/// taking up to 60 N over 1 s; the controller declares `declared_N` as both cells' zero.
+double carried_at_s(double zero_N, double declared_N) {
+  safety::FaultMonitor monitor(safety::MonitorParams{}, 1e-3);
+  E1JointView view;
+  io::SensorState& state = view.state;
+  state.joints[0].agonist_pressure_Pa = state.joints[0].antagonist_pressure_Pa = 0.1e6;
+  io::Command declared;
+  declared.joint_count = 1;
+  declared.joints[0] = {0.1e6, 0.1e6, 0.0, {declared_N, declared_N}};
+  for (int k = 0; k < 4000; ++k) {
+    state.time_s = 1e-3 * k;
+    const double noise_N = 0.01 * (k % 7);
+    const double agonist_tension_N = 60.0 * std::clamp(state.time_s - 1.5, 0.0, 1.0);
+    state.joints[0].agonist_loadcell_N = zero_N + agonist_tension_N + noise_N;
+    state.joints[0].antagonist_loadcell_N = zero_N + 60.0 + noise_N;
+    view.check(monitor, true);
+    if (monitor.carried(0)) return state.time_s;
+    monitor.check_command(declared, state.time_s);
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// A wire is taut by its tension, not by its cell's zero: a zero above the taut level (here +35 N
+// against 0.5 x 60 N; on the arm +20 N against 20 N) reads a slack wire as taut, and judged on the
+// raw cell that armed the slack and drift checks before the wire took up its slack (the arm's E3 then
+// latched loadcell_drift during the refill and fell, 73-130 %). Less the zero the controller's
+// start-up tare declares, the joint is carried only once the wire's tension passes 30 N (at 2.0 s,
+// plus the 50 ms level filter); with the tare's zero undeclared it is carried before 1.6 s.
+TEST(FaultMonitor, AWireIsTautByItsTensionLessTheDeclaredZero) {
+  const double tared = carried_at_s(35.0, 35.0);
+  EXPECT_GE(tared, 2.0);
+  EXPECT_LE(tared, 2.1);
+  EXPECT_LT(carried_at_s(35.0, 0.0), 1.6);
+  EXPECT_NEAR(carried_at_s(0.0, 0.0), tared, 0.005);  // no zero: the same wire, the same moment
+}
+
 TEST(FaultMonitor, AnOverForceThePressureModelConfirmsIsVented) {
   safety::MonitorParams p;
   safety::FaultMonitor monitor(p, 1e-3);

@@ -27,6 +27,7 @@
 #include "peha/config/reader.hpp"
 #include "peha/models/joint.hpp"
 
+#include <array>
 #include <cstdint>
 
 namespace peha::control {
@@ -151,6 +152,12 @@ struct AllocationData {
 inline void resume_allocation(AllocationData& data) noexcept {
   data.initialized = false;
   data.bumpless_start = true;
+}
+
+/// The zeros this allocation subtracts from the load cells, as a command declares them to the
+/// supervisor (io::JointCommand::loadcell_zero_N). noexcept.
+inline std::array<double, 2> declared_zero(const AllocationData& data) noexcept {
+  return {data.loadcell_offset_N[0], data.loadcell_offset_N[1]};
 }
 
 /// One allocation step. Never throws, never allocates; every output is finite and within limits.

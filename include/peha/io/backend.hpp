@@ -65,6 +65,9 @@ struct JointCommand {
   double agonist_pressure_Pa = 0;
   double antagonist_pressure_Pa = 0;
   double motor_torque_Nm = 0;  ///< at the joint (after the gear)
+  /// The zero the controller subtracts from each load cell (agonist, antagonist): its start-up tare or
+  /// configured zero. Told to the supervisor, which judges a wire's tension by it; never sent to a board.
+  std::array<double, 2> loadcell_zero_N{};
 };
 
 struct Command {

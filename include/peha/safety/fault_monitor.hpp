@@ -264,6 +264,7 @@ struct MonitorParams {
   double loadcell_drift_max_rate_N_per_s = 30.0;
   double loadcell_drift_filter_s = 0.5;
   double loadcell_drift_settle_s = 0.5;
+  double loadcell_drift_arm_s = 2.0;  ///< the sums start this long after the joint is carried (the refill's tail)
   double loadcell_drift_still_radps = 0.0175;  ///< 1 deg/s
   double loadcell_drift_leak_N_per_s = 0.5;
   double tension_floor_fraction = 0.3;        ///< of the joint's pretension: a wire near slack (the verdict judges 0.5)
@@ -360,6 +361,7 @@ class FaultMonitor {
  public:
   static constexpr int kMaxDelay = 64;  ///< valve dead time in cycles, at most
   static constexpr int kMotorWindow = 16;  ///< commands kept for the motor check, at most
+  static constexpr double kZeroChange_N = 1.0;  ///< a declared zero that moves more re-judges the wire
 
   /// `overrides`: the designed supervisor (default) or a test's broken one (CheckOverrides).
   FaultMonitor(const MonitorParams& params, double period_s, const CheckOverrides& overrides = {}) noexcept
@@ -434,6 +436,9 @@ class FaultMonitor {
     int same_loadcell = 0;
     int disconnected = 0, saturated = 0;
     bool taut = false;  ///< the wire was above the tension floor since the outputs began to follow
+    double zero_N = 0;  ///< the zero the controller subtracts from this cell (check_command)
+    double cell_level_N = 0;  ///< the cell low-passed with loadcell_step_filter_s (less zero_N: arms taut)
+    bool has_cell_level = false;
     int disagree = 0, low_tension = 0, pressure_low = 0, pressure_high = 0;
     std::array<double, kMaxDelay> delay{};
     int head = 0;
@@ -466,6 +471,7 @@ class FaultMonitor {
     double last_angle_rad = 0, last_change_speed_radps = 0, last_change_t_s = 0, last_t_s = 0, speed_radps = 0;
     double filtered_speed_radps = 0;
     double still_s = 0;  ///< how long the filtered speed has stayed below loadcell_drift_still_radps
+    double carried_since_s = 0;  ///< when `carried` last became true
     double follow_since_s = -1;  ///< when the outputs began to follow (< 0: they do not)
     int same_angle = 0;
     int encoder_apart = 0;  ///< consecutive samples the two encoders disagree
@@ -504,7 +510,7 @@ class FaultMonitor {
   inline void check_board_limits(int j, const io::JointSensors& in, bool outputs_follow) noexcept;
   inline void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
   inline void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
-  inline bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
+  inline bool check_muscle(MuscleSample x, MuscleState& ms) noexcept;
   inline void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_startup(const MuscleSample& x, MuscleState& ms) noexcept;
