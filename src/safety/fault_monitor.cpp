@@ -90,6 +90,7 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.valve_lag_s = m.number_or("valve_lag_s", p.valve_lag_s, {1e-4, 2});
   p.valve_rate_Pa_per_s = m.number_or("valve_rate_MPa_per_s", p.valve_rate_Pa_per_s * 1e-6, {0.01, 100}) * 1e6;
   p.valve_slow_factor = m.number_or("valve_slow_factor", p.valve_slow_factor, {1.0, 10.0});
+  p.valve_fast_factor = m.number_or("valve_fast_factor", p.valve_fast_factor, {0.1, 1.0});
   p.encoder_max_step_rad = deg_to_rad(m.number_or("encoder_max_step_deg", rad_to_deg(p.encoder_max_step_rad), {0.01, 10}));
   p.encoder_frozen_cycles = static_cast<int>(m.number_or("encoder_frozen_cycles", p.encoder_frozen_cycles, {2, 200}));
   p.encoder_frozen_speed_radps = deg_to_rad(m.number_or("encoder_frozen_speed_degps", rad_to_deg(p.encoder_frozen_speed_radps), {0.1, 100}));
@@ -149,6 +150,8 @@ FaultMonitor::PerPeriod FaultMonitor::per_period(const MonitorParams& p, double 
   pp.slow_delay_cycles = cycles(p.valve_slow_factor * p.valve_dead_time_s);
   pp.valve_alpha = alpha(p.valve_lag_s);
   pp.slow_valve_alpha = alpha(p.valve_slow_factor * p.valve_lag_s);
+  pp.fast_delay_cycles = cycles(p.valve_fast_factor * p.valve_dead_time_s);
+  pp.fast_valve_alpha = alpha(p.valve_fast_factor * p.valve_lag_s);
   pp.step_alpha = alpha(p.loadcell_step_filter_s);  // the step check's level filter (also the rise check's)
   pp.step_fast_alpha = alpha(p.loadcell_step_noise_filter_s);
   pp.rise_alpha = alpha(p.pressure_rise_filter_s);
@@ -607,7 +610,7 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   }
   if (!x.outputs_follow || !synced_) {  // the valve model restarts from what is measured
     ms.delay.fill(pressure);
-    ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = pressure;
+    ms.setpoint_Pa = ms.predicted_Pa = ms.slow_setpoint_Pa = ms.slow_predicted_Pa = ms.fast_setpoint_Pa = ms.fast_predicted_Pa = pressure;
     ms.pressure_low = ms.pressure_high = ms.rise = 0;
     ms.has_excess = false;
     ms.above_fast_Pa = 0;
@@ -623,8 +626,13 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
   const double slow_step = max_step / p.valve_slow_factor;
   ms.slow_setpoint_Pa += std::clamp(slow_delayed - ms.slow_setpoint_Pa, -slow_step, slow_step);
   ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
-  const double above = pressure - std::max(ms.predicted_Pa, ms.slow_predicted_Pa);
-  const double below = pressure - std::min(ms.predicted_Pa, ms.slow_predicted_Pa);
+  // And its fast valve: sooner, faster, lagging less (a valve in the 0.5-3 x range leads the model).
+  const double fast_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.fast_delay_cycles) % kMaxDelay)];
+  const double fast_step = max_step / p.valve_fast_factor;
+  ms.fast_setpoint_Pa += std::clamp(fast_delayed - ms.fast_setpoint_Pa, -fast_step, fast_step);
+  ms.fast_predicted_Pa += pp.fast_valve_alpha * (ms.fast_setpoint_Pa - ms.fast_predicted_Pa);
+  const double above = pressure - std::max({ms.predicted_Pa, ms.slow_predicted_Pa, ms.fast_predicted_Pa});
+  const double below = pressure - std::min({ms.predicted_Pa, ms.slow_predicted_Pa, ms.fast_predicted_Pa});
   ms.above_fast_Pa += pp.rise_alpha * (above - ms.above_fast_Pa);
   observe(kFaultPressureHigh, ms.above_fast_Pa / p.pressure_tolerance_Pa);
   observe(kFaultPressureLow, -below / p.pressure_tolerance_Pa);
@@ -643,7 +651,8 @@ void FaultMonitor::check_pressure_rise(const MuscleSample& x, double above_Pa, M
   const double excess_Pa = std::max(above_Pa, 0.0);
   const double newest_Pa = ms.delay[static_cast<std::size_t>(ms.head)];
   const bool settled = std::abs(ms.predicted_Pa - newest_Pa) <= p.pressure_rise_Pa &&
-                       std::abs(ms.slow_predicted_Pa - newest_Pa) <= p.pressure_rise_Pa;
+                       std::abs(ms.slow_predicted_Pa - newest_Pa) <= p.pressure_rise_Pa &&
+                       std::abs(ms.fast_predicted_Pa - newest_Pa) <= p.pressure_rise_Pa;
   if (!ms.has_excess || !settled) {
     ms.excess_fast_Pa = ms.excess_level_Pa = excess_Pa;
     ms.has_excess = true;

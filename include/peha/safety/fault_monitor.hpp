@@ -285,6 +285,9 @@ struct MonitorParams {
   double valve_rate_Pa_per_s = 4e6;
   /// The envelope's slow edge: dead time and lag x this, rate limit / this (>= 1; 1: the model alone).
   double valve_slow_factor = 2.0;
+  /// The envelope's fast edge: dead time and lag x this, rate limit / this (<= 1; 1: the model alone).
+  /// A valve twice as fast as the model led it by 0.91 x the tolerance on the arm (valve_fast_x0.5).
+  double valve_fast_factor = 0.5;
   double encoder_max_step_rad = 0.02;
   int encoder_frozen_cycles = 5;
   double encoder_frozen_speed_radps = 0.2;
@@ -444,6 +447,7 @@ class FaultMonitor {
     int head = 0;
     double setpoint_Pa = 0, predicted_Pa = 0;            ///< the modelled valve
     double slow_setpoint_Pa = 0, slow_predicted_Pa = 0;  ///< the envelope's slow valve
+    double fast_setpoint_Pa = 0, fast_predicted_Pa = 0;  ///< the envelope's fast valve
     double disagreement_level_N = 0;  ///< low-passed (cell - model) for the step check
     double disagreement_fast_N = 0;   ///< (cell - model) low-passed with loadcell_step_noise_filter_s
     bool has_level = false;
@@ -525,8 +529,8 @@ class FaultMonitor {
   /// What the thresholds and the period fix for every sample: the valve models' dead times in cycles
   /// and the first-order filters' factors per period (derived once, not per sample).
   struct PerPeriod {
-    int delay_cycles = 0, slow_delay_cycles = 0;
-    double valve_alpha = 0, slow_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0, drift_alpha = 0, drift_slow_alpha = 0;
+    int delay_cycles = 0, slow_delay_cycles = 0, fast_delay_cycles = 0;
+    double valve_alpha = 0, slow_valve_alpha = 0, fast_valve_alpha = 0, step_alpha = 0, step_fast_alpha = 0, rise_alpha = 0, drift_alpha = 0, drift_slow_alpha = 0;
     int zero_cycles = 0;          ///< loadcell_zero_confirm_s (also the never-taut wire's), at least confirm_cycles
     int runaway_cycles = 0;       ///< descent_runaway_window_s, at least 1
     int over_ceiling_cycles = 0;  ///< force_ceiling_window_s, at least 1
