@@ -695,9 +695,11 @@ bool FaultMonitor::check_command(const io::Command& c, double t_s) noexcept {
   bool ok = true;
   for (int j = 0; j < c.joint_count && j < io::kMaxJoints; ++j) {
     const io::JointCommand& jc = c.joints[static_cast<std::size_t>(j)];
-    for (int m = 0; m < 2; ++m) {
-      // The controller's zero, bounded by what the start-up zero check lets pass: a wire judged
-      // against another zero than before is judged afresh (its taut arms again).
+    // The controller's zero, bounded by what the start-up zero check lets pass: a wire judged against
+    // another zero than before is judged afresh (its taut arms again). Not once a fault is latched:
+    // the controller's commands no longer go out, so a tare it takes then reads a limb the safe state
+    // holds loaded (E1 held at start-up by a -50 N zero tared the antagonist's 100 N as its zero).
+    for (int m = 0; m < 2 && !flags_; ++m) {
       MuscleState& ms = joints_[static_cast<std::size_t>(j)].muscle[static_cast<std::size_t>(m)];
       const double declared_N = jc.loadcell_zero_N[static_cast<std::size_t>(m)];
       const double max_N = params_.loadcell_zero_max_N;
