@@ -211,7 +211,7 @@ struct FaultMonitor::MuscleSample {
   double floor_N = 0;      ///< the wire's tension floor
   double taut_N = 0;       ///< at or above: the wire is taut (arms its slack checks)
   double pretension_N = 0;
-  double tension_N = 0;    ///< cell_N less the zero the controller subtracts from it (check_muscle)
+  double tension_N = 0;    ///< cell_N less the zero the controller subtracts from it
   double supply_Pa = 0;
   bool tension_checked = false;
   bool outputs_follow = false;
@@ -431,6 +431,10 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
   x.arming = followed_s >= p.tension_arm_s;
   x.carried = js.carried;
   x.carried_s = js.carried ? t_s_ - js.carried_since_s : -1.0;
+  // The wire's tension as its cell tells it: less the zero the controller subtracts (its start-up
+  // tare, check_command: a +20 N zero read a slack wire as taut and armed the drift sums through the
+  // refill).
+  x.tension_N = x.cell_N - js.muscle[static_cast<std::size_t>(m)].zero_N;
   x.followed_s = followed_s;
   x.still_s = js.still_s;
   return x;
@@ -438,12 +442,9 @@ FaultMonitor::MuscleSample FaultMonitor::muscle_sample(int j, int m, const io::J
 
 /// One muscle's checks, in their order; true when its pressure has stayed below the valve's
 /// envelope for confirm_cycles (pressure_low, or with another muscle a supply loss).
-bool FaultMonitor::check_muscle(MuscleSample x, MuscleState& ms) noexcept {
-  // The wire's tension as its cell tells it: less the zero the controller subtracts (its start-up
-  // tare, check_command: a +20 N zero read a slack wire as taut and armed the drift sums through the
-  // refill), and for arming low-passed (3x noise armed a wire refilling slowly past the taut level
+bool FaultMonitor::check_muscle(const MuscleSample& x, MuscleState& ms) noexcept {
+  // Taut arms on the tension low-passed (3x noise armed a wire refilling slowly past the taut level
   // at 12 N, and its floor tripped at once).
-  x.tension_N = x.cell_N - ms.zero_N;
   ms.cell_level_N += ms.has_cell_level ? per_period_.step_alpha * (x.cell_N - ms.cell_level_N) : x.cell_N - ms.cell_level_N;
   ms.has_cell_level = true;
   // Tension: a wire's slack checks (and its cell's disconnect) arm once it has been taut since the
@@ -616,21 +617,20 @@ bool FaultMonitor::check_valve(const MuscleSample& x, MuscleState& ms) noexcept 
     ms.above_fast_Pa = 0;
     return false;
   }
-  // Advance the valve model by one period with the delayed command.
-  const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.delay_cycles) % kMaxDelay)];
+  // Advance a modelled valve by one period: the command delay_cycles old, the set-point's rate limit
+  // / factor, the lag.
   const double max_step = p.valve_rate_Pa_per_s * period_s_;
-  ms.setpoint_Pa += std::clamp(delayed - ms.setpoint_Pa, -max_step, max_step);
-  ms.predicted_Pa += pp.valve_alpha * (ms.setpoint_Pa - ms.predicted_Pa);
-  // The envelope's slow valve: the same command, later, slower, lagging more.
-  const double slow_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.slow_delay_cycles) % kMaxDelay)];
-  const double slow_step = max_step / p.valve_slow_factor;
-  ms.slow_setpoint_Pa += std::clamp(slow_delayed - ms.slow_setpoint_Pa, -slow_step, slow_step);
-  ms.slow_predicted_Pa += pp.slow_valve_alpha * (ms.slow_setpoint_Pa - ms.slow_predicted_Pa);
-  // And its fast valve: sooner, faster, lagging less (a valve in the 0.5-3 x range leads the model).
-  const double fast_delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - pp.fast_delay_cycles) % kMaxDelay)];
-  const double fast_step = max_step / p.valve_fast_factor;
-  ms.fast_setpoint_Pa += std::clamp(fast_delayed - ms.fast_setpoint_Pa, -fast_step, fast_step);
-  ms.fast_predicted_Pa += pp.fast_valve_alpha * (ms.fast_setpoint_Pa - ms.fast_predicted_Pa);
+  auto advance = [&](int delay_cycles, double factor, double alpha, double& setpoint_Pa, double& predicted_Pa) {
+    const double delayed = ms.delay[static_cast<std::size_t>((ms.head + kMaxDelay - delay_cycles) % kMaxDelay)];
+    const double step = max_step / factor;
+    setpoint_Pa += std::clamp(delayed - setpoint_Pa, -step, step);
+    predicted_Pa += alpha * (setpoint_Pa - predicted_Pa);
+  };
+  advance(pp.delay_cycles, 1.0, pp.valve_alpha, ms.setpoint_Pa, ms.predicted_Pa);
+  // The envelope's slow valve: the same command, later, slower, lagging more; and its fast valve:
+  // sooner, faster, lagging less (a valve in the 0.5-3 x range leads the model).
+  advance(pp.slow_delay_cycles, p.valve_slow_factor, pp.slow_valve_alpha, ms.slow_setpoint_Pa, ms.slow_predicted_Pa);
+  advance(pp.fast_delay_cycles, p.valve_fast_factor, pp.fast_valve_alpha, ms.fast_setpoint_Pa, ms.fast_predicted_Pa);
   const double above = pressure - std::max({ms.predicted_Pa, ms.slow_predicted_Pa, ms.fast_predicted_Pa});
   const double below = pressure - std::min({ms.predicted_Pa, ms.slow_predicted_Pa, ms.fast_predicted_Pa});
   ms.above_fast_Pa += pp.rise_alpha * (above - ms.above_fast_Pa);

@@ -514,7 +514,7 @@ class FaultMonitor {
   inline void check_board_limits(int j, const io::JointSensors& in, bool outputs_follow) noexcept;
   inline void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
   inline void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;
-  inline bool check_muscle(MuscleSample x, MuscleState& ms) noexcept;
+  inline bool check_muscle(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_load_cell(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_tension_floor(const MuscleSample& x, MuscleState& ms) noexcept;
   inline void check_startup(const MuscleSample& x, MuscleState& ms) noexcept;
