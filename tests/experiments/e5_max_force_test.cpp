@@ -98,6 +98,41 @@ TEST(E5, ARunThatEndsBeforeTheForceHoldsFailsTheTimeAtTheLimit) {
   EXPECT_FALSE(held->passed());
 }
 
+/// The rig behind a board that reports its outputs armed a few cycles after the host asks (as a
+/// board over UDP does: its armed flag comes back with its next state packet).
+class LateArmingBoard final : public io::Backend {
+ public:
+  LateArmingBoard(io::Backend& inner, int late_cycles) : inner_(inner), late_(late_cycles) {}
+  const io::BackendInfo& info() const override { return inner_.info(); }
+  void configure() override { inner_.configure(); }
+  void activate() noexcept override { inner_.activate(), reads_since_activate_ = 0; }
+  void deactivate() noexcept override { inner_.deactivate(); }
+  void estop() noexcept override { inner_.estop(); }
+  io::BackendStatus status() const noexcept override {
+    io::BackendStatus s = inner_.status();
+    s.active = s.active && reads_since_activate_ > late_;
+    return s;
+  }
+  bool read(io::SensorState& state) noexcept override { return ++reads_since_activate_, inner_.read(state); }
+  bool write(const io::Command& command) noexcept override { return inner_.write(command); }
+
+ private:
+  io::Backend& inner_;
+  int late_, reads_since_activate_ = 0;
+};
+
+// The limit is reached when the limits cap the ramp, not when the outputs wait to be armed: a board
+// that arms 3 cycles late (CI, loaded, over UDP) once read "reached at 0 s, held after 1.2 s".
+TEST(E5, OutputsArmedLateDoNotCountAsReachingTheLimit) {
+  const E5Scenario s = fast_scenario();
+  sim::OneDofRigBackend plant(e5_plant_params(s, s.cases.front()));
+  LateArmingBoard board(plant, 3);
+  const E5Result r = run_e5_on(s, s.cases.front(), board, &plant, nullptr);
+  EXPECT_TRUE(r.passed) << r.verdict.failures();
+  EXPECT_GT(r.reach_s, s.ramp.start_s);  // the ramp starts from below the ceiling
+  EXPECT_LE(r.settle_s, 0.5);
+}
+
 TEST(E5, ARampFasterThanThePressureRateLimitIsRejected) {
   const std::string yaml = [] {
     std::ifstream in(PEHA_SOURCE_DIR "/configs/e5_max_force.yaml");

@@ -218,7 +218,7 @@ struct E5Run {
 };
 
 /// The held force's figures from the load cell, `done` the last cycle. The limit is reached when the
-/// limits first cap the ramp; the force then holds at its final value (mean of the last second); it
+/// limits first cap the ramp (not the supervisor: over a link its first cycle may wait for outputs); the force then holds at its final value (mean of the last second); it
 /// is "at the limit" from the first cycle after which it stays within at_limit_band_N of that value
 /// to the end.
 void held_force_figures(const E5Run& run, std::size_t done, E5Result& r) {
@@ -234,7 +234,7 @@ void held_force_figures(const E5Run& run, std::size_t done, E5Result& r) {
   std::size_t reach = done + 1, hold_from = done + 1;
   for (std::size_t k = 0; k <= done; ++k) {
     if (!std::isnan(force[k])) r.peak_force_N = std::max(r.peak_force_N, force[k]);
-    if (reach > done && run.cap[k] != E5Stop::kNone) reach = k;
+    if (reach > done && run.cap[k] != E5Stop::kNone && run.cap[k] != E5Stop::kSupervisor) reach = k;
   }
   for (std::size_t k = done + 1; k-- > 0;) {  // back from the end while the force holds
     if (std::isnan(force[k])) continue;
