@@ -620,6 +620,21 @@ std::vector<MatrixCase> robustness_jobs(const RobustnessConfig& config) {
   return jobs;
 }
 
+/// A zero below the channel's bottom reads code 0 vented whatever its size (-20 N or -300 N): the
+/// start-up's `loadcell_zero` and the sensor check refuse it, and only the amplifier's offset, set
+/// on the hardware, removes it. That refusal is the designed outcome, not a control defect; a run
+/// that did not refuse stays judged by its figures.
+void refused_zero_below_channel(const PlantVariant& v, RobustnessRow& row) {
+  if (row.goal || !v.zero_below_channel() || !row.physics_reason.empty()) return;
+  const std::string& f = row.failures;  // the first fault (or the sensor check's refusal) must be the zero's
+  if (f.find("first: loadcell_zero") == std::string::npos && f.find("first fault loadcell_zero") == std::string::npos &&
+      f.find("reads code 0") == std::string::npos)
+    return;
+  row.physics_reason =
+      "a load-cell zero below its channel's bottom reads code 0 vented: no controller can see it; peha refuses the start-up and the "
+      "amplifier's offset must be re-set on the hardware";
+}
+
 /// A job's rows named (variant, mode, seed) and judged against its mode's goal, with physics' reason
 /// where no controller without position feedback can meet it; `seconds` the job's wall time.
 void judge_rows(const RobustnessConfig& config, const MatrixCase& job, double seconds, std::vector<RobustnessRow>& rows) {
@@ -632,8 +647,9 @@ void judge_rows(const RobustnessConfig& config, const MatrixCase& job, double se
     if (job.mode == RobustnessMode::kE4) {
       // E4 feeds the elbow's angle back: an untold gravity or no cable friction is not out of its reach
       // (run_e4_job names what is). Its goal is its verdict.
-      row.physics_forbids = !row.physics_reason.empty();
       row.goal = row.verdict;
+      refused_zero_below_channel(*job.variant, row);
+      row.physics_forbids = !row.physics_reason.empty();
       continue;
     }
     // A gravity the controller cannot know: the variant's unknown payload or mass. Its own model's
@@ -648,9 +664,10 @@ void judge_rows(const RobustnessConfig& config, const MatrixCase& job, double se
       row.physics_reason =
           "no cable friction: without position feedback any error of the gravity model moves the joint (a neutral equilibrium)";
     }
-    row.physics_forbids = !row.physics_reason.empty();
     const bool error_ok = row.static_error_pct <= g.max_static_error_pct;
     row.goal = error_ok && row.tension_fraction >= g.min_tension_fraction;
+    refused_zero_below_channel(*job.variant, row);
+    row.physics_forbids = !row.physics_reason.empty();
   }
 }
 

@@ -46,6 +46,9 @@ struct PlantVariant {
   /// no position feedback any error of its gravity model moves the joint (a neutral equilibrium: the
   /// feed-forward follows the joint wherever it goes); drift and static error are out of reach.
   bool removes_friction() const noexcept { return cable_friction_scale == 0; }
+  /// A load cell's zero below its channel's bottom: vented it reads code 0, so neither the start-up
+  /// tare nor the sensor check can see how far below it is (docs/robustness.md).
+  bool zero_below_channel() const noexcept { return loadcell_bias_N < 0 || agonist_loadcell_bias_N < 0 || antagonist_loadcell_bias_N < 0; }
 };
 
 enum class RobustnessMode {
