@@ -22,6 +22,9 @@ void start_descent(const DescendGovernorModel& model, const models::JointModel& 
   g.ceiling_N = models::force_ceiling_N(*mm[g.carrying]);
   g.floor_N = std::min(g.ceiling_N, std::max(joint.pretension_N, model.floor_fraction * g.force_N));
   g.command_N = g.force_N;
+  g.lagged_N[static_cast<std::size_t>(g.carrying)] = g.force_N;
+  g.lagged_N[static_cast<std::size_t>(1 - g.carrying)] = g.other_force_N;
+  g.trim_N = {};
   // A joint that starts inside its range was held there by this force (a fault while holding or
   // moving); one on a stop (after an outage) was not: its balance is not known yet.
   g.balance_N = outside == 0 ? g.force_N : 0.0;
@@ -54,7 +57,10 @@ double carrying_force_N(const DescendGovernorModel& model, const DescentSample& 
   const bool muscle_lifts = rising && !operator_lifts;
   // Held, or descending about as wanted, inside the range (a fall being caught is neither).
   if (std::abs(sample.speed_radps) <= 2.0 * model.speed_radps && room_rad > 0.0) g.balance_N = g.command_N;
-  const double integrand = operator_lifts ? 0.0 : std::max(excess_radps, -model.speed_radps);
+  if (operator_lifts) g.lifted = true;
+  if (down * sample.speed_radps >= 0.5 * model.speed_radps) g.lifted = false;  // descending on its own
+  const double bleed = g.lifted ? model.lifted_bleed_fraction : 1.0;
+  const double integrand = operator_lifts ? 0.0 : excess_radps < 0.0 ? bleed * std::max(excess_radps, -model.speed_radps) : excess_radps;
   g.force_N = std::clamp(g.force_N + ki * integrand * model.period_s, g.floor_N, g.ceiling_N);
   const double push_back_N = muscle_lifts ? model.gain_N_per_radps * (up_radps - wanted_up_radps - model.lift_speed_radps) : 0.0;
   // Proportional on a fall only (lowering slower than wanted is bled by the integral, never pushed
@@ -77,12 +83,22 @@ void govern_descent(const DescendGovernorModel& model, const models::JointModel&
     const int outside = sample.angle_rad < sample.min_angle_rad ? -1 : sample.angle_rad > sample.max_angle_rad ? 1 : 0;
     start_descent(model, joint, held, eps, outside, g);
   }
-  const double force_N = carrying_force_N(model, sample, g);
   const auto c = static_cast<std::size_t>(g.carrying);
-  g.pressure_Pa[c] = models::muscle_pressure(*mm[c], force_N, eps[c], joint.supply_pressure_Pa).pressure_Pa;
-  // The other muscle keeps the force it held (by the model at the new angle): its wire stays taut.
   const auto o = 1 - c;
-  g.pressure_Pa[o] = models::muscle_pressure(*mm[o], g.other_force_N, eps[o], joint.supply_pressure_Pa).pressure_Pa;
+  std::array<double, 2> force_N{};
+  force_N[c] = carrying_force_N(model, sample, g);
+  // The other muscle keeps the force it held: its wire stays taut.
+  force_N[o] = g.other_force_N;
+  const double lag = model.period_s / std::max(model.trim_lag_s, model.period_s);
+  for (std::size_t m = 0; m < 2; ++m) {
+    const double ceiling_N = models::force_ceiling_N(*mm[m]);
+    g.lagged_N[m] += lag * (force_N[m] - g.lagged_N[m]);
+    if (model.trim_rate_per_s > 0.0 && std::isfinite(sample.measured_N[m])) {
+      g.trim_N[m] = std::clamp(g.trim_N[m] + model.trim_rate_per_s * (g.lagged_N[m] - sample.measured_N[m]) * model.period_s, -ceiling_N, ceiling_N);
+    }
+    const double wanted_N = std::clamp(force_N[m] + g.trim_N[m], 0.0, ceiling_N);
+    g.pressure_Pa[m] = models::muscle_pressure(*mm[m], wanted_N, eps[m], joint.supply_pressure_Pa).pressure_Pa;
+  }
   const double motor_max = joint.has_motor ? joint.motor_max_torque_Nm : 0.0;
   g.motor_Nm = std::clamp(-model.damping_Nms_per_rad * sample.speed_radps, -motor_max, motor_max);
 }

@@ -107,6 +107,8 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.descent_force_slew_N_per_s = m.number_or("descent_force_slew_N_per_s", p.descent_force_slew_N_per_s, {10, 1e6});
   p.descent_floor_fraction = m.number_or("descent_floor_fraction", p.descent_floor_fraction, {0, 1});
   p.descent_damping_Nms_per_rad = m.number_or("descent_damping_Nms_per_rad", p.descent_damping_Nms_per_rad, {0, 100});
+  p.descent_trim_rate_per_s = m.number_or("descent_trim_rate_per_s", p.descent_trim_rate_per_s, {0, 50});
+  p.descent_lifted_bleed_fraction = m.number_or("descent_lifted_bleed_fraction", p.descent_lifted_bleed_fraction, {0, 1});
   p.descent_stop_margin_rad = deg_to_rad(m.number_or("descent_stop_margin_deg", rad_to_deg(p.descent_stop_margin_rad), {0.5, 20}));
   p.speed_filter_Hz = m.number_or("speed_filter_Hz", p.speed_filter_Hz, {0.5, 200});
   // A runaway is judged above the descent speed and below a fall's (the speed check's 90 deg/s on E1).
@@ -117,7 +119,10 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
 }
 
 void FaultMonitor::raise(std::uint32_t flag, int joint, int muscle, double value, double threshold) noexcept {
-  if (!on(flag) || (flags_ & flag)) return;
+  if (!on(flag)) return;
+  // Every joint a check names, even under a flag already latched: the governor stops trusting its cells.
+  faulted_joints_ |= joint >= 0 && joint < io::kMaxJoints ? 1u << joint : ~0u;
+  if (flags_ & flag) return;
   if (flags_ == 0) {
     first_ = {flag, joint, muscle, value, threshold, t_s_, sequence_};
     ++count_;
@@ -176,11 +181,14 @@ DescendGovernorModel FaultMonitor::governor_model(const MonitorParams& p, double
           .damping_Nms_per_rad = p.descent_damping_Nms_per_rad,
           .stop_margin_rad = p.descent_stop_margin_rad,
           .lift_speed_radps = lift_speed_radps,
+          .lifted_bleed_fraction = p.descent_lifted_bleed_fraction,
+          .trim_rate_per_s = p.descent_trim_rate_per_s,
           .period_s = period_s};
 }
 
 void FaultMonitor::clear() noexcept {
   flags_ = 0;
+  faulted_joints_ = 0;
   action_ = SafeAction::kNone;
   first_ = {};
   reason_[0] = '\0';
@@ -758,7 +766,11 @@ void FaultMonitor::govern(const io::SensorState& s, const std::array<const model
     const double angle_rad = s.joints[ji].angle_rad;
     if (!params_.governed[ji] || !models[ji] || !std::isfinite(angle_rad)) continue;
     JointState& js = joints_[ji];
-    const DescentSample sample{angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]};
+    DescentSample sample{angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]};
+    if (!(faulted_joints_ & (1u << j))) {
+      const double cell_N[2] = {s.joints[ji].agonist_loadcell_N, s.joints[ji].antagonist_loadcell_N};
+      for (std::size_t m = 0; m < 2; ++m) sample.measured_N[m] = cell_N[m] - js.muscle[m].zero_N;  // NaN stays NaN: model only
+    }
     govern_descent(governor_, *models[ji], held_.joints[ji], sample, js.governor);
     // A descent that does not slow: moving down (the carrying muscle lets go toward negative angles
     // when it is the agonist) faster than the runaway speed for its window. The muscle pulling the

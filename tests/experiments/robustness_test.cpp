@@ -437,7 +437,9 @@ TEST(RobustnessSensorCheck, AfterTheCheckEachSingleSensorErrorMeetsTheGoalAndAZe
     }
   }
   for (const RobustnessResult::Share& share : refused.shares) {
-    if (share.mode == "e1_sensor_checked") EXPECT_FALSE(share.ok());  // nothing left to judge is not a met share
+    if (share.mode == "e1_sensor_checked") {
+      EXPECT_FALSE(share.ok());  // nothing left to judge is not a met share
+    }
   }
 }
 

@@ -320,6 +320,10 @@ struct MonitorParams {
   /// unlimited step of 600 N per rad/s at the shoulder whipped the wrist to 145 deg/s.
   double descent_force_slew_N_per_s = 1e6;
   double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
+  /// On a joint with no fault of its own, each muscle's force is trimmed toward the governor's by its
+  /// load cell at this rate (1/s; 0: the pressure model alone; DescendGovernorModel::trim_rate_per_s).
+  double descent_trim_rate_per_s = 5.0;
+  double descent_lifted_bleed_fraction = 0.2;  ///< DescendGovernorModel::lifted_bleed_fraction
   double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
   double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
   /// Descending, the joint moving down (toward the end the carrying muscle lets it go to) faster than
@@ -548,6 +552,7 @@ class FaultMonitor {
   bool controller_in_command_ = true;  ///< controller_in_command: what goes out is the controller's own command
   SafeAction action_ = SafeAction::kNone;
   std::uint32_t flags_ = 0;
+  std::uint32_t faulted_joints_ = 0;  ///< bit j: a raise has named joint j (its cells are not trusted by the governor)
   FaultRecord first_{};
   double t_s_ = 0;
   std::uint64_t sequence_ = 0, count_ = 0;
