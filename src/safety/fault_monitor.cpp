@@ -97,6 +97,8 @@ void read_monitor_params(config::Map& root, MonitorParams& p) {
   p.encoder_disagree_rad = deg_to_rad(m.number_or("encoder_disagree_deg", rad_to_deg(p.encoder_disagree_rad), {0.01, 10}));
   p.max_joint_speed_radps = deg_to_rad(m.number_or("max_joint_speed_degps", rad_to_deg(p.max_joint_speed_radps), {1, 600}));
   p.range_margin_rad = deg_to_rad(m.number_or("range_margin_deg", rad_to_deg(p.range_margin_rad), {0, 10}));
+  p.range_lead_s = m.number_or("range_lead_s", p.range_lead_s, {0.01, 0.5});
+  p.range_brake_radps2 = deg_to_rad(m.number_or("range_brake_degps2", rad_to_deg(p.range_brake_radps2), {200, 20000}));
   p.supply_low_fraction = m.number_or("supply_low_fraction", p.supply_low_fraction, {0, 1});
   p.supply_lost_fraction = m.number_or("supply_lost_fraction", p.supply_lost_fraction, {0, p.supply_low_fraction});
   p.motor_tolerance_Nm = m.number_or("motor_tolerance_Nm", p.motor_tolerance_Nm, {0.001, 10});
@@ -251,7 +253,7 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     }
     if (!outputs_follow) js.carried = false;  // carried again only once both wires are taut again
     check_encoder(j, in, s.time_s, js);
-    check_range(j, in.angle_rad, min_angle_rad[ji], max_angle_rad[ji]);
+    check_range(j, in.angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]);
     check_board_limits(j, in, outputs_follow);  // after the range: a joint beyond it is named joint_range, the board's vent its echo
     if (!outputs_follow) {
       js.follow_since_s = -1;
@@ -361,10 +363,14 @@ void FaultMonitor::check_speed(int j, const JointState& js) noexcept {
   }
 }
 
-/// Range: the angle beyond either end by more than range_margin.
-void FaultMonitor::check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept {
+/// Range: the angle, led by its speed (MonitorParams::range_lead_s), beyond either end by more than
+/// range_margin.
+void FaultMonitor::check_range(int j, double angle_rad, double speed_radps, double min_angle_rad, double max_angle_rad) noexcept {
   const double lo_rad = min_angle_rad - params_.range_margin_rad;
   const double hi_rad = max_angle_rad + params_.range_margin_rad;
+  if (std::isfinite(speed_radps)) {
+    angle_rad += speed_radps * params_.range_lead_s + std::copysign(speed_radps * speed_radps / (2.0 * params_.range_brake_radps2), speed_radps);
+  }
   if (params_.range_margin_rad > 0) {
     observe(kFaultJointRange, std::max(min_angle_rad - angle_rad, angle_rad - max_angle_rad) / params_.range_margin_rad);
   }

@@ -63,6 +63,28 @@ TEST(FalseAlarms, AnE4CaseRunsBothMovementsToTheirEnd) {
   EXPECT_TRUE(r.passed()) << ::testing::PrintToString(r.failures);
 }
 
+// A case may skip plant variants where its own controller, not the monitor, is what fails (each with
+// its reason in the file); a skip that names no variant the file runs is refused by name.
+TEST(FalseAlarms, ACaseSkipsOnlyVariantsTheFileRuns) {
+  auto config_with = [](const std::string& skip) {
+    const std::string yaml = "experiment: false_alarms\ndescription: skip\nseed: 1\ncases:\n"
+                             "  - name: e4\n    run: goniometer\n    scenario: " PEHA_SOURCE_DIR "/configs/right_arm.yaml\n    skip_variants:\n"
+                             "      - {name: " + skip + ", why: test}\n"
+                             "noise_scales: [1]\nseeds: 1\nvariants_from: " PEHA_SOURCE_DIR "/configs/robustness.yaml\nvariant_seeds: 1\nthreads: 1\n";
+    return read_false_alarms(config::Document::load_string(yaml, "false_alarms_test.yaml"));
+  };
+  const FalseAlarmConfig c = config_with("cable_friction_x0");
+  ASSERT_EQ(c.cases.size(), 1u);
+  EXPECT_EQ(c.cases[0].skip_variants, std::vector<std::string>{"cable_friction_x0"});
+  EXPECT_TRUE(std::any_of(c.variants.begin(), c.variants.end(), [](const PlantVariant& v) { return v.name == "cable_friction_x0"; }));
+  try {
+    config_with("cable_friction_x9");
+    ADD_FAILURE() << "an unknown variant was accepted";
+  } catch (const config::Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("skips variant 'cable_friction_x9'"));
+  }
+}
+
 // The verdict can fail: a loadcell_step threshold at the noise the pressure model makes of the
 // pressure sensors' (5 N instead of 100) trips on fault-free runs, and the tool reports it as false
 // alarms of that check.

@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -281,24 +283,34 @@ TEST(FaultMatrix, E3DescendBrakesTheOperatorsMoveWithoutWhippingTheWrist) {
 }
 
 // Issue 29: a descend that lasts through the operator's next move hands the arm to the operator and
-// back. An elbow cell creeping 10 N/s from the middle of the move into elbow_90 is caught 8.4 s later;
-// the operator then lifts the arm into raised_flexed and holds it for a second. The governor used to
-// bleed the shoulder while the hand held it, and its pressure model read 268 N where the shoulder's
-// agonist made 1 N: let go, the arm fell onto a bled force and the wrist whipped to 904 deg/s. With
-// the shoulder's own (healthy) cells trimming its force and the bleed slowed to a fifth while the
-// lifted arm is held: 473 deg/s, under the 500 deg/s trip. (The row still exceeds the elbow's range:
-// the drift lets the elbow fall onto its stop before any check can tell it from the model's error.)
+// back. An elbow cell creeping 10 N/s from 1 s after the release of elbow_90; the operator then lifts
+// the arm into raised_flexed and holds it for a second. The governor used to bleed the shoulder while
+// the hand held it, and its pressure model read 268 N where the shoulder's agonist made 1 N: let go,
+// the arm fell onto a bled force and the wrist whipped to 904 deg/s. With the shoulder's own (healthy)
+// cells trimming its force and the bleed slowed to a fifth while the lifted arm is held: 473 deg/s.
+// Before either, the creeping cell lets the elbow fall from 88 deg onto its stop (327 deg/s, 2.2 deg
+// into it) before loadcell_drift can tell the drift from the model's error; the range judged ahead
+// (range_lead_s, range_brake_radps2) catches that fall inside the range: no limit exceeded.
 TEST(FaultMatrix, E3AnArmHandedBackUnderDescendIsNotDroppedOntoABledForce) {
   auto row = [](ArmScenario s) { return e3_row(std::move(s), sim::FaultKind::kLoadcellDrift, "elbow_flexed"); };
   const ArmScenario shipped = shipped_arm();
-  const FaultRow r = row(shipped);
+  ArmScenario unled = shipped;  // the range on the angle alone: the drift's own check latches, after the fall
+  unled.limits.monitor.range_lead_s = 0.0;
+  unled.limits.monitor.range_brake_radps2 = std::numeric_limits<double>::infinity();
+  const FaultRow r = row(unled);
   EXPECT_EQ(r.flag, "loadcell_drift");
   EXPECT_EQ(r.safe_state, "descend");
   EXPECT_LT(r.peak_speed_degps, 500.0);  // measured 473 (the wrist)
-  ArmScenario old = shipped;
+  EXPECT_EQ(r.limits_exceeded, 1);       // the elbow 2.2 deg into its stop
+  ArmScenario old = unled;
   old.limits.monitor.descent_trim_rate_per_s = 0.0;
   old.limits.monitor.descent_lifted_bleed_fraction = 1.0;
   EXPECT_GT(row(old).peak_speed_degps, 800.0);  // measured 904
+
+  const FaultRow led = row(shipped);
+  EXPECT_EQ(led.flag, "joint_range");
+  EXPECT_EQ(led.limits_exceeded, 0);
+  EXPECT_LT(led.peak_speed_degps, 300.0);  // measured 276 (the elbow's fall, caught)
 }
 
 // The descend governor while the operator flexes the elbow (a stuck load cell in the middle of the

@@ -365,6 +365,47 @@ std::pair<std::uint32_t, double> after_a_descent_at(double down_degps, std::uint
   return {monitor.flags(), sent.joints[0].antagonist_pressure_Pa};
 }
 
+/// The angle (deg) at which joint_range is first raised for a joint moving at `degps` from 0 toward
+/// its lower end (range -1..1 rad, -57.3 deg), NaN if never within 4 s (the monitor's defaults,
+/// with `lead_s` and `brake_degps2`).
+double range_raised_at_deg(double degps, double lead_s, double brake_degps2) {
+  safety::MonitorParams p;
+  p.range_lead_s = lead_s;
+  p.range_brake_radps2 = models::deg_to_rad(brake_degps2);
+  p.max_joint_speed_radps = models::deg_to_rad(1000.0);  // the range alone
+  safety::FaultMonitor monitor(p, 1e-3);
+  E1JointView view;
+  io::SensorState& s = view.state;
+  double angle_rad = 0.0;
+  for (int k = 0; k < 4000; ++k) {
+    s.time_s = 1e-3 * k;
+    if (k > 100) angle_rad -= models::deg_to_rad(degps) * 1e-3;
+    s.joints[0].angle_rad = angle_rad;
+    s.joints[0].agonist_pressure_Pa = 0.3e6;
+    s.joints[0].antagonist_pressure_Pa = 0.1e6;
+    s.joints[0].agonist_loadcell_N = 300.0 + 0.01 * (k % 7);
+    s.joints[0].antagonist_loadcell_N = 60.0 + 0.01 * (k % 7);
+    view.check(monitor, true);
+    if (monitor.flags() & safety::kFaultJointRange) return models::rad_to_deg(angle_rad);
+  }
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+// Issue 29: the range is judged ahead, as the board's range vent: the angle led by the speed over the
+// valves' reaction (40 ms) and the distance 2000 deg/s^2 takes to stop it. A joint heading for its
+// stop at 300 deg/s is raised 34.5 deg before its end and margin (-57.3 - 4.6 deg): an elbow whose
+// load cell crept let it fall onto its stop at 327 deg/s, 2.2 deg into it, before any check could
+// tell; led, it is caught inside its range. Slow (20 deg/s) it is raised within 1.3 deg of the end and
+// margin; judged on the angle alone, only past them.
+TEST(FaultMonitor, AJointHeadingForItsStopFasterThanItCanStopIsRaisedInsideTheRange) {
+  const double fast_deg = range_raised_at_deg(300.0, 0.04, 2000.0);
+  EXPECT_NEAR(fast_deg, -57.3 - 4.6 + 12.0 + 22.5, 1.0);  // lead 12 deg, stopping 22.5, beyond the margin 4.6
+  const double slow_deg = range_raised_at_deg(20.0, 0.04, 2000.0);
+  EXPECT_LT(slow_deg, -57.3 - 4.6 + 1.3);
+  const double unled_deg = range_raised_at_deg(300.0, 0.0, 1e9);
+  EXPECT_LT(unled_deg, -57.3 - 4.5);
+}
+
 // Issue 29: a descent the governor cannot slow (the link keeps falling at 45 deg/s whatever the
 // agonist is asked for) escalates after descent_runaway_window_s: descent_runaway vents the muscle
 // that pulls the link down (the antagonist, 0 Pa below the limits' pretension floor); the carrying

@@ -55,6 +55,7 @@
 #include "peha/safety/descend_governor.hpp"
 
 #include <array>
+#include <limits>
 #include <bit>
 #include <cstdint>
 
@@ -296,6 +297,13 @@ struct MonitorParams {
   double encoder_disagree_rad = 0.0349;
   double max_joint_speed_radps = 1.57;        ///< 90 deg/s: a falling link (nominal runs peak below 40)
   double range_margin_rad = 0.08;
+  /// The range judged ahead (as the board's range vent): the angle led by its filtered speed x
+  /// range_lead_s (the valves' reaction) plus the distance range_brake_radps2 takes to stop it.
+  /// A joint falling toward its stop faster than it can still be stopped is caught before the stop,
+  /// not on it: an elbow whose load cell crept let it fall from 88 deg onto its stop at 327 deg/s,
+  /// 2.2 deg into it; led, it is caught at 282 deg/s inside its range. 0 / inf: the angle alone.
+  double range_lead_s = 0.04;
+  double range_brake_radps2 = 34.9;  ///< 2000 deg/s^2
   /// The supply sensor below this x the configured supply: supply_low (0.6: the half supply of a
   /// failing compressor is caught; a plant capped at 0.6 of it still is not a fault).
   double supply_low_fraction = 0.6;
@@ -514,7 +522,7 @@ class FaultMonitor {
   inline void check_speed(int j, const JointState& js) noexcept;
   inline void check_frozen(int j, double step_rad, double dt_s, double t_s, JointState& js) noexcept;
   inline void check_redundant_encoder(int j, const io::JointSensors& in, JointState& js) noexcept;
-  inline void check_range(int j, double angle_rad, double min_angle_rad, double max_angle_rad) noexcept;
+  inline void check_range(int j, double angle_rad, double speed_radps, double min_angle_rad, double max_angle_rad) noexcept;
   inline void check_board_limits(int j, const io::JointSensors& in, bool outputs_follow) noexcept;
   inline void check_supply(int j, const io::JointSensors& in, const models::JointModel& model, JointState& js) noexcept;
   inline void check_motor(int j, const io::JointSensors& in, const models::JointModel& model, bool outputs_follow, JointState& js) noexcept;

@@ -113,6 +113,7 @@ std::vector<AlarmRun> false_alarm_jobs(const FalseAlarmConfig& config) {
       for (int s = 1; s <= config.seeds; ++s) jobs.push_back({&c, v, "nominal", k, static_cast<std::uint64_t>(s)});
     }
     for (const PlantVariant& v : config.variants) {
+      if (std::find(c.skip_variants.begin(), c.skip_variants.end(), v.name) != c.skip_variants.end()) continue;
       for (int s = 1; s <= config.variant_seeds; ++s) jobs.push_back({&c, v, v.name, 1.0, static_cast<std::uint64_t>(s)});
     }
   }
@@ -162,6 +163,13 @@ FalseAlarmConfig read_false_alarms(const config::Document& doc) {
     const std::string run = m.choice("run", runs);
     fc.run = run == "e1" ? FalseAlarmRun::kE1 : run == "postures" ? FalseAlarmRun::kPostures : FalseAlarmRun::kGoniometer;
     fc.scenario = m.path_value("scenario");
+    if (m.has("skip_variants")) {
+      for (config::Map sv : m.maps("skip_variants", 1, 64)) {
+        fc.skip_variants.push_back(sv.string("name"));
+        sv.string("why");
+        sv.finish();
+      }
+    }
     m.finish();
     c.cases.push_back(fc);
   }
@@ -186,6 +194,13 @@ FalseAlarmConfig read_false_alarms(const config::Document& doc) {
     }
     for (const PlantVariant& v : robustness.variants) {
       if (v.name != "nominal" && std::find(skip.begin(), skip.end(), v.name) == skip.end()) c.variants.push_back(v);
+    }
+  }
+  for (const FalseAlarmCase& fc : c.cases) {  // a case's skip names a variant the file runs
+    for (const std::string& name : fc.skip_variants) {
+      if (std::none_of(c.variants.begin(), c.variants.end(), [&](const PlantVariant& v) { return v.name == name; })) {
+        root.fail("cases", fmt::format("case '{}' skips variant '{}', which is not among the variants run", fc.name, name));
+      }
     }
   }
   root.finish();
