@@ -329,8 +329,9 @@ struct MonitorParams {
   double descent_force_slew_N_per_s = 1e6;
   double descent_damping_Nms_per_rad = 5.0;   ///< motor torque = -this x joint speed (within the rating)
   /// On a joint with no fault of its own, each muscle's force is trimmed toward the governor's by its
-  /// load cell at this rate (1/s; 0: the pressure model alone; DescendGovernorModel::trim_rate_per_s).
-  double descent_trim_rate_per_s = 5.0;
+  /// load cell at this rate (1/s; DescendGovernorModel::trim_rate_per_s). 0, the pressure model alone,
+  /// by default: at 5 /s the upper body's fault matrix went from 3 misses to 20 (docs/safety.md).
+  double descent_trim_rate_per_s = 0.0;
   double descent_lifted_bleed_fraction = 0.2;  ///< DescendGovernorModel::lifted_bleed_fraction
   double descent_stop_margin_rad = 0.0873;    ///< the descent stops this far inside the range's lower end (5 deg)
   double speed_filter_Hz = 15.0;              ///< low-pass of the encoder's finite difference the governor reads
