@@ -253,7 +253,10 @@ void FaultMonitor::check_sample(const io::SensorState& s, const std::array<const
     }
     if (!outputs_follow) js.carried = false;  // carried again only once both wires are taut again
     check_encoder(j, in, s.time_s, js);
-    check_range(j, in.angle_rad, js.filtered_speed_radps, min_angle_rad[ji], max_angle_rad[ji]);
+    // Led only where the safe state brakes the joint: a joint it does not govern (the arm's
+    // constant-pressure wrist) is stopped by its own spring, far harder than range_brake_radps2.
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    check_range(j, in.angle_rad, params_.governed[ji] ? js.filtered_speed_radps : nan, min_angle_rad[ji], max_angle_rad[ji]);
     check_board_limits(j, in, outputs_follow);  // after the range: a joint beyond it is named joint_range, the board's vent its echo
     if (!outputs_follow) {
       js.follow_since_s = -1;

@@ -368,8 +368,9 @@ std::pair<std::uint32_t, double> after_a_descent_at(double down_degps, std::uint
 /// The angle (deg) at which joint_range is first raised for a joint moving at `degps` from 0 toward
 /// its lower end (range -1..1 rad, -57.3 deg), NaN if never within 4 s (the monitor's defaults,
 /// with `lead_s` and `brake_degps2`).
-double range_raised_at_deg(double degps, double lead_s, double brake_degps2) {
+double range_raised_at_deg(double degps, double lead_s, double brake_degps2, bool governed = true) {
   safety::MonitorParams p;
+  p.governed[0] = governed;
   p.range_lead_s = lead_s;
   p.range_brake_radps2 = models::deg_to_rad(brake_degps2);
   p.max_joint_speed_radps = models::deg_to_rad(1000.0);  // the range alone
@@ -404,6 +405,18 @@ TEST(FaultMonitor, AJointHeadingForItsStopFasterThanItCanStopIsRaisedInsideTheRa
   EXPECT_LT(slow_deg, -57.3 - 4.6 + 1.3);
   const double unled_deg = range_raised_at_deg(300.0, 0.0, 1e9);
   EXPECT_LT(unled_deg, -57.3 - 4.5);
+}
+
+// A joint the safe state does not govern (the arm's wrist at its constant pressures) is stopped by its
+// own muscles' spring, far harder than range_brake_degps2, and nothing the supervisor does brakes it:
+// its range is judged on the angle. Led, E4's brisk wrist swinging at 430-470 deg/s near -4 deg was
+// raised at 1.13-1.15 x its 60 deg range, the first fault of 11 of the robustness matrix's E4 cases.
+TEST(FaultMonitor, AJointTheSafeStateDoesNotGovernIsJudgedOnItsAngle) {
+  const double governed_deg = range_raised_at_deg(300.0, 0.04, 2000.0, true);
+  const double passive_deg = range_raised_at_deg(300.0, 0.04, 2000.0, false);
+  EXPECT_GT(governed_deg, -57.3 - 4.6 + 30.0);
+  EXPECT_LT(passive_deg, -57.3 - 4.5);
+  EXPECT_GT(passive_deg, -57.3 - 4.6 - 0.5);
 }
 
 // Issue 29: a descent the governor cannot slow (the link keeps falling at 45 deg/s whatever the
