@@ -302,7 +302,8 @@ struct MonitorParams {
   /// A joint falling toward its stop faster than it can still be stopped is caught before the stop,
   /// not on it: an elbow whose load cell crept let it fall from 88 deg onto its stop at 327 deg/s,
   /// 2.2 deg into it; led, it is caught at 282 deg/s inside its range. 0 / inf: the angle alone.
-  double range_lead_s = 0.04;
+  /// Only a `governed` joint is led: the others (the wrist) are stopped by their own muscles' spring.
+  double range_lead_s = 0.035;  ///< the valves' dead time and lag (5 + 30 ms)
   double range_brake_radps2 = 34.9;  ///< 2000 deg/s^2
   /// The supply sensor below this x the configured supply: supply_low (0.6: the half supply of a
   /// failing compressor is caught; a plant capped at 0.6 of it still is not a fault).
