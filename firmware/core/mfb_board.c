@@ -175,6 +175,14 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
     jl->range_vent = false;
     jl->angle_lead_us = 0;
     jl->brake_counts_per_s2 = 0;
+    jl->speed_ceiling_counts_per_s = 0;
+    jl->speed_lead_us = 0;
+    if (!(isfinite(js->speed_ceiling_rad_per_s) && js->speed_ceiling_rad_per_s >= 0)) {
+      return fail(error, size, j, "", "speed_ceiling_rad_per_s: expected 0 (none) or a finite speed > 0", js->speed_ceiling_rad_per_s);
+    }
+    if (js->speed_ceiling_rad_per_s > 0 && js->encoder.channel < 0) {
+      return fail(error, size, j, "", "speed_ceiling_rad_per_s: expected 0 for a joint without an encoder", js->speed_ceiling_rad_per_s);
+    }
     if (js->encoder.channel >= 0) {
       const mfb_encoder_si* e = &js->encoder;
       if (e->channel >= MFB_ENCODER_CHANNELS || !isfinite(e->rad_per_count) || e->rad_per_count == 0 || !isfinite(e->offset_rad)) {
@@ -209,6 +217,16 @@ bool mfb_configure(const mfb_board_si* si, mfb_board_config* out, char* error, s
       jl->range_vent = js->range_vent;
       jl->angle_lead_us = js->range_vent ? (uint32_t)(js->angle_lead_s * 1e6 + 0.5) : 0;
       jl->brake_counts_per_s2 = js->range_vent ? (uint32_t)brake : 0;
+      /* In counts/s: at least 1, and below the speeds the window measures (clamped at 1e9). */
+      const double ceiling = js->speed_ceiling_rad_per_s / fabs(e->rad_per_count);
+      if (js->speed_ceiling_rad_per_s > 0 && !(ceiling >= 1.0 && ceiling < 1e9)) {
+        return fail(error, size, j, "", "speed_ceiling_rad_per_s: expected at least one count/s and below 1e9 counts/s", js->speed_ceiling_rad_per_s);
+      }
+      jl->speed_ceiling_counts_per_s = js->speed_ceiling_rad_per_s > 0 ? (uint32_t)ceiling : 0;
+      if (!(isfinite(js->speed_lead_s) && js->speed_lead_s >= 0 && js->speed_lead_s <= 1.0)) {
+        return fail(error, size, j, "", "speed_lead_s: expected 0 <= s <= 1", js->speed_lead_s);
+      }
+      jl->speed_lead_us = js->speed_ceiling_rad_per_s > 0 ? (uint32_t)(js->speed_lead_s * 1e6 + 0.5) : 0;
     }
   }
   return true;
@@ -437,20 +455,37 @@ static bool range_vents(const mfb_board* b, int j) {
   return b->cfg->joints[j].range_vent && !(b->armed && b->key_at_arming && procedure_key_turned(b));
 }
 
+static int64_t clamp_speed(int64_t speed) { return speed > 1000000000 ? 1000000000 : speed < -1000000000 ? -1000000000 : speed; }
+
+/* Joint `j`'s speed in counts/s over the rate window (0 before there is one), led by `lead_us`
+ * times its acceleration (the change of speed from the window's first half to its second, once the
+ * window is whole), within +-1e9 so that its square and the lead stay in int64. */
+static int64_t joint_speed(const mfb_board* b, int j, uint32_t lead_us) {
+  int oldest = 0;
+  const int64_t span_ns = window(b, &oldest);
+  if (span_ns <= 0) return 0;
+  const int64_t counts = b->inputs.encoder[b->cfg->joints[j].encoder];
+  const int64_t speed = clamp_speed((counts - b->history_counts[oldest][j]) * 1000000000 / span_ns); /* |delta| < 2^32, span >= 1 ns */
+  const int middle = (oldest + (b->history_count - 1) / 2) % MFB_RATE_WINDOW;
+  const int64_t first_ns = (int64_t)(b->history_ns[middle] - b->history_ns[oldest]), second_ns = span_ns - first_ns;
+  /* The change of speed only over a whole window: over 2 or 3 ms a count's quantisation alone would
+   * lead it by hundreds of deg/s. */
+  if (lead_us == 0 || b->history_count < MFB_RATE_WINDOW || first_ns <= 0 || second_ns <= 0) return speed;
+  const int64_t at_middle = b->history_counts[middle][j];
+  const int64_t first = clamp_speed((at_middle - b->history_counts[oldest][j]) * 1000000000 / first_ns);
+  const int64_t second = clamp_speed((counts - at_middle) * 1000000000 / second_ns);
+  /* the halves' centres are span / 2 apart; |second - first| <= 2e9, x 2e9 ns of lead: in int64 */
+  return clamp_speed(speed + (second - first) * 2 * (int64_t)lead_us * 1000 / span_ns);
+}
+
 /* Joint `j`'s counts as its range judges them: led, in the direction they move, by the speed over
  * the rate window times the valves' reaction (the muscle keeps pulling that long after its vent)
  * plus the distance the other muscle's deceleration needs to stop the joint. */
 static int64_t led_counts(const mfb_board* b, int j) {
   const mfb_joint_limit* jl = &b->cfg->joints[j];
-  const int64_t counts = b->inputs.encoder[jl->encoder];
-  int64_t led = counts;
-  int oldest = 0;
-  const int64_t span_ns = (jl->angle_lead_us > 0 || jl->brake_counts_per_s2 > 0) ? window(b, &oldest) : 0;
-  if (span_ns > 0) {
-    const int64_t delta = counts - b->history_counts[oldest][j];
-    int64_t speed = delta * 1000000000 / span_ns; /* counts/s; |delta| < 2^31, span >= 1 ns */
-    if (speed > 1000000000) speed = 1000000000;   /* its square and the lead stay in int64 */
-    if (speed < -1000000000) speed = -1000000000;
+  int64_t led = b->inputs.encoder[jl->encoder];
+  if (jl->angle_lead_us > 0 || jl->brake_counts_per_s2 > 0) {
+    const int64_t speed = joint_speed(b, j, 0);
     int64_t ahead = speed * (int64_t)jl->angle_lead_us / 1000000;
     if (jl->brake_counts_per_s2 > 0) {
       const int64_t stop = speed * speed / (2 * (int64_t)jl->brake_counts_per_s2);
@@ -473,6 +508,25 @@ static int range_side_inset(const mfb_board* b, int j, int64_t inset_counts) {
 
 static int range_side(const mfb_board* b, int j) { return range_side_inset(b, j, 0); }
 
+/* The way joint `j` moves faster than `fraction` of its speed ceiling: +1 up its angle, -1 down, 0
+ * slower (or no ceiling). */
+static int speed_side(const mfb_board* b, int j, double fraction) {
+  const mfb_joint_limit* jl = &b->cfg->joints[j];
+  if (jl->speed_ceiling_counts_per_s == 0) return 0;
+  const int64_t speed = joint_speed(b, j, jl->speed_lead_us);
+  const int64_t ceiling = (int64_t)((double)jl->speed_ceiling_counts_per_s * fraction);
+  const int side = speed > ceiling ? 1 : speed < -ceiling ? -1 : 0;
+  return jl->counts_rise_with_angle ? side : -side;
+}
+
+/* Joint `j` in direction `side` has its braking muscle (the other one) released from a force trip
+ * of its own once its load cell is below half its ceiling: a vent of the muscle driving the joint
+ * needs the other to stop it. */
+static void release_brake(mfb_board* b, int j, int side) {
+  const int brake = side > 0 ? MFB_ANTAGONIST : MFB_AGONIST;
+  if (released_below(b, &b->cfg->joints[j].muscle[brake])) b->vented_muscles &= (uint16_t)~(1u << (2 * j + brake));
+}
+
 int32_t mfb_board_range_margin(const mfb_board* b, int joint) {
   if (joint < 0 || joint >= b->cfg->joint_count || b->cfg->joints[joint].encoder < 0) return INT32_MAX;
   const mfb_joint_limit* jl = &b->cfg->joints[joint];
@@ -480,6 +534,11 @@ int32_t mfb_board_range_margin(const mfb_board* b, int joint) {
   const int64_t above = jl->max_counts - led, below = led - jl->min_counts;
   const int64_t margin = above < below ? above : below;
   return margin > INT32_MAX ? INT32_MAX : margin < INT32_MIN ? INT32_MIN : (int32_t)margin;
+}
+
+int32_t mfb_board_speed(const mfb_board* b, int joint) {
+  if (joint < 0 || joint >= b->cfg->joint_count || b->cfg->joints[joint].encoder < 0) return 0;
+  return (int32_t)joint_speed(b, joint, b->cfg->joints[joint].speed_lead_us); /* within +-1e9 */
 }
 
 void mfb_board_sample(mfb_board* b) {
@@ -514,13 +573,17 @@ void mfb_board_sample(mfb_board* b) {
       if (!(b->motors_off & bit)) ++b->counters.range_trips;
       /* The range's vent needs the other muscle to brake: a force trip of its own (an earlier
        * swing's) lets it refill as soon as its force is low, without waiting for an arming edge. */
-      const int brake = side > 0 ? MFB_ANTAGONIST : MFB_AGONIST;
-      if (range_vents(b, j) && released_below(b, &cfg->joints[j].muscle[brake])) {
-        b->vented_muscles &= (uint16_t)~(1u << (2 * j + brake));
-      }
+      if (range_vents(b, j)) release_brake(b, j, side);
       b->motors_off |= bit;
       if (side > 0) b->out_high |= bit;
       else b->out_high &= (uint8_t)~bit;
+    }
+    const int fast = speed_side(b, j, 1.0);
+    if (fast != 0) { /* latched per muscle: a swing back vents the other one too, it does not refill the first */
+      const uint16_t both = (uint16_t)(3u << (2 * j));
+      if (!(b->speed_vented & both)) ++b->counters.speed_trips;
+      b->speed_vented |= (uint16_t)(1u << (2 * j + (fast > 0 ? MFB_AGONIST : MFB_ANTAGONIST)));
+      if (!(b->speed_vented & (1u << (2 * j + (fast > 0 ? MFB_ANTAGONIST : MFB_AGONIST))))) release_brake(b, j, fast);
     }
   }
 }
@@ -530,9 +593,11 @@ static void rejudge_trips(mfb_board* b) {
   const mfb_board_config* cfg = b->cfg;
   const uint16_t tripped = b->vented_muscles;
   const uint8_t was_out = b->motors_off, was_high = b->out_high;
+  const uint16_t was_fast = b->speed_vented;
   b->vented_muscles = 0;
   b->motors_off = 0;
   b->out_high = 0;
+  b->speed_vented = 0;
   for (int j = 0; j < cfg->joint_count; ++j) {
     for (int m = 0; m < 2; ++m) {
       const uint16_t bit = (uint16_t)(1u << (2 * j + m));
@@ -559,13 +624,20 @@ static void rejudge_trips(mfb_board* b) {
       b->motors_off |= bit;
       b->out_high |= (uint8_t)(was_high & bit);
     }
+    /* A speed trip is released only once the joint is below MFB_SPEED_RELEASE_FRACTION of its
+     * ceiling (and, as the range's, not while a force trip of its joint holds): then its muscles
+     * together. */
+    const int fast = speed_side(b, j, (was_fast & both) ? MFB_SPEED_RELEASE_FRACTION : 1.0);
+    if (fast != 0 || force_holds) b->speed_vented |= (uint16_t)(was_fast & both);
+    if (fast != 0) b->speed_vented |= (uint16_t)(1u << (2 * j + (fast > 0 ? MFB_AGONIST : MFB_ANTAGONIST)));
   }
 }
 
 /* The muscles a board limit vents now, bit 2 x joint + muscle: those of a force trip and, for a
  * joint (about to be) out of range whose range vents (unless the procedure key was turned before
  * the arming edge and still is), the muscle that drives it further out (the agonist above the
- * range, the antagonist below); the other muscle keeps its command: it brakes and holds. */
+ * range, the antagonist below); the other muscle keeps its command: it brakes and holds. And the
+ * muscles a joint's speed ceiling vented (latched). */
 static uint16_t limit_vented(const mfb_board* b) {
   const mfb_board_config* cfg = b->cfg;
   uint16_t vented = b->vented_muscles;
@@ -574,20 +646,31 @@ static uint16_t limit_vented(const mfb_board* b) {
       vented |= (uint16_t)(1u << (2 * j + ((b->out_high & (1u << j)) ? MFB_AGONIST : MFB_ANTAGONIST)));
     }
   }
-  return vented;
+  return vented | b->speed_vented;
 }
 
-/* Vented muscles' valves go to their safe codes; a joint (about to be) out of range has its motor
- * at zero torque. */
+/* The motors a board limit cuts, bit joint: a joint (about to be) out of range or over its speed
+ * ceiling. */
+static uint8_t limit_motors_off(const mfb_board* b) {
+  uint8_t off = b->motors_off;
+  for (int j = 0; j < b->cfg->joint_count; ++j) {
+    if (b->speed_vented & (3u << (2 * j))) off |= (uint8_t)(1u << j);
+  }
+  return off;
+}
+
+/* Vented muscles' valves go to their safe codes; a joint (about to be) out of range or over its
+ * speed ceiling has its motor at zero torque. */
 static void apply_trips(mfb_board* b, uint16_t da[MFB_DA_CHANNELS]) {
   const mfb_board_config* cfg = b->cfg;
   const uint16_t vented = limit_vented(b);
+  const uint8_t motors_off = limit_motors_off(b);
   for (int j = 0; j < cfg->joint_count; ++j) {
     const mfb_joint_limit* jl = &cfg->joints[j];
     for (int m = 0; m < 2; ++m) {
       if (vented & (1u << (2 * j + m))) da[jl->muscle[m].valve_da] = cfg->safe_da[jl->muscle[m].valve_da];
     }
-    if ((b->motors_off & (1u << j)) && jl->motor_da >= 0) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
+    if ((motors_off & (1u << j)) && jl->motor_da >= 0) da[jl->motor_da] = cfg->safe_da[jl->motor_da];
   }
 }
 
@@ -704,7 +787,7 @@ static size_t encode_state(mfb_board* b, uint32_t session_id, uint32_t ack_seque
   s.board_nonce = nonce;
   s.boot_id = b->boot_id;
   s.limit_vented = limit_vented(b);
-  s.limit_motor_off = b->motors_off;
+  s.limit_motor_off = limit_motors_off(b);
   return mfb_encode_state(&s, b->cfg->key, b->hal->mac, b->hal->ctx, out, capacity);
 }
 

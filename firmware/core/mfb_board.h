@@ -16,11 +16,14 @@
  *   vents (`range_vent`) a joint whose angle, led by its speed over the valves' reaction time plus
  *   the distance the other muscle needs to stop it, passes an end of its range also has the muscle
  *   driving it out vented (the other keeps its command: it brakes and holds the limb), unless the
- *   rig's procedure key (a physical input) is turned. The trips
- *   latch until an arming edge finds the joint back inside and the load cell below half its
- *   ceiling, a joint's trips together (one muscle released while the other still vents would
- *   swing the limb); while the range vents, the muscle that brakes is released from a force trip
- *   of its own as soon as its load cell is below half its ceiling. No packet can change the limits.
+ *   rig's procedure key (a physical input) is turned; where the speed vents (`speed_vent`) a joint
+ *   whose speed, led by its acceleration over the valves' reaction time, passes its ceiling has its
+ *   motor cut and the muscle driving it that way vented (a swing back vents the other one too). The
+ *   trips latch until an arming edge finds the joint back inside (slower than half its speed
+ *   ceiling) and the load cell below half its ceiling, a joint's trips together (one muscle
+ *   released while the other still vents would swing the limb); while the range vents or the
+ *   speed trips, the muscle that brakes is released from a force trip of its own as soon as its
+ *   load cell is below half its ceiling. No packet can change the limits.
  *
  * The rules are those of docs/mfb-protocol.md (the host's side: include/peha/mfb/protocol.hpp).
  * Every function here is O(1), allocates nothing and never blocks. */
@@ -36,7 +39,7 @@ extern "C" {
 #define MFB_MAX_JOINTS 8
 #define MFB_AGONIST 0 /* drives the joint's angle up (docs/models.md: positive in its direction) */
 #define MFB_ANTAGONIST 1
-/* Samples over which a load cell's rate and a joint's speed are measured for the trips' leads: 8
+/* Samples over which a load cell's rate and a joint's speed (and its change) are measured for the trips: 8
  * board periods (8 ms), long enough that 1 N of load-cell noise leads the force by less than 10 N. */
 #define MFB_RATE_WINDOW 8
 /* A force trip is released (at an arming edge, or for the muscle a range trip needs as its brake)
@@ -46,6 +49,9 @@ extern "C" {
 /* A joint's range trip is released at an arming edge only once its led angle is inside the range
  * by this fraction of the range's span (hysteresis: docs/safety.md "The board's own limits"). */
 #define MFB_RANGE_RELEASE_FRACTION 0.05
+/* A joint's speed trip is released at an arming edge only once its speed is below this fraction of
+ * its ceiling: released while it still flies, the muscle it vented drives it on at once. */
+#define MFB_SPEED_RELEASE_FRACTION 0.5
 
 /* ---- the HAL: what a board provides (docs/porting.md) ---------------------------------------- */
 
@@ -107,6 +113,10 @@ typedef struct mfb_joint_si {
   bool range_vent;              /* and the muscle driving it out is vented, judged on the angle ... */
   double angle_lead_s;          /* ... + speed x this (the valves' reaction) ... */
   double brake_rad_per_s2;      /* ... + speed^2 / (2 x this): the deceleration the other muscle gives */
+  /* A joint whose speed, led by its acceleration x `speed_lead_s` (the valves' reaction), passes
+   * this has its motor cut and the muscle driving it that way vented, the other kept (0: none). */
+  double speed_ceiling_rad_per_s;
+  double speed_lead_s;
 } mfb_joint_si;
 
 typedef struct mfb_board_si {
@@ -144,6 +154,8 @@ typedef struct mfb_joint_limit {
   bool range_vent;              /* out of range also vents the muscle driving it out (else: motor only) */
   uint32_t angle_lead_us;       /* the range's lead for the speed (0: none) */
   uint32_t brake_counts_per_s2; /* the stopping distance's deceleration (0: no stopping distance) */
+  uint32_t speed_ceiling_counts_per_s; /* faster (led): the speed trip (0: none; needs the encoder) */
+  uint32_t speed_lead_us;       /* the speed trip's lead for the acceleration (0: the speed alone) */
 } mfb_joint_limit;
 
 /* The board's configuration in codes: what the loop reads. Immutable once made. */
@@ -198,6 +210,7 @@ typedef struct mfb_counters {
   uint64_t gaps;        /* sequence numbers skipped between accepted commands */
   uint64_t force_trips; /* muscles vented by their load cell's ceiling */
   uint64_t range_trips; /* joints (about to be) out of range: motor cut, the muscle driving out vented */
+  uint64_t speed_trips; /* joints (about to be) over their speed ceiling: motor cut, the muscle driving them vented */
   uint64_t clamped;     /* DA codes the ceilings clamped */
   uint64_t slewed;      /* DA codes the slew limit held back */
 } mfb_counters;
@@ -265,6 +278,7 @@ typedef struct mfb_board {
   uint16_t vented_muscles; /* bit 2*joint + muscle */
   uint8_t motors_off;      /* bit joint: (about to be) out of range */
   uint8_t out_high;        /* bit joint: out above max_angle_rad (else below min) */
+  uint16_t speed_vented;   /* bit 2*joint + muscle: vented by its joint's speed ceiling (latched) */
   uint32_t state_sequence;
 } mfb_board;
 
@@ -277,8 +291,9 @@ void mfb_board_init(mfb_board* b, const mfb_board_config* cfg, const mfb_hal* ha
  * sends mfb_board_answer_packet. */
 mfb_event mfb_board_receive(mfb_board* b, const uint8_t* datagram, size_t size, mfb_endpoint from, mfb_verdict* verdict);
 
-/* Samples every input through the HAL and checks the force ceilings (led by the force's rate) and
- * the joint ranges (led by the speed and the stopping distance), latching. */
+/* Samples every input through the HAL and checks the force ceilings (led by the force's rate), the
+ * joint ranges (led by the speed and the stopping distance) and the speed ceilings (led by the
+ * acceleration), latching. */
 void mfb_board_sample(mfb_board* b);
 
 /* Drives the outputs for this period from the newest sample and command: the command within the
@@ -317,6 +332,11 @@ static inline const mfb_inputs* mfb_board_inputs(const mfb_board* b) { return &b
  * negative outside (a trip); INT32_MAX for a joint without a range. A commissioning figure: how
  * close a legitimate run came to the range's vent. */
 int32_t mfb_board_range_margin(const mfb_board* b, int joint);
+/* Joint `joint`'s speed as its speed ceiling judges it: over the rate window, led by the change of
+ * speed between the window's halves x `speed_lead_s`, in encoder counts per second of the newest
+ * sample (0 before the window has two samples, or without an encoder). A commissioning figure: how
+ * close a legitimate run came to the ceiling. */
+int32_t mfb_board_speed(const mfb_board* b, int joint);
 /* The status bits of the next state packet. */
 uint8_t mfb_board_status(const mfb_board* b);
 

@@ -882,6 +882,154 @@ static void TheRangeMarginIsTheLedAnglesDistanceInsideTheNearerEnd(void) {
   CHECK_EQ(mfb_board_range_margin(&g_board, -1), INT32_MAX);
 }
 
+/* The speed ceiling: 400 deg/s (77.8 counts per 1 ms period), no lead. Moving up at 78 counts per
+ * period the joint passes it: its motor is cut and the agonist, which drives it that way, vented; the
+ * antagonist keeps its command and brakes. Moving at 77 it does not trip. */
+static void AJointOverItsSpeedCeilingCutsItsMotorAndVentsTheMuscleDrivingIt(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].speed_ceiling_rad_per_s = 400.0 * 3.141592653589793 / 180.0; /* 77777.8 counts/s */
+  power_on_with(&si);
+  const uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  g_bench.in.encoder[0] = -8000; /* still there for a window before the edge */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, 0, torque);
+  arm(7, torque);
+  const uint64_t trips_before = mfb_board_counters(&g_board)->speed_trips; /* the jump to -8000 was one */
+  int32_t counts = -8000;
+  for (int k = 0; k < 3 * MFB_RATE_WINDOW; ++k) {
+    counts += 77; /* 77000 counts/s: 396 deg/s */
+    g_bench.in.encoder[0] = counts;
+    send(7, MFB_COMMAND_ENABLE, torque);
+  }
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[2], 40000);
+  CHECK_EQ(mfb_board_speed(&g_board, 0), 77000);
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) {
+    counts += 78;
+    g_bench.in.encoder[0] = counts;
+    send(7, MFB_COMMAND_ENABLE, torque);
+  }
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], 19661); /* the antagonist brakes */
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  CHECK_EQ(mfb_board_counters(&g_board)->speed_trips, trips_before + 1);
+  CHECK_EQ(mfb_board_counters(&g_board)->range_trips, 0);
+  uint8_t out[MFB_STATE_PACKET_SIZE];
+  CHECK_EQ(mfb_board_state_packet(&g_board, out, sizeof out), MFB_STATE_PACKET_SIZE);
+  CHECK_EQ(out[114], 0x01); /* joint 0's agonist */
+  CHECK_EQ(out[116], 0x01); /* joint 0's motor */
+  /* Latched: slower again, the agonist stays vented until an arming edge. */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+}
+
+/* The speed trip is latched per muscle: the joint flung back down past the ceiling has its
+ * antagonist vented too, and the agonist does not refill (it would fling it up again). An arming
+ * edge releases both together, once the joint is below half the ceiling (38889 counts/s): at 40000
+ * counts/s they hold, at 38000 they are released. */
+static void ASpeedTripHoldsBothWaysUntilAnEdgeFindsTheJointBelowHalfItsCeiling(void) {
+  mfb_board_si si = rig_si();
+  si.joints[0].speed_ceiling_rad_per_s = 400.0 * 3.141592653589793 / 180.0;
+  power_on_with(&si);
+  const uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+  arm(7, torque);
+  int32_t counts = 0;
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) {
+    counts += 90;
+    g_bench.in.encoder[0] = counts;
+    send(7, MFB_COMMAND_ENABLE, torque);
+  }
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], 19661);
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) {
+    counts -= 90;
+    g_bench.in.encoder[0] = counts;
+    send(7, MFB_COMMAND_ENABLE, torque);
+  }
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  CHECK_EQ(mfb_board_counters(&g_board)->speed_trips, 1); /* one joint's trip */
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) {
+    counts -= 40; /* 40000 counts/s: above half the ceiling */
+    g_bench.in.encoder[0] = counts;
+    send(7, 0, torque);
+  }
+  counts -= 40;
+  g_bench.in.encoder[0] = counts;
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK(mfb_board_outputs_live(&g_board));
+  CHECK_EQ(g_bench.da[0], kSafeValve);
+  CHECK_EQ(g_bench.da[1], kSafeValve);
+  CHECK_EQ(g_bench.da[2], kSafeMotor);
+  for (int k = 0; k < MFB_RATE_WINDOW; ++k) {
+    counts -= 38; /* 38000 counts/s: below half */
+    g_bench.in.encoder[0] = counts;
+    send(7, 0, torque);
+  }
+  counts -= 38;
+  g_bench.in.encoder[0] = counts;
+  send(7, MFB_COMMAND_ENABLE, torque);
+  CHECK_EQ(g_bench.da[0], 19661);
+  CHECK_EQ(g_bench.da[1], 19661);
+  CHECK_EQ(g_bench.da[2], 40000);
+}
+
+/* The speed led by its acceleration over the valves' reaction: 50 ms of lead. A joint accelerating
+ * from rest at 2 counts per period per period (2e6 counts/s^2, 10 286 deg/s^2) is judged about
+ * 100 000 counts/s ahead of its speed, so it trips while still slow (the ceiling is 77 777
+ * counts/s); without the lead only once its speed passes the ceiling, 37 periods later. */
+static void TheSpeedTripLeadsTheSpeedByItsAccelerationTimesTheReaction(void) {
+  for (int lead = 1; lead >= 0; --lead) {
+    mfb_board_si si = rig_si();
+    si.joints[0].speed_ceiling_rad_per_s = 400.0 * 3.141592653589793 / 180.0;
+    si.joints[0].speed_lead_s = lead ? 0.050 : 0.0;
+    power_on_with(&si);
+    const uint16_t torque[MFB_DA_CHANNELS] = {19661, 19661, 40000, 0, 0, 0, 0, 0};
+    arm(7, torque);
+    int32_t counts = 0, step = 0;
+    int fired_at = -1;
+    for (int k = 1; k <= 100 && fired_at < 0; ++k) {
+      step += 2;
+      counts += step;
+      g_bench.in.encoder[0] = counts;
+      send(7, MFB_COMMAND_ENABLE, torque);
+      if (g_bench.da[0] == kSafeValve) fired_at = k;
+    }
+    /* With the lead: at k = 5 the window holds counts 0, 0, 0, 2, 6, 12, 20, 30 over 7 ms (4285
+     * counts/s); its halves, 0..2 over 3 ms and 2..30 over 4 ms (666 and 7000 counts/s), differ by
+     * 6333 over half the window: 4285 + 6333 x 50 / 3.5 = 94 770 > 77 777 (at k = 4: 59 427).
+     * Without: the window's mean speed passes 77 777 at k = 42 (78 000: the steps 72..84). */
+    CHECK_EQ(fired_at, lead ? 5 : 42);
+    CHECK_EQ(g_bench.da[1], 19661);
+  }
+  /* At a steady speed the lead adds nothing: 77 counts per period, a whole window, 77 000 counts/s. */
+  mfb_board_si steady = rig_si();
+  steady.joints[0].speed_ceiling_rad_per_s = 400.0 * 3.141592653589793 / 180.0;
+  steady.joints[0].speed_lead_s = 0.050;
+  power_on_with(&steady);
+  for (int32_t k = 1, counts = 0; k <= 2 * MFB_RATE_WINDOW; ++k) {
+    counts += 77;
+    g_bench.in.encoder[0] = counts;
+    send(7, 0, kHalfBar);
+  }
+  CHECK_EQ(mfb_board_speed(&g_board, 0), 77000);
+  mfb_board_si si = rig_si();
+  mfb_board_config cfg;
+  char error[200];
+  si.joints[0].speed_ceiling_rad_per_s = -1.0;
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK(strstr(error, "joints[0].speed_ceiling_rad_per_s") != NULL);
+  si = rig_si();
+  si.joints[0].speed_ceiling_rad_per_s = 1.0;
+  si.joints[0].speed_lead_s = 2.0;
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK(strstr(error, "joints[0].speed_lead_s") != NULL);
+  si = rig_si();
+  si.joints[0].speed_ceiling_rad_per_s = 1.0;
+  si.joints[0].encoder.channel = -1;
+  CHECK(!mfb_configure(&si, &cfg, error, sizeof error));
+  CHECK(strstr(error, "without an encoder") != NULL);
+}
+
 /* 2 MPa/s on a 0..1 MPa valve: 131.07 codes per 1 ms period (8589 / 65536 codes per us). A step to
  * the top rises along it to the 0.8 MPa ceiling in 401 ms; a fall is at once; the motor is not slewed. */
 static void TheSlewLimitHoldsAValveStepToItsRate(void) {
@@ -1031,6 +1179,9 @@ int main(void) {
   run(TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut, "TheStatePacketTellsTheHostWhichMusclesAndMotorsTheLimitsCut");
   run(TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance, "TheRangeTripsBeforeTheEndByTheSpeedAndTheStoppingDistance");
   run(TheRangeMarginIsTheLedAnglesDistanceInsideTheNearerEnd, "TheRangeMarginIsTheLedAnglesDistanceInsideTheNearerEnd");
+  run(AJointOverItsSpeedCeilingCutsItsMotorAndVentsTheMuscleDrivingIt, "AJointOverItsSpeedCeilingCutsItsMotorAndVentsTheMuscleDrivingIt");
+  run(ASpeedTripHoldsBothWaysUntilAnEdgeFindsTheJointBelowHalfItsCeiling, "ASpeedTripHoldsBothWaysUntilAnEdgeFindsTheJointBelowHalfItsCeiling");
+  run(TheSpeedTripLeadsTheSpeedByItsAccelerationTimesTheReaction, "TheSpeedTripLeadsTheSpeedByItsAccelerationTimesTheReaction");
   run(TheSlewLimitHoldsAValveStepToItsRate, "TheSlewLimitHoldsAValveStepToItsRate");
   run(TheForceTripLeadsTheForceByItsRateTimesTheReaction, "TheForceTripLeadsTheForceByItsRateTimesTheReaction");
   run(ConfigureNamesTheFieldAndWhatItFound, "ConfigureNamesTheFieldAndWhatItFound");

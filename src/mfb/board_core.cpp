@@ -53,6 +53,8 @@ mfb_board_config board_core_config(const ChannelMap& map, const LinkKey& key, do
     js.range_vent = l.range_vent;
     js.angle_lead_s = l.angle_lead_s;
     js.brake_rad_per_s2 = l.brake_rad_per_s2;
+    js.speed_ceiling_rad_per_s = limited ? l.speed_ceiling_rad_per_s : 0.0;
+    js.speed_lead_s = l.speed_lead_s;
   }
   mfb_board_config cfg{};
   char error[200];

@@ -41,13 +41,16 @@ std::string EmulatorStats::table() const {
       "oversized {}; hellos answered {}, unknown session (replays) {}\n"
       "simulation: {} periods on command, {} free-running; {} session(s), {} watchdog trip(s), {} e-stop cycles\n"
       "state packets: {} sent; injected loss {}, duplicate {}, reorder {}, corrupt {}, delay {}, burst {}\n"
-      "board limits: {} muscle(s) vented at their force ceiling, {} joint(s) (about to be) out of range, {} DA code(s) clamped, {} slewed\n"
-      "range margin while armed (the led angle's least distance inside the board range, per joint): {:.1f} deg",
+      "board limits: {} muscle(s) vented at their force ceiling, {} joint(s) (about to be) out of range, {} over their speed ceiling, "
+      "{} DA code(s) clamped, {} slewed\n"
+      "range margin while armed (the led angle's least distance inside the board range, per joint): {:.1f} deg\n"
+      "peak speed while armed (as the board's speed ceiling measures it, per joint): {:.0f} deg/s",
       received.accepted, received.foreign_source, received.foreign_session, received.duplicate, received.stale, received.malformed,
       received.unauthenticated, received.gaps, oversized, received.hellos, received.unknown_session,
       steps_on_command, steps_free_running, sessions, watchdog_trips, estop_cycles, states_sent, injected_loss, injected_duplicate,
-      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, clamped_codes, slewed_codes,
-      fmt::join(closest_range_deg.begin(), closest_range_deg.begin() + joints, ", "));
+      injected_reorder, injected_corrupt, injected_delay, injected_burst, force_trips, range_trips, speed_trips, clamped_codes,
+      slewed_codes, fmt::join(closest_range_deg.begin(), closest_range_deg.begin() + joints, ", "),
+      fmt::join(peak_speed_degps.begin(), peak_speed_degps.begin() + joints, ", "));
 }
 
 BoardEmulator::BoardEmulator(const EmulatorParams& params, ChannelMap map, std::function<std::unique_ptr<io::Backend>()> make_plant)
@@ -118,6 +121,7 @@ void BoardEmulator::note_core_counters() noexcept {
   stats_.received.gaps = c.gaps;
   stats_.force_trips = c.force_trips;
   stats_.range_trips = c.range_trips;
+  stats_.speed_trips = c.speed_trips;
   stats_.clamped_codes = c.clamped;
   stats_.slewed_codes = c.slewed;
 }
@@ -150,10 +154,13 @@ void BoardEmulator::apply_and_step(bool by_command) noexcept {
   note_core_counters();
   if (mfb_board_outputs_live(&core_)) {
     for (int j = 0; j < map_.joint_count(); ++j) {
+      const double deg_per_count = std::abs(map_.joint(j).encoder.rad_per_count) * (180.0 / std::numbers::pi);
+      double& fastest = stats_.peak_speed_degps[static_cast<std::size_t>(j)];
+      fastest = std::max(fastest, std::abs(static_cast<double>(mfb_board_speed(&core_, j))) * deg_per_count);
       const std::int32_t margin = mfb_board_range_margin(&core_, j);
       if (margin == INT32_MAX) continue;
       double& closest = stats_.closest_range_deg[static_cast<std::size_t>(j)];
-      closest = std::min(closest, margin * std::abs(map_.joint(j).encoder.rad_per_count) * (180.0 / std::numbers::pi));
+      closest = std::min(closest, margin * deg_per_count);
     }
   }
   ++(by_command ? stats_.steps_on_command : stats_.steps_free_running);

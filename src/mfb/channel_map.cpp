@@ -264,6 +264,12 @@ void read_board_limits(config::Map& root, const std::vector<std::string>& names,
       l.brake_rad_per_s2 = models::deg_to_rad(vent.number("brake_deg_per_s2", {1.0, 1e6}));
       vent.finish();
     }
+    if (item.has("speed_vent")) {
+      config::Map vent = item.map("speed_vent");
+      l.speed_ceiling_rad_per_s = models::deg_to_rad(vent.number("ceiling_deg_per_s", {1.0, 1e5}));
+      l.speed_lead_s = vent.number("lead_ms", {0.0, 1000.0}) * 1e-3;
+      vent.finish();
+    }
     item.finish();
   }
 }

@@ -587,6 +587,25 @@ TEST(ChannelMapReader, ReadsTheProcedureKeyOnALineOfItsOwn) {
               HasSubstr("digital.procedure_key_input: line 0 is the e-stop's: the key needs an input of its own"));
 }
 
+// `speed_vent:` is optional per joint: without it no speed ceiling (0); with it both fields, within
+// their bounds, and nothing else.
+TEST(ChannelMapReader, ReadsASpeedVentWithinItsBounds) {
+  const std::string limits = "board_limits:\n  - {joint: knee, agonist_force_N: 2000, antagonist_force_N: 630, agonist_pressure_MPa: 0.8, "
+                             "antagonist_pressure_MPa: 0.8, pressure_rise_MPa_per_s: 10, force_lead_ms: 25, motor_torque_Nm: 2.5, "
+                             "angle_deg: [-45, 45]";
+  EXPECT_EQ(load(kKnee + limits + "}\n").joint(0).board_limits.speed_ceiling_rad_per_s, 0.0);
+  const BoardLimits l = load(kKnee + limits + ", speed_vent: {ceiling_deg_per_s: 450, lead_ms: 60}}\n").joint(0).board_limits;
+  EXPECT_NEAR(l.speed_ceiling_rad_per_s, 450.0 * std::numbers::pi / 180.0, 1e-12);
+  EXPECT_NEAR(l.speed_lead_s, 0.060, 1e-12);
+  EXPECT_THAT(error_of(kKnee + limits + ", speed_vent: {ceiling_deg_per_s: 0, lead_ms: 60}}\n"),
+              HasSubstr("board_limits[0].speed_vent.ceiling_deg_per_s"));
+  EXPECT_THAT(error_of(kKnee + limits + ", speed_vent: {ceiling_deg_per_s: 450, lead_ms: 2000}}\n"),
+              HasSubstr("board_limits[0].speed_vent.lead_ms"));
+  EXPECT_THAT(error_of(kKnee + limits + ", speed_vent: {ceiling_deg_per_s: 450}}\n"), HasSubstr("board_limits[0].speed_vent.lead_ms"));
+  EXPECT_THAT(error_of(kKnee + limits + ", speed_vent: {ceiling_deg_per_s: 450, lead_ms: 60, brake_deg_per_s2: 500}}\n"),
+              HasSubstr("board_limits[0].speed_vent.brake_deg_per_s2: unknown key"));
+}
+
 TEST(ChannelMapReader, RejectsUnknownKeys) {
   EXPECT_THAT(error_after("scale: 0.1, offset: 0}", "scale: 0.1, offset: 0, gain: 2}"),
               HasSubstr("knee.yaml:3:81: analog_inputs[0].gain: unknown key"));

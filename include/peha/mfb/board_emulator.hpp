@@ -90,12 +90,15 @@ struct EmulatorStats {
   std::uint64_t injected_loss = 0, injected_duplicate = 0, injected_reorder = 0, injected_corrupt = 0, injected_delay = 0;
   /// The board's own limits (firmware core): muscles vented by their load cell's ceiling, joints
   /// tripped by their range, DA codes clamped to their ceilings, valve codes held by the slew limit.
-  std::uint64_t force_trips = 0, range_trips = 0, clamped_codes = 0, slewed_codes = 0;
+  std::uint64_t force_trips = 0, range_trips = 0, speed_trips = 0, clamped_codes = 0, slewed_codes = 0;
   /// Per joint (the channel map's order), the least margin of its led angle (as the range vent
   /// judges it: the speed x lead + the stopping distance) inside its board range while the outputs
   /// were armed, deg; negative: it tripped; +inf: never armed, or no range (mfb_board_range_margin).
   std::array<double, MFB_MAX_JOINTS> closest_range_deg;
-  int joints = 0;  ///< joints of the map: the entries of closest_range_deg that count
+  /// Per joint, the highest |speed| the board measured (its speed ceiling's judgement, the rate
+  /// window) while the outputs were armed, deg/s (mfb_board_speed).
+  std::array<double, MFB_MAX_JOINTS> peak_speed_degps{};
+  int joints = 0;  ///< joints of the map: the entries of closest_range_deg and peak_speed_degps that count
   EmulatorStats() { closest_range_deg.fill(std::numeric_limits<double>::infinity()); }
   std::string table() const;
 };

@@ -106,6 +106,10 @@ struct BoardLimits {
   bool range_vent = false;
   double angle_lead_s = 0;                   ///< the range's lead on the speed: the valves' reaction time
   double brake_rad_per_s2 = 0;               ///< the deceleration the braking muscle gives (0: no stopping distance)
+  /// `speed_vent:` given (else 0): a joint whose speed, led by its acceleration x `speed_lead_s`,
+  /// passes `speed_ceiling_rad_per_s` has its motor cut and the muscle driving it vented, the other kept.
+  double speed_ceiling_rad_per_s = 0;
+  double speed_lead_s = 0;                   ///< the speed trip's lead on the acceleration: the valves' reaction time
 };
 
 /// Every channel of one joint.
