@@ -185,6 +185,30 @@ TEST(E4, ThePamsCarryTheBriskStrokeSoTheMotorDoesNotSaturateAndWhipTheWrist) {
   EXPECT_TRUE(testing::fails_on(slower_late.verdict, "R_WFE passive peak speed")) << slower_late.verdict.failures();
 }
 
+// Issue 31: a person's 7 Hz, 3 deg tremor on the slow movement. The exoskeleton follows the voluntary
+// movement: the tremor filter (goniometer.tremor) takes it out of the reading and the tracking is
+// judged against the movement without it. Without the filter the tremor goes through the inverse
+// dynamics: more than 1 Nm above 10 Hz (the figure fails) and the wrist shaken past 300 deg/s.
+TEST(E4, APersonsTremorIsNotFollowed) {
+  const ArmScenario shipped = test_support::shipped_right_arm();
+  ASSERT_TRUE(shipped.goniometer.tremor.has_value());
+  ArmScenario::Goniometer::Movement m = movement(shipped, "slow");
+  m.tremor_amplitude_rad = models::deg_to_rad(3.0);
+  m.tremor_frequency_Hz = 7.0;
+  const GoniometerTrace t = synthesize_goniometer(shipped.goniometer, m, shipped.seed);
+  const GoniometerResult filtered = run_goniometer(shipped, {t}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_TRUE(filtered.within_limits) << filtered.verdict.failures();
+  EXPECT_LT(filtered.joints[0].rms_error_deg, 3.0);  // against the voluntary movement
+  ArmScenario unfiltered = shipped;
+  unfiltered.goniometer.tremor.reset();
+  const GoniometerResult shaking = run_goniometer(unfiltered, {t}, GoniometerVariant::kFeedback, nullptr);
+  EXPECT_TRUE(testing::fails_on(shaking.verdict, "R_EFE torque command above 10 Hz (RMS)")) << shaking.verdict.failures();
+  EXPECT_GT(shaking.joints[0].command_hf_rms_Nm, 1.0);
+  ASSERT_EQ(shaking.passive.size(), 1u);
+  EXPECT_GT(shaking.passive[0].value, 300.0);
+  EXPECT_LT(filtered.passive[0].value, 0.6 * shaking.passive[0].value);
+}
+
 // The log keeps the single-elbow column names when one joint is driven (tools/plot_goniometer.py and
 // the videos read them); with both elbows of the upper body driven each elbow's columns start with its
 // log name, and every held joint (shoulders, named in goniometer.angles_deg) has its angle and gravity

@@ -310,6 +310,33 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   g.rejoin_rate_radps = models::deg_to_rad(rejoin.number("rate_degps", {1.0, 180.0}));
   g.rejoin_lead_rad = models::deg_to_rad(rejoin.number("lead_deg", {0.1, 30.0}));
   rejoin.finish();
+  if (gon.has("tremor")) {
+    config::Map t = gon.map("tremor");
+    control::TremorFilterParams& p = g.tremor.emplace();
+    p.sample_rate_Hz = g.sample_rate_Hz;
+    const double nyquist_Hz = 0.5 * g.sample_rate_Hz;
+    p.min_frequency_Hz = t.number("min_frequency_Hz", {0.5, nyquist_Hz});
+    p.max_frequency_Hz = t.number("max_frequency_Hz", {0.5, nyquist_Hz});
+    p.initial_frequency_Hz = t.number("initial_frequency_Hz", {0.5, nyquist_Hz});
+    p.highpass_Hz = t.number("highpass_Hz", {0.1, nyquist_Hz});
+    p.amplitude_rate = t.number("amplitude_rate", {1e-6, 0.5});
+    p.frequency_rate = t.number("frequency_rate", {1e-6, 0.5});
+    p.tracking_rate = t.number("tracking_rate", {1e-6, 0.5});
+    p.gate_on_rad = models::deg_to_rad(t.number("gate_on_deg", {0.0, 30.0}));
+    p.gate_full_rad = models::deg_to_rad(t.number("gate_full_deg", {0.0, 30.0}));
+    try {
+      (void)control::make_tremor_filter(p);
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      const char* key = "min_frequency_Hz";  // the band's order, unless the message names another
+      for (const char* k : {"highpass_Hz", "amplitude_rate", "frequency_rate", "tracking_rate"}) {
+        if (what.find(k) != std::string::npos) key = k;
+      }
+      if (what.find("gate") != std::string::npos) key = "gate_full_deg";
+      t.fail(key, what);
+    }
+    t.finish();
+  }
   config::Map th = gon.map("thresholds");
   g.max_held_excursion_deg = th.number("max_held_excursion_deg", {0.0, 180.0});
   g.max_passive_speed_degps = th.number("max_passive_speed_degps", {0.0, 5000.0});

@@ -6,6 +6,7 @@
 #include "peha/control/butterworth.hpp"
 #include "peha/sim/plant_faults.hpp"
 #include "peha/control/motion_estimator.hpp"
+#include "peha/control/tremor_filter.hpp"
 #include "peha/control/one_dof_gravity.hpp"
 #include "peha/experiments/common/log_row.hpp"
 #include "peha/models/joint.hpp"
@@ -22,6 +23,7 @@
 #include <limits>
 #include <memory>
 #include <numbers>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -82,6 +84,7 @@ GoniometerTrace synthesize_goniometer(const ArmScenario::Goniometer& g, const Ar
         angle = m.to_rad + (m.from_rad - m.to_rad) * sim::minimum_jerk((tc - 2.0 * m.pause_s - m.move_s) / m.move_s);
       }
     }
+    trace.voluntary_rad.push_back(angle);
     // The tremor starts from 0 at t = 0, so the arm starts where the person does.
     angle += m.tremor_amplitude_rad * std::sin(2.0 * std::numbers::pi * m.tremor_frequency_Hz * t);
     trace.truth_rad.push_back(angle);
@@ -184,6 +187,7 @@ GoniometerTrace read_goniometer_csv(const std::filesystem::path& path, double sa
   }
   if (trace.measured_rad.size() < 2) throw calibration::DataError(fmt::format("{}: fewer than 2 samples", file));
   trace.truth_rad = trace.measured_rad;  // a recording is all we know of the person
+  trace.voluntary_rad = trace.measured_rad;
   return trace;
 }
 
@@ -368,8 +372,9 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
   }
   for (const GoniometerTrace& trace : traces) {
     if (trace.measured_rad.empty() || trace.truth_rad.size() != trace.measured_rad.size() ||
-        trace.measured_rad.size() != traces.front().measured_rad.size()) {
-      throw std::invalid_argument("run_goniometer: empty trace, truth/measured size mismatch or traces of different lengths");
+        trace.measured_rad.size() != traces.front().measured_rad.size() ||
+        (!trace.voluntary_rad.empty() && trace.voluntary_rad.size() != trace.measured_rad.size())) {
+      throw std::invalid_argument("run_goniometer: empty trace, truth/voluntary/measured size mismatch or traces of different lengths");
     }
   }
   const double settle_s = scenario.goniometer.settle_s, rate_Hz = scenario.goniometer.sample_rate_Hz;
@@ -379,7 +384,9 @@ GoniometerResult run_goniometer(const ArmScenario& scenario, const std::vector<G
   } else {
     for (const GoniometerTrace& trace : traces) {
       readings.push_back([&](double t) { return goniometer_reading(scenario, trace, t); });
-      persons.push_back([&](double t) { return sample_at(trace.truth_rad, rate_Hz, t - settle_s); });
+      // Judged against what the person means to do: a tremor is not followed (its own figure).
+      const std::vector<double>& person = trace.voluntary_rad.empty() ? trace.truth_rad : trace.voluntary_rad;
+      persons.push_back([&person, rate_Hz, settle_s](double t) { return sample_at(person, rate_Hz, t - settle_s); });
     }
   }
   return run_goniometer_on(scenario, traces.front().name, variant, goniometer_run_duration_s(scenario, traces.front()), *hw.backend,
@@ -402,6 +409,8 @@ struct Driven {
         acceleration_estimator(control::make_motion_estimator(s.goniometer.sample_rate_Hz, goniometer_noise_rad(s.goniometer),
                                                               s.goniometer.acceleration_jerk_density_rad2ps5)),
         command_smooth(s.goniometer.smoothing_order, s.goniometer.command_cutoff_Hz, 1.0 / s.period_s),
+        tremor_model(s.goniometer.tremor ? std::optional(control::make_tremor_filter(*s.goniometer.tremor)) : std::nullopt),
+        tremor(tremor_model ? control::make_tremor_filter_data(*tremor_model) : control::TremorFilterData{}),
         exo(steps + 1),
         truth(steps + 1),
         command(steps + 1),
@@ -415,6 +424,9 @@ struct Driven {
   const control::MotionEstimatorModel acceleration_estimator;
   control::MotionEstimatorData motion;
   control::ButterworthFilter command_smooth;  ///< at the control rate
+  /// The person's tremor out of the reading before everything else (goniometer.tremor; absent: none)
+  std::optional<control::TremorFilterModel> tremor_model;
+  control::TremorFilterData tremor;
   double rate = 0.0;                      ///< the smoothed rate at the latest sample, rad/s
   double sample_time_s = 0.0;             ///< when the latest goniometer sample came
   bool sampled = false;
@@ -673,13 +685,14 @@ struct GoniometerRun {
     for (std::size_t n = 0; n < driven.size(); ++n) {
       Driven& j = driven[n];
       j.goniometer = readings[n](state.time_s);
-      j.d = j.derivative.step(j.goniometer);
+      const double voluntary = j.tremor_model ? control::tremor_filter_step(*j.tremor_model, j.tremor, j.goniometer) : j.goniometer;
+      j.d = j.derivative.step(voluntary);
       if (!j.sampled) {
         j.rate_smooth.reset(j.d.rate);
         j.sampled = true;
       }
       j.rate = j.rate_smooth.step(j.d.rate);
-      control::update_motion_estimate(j.acceleration_estimator, j.motion, j.goniometer, state.time_s);
+      control::update_motion_estimate(j.acceleration_estimator, j.motion, voluntary, state.time_s);
       j.sample_time_s = state.time_s;
       q[j.q] = j.d.value;
       qd[j.q] = j.d.rate;

@@ -6,6 +6,7 @@
 
 #include "peha/config/reader.hpp"
 #include "peha/control/arm_controller.hpp"
+#include "peha/control/tremor_filter.hpp"
 #include "peha/runtime/log_telemetry.hpp"
 #include "peha/runtime/csv_log.hpp"
 #include "peha/mfb/link_config.hpp"
@@ -110,6 +111,10 @@ struct ArmScenario {
     /// starts where the joint is and closes its gap at the same rate. No catch-up lunge.
     double rejoin_rate_radps = 0.5;
     double rejoin_lead_rad = 0.09;
+    /// The person's tremor taken out of each goniometer's reading before the filter (`tremor:`,
+    /// control/tremor_filter.hpp): the exoskeleton follows the voluntary movement. Absent: the
+    /// reading as it is.
+    std::optional<control::TremorFilterParams> tremor;
     /// E4's own figures' thresholds (`thresholds:`), judged in its verdict with the tracking figures.
     double max_held_excursion_deg = 2.0;      ///< each held joint: largest |q - q at release|
     double max_passive_speed_degps = 400.0;   ///< each joint held at a constant pressure (the wrist): peak |speed|

@@ -33,6 +33,9 @@ struct GoniometerTrace {
   double sample_rate_Hz = 200;
   std::vector<double> measured_rad; ///< the goniometer's readings, one per sample
   std::vector<double> truth_rad;    ///< the person's elbow at each sample (= measured for a recording)
+  /// What the person means to do: truth_rad without the person's tremor (= truth_rad for a recording
+  /// or a person without one). E4's tracking figures are judged against it: a tremor is not followed.
+  std::vector<double> voluntary_rad;
   double duration_s() const { return static_cast<double>(measured_rad.size()) / sample_rate_Hz; }
 };
 

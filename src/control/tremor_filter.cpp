@@ -1,0 +1,106 @@
+#include "peha/control/tremor_filter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace peha::control {
+namespace {
+
+[[noreturn]] void fail(const std::string& what) { throw std::invalid_argument("tremor filter: " + what); }
+
+/// A Butterworth high-pass at `cutoff_Hz`: the low-pass at fs/2 - cutoff with z^-1 -> -z^-1, which
+/// mirrors its response about fs/4 (the low-pass's cut-off lands at `cutoff_Hz`, its DC at Nyquist).
+ButterworthDesign highpass(int order, double cutoff_Hz, double fs_Hz) {
+  ButterworthDesign d = design_butterworth_lowpass(order, 0.5 * fs_Hz - cutoff_Hz, fs_Hz);
+  for (int i = 0; i < d.section_count; ++i) {
+    SecondOrderSection& s = d.sections[static_cast<std::size_t>(i)];
+    s.b1 = -s.b1;
+    s.a1 = -s.a1;
+  }
+  d.cutoff_Hz = cutoff_Hz;
+  d.poles.clear();  // the low-pass's; the sections are what runs
+  d.b.clear();
+  d.a.clear();
+  return d;
+}
+
+}  // namespace
+
+TremorFilterModel make_tremor_filter(const TremorFilterParams& p) {
+  const double nyquist = 0.5 * p.sample_rate_Hz;
+  if (!(std::isfinite(p.sample_rate_Hz) && p.sample_rate_Hz > 0)) fail("sample_rate_Hz must be finite and > 0");
+  if (!(p.min_frequency_Hz > 0 && p.min_frequency_Hz < p.initial_frequency_Hz && p.initial_frequency_Hz < p.max_frequency_Hz &&
+        p.max_frequency_Hz < nyquist)) {
+    fail("expected 0 < min_frequency_Hz < initial_frequency_Hz < max_frequency_Hz < the Nyquist frequency");
+  }
+  if (!(p.highpass_Hz > 0 && p.highpass_Hz < p.min_frequency_Hz)) fail("highpass_Hz must be in (0, min_frequency_Hz)");
+  if (!(p.amplitude_rate > 0 && p.amplitude_rate < 1)) fail("amplitude_rate must be in (0, 1)");
+  if (!(p.frequency_rate > 0 && p.frequency_rate < 1)) fail("frequency_rate must be in (0, 1)");
+  if (!(p.tracking_rate > 0 && p.tracking_rate < 1)) fail("tracking_rate must be in (0, 1)");
+  if (!(p.gate_on_rad >= 0 && p.gate_full_rad > p.gate_on_rad && std::isfinite(p.gate_full_rad))) {
+    fail("expected 0 <= gate_on_rad < gate_full_rad");
+  }
+  TremorFilterModel m;
+  m.params = p;
+  m.highpass = highpass(4, p.highpass_Hz, p.sample_rate_Hz);
+  const double per_sample = 2.0 * std::numbers::pi / p.sample_rate_Hz;
+  m.min_omega = p.min_frequency_Hz * per_sample;
+  m.max_omega = p.max_frequency_Hz * per_sample;
+  m.initial_omega = p.initial_frequency_Hz * per_sample;
+  return m;
+}
+
+TremorFilterData make_tremor_filter_data(const TremorFilterModel& m) noexcept {
+  TremorFilterData d;
+  d.omega = m.initial_omega;
+  return d;
+}
+
+double tremor_filter_step(const TremorFilterModel& m, TremorFilterData& d, double x) noexcept {
+  if (!std::isfinite(x)) return x;
+  if (!d.started) {  // the high-pass at rest at the first reading
+    d.started = true;
+    d.origin = x;
+  }
+  const TremorFilterParams& p = m.params;
+  double s = x - d.origin;
+  for (int i = 0; i < m.highpass.section_count; ++i) {  // transposed direct form II
+    const SecondOrderSection& c = m.highpass.sections[static_cast<std::size_t>(i)];
+    std::array<double, 2>& z = d.highpass[static_cast<std::size_t>(i)];
+    const double y = c.b0 * s + z[0];
+    z[0] = c.b1 * s - c.a1 * y + z[1];
+    z[1] = c.b2 * s - c.a2 * y;
+    s = y;
+  }
+  const double x1 = std::sin(d.phase), x2 = std::cos(d.phase);
+  const double e = s - (d.w1 * x1 + d.w2 * x2);
+  // The frequency's step normalised by the fitted power (a0 keeps it bounded with no tremor yet).
+  const double a0 = p.gate_on_rad;
+  const double power = d.w1 * d.w1 + d.w2 * d.w2 + a0 * a0;
+  d.omega = std::clamp(d.omega + 2.0 * p.frequency_rate * e * (d.w1 * x2 - d.w2 * x1) / power, m.min_omega, m.max_omega);
+  d.w1 += 2.0 * p.amplitude_rate * e * x1;
+  d.w2 += 2.0 * p.amplitude_rate * e * x2;
+  const double e_fast = s - (d.v1 * x1 + d.v2 * x2);
+  d.v1 += 2.0 * p.tracking_rate * e_fast * x1;
+  d.v2 += 2.0 * p.tracking_rate * e_fast * x2;
+  // The fits are of the high-passed tremor: back to the reading's by 1 / H at the fitted frequency.
+  const double f_Hz = d.omega * p.sample_rate_Hz / (2.0 * std::numbers::pi);
+  const std::complex<double> h = frequency_response(m.highpass, f_Hz);
+  const std::complex<double> raw = std::complex<double>(d.v2, -d.v1) / h;  // v1 sin + v2 cos = Re{(v2 - j v1) e^{j phi}}
+  const double amplitude = std::hypot(d.w1, d.w2);
+  d.gate = std::clamp((amplitude - p.gate_on_rad) / (p.gate_full_rad - p.gate_on_rad), 0.0, 1.0);
+  d.tremor = d.gate * (raw * std::polar(1.0, d.phase)).real();
+  d.phase = std::remainder(d.phase + d.omega, 2.0 * std::numbers::pi);
+  return x - d.tremor;
+}
+
+double tremor_amplitude_rad(const TremorFilterData& d) noexcept { return std::hypot(d.w1, d.w2); }
+
+double tremor_frequency_Hz(const TremorFilterModel& m, const TremorFilterData& d) noexcept {
+  return d.omega * m.params.sample_rate_Hz / (2.0 * std::numbers::pi);
+}
+
+}  // namespace peha::control
