@@ -477,6 +477,29 @@ TEST(ArmScenario, E4AndE6ReadTheirJointsAndPosturesByName) {
 // time with the file, the field and expected vs found: a passive joint (R_WR) or one the arm does not
 // have, the wrist held at a constant pressure, a held posture naming a driven joint, a bench posture
 // without the swept joint.
+// goniometer.tremor: a filter that could not work is refused by the key that breaks it, with the
+// file and line (a high-pass above the band it searches would take the tremor out of the fit's input).
+TEST(ArmScenario, RefusesATremorFilterThatCannotWork) {
+  const testing::EditedConfig config("right_arm.yaml", "arm_tremor");
+  auto error_after = [&](const std::string& from, const std::string& to) {
+    bool found = false;
+    const std::filesystem::path path = config.write_replacing(from, to, &found);
+    EXPECT_TRUE(found) << from;
+    try {
+      read_arm_scenario(config::Document::load_file(path));
+    } catch (const config::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  using ::testing::HasSubstr;
+  EXPECT_THAT(error_after("highpass_Hz: 3.5", "highpass_Hz: 5.0"), HasSubstr("goniometer.tremor.highpass_Hz"));
+  EXPECT_THAT(error_after("highpass_Hz: 3.5", "highpass_Hz: 5.0"), HasSubstr("right_arm.yaml:"));
+  EXPECT_THAT(error_after("gate_full_deg: 0.7", "gate_full_deg: 0.2"), HasSubstr("goniometer.tremor.gate_full_deg"));
+  EXPECT_THAT(error_after("initial_frequency_Hz: 7.0", "initial_frequency_Hz: 13.0"), HasSubstr("goniometer.tremor.min_frequency_Hz"));
+  EXPECT_THAT(error_after("tracking_rate: 0.1", "tracking_rate: 0.9"), HasSubstr("goniometer.tremor.tracking_rate"));
+}
+
 TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
   const testing::EditedConfig config("right_arm.yaml", "arm_e4e6");
   auto error_after = [&](const std::string& from, const std::string& to) {
@@ -492,7 +515,19 @@ TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
   };
   using ::testing::HasSubstr;
   const std::string passive = error_after("joints: [R_EFE]", "joints: [R_WR]");
-  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:263:"));  // file and line of the list item
+  int line = 0;  // the line of the list item in the shipped file (1-based)
+  {
+    std::ifstream shipped(PEHA_SOURCE_DIR "/configs/right_arm.yaml");
+    std::string text;
+    for (int n = 1; std::getline(shipped, text); ++n) {
+      if (text.find("joints: [R_EFE]") != std::string::npos) {
+        line = n;
+        break;
+      }
+    }
+  }
+  ASSERT_GT(line, 0);
+  EXPECT_THAT(passive, HasSubstr("right_arm.yaml:" + std::to_string(line) + ":"));  // file and line of the list item
   EXPECT_THAT(passive, HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'R_WR'"));
   EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [L_EFE]"), HasSubstr("goniometer.joints[0]: expected one of {R_SFE, R_EFE, R_WFE}, found 'L_EFE'"));
   EXPECT_THAT(error_after("joints: [R_EFE]", "joints: [R_EFE, R_WFE]"),
