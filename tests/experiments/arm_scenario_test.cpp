@@ -477,21 +477,24 @@ TEST(ArmScenario, E4AndE6ReadTheirJointsAndPosturesByName) {
 // time with the file, the field and expected vs found: a passive joint (R_WR) or one the arm does not
 // have, the wrist held at a constant pressure, a held posture naming a driven joint, a bench posture
 // without the swept joint.
+/// The error reading `config` with `from` replaced by `to` gives ("" if it reads).
+std::string read_error_after(const testing::EditedConfig& config, const std::string& from, const std::string& to) {
+  bool found = false;
+  const std::filesystem::path path = config.write_replacing(from, to, &found);
+  EXPECT_TRUE(found) << from;
+  try {
+    read_arm_scenario(config::Document::load_file(path));
+  } catch (const config::Error& e) {
+    return std::string(e.what());
+  }
+  return std::string();
+}
+
 // goniometer.tremor: a filter that could not work is refused by the key that breaks it, with the
 // file and line (a high-pass above the band it searches would take the tremor out of the fit's input).
 TEST(ArmScenario, RefusesATremorFilterThatCannotWork) {
   const testing::EditedConfig config("right_arm.yaml", "arm_tremor");
-  auto error_after = [&](const std::string& from, const std::string& to) {
-    bool found = false;
-    const std::filesystem::path path = config.write_replacing(from, to, &found);
-    EXPECT_TRUE(found) << from;
-    try {
-      read_arm_scenario(config::Document::load_file(path));
-    } catch (const config::Error& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
+  auto error_after = [&](const std::string& from, const std::string& to) { return read_error_after(config, from, to); };
   using ::testing::HasSubstr;
   EXPECT_THAT(error_after("highpass_Hz: 3.5", "highpass_Hz: 5.0"), HasSubstr("goniometer.tremor.highpass_Hz"));
   EXPECT_THAT(error_after("highpass_Hz: 3.5", "highpass_Hz: 5.0"), HasSubstr("right_arm.yaml:"));
@@ -502,17 +505,7 @@ TEST(ArmScenario, RefusesATremorFilterThatCannotWork) {
 
 TEST(ArmScenario, RefusesE4AndE6JointsTheArmCannotDrive) {
   const testing::EditedConfig config("right_arm.yaml", "arm_e4e6");
-  auto error_after = [&](const std::string& from, const std::string& to) {
-    bool found = false;
-    const std::filesystem::path path = config.write_replacing(from, to, &found);
-    EXPECT_TRUE(found) << from;
-    try {
-      read_arm_scenario(config::Document::load_file(path));
-    } catch (const config::Error& e) {
-      return std::string(e.what());
-    }
-    return std::string();
-  };
+  auto error_after = [&](const std::string& from, const std::string& to) { return read_error_after(config, from, to); };
   using ::testing::HasSubstr;
   const std::string passive = error_after("joints: [R_EFE]", "joints: [R_WR]");
   int line = 0;  // the line of the list item in the shipped file (1-based)
