@@ -17,7 +17,7 @@ std::size_t index_of(std::uint32_t flag) { return static_cast<std::size_t>(std::
 /// E1 (both payloads) shortened to its start-up, hold and first push (9 s), seeds 1-2, noise x1 and x3.
 FalseAlarmConfig short_e1() {
   FalseAlarmConfig c;
-  c.cases = {{"e1", FalseAlarmRun::kE1, PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml"}};
+  c.cases = {{"e1", FalseAlarmRun::kE1, PEHA_SOURCE_DIR "/configs/e1_one_dof.yaml", {}}};
   c.noise_scales = {1.0, 3.0};
   c.seeds = 2;
   c.variant_seeds = 0;
@@ -52,7 +52,7 @@ TEST(FalseAlarms, ShortE1RunsTripNoCheckAndKeepTheMargin) {
 // (a second each): they compared and tripped nothing.
 TEST(FalseAlarms, AnE4CaseRunsBothMovementsToTheirEnd) {
   FalseAlarmConfig c;
-  c.cases = {{"e4", FalseAlarmRun::kGoniometer, PEHA_SOURCE_DIR "/configs/right_arm.yaml"}};
+  c.cases = {{"e4", FalseAlarmRun::kGoniometer, PEHA_SOURCE_DIR "/configs/right_arm.yaml", {}}};
   c.noise_scales = {1.0};
   c.seeds = 1;
   c.variant_seeds = 0;
