@@ -362,6 +362,7 @@ void read_identification(config::Map id, ArmScenario& s) {
   d.settle_s = id.number("settle_s", {0.0, 60.0});
   d.min_speed_fraction = id.number("min_speed_fraction", {0.0, 1.0});
   d.friction_learning_gain = id.number("friction_learning_gain", {0.0, 1.0});
+  d.pam_cutoff_Hz = id.number("pam_cutoff_Hz", {0.01, 500.0});
   // The cruise must reach the window: the reference passes the posture at the sweep's middle, at full
   // speed only when the ramps end before the window starts.
   if (d.sweep_rad - d.window_rad < 0.5 * d.sweep_speed_radps * d.ramp_s) {

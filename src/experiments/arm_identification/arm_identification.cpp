@@ -188,7 +188,9 @@ IdentificationRecording record_identification(const ArmScenario& scenario, io::B
   const double duration_s = t;
 
   IdentificationRecording rec;
-  rec.controller = std::make_unique<control::ArmController>(scenario.controller);
+  control::ArmControllerModel rig_controller = scenario.controller;
+  rig_controller.allocation.pam_cutoff_Hz = id.pam_cutoff_Hz;  // the sweep's own (id.pam_cutoff_Hz)
+  rec.controller = std::make_unique<control::ArmController>(rig_controller);
   control::ArmController& controller = *rec.controller;
   for (const std::size_t i : swept) controller.set_mode(i, control::ArmJointMode::kCommanded);
   const safety::JointModels joints = arm_joint_models(controller.model());

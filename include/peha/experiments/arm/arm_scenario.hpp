@@ -152,6 +152,10 @@ struct ArmScenario {
     /// After each window, this x the PD's mean torque in it joins the rig's friction feed-forward for
     /// that direction (0: PD alone).
     double friction_learning_gain = 0.8;
+    /// The rig's own PAMs' share of the torque (the allocation's pam_cutoff_Hz while it sweeps), Hz:
+    /// its PD on the encoders slides the cables slowly; at the arm's 40 Hz the PAMs followed the PD's
+    /// stick-slip and the elbow slid at 37-47 % of the reference's speed in a window (refused).
+    double pam_cutoff_Hz = 5.0;
     std::vector<double> stiffness_Nm_per_rad;  ///< per swept joint: the PD while the rig drives the arm
     std::vector<double> damping_Nms_per_rad;
     double max_residual_rms_Nm = 0.5;   ///< refuse a fit with a larger residual
