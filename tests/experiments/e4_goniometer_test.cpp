@@ -158,10 +158,10 @@ TEST(E4, FastValvesAndStrongMusclesStartWithoutAFault) {
 // valves are its low-pass) the nominal brisk wrist stays near 250 deg/s and the slower valves meet every figure.
 TEST(E4, ThePamsCarryTheBriskStrokeSoTheMotorDoesNotSaturateAndWhipTheWrist) {
   const ArmScenario shipped = test_support::shipped_right_arm();
-  ASSERT_GE(shipped.controller.allocation.pam_cutoff_Hz, 20.0);
+  ASSERT_GE(shipped.goniometer.pam_cutoff_Hz, 20.0);
   auto brisk = [&](double pam_cutoff_Hz, double valve_time_scale) {
     ArmScenario s = shipped;
-    s.controller.allocation.pam_cutoff_Hz = pam_cutoff_Hz;
+    s.goniometer.pam_cutoff_Hz = pam_cutoff_Hz;
     for (sim::PehaJointPlantParams& j : s.plant.actuators) {
       for (sim::MusclePlantParams* m : {&j.agonist, &j.antagonist}) {
         m->valve.dead_time_s *= valve_time_scale;
@@ -171,13 +171,13 @@ TEST(E4, ThePamsCarryTheBriskStrokeSoTheMotorDoesNotSaturateAndWhipTheWrist) {
     const GoniometerTrace t = synthesize_goniometer(s.goniometer, movement(s, "brisk"), s.seed);
     return run_goniometer(s, {t}, GoniometerVariant::kFeedback, nullptr);
   };
-  const GoniometerResult nominal = brisk(shipped.controller.allocation.pam_cutoff_Hz, 1.0);
+  const GoniometerResult nominal = brisk(shipped.goniometer.pam_cutoff_Hz, 1.0);
   const GoniometerResult nominal_late = brisk(5.0, 1.0);
   ASSERT_EQ(nominal.passive.size(), 1u);
   EXPECT_TRUE(nominal.within_limits) << nominal.verdict.failures();
   EXPECT_LT(nominal.passive[0].value, 300.0);
   EXPECT_LT(nominal.passive[0].value, 0.9 * nominal_late.passive[0].value);
-  const GoniometerResult slower = brisk(shipped.controller.allocation.pam_cutoff_Hz, 1.5);
+  const GoniometerResult slower = brisk(shipped.goniometer.pam_cutoff_Hz, 1.5);
   EXPECT_TRUE(slower.within_limits) << slower.verdict.failures();
   EXPECT_EQ(slower.first_fault_flag, 0u);
   const GoniometerResult slower_late = brisk(5.0, 1.5);
@@ -382,7 +382,7 @@ TEST(E4, EveryHeldAndPassiveJointAndTheCommandAreJudged) {
   // alone holds it within 0.2 deg at the brisk pace; the impedance is what holds it when the row is late.
   ArmScenario unheld = s;
   unheld.goniometer.hold_stiffness_Nm_per_rad = unheld.goniometer.hold_damping_Nms_per_rad = 0.0;
-  unheld.controller.allocation.pam_cutoff_Hz = 5.0;
+  unheld.goniometer.pam_cutoff_Hz = 5.0;
   const GoniometerResult swinging = run_goniometer(unheld, {brisk}, GoniometerVariant::kFeedback, nullptr);
   EXPECT_TRUE(testing::fails_on(swinging.verdict, "R_SFE held excursion")) << swinging.held[0].value << " deg\n" << swinging.verdict.failures();
 

@@ -302,6 +302,7 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
   g.command_cutoff_Hz = sm.number("command_cutoff_Hz", {0.1, 0.45 / s.period_s});
   sm.finish();
   g.encoder_velocity_cutoff_Hz = gon.number("encoder_velocity_cutoff_Hz", {1.0, 0.45 / s.period_s});
+  g.pam_cutoff_Hz = gon.number("pam_cutoff_Hz", {0.01, 500.0});
   config::Map hold = gon.map("hold");
   g.hold_stiffness_Nm_per_rad = hold.number("stiffness_Nm_per_rad", {0.0, 1000.0});
   g.hold_damping_Nms_per_rad = hold.number("damping_Nms_per_rad", {0.0, 100.0});

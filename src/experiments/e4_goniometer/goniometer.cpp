@@ -398,6 +398,14 @@ namespace {
 /// The goniometer's noise as the acceleration estimator sees it: its noise and its quantisation's.
 double goniometer_noise_rad(const ArmScenario::Goniometer& g) { return std::hypot(g.noise_rad, g.resolution_rad / std::sqrt(12.0)); }
 
+/// E4's controller: the scenario's, with the PAMs' share of the torque at goniometer.pam_cutoff_Hz
+/// (docs/right-arm.md, E4 "The PAMs' share").
+control::ArmControllerModel e4_controller(const ArmScenario& scenario) {
+  control::ArmControllerModel m = scenario.controller;
+  m.allocation.pam_cutoff_Hz = scenario.goniometer.pam_cutoff_Hz;
+  return m;
+}
+
 /// One driven joint: its goniometer's filter and derivatives, the rate's smoothing, the acceleration's
 /// estimator, its command and its trajectories.
 struct Driven {
@@ -472,7 +480,7 @@ struct GoniometerRun {
         sim(sim),
         feedback(variant == GoniometerVariant::kFeedback),
         decimation(static_cast<std::size_t>(std::llround(1.0 / (g.sample_rate_Hz * scenario.period_s)))),
-        controller(scenario.controller),
+        controller(e4_controller(scenario)),
         controller_nan(scenario.faults),
         arm(controller.model().arm),
         arm_data(arm),

@@ -99,6 +99,11 @@ struct ArmScenario {
     /// first-order low-pass of the encoder's backward differences at this cut-off, Hz (the
     /// controller's own estimate, 20 Hz, lagged the damping enough to feed the loop's 10-20 Hz activity).
     double encoder_velocity_cutoff_Hz = 100.0;
+    /// The PAMs' share of E4's torque (the allocation's pam_cutoff_Hz while E4 runs), Hz: a brisk
+    /// stroke moves the torque by 60-100 Nm/s; behind the allocation's 5 Hz the 2.5 Nm motor saturated
+    /// through each stroke and the wrist whipped. Only E4: a slower share keeps a user's PD and E3's
+    /// shoulder wire taut through a torque's sign change (at 10-40 Hz the PD example's fell to 13-19 N).
+    double pam_cutoff_Hz = 40.0;
     /// The held joints (angles_deg; not held at a constant pressure) get the shoulder's row of the same
     /// inverse dynamics (the forearm's reaction, gravity included) plus this impedance toward their
     /// posture: tau = ID + K (q_held - q) - D qd (`hold:`).
