@@ -154,11 +154,11 @@ ButterworthFilter::ButterworthFilter(ButterworthDesign design) : design_(std::mo
 ButterworthFilter::ButterworthFilter(int order, double cutoff_Hz, double sample_rate_Hz)
     : ButterworthFilter(design_butterworth_lowpass(order, cutoff_Hz, sample_rate_Hz)) {}
 
-double ButterworthFilter::step(double x) noexcept {
+double step_sections(const ButterworthDesign& design, SectionState& state, double x) noexcept {
   double u = x;
-  for (int i = 0; i < design_.section_count; ++i) {
-    const SecondOrderSection& s = design_.sections[static_cast<std::size_t>(i)];
-    std::array<double, 2>& z = state_[static_cast<std::size_t>(i)];
+  for (int i = 0; i < design.section_count; ++i) {
+    const SecondOrderSection& s = design.sections[static_cast<std::size_t>(i)];
+    std::array<double, 2>& z = state[static_cast<std::size_t>(i)];
     const double y = s.b0 * u + z[0];
     z[0] = s.b1 * u - s.a1 * y + z[1];
     z[1] = s.b2 * u - s.a2 * y;
@@ -166,6 +166,8 @@ double ButterworthFilter::step(double x) noexcept {
   }
   return u;
 }
+
+double ButterworthFilter::step(double x) noexcept { return step_sections(design_, state_, x); }
 
 void ButterworthFilter::reset(double x) noexcept {
   // Steady state of a section with constant input u and output y = G u (G its DC gain, 1 for a

@@ -66,15 +66,7 @@ double tremor_filter_step(const TremorFilterModel& m, TremorFilterData& d, doubl
     d.origin = x;
   }
   const TremorFilterParams& p = m.params;
-  double s = x - d.origin;
-  for (int i = 0; i < m.highpass.section_count; ++i) {  // transposed direct form II
-    const SecondOrderSection& c = m.highpass.sections[static_cast<std::size_t>(i)];
-    std::array<double, 2>& z = d.highpass[static_cast<std::size_t>(i)];
-    const double y = c.b0 * s + z[0];
-    z[0] = c.b1 * s - c.a1 * y + z[1];
-    z[1] = c.b2 * s - c.a2 * y;
-    s = y;
-  }
+  const double s = step_sections(m.highpass, d.highpass, x - d.origin);
   const double x1 = std::sin(d.phase), x2 = std::cos(d.phase);
   const double e = s - (d.w1 * x1 + d.w2 * x2);
   // The frequency's step normalised by the fitted power (a0 keeps it bounded with no tremor yet).

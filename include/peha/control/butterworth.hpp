@@ -73,6 +73,12 @@ std::complex<double> frequency_response(const ButterworthDesign& design, double 
 /// sqrt(2) / Omega_c = 37.4 ms for N = 2, fc = 6 Hz, fs = 200 Hz. noexcept.
 double group_delay_s(const ButterworthDesign& design, double f_Hz) noexcept;
 
+/// The per-section state of transposed direct form II: {s1, s2} per section.
+using SectionState = std::array<std::array<double, 2>, kButterworthMaxSections>;
+/// Runs one sample `x` through `design`'s sections (any design: a low-pass, or its mirrored high-pass)
+/// in transposed direct form II with `state`; returns the output. noexcept, allocation-free.
+double step_sections(const ButterworthDesign& design, SectionState& state, double x) noexcept;
+
 /// A Butterworth low-pass running its design's sections in transposed direct form II.
 /// Starts with zero state (the textbook filter: an impulse gives the impulse response); call
 /// `reset(x0)` with the first sample to start without a transient.
@@ -104,7 +110,7 @@ class ButterworthFilter {
  private:
   ButterworthDesign design_;
   /// Transposed-direct-form-II state of each section: {s1, s2}.
-  std::array<std::array<double, 2>, kButterworthMaxSections> state_{};
+  SectionState state_{};
 };
 
 /// A Butterworth low-pass followed by backward differences of the filtered signal: the value,

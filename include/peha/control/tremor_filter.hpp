@@ -58,8 +58,7 @@ struct TremorFilterModel {
 TremorFilterModel make_tremor_filter(const TremorFilterParams& p);
 
 struct TremorFilterData {
-  /// The high-pass's transposed-direct-form-II state per section: {s1, s2}.
-  std::array<std::array<double, 2>, kButterworthMaxSections> highpass{};
+  SectionState highpass{};          ///< the fit's input filter's state (step_sections)
   double phase = 0, omega = 0;      ///< rad, rad/sample
   double w1 = 0, w2 = 0;            ///< the WFLC's weights (units of the input)
   double v1 = 0, v2 = 0;            ///< the fast fit's weights, at the same phase
