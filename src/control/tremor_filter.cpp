@@ -29,19 +29,26 @@ ButterworthDesign highpass(int order, double cutoff_Hz, double fs_Hz) {
 
 }  // namespace
 
-TremorFilterModel make_tremor_filter(const TremorFilterParams& p) {
+TremorFilterProblem find_tremor_filter_problem(const TremorFilterParams& p) noexcept {
   const double nyquist = 0.5 * p.sample_rate_Hz;
-  if (!(std::isfinite(p.sample_rate_Hz) && p.sample_rate_Hz > 0)) fail("sample_rate_Hz must be finite and > 0");
+  if (!(std::isfinite(p.sample_rate_Hz) && p.sample_rate_Hz > 0)) return {"sample_rate_Hz", "expected a finite rate > 0"};
   if (!(p.min_frequency_Hz > 0 && p.min_frequency_Hz < p.initial_frequency_Hz && p.initial_frequency_Hz < p.max_frequency_Hz &&
         p.max_frequency_Hz < nyquist)) {
-    fail("expected 0 < min_frequency_Hz < initial_frequency_Hz < max_frequency_Hz < the Nyquist frequency");
+    return {"min_frequency_Hz", "expected 0 < min_frequency_Hz < initial_frequency_Hz < max_frequency_Hz < the Nyquist frequency"};
   }
-  if (!(p.highpass_Hz > 0 && p.highpass_Hz < p.min_frequency_Hz)) fail("highpass_Hz must be in (0, min_frequency_Hz)");
-  if (!(p.amplitude_rate > 0 && p.amplitude_rate < 1)) fail("amplitude_rate must be in (0, 1)");
-  if (!(p.frequency_rate > 0 && p.frequency_rate < 1)) fail("frequency_rate must be in (0, 1)");
-  if (!(p.tracking_rate > 0 && p.tracking_rate < 1)) fail("tracking_rate must be in (0, 1)");
+  if (!(p.highpass_Hz > 0 && p.highpass_Hz < p.min_frequency_Hz)) return {"highpass_Hz", "expected in (0, min_frequency_Hz)"};
+  if (!(p.amplitude_rate > 0 && p.amplitude_rate < 1)) return {"amplitude_rate", "expected in (0, 1)"};
+  if (!(p.frequency_rate > 0 && p.frequency_rate < 1)) return {"frequency_rate", "expected in (0, 1)"};
+  if (!(p.tracking_rate > 0 && p.tracking_rate < 1)) return {"tracking_rate", "expected in (0, 1)"};
   if (!(p.gate_on_rad >= 0 && p.gate_full_rad > p.gate_on_rad && std::isfinite(p.gate_full_rad))) {
-    fail("expected 0 <= gate_on_rad < gate_full_rad");
+    return {"gate_full_rad", "expected 0 <= gate_on < gate_full"};
+  }
+  return {};
+}
+
+TremorFilterModel make_tremor_filter(const TremorFilterParams& p) {
+  if (const TremorFilterProblem problem = find_tremor_filter_problem(p); problem.field) {
+    fail(std::string(problem.field) + ": " + problem.expected);
   }
   TremorFilterModel m;
   m.params = p;

@@ -52,9 +52,17 @@ struct TremorFilterModel {
   double min_omega = 0, max_omega = 0, initial_omega = 0;  ///< rad/sample
 };
 
-/// Checks `p` (frequencies finite, 0 < min < initial < max < Nyquist, highpass below min; rates in
-/// (0, 1); 0 <= gate_on < gate_full) and designs the high-pass. Throws std::invalid_argument naming
-/// the parameter.
+/// The first parameter of `p` no filter can run with, and what it must be (field nullptr: none):
+/// frequencies 0 < min < initial < max < Nyquist, highpass below min; rates in (0, 1); 0 <= gate_on <
+/// gate_full. A reader names its own key by `field`.
+struct TremorFilterProblem {
+  const char* field = nullptr;     ///< TremorFilterParams' member name
+  const char* expected = nullptr;
+};
+TremorFilterProblem find_tremor_filter_problem(const TremorFilterParams& p) noexcept;
+
+/// Checks `p` (find_tremor_filter_problem) and designs the high-pass. Throws std::invalid_argument
+/// naming the parameter.
 TremorFilterModel make_tremor_filter(const TremorFilterParams& p);
 
 struct TremorFilterData {

@@ -325,16 +325,9 @@ void read_goniometer(config::Map gon, ArmScenario& s) {
     p.tracking_rate = t.number("tracking_rate", {1e-6, 0.5});
     p.gate_on_rad = models::deg_to_rad(t.number("gate_on_deg", {0.0, 30.0}));
     p.gate_full_rad = models::deg_to_rad(t.number("gate_full_deg", {0.0, 30.0}));
-    try {
-      (void)control::make_tremor_filter(p);
-    } catch (const std::invalid_argument& e) {
-      const std::string what = e.what();
-      const char* key = "min_frequency_Hz";  // the band's order, unless the message names another
-      for (const char* k : {"highpass_Hz", "amplitude_rate", "frequency_rate", "tracking_rate"}) {
-        if (what.find(k) != std::string::npos) key = k;
-      }
-      if (what.find("gate") != std::string::npos) key = "gate_full_deg";
-      t.fail(key, what);
+    if (const control::TremorFilterProblem problem = control::find_tremor_filter_problem(p); problem.field) {
+      const std::string_view field = problem.field;  // the gates are read in degrees here
+      t.fail(field == "gate_full_rad" ? "gate_full_deg" : field, problem.expected);
     }
     t.finish();
   }
