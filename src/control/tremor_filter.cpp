@@ -90,13 +90,11 @@ double tremor_filter_step(const TremorFilterModel& m, TremorFilterData& d, doubl
   const std::complex<double> h = frequency_response(m.highpass, f_Hz);
   const std::complex<double> raw = std::complex<double>(d.v2, -d.v1) / h;  // v1 sin + v2 cos = Re{(v2 - j v1) e^{j phi}}
   const double amplitude = std::hypot(d.w1, d.w2);
-  d.gate = std::clamp((amplitude - p.gate_on_rad) / (p.gate_full_rad - p.gate_on_rad), 0.0, 1.0);
-  d.tremor = d.gate * (raw * std::polar(1.0, d.phase)).real();
+  const double gate = std::clamp((amplitude - p.gate_on_rad) / (p.gate_full_rad - p.gate_on_rad), 0.0, 1.0);
+  const double tremor = gate * (raw * std::polar(1.0, d.phase)).real();
   d.phase = std::remainder(d.phase + d.omega, 2.0 * std::numbers::pi);
-  return x - d.tremor;
+  return x - tremor;
 }
-
-double tremor_amplitude_rad(const TremorFilterData& d) noexcept { return std::hypot(d.w1, d.w2); }
 
 double tremor_frequency_Hz(const TremorFilterModel& m, const TremorFilterData& d) noexcept {
   return d.omega * m.params.sample_rate_Hz / (2.0 * std::numbers::pi);

@@ -71,8 +71,6 @@ struct TremorFilterData {
   double w1 = 0, w2 = 0;            ///< the WFLC's weights (units of the input)
   double v1 = 0, v2 = 0;            ///< the fast fit's weights, at the same phase
   double origin = 0;                ///< the first reading (the high-pass starts at rest there)
-  double tremor = 0;                ///< the last tremor estimate subtracted (gate included)
-  double gate = 0;
   bool started = false;
 };
 
@@ -83,8 +81,7 @@ TremorFilterData make_tremor_filter_data(const TremorFilterModel& m) noexcept;
 /// as it is and changes nothing. noexcept, allocation-free.
 double tremor_filter_step(const TremorFilterModel& m, TremorFilterData& d, double x) noexcept;
 
-/// The fitted tremor's amplitude (rad) and frequency (Hz).
-double tremor_amplitude_rad(const TremorFilterData& d) noexcept;
+/// The fitted tremor's frequency, Hz.
 double tremor_frequency_Hz(const TremorFilterModel& m, const TremorFilterData& d) noexcept;
 
 }  // namespace peha::control
